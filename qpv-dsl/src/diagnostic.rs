@@ -1,0 +1,93 @@
+//! Errors and warnings with positions: every diagnostic points at the byte span
+//! of the text that caused it and renders as `line:column` plus a caret excerpt.
+
+use std::fmt;
+
+/// A byte range `start..end` in the source text a diagnostic refers to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize)]
+pub struct Span {
+    /// First byte of the offending text.
+    pub start: usize,
+    /// One past the last byte of the offending text.
+    pub end: usize,
+}
+
+impl Span {
+    /// A span covering `start..end`.
+    pub fn new(start: usize, end: usize) -> Self {
+        Span { start, end }
+    }
+}
+
+/// 1-based line and column (in characters) of a byte offset in `src`.
+pub fn line_col(src: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(src.len());
+    let mut line = 1;
+    let mut col = 1;
+    for (i, ch) in src.char_indices() {
+        if i >= offset {
+            break;
+        }
+        if ch == '\n' {
+            line += 1;
+            col = 1;
+        } else {
+            col += 1;
+        }
+    }
+    (line, col)
+}
+
+/// An error in a model text: what went wrong, what was expected, and where.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub struct Error {
+    /// Human-readable message: what is wrong and what was expected instead.
+    pub message: String,
+    /// Where in the source the problem is.
+    pub span: Span,
+    /// 1-based line of `span.start`.
+    pub line: usize,
+    /// 1-based column of `span.start`.
+    pub column: usize,
+    /// The source line containing the error, for the caret excerpt.
+    pub excerpt: String,
+}
+
+impl Error {
+    /// Builds an error at `span` of `src`, computing line, column and excerpt.
+    pub fn new(src: &str, span: Span, message: impl Into<String>) -> Self {
+        let (line, column) = line_col(src, span.start);
+        let excerpt = src.lines().nth(line - 1).unwrap_or("").to_string();
+        Error {
+            message: message.into(),
+            span,
+            line,
+            column,
+            excerpt,
+        }
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "{}:{}: {}", self.line, self.column, self.message)?;
+        writeln!(f, "  | {}", self.excerpt)?;
+        let pad: String = self
+            .excerpt
+            .chars()
+            .take(self.column.saturating_sub(1))
+            .map(|c| if c == '\t' { '\t' } else { ' ' })
+            .collect();
+        write!(f, "  | {pad}^")
+    }
+}
+
+/// A non-fatal remark about a model (an unused parameter, an automatic
+/// transformation) that a tool should show to the user.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Warning {
+    /// What was noticed and what it means for the design.
+    pub message: String,
+    /// Where in the source it was noticed.
+    pub span: Span,
+}
