@@ -1,0 +1,1 @@
+//! Pure-Rust BLAS/LAPACK symbols for Clarabel's PSD cones (in progress).
