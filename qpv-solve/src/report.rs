@@ -1,1 +1,237 @@
-//! (in progress)
+//! The serialisable result of a design: [`Design`] and its parts.
+//!
+//! JSON layout (keys exactly as written): `model`, `mode`, `feasible`,
+//! `certifies`, `alpha`, `gamma`, `P` (rows), `Gamma` (one matrix per
+//! vertex, rows), `L` (one nx × ny matrix per vertex, rows), `gain_norms`,
+//! `margins` (family → worst margin, positive = satisfied), `data_checks`,
+//! `solver` {`status`, `detail`, `iterations`, `seconds`, `assembly_seconds`,
+//! `certify_seconds`}, `seconds_total`, `search` (every step tried),
+//! `notes` and a human `summary`. Matrices are plain `Vec<Vec<f64>>` rows;
+//! serde_json writes the shortest round-tripping decimal of every `f64`, so
+//! a reloaded design certifies exactly as the written one.
+
+use nalgebra::DMatrix;
+use qpv_dsl::Mode;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// The outcome of one call to the SDP solver, as this crate interprets it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    /// Clarabel reported `Solved`: a numerical point was returned. It is only
+    /// *accepted* if the independent certificate passes as well.
+    Solved,
+    /// Clarabel returned a (full-accuracy) certificate of primal
+    /// infeasibility: the LMIs with their margins have no solution.
+    Infeasible,
+    /// Anything else (AlmostSolved, AlmostPrimalInfeasible,
+    /// InsufficientProgress, MaxIterations, MaxTime, NumericalError, …):
+    /// neither a solution nor a proof of infeasibility. Never counted as
+    /// feasible, never counted as infeasible; listed in the report.
+    Unknown,
+    /// No solve was run (e.g. a search that stopped before any step).
+    NotRun,
+}
+
+impl Status {
+    /// Short lowercase name ("solved", "infeasible", "unknown", "not run").
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Status::Solved => "solved",
+            Status::Infeasible => "infeasible",
+            Status::Unknown => "unknown",
+            Status::NotRun => "not run",
+        }
+    }
+}
+
+impl std::fmt::Display for Status {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Solver statistics of the solve that produced the reported point.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SolverInfo {
+    /// Interpreted status.
+    pub status: Status,
+    /// Clarabel's own status name (e.g. "Solved", "PrimalInfeasible",
+    /// "InsufficientProgress"), or "" when no solve ran.
+    pub detail: String,
+    /// Interior-point iterations.
+    pub iterations: u32,
+    /// Clarabel's reported solve time in seconds.
+    pub seconds: f64,
+    /// Time spent assembling (A, b, cones) for this solve, in seconds.
+    pub assembly_seconds: f64,
+    /// Time spent in the independent certificate for this solve, in seconds.
+    pub certify_seconds: f64,
+}
+
+impl Default for SolverInfo {
+    fn default() -> Self {
+        SolverInfo {
+            status: Status::NotRun,
+            detail: String::new(),
+            iterations: 0,
+            seconds: 0.0,
+            assembly_seconds: 0.0,
+            certify_seconds: 0.0,
+        }
+    }
+}
+
+/// One solve tried during a design (fixed point, α-bisection or γ-search).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SearchStep {
+    /// Region scaling γ of this step.
+    pub gamma: f64,
+    /// Decay rate α tested (or, for a capacity step, certified).
+    pub alpha: f64,
+    /// What the solver said.
+    pub status: Status,
+    /// Clarabel's own status name.
+    pub detail: String,
+    /// Whether the returned point passed the independent certificate at `alpha`.
+    pub certified: bool,
+    /// If certified: the largest α the *same* (P, Γ_l) certify at this γ
+    /// (a lower bound on α_max used to speed up the bisection); else 0.
+    pub alpha_certified: f64,
+    /// Interior-point iterations.
+    pub iterations: u32,
+    /// Wall time of this step (assembly + solve + certificate), seconds.
+    pub seconds: f64,
+    /// What this step was for: "fixed", "bisect", "grid", "refine", "final".
+    pub phase: String,
+}
+
+/// A check on the data alone (no decision variable), e.g. (S4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DataCheck {
+    /// The checked quantity's worst value, e.g. max_k γ² a_kᵀ Q a_k for "S4".
+    pub value: f64,
+    /// The bound it must respect (1 for both S4 and region_in_F).
+    pub bound: f64,
+    /// bound − value: positive = satisfied.
+    pub margin: f64,
+    /// Whether the check holds (margin ≥ 0).
+    pub passed: bool,
+    /// Whether the design's claim depends on it (S4 in sound mode). A
+    /// failed required check makes the design infeasible.
+    pub required: bool,
+    /// What is checked, in words.
+    pub description: String,
+}
+
+/// A finished design: the certified observer (or why there is none).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Design {
+    /// Model name.
+    pub model: String,
+    /// Condition set used ("sound" or "paper").
+    #[serde(with = "mode_serde")]
+    pub mode: Mode,
+    /// True only if the independent certificate passed for every condition
+    /// family (and, in sound mode, the data check (S4)). In paper mode this
+    /// means "satisfies the paper's printed conditions", which certifies nothing.
+    pub feasible: bool,
+    /// True only for a feasible *sound-mode* design: the convergence claim
+    /// V' ≤ −αV on the certified set is proven. Always false in paper mode.
+    pub certifies: bool,
+    /// Decay rate α of the reported point.
+    pub alpha: f64,
+    /// Region scaling γ of the reported point.
+    pub gamma: f64,
+    /// Lyapunov matrix P (rows); empty if the solver returned no point.
+    #[serde(rename = "P")]
+    pub p: Vec<Vec<f64>>,
+    /// Γ_l = P L_l per vertex (rows).
+    #[serde(rename = "Gamma")]
+    pub gamma_l: Vec<Vec<Vec<f64>>>,
+    /// Observer gains L_l = P⁻¹ Γ_l per vertex (nx rows of ny).
+    #[serde(rename = "L")]
+    pub l: Vec<Vec<Vec<f64>>>,
+    /// Spectral norms ‖L_l‖₂ per vertex.
+    pub gain_norms: Vec<f64>,
+    /// Worst margin per condition family (positive = satisfied), from the
+    /// independent certificate: "S1","S2","S3","S5" (sound) or
+    /// "S1","13","14","26" (paper).
+    pub margins: BTreeMap<String, f64>,
+    /// Data checks: "S4" (γ² a_kᵀ Q a_k ≤ 1) and "region_in_F" (P ⊂ F).
+    pub data_checks: BTreeMap<String, DataCheck>,
+    /// Statistics of the solve that produced the reported point.
+    pub solver: SolverInfo,
+    /// Wall time of the whole design call, seconds.
+    pub seconds_total: f64,
+    /// Every solve tried, in order.
+    pub search: Vec<SearchStep>,
+    /// Warnings and labels (e.g. the paper-mode disclaimer, violated assumptions).
+    pub notes: Vec<String>,
+    /// A human-readable summary.
+    pub summary: String,
+}
+
+impl Design {
+    /// P as a matrix (0 × 0 if absent).
+    pub fn p_matrix(&self) -> DMatrix<f64> {
+        rows_to_matrix(&self.p)
+    }
+    /// Γ_l as matrices.
+    pub fn gamma_matrices(&self) -> Vec<DMatrix<f64>> {
+        self.gamma_l.iter().map(|g| rows_to_matrix(g)).collect()
+    }
+    /// L_l as matrices.
+    pub fn l_matrices(&self) -> Vec<DMatrix<f64>> {
+        self.l.iter().map(|g| rows_to_matrix(g)).collect()
+    }
+    /// JSON text (pretty-printed).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a Design always serialises")
+    }
+    /// Parses a design written by [`Design::to_json`].
+    pub fn from_json(text: &str) -> Result<Design, serde_json::Error> {
+        serde_json::from_str(text)
+    }
+}
+
+/// A matrix as a list of rows.
+pub fn matrix_to_rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    (0..m.nrows())
+        .map(|i| (0..m.ncols()).map(|j| m[(i, j)]).collect())
+        .collect()
+}
+
+/// A list of rows as a matrix (rows must have equal length; 0 × 0 if empty).
+pub fn rows_to_matrix(rows: &[Vec<f64>]) -> DMatrix<f64> {
+    let r = rows.len();
+    let c = rows.first().map_or(0, |x| x.len());
+    DMatrix::from_fn(r, c, |i, j| rows[i].get(j).copied().unwrap_or(f64::NAN))
+}
+
+/// (De)serialises [`Mode`] as "sound" / "paper".
+pub mod mode_serde {
+    use qpv_dsl::Mode;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Writes "sound" or "paper".
+    pub fn serialize<S: Serializer>(m: &Mode, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(match m {
+            Mode::Sound => "sound",
+            Mode::Paper => "paper",
+        })
+    }
+
+    /// Reads "sound" or "paper".
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Mode, D::Error> {
+        let s = String::deserialize(d)?;
+        match s.as_str() {
+            "sound" => Ok(Mode::Sound),
+            "paper" => Ok(Mode::Paper),
+            other => Err(serde::de::Error::custom(format!(
+                "unknown mode {other:?}, expected \"sound\" or \"paper\""
+            ))),
+        }
+    }
+}
