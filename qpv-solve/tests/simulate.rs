@@ -1,0 +1,448 @@
+//! The simulator: reference right-hand sides against hand-computed values,
+//! RK4 accuracy against closed-form solutions, and the paper's scenario.
+
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::{Param, PolytopicModel, Region, Span, StateBound, Vertex};
+use qpv_solve::simulate::{
+    observer_derivative, plant_derivative, plant_output, simulate, Scenario, Signal, SimError,
+};
+
+fn param(name: &str, lo: f64, hi: f64) -> Param {
+    Param {
+        name: name.to_string(),
+        lo,
+        hi,
+        span: Span::default(),
+    }
+}
+
+fn names(prefix: &str, n: usize) -> Vec<String> {
+    (1..=n).map(|i| format!("{prefix}{i}")).collect()
+}
+
+fn box_region(half: f64, n: usize) -> Region {
+    let vertices = (0..1usize << n)
+        .map(|c| DVector::from_fn(n, |i, _| if c >> i & 1 == 1 { half } else { -half }))
+        .collect();
+    let facets = (0..n)
+        .flat_map(|i| {
+            [1.0, -1.0].map(|s| DVector::from_fn(n, |j, _| if i == j { s / half } else { 0.0 }))
+        })
+        .collect();
+    Region { vertices, facets }
+}
+
+/// A(θ) of the paper's example (spec §7).
+fn paper_a(t1: f64, t2: f64) -> DMatrix<f64> {
+    DMatrix::from_row_slice(
+        3,
+        3,
+        &[
+            -4.0 - t1,
+            10.0,
+            2.0 + 2.0 * t2,
+            -1.0,
+            -1.0 - t2,
+            1.5 + 2.0 * t1,
+            1.0,
+            1.0,
+            -4.0 - 3.0 * t1,
+        ],
+    )
+}
+
+/// N_1(θ), N_2(θ), N_3(θ) of the paper's example (spec §7).
+fn paper_n(t1: f64, t2: f64) -> Vec<DMatrix<f64>> {
+    vec![
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[0.5, 1.0 + t1, 0.0, 0.0, 0.0, -t2, 0.0, 1.0 + t2, 0.0],
+        ),
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[-0.4, 0.0, 1.0 - t1, 1.5, 0.0, 1.0 + t2, 2.0 + t2, 0.0, 0.0],
+        ),
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[1.5, -0.5 - t1, 0.0, 3.0 + t1, 0.0, 0.0, 0.0, 2.0 - t2, 0.0],
+        ),
+    ]
+}
+
+/// The paper's example built by hand, vertices in the order
+/// μ1 = (1−θ1)(1−θ2), μ2 = (1−θ1)θ2, μ3 = θ1(1−θ2), μ4 = θ1θ2.
+fn paper_model() -> PolytopicModel {
+    let corners = [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)];
+    let vertices = corners
+        .iter()
+        .map(|&(t1, t2)| Vertex {
+            theta: vec![t1, t2],
+            a: paper_a(t1, t2),
+            n: paper_n(t1, t2),
+            b: DMatrix::zeros(3, 0),
+        })
+        .collect();
+    let mut m1 = DMatrix::zeros(3, 3);
+    m1[(1, 2)] = 1.0;
+    let mut m2 = DMatrix::zeros(3, 3);
+    m2[(0, 2)] = 1.0;
+    PolytopicModel {
+        name: "paper".to_string(),
+        states: names("x", 3),
+        inputs: vec![],
+        outputs: names("y", 2),
+        params: vec![param("theta1", 0.0, 1.0), param("theta2", 0.0, 1.0)],
+        scheduling: vec![0, 1],
+        vertices,
+        c: DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]),
+        m: vec![m1, m2],
+        region: box_region(0.02, 3),
+        state_bound: StateBound::Given(DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                0.0112, 0.0017, 0.0006, 0.0017, 0.0025, -0.0022, 0.0006, -0.0022, 0.0061,
+            ],
+        )),
+        designs: vec![],
+    }
+}
+
+/// A scalar model x' = a(θ) x + b u, y = x, with θ ∈ [0, 1] and
+/// a(0) = a0, a(1) = a1.
+fn scalar_model(a0: f64, a1: f64, b: f64, nu: usize) -> PolytopicModel {
+    let vertex = |t: f64, a: f64| Vertex {
+        theta: vec![t],
+        a: DMatrix::from_element(1, 1, a),
+        n: vec![DMatrix::zeros(1, 1)],
+        b: DMatrix::from_element(1, nu, b),
+    };
+    PolytopicModel {
+        name: "scalar".to_string(),
+        states: names("x", 1),
+        inputs: names("u", nu),
+        outputs: names("y", 1),
+        params: vec![param("theta", 0.0, 1.0)],
+        scheduling: vec![0],
+        vertices: vec![vertex(0.0, a0), vertex(1.0, a1)],
+        c: DMatrix::from_element(1, 1, 1.0),
+        m: vec![DMatrix::zeros(1, 1)],
+        region: box_region(1.0, 1),
+        state_bound: StateBound::None,
+        designs: vec![],
+    }
+}
+
+fn zero_gains(model: &PolytopicModel) -> Vec<DMatrix<f64>> {
+    vec![DMatrix::zeros(model.nx(), model.ny()); model.nv()]
+}
+
+fn assert_close(got: &[f64], want: &[f64], tol: f64) {
+    assert_eq!(got.len(), want.len());
+    for (g, w) in got.iter().zip(want) {
+        assert!((g - w).abs() <= tol, "got {got:?}, want {want:?}");
+    }
+}
+
+#[test]
+fn plant_derivative_matches_hand_computed_paper_values() {
+    let model = paper_model();
+    let x = [0.01, -0.02, 0.005];
+    let theta = [0.3, 0.7];
+    let dx = plant_derivative(&model, &x, &[], &theta).unwrap();
+    // computed by hand (outside this code) from the formulas of spec §7
+    assert_close(&dx, &[-0.22631, 0.03416, -0.03498], 1e-14);
+
+    // and against A(θ), N_k(θ) evaluated directly (no vertex interpolation)
+    let (a, n) = (paper_a(0.3, 0.7), paper_n(0.3, 0.7));
+    let xv = DVector::from_row_slice(&x);
+    let direct: Vec<f64> = (0..3)
+        .map(|k| (a.row(k) * &xv)[0] + xv.dot(&(&n[k] * &xv)))
+        .collect();
+    assert_close(&dx, &direct, 1e-15);
+}
+
+#[test]
+fn plant_output_matches_hand_computed_paper_values() {
+    let model = paper_model();
+    let y = plant_output(&model, &[0.01, -0.02, 0.005], &[0.3, 0.7]).unwrap();
+    // y1 = x1 + x2 x3, y2 = x2 + x1 x3
+    assert_close(&y, &[0.0099, -0.01995], 1e-16);
+}
+
+#[test]
+fn observer_derivative_matches_hand_computed_paper_values() {
+    let model = paper_model();
+    let base = DMatrix::from_row_slice(3, 2, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+    let gains: Vec<DMatrix<f64>> = (1..=4).map(|l| &base * l as f64).collect();
+    let y = [0.0099, -0.01995];
+    let xhat = [0.002, 0.001, -0.003];
+    let d = observer_derivative(&model, &gains, &xhat, &y, &[], &[0.3, 0.7]).unwrap();
+    assert_close(&d, &[-0.0869639, -0.1481782, -0.1804356], 1e-14);
+}
+
+#[test]
+fn derivatives_reject_wrong_sizes_and_nan() {
+    let model = paper_model();
+    let theta = [0.3, 0.7];
+    assert!(matches!(
+        plant_derivative(&model, &[0.0; 2], &[], &theta),
+        Err(SimError::Length {
+            expected: 3,
+            got: 2,
+            ..
+        })
+    ));
+    assert!(matches!(
+        plant_derivative(&model, &[f64::NAN, 0.0, 0.0], &[], &theta),
+        Err(SimError::NotFinite { .. })
+    ));
+    assert!(matches!(
+        plant_output(&model, &[0.0; 3], &[0.5]),
+        Err(SimError::Length { .. })
+    ));
+    let gains = vec![DMatrix::zeros(3, 2); 3];
+    assert!(matches!(
+        observer_derivative(&model, &gains, &[0.0; 3], &[0.0; 2], &[], &theta),
+        Err(SimError::Length {
+            expected: 4,
+            got: 3,
+            ..
+        })
+    ));
+    let gains = vec![DMatrix::zeros(2, 3); 4];
+    assert!(matches!(
+        observer_derivative(&model, &gains, &[0.0; 3], &[0.0; 2], &[], &theta),
+        Err(SimError::Shape { .. })
+    ));
+    let mut broken = model.clone();
+    broken.vertices.pop();
+    assert!(matches!(
+        plant_derivative(&broken, &[0.0; 3], &[], &theta),
+        Err(SimError::Model(_))
+    ));
+}
+
+#[test]
+fn rk4_matches_exponential_decay_with_fourth_order_accuracy() {
+    // x' = -x: θ fixed at 0 picks a(0) = -1
+    let model = scalar_model(-1.0, -1.0, 0.0, 0);
+    let run = |dt: f64| {
+        let scenario = Scenario {
+            theta: vec![Signal::Constant(0.0)],
+            u: vec![],
+            x0: vec![1.0],
+            xhat0: vec![1.0],
+            t_end: 1.0,
+            dt,
+        };
+        let traj = simulate(&model, &zero_gains(&model), &scenario).unwrap();
+        assert_eq!(traj.t.len(), (1.0 / dt).round() as usize + 1);
+        assert_eq!(*traj.t.last().unwrap(), 1.0);
+        (traj.x.last().unwrap()[0] - (-1.0f64).exp()).abs()
+    };
+    let (coarse, fine) = (run(0.1), run(0.05));
+    assert!(coarse < 1e-6, "error {coarse}");
+    let order = (coarse / fine).log2();
+    assert!((order - 4.0).abs() < 0.2, "observed order {order}");
+    assert!(run(1e-3) < 1e-13);
+}
+
+#[test]
+fn rk4_samples_theta_at_stage_times() {
+    // x' = -θ(t) x with θ(t) = t: x(t) = exp(-t²/2). Sampling θ only at the
+    // start of each step would make the method first order.
+    let model = scalar_model(0.0, -1.0, 0.0, 0);
+    let scenario = Scenario {
+        theta: vec![Signal::custom(|t| t)],
+        u: vec![],
+        x0: vec![1.0],
+        xhat0: vec![0.0],
+        t_end: 1.0,
+        dt: 0.01,
+    };
+    let traj = simulate(&model, &zero_gains(&model), &scenario).unwrap();
+    let err = (traj.x.last().unwrap()[0] - (-0.5f64).exp()).abs();
+    assert!(err < 1e-10, "error {err}");
+    assert_close(traj.theta.last().unwrap(), &[1.0], 1e-15);
+    assert_close(traj.mu.last().unwrap(), &[0.0, 1.0], 1e-15);
+}
+
+#[test]
+fn rk4_samples_input_at_stage_times() {
+    // x' = -x + cos t, x(0) = 0: x(t) = (cos t + sin t − e^{−t}) / 2
+    let model = scalar_model(-1.0, -1.0, 1.0, 1);
+    let scenario = Scenario {
+        theta: vec![Signal::Constant(0.5)],
+        u: vec![Signal::Cos {
+            offset: 0.0,
+            amplitude: 1.0,
+            omega: 1.0,
+            phase: 0.0,
+        }],
+        x0: vec![0.0],
+        xhat0: vec![0.0],
+        t_end: 2.0,
+        dt: 0.01,
+    };
+    let traj = simulate(&model, &zero_gains(&model), &scenario).unwrap();
+    let t: f64 = 2.0;
+    let exact = 0.5 * (t.cos() + t.sin() - (-t).exp());
+    let err = (traj.x.last().unwrap()[0] - exact).abs();
+    assert!(err < 1e-10, "error {err}");
+}
+
+#[test]
+fn observer_without_gain_started_on_the_state_stays_on_it() {
+    let model = paper_model();
+    let mut scenario = Scenario::paper(&model);
+    scenario.xhat0 = scenario.x0.clone();
+    let traj = simulate(&model, &zero_gains(&model), &scenario).unwrap();
+    assert_eq!(traj.diverged_at, None);
+    assert_eq!(traj.len(), 2001);
+    assert!(traj.error_norm.iter().all(|&e| e == 0.0));
+    // the state itself moves
+    assert!(traj.x.last().unwrap() != &scenario.x0);
+    assert_eq!(traj.error_below(1e-12), Some(0.0));
+}
+
+#[test]
+fn paper_scenario_follows_spec_section_7() {
+    let model = paper_model();
+    let s = Scenario::paper(&model);
+    assert_eq!(s.x0, vec![-0.02; 3]);
+    assert_eq!(s.xhat0, vec![0.0; 3]);
+    assert_eq!((s.t_end, s.dt), (2.0, 1e-3));
+    let t: f64 = 0.37;
+    let pi = std::f64::consts::PI;
+    assert_close(
+        &[s.theta[0].at(t), s.theta[1].at(t)],
+        &[
+            0.5 + 0.5 * (4.0 * pi * t).sin(),
+            0.5 + 0.5 * (pi * t / 5.0 + pi / 6.0).cos(),
+        ],
+        1e-15,
+    );
+}
+
+#[test]
+fn default_scenario_sweeps_the_box_from_a_region_vertex() {
+    let model = paper_model();
+    let s = Scenario::default_for(&model);
+    assert_eq!(
+        s.x0,
+        model.region.vertices[0].iter().copied().collect::<Vec<_>>()
+    );
+    let samples: Vec<f64> = (0..2000).map(|k| s.theta[1].at(k as f64 * 1e-3)).collect();
+    let (lo, hi) = samples
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    assert!(lo < 0.01 && hi > 0.99 && lo >= 0.0 && hi <= 1.0);
+    let traj = simulate(&model, &zero_gains(&model), &s).unwrap();
+    assert_eq!(traj.len(), 2001);
+}
+
+#[test]
+fn divergence_is_reported_not_panicked() {
+    // x' = x² (N = 1) from x(0) = 1 blows up at t = 1
+    let mut model = scalar_model(0.0, 0.0, 0.0, 0);
+    for v in &mut model.vertices {
+        v.n[0][(0, 0)] = 1.0;
+    }
+    let scenario = Scenario {
+        theta: vec![Signal::Constant(0.0)],
+        u: vec![],
+        x0: vec![1.0],
+        xhat0: vec![0.0],
+        t_end: 3.0,
+        dt: 0.01,
+    };
+    let traj = simulate(&model, &zero_gains(&model), &scenario).unwrap();
+    let at = traj.diverged_at.expect("x' = x² must blow up");
+    assert!(at > 0.9 && at < 1.2, "diverged at {at}");
+    assert!(traj.x.iter().flatten().all(|v| v.is_finite()));
+    assert_eq!(traj.error_below(1e-6), None);
+
+    // a NaN parameter signal stops the run as well
+    let mut nan = scenario.clone();
+    nan.theta = vec![Signal::custom(|t| if t > 0.5 { f64::NAN } else { 0.0 })];
+    let traj = simulate(
+        &scalar_model(-1.0, -1.0, 0.0, 0),
+        &vec![DMatrix::zeros(1, 1); 2],
+        &nan,
+    )
+    .unwrap();
+    let at = traj.diverged_at.unwrap();
+    assert!((0.49..=0.51).contains(&at), "stopped at {at}");
+}
+
+#[test]
+fn invalid_time_grids_are_errors() {
+    let model = scalar_model(-1.0, -1.0, 0.0, 0);
+    let gains = zero_gains(&model);
+    let mut s = Scenario::default_for(&model);
+    for (t_end, dt) in [
+        (1.0, 0.0),
+        (1.0, f64::NAN),
+        (f64::INFINITY, 0.1),
+        (-1.0, 0.1),
+        (1e9, 1e-9),
+    ] {
+        s.t_end = t_end;
+        s.dt = dt;
+        assert!(matches!(
+            simulate(&model, &gains, &s),
+            Err(SimError::TimeGrid(_))
+        ));
+    }
+    s.t_end = 0.0;
+    s.dt = 0.1;
+    let traj = simulate(&model, &gains, &s).unwrap();
+    assert_eq!(traj.t, vec![0.0]);
+}
+
+#[test]
+fn error_below_finds_the_last_crossing() {
+    let model = scalar_model(-1.0, -1.0, 0.0, 0);
+    let scenario = Scenario {
+        theta: vec![Signal::Constant(0.0)],
+        u: vec![],
+        x0: vec![1.0],
+        xhat0: vec![0.0],
+        t_end: 5.0,
+        dt: 0.01,
+    };
+    // L = 0: the error is e^{-t}, below 0.1 from t = ln 10 on
+    let traj = simulate(&model, &zero_gains(&model), &scenario).unwrap();
+    let t = traj.error_below(0.1).unwrap();
+    assert!((t - 10f64.ln()).abs() <= 0.01, "t = {t}");
+    assert_eq!(traj.error_below(1e-9), None);
+    assert_eq!(traj.error_below(f64::NAN), None);
+    assert_eq!(traj.error_below(2.0), Some(0.0));
+}
+
+#[test]
+fn csv_has_a_header_and_one_row_per_step() {
+    let model = paper_model();
+    let mut scenario = Scenario::paper(&model);
+    scenario.t_end = 0.01;
+    let traj = simulate(&model, &zero_gains(&model), &scenario).unwrap();
+    let mut buf = Vec::new();
+    traj.write_csv(&mut buf).unwrap();
+    let text = String::from_utf8(buf).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        lines[0],
+        "t,x1,x2,x3,xhat1,xhat2,xhat3,theta1,theta2,mu1,mu2,mu3,mu4,error_norm"
+    );
+    assert_eq!(lines.len(), traj.len() + 1);
+    let first: Vec<f64> = lines[1].split(',').map(|c| c.parse().unwrap()).collect();
+    assert_eq!(first.len(), 14);
+    assert_eq!(&first[1..4], &[-0.02; 3]);
+    assert!((first[13] - 0.02 * 3f64.sqrt()).abs() < 1e-15);
+    let json = serde_json::to_string(&traj).unwrap();
+    assert!(json.contains("\"error_norm\""));
+}
