@@ -18,6 +18,7 @@ pub mod report;
 pub mod sdp;
 pub mod search;
 pub mod simulate;
+pub mod svec;
 
 pub use certificate::{check, Certificate, FamilyMargin};
 pub use report::{DataCheck, Design, SearchStep, SolverInfo, Status};
