@@ -1,1 +1,396 @@
-//! (in progress)
+//! Monte-Carlo falsification of a certified claim on the true nonlinear error
+//! dynamics, independent of the LMIs.
+//!
+//! The claim of a sound design (spec §5) is: for every e in E = {e : eᵀPe ≤ 1},
+//! every x in F = {x : xᵀQ⁻¹x ≤ 1} and every θ in the box,
+//! V' + αV < 0 with V = eᵀPe and V' = 2eᵀPe', where
+//!
+//! ```text
+//! e' = f(x, θ) − f(x̂, θ) − L(θ) (h(x) − h(x̂)),   x̂ = x − e,
+//! f(x, θ) = A(θ) x + N(θ, x) x,   h(x) = C x + M(x) x.
+//! ```
+//!
+//! [`falsify`] samples (e, x, θ) and reports the largest ratio
+//! r = (V' + αV)/V found; any r ≥ 0 is a counterexample to the claim.
+
+use crate::simulate::{check_gains, check_model, output_into, Frozen, SimError};
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::{PolytopicModel, StateBound};
+use serde::Serialize;
+
+/// One evaluated point of the falsification.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Sample {
+    /// The estimation error e (eᵀPe ≤ 1).
+    pub e: Vec<f64>,
+    /// The plant state x.
+    pub x: Vec<f64>,
+    /// The parameter vector θ (one entry per declared parameter).
+    pub theta: Vec<f64>,
+    /// r = (V' + αV)/V at this point; negative means the claim holds here.
+    pub ratio: f64,
+}
+
+/// Where the plant state x was sampled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StateSet {
+    /// The model's state bound F = {xᵀQ⁻¹x ≤ 1}.
+    StateBound,
+    /// The scaled region P/γ (the model has no state bound).
+    ScaledRegion,
+}
+
+/// The outcome of [`falsify`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Falsification {
+    /// The decay rate α that was checked.
+    pub alpha: f64,
+    /// The seed of the pseudo-random sampler (same seed, same samples).
+    pub seed: u64,
+    /// Where x was sampled.
+    pub state_set: StateSet,
+    /// Number of points evaluated (e = 0 excluded).
+    pub samples: usize,
+    /// Number of points skipped because e = 0 (V = 0, no ratio).
+    pub skipped: usize,
+    /// Number of points with r ≥ 0 (or a non-finite r, counted conservatively).
+    pub counterexamples: usize,
+    /// The largest ratio found (+∞ if some ratio was non-finite, −∞ if no
+    /// point was evaluated).
+    pub worst_ratio: f64,
+    /// The point with the largest ratio.
+    pub worst: Option<Sample>,
+}
+
+impl Falsification {
+    /// True if points were evaluated and none was a counterexample.
+    pub fn passed(&self) -> bool {
+        self.samples > 0 && self.counterexamples == 0
+    }
+}
+
+/// splitmix64: a tiny, good-enough generator for sampling (not cryptographic).
+#[derive(Debug, Clone)]
+struct Rng(u64);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// Uniform index in 0..n (n > 0).
+    fn index(&mut self, n: usize) -> usize {
+        ((self.uniform() * n as f64) as usize).min(n - 1)
+    }
+
+    /// Standard normal (Box-Muller).
+    fn normal(&mut self) -> f64 {
+        let u1 = 1.0 - self.uniform(); // (0, 1]
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+
+    /// A point in the unit ball of dimension z.len(): uniform inside, or
+    /// uniform on the sphere if `boundary`.
+    fn ball(&mut self, z: &mut [f64], boundary: bool) {
+        loop {
+            for v in z.iter_mut() {
+                *v = self.normal();
+            }
+            let norm = z.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if norm > 1e-300 {
+                let radius = if boundary {
+                    1.0
+                } else {
+                    self.uniform().powf(1.0 / z.len() as f64)
+                };
+                for v in z.iter_mut() {
+                    *v *= radius / norm;
+                }
+                return;
+            }
+            if z.is_empty() {
+                return;
+            }
+        }
+    }
+}
+
+/// The Cholesky factor: returns R with S = R Rᵀ (R lower
+/// triangular), or an error if S is not symmetric positive definite.
+fn factor(what: &str, s: &DMatrix<f64>, n: usize) -> Result<DMatrix<f64>, SimError> {
+    if s.shape() != (n, n) {
+        return Err(SimError::Shape {
+            what: what.to_string(),
+            expected: (n, n),
+            got: s.shape(),
+        });
+    }
+    if s.iter().any(|v| !v.is_finite()) {
+        return Err(SimError::NotFinite {
+            what: what.to_string(),
+        });
+    }
+    let scale = s.amax().max(f64::MIN_POSITIVE);
+    if (s - s.transpose()).amax() > 1e-9 * scale {
+        return Err(SimError::NotPositiveDefinite {
+            what: what.to_string(),
+        });
+    }
+    let sym = (s + s.transpose()) * 0.5;
+    nalgebra::Cholesky::new(sym)
+        .map(|c| c.l())
+        .ok_or_else(|| SimError::NotPositiveDefinite {
+            what: what.to_string(),
+        })
+}
+
+/// The evaluator of r = (V' + αV)/V with reusable buffers.
+struct Ratio<'a> {
+    model: &'a PolytopicModel,
+    gains: &'a [DMatrix<f64>],
+    p: &'a DMatrix<f64>,
+    alpha: f64,
+    frozen: Frozen,
+    xhat: Vec<f64>,
+    fx: Vec<f64>,
+    fxhat: Vec<f64>,
+    hx: Vec<f64>,
+    hxhat: Vec<f64>,
+    pe: Vec<f64>,
+}
+
+impl<'a> Ratio<'a> {
+    /// r at (e, x, θ), or `None` if V = eᵀPe is 0.
+    fn eval(&mut self, e: &[f64], x: &[f64], theta: &[f64]) -> Option<f64> {
+        self.frozen.set(self.model, self.gains, theta);
+        for ((xh, xi), ei) in self.xhat.iter_mut().zip(x).zip(e) {
+            *xh = xi - ei;
+        }
+        // e' = f(x) − f(x̂) − L (h(x) − h(x̂)), accumulated in fx
+        self.frozen.drift(x, &mut self.fx);
+        self.frozen.drift(&self.xhat, &mut self.fxhat);
+        output_into(self.model, x, &mut self.hx);
+        output_into(self.model, &self.xhat, &mut self.hxhat);
+        for (a, b) in self.fx.iter_mut().zip(&self.fxhat) {
+            *a -= b;
+        }
+        for (hxhat, hx) in self.hxhat.iter_mut().zip(&self.hx) {
+            *hxhat -= hx; // now h(x̂) − h(x), so fx += L (h(x̂) − h(x))
+        }
+        self.frozen.add_gain(&self.hxhat, &mut self.fx);
+        // P e
+        self.pe.fill(0.0);
+        for (j, ej) in e.iter().enumerate() {
+            for (i, pei) in self.pe.iter_mut().enumerate() {
+                *pei += self.p[(i, j)] * ej;
+            }
+        }
+        let v: f64 = e.iter().zip(&self.pe).map(|(a, b)| a * b).sum();
+        if v == 0.0 {
+            return None;
+        }
+        let vdot: f64 = 2.0
+            * self
+                .fx
+                .iter()
+                .zip(&self.pe)
+                .map(|(a, b)| a * b)
+                .sum::<f64>();
+        Some((vdot + self.alpha * v) / v)
+    }
+}
+
+/// Samples the claim "V' + αV < 0 for e ∈ E, x ∈ F, θ ∈ Θ" on the true
+/// nonlinear error dynamics and reports the worst ratio r = (V' + αV)/V.
+///
+/// * e: uniform in E = {eᵀPe ≤ 1} (5/8 of the draws), uniform on its
+///   boundary (1/4), or a region vertex scaled into E (1/8).
+/// * x: if the model has a state bound Q, uniform in F = {xᵀQ⁻¹x ≤ 1} (5/8),
+///   on its boundary (1/4), or a region vertex scaled onto the boundary of F
+///   (1/8). Without a state bound, x is drawn in P/γ instead (a region vertex
+///   divided by γ, or a random convex combination of those vertices);
+///   `gamma` is used only then.
+/// * θ: uniform in the parameter box (3/4) or a random corner (1/4).
+///
+/// `gains[l]` = L_l in the model's vertex order; `p` is the Lyapunov matrix.
+/// The same `seed` gives the same samples. Points with e = 0 are skipped.
+pub fn falsify(
+    model: &PolytopicModel,
+    p: &DMatrix<f64>,
+    gains: &[DMatrix<f64>],
+    alpha: f64,
+    gamma: f64,
+    samples: usize,
+    seed: u64,
+) -> Result<Falsification, SimError> {
+    check_model(model)?;
+    check_gains(model, gains)?;
+    let nx = model.nx();
+    if !alpha.is_finite() {
+        return Err(SimError::NotFinite {
+            what: "alpha".to_string(),
+        });
+    }
+    // e = R_p⁻ᵀ z maps the unit ball onto E when P = R_p R_pᵀ
+    let rp = factor("P", p, nx)?;
+    let rp_t = rp.transpose();
+    let to_e = |z: &DVector<f64>| rp_t.solve_upper_triangular(z);
+    let region: Vec<DVector<f64>> = model
+        .region
+        .vertices
+        .iter()
+        .filter(|v| v.len() == nx && v.iter().all(|c| c.is_finite()))
+        .cloned()
+        .collect();
+    // region vertices scaled into E (unchanged if already inside)
+    let e_vertices: Vec<DVector<f64>> = region
+        .iter()
+        .filter_map(|v| {
+            let vpv = v.dot(&(p * v));
+            (vpv > 0.0).then(|| v * (1.0 / vpv.sqrt()).min(1.0))
+        })
+        .collect();
+
+    // x = R_q z maps the unit ball onto F when Q = R_q R_qᵀ
+    let (state_set, rq, x_vertices) = match &model.state_bound {
+        StateBound::Given(q) => {
+            let rq = factor("state bound Q", q, nx)?;
+            let onto_boundary: Vec<DVector<f64>> = region
+                .iter()
+                .filter_map(|v| {
+                    let r = rq.solve_lower_triangular(v)?.norm();
+                    (r > 0.0).then(|| v / r)
+                })
+                .collect();
+            (StateSet::StateBound, Some(rq), onto_boundary)
+        }
+        StateBound::None => {
+            if !(gamma.is_finite() && gamma > 0.0) {
+                return Err(SimError::Argument(format!(
+                    "gamma = {gamma}: must be > 0 when the model has no state bound"
+                )));
+            }
+            if region.is_empty() {
+                return Err(SimError::Model(
+                    "no state bound and no region vertices: nowhere to sample x".to_string(),
+                ));
+            }
+            let scaled = region.iter().map(|v| v / gamma).collect();
+            (StateSet::ScaledRegion, None, scaled)
+        }
+    };
+
+    let mut ratio = Ratio {
+        model,
+        gains,
+        p,
+        alpha,
+        frozen: Frozen::new(model),
+        xhat: vec![0.0; nx],
+        fx: vec![0.0; nx],
+        fxhat: vec![0.0; nx],
+        hx: vec![0.0; model.ny()],
+        hxhat: vec![0.0; model.ny()],
+        pe: vec![0.0; nx],
+    };
+    let mut rng = Rng(seed);
+    let mut z = DVector::zeros(nx);
+    let mut theta = vec![0.0; model.ntheta()];
+    let mut out = Falsification {
+        alpha,
+        seed,
+        state_set,
+        samples: 0,
+        skipped: 0,
+        counterexamples: 0,
+        worst_ratio: f64::NEG_INFINITY,
+        worst: None,
+    };
+
+    for _ in 0..samples {
+        // e
+        let pick = rng.uniform();
+        let e = if pick < 0.125 && !e_vertices.is_empty() {
+            e_vertices[rng.index(e_vertices.len())].clone()
+        } else {
+            rng.ball(z.as_mut_slice(), pick >= 0.75);
+            match to_e(&z) {
+                Some(e) => e,
+                None => continue, // unreachable: the factor has a nonzero diagonal
+            }
+        };
+        // x
+        let pick = rng.uniform();
+        let x = match &rq {
+            Some(rq) => {
+                if pick < 0.125 && !x_vertices.is_empty() {
+                    x_vertices[rng.index(x_vertices.len())].clone()
+                } else {
+                    rng.ball(z.as_mut_slice(), pick >= 0.75);
+                    rq * &z
+                }
+            }
+            None => {
+                if pick < 0.25 {
+                    x_vertices[rng.index(x_vertices.len())].clone()
+                } else {
+                    // random convex combination (exponential weights)
+                    let w: Vec<f64> = x_vertices
+                        .iter()
+                        .map(|_| -(1.0 - rng.uniform()).ln())
+                        .collect();
+                    let total: f64 = w.iter().sum();
+                    x_vertices
+                        .iter()
+                        .zip(&w)
+                        .fold(DVector::zeros(nx), |acc, (v, wi)| acc + v * (wi / total))
+                }
+            }
+        };
+        // θ
+        let corner = rng.uniform() < 0.25;
+        for (t, prm) in theta.iter_mut().zip(&model.params) {
+            let s = if corner {
+                if rng.uniform() < 0.5 {
+                    0.0
+                } else {
+                    1.0
+                }
+            } else {
+                rng.uniform()
+            };
+            *t = prm.lo + s * (prm.hi - prm.lo);
+        }
+
+        let Some(r) = ratio.eval(e.as_slice(), x.as_slice(), &theta) else {
+            out.skipped += 1;
+            continue;
+        };
+        out.samples += 1;
+        let r_key = if r.is_nan() { f64::INFINITY } else { r };
+        if r.is_nan() || r >= 0.0 {
+            out.counterexamples += 1;
+        }
+        if out.worst.is_none() || r_key > out.worst_ratio {
+            out.worst_ratio = r_key;
+            out.worst = Some(Sample {
+                e: e.iter().copied().collect(),
+                x: x.iter().copied().collect(),
+                theta: theta.clone(),
+                ratio: r,
+            });
+        }
+    }
+    Ok(out)
+}

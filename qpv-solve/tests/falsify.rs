@@ -1,0 +1,345 @@
+//! Monte-Carlo falsification: a trivially stable case finds nothing, bad
+//! gains or a too large α are caught, the ratio agrees with the spec §2
+//! closed form, and the certified sound design of the paper survives.
+
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::{
+    AlphaSpec, DesignRequest, GammaSpec, Mode, Param, PolytopicModel, Region, Span, StateBound,
+    Vertex,
+};
+use qpv_solve::falsify::{falsify, StateSet};
+use qpv_solve::simulate::{simulate, Scenario, SimError};
+
+fn param(name: &str, lo: f64, hi: f64) -> Param {
+    Param {
+        name: name.to_string(),
+        lo,
+        hi,
+        span: Span::default(),
+    }
+}
+
+fn names(prefix: &str, n: usize) -> Vec<String> {
+    (1..=n).map(|i| format!("{prefix}{i}")).collect()
+}
+
+fn box_region(half: f64, n: usize) -> Region {
+    let vertices = (0..1usize << n)
+        .map(|c| DVector::from_fn(n, |i, _| if c >> i & 1 == 1 { half } else { -half }))
+        .collect();
+    let facets = (0..n)
+        .flat_map(|i| {
+            [1.0, -1.0].map(|s| DVector::from_fn(n, |j, _| if i == j { s / half } else { 0.0 }))
+        })
+        .collect();
+    Region { vertices, facets }
+}
+
+/// A(θ) of the paper's example (spec §7).
+fn paper_a(t1: f64, t2: f64) -> DMatrix<f64> {
+    DMatrix::from_row_slice(
+        3,
+        3,
+        &[
+            -4.0 - t1,
+            10.0,
+            2.0 + 2.0 * t2,
+            -1.0,
+            -1.0 - t2,
+            1.5 + 2.0 * t1,
+            1.0,
+            1.0,
+            -4.0 - 3.0 * t1,
+        ],
+    )
+}
+
+/// N_1(θ), N_2(θ), N_3(θ) of the paper's example (spec §7).
+fn paper_n(t1: f64, t2: f64) -> Vec<DMatrix<f64>> {
+    vec![
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[0.5, 1.0 + t1, 0.0, 0.0, 0.0, -t2, 0.0, 1.0 + t2, 0.0],
+        ),
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[-0.4, 0.0, 1.0 - t1, 1.5, 0.0, 1.0 + t2, 2.0 + t2, 0.0, 0.0],
+        ),
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[1.5, -0.5 - t1, 0.0, 3.0 + t1, 0.0, 0.0, 0.0, 2.0 - t2, 0.0],
+        ),
+    ]
+}
+
+/// The paper's example built by hand, vertices in the order
+/// μ1 = (1−θ1)(1−θ2), μ2 = (1−θ1)θ2, μ3 = θ1(1−θ2), μ4 = θ1θ2.
+fn paper_model() -> PolytopicModel {
+    let corners = [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)];
+    let vertices = corners
+        .iter()
+        .map(|&(t1, t2)| Vertex {
+            theta: vec![t1, t2],
+            a: paper_a(t1, t2),
+            n: paper_n(t1, t2),
+            b: DMatrix::zeros(3, 0),
+        })
+        .collect();
+    let mut m1 = DMatrix::zeros(3, 3);
+    m1[(1, 2)] = 1.0;
+    let mut m2 = DMatrix::zeros(3, 3);
+    m2[(0, 2)] = 1.0;
+    PolytopicModel {
+        name: "paper".to_string(),
+        states: names("x", 3),
+        inputs: vec![],
+        outputs: names("y", 2),
+        params: vec![param("theta1", 0.0, 1.0), param("theta2", 0.0, 1.0)],
+        scheduling: vec![0, 1],
+        vertices,
+        c: DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]),
+        m: vec![m1, m2],
+        region: box_region(0.02, 3),
+        state_bound: StateBound::Given(DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                0.0112, 0.0017, 0.0006, 0.0017, 0.0025, -0.0022, 0.0006, -0.0022, 0.0061,
+            ],
+        )),
+        designs: vec![],
+    }
+}
+
+/// x' = −x (nx states), y = x, with a box region of half-width 1 and
+/// Q = 4·I, one parameter that appears nowhere (a single vertex).
+fn stable_linear(nx: usize) -> PolytopicModel {
+    PolytopicModel {
+        name: "stable".to_string(),
+        states: names("x", nx),
+        inputs: vec![],
+        outputs: names("y", nx),
+        params: vec![param("unused", -1.0, 1.0)],
+        scheduling: vec![],
+        vertices: vec![Vertex {
+            theta: vec![0.0],
+            a: -DMatrix::identity(nx, nx),
+            n: vec![DMatrix::zeros(nx, nx); nx],
+            b: DMatrix::zeros(nx, 0),
+        }],
+        c: DMatrix::identity(nx, nx),
+        m: vec![DMatrix::zeros(nx, nx); nx],
+        region: box_region(1.0, nx),
+        state_bound: StateBound::Given(DMatrix::identity(nx, nx) * 4.0),
+        designs: vec![],
+    }
+}
+
+fn zero_gains(model: &PolytopicModel) -> Vec<DMatrix<f64>> {
+    vec![DMatrix::zeros(model.nx(), model.ny()); model.nv()]
+}
+
+/// rows(T, v): the matrix whose row k is vᵀ T_k.
+fn rows(t: &[DMatrix<f64>], v: &DVector<f64>) -> DMatrix<f64> {
+    let mut out = DMatrix::zeros(t.len(), v.len());
+    for (k, tk) in t.iter().enumerate() {
+        out.set_row(k, &(v.transpose() * tk));
+    }
+    out
+}
+
+/// rowsHe(T, v): the matrix whose row k is vᵀ (T_k + T_kᵀ).
+fn rows_he(t: &[DMatrix<f64>], v: &DVector<f64>) -> DMatrix<f64> {
+    let he: Vec<DMatrix<f64>> = t.iter().map(|tk| tk + tk.transpose()).collect();
+    rows(&he, v)
+}
+
+#[test]
+fn trivially_stable_case_has_no_counterexample_and_the_exact_ratio() {
+    // e' = −e, V = eᵀe: V' + αV = (α − 2) V, so r = α − 2 everywhere
+    let model = stable_linear(3);
+    let p = DMatrix::identity(3, 3);
+    let f = falsify(&model, &p, &zero_gains(&model), 1.0, 0.5, 10_000, 7).unwrap();
+    assert!(f.passed(), "{f:?}");
+    assert_eq!(f.samples + f.skipped, 10_000);
+    assert_eq!(f.counterexamples, 0);
+    assert_eq!(f.state_set, StateSet::StateBound);
+    assert!(
+        (f.worst_ratio + 1.0).abs() < 1e-12,
+        "worst {}",
+        f.worst_ratio
+    );
+}
+
+#[test]
+fn too_large_alpha_is_caught_everywhere() {
+    let model = stable_linear(2);
+    let p = DMatrix::identity(2, 2);
+    let f = falsify(&model, &p, &zero_gains(&model), 3.0, 0.5, 1_000, 1).unwrap();
+    assert!(!f.passed());
+    assert_eq!(f.counterexamples, f.samples);
+    assert!((f.worst_ratio - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn zero_gain_with_a_large_alpha_on_the_paper_example_is_falsified() {
+    let model = paper_model();
+    let p = DMatrix::identity(3, 3) * 2500.0; // E = ball of radius 0.02
+    let f = falsify(&model, &p, &zero_gains(&model), 20.0, 0.1889, 20_000, 3).unwrap();
+    assert!(f.counterexamples > 0, "{f:?}");
+    assert!(f.worst_ratio >= 0.0);
+    let worst = f.worst.as_ref().unwrap();
+    assert!(worst.ratio >= 0.0 && worst.ratio == f.worst_ratio);
+}
+
+#[test]
+fn samples_stay_in_the_sets_and_the_ratio_matches_the_closed_form() {
+    // a gain that destabilises: L_l = −5 · [I; 0] (nx × ny = 3 × 2)
+    let model = paper_model();
+    let mut gain = DMatrix::zeros(3, 2);
+    gain[(0, 0)] = -5.0;
+    gain[(1, 1)] = -5.0;
+    let gains = vec![gain; 4];
+    let p = DMatrix::from_row_slice(
+        3,
+        3,
+        &[900.0, 100.0, 0.0, 100.0, 700.0, -50.0, 0.0, -50.0, 1200.0],
+    );
+    let alpha = 2.0;
+    let f = falsify(&model, &p, &gains, alpha, 0.2, 5_000, 11).unwrap();
+    let w = f.worst.clone().unwrap();
+    let e = DVector::from_row_slice(&w.e);
+    let x = DVector::from_row_slice(&w.x);
+    let StateBound::Given(q) = &model.state_bound else {
+        unreachable!()
+    };
+    assert!(e.dot(&(&p * &e)) <= 1.0 + 1e-12);
+    assert!(x.dot(&(q.clone().try_inverse().unwrap() * &x)) <= 1.0 + 1e-9);
+    assert!(w.theta.iter().all(|t| (0.0..=1.0).contains(t)));
+
+    // spec §2: e' = [A − LC + rowsHe(N,x) − rows(N,e) − L(rowsHe(M,x) − rows(M,e))] e
+    let (t1, t2) = (w.theta[0], w.theta[1]);
+    let mu = [
+        (1.0 - t1) * (1.0 - t2),
+        (1.0 - t1) * t2,
+        t1 * (1.0 - t2),
+        t1 * t2,
+    ];
+    let l = mu
+        .iter()
+        .zip(&gains)
+        .fold(DMatrix::zeros(3, 2), |acc, (m, g)| acc + g * *m);
+    let n = paper_n(t1, t2);
+    let bracket = paper_a(t1, t2) - &l * &model.c + rows_he(&n, &x)
+        - rows(&n, &e)
+        - &l * (rows_he(&model.m, &x) - rows(&model.m, &e));
+    let edot = bracket * &e;
+    let v = e.dot(&(&p * &e));
+    let r = (2.0 * e.dot(&(&p * edot)) + alpha * v) / v;
+    assert!(
+        (r - w.ratio).abs() <= 1e-9 * r.abs().max(1.0),
+        "{r} vs {}",
+        w.ratio
+    );
+}
+
+#[test]
+fn same_seed_same_result_other_seed_other_samples() {
+    let model = paper_model();
+    let p = DMatrix::identity(3, 3) * 2500.0;
+    let gains = zero_gains(&model);
+    let a = falsify(&model, &p, &gains, 5.0, 0.2, 2_000, 42).unwrap();
+    let b = falsify(&model, &p, &gains, 5.0, 0.2, 2_000, 42).unwrap();
+    let c = falsify(&model, &p, &gains, 5.0, 0.2, 2_000, 43).unwrap();
+    assert_eq!(a, b);
+    assert_ne!(a.worst, c.worst);
+}
+
+#[test]
+fn without_a_state_bound_x_is_drawn_in_the_scaled_region() {
+    let mut model = stable_linear(2);
+    model.state_bound = StateBound::None;
+    let p = DMatrix::identity(2, 2);
+    let f = falsify(&model, &p, &zero_gains(&model), 1.0, 0.5, 1_000, 5).unwrap();
+    assert_eq!(f.state_set, StateSet::ScaledRegion);
+    let x = &f.worst.unwrap().x;
+    assert!(x.iter().all(|v| v.abs() <= 2.0 + 1e-12)); // P/γ = box of half-width 2
+    assert!(matches!(
+        falsify(&model, &p, &zero_gains(&model), 1.0, f64::NAN, 10, 5),
+        Err(SimError::Argument(_))
+    ));
+}
+
+#[test]
+fn invalid_inputs_are_errors_not_panics() {
+    let model = paper_model();
+    let gains = zero_gains(&model);
+    let p = DMatrix::identity(3, 3);
+    let not_pd = DMatrix::from_diagonal(&DVector::from_row_slice(&[1.0, -1.0, 1.0]));
+    assert!(matches!(
+        falsify(&model, &not_pd, &gains, 1.0, 0.2, 10, 0),
+        Err(SimError::NotPositiveDefinite { .. })
+    ));
+    let asym = DMatrix::from_row_slice(3, 3, &[1.0, 0.5, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+    assert!(matches!(
+        falsify(&model, &asym, &gains, 1.0, 0.2, 10, 0),
+        Err(SimError::NotPositiveDefinite { .. })
+    ));
+    assert!(matches!(
+        falsify(&model, &DMatrix::identity(2, 2), &gains, 1.0, 0.2, 10, 0),
+        Err(SimError::Shape { .. })
+    ));
+    assert!(matches!(
+        falsify(&model, &(p.clone() * f64::NAN), &gains, 1.0, 0.2, 10, 0),
+        Err(SimError::NotFinite { .. })
+    ));
+    assert!(matches!(
+        falsify(&model, &p, &gains, f64::NAN, 0.2, 10, 0),
+        Err(SimError::NotFinite { .. })
+    ));
+    assert!(matches!(
+        falsify(&model, &p, &gains[..2], 1.0, 0.2, 10, 0),
+        Err(SimError::Length { .. })
+    ));
+    let none = falsify(&model, &p, &gains, 1.0, 0.2, 0, 0).unwrap();
+    assert!(!none.passed());
+    assert_eq!((none.samples, none.worst_ratio), (0, f64::NEG_INFINITY));
+}
+
+/// Spec §7 / issue 3 "done when": the sound design at α = 10, γ = 0.1889
+/// drives the scenario's error below 1e-6 by t = 1, and 100 000 samples find
+/// no counterexample to its claim.
+#[test]
+#[ignore = "needs qpv_solve::design, being written by the solver helper"]
+fn certified_paper_design_converges_and_survives_falsification() {
+    let model = paper_model();
+    let request = DesignRequest {
+        alpha: AlphaSpec::Fixed(10.0),
+        gamma: GammaSpec::Fixed(0.1889),
+        mode: Mode::Sound,
+        span: Span::default(),
+    };
+    let design = qpv_solve::design(&model, &request, &qpv_solve::Settings::default()).unwrap();
+    assert!(design.feasible && design.certifies, "{}", design.summary);
+    let gains = design.l_matrices();
+
+    let traj = simulate(&model, &gains, &Scenario::paper(&model)).unwrap();
+    let t = traj.error_below(1e-6).expect("error must fall below 1e-6");
+    assert!(t <= 1.0, "error below 1e-6 only from t = {t}");
+
+    let f = falsify(
+        &model,
+        &design.p_matrix(),
+        &gains,
+        10.0,
+        0.1889,
+        100_000,
+        2026,
+    )
+    .unwrap();
+    assert_eq!(f.samples + f.skipped, 100_000);
+    assert!(f.passed(), "worst ratio {} at {:?}", f.worst_ratio, f.worst);
+}
