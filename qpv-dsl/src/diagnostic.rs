@@ -91,3 +91,61 @@ pub struct Warning {
     /// Where in the source it was noticed.
     pub span: Span,
 }
+
+/// An error before it is placed in the source: the builder stages produce
+/// these, and [`Diag::into_error`] adds line, column and excerpt at the end.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Diag {
+    pub span: Span,
+    pub message: String,
+}
+
+impl Diag {
+    pub(crate) fn new(span: Span, message: impl Into<String>) -> Self {
+        Diag {
+            span,
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn into_error(self, src: &str) -> Error {
+        Error::new(src, self.span, self.message)
+    }
+}
+
+impl Span {
+    /// The smallest span covering both `self` and `other`.
+    pub fn to(self, other: Span) -> Span {
+        Span::new(self.start.min(other.start), self.end.max(other.end))
+    }
+
+    /// The text this span covers in `src` (empty if out of range).
+    pub fn text(self, src: &str) -> &str {
+        src.get(self.start..self.end).unwrap_or("")
+    }
+}
+
+/// Edit distance between two short words (for "did you mean" hints).
+pub(crate) fn levenshtein(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let cost = usize::from(ca != *cb);
+            cur[j + 1] = (prev[j] + cost).min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+/// The closest of `candidates` to `word` within edit distance 2, if any.
+pub(crate) fn suggest<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    candidates
+        .into_iter()
+        .map(|c| (levenshtein(word, c), c))
+        .filter(|(d, c)| *d <= 2 && *d < c.len().max(word.len()))
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, c)| c)
+}

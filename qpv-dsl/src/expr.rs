@@ -77,7 +77,7 @@ impl ThetaPoly {
                 }
                 v
             })
-            .sum()
+            .fold(0.0, |acc, v| acc + v)
     }
 }
 

@@ -1,8 +1,18 @@
 //! The convergence region P: a polytope containing the origin in its
 //! interior, held both as vertices and as facets a_kᵀ x ≤ 1.
+//!
+//! Conversions are exact enumerations (no sampling): both directions reduce
+//! to enumerating the vertices of {x : a_kᵀ x ≤ 1}, done with the double
+//! description method (Motzkin et al.; Fukuda & Prodon's combinatorial
+//! adjacency test) on the homogenised cone {(x, t) : a_kᵀ x ≤ t, t ≥ 0}.
+//! Going from vertices to facets uses polarity: with 0 strictly inside,
+//! the facets of Co{x_i} are the vertices of {a : x_iᵀ a ≤ 1}. Floating
+//! point with a relative tolerance of 1e-9; fine for the small dimensions of
+//! observer design (tested up to 6).
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
+use std::fmt;
 
 /// A bounded polytope P = Co{x_(1..p)} = {x : a_kᵀ x ≤ 1, k = 1..q}.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -11,4 +21,446 @@ pub struct Region {
     pub vertices: Vec<DVector<f64>>,
     /// The facet normals a_k, each facet being a_kᵀ x ≤ 1.
     pub facets: Vec<DVector<f64>>,
+}
+
+/// Most vertices (or facets) a region may have.
+pub const MAX_REGION_VERTICES: usize = 4096;
+
+/// Relative tolerance of the enumeration.
+const TOL: f64 = 1e-9;
+
+/// Most intermediate rays the enumeration keeps before giving up.
+const MAX_RAYS: usize = 20_000;
+
+/// Why a set of vertices or facets is not an acceptable region.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RegionError {
+    /// The facets do not bound the region: it contains every t·d, t ≥ 0.
+    Unbounded {
+        /// A direction of unboundedness.
+        direction: DVector<f64>,
+    },
+    /// The origin is not strictly inside: the region lies in {x : dᵀx ≤ 0}.
+    OriginNotInterior {
+        /// Normal of a halfspace through the origin containing the region.
+        direction: DVector<f64>,
+    },
+    /// A box radius that is not a positive finite number.
+    BadRadius {
+        /// Which coordinate.
+        index: usize,
+    },
+    /// A vertex or facet with a non-finite entry, or of the wrong length.
+    BadPoint {
+        /// Which row.
+        index: usize,
+    },
+    /// Nothing was given, or the dimension is zero.
+    Empty,
+    /// More than [`MAX_REGION_VERTICES`] vertices or facets, or the
+    /// enumeration grew beyond its work limit.
+    TooComplex,
+}
+
+fn fmt_vec(v: &DVector<f64>) -> String {
+    let parts: Vec<String> = v
+        .iter()
+        .map(|x| {
+            let r = (x * 1e6).round() / 1e6;
+            format!("{}", if r == 0.0 { 0.0 } else { r })
+        })
+        .collect();
+    format!("({})", parts.join(", "))
+}
+
+impl fmt::Display for RegionError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RegionError::Unbounded { direction } => write!(
+                f,
+                "the region is unbounded: it contains the whole ray t·d, t ≥ 0, for d = {}; \
+                 add halfspaces that close it in that direction",
+                fmt_vec(direction)
+            ),
+            RegionError::OriginNotInterior { direction } => write!(
+                f,
+                "the origin must lie strictly inside the region, but every vertex x satisfies \
+                 dᵀx ≤ 0 for d = {} (the region is flat or on one side of the origin)",
+                fmt_vec(direction)
+            ),
+            RegionError::BadRadius { index } => {
+                write!(f, "box radius {} must be a positive number", index + 1)
+            }
+            RegionError::BadPoint { index } => write!(f, "row {} is not a finite vector", index + 1),
+            RegionError::Empty => write!(f, "the region is empty"),
+            RegionError::TooComplex => write!(
+                f,
+                "the region is too complex: at most {MAX_REGION_VERTICES} vertices and facets are supported"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for RegionError {}
+
+impl Region {
+    /// Dimension of the space.
+    pub fn dim(&self) -> usize {
+        self.vertices.first().map_or(0, |v| v.len())
+    }
+
+    /// The box |x_i| ≤ r_i. Vertices are ordered with the first coordinate
+    /// most significant, −r before +r; facets are e_1/r_1, −e_1/r_1, e_2/r_2, ...
+    pub fn from_box(radii: &[f64]) -> Result<Region, RegionError> {
+        let n = radii.len();
+        if n == 0 {
+            return Err(RegionError::Empty);
+        }
+        if let Some(index) = radii.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
+            return Err(RegionError::BadRadius { index });
+        }
+        if n >= 63 || (1usize << n) > MAX_REGION_VERTICES {
+            return Err(RegionError::TooComplex);
+        }
+        let vertices = (0..1usize << n)
+            .map(|l| {
+                DVector::from_fn(n, |i, _| {
+                    if (l >> (n - 1 - i)) & 1 == 1 {
+                        radii[i]
+                    } else {
+                        -radii[i]
+                    }
+                })
+            })
+            .collect();
+        let mut facets = Vec::with_capacity(2 * n);
+        for (i, r) in radii.iter().enumerate() {
+            for s in [1.0, -1.0] {
+                let mut a = DVector::zeros(n);
+                a[i] = s / r;
+                facets.push(a);
+            }
+        }
+        Ok(Region { vertices, facets })
+    }
+
+    /// The convex hull of `points` (origin strictly inside); points that are
+    /// not vertices of the hull (or repeat one) are dropped.
+    pub fn from_vertices(points: &[DVector<f64>]) -> Result<Region, RegionError> {
+        hull_from_vertices(points).map(|(r, _)| r)
+    }
+
+    /// The polytope {x : a_kᵀ x ≤ 1} (must be bounded); redundant rows are
+    /// dropped.
+    pub fn from_halfspaces(normals: &[DVector<f64>]) -> Result<Region, RegionError> {
+        hull_from_halfspaces(normals).map(|(r, _)| r)
+    }
+
+    /// True if every facet inequality holds at `x` (with a relative tolerance).
+    pub fn contains(&self, x: &DVector<f64>) -> bool {
+        self.facets.iter().all(|a| a.dot(x) <= 1.0 + TOL * (1.0 + a.norm() * x.norm()))
+    }
+
+    /// The largest xᵀ W x over the vertices (e.g. W = Q⁻¹ to test P ⊂ F),
+    /// with the vertex attaining it.
+    pub fn max_quadratic(&self, w: &DMatrix<f64>) -> Option<(f64, usize)> {
+        self.vertices
+            .iter()
+            .enumerate()
+            .map(|(i, v)| ((v.transpose() * w * v)[(0, 0)], i))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+    }
+}
+
+fn check_points(points: &[DVector<f64>]) -> Result<usize, RegionError> {
+    let n = points.first().map(|p| p.len()).ok_or(RegionError::Empty)?;
+    if n == 0 {
+        return Err(RegionError::Empty);
+    }
+    for (index, p) in points.iter().enumerate() {
+        if p.len() != n || p.iter().any(|x| !x.is_finite()) {
+            return Err(RegionError::BadPoint { index });
+        }
+    }
+    Ok(n)
+}
+
+/// [`Region::from_vertices`], also returning the indices of the dropped points.
+pub(crate) fn hull_from_vertices(points: &[DVector<f64>]) -> Result<(Region, Vec<usize>), RegionError> {
+    let n = check_points(points)?;
+    // facets of Co{x_i} = vertices of the polar {a : x_iᵀ a ≤ 1}
+    let facets = match enumerate_vertices(points, n) {
+        Ok(f) => f,
+        Err(Enum::Unbounded(direction)) => return Err(RegionError::OriginNotInterior { direction }),
+        Err(Enum::TooComplex) => return Err(RegionError::TooComplex),
+    };
+    let keep = irredundant(points, &facets, n);
+    let dropped = (0..points.len()).filter(|i| !keep.contains(i)).collect();
+    let vertices = keep.iter().map(|&i| points[i].clone()).collect();
+    Ok((Region { vertices, facets }, dropped))
+}
+
+/// [`Region::from_halfspaces`], also returning the indices of the dropped rows.
+pub(crate) fn hull_from_halfspaces(normals: &[DVector<f64>]) -> Result<(Region, Vec<usize>), RegionError> {
+    let n = check_points(normals)?;
+    let vertices = match enumerate_vertices(normals, n) {
+        Ok(v) => v,
+        Err(Enum::Unbounded(direction)) => return Err(RegionError::Unbounded { direction }),
+        Err(Enum::TooComplex) => return Err(RegionError::TooComplex),
+    };
+    let keep = irredundant(normals, &vertices, n);
+    let dropped = (0..normals.len()).filter(|i| !keep.contains(i)).collect();
+    let facets = keep.iter().map(|&i| normals[i].clone()).collect();
+    Ok((Region { vertices, facets }, dropped))
+}
+
+fn tight(a: &DVector<f64>, x: &DVector<f64>) -> bool {
+    (a.dot(x) - 1.0).abs() <= TOL * (1.0 + a.norm() * x.norm())
+}
+
+/// Indices of the rows a_k of {x : a_kᵀx ≤ 1} that are facets, given the
+/// vertices: a_k is a facet iff the vertices on it span an (n−1)-dimensional
+/// affine set; repeated rows are kept once.
+fn irredundant(rows: &[DVector<f64>], vertices: &[DVector<f64>], n: usize) -> Vec<usize> {
+    let mut keep: Vec<usize> = Vec::new();
+    for (k, a) in rows.iter().enumerate() {
+        if keep
+            .iter()
+            .any(|&j| (&rows[j] - a).norm() <= TOL * (1.0 + a.norm()))
+        {
+            continue;
+        }
+        let on: Vec<&DVector<f64>> = vertices.iter().filter(|v| tight(a, v)).collect();
+        if on.len() < n {
+            continue;
+        }
+        if n == 1 {
+            keep.push(k);
+            continue;
+        }
+        let d = DMatrix::from_fn(on.len() - 1, n, |i, j| on[i + 1][j] - on[0][j]);
+        let scale = d.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(f64::MIN_POSITIVE);
+        if (d / scale).rank(1e-8) == n - 1 {
+            keep.push(k);
+        }
+    }
+    keep
+}
+
+/// Failure of the vertex enumeration.
+enum Enum {
+    /// A direction d ≠ 0 with a_kᵀ d ≤ 0 for every row.
+    Unbounded(DVector<f64>),
+    /// Work limit exceeded.
+    TooComplex,
+}
+
+/// A ray of the homogenised cone with the set of processed constraints it
+/// makes tight.
+#[derive(Clone)]
+struct Ray {
+    z: DVector<f64>,
+    zero: Vec<u64>,
+}
+
+fn has(set: &[u64], i: usize) -> bool {
+    set[i / 64] >> (i % 64) & 1 == 1
+}
+
+fn insert(set: &mut [u64], i: usize) {
+    set[i / 64] |= 1 << (i % 64);
+}
+
+/// Vertices of {x ∈ Rⁿ : a_kᵀ x ≤ 1}, or a direction of unboundedness.
+fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>, Enum> {
+    let d = n + 1;
+    // Cone rows h·z ≥ 0 for z = (x, t): (−a_k, 1), then t ≥ 0 (row index m).
+    let mut h: Vec<DVector<f64>> = a
+        .iter()
+        .map(|ak| {
+            let mut r = DVector::zeros(d);
+            for i in 0..n {
+                r[i] = -ak[i];
+            }
+            r[n] = 1.0;
+            let norm = r.norm();
+            r / norm
+        })
+        .collect();
+    let mut t_row = DVector::zeros(d);
+    t_row[n] = 1.0;
+    h.push(t_row);
+    let m = h.len();
+    let words = m.div_ceil(64);
+
+    // Initial basis: d linearly independent rows, greedily the most
+    // independent, starting with t ≥ 0.
+    let mut basis: Vec<usize> = vec![m - 1];
+    let mut ortho: Vec<DVector<f64>> = vec![h[m - 1].clone()];
+    while basis.len() < d {
+        let best = (0..m)
+            .filter(|i| !basis.contains(i))
+            .map(|i| {
+                let mut r = h[i].clone();
+                for q in &ortho {
+                    r -= q * q.dot(&r);
+                }
+                (r.norm(), i, r)
+            })
+            .max_by(|x, y| x.0.total_cmp(&y.0));
+        match best {
+            Some((norm, i, r)) if norm > 1e-9 => {
+                basis.push(i);
+                ortho.push(r / norm);
+            }
+            _ => {
+                // rank < d: a direction in the null space is a line of the cone
+                let mut dir = (0..d)
+                    .map(|j| {
+                        let mut e = DVector::zeros(d);
+                        e[j] = 1.0;
+                        for q in &ortho {
+                            e -= q * q.dot(&e);
+                        }
+                        e
+                    })
+                    .max_by(|x, y| x.norm().total_cmp(&y.norm()))
+                    .unwrap_or_else(|| DVector::zeros(d));
+                let norm = dir.norm().max(f64::MIN_POSITIVE);
+                dir /= norm;
+                return Err(Enum::Unbounded(dir.rows(0, n).into_owned()));
+            }
+        }
+    }
+    let b = DMatrix::from_fn(d, d, |i, j| h[basis[i]][j]);
+    let binv = b.try_inverse().ok_or(Enum::TooComplex)?;
+    let mut rays: Vec<Ray> = (0..d)
+        .map(|i| {
+            let z = binv.column(i).into_owned();
+            let z = &z / z.norm();
+            let mut zero = vec![0u64; words];
+            for (j, &row) in basis.iter().enumerate() {
+                if j != i {
+                    insert(&mut zero, row);
+                }
+            }
+            Ray { z, zero }
+        })
+        .collect();
+
+    let mut processed: Vec<usize> = basis.clone();
+    for k in 0..m {
+        if basis.contains(&k) {
+            continue;
+        }
+        let vals: Vec<f64> = rays.iter().map(|r| h[k].dot(&r.z)).collect();
+        let pos: Vec<usize> = (0..rays.len()).filter(|&i| vals[i] > TOL).collect();
+        let neg: Vec<usize> = (0..rays.len()).filter(|&i| vals[i] < -TOL).collect();
+        let mut next: Vec<Ray> = Vec::with_capacity(rays.len());
+        for (i, r) in rays.iter().enumerate() {
+            if vals[i] >= -TOL {
+                let mut r = r.clone();
+                if vals[i] <= TOL {
+                    insert(&mut r.zero, k);
+                }
+                next.push(r);
+            }
+        }
+        for &p in &pos {
+            for &q in &neg {
+                let common: Vec<u64> = rays[p].zero.iter().zip(&rays[q].zero).map(|(x, y)| x & y).collect();
+                let count: u32 = common.iter().map(|w| w.count_ones()).sum();
+                if (count as usize) + 2 < d {
+                    continue;
+                }
+                let adjacent = rays.iter().enumerate().all(|(r, ray)| {
+                    r == p || r == q || common.iter().zip(&ray.zero).any(|(c, z)| c & !z != 0)
+                });
+                if !adjacent {
+                    continue;
+                }
+                let z = &rays[q].z * vals[p] - &rays[p].z * vals[q];
+                let norm = z.norm();
+                if norm <= f64::MIN_POSITIVE {
+                    continue;
+                }
+                let mut zero = common;
+                insert(&mut zero, k);
+                next.push(Ray { z: z / norm, zero });
+                if next.len() > MAX_RAYS {
+                    return Err(Enum::TooComplex);
+                }
+            }
+        }
+        rays = next;
+        processed.push(k);
+    }
+    let _ = processed;
+
+    let mut vertices: Vec<DVector<f64>> = Vec::new();
+    for r in &rays {
+        let t = r.z[n];
+        let x = r.z.rows(0, n).into_owned();
+        if t <= 1e-10 {
+            let norm = x.norm().max(f64::MIN_POSITIVE);
+            return Err(Enum::Unbounded(x / norm));
+        }
+        let v = x / t;
+        if !vertices
+            .iter()
+            .any(|w| (w - &v).norm() <= TOL * (1.0 + v.norm()))
+        {
+            vertices.push(v);
+        }
+        if vertices.len() > MAX_REGION_VERTICES {
+            return Err(Enum::TooComplex);
+        }
+    }
+    // sanity: every row satisfied at every vertex
+    let _ = has;
+    Ok(vertices)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(x: &[f64]) -> DVector<f64> {
+        DVector::from_column_slice(x)
+    }
+
+    #[test]
+    fn square_both_ways() {
+        let b = Region::from_box(&[1.0, 2.0]).unwrap();
+        assert_eq!(b.vertices.len(), 4);
+        let h = Region::from_halfspaces(&b.facets).unwrap();
+        assert_eq!(h.vertices.len(), 4);
+        for x in &b.vertices {
+            assert!(h.vertices.iter().any(|y| (x - y).norm() < 1e-12));
+        }
+        let w = Region::from_vertices(&b.vertices).unwrap();
+        assert_eq!(w.facets.len(), 4);
+    }
+
+    #[test]
+    fn unbounded_and_off_origin() {
+        assert!(matches!(
+            Region::from_halfspaces(&[v(&[1.0, 0.0]), v(&[-1.0, 0.0]), v(&[0.0, 1.0])]),
+            Err(RegionError::Unbounded { .. })
+        ));
+        assert!(matches!(
+            Region::from_vertices(&[v(&[1.0, 0.0]), v(&[0.0, 1.0]), v(&[1.0, 1.0])]),
+            Err(RegionError::OriginNotInterior { .. })
+        ));
+        // origin on the boundary
+        assert!(matches!(
+            Region::from_vertices(&[v(&[0.0, 0.0]), v(&[1.0, 0.0]), v(&[0.0, 1.0]), v(&[-1.0, 1.0])]),
+            Err(RegionError::OriginNotInterior { .. })
+        ));
+        // flat
+        assert!(matches!(
+            Region::from_vertices(&[v(&[1.0, 0.0]), v(&[-1.0, 0.0])]),
+            Err(RegionError::OriginNotInterior { .. })
+        ));
+    }
 }

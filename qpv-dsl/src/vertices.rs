@@ -103,3 +103,90 @@ impl PolytopicModel {
             .collect()
     }
 }
+
+impl PolytopicModel {
+    /// Σ_l μ_l(θ) A_l (equals A(θ) inside the parameter box).
+    pub fn a_at(&self, theta: &[f64]) -> DMatrix<f64> {
+        let mu = self.mu(theta);
+        let mut s = DMatrix::zeros(self.nx(), self.nx());
+        for (w, v) in mu.iter().zip(&self.vertices) {
+            s += &v.a * *w;
+        }
+        s
+    }
+
+    /// Σ_l μ_l(θ) N_{k,l}, k = 1..nx.
+    pub fn n_at(&self, theta: &[f64]) -> Vec<DMatrix<f64>> {
+        let mu = self.mu(theta);
+        (0..self.nx())
+            .map(|k| {
+                let mut s = DMatrix::zeros(self.nx(), self.nx());
+                for (w, v) in mu.iter().zip(&self.vertices) {
+                    s += &v.n[k] * *w;
+                }
+                s
+            })
+            .collect()
+    }
+
+    /// Σ_l μ_l(θ) B_l.
+    pub fn b_at(&self, theta: &[f64]) -> DMatrix<f64> {
+        let mu = self.mu(theta);
+        let mut s = DMatrix::zeros(self.nx(), self.nu());
+        for (w, v) in mu.iter().zip(&self.vertices) {
+            s += &v.b * *w;
+        }
+        s
+    }
+
+    /// The parameter vector of corner `l` restricted to the scheduling
+    /// parameters, as `(name, value)` pairs (for reports).
+    pub fn corner(&self, l: usize) -> Vec<(&str, f64)> {
+        self.scheduling
+            .iter()
+            .map(|&i| (self.params[i].name.as_str(), self.vertices[l].theta[i]))
+            .collect()
+    }
+}
+
+impl crate::model::Model {
+    /// The polytopic form: the matrices at the 2^s corners of the box of the
+    /// s scheduling parameters (those appearing in A, N_k or B), in the
+    /// documented order (first parameter most significant, lo before hi).
+    /// Exact because every entry is multi-affine in θ: the multilinear
+    /// interpolation Σ_l μ_l(θ) A_l reproduces A(θ) on the whole box.
+    pub fn polytopic(&self) -> PolytopicModel {
+        let scheduling = self.scheduling();
+        let s = scheduling.len();
+        let base: Vec<f64> = self.params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
+        let vertices = (0..1usize << s)
+            .map(|l| {
+                let mut theta = base.clone();
+                for (i, &pi) in scheduling.iter().enumerate() {
+                    let p = &self.params[pi];
+                    theta[pi] = if (l >> (s - 1 - i)) & 1 == 1 { p.hi } else { p.lo };
+                }
+                Vertex {
+                    a: self.eval_a(&theta),
+                    n: self.eval_n(&theta),
+                    b: self.eval_b(&theta),
+                    theta,
+                }
+            })
+            .collect();
+        PolytopicModel {
+            name: self.name.clone(),
+            states: self.states.clone(),
+            inputs: self.inputs.clone(),
+            outputs: self.outputs.clone(),
+            params: self.params.clone(),
+            scheduling,
+            vertices,
+            c: self.eval_c(&base),
+            m: self.eval_m(&base),
+            region: self.region.clone(),
+            state_bound: self.state_bound.clone(),
+            designs: self.designs.clone(),
+        }
+    }
+}

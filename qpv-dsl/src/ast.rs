@@ -1,0 +1,189 @@
+//! The syntax tree: plain data built from the pest pairs by `syntax.rs`, one
+//! node per grammar rule that carries meaning, every node with its byte span.
+
+use crate::diagnostic::Span;
+
+/// A name as written, with its span.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ident {
+    /// The name.
+    pub name: String,
+    /// Where it is written.
+    pub span: Span,
+}
+
+/// A whole input: one or more models.
+#[derive(Debug, Clone, PartialEq)]
+pub struct File {
+    /// The `model` blocks in source order.
+    pub models: Vec<ModelAst>,
+}
+
+/// One `model NAME { ... }` block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelAst {
+    /// The model's name.
+    pub name: Ident,
+    /// The whole block.
+    pub span: Span,
+    /// The statements in source order.
+    pub items: Vec<Item>,
+    /// The closing `}`.
+    pub close: Span,
+}
+
+/// One statement inside a model.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Item {
+    /// `state x1, x2;`
+    States(Vec<Ident>),
+    /// `input u1;`
+    Inputs(Vec<Ident>),
+    /// `output y1;`
+    Outputs(Vec<Ident>),
+    /// `param th1, th2 in [lo, hi];`
+    Params(ParamDecl),
+    /// `A = [...];` or `N2 = 0;`
+    Matrix(MatrixDef),
+    /// `der x1 = expr;`
+    Der(Equation),
+    /// `out y1 = expr;`
+    Out(Equation),
+    /// `region box(...);`, `region vertices [...];`, `region halfspaces [...];`
+    Region(RegionDecl),
+    /// `state_bound Q = [...];`
+    StateBound(MatrixLit, Span),
+    /// `design { key = value; ... }`
+    Design(DesignBlock),
+}
+
+/// `param NAMES in [lo, hi];`
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamDecl {
+    /// The declared names (they share the bounds).
+    pub names: Vec<Ident>,
+    /// Lower bound expression.
+    pub lo: Expr,
+    /// Upper bound expression.
+    pub hi: Expr,
+    /// The `[lo, hi]` interval.
+    pub interval: Span,
+}
+
+/// `NAME = value;`
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatrixDef {
+    /// The matrix name (A, B, C, N<k>, M<k>).
+    pub name: Ident,
+    /// The right-hand side.
+    pub value: MatrixValue,
+    /// The whole statement.
+    pub span: Span,
+}
+
+/// The right-hand side of a matrix definition.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MatrixValue {
+    /// A bracketed matrix literal.
+    Literal(MatrixLit),
+    /// A scalar expression (only `0`, the zero matrix, is accepted).
+    Scalar(Expr),
+}
+
+/// `[a, b; c, d]`
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatrixLit {
+    /// The rows.
+    pub rows: Vec<Row>,
+    /// The whole literal including brackets.
+    pub span: Span,
+}
+
+/// One row of a matrix literal.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    /// The entries.
+    pub entries: Vec<Expr>,
+    /// The row's text.
+    pub span: Span,
+}
+
+/// `der x = rhs;` or `out y = rhs;`
+#[derive(Debug, Clone, PartialEq)]
+pub struct Equation {
+    /// The state (for `der`) or output (for `out`).
+    pub target: Ident,
+    /// The right-hand side.
+    pub rhs: Expr,
+    /// The whole statement.
+    pub span: Span,
+}
+
+/// `region ...;`
+#[derive(Debug, Clone, PartialEq)]
+pub struct RegionDecl {
+    /// The shape.
+    pub shape: RegionShape,
+    /// The whole statement.
+    pub span: Span,
+}
+
+/// The ways to give the region.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RegionShape {
+    /// `box(r)`: |x_i| ≤ r for all i.
+    BoxScalar(Expr),
+    /// `box([r1, .., rn])`: |x_i| ≤ r_i.
+    BoxVector(Vec<Expr>, Span),
+    /// `vertices [...]`: one vertex per row.
+    Vertices(MatrixLit),
+    /// `halfspaces [...]`: one row a_k per facet a_kᵀ x ≤ 1.
+    Halfspaces(MatrixLit),
+}
+
+/// `design { ... }`
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignBlock {
+    /// The entries in source order.
+    pub entries: Vec<DesignEntry>,
+    /// The whole block.
+    pub span: Span,
+}
+
+/// `key = value;` inside a design block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignEntry {
+    /// The key.
+    pub key: Ident,
+    /// The value: an expression or a word such as `max`.
+    pub value: Expr,
+    /// The whole entry.
+    pub span: Span,
+}
+
+/// An expression with its span.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Expr {
+    /// What it is.
+    pub kind: ExprKind,
+    /// Where it is written (parentheses included).
+    pub span: Span,
+}
+
+/// The expression forms. Sums and products are flattened (n-ary) so that
+/// long chains do not nest.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ExprKind {
+    /// A number literal.
+    Number(f64),
+    /// A state, input or parameter name (or a design word such as `max`).
+    Name(String),
+    /// Unary minus.
+    Neg(Box<Expr>),
+    /// `t1 ± t2 ± ...`: each term with `true` if it is subtracted.
+    Sum(Vec<(bool, Expr)>),
+    /// `f1 * f2 / f3 ...`: each factor with `true` if it divides.
+    Product(Vec<(bool, Expr)>),
+    /// `base ^ n` with a whole-number exponent.
+    Pow(Box<Expr>, u32),
+}

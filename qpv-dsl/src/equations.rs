@@ -1,0 +1,157 @@
+//! Equation form → matrices: `der x_k = ...;` gives row k of A, N_k and row k
+//! of B; `out y_k = ...;` gives row k of C and M_k.
+//!
+//! Split convention ([`Split::AsWritten`], the only one for now): a term
+//! c·x_i·x_j goes to N_k[i][j] with x_i the first state factor as written
+//! and x_j the second (x_i² → N_k[i][i]). Only the symmetric part of N_k
+//! affects the dynamics, but the matrix enters the LMIs, so the choice is
+//! kept explicit; with the same factor order the equation form reproduces
+//! the matrix form exactly.
+
+use crate::diagnostic::{Diag, Span};
+use crate::expr::{PolyMatrix, ThetaPoly};
+use crate::poly::{quote, Mono, Names, Poly, Var};
+
+/// How a quadratic term x_i·x_j is placed in N_k (M_k).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(crate) enum Split {
+    /// N_k[i][j] += c for the factors in written order (first → row).
+    #[default]
+    AsWritten,
+}
+
+/// A, N_k, B extracted from the `der` equations.
+pub(crate) struct Dynamics {
+    pub a: PolyMatrix,
+    pub n: Vec<PolyMatrix>,
+    pub b: PolyMatrix,
+}
+
+/// C, M_k extracted from the `out` equations, with the span of the first
+/// θ-dependent term of each entry (C first, then M_1, M_2, ...), if any.
+pub(crate) struct Outputs {
+    pub c: PolyMatrix,
+    pub m: Vec<PolyMatrix>,
+    /// For each θ-dependent entry: (matrix index: 0 = C, k = M_k; i; j; span).
+    pub theta_terms: Vec<(usize, usize, usize, Span)>,
+}
+
+fn place(split: Split, i: usize, j: usize) -> (usize, usize) {
+    match split {
+        Split::AsWritten => (i, j),
+    }
+}
+
+fn constant_term(src: &str, names: &Names, eq: &str, mono: &Mono, span: Span) -> Diag {
+    let what = if mono.theta == 0 {
+        "a constant term".to_string()
+    } else {
+        format!("the term {} without a state", names.mono_text(mono))
+    };
+    Diag::new(
+        span,
+        format!(
+            "`{eq}` has {what} ({}): the system class x' = A(θ)x + N(θ,x)x + B(θ)u, \
+             y = C x + M(x)x has no offsets. Shift the state to an equilibrium, or give \
+             the offset as a known input (for example `input one;` and `... + 5*one`)",
+            quote(src, span)
+        ),
+    )
+}
+
+/// Builds A, N_k, B from one polynomial per state (in state order).
+pub(crate) fn dynamics(src: &str, names: &Names, eqs: &[Poly], split: Split) -> Result<Dynamics, Diag> {
+    let nx = names.states.len();
+    let nu = names.inputs.len();
+    let mut a = PolyMatrix::zeros(nx, nx);
+    let mut n = vec![PolyMatrix::zeros(nx, nx); nx];
+    let mut b = PolyMatrix::zeros(nx, nu);
+    for (k, eq) in eqs.iter().enumerate() {
+        let label = format!("der {}", names.states[k]);
+        for (mono, term) in &eq.terms {
+            match mono.vars.as_slice() {
+                [Var::State(i)] => a.get_mut(k, *i).add_term(mono.theta, term.coef),
+                [Var::Input(j)] => b.get_mut(k, *j).add_term(mono.theta, term.coef),
+                [Var::State(i), Var::State(j)] => {
+                    let (r, c) = place(split, *i, *j);
+                    n[k].get_mut(r, c).add_term(mono.theta, term.coef)
+                }
+                [] => return Err(constant_term(src, names, &label, mono, term.span)),
+                _ => {
+                    return Err(Diag::new(
+                        term.span,
+                        format!("internal error: unexpected term {} in `{label}`", names.mono_text(mono)),
+                    ))
+                }
+            }
+        }
+    }
+    Ok(Dynamics { a, n, b })
+}
+
+/// Builds C, M_k from one polynomial per output (in output order).
+pub(crate) fn outputs(src: &str, names: &Names, eqs: &[Poly], split: Split) -> Result<Outputs, Diag> {
+    let nx = names.states.len();
+    let ny = names.outputs.len();
+    let mut c = PolyMatrix::zeros(ny, nx);
+    let mut m = vec![PolyMatrix::zeros(nx, nx); ny];
+    let mut theta_terms = Vec::new();
+    for (k, eq) in eqs.iter().enumerate() {
+        let label = format!("out {}", names.outputs[k]);
+        for (mono, term) in &eq.terms {
+            let (which, i, j) = match mono.vars.as_slice() {
+                [Var::State(i)] => {
+                    c.get_mut(k, *i).add_term(mono.theta, term.coef);
+                    (0, k, *i)
+                }
+                [Var::State(i), Var::State(j)] => {
+                    let (r, col) = place(split, *i, *j);
+                    m[k].get_mut(r, col).add_term(mono.theta, term.coef);
+                    (k + 1, r, col)
+                }
+                [Var::Input(u)] => {
+                    return Err(Diag::new(
+                        term.span,
+                        format!(
+                            "`{label}` depends on the input `{}` ({}): direct feedthrough (y = ... + D u) \
+                             is not supported; subtract D u from the measurement and give the \
+                             observer y − D u instead",
+                            names.inputs[*u],
+                            quote(src, term.span)
+                        ),
+                    ))
+                }
+                [] => return Err(constant_term(src, names, &label, mono, term.span)),
+                _ => {
+                    return Err(Diag::new(
+                        term.span,
+                        format!("internal error: unexpected term {} in `{label}`", names.mono_text(mono)),
+                    ))
+                }
+            };
+            if mono.theta != 0 && !theta_terms.iter().any(|t: &(usize, usize, usize, Span)| (t.0, t.1, t.2) == (which, i, j)) {
+                theta_terms.push((which, i, j, term.span));
+            }
+        }
+    }
+    Ok(Outputs { c, m, theta_terms })
+}
+
+/// The error for a θ-dependent entry of C or M_k: the design needs constant
+/// output matrices; explains the two remedies.
+pub(crate) fn theta_output_error(names: &Names, matrix: &str, i: usize, j: usize, p: &ThetaPoly, span: Span) -> Diag {
+    Diag::new(
+        span,
+        format!(
+            "{matrix} depends on the parameters: entry ({}, {}) is {}. The observer design needs \
+             constant output matrices C and M_k. Two remedies: (1) output post-filter augmentation \
+             (spec §3, Remark 3): filter the measurement, x_y' = A_y x_y + B_y y with A_y Hurwitz, \
+             and use the filter state as output, which moves the θ-dependence into the state \
+             equation; (2) the double-sum relaxation Σ_l Σ_m μ_l μ_m Γ_l C_m. Neither is \
+             automatic yet: rewrite the model with (1) or make {matrix} constant",
+            i + 1,
+            j + 1,
+            names.theta_poly_text(p)
+        ),
+    )
+}

@@ -1,0 +1,496 @@
+//! Expressions → polynomials in the states, inputs and parameters.
+//!
+//! A term is `c · Π_{i∈S} θ_i · v_1 · v_2` with at most two variables (states
+//! or inputs) kept in the order they were written (that order decides where a
+//! quadratic term lands in N_k, see the crate docs) and the parameters as a
+//! set (a parameter twice in one term is not multi-affine and is rejected as
+//! soon as the product forms). Every term remembers the span of the
+//! expression it came from, so later stages can point at it.
+
+use crate::ast::{Expr, ExprKind};
+use crate::diagnostic::{suggest, Diag, Span};
+use crate::expr::ThetaPoly;
+use std::collections::{BTreeMap, HashMap};
+
+/// Most terms one expression may expand to.
+const MAX_TERMS: usize = 4096;
+
+/// A variable factor of a term.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub(crate) enum Var {
+    /// The i-th state.
+    State(usize),
+    /// The j-th input.
+    Input(usize),
+}
+
+/// The non-numeric part of a term: parameters (bit mask) and variables in
+/// written order.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) struct Mono {
+    pub theta: u64,
+    pub vars: Vec<Var>,
+}
+
+/// A coefficient and where its term was written.
+#[derive(Clone, Debug)]
+pub(crate) struct Term {
+    pub coef: f64,
+    pub span: Span,
+}
+
+/// A sum of terms with distinct monomials and nonzero coefficients.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Poly {
+    pub terms: BTreeMap<Mono, Term>,
+}
+
+/// What a declared name denotes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum NameRef {
+    State(usize),
+    Input(usize),
+    Output(usize),
+    Param(usize),
+}
+
+/// The declared names of one model.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Names {
+    pub states: Vec<String>,
+    pub inputs: Vec<String>,
+    pub outputs: Vec<String>,
+    pub params: Vec<String>,
+    pub lookup: HashMap<String, NameRef>,
+}
+
+impl Names {
+    fn var(&self, v: Var) -> &str {
+        match v {
+            Var::State(i) => &self.states[i],
+            Var::Input(i) => &self.inputs[i],
+        }
+    }
+
+    /// `th1^2*x1*x2`-style text of a term given by parameter multiplicities
+    /// and variables.
+    fn term_text(&self, theta_counts: &[(usize, u32)], vars: &[Var]) -> String {
+        let mut parts: Vec<String> = theta_counts
+            .iter()
+            .map(|&(i, k)| {
+                if k == 1 {
+                    self.params[i].clone()
+                } else {
+                    format!("{}^{k}", self.params[i])
+                }
+            })
+            .collect();
+        let mut i = 0;
+        while i < vars.len() {
+            let mut k = 1;
+            while i + k < vars.len() && vars[i + k] == vars[i] {
+                k += 1;
+            }
+            let n = self.var(vars[i]).to_string();
+            parts.push(if k == 1 { n } else { format!("{n}^{k}") });
+            i += k;
+        }
+        if parts.is_empty() {
+            "a constant".into()
+        } else {
+            parts.join("*")
+        }
+    }
+
+    /// The text of a monomial, e.g. `th1*x1*x2`.
+    pub fn mono_text(&self, m: &Mono) -> String {
+        self.term_text(&bits(m.theta).map(|i| (i, 1)).collect::<Vec<_>>(), &m.vars)
+    }
+
+    /// The text of a θ-polynomial, e.g. `1 + 2*th1`.
+    pub fn theta_poly_text(&self, p: &ThetaPoly) -> String {
+        if p.terms.is_empty() {
+            return "0".into();
+        }
+        let mut s = String::new();
+        for (k, &(mask, c)) in p.terms.iter().enumerate() {
+            let (sign, a) = if c < 0.0 { ("-", -c) } else { ("+", c) };
+            if k == 0 {
+                if sign == "-" {
+                    s.push('-');
+                }
+            } else {
+                s.push_str(&format!(" {sign} "));
+            }
+            let names: Vec<&str> = bits(mask).map(|i| self.params[i].as_str()).collect();
+            if names.is_empty() {
+                s.push_str(&fmt_num(a));
+            } else if a == 1.0 {
+                s.push_str(&names.join("*"));
+            } else {
+                s.push_str(&format!("{}*{}", fmt_num(a), names.join("*")));
+            }
+        }
+        s
+    }
+}
+
+/// Shortest round-trip text of a number.
+pub(crate) fn fmt_num(v: f64) -> String {
+    format!("{v}")
+}
+
+/// The indices of the set bits of `mask`, lowest first.
+pub(crate) fn bits(mask: u64) -> impl Iterator<Item = usize> {
+    let mut m = mask;
+    std::iter::from_fn(move || {
+        if m == 0 {
+            None
+        } else {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            Some(i)
+        }
+    })
+}
+
+/// Which names an expression may use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Allowed {
+    /// Numbers only (bounds, region, Q, design values).
+    Constant,
+    /// Numbers and parameters (matrix entries).
+    Coefficient,
+    /// Numbers, parameters, states and inputs (`der`, `out`).
+    Equation,
+}
+
+/// Everything `eval` needs besides the expression.
+pub(crate) struct Scope<'a> {
+    pub src: &'a str,
+    pub names: &'a Names,
+    pub allowed: Allowed,
+    /// What is being written, for messages ("the state bound Q").
+    pub context: &'a str,
+}
+
+impl Poly {
+    fn constant(c: f64, span: Span) -> Poly {
+        let mut p = Poly::default();
+        if c != 0.0 {
+            p.terms.insert(
+                Mono {
+                    theta: 0,
+                    vars: vec![],
+                },
+                Term { coef: c, span },
+            );
+        }
+        p
+    }
+
+    fn single(mono: Mono, span: Span) -> Poly {
+        let mut p = Poly::default();
+        p.terms.insert(mono, Term { coef: 1.0, span });
+        p
+    }
+
+    /// The value if the polynomial is a plain number.
+    pub fn as_constant(&self) -> Option<f64> {
+        let mut v = 0.0;
+        for (m, t) in &self.terms {
+            if m.theta != 0 || !m.vars.is_empty() {
+                return None;
+            }
+            v += t.coef;
+        }
+        Some(v)
+    }
+
+    fn add_term(&mut self, mono: Mono, coef: f64, span: Span) {
+        use std::collections::btree_map::Entry;
+        match self.terms.entry(mono) {
+            Entry::Occupied(mut e) => {
+                e.get_mut().coef += coef;
+                if e.get().coef == 0.0 {
+                    e.remove();
+                }
+            }
+            Entry::Vacant(e) => {
+                if coef != 0.0 {
+                    e.insert(Term { coef, span });
+                }
+            }
+        }
+    }
+
+    fn add(mut self, other: Poly, negate: bool) -> Poly {
+        for (m, t) in other.terms {
+            self.add_term(m, if negate { -t.coef } else { t.coef }, t.span);
+        }
+        self
+    }
+
+    fn scale(mut self, c: f64) -> Poly {
+        for t in self.terms.values_mut() {
+            t.coef *= c;
+        }
+        self.terms.retain(|_, t| t.coef != 0.0);
+        self
+    }
+
+    /// The θ-polynomial of a polynomial without variables (variables are
+    /// rejected before this is called).
+    pub fn to_theta(&self) -> ThetaPoly {
+        let mut p = ThetaPoly::zero();
+        for (m, t) in &self.terms {
+            if m.vars.is_empty() {
+                p.add_term(m.theta, t.coef);
+            }
+        }
+        p
+    }
+}
+
+/// Text of a span for a message, shortened if long.
+pub(crate) fn quote(src: &str, span: Span) -> String {
+    let t: String = span.text(src).split_whitespace().collect::<Vec<_>>().join(" ");
+    if t.chars().count() > 60 {
+        let head: String = t.chars().take(57).collect();
+        format!("`{head}...`")
+    } else {
+        format!("`{t}`")
+    }
+}
+
+fn check_finite(p: &Poly, span: Span, scope: &Scope<'_>) -> Result<(), Diag> {
+    if p.terms.values().any(|t| !t.coef.is_finite()) {
+        return Err(Diag::new(
+            span,
+            format!("the value of {} overflows a 64-bit float", quote(scope.src, span)),
+        ));
+    }
+    if p.terms.len() > MAX_TERMS {
+        return Err(Diag::new(
+            span,
+            format!("{} expands to more than {MAX_TERMS} terms", quote(scope.src, span)),
+        ));
+    }
+    Ok(())
+}
+
+/// Product of two polynomials; `span` is the product expression.
+fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> {
+    let names = scope.names;
+    let mut out = Poly::default();
+    for (ma, ta) in &a.terms {
+        for (mb, tb) in &b.terms {
+            let mut vars = ma.vars.clone();
+            vars.extend_from_slice(&mb.vars);
+            if ma.theta & mb.theta != 0 {
+                let mut counts: Vec<(usize, u32)> = bits(ma.theta | mb.theta)
+                    .map(|i| (i, 1 + u32::from(ma.theta & mb.theta & (1 << i) != 0)))
+                    .collect();
+                counts.sort();
+                let twice = bits(ma.theta & mb.theta).next().unwrap_or(0);
+                return Err(Diag::new(
+                    span,
+                    format!(
+                        "{} is not multi-affine in the parameters: it contains the term {} \
+                         (parameter `{}` twice). Every matrix entry must be affine in each \
+                         parameter separately (th1*th2 is fine, th1*th1 is not) for the vertex \
+                         matrices to be exact; if you need this term, declare a new bounded \
+                         parameter for it",
+                        quote(scope.src, span),
+                        names.term_text(&counts, &vars),
+                        names.params[twice]
+                    ),
+                ));
+            }
+            let input = vars.iter().find(|v| matches!(v, Var::Input(_)));
+            if let (Some(&u), true) = (input, vars.len() > 1) {
+                let other = vars.iter().find(|v| **v != u).copied().unwrap_or(u);
+                let what = match other {
+                    Var::Input(_) if other == u => format!("input `{}` multiplied by itself", names.var(u)),
+                    Var::Input(_) => format!("inputs `{}` and `{}` multiplied together", names.var(u), names.var(other)),
+                    Var::State(_) => format!("input `{}` multiplied by state `{}`", names.var(u), names.var(other)),
+                };
+                return Err(Diag::new(
+                    span,
+                    format!(
+                        "{} has {what}: inputs may only enter linearly, as B(θ)u",
+                        quote(scope.src, span)
+                    ),
+                ));
+            }
+            if vars.len() > 2 {
+                let counts: Vec<(usize, u32)> = bits(ma.theta | mb.theta).map(|i| (i, 1)).collect();
+                return Err(Diag::new(
+                    span,
+                    format!(
+                        "{} contains the term {} of degree {} in the states: the system class \
+                         allows at most quadratic terms (x' = A(θ)x + N(θ,x)x + B(θ)u)",
+                        quote(scope.src, span),
+                        names.term_text(&counts, &vars),
+                        vars.len()
+                    ),
+                ));
+            }
+            out.add_term(
+                Mono {
+                    theta: ma.theta | mb.theta,
+                    vars,
+                },
+                ta.coef * tb.coef,
+                span,
+            );
+        }
+    }
+    check_finite(&out, span, scope)?;
+    Ok(out)
+}
+
+/// Evaluates an expression into a polynomial, enforcing `scope.allowed`.
+pub(crate) fn eval(e: &Expr, scope: &Scope<'_>) -> Result<Poly, Diag> {
+    let p = match &e.kind {
+        ExprKind::Number(v) => Poly::constant(*v, e.span),
+        ExprKind::Name(n) => return name(n, e.span, scope),
+        ExprKind::Neg(inner) => eval(inner, scope)?.scale(-1.0),
+        ExprKind::Sum(terms) => {
+            let mut acc = Poly::default();
+            for (negate, t) in terms {
+                acc = acc.add(eval(t, scope)?, *negate);
+            }
+            acc
+        }
+        ExprKind::Product(factors) => {
+            let mut acc: Option<Poly> = None;
+            for (divide, f) in factors {
+                let v = eval(f, scope)?;
+                let span = Span::new(e.span.start, f.span.end);
+                acc = Some(match acc {
+                    None if !*divide => v,
+                    prev => {
+                        let prev = prev.unwrap_or_else(|| Poly::constant(1.0, span));
+                        if *divide {
+                            let c = divisor(&v, f.span, scope)?;
+                            prev.scale(1.0 / c)
+                        } else {
+                            mul(&prev, &v, span, scope)?
+                        }
+                    }
+                });
+                if let Some(a) = &acc {
+                    check_finite(a, span, scope)?;
+                }
+            }
+            acc.unwrap_or_default()
+        }
+        ExprKind::Pow(base, n) => {
+            let b = eval(base, scope)?;
+            let mut acc = Poly::constant(1.0, e.span);
+            for _ in 0..*n {
+                acc = mul(&acc, &b, e.span, scope)?;
+            }
+            acc
+        }
+    };
+    check_finite(&p, e.span, scope)?;
+    Ok(p)
+}
+
+fn divisor(v: &Poly, span: Span, scope: &Scope<'_>) -> Result<f64, Diag> {
+    if let Some(c) = v.as_constant() {
+        if c == 0.0 {
+            return Err(Diag::new(span, format!("division by zero: {} is 0", quote(scope.src, span))));
+        }
+        return Ok(c);
+    }
+    let (m, _) = v
+        .terms
+        .iter()
+        .find(|(m, _)| m.theta != 0 || !m.vars.is_empty())
+        .ok_or_else(|| Diag::new(span, "internal error: divisor"))?;
+    let what = if let Some(i) = bits(m.theta).next() {
+        format!("the parameter `{}`", scope.names.params[i])
+    } else {
+        format!("`{}`", scope.names.mono_text(m))
+    };
+    Err(Diag::new(
+        span,
+        format!(
+            "division by {what} in {}: only division by constant numbers is allowed \
+             (the result would not be multi-affine in the parameters)",
+            quote(scope.src, span)
+        ),
+    ))
+}
+
+fn name(n: &str, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> {
+    let names = scope.names;
+    let ctx = scope.context;
+    match names.lookup.get(n).copied() {
+        None => {
+            let expected = match scope.allowed {
+                Allowed::Constant => "a number is expected here".to_string(),
+                Allowed::Coefficient => "expected a declared parameter or a number".to_string(),
+                Allowed::Equation => "expected a declared state, input or parameter".to_string(),
+            };
+            let candidates = names.lookup.iter().filter(|(_, r)| match (scope.allowed, r) {
+                (Allowed::Constant, _) | (_, NameRef::Output(_)) => false,
+                (Allowed::Coefficient, r) => matches!(r, NameRef::Param(_)),
+                (Allowed::Equation, _) => true,
+            });
+            let hint = suggest(n, candidates.map(|(k, _)| k.as_str()))
+                .map(|s| format!(" (did you mean `{s}`?)"))
+                .unwrap_or_default();
+            Err(Diag::new(span, format!("unknown name `{n}` in {ctx}: {expected}{hint}")))
+        }
+        Some(NameRef::Output(_)) => Err(Diag::new(
+            span,
+            format!("`{n}` is an output: outputs cannot appear in expressions (define them with `out {n} = ...;`)"),
+        )),
+        Some(NameRef::Param(i)) => {
+            if scope.allowed == Allowed::Constant {
+                return Err(Diag::new(
+                    span,
+                    format!("parameter `{n}` cannot appear in {ctx}: a constant number is expected"),
+                ));
+            }
+            Ok(Poly::single(
+                Mono {
+                    theta: 1 << i,
+                    vars: vec![],
+                },
+                span,
+            ))
+        }
+        Some(r @ (NameRef::State(_) | NameRef::Input(_))) => {
+            let (kind, var) = match r {
+                NameRef::State(i) => ("state", Var::State(i)),
+                NameRef::Input(i) => ("input", Var::Input(i)),
+                _ => unreachable!(),
+            };
+            match scope.allowed {
+                Allowed::Equation => Ok(Poly::single(
+                    Mono {
+                        theta: 0,
+                        vars: vec![var],
+                    },
+                    span,
+                )),
+                Allowed::Coefficient => Err(Diag::new(
+                    span,
+                    format!(
+                        "{kind} `{n}` cannot appear in {ctx}: matrix entries may depend on parameters \
+                         only (to write the dynamics with states, use `der x = ...;`)"
+                    ),
+                )),
+                Allowed::Constant => Err(Diag::new(
+                    span,
+                    format!("{kind} `{n}` cannot appear in {ctx}: a constant number is expected"),
+                )),
+            }
+        }
+    }
+}
