@@ -1,0 +1,159 @@
+//! Timing of the simulator and the falsifier on the paper's example
+//! (spec §7). Run with `cargo bench -p qpv-solve --bench sim`; prints numbers.
+
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::{Param, PolytopicModel, Region, Span, StateBound, Vertex};
+use qpv_solve::falsify::falsify;
+use qpv_solve::simulate::{simulate, Scenario};
+use std::hint::black_box;
+use std::time::Instant;
+
+fn param(name: &str, lo: f64, hi: f64) -> Param {
+    Param {
+        name: name.to_string(),
+        lo,
+        hi,
+        span: Span::default(),
+    }
+}
+
+fn names(prefix: &str, n: usize) -> Vec<String> {
+    (1..=n).map(|i| format!("{prefix}{i}")).collect()
+}
+
+fn box_region(half: f64, n: usize) -> Region {
+    let vertices = (0..1usize << n)
+        .map(|c| DVector::from_fn(n, |i, _| if c >> i & 1 == 1 { half } else { -half }))
+        .collect();
+    let facets = (0..n)
+        .flat_map(|i| {
+            [1.0, -1.0].map(|s| DVector::from_fn(n, |j, _| if i == j { s / half } else { 0.0 }))
+        })
+        .collect();
+    Region { vertices, facets }
+}
+
+/// A(θ) of the paper's example (spec §7).
+fn paper_a(t1: f64, t2: f64) -> DMatrix<f64> {
+    DMatrix::from_row_slice(
+        3,
+        3,
+        &[
+            -4.0 - t1,
+            10.0,
+            2.0 + 2.0 * t2,
+            -1.0,
+            -1.0 - t2,
+            1.5 + 2.0 * t1,
+            1.0,
+            1.0,
+            -4.0 - 3.0 * t1,
+        ],
+    )
+}
+
+/// N_1(θ), N_2(θ), N_3(θ) of the paper's example (spec §7).
+fn paper_n(t1: f64, t2: f64) -> Vec<DMatrix<f64>> {
+    vec![
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[0.5, 1.0 + t1, 0.0, 0.0, 0.0, -t2, 0.0, 1.0 + t2, 0.0],
+        ),
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[-0.4, 0.0, 1.0 - t1, 1.5, 0.0, 1.0 + t2, 2.0 + t2, 0.0, 0.0],
+        ),
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[1.5, -0.5 - t1, 0.0, 3.0 + t1, 0.0, 0.0, 0.0, 2.0 - t2, 0.0],
+        ),
+    ]
+}
+
+/// The paper's example built by hand, vertices in the order
+/// μ1 = (1−θ1)(1−θ2), μ2 = (1−θ1)θ2, μ3 = θ1(1−θ2), μ4 = θ1θ2.
+fn paper_model() -> PolytopicModel {
+    let corners = [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)];
+    let vertices = corners
+        .iter()
+        .map(|&(t1, t2)| Vertex {
+            theta: vec![t1, t2],
+            a: paper_a(t1, t2),
+            n: paper_n(t1, t2),
+            b: DMatrix::zeros(3, 0),
+        })
+        .collect();
+    let mut m1 = DMatrix::zeros(3, 3);
+    m1[(1, 2)] = 1.0;
+    let mut m2 = DMatrix::zeros(3, 3);
+    m2[(0, 2)] = 1.0;
+    PolytopicModel {
+        name: "paper".to_string(),
+        states: names("x", 3),
+        inputs: vec![],
+        outputs: names("y", 2),
+        params: vec![param("theta1", 0.0, 1.0), param("theta2", 0.0, 1.0)],
+        scheduling: vec![0, 1],
+        vertices,
+        c: DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]),
+        m: vec![m1, m2],
+        region: box_region(0.02, 3),
+        state_bound: StateBound::Given(DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                0.0112, 0.0017, 0.0006, 0.0017, 0.0025, -0.0022, 0.0006, -0.0022, 0.0061,
+            ],
+        )),
+        designs: vec![],
+    }
+}
+
+/// Median of `runs` timings of `f`, in seconds.
+fn median_seconds(runs: usize, mut f: impl FnMut()) -> f64 {
+    let mut times: Vec<f64> = (0..runs)
+        .map(|_| {
+            let start = Instant::now();
+            f();
+            start.elapsed().as_secs_f64()
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[runs / 2]
+}
+
+fn main() {
+    let model = paper_model();
+    // moderate output injection on y1 → x1, y2 → x2 (any finite gain times the same)
+    let mut gain = DMatrix::zeros(3, 2);
+    gain[(0, 0)] = 20.0;
+    gain[(1, 1)] = 20.0;
+    let gains = vec![gain; 4];
+
+    let scenario = Scenario::paper(&model);
+    let mut steps = 0;
+    let t_sim = median_seconds(21, || {
+        let traj = simulate(&model, &gains, black_box(&scenario)).expect("valid scenario");
+        steps = traj.len() - 1;
+        black_box(traj);
+    });
+    println!(
+        "simulate, paper scenario (t_end = 2, dt = 1e-3, {steps} RK4 steps): {:.3} ms median of 21 ({:.2} µs/step)",
+        t_sim * 1e3,
+        t_sim * 1e6 / steps as f64
+    );
+
+    let p = DMatrix::identity(3, 3) * 2500.0;
+    let samples = 1_000_000;
+    let t_fals = median_seconds(5, || {
+        black_box(falsify(&model, &p, &gains, 1.0, 0.1889, samples, 1).expect("valid input"));
+    });
+    println!(
+        "falsify, paper example: {samples} samples in {:.3} s median of 5 ({:.2} M samples/s)",
+        t_fals,
+        samples as f64 / t_fals / 1e6
+    );
+}
