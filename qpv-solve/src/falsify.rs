@@ -13,6 +13,7 @@
 //! [`falsify`] samples (e, x, θ) and reports the largest ratio
 //! r = (V' + αV)/V found; any r ≥ 0 is a counterexample to the claim.
 
+use crate::report::Design;
 use crate::simulate::{check_gains, check_model, output_into, Frozen, SimError};
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{PolytopicModel, StateBound};
@@ -393,4 +394,26 @@ pub fn falsify(
         }
     }
     Ok(out)
+}
+
+/// [`falsify`] applied to a finished [`Design`]: its P, L_l, α and γ.
+///
+/// A design without a solution (empty P) is reported as a [`SimError::Shape`]
+/// error. Falsifying a paper-mode design is allowed; it tests the claim
+/// V' + αV < 0 on E × F even though that mode certifies nothing.
+pub fn falsify_design(
+    model: &PolytopicModel,
+    design: &Design,
+    samples: usize,
+    seed: u64,
+) -> Result<Falsification, SimError> {
+    falsify(
+        model,
+        &design.p_matrix(),
+        &design.l_matrices(),
+        design.alpha,
+        design.gamma,
+        samples,
+        seed,
+    )
 }

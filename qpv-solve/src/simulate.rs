@@ -601,6 +601,28 @@ impl Trajectory {
         }
     }
 
+    /// V(t) = e(t)ᵀ P e(t) along the trajectory, e = x − x̂, for a Lyapunov
+    /// matrix P (nx × nx); `None` if P has the wrong shape. A design with
+    /// decay rate α promises V(t) ≤ V(0) e^{−αt} while e(0) is in its set.
+    pub fn lyapunov(&self, p: &DMatrix<f64>) -> Option<Vec<f64>> {
+        let nx = self.x.first().map_or(p.nrows(), Vec::len);
+        if p.shape() != (nx, nx) {
+            return None;
+        }
+        let values = self
+            .x
+            .iter()
+            .zip(&self.xhat)
+            .map(|(x, xhat)| {
+                let e: Vec<f64> = x.iter().zip(xhat).map(|(a, b)| a - b).collect();
+                let mut pe = vec![0.0; nx];
+                add_mul(&mut pe, p, &e);
+                e.iter().zip(&pe).map(|(a, b)| a * b).sum()
+            })
+            .collect();
+        Some(values)
+    }
+
     /// Writes the trajectory as CSV: a header
     /// `t,x1..,xhat1..,theta1..,mu1..,error_norm`, then one row per step.
     /// Numbers use Rust's shortest round-trip formatting.

@@ -7,7 +7,7 @@ use qpv_dsl::{
     AlphaSpec, DesignRequest, GammaSpec, Mode, Param, PolytopicModel, Region, Span, StateBound,
     Vertex,
 };
-use qpv_solve::falsify::{falsify, StateSet};
+use qpv_solve::falsify::{falsify, falsify_design, StateSet};
 use qpv_solve::simulate::{simulate, Scenario, SimError};
 
 fn param(name: &str, lo: f64, hi: f64) -> Param {
@@ -330,16 +330,8 @@ fn certified_paper_design_converges_and_survives_falsification() {
     let t = traj.error_below(1e-6).expect("error must fall below 1e-6");
     assert!(t <= 1.0, "error below 1e-6 only from t = {t}");
 
-    let f = falsify(
-        &model,
-        &design.p_matrix(),
-        &gains,
-        10.0,
-        0.1889,
-        100_000,
-        2026,
-    )
-    .unwrap();
+    let f = falsify_design(&model, &design, 100_000, 2026).unwrap();
+    assert_eq!((f.alpha, f.state_set), (10.0, StateSet::StateBound));
     assert_eq!(f.samples + f.skipped, 100_000);
     assert!(f.passed(), "worst ratio {} at {:?}", f.worst_ratio, f.worst);
 }

@@ -446,3 +446,25 @@ fn csv_has_a_header_and_one_row_per_step() {
     let json = serde_json::to_string(&traj).unwrap();
     assert!(json.contains("\"error_norm\""));
 }
+
+#[test]
+fn lyapunov_values_follow_the_error() {
+    // x' = −x, L = 0: e(t) = e(0) e^{−t}, so V = 3 e(0)² e^{−2t} for P = 3
+    let model = scalar_model(-1.0, -1.0, 0.0, 0);
+    let scenario = Scenario {
+        theta: vec![Signal::Constant(0.0)],
+        u: vec![],
+        x0: vec![0.5],
+        xhat0: vec![0.0],
+        t_end: 1.0,
+        dt: 0.01,
+    };
+    let traj = simulate(&model, &zero_gains(&model), &scenario).unwrap();
+    let v = traj.lyapunov(&DMatrix::from_element(1, 1, 3.0)).unwrap();
+    assert_eq!(v.len(), traj.len());
+    for (t, v) in traj.t.iter().zip(&v) {
+        let want = 0.75 * (-2.0 * t).exp();
+        assert!((v - want).abs() < 1e-9, "t = {t}: {v} vs {want}");
+    }
+    assert_eq!(traj.lyapunov(&DMatrix::identity(2, 2)), None);
+}
