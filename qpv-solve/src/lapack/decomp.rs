@@ -1,8 +1,10 @@
 //! LAPACK: `dpotrf_`, `dpotrs_`, `dsyevr_`, `dgesdd_`, `dgesvd_`.
 //!
 //! Argument checks and `info` codes follow the LAPACK documentation. The
-//! eigen- and singular-value decompositions use nalgebra; the workspace
-//! arguments are only used to answer workspace queries.
+//! symmetric eigendecomposition is nalgebra's; the SVD is a one-sided Jacobi
+//! written here (nalgebra 0.34's `SVD` is wrong on some rank-deficient
+//! inputs); the workspace arguments are only used to answer workspace
+//! queries.
 //!
 //! # Safety (all functions)
 //! Every pointer must be valid for the extent LAPACK documents for the given
@@ -10,14 +12,9 @@
 
 use std::ffi::{c_char, c_int};
 
-use nalgebra::{DMatrix, SymmetricEigen, SVD};
+use nalgebra::{DMatrix, SymmetricEigen};
 
 use super::{ch, mat_len, slice, slice_mut, xerbla};
-
-/// Iteration cap for nalgebra's SVD (total implicit-QR sweeps); reaching it
-/// means no convergence (LAPACK `info > 0`). Generous: typical use is ~2 per
-/// singular value.
-const SVD_MAX_ITER_PER_VALUE: usize = 1000;
 
 // ---------------------------------------------------------------------------
 // Cholesky
@@ -360,7 +357,7 @@ enum Vecs {
 }
 
 /// Thin SVD of the m × n matrix in `a` into `s` (descending) and the
-/// requested factors. Returns LAPACK's `info` (0, or 1 = no convergence).
+/// requested factors. Returns LAPACK's `info` (always 0).
 unsafe fn svd_into(
     m: usize,
     n: usize,
@@ -375,70 +372,267 @@ unsafe fn svd_into(
     ldvt: usize,
 ) -> c_int {
     let k = m.min(n);
-    let mut mat = DMatrix::<f64>::zeros(m, n);
-    let mut finite = true;
-    for j in 0..n {
-        for i in 0..m {
-            let v = a[j * lda + i];
-            finite &= v.is_finite();
-            mat[(i, j)] = v;
-        }
-    }
-    let s = unsafe { slice_mut(s, k) };
     let (cu, cv) = (want_u == Vecs::Thin, want_vt == Vecs::Thin);
+    let s = unsafe { slice_mut(s, k) };
+    let u = if cu {
+        unsafe { slice_mut(u, mat_len(m, k, ldu)) }
+    } else {
+        &mut []
+    };
+    let vt = if cv {
+        unsafe { slice_mut(vt, mat_len(k, n, ldvt)) }
+    } else {
+        &mut []
+    };
+    let finite = (0..n).all(|j| a[j * lda..j * lda + m].iter().all(|v| v.is_finite()));
     if !finite {
         s.fill(f64::NAN);
         if cu {
-            let u = unsafe { slice_mut(u, mat_len(m, k, ldu)) };
             for j in 0..k {
                 u[j * ldu..j * ldu + m].fill(f64::NAN);
             }
         }
         if cv {
-            let vt = unsafe { slice_mut(vt, mat_len(k, n, ldvt)) };
             for j in 0..n {
                 vt[j * ldvt..j * ldvt + k].fill(f64::NAN);
             }
         }
         return 0;
     }
-    let max_iter = SVD_MAX_ITER_PER_VALUE * (k + 1);
-    let svd = match SVD::try_new(mat.clone(), cu, cv, f64::EPSILON, max_iter) {
-        Some(svd) => svd,
-        // Retry on the transpose (a different sweep path) before giving up.
-        None => match SVD::try_new(mat.transpose(), cv, cu, f64::EPSILON, max_iter) {
-            Some(t) => SVD {
-                u: t.v_t.map(|vt| vt.transpose()),
-                v_t: t.u.map(|u| u.transpose()),
-                singular_values: t.singular_values,
-            },
-            None => return 1,
-        },
-    };
-    s.copy_from_slice(svd.singular_values.as_slice());
-    if cu {
-        let src = svd.u.as_ref().expect("U requested");
-        let u = unsafe { slice_mut(u, mat_len(m, k, ldu)) };
-        for j in 0..k {
-            for i in 0..m {
-                u[j * ldu + i] = src[(i, j)];
+    // One-sided Jacobi works on a tall matrix: use Aᵀ = V Σ Uᵀ when m < n.
+    let tall = m >= n;
+    let (rows, cols) = if tall { (m, n) } else { (n, m) };
+    let mut w = vec![0.0; rows * cols];
+    for j in 0..n {
+        for i in 0..m {
+            let v = a[j * lda + i];
+            if tall {
+                w[j * rows + i] = v;
+            } else {
+                w[i * rows + j] = v;
             }
         }
     }
-    if cv {
-        let src = svd.v_t.as_ref().expect("Vt requested");
-        let vt = unsafe { slice_mut(vt, mat_len(k, n, ldvt)) };
-        for j in 0..n {
-            for i in 0..k {
-                vt[j * ldvt + i] = src[(i, j)];
+    // Left factor of the tall problem = U (tall) or V (wide); right = the other.
+    let (want_left, want_right) = if tall { (cu, cv) } else { (cv, cu) };
+    let svd = jacobi_svd(w, rows, cols, want_left, want_right);
+    s.copy_from_slice(&svd.sigma);
+    // Tall problem: W = L Σ Rᵀ with L rows × cols, R cols × cols.
+    for l in 0..k {
+        if tall {
+            if cu {
+                u[l * ldu..l * ldu + m].copy_from_slice(&svd.left[l * rows..l * rows + m]);
+            }
+            if cv {
+                for j in 0..n {
+                    vt[j * ldvt + l] = svd.right[l * cols + j];
+                }
+            }
+        } else {
+            // A = R Σ Lᵀ: U = R (m × m), Vᵀ = Lᵀ (m × n).
+            if cu {
+                u[l * ldu..l * ldu + m].copy_from_slice(&svd.right[l * cols..l * cols + m]);
+            }
+            if cv {
+                for j in 0..n {
+                    vt[j * ldvt + l] = svd.left[l * rows + j];
+                }
             }
         }
     }
     0
 }
 
-/// SVD `A = U Σ Vᵀ` (LAPACK's divide-and-conquer driver; here nalgebra's
-/// implicit-shift QR). `jobz = 'N'` (values only) or `'S'` (thin U, Vᵀ);
+/// Result of [`jacobi_svd`]: `W = left · diag(sigma) · rightᵀ`, column-major,
+/// `left` rows × cols (orthonormal columns), `right` cols × cols orthogonal.
+struct JacobiSvd {
+    sigma: Vec<f64>,
+    left: Vec<f64>,
+    right: Vec<f64>,
+}
+
+/// Maximum number of Jacobi sweeps (convergence is quadratic: typically
+/// 5-10 sweeps for the sizes Clarabel uses).
+const JACOBI_MAX_SWEEPS: usize = 100;
+
+/// Squared column norm (of the matrix scaled to max-abs entry 1) below which
+/// a column is treated as zero: its entries are near the denormal range, where
+/// rotations lose their accuracy and the sweeps can cycle.
+const JACOBI_TINY_SQ: f64 = 1e-280;
+
+/// One-sided (Hestenes) Jacobi SVD of the column-major `rows × cols` matrix
+/// `w` (rows ≥ cols): rotate column pairs until all are orthogonal to
+/// `rows · ε` relative accuracy. Singular values come out descending and
+/// with high relative accuracy; columns of `left` for zero singular values are
+/// completed to an orthonormal set.
+///
+/// (nalgebra 0.34's `SVD` returns wrong factors for some rank-deficient
+/// inputs, e.g. an 11 × 2 matrix with two equal columns, so it is not used.)
+fn jacobi_svd(
+    mut w: Vec<f64>,
+    rows: usize,
+    cols: usize,
+    want_left: bool,
+    want_right: bool,
+) -> JacobiSvd {
+    debug_assert!(rows >= cols);
+    // Scale to unit max-abs entry to keep squared norms in range.
+    let amax = w.iter().fold(0.0f64, |acc, v| acc.max(v.abs()));
+    if amax > 0.0 {
+        w.iter_mut().for_each(|v| *v /= amax);
+    }
+    let mut v = if want_right {
+        let mut v = vec![0.0; cols * cols];
+        for j in 0..cols {
+            v[j * cols + j] = 1.0;
+        }
+        v
+    } else {
+        Vec::new()
+    };
+    // Rounding in the dot products is ~rows·ε relative: a tighter threshold
+    // can cycle on columns that are pure rounding noise (rank deficiency).
+    let tol = rows as f64 * f64::EPSILON;
+    let mut converged = cols < 2;
+    for _sweep in 0..JACOBI_MAX_SWEEPS {
+        if converged {
+            break;
+        }
+        let mut rotated = false;
+        for p in 0..cols - 1 {
+            for q in p + 1..cols {
+                let (wp, wq) = two_cols(&mut w, rows, p, q);
+                let mut alpha = 0.0;
+                let mut beta = 0.0;
+                let mut gamma = 0.0;
+                for (x, y) in wp.iter().zip(wq.iter()) {
+                    alpha += x * x;
+                    beta += y * y;
+                    gamma += x * y;
+                }
+                // Columns with a (sub)denormal squared norm cannot be rotated
+                // accurately: they are zero for the factorisation's purposes.
+                if alpha < JACOBI_TINY_SQ
+                    || beta < JACOBI_TINY_SQ
+                    || gamma.abs() <= tol * (alpha.sqrt() * beta.sqrt())
+                {
+                    continue;
+                }
+                rotated = true;
+                let zeta = (beta - alpha) / (2.0 * gamma);
+                let t = zeta.signum() / (zeta.abs() + (1.0 + zeta * zeta).sqrt());
+                let c = 1.0 / (1.0 + t * t).sqrt();
+                let s = c * t;
+                rotate(wp, wq, c, s);
+                if want_right {
+                    let (vp, vq) = two_cols(&mut v, cols, p, q);
+                    rotate(vp, vq, c, s);
+                }
+            }
+        }
+        converged = !rotated;
+    }
+    // Not converged after JACOBI_MAX_SWEEPS (never seen in tests): the
+    // factors are still an exact-to-rounding factorisation with columns
+    // orthogonal to a slightly looser tolerance, so they are returned.
+    let _ = converged;
+    // Singular values = column norms; sort descending.
+    let norms: Vec<f64> = (0..cols)
+        .map(|j| {
+            w[j * rows..(j + 1) * rows]
+                .iter()
+                .map(|x| x * x)
+                .sum::<f64>()
+                .sqrt()
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..cols).collect();
+    order.sort_by(|&p, &q| norms[q].total_cmp(&norms[p]));
+    let sigma: Vec<f64> = order.iter().map(|&j| norms[j] * amax).collect();
+    let right = if want_right {
+        let mut r = vec![0.0; cols * cols];
+        for (l, &j) in order.iter().enumerate() {
+            r[l * cols..(l + 1) * cols].copy_from_slice(&v[j * cols..(j + 1) * cols]);
+        }
+        r
+    } else {
+        Vec::new()
+    };
+    let left = if want_left {
+        let mut u = vec![0.0; rows * cols];
+        let mut zero_cols = Vec::new();
+        for (l, &j) in order.iter().enumerate() {
+            let nrm = norms[j];
+            if nrm * nrm >= JACOBI_TINY_SQ {
+                for (d, x) in u[l * rows..(l + 1) * rows]
+                    .iter_mut()
+                    .zip(&w[j * rows..(j + 1) * rows])
+                {
+                    *d = x / nrm;
+                }
+            } else {
+                zero_cols.push(l);
+            }
+        }
+        complete_orthonormal(&mut u, rows, cols, &zero_cols);
+        u
+    } else {
+        Vec::new()
+    };
+    JacobiSvd { sigma, left, right }
+}
+
+/// Mutable views of columns p < q of a column-major matrix with `rows` rows.
+fn two_cols(a: &mut [f64], rows: usize, p: usize, q: usize) -> (&mut [f64], &mut [f64]) {
+    let (lo, hi) = a.split_at_mut(q * rows);
+    (&mut lo[p * rows..(p + 1) * rows], &mut hi[..rows])
+}
+
+/// `[x y] := [x y] · [[c, s], [-s, c]]`.
+fn rotate(x: &mut [f64], y: &mut [f64], c: f64, s: f64) {
+    for (xi, yi) in x.iter_mut().zip(y.iter_mut()) {
+        let (a, b) = (*xi, *yi);
+        *xi = c * a - s * b;
+        *yi = s * a + c * b;
+    }
+}
+
+/// Fills the columns `missing` of the column-major `rows × cols` matrix `u`
+/// (whose other columns are orthonormal) with unit vectors orthogonal to all
+/// other columns: Gram-Schmidt (twice) on the canonical basis vectors.
+fn complete_orthonormal(u: &mut [f64], rows: usize, cols: usize, missing: &[usize]) {
+    if missing.is_empty() {
+        return;
+    }
+    let mut done: Vec<usize> = (0..cols).filter(|j| !missing.contains(j)).collect();
+    let mut e = 0;
+    for &l in missing {
+        loop {
+            assert!(e < rows, "complete_orthonormal: ran out of basis vectors");
+            let mut x = vec![0.0; rows];
+            x[e] = 1.0;
+            e += 1;
+            for _ in 0..2 {
+                for &j in &done {
+                    let uj = &u[j * rows..(j + 1) * rows];
+                    let d: f64 = uj.iter().zip(&x).map(|(p, q)| p * q).sum();
+                    x.iter_mut().zip(uj).for_each(|(xi, ui)| *xi -= d * ui);
+                }
+            }
+            let nrm = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if nrm > 0.5 / (rows as f64).sqrt() {
+                for (d, xi) in u[l * rows..(l + 1) * rows].iter_mut().zip(&x) {
+                    *d = xi / nrm;
+                }
+                done.push(l);
+                break;
+            }
+        }
+    }
+}
+
+/// SVD `A = U Σ Vᵀ` (LAPACK's divide-and-conquer driver; here one-sided
+/// Jacobi). `jobz = 'N'` (values only) or `'S'` (thin U, Vᵀ);
 /// `'A'` is accepted when m = n (it then equals `'S'`); `'O'` and `'A'` with
 /// m ≠ n are not supported (`info = -1`). A is left unchanged. `lwork = -1`
 /// is a workspace query writing LAPACK's minimum `lwork` into `work[0]`.
@@ -518,7 +712,7 @@ pub unsafe extern "C" fn dgesdd_(
     unsafe { *info = r };
 }
 
-/// SVD `A = U Σ Vᵀ` (LAPACK's QR driver; here nalgebra). `jobu`/`jobvt` =
+/// SVD `A = U Σ Vᵀ` (LAPACK's QR driver; here one-sided Jacobi). `jobu`/`jobvt` =
 /// `'N'` or `'S'`; `'A'` is accepted where it equals `'S'` (jobu with m ≤ n,
 /// jobvt with n ≤ m); `'O'` is not supported (`info = -1`/`-2`). A is left
 /// unchanged. `lwork = -1` is a workspace query writing LAPACK's minimum

@@ -22,9 +22,12 @@
 //!
 //! Level-3/2 BLAS follow the reference implementation's loop structure
 //! (contiguous inner loops, no blocking: Clarabel's PSD blocks are small);
-//! the eigen- and singular-value decompositions are nalgebra's
-//! (`SymmetricEigen`, `SVD`), Cholesky is written out (LAPACK's `info`
-//! semantics matter: Clarabel uses a failed factorisation as a signal).
+//! the symmetric eigendecomposition is nalgebra's (`SymmetricEigen`); the SVD
+//! is a one-sided Jacobi written here, because nalgebra 0.34's `SVD` returns
+//! wrong factors for some rank-deficient inputs (and Clarabel's SVD input
+//! `L₂ᵀL₁` becomes nearly rank-deficient as the iterates converge);
+//! Cholesky is written out too (LAPACK's `info` semantics matter: Clarabel
+//! uses a failed factorisation as a signal).
 //! Workspace queries (`lwork = -1`) write LAPACK's documented minimum sizes
 //! into `work[0]` / `iwork[0]`; the routines do not use the workspace.
 //! With `jobz = 'N'` the eigenvector/singular-vector arguments are never read
