@@ -1,11 +1,29 @@
-//! The independent certificate: every condition recomputed from P and L_l
-//! with nalgebra eigenvalues (in progress: API fixed).
+//! The independent certificate: every condition recomputed from P and the
+//! gains L_l (Γ_l = P L_l) in the model's own units, with dense nalgebra
+//! matrices and symmetric eigenvalues — no code shared with the assembly
+//! except the two definitions `rows` / `rowsHe`.
+//!
+//! Margins (positive = satisfied):
+//! * "S1": λ_min(P) (P ≻ 0; a non-symmetric P fails).
+//! * "S2" (sound): min_i 1 − x_(i)ᵀ P x_(i).
+//! * "S3" (sound): min_k λ_min([1 γa_kᵀ; γa_k P]).
+//! * "13" (paper): min_i λ_min([1 x_(i)ᵀ; x_(i) P]).
+//! * "14" (paper): min_k λ_min([1 γa_kᵀP; γPa_k P]).
+//! * "S5" / "26": min over (l, i, j) of −λ_max(He{…} + γαP).
+//!
+//! A family passes only if its worst margin exceeds a floating-point guard:
+//! a conservative bound, 16·(n+1)·ε_mach times the sum of the Frobenius
+//! norms of the terms forming the matrix (the error of forming it and of the
+//! symmetric eigensolver). Data checks: "S4" max_k γ² a_kᵀQa_k ≤ 1 (required
+//! in sound mode, reported as the violated assumption (15) in paper mode)
+//! and "region_in_F" max_i x_(i)ᵀQ⁻¹x_(i) ≤ 1 (reported).
 
-use nalgebra::DMatrix;
-use qpv_dsl::{Mode, PolytopicModel};
+use crate::conditions::{rows, rows_he, ConditionSet};
+use crate::report::DataCheck;
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::{Mode, PolytopicModel, StateBound};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use crate::report::DataCheck;
 
 /// The worst margin of one condition family.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -20,7 +38,7 @@ pub struct FamilyMargin {
     pub guard: f64,
     /// margin > guard.
     pub passed: bool,
-    /// Where the worst margin occurs (e.g. "l=2 i=5 j=1").
+    /// Where the worst margin occurs (e.g. "l=2 i=5 j=1", 1-based).
     pub worst_at: String,
     /// Number of conditions in the family.
     pub count: usize,
@@ -29,6 +47,9 @@ pub struct FamilyMargin {
 /// Result of [`check`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Certificate {
+    /// Mode checked ("sound" / "paper").
+    #[serde(with = "crate::report::mode_serde")]
+    pub mode: Mode,
     /// α checked.
     pub alpha: f64,
     /// γ checked.
@@ -39,13 +60,106 @@ pub struct Certificate {
     pub data_checks: BTreeMap<String, DataCheck>,
     /// Every family passed and every required data check passed.
     pub passed: bool,
+    /// Problems with the input itself (dimensions, non-finite numbers).
+    pub input_errors: Vec<String>,
 }
 
 impl Certificate {
     /// Family → worst margin.
     pub fn margins(&self) -> BTreeMap<String, f64> {
-        self.families.iter().map(|f| (f.name.clone(), f.margin)).collect()
+        self.families
+            .iter()
+            .map(|f| (f.name.clone(), f.margin))
+            .collect()
     }
+
+    /// The family with this key.
+    pub fn family(&self, name: &str) -> Option<&FamilyMargin> {
+        self.families.iter().find(|f| f.name == name)
+    }
+
+    /// Whether every condition family passed (ignoring data checks).
+    pub fn families_passed(&self) -> bool {
+        self.input_errors.is_empty() && self.families.iter().all(|f| f.passed)
+    }
+}
+
+const GUARD_C: f64 = 16.0 * f64::EPSILON;
+
+/// JSON has no NaN/∞: NaN and −∞ become −f64::MAX, +∞ becomes f64::MAX.
+fn finite(v: f64) -> f64 {
+    if v.is_nan() {
+        -f64::MAX
+    } else {
+        v.clamp(-f64::MAX, f64::MAX)
+    }
+}
+
+struct Acc {
+    name: &'static str,
+    margin: f64,
+    guard: f64,
+    passed: bool,
+    worst_at: String,
+    count: usize,
+}
+
+impl Acc {
+    fn new(name: &'static str) -> Self {
+        Acc {
+            name,
+            margin: f64::INFINITY,
+            guard: 0.0,
+            passed: true,
+            worst_at: String::new(),
+            count: 0,
+        }
+    }
+    fn add(&mut self, margin: f64, guard: f64, at: impl FnOnce() -> String) {
+        self.count += 1;
+        if !(margin > guard) {
+            // NaN fails too
+            self.passed = false;
+        }
+        let worse = self.count == 1
+            || (margin.is_nan() && !self.margin.is_nan())
+            || margin < self.margin;
+        if worse {
+            self.margin = margin;
+            self.guard = guard;
+            self.worst_at = at();
+        }
+    }
+    fn finish(self) -> FamilyMargin {
+        FamilyMargin {
+            name: self.name.to_string(),
+            margin: if self.count == 0 { 0.0 } else { finite(self.margin) },
+            guard: self.guard,
+            passed: self.passed && self.count > 0,
+            worst_at: self.worst_at,
+            count: self.count,
+        }
+    }
+}
+
+fn sym_eigs(m: &DMatrix<f64>) -> DVector<f64> {
+    m.clone().symmetric_eigenvalues()
+}
+
+fn lambda_min(m: &DMatrix<f64>) -> f64 {
+    let e = sym_eigs(m);
+    if e.iter().any(|v| v.is_nan()) {
+        return f64::NAN;
+    }
+    e.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+fn lambda_max(m: &DMatrix<f64>) -> f64 {
+    let e = sym_eigs(m);
+    if e.iter().any(|v| v.is_nan()) {
+        return f64::NAN;
+    }
+    e.iter().copied().fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// Checks the conditions of `mode` for the given P and gains L_l (Γ_l = P L_l
@@ -58,6 +172,300 @@ pub fn check(
     p: &DMatrix<f64>,
     l: &[DMatrix<f64>],
 ) -> Certificate {
-    let _ = (model, mode, alpha, gamma, p, l);
-    todo!("in progress")
+    let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| {
+        if p.ncols() == li.nrows() {
+            p * li
+        } else {
+            DMatrix::zeros(0, 0)
+        }
+    }).collect();
+    let lnorm: Vec<f64> = l.iter().map(|li| li.norm()).collect();
+    check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm)
+}
+
+/// As [`check`] but with Γ_l given directly (the guard then uses ‖Γ_l‖).
+pub fn check_gamma(
+    model: &PolytopicModel,
+    mode: Mode,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+) -> Certificate {
+    let pn = p.norm().max(f64::MIN_POSITIVE);
+    let lnorm: Vec<f64> = gammas.iter().map(|g| g.norm() / pn).collect();
+    check_inner(model, mode, alpha, gamma, p, gammas, &lnorm)
+}
+
+fn input_errors(
+    model: &PolytopicModel,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+) -> Vec<String> {
+    let nx = model.nx();
+    let ny = model.ny();
+    let mut errs = Vec::new();
+    if let Err(e) = crate::conditions::validate(model) {
+        errs.push(format!("model: {e}"));
+        return errs;
+    }
+    if p.shape() != (nx, nx) {
+        errs.push(format!("P is {:?}, expected ({nx}, {nx})", p.shape()));
+    }
+    if gammas.len() != model.nv() {
+        errs.push(format!("{} gains given, the model has {} vertices", gammas.len(), model.nv()));
+    }
+    for (i, g) in gammas.iter().enumerate() {
+        if g.shape() != (nx, ny) {
+            errs.push(format!("gain {} has the wrong shape (expected {nx} × {ny})", i + 1));
+        }
+    }
+    if !p.iter().all(|v| v.is_finite()) || !gammas.iter().all(|g| g.iter().all(|v| v.is_finite())) {
+        errs.push("non-finite entries in P or the gains".into());
+    }
+    if !(alpha.is_finite() && alpha > 0.0) {
+        errs.push(format!("α = {alpha} is not a positive finite number"));
+    }
+    if !(gamma.is_finite() && gamma > 0.0 && gamma < 1.0) {
+        errs.push(format!("γ = {gamma} is not in (0, 1)"));
+    }
+    errs
+}
+
+/// The data checks (S4) and P ⊂ F at this γ (empty without Q).
+pub fn data_checks(model: &PolytopicModel, mode: Mode, gamma: f64) -> BTreeMap<String, DataCheck> {
+    let mut out = BTreeMap::new();
+    let StateBound::Given(q) = &model.state_bound else {
+        return out;
+    };
+    let set = ConditionSet::from_mode(mode);
+    let s4 = model
+        .region
+        .facets
+        .iter()
+        .map(|a| gamma * gamma * a.dot(&(q * a)))
+        .fold(f64::NEG_INFINITY, f64::max);
+    let s4_desc = match set {
+        ConditionSet::Sound => "(S4) max_k γ² a_kᵀ Q a_k ≤ 1: the state bound F lies in P/γ",
+        ConditionSet::Paper => {
+            "(15)/(S4) max_k γ² a_kᵀ Q a_k ≤ 1: assumed by the paper, not enforced by (13),(14),(26)"
+        }
+    };
+    out.insert(
+        "S4".to_string(),
+        DataCheck {
+            value: finite(s4),
+            bound: 1.0,
+            margin: finite(1.0 - s4),
+            passed: s4 <= 1.0,
+            required: set.requires_s4(),
+            description: s4_desc.to_string(),
+        },
+    );
+    let inf = match q.clone().cholesky() {
+        Some(ch) => model
+            .region
+            .vertices
+            .iter()
+            .map(|x| x.dot(&ch.solve(x)))
+            .fold(f64::NEG_INFINITY, f64::max),
+        None => f64::INFINITY,
+    };
+    out.insert(
+        "region_in_F".to_string(),
+        DataCheck {
+            value: finite(inf),
+            bound: 1.0,
+            margin: finite(1.0 - inf),
+            passed: inf <= 1.0,
+            required: false,
+            description: "max_i x_(i)ᵀ Q⁻¹ x_(i) ≤ 1: the region P lies in the state bound F (Assumption 2)"
+                .to_string(),
+        },
+    );
+    out
+}
+
+fn check_inner(
+    model: &PolytopicModel,
+    mode: Mode,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+    lnorm: &[f64],
+) -> Certificate {
+    let set = ConditionSet::from_mode(mode);
+    let errs = input_errors(model, alpha, gamma, p, gammas);
+    let data = if errs.is_empty() || p.nrows() == model.nx() {
+        data_checks(model, mode, gamma.clamp(0.0, 1.0))
+    } else {
+        BTreeMap::new()
+    };
+    if !errs.is_empty() {
+        return Certificate {
+            mode,
+            alpha,
+            gamma,
+            families: Vec::new(),
+            data_checks: data,
+            passed: false,
+            input_errors: errs,
+        };
+    }
+    let nx = model.nx();
+    let [f1, fv, ff, fr] = set.families();
+    let pn = p.norm();
+    let xs = &model.region.vertices;
+
+    // (S1) P ≻ 0, P symmetric.
+    let mut s1 = Acc::new(f1);
+    let asym = (p - p.transpose()).norm();
+    let ps = (p + p.transpose()) * 0.5;
+    if asym > 4.0 * f64::EPSILON * pn {
+        s1.add(-asym, 0.0, || format!("P is not symmetric (‖P − Pᵀ‖_F = {asym:e})"));
+    } else {
+        s1.add(lambda_min(&ps), GUARD_C * (nx as f64 + 1.0) * pn, || "P".into());
+    }
+
+    // Region vertices.
+    let mut sv = Acc::new(fv);
+    for (i, x) in xs.iter().enumerate() {
+        match set {
+            ConditionSet::Sound => {
+                let v = 1.0 - x.dot(&(&ps * x));
+                let g = GUARD_C * (nx as f64 + 1.0) * (1.0 + pn * x.norm_squared());
+                sv.add(v, g, || format!("i={}", i + 1));
+            }
+            ConditionSet::Paper => {
+                let mut m = DMatrix::zeros(nx + 1, nx + 1);
+                m[(0, 0)] = 1.0;
+                for r in 0..nx {
+                    m[(0, r + 1)] = x[r];
+                    m[(r + 1, 0)] = x[r];
+                }
+                m.view_mut((1, 1), (nx, nx)).copy_from(&ps);
+                let g = GUARD_C * (nx as f64 + 2.0) * m.norm();
+                sv.add(lambda_min(&m), g, || format!("i={}", i + 1));
+            }
+        }
+    }
+
+    // Region facets.
+    let mut sf = Acc::new(ff);
+    for (k, a) in model.region.facets.iter().enumerate() {
+        let off: DVector<f64> = match set {
+            ConditionSet::Sound => a * gamma,
+            ConditionSet::Paper => (&ps * a) * gamma,
+        };
+        let mut m = DMatrix::zeros(nx + 1, nx + 1);
+        m[(0, 0)] = 1.0;
+        for r in 0..nx {
+            m[(0, r + 1)] = off[r];
+            m[(r + 1, 0)] = off[r];
+        }
+        m.view_mut((1, 1), (nx, nx)).copy_from(&ps);
+        let g = GUARD_C * (nx as f64 + 2.0) * (m.norm() + gamma * pn * a.norm());
+        sf.add(lambda_min(&m), g, || format!("k={}", k + 1));
+    }
+
+    // Rate LMIs: He{γ(PA_l − Γ_lC) + σP R − Γ_l S} + γαP ≺ 0.
+    let sigma = set.nonlinear_sign();
+    let c = &model.c;
+    let cn = c.norm();
+    let mut sr = Acc::new(fr);
+    let mhe: Vec<DMatrix<f64>> = xs.iter().map(|x| rows_he(&model.m, x)).collect();
+    let mrw: Vec<DMatrix<f64>> = xs.iter().map(|x| rows(&model.m, x)).collect();
+    for (l, vert) in model.vertices.iter().enumerate() {
+        let g = &gammas[l];
+        let gn = lnorm[l] * pn + g.norm();
+        let pa = &ps * &vert.a * gamma;
+        let gc = g * c * gamma;
+        let nhe: Vec<DMatrix<f64>> = xs.iter().map(|x| rows_he(&vert.n, x)).collect();
+        let nrw: Vec<DMatrix<f64>> = xs.iter().map(|x| rows(&vert.n, x)).collect();
+        let base_size = gamma * pn * vert.a.norm() + gamma * gn * cn + gamma * alpha * pn;
+        for i in 0..xs.len() {
+            for j in 0..xs.len() {
+                let r = &nhe[j] - &nrw[i];
+                let s = &mhe[j] - &mrw[i];
+                let pr = &ps * &r * sigma;
+                let gs = g * &s;
+                let x = &pa - &gc + &pr - &gs;
+                let mut m = &x + x.transpose();
+                m += &ps * (gamma * alpha);
+                let size = base_size + pn * r.norm() + gn * s.norm();
+                let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
+                sr.add(-lambda_max(&m), guard, || format!("l={} i={} j={}", l + 1, i + 1, j + 1));
+            }
+        }
+    }
+
+    let families = vec![s1.finish(), sv.finish(), sf.finish(), sr.finish()];
+    let passed = families.iter().all(|f| f.passed)
+        && data.values().filter(|d| d.required).all(|d| d.passed)
+        && (!set.requires_s4() || data.contains_key("S4"));
+    Certificate {
+        mode,
+        alpha,
+        gamma,
+        families,
+        data_checks: data,
+        passed,
+        input_errors: Vec::new(),
+    }
+}
+
+/// The largest α at which the *same* (P, Γ_l) satisfy every rate LMI at
+/// this γ (exactly: −λ_max(L⁻¹ M₀ L⁻ᵀ)/γ minimised over the blocks, with
+/// P = LLᵀ and M₀ the rate LMI without its γαP term). Returns 0 if P is not
+/// positive definite or not even α → 0⁺ works. The region conditions do not
+/// depend on α.
+pub fn alpha_capacity(
+    model: &PolytopicModel,
+    mode: Mode,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+) -> f64 {
+    let set = ConditionSet::from_mode(mode);
+    let ps = (p + p.transpose()) * 0.5;
+    let Some(ch) = ps.clone().cholesky() else {
+        return 0.0;
+    };
+    let linv = match ch.l().try_inverse() {
+        Some(li) => li,
+        None => return 0.0,
+    };
+    let xs = &model.region.vertices;
+    let sigma = set.nonlinear_sign();
+    let mhe: Vec<DMatrix<f64>> = xs.iter().map(|x| rows_he(&model.m, x)).collect();
+    let mrw: Vec<DMatrix<f64>> = xs.iter().map(|x| rows(&model.m, x)).collect();
+    let mut worst = f64::INFINITY;
+    for (l, vert) in model.vertices.iter().enumerate() {
+        let g = &gammas[l];
+        let pa = &ps * &vert.a * gamma;
+        let gc = g * &model.c * gamma;
+        let nhe: Vec<DMatrix<f64>> = xs.iter().map(|x| rows_he(&vert.n, x)).collect();
+        let nrw: Vec<DMatrix<f64>> = xs.iter().map(|x| rows(&vert.n, x)).collect();
+        for i in 0..xs.len() {
+            for j in 0..xs.len() {
+                let r = &nhe[j] - &nrw[i];
+                let s = &mhe[j] - &mrw[i];
+                let x = &pa - &gc + &ps * &r * sigma - g * &s;
+                let m0 = &x + x.transpose();
+                let w = &linv * m0 * linv.transpose();
+                let a = -lambda_max(&w) / gamma;
+                if !(a < worst) {
+                    if a.is_nan() {
+                        return 0.0;
+                    }
+                    continue;
+                }
+                worst = a;
+            }
+        }
+    }
+    worst.max(0.0)
 }

@@ -1,1 +1,467 @@
-//! (in progress)
+//! The condition sets (spec §5 sound, §6 paper) as data: which families
+//! exist, how the rate LMI of one (vertex l, pair i, j) is built, and the
+//! helpers `rows` / `rowsHe` shared by the assembly and the certificate.
+//!
+//! Both modes share one shape. Every rate LMI is
+//!
+//! ```text
+//!     F_{l,i,j}(P, Γ_l) = He{ P K − Γ_l H } ≺ 0,
+//!     K = γ A_l + σ R_{l,i,j} + (γα/2) I,     H = γ C + S_{i,j},
+//!     R_{l,i,j} = rowsHe(N_l, x_(j)) − rows(N_l, x_(i)),
+//!     S_{i,j}   = rowsHe(M, x_(j))   − rows(M, x_(i)),
+//! ```
+//!
+//! with σ = +1 for (S5) (sound) and σ = −1 for the paper's (26) as printed
+//! (He{P(γI α/2)} = γαP). The region conditions differ per mode:
+//! (S2) xᵢᵀ P xᵢ ≤ 1 and (S3) [1 γaₖᵀ; γaₖ P] ⪰ 0 (sound) versus
+//! (13) [1 xᵢᵀ; xᵢ P] ⪰ 0 and (14) [1 γaₖᵀP; γPaₖ P] ⪰ 0 (paper).
+//! (S1) P ≻ 0 is imposed in both modes.
+//!
+//! Convention for N_k and M_k: the matrices are used exactly as written in
+//! the model (no symmetrisation): row k of rows(T, v) is vᵀ T_k and row k of
+//! rowsHe(T, v) is vᵀ (T_k + T_kᵀ).
+
+use crate::search::SolveError;
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::{Mode, PolytopicModel, StateBound};
+
+/// rows(T, v): the matrix whose row k is vᵀ T_k (one row per T_k).
+pub fn rows(t: &[DMatrix<f64>], v: &DVector<f64>) -> DMatrix<f64> {
+    let n = v.len();
+    let mut out = DMatrix::zeros(t.len(), n);
+    for (k, tk) in t.iter().enumerate() {
+        for c in 0..n {
+            let mut acc = 0.0;
+            for r in 0..n {
+                acc += v[r] * tk[(r, c)];
+            }
+            out[(k, c)] = acc;
+        }
+    }
+    out
+}
+
+/// rowsHe(T, v): the matrix whose row k is vᵀ (T_k + T_kᵀ).
+pub fn rows_he(t: &[DMatrix<f64>], v: &DVector<f64>) -> DMatrix<f64> {
+    let n = v.len();
+    let mut out = DMatrix::zeros(t.len(), n);
+    for (k, tk) in t.iter().enumerate() {
+        for c in 0..n {
+            let mut acc = 0.0;
+            for r in 0..n {
+                acc += v[r] * (tk[(r, c)] + tk[(c, r)]);
+            }
+            out[(k, c)] = acc;
+        }
+    }
+    out
+}
+
+/// The set of conditions a design uses; all mode differences live here.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConditionSet {
+    /// (S1)-(S5), spec §5.
+    Sound,
+    /// (S1), (13), (14), (26) exactly as printed, spec §6.
+    Paper,
+}
+
+/// The region conditions of one mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RegionForm {
+    /// (S2): xᵢᵀ P xᵢ ≤ 1, a scalar per region vertex.
+    VertexQuadratic,
+    /// (13): [1 xᵢᵀ; xᵢ P] ⪰ 0, an (nx+1)-block per region vertex.
+    VertexSchur,
+    /// (S3): [1 γaₖᵀ; γaₖ P] ⪰ 0, an (nx+1)-block per facet.
+    FacetSchur,
+    /// (14): [1 γaₖᵀP; γPaₖ P] ⪰ 0, an (nx+1)-block per facet.
+    FacetSchurP,
+}
+
+impl ConditionSet {
+    /// The set for a request mode.
+    pub fn from_mode(mode: Mode) -> Self {
+        match mode {
+            Mode::Sound => ConditionSet::Sound,
+            Mode::Paper => ConditionSet::Paper,
+        }
+    }
+
+    /// The mode it implements.
+    pub fn mode(self) -> Mode {
+        match self {
+            ConditionSet::Sound => Mode::Sound,
+            ConditionSet::Paper => Mode::Paper,
+        }
+    }
+
+    /// Family keys in report order: (P ≻ 0, vertex family, facet family, rate family).
+    pub fn families(self) -> [&'static str; 4] {
+        match self {
+            ConditionSet::Sound => ["S1", "S2", "S3", "S5"],
+            ConditionSet::Paper => ["S1", "13", "14", "26"],
+        }
+    }
+
+    /// The condition on the region vertices.
+    pub fn vertex_form(self) -> RegionForm {
+        match self {
+            ConditionSet::Sound => RegionForm::VertexQuadratic,
+            ConditionSet::Paper => RegionForm::VertexSchur,
+        }
+    }
+
+    /// The condition on the region facets.
+    pub fn facet_form(self) -> RegionForm {
+        match self {
+            ConditionSet::Sound => RegionForm::FacetSchur,
+            ConditionSet::Paper => RegionForm::FacetSchurP,
+        }
+    }
+
+    /// σ: sign of the P·R term in the rate LMI (+1 in (S5), −1 in (26)).
+    pub fn nonlinear_sign(self) -> f64 {
+        match self {
+            ConditionSet::Sound => 1.0,
+            ConditionSet::Paper => -1.0,
+        }
+    }
+
+    /// Variable scaling s (P = s P̂, Γ = s Γ̂) that makes the region
+    /// conditions O(1): the sound conditions bound xᵀPx, so P ~ 1/ρ²; the
+    /// printed ones bound xᵀP⁻¹x, so P ~ ρ² (ρ = largest vertex norm).
+    pub fn scale(self, rho: f64) -> f64 {
+        match self {
+            ConditionSet::Sound => 1.0 / (rho * rho),
+            ConditionSet::Paper => rho * rho,
+        }
+    }
+
+    /// Whether (S4) is part of this set's claim (it is in sound mode; in
+    /// paper mode its counterpart (15) is only reported).
+    pub fn requires_s4(self) -> bool {
+        matches!(self, ConditionSet::Sound)
+    }
+}
+
+/// The per-pair nonlinear terms of a model, precomputed once:
+/// `nhe[l][j] = rowsHe(N_l, x_(j))`, `nrw[l][i] = rows(N_l, x_(i))`,
+/// `mhe[j] = rowsHe(M, x_(j))`, `mrw[i] = rows(M, x_(i))`.
+#[derive(Debug, Clone)]
+pub struct PairTerms {
+    /// rowsHe(N_l, x_(j)), nx × nx.
+    pub nhe: Vec<Vec<DMatrix<f64>>>,
+    /// rows(N_l, x_(i)), nx × nx.
+    pub nrw: Vec<Vec<DMatrix<f64>>>,
+    /// rowsHe(M, x_(j)), ny × nx.
+    pub mhe: Vec<DMatrix<f64>>,
+    /// rows(M, x_(i)), ny × nx.
+    pub mrw: Vec<DMatrix<f64>>,
+}
+
+impl PairTerms {
+    /// Precomputes the terms at every region vertex and parameter vertex.
+    pub fn new(model: &PolytopicModel) -> Self {
+        let xs = &model.region.vertices;
+        let nhe = model
+            .vertices
+            .iter()
+            .map(|v| xs.iter().map(|x| rows_he(&v.n, x)).collect())
+            .collect();
+        let nrw = model
+            .vertices
+            .iter()
+            .map(|v| xs.iter().map(|x| rows(&v.n, x)).collect())
+            .collect();
+        let mhe = xs.iter().map(|x| rows_he(&model.m, x)).collect();
+        let mrw = xs.iter().map(|x| rows(&model.m, x)).collect();
+        PairTerms { nhe, nrw, mhe, mrw }
+    }
+
+    /// R_{l,i,j} = rowsHe(N_l, x_(j)) − rows(N_l, x_(i)).
+    pub fn r(&self, l: usize, i: usize, j: usize) -> DMatrix<f64> {
+        &self.nhe[l][j] - &self.nrw[l][i]
+    }
+
+    /// S_{i,j} = rowsHe(M, x_(j)) − rows(M, x_(i)).
+    pub fn s(&self, i: usize, j: usize) -> DMatrix<f64> {
+        &self.mhe[j] - &self.mrw[i]
+    }
+}
+
+/// Largest Euclidean norm of a region vertex (ρ).
+pub fn region_radius(model: &PolytopicModel) -> f64 {
+    model
+        .region
+        .vertices
+        .iter()
+        .map(|x| x.norm())
+        .fold(0.0, f64::max)
+}
+
+/// γ_max = 1 / max_k sqrt(a_kᵀ Q a_k) from (S4), if Q is given.
+pub fn gamma_max(model: &PolytopicModel) -> Option<f64> {
+    match &model.state_bound {
+        StateBound::Given(q) => {
+            let worst = model
+                .region
+                .facets
+                .iter()
+                .map(|a| a.dot(&(q * a)))
+                .fold(0.0, f64::max);
+            Some(1.0 / worst.sqrt())
+        }
+        StateBound::None => None,
+    }
+}
+
+/// Checks that the model data have consistent dimensions and a usable region.
+pub fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
+    let nx = model.nx();
+    let ny = model.ny();
+    let bad = |s: String| Err(SolveError::Dimensions(s));
+    if nx == 0 {
+        return bad("the model has no state".into());
+    }
+    if ny == 0 {
+        return bad("the model has no output".into());
+    }
+    if model.vertices.is_empty() {
+        return Err(SolveError::NoVertices);
+    }
+    if model.region.vertices.is_empty() || model.region.facets.is_empty() {
+        return Err(SolveError::EmptyRegion);
+    }
+    if model.c.shape() != (ny, nx) {
+        return bad(format!("C is {:?}, expected ({ny}, {nx})", model.c.shape()));
+    }
+    if model.m.len() != ny || model.m.iter().any(|m| m.shape() != (nx, nx)) {
+        return bad(format!("expected {ny} matrices M_k of {nx} × {nx}"));
+    }
+    for (l, v) in model.vertices.iter().enumerate() {
+        if v.a.shape() != (nx, nx) {
+            return bad(format!("A at vertex {} is {:?}", l + 1, v.a.shape()));
+        }
+        if v.n.len() != nx || v.n.iter().any(|m| m.shape() != (nx, nx)) {
+            return bad(format!("vertex {}: expected {nx} matrices N_k of {nx} × {nx}", l + 1));
+        }
+    }
+    if model.region.vertices.iter().any(|x| x.len() != nx)
+        || model.region.facets.iter().any(|a| a.len() != nx)
+    {
+        return bad(format!("region vertices and facets must have {nx} entries"));
+    }
+    if let StateBound::Given(q) = &model.state_bound {
+        if q.shape() != (nx, nx) {
+            return bad(format!("Q is {:?}, expected ({nx}, {nx})", q.shape()));
+        }
+    }
+    let all_finite = model.vertices.iter().all(|v| {
+        v.a.iter().all(|x| x.is_finite()) && v.n.iter().all(|m| m.iter().all(|x| x.is_finite()))
+    }) && model.c.iter().all(|x| x.is_finite())
+        && model.m.iter().all(|m| m.iter().all(|x| x.is_finite()))
+        && model.region.vertices.iter().all(|x| x.iter().all(|v| v.is_finite()))
+        && model.region.facets.iter().all(|x| x.iter().all(|v| v.is_finite()));
+    if !all_finite {
+        return bad("non-finite entries in the model data".into());
+    }
+    if region_radius(model) <= 0.0 {
+        return Err(SolveError::EmptyRegion);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_and_rows_he_match_quadratic_forms() {
+        // row k of rows(T, v) v = vᵀ T_k v; rowsHe(T, x) e = eᵀ He{T_k} x.
+        let t = vec![
+            DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 3.0, 4.0]),
+            DMatrix::from_row_slice(2, 2, &[0.0, -1.0, 5.0, 0.5]),
+        ];
+        let v = DVector::from_vec(vec![0.3, -0.7]);
+        let e = DVector::from_vec(vec![1.1, 0.2]);
+        let r = rows(&t, &v);
+        let rh = rows_he(&t, &v);
+        for k in 0..2 {
+            let q = v.dot(&(&t[k] * &v));
+            assert!(((&r * &v)[k] - q).abs() < 1e-14);
+            let he = &t[k] + t[k].transpose();
+            let q2 = e.dot(&(&he * &v));
+            assert!(((&rh * &e)[k] - q2).abs() < 1e-14);
+        }
+    }
+}
+
+/// Ready-made models: the paper's example (spec §7), built by hand, and a
+/// synthetic scale family for benchmarks.
+pub mod reference {
+    use nalgebra::{DMatrix, DVector};
+    use qpv_dsl::{Param, PolytopicModel, Region, Span, StateBound, Vertex};
+
+    fn names(prefix: &str, n: usize) -> Vec<String> {
+        (1..=n).map(|i| format!("{prefix}{i}")).collect()
+    }
+
+    fn param(name: &str, lo: f64, hi: f64) -> Param {
+        Param {
+            name: name.to_string(),
+            lo,
+            hi,
+            span: Span::default(),
+        }
+    }
+
+    /// The box |x_i| ≤ h in R^n: 2^n vertices (first coordinate most
+    /// significant, − before +) and 2n facets ±e_i/h.
+    pub fn box_region(n: usize, h: f64) -> Region {
+        let vertices = (0..1usize << n)
+            .map(|v| {
+                DVector::from_fn(n, |i, _| {
+                    if (v >> (n - 1 - i)) & 1 == 1 {
+                        h
+                    } else {
+                        -h
+                    }
+                })
+            })
+            .collect();
+        let mut facets = Vec::with_capacity(2 * n);
+        for i in 0..n {
+            for s in [1.0, -1.0] {
+                let mut a = DVector::zeros(n);
+                a[i] = s / h;
+                facets.push(a);
+            }
+        }
+        Region { vertices, facets }
+    }
+
+    /// A(θ) of the paper's example.
+    pub fn paper_a(t1: f64, t2: f64) -> DMatrix<f64> {
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                -4.0 - t1, 10.0, 2.0 + 2.0 * t2, //
+                -1.0, -1.0 - t2, 1.5 + 2.0 * t1, //
+                1.0, 1.0, -4.0 - 3.0 * t1,
+            ],
+        )
+    }
+
+    /// N_1(θ), N_2(θ), N_3(θ) of the paper's example, as printed.
+    pub fn paper_n(t1: f64, t2: f64) -> Vec<DMatrix<f64>> {
+        vec![
+            DMatrix::from_row_slice(3, 3, &[0.5, 1.0 + t1, 0.0, 0.0, 0.0, -t2, 0.0, 1.0 + t2, 0.0]),
+            DMatrix::from_row_slice(3, 3, &[-0.4, 0.0, 1.0 - t1, 1.5, 0.0, 1.0 + t2, 2.0 + t2, 0.0, 0.0]),
+            DMatrix::from_row_slice(3, 3, &[1.5, -0.5 - t1, 0.0, 3.0 + t1, 0.0, 0.0, 0.0, 2.0 - t2, 0.0]),
+        ]
+    }
+
+    /// The paper's Q.
+    pub fn paper_q() -> DMatrix<f64> {
+        DMatrix::from_row_slice(
+            3,
+            3,
+            &[0.0112, 0.0017, 0.0006, 0.0017, 0.0025, -0.0022, 0.0006, -0.0022, 0.0061],
+        )
+    }
+
+    /// The paper's example (spec §7) in polytopic form: 4 vertices in the
+    /// order μ1 = (1−θ1)(1−θ2), μ2 = (1−θ1)θ2, μ3 = θ1(1−θ2), μ4 = θ1θ2;
+    /// the box |x_i| ≤ 0.02; the paper's Q. No design requests.
+    pub fn paper_model() -> PolytopicModel {
+        let corners = [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)];
+        let vertices = corners
+            .iter()
+            .map(|&(t1, t2)| Vertex {
+                theta: vec![t1, t2],
+                a: paper_a(t1, t2),
+                n: paper_n(t1, t2),
+                b: DMatrix::zeros(3, 0),
+            })
+            .collect();
+        let mut m1 = DMatrix::zeros(3, 3);
+        m1[(1, 2)] = 1.0;
+        let mut m2 = DMatrix::zeros(3, 3);
+        m2[(0, 2)] = 1.0;
+        PolytopicModel {
+            name: "paper".to_string(),
+            states: names("x", 3),
+            inputs: vec![],
+            outputs: names("y", 2),
+            params: vec![param("theta1", 0.0, 1.0), param("theta2", 0.0, 1.0)],
+            scheduling: vec![0, 1],
+            vertices,
+            c: DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]),
+            m: vec![m1, m2],
+            region: box_region(3, 0.02),
+            state_bound: StateBound::Given(paper_q()),
+            designs: vec![],
+        }
+    }
+
+    /// A synthetic scale model: nx states, 2 outputs (x_1, x_2), two
+    /// parameters in [0, 1] (4 vertices), a stable chain-like A(θ) with
+    /// θ-dependent couplings, small quadratic terms, the box |x_i| ≤ h = 0.02
+    /// and Q = 1.5·nx·h²·I (so P ⊂ F and γ_max = 1/√(1.5·nx)). Deterministic.
+    pub fn synthetic_model(nx: usize) -> PolytopicModel {
+        assert!(nx >= 2);
+        let ny = 2;
+        let h = 0.02;
+        let corners = [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)];
+        let vertices = corners
+            .iter()
+            .map(|&(t1, t2)| {
+                let a = DMatrix::from_fn(nx, nx, |r, c| {
+                    if r == c {
+                        -2.0 - 0.5 * t1 - 0.1 * r as f64
+                    } else if c == r + 1 {
+                        1.0 + 0.5 * t2
+                    } else if r == c + 1 {
+                        -0.5 + 0.3 * t1
+                    } else {
+                        0.0
+                    }
+                });
+                let n = (0..nx)
+                    .map(|k| {
+                        DMatrix::from_fn(nx, nx, |r, c| {
+                            let v = ((k + 2 * r + 3 * c) % 5) as f64 - 2.0;
+                            0.2 * v * (1.0 + 0.5 * if (r + c) % 2 == 0 { t1 } else { t2 })
+                        })
+                    })
+                    .collect();
+                Vertex {
+                    theta: vec![t1, t2],
+                    a,
+                    n,
+                    b: DMatrix::zeros(nx, 0),
+                }
+            })
+            .collect();
+        let c = DMatrix::from_fn(ny, nx, |r, c| if r == c { 1.0 } else { 0.0 });
+        let m = (0..ny)
+            .map(|k| DMatrix::from_fn(nx, nx, |r, c| if r == (k + 1) % nx && c == nx - 1 { 0.5 } else { 0.0 }))
+            .collect();
+        PolytopicModel {
+            name: format!("synthetic{nx}"),
+            states: names("x", nx),
+            inputs: vec![],
+            outputs: names("y", ny),
+            params: vec![param("theta1", 0.0, 1.0), param("theta2", 0.0, 1.0)],
+            scheduling: vec![0, 1],
+            vertices,
+            c,
+            m,
+            region: box_region(nx, h),
+            state_bound: StateBound::Given(DMatrix::identity(nx, nx) * (1.5 * h * h * nx as f64)),
+            designs: vec![],
+        }
+    }
+}

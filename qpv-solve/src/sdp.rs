@@ -1,1 +1,704 @@
-//! (in progress)
+//! Direct assembly of the LMIs into Clarabel's standard form
+//! `min ½xᵀPx + qᵀx  s.t.  Ax + s = b, s ∈ K`, and one solve.
+//!
+//! Variables (scaled, see [`crate::conditions::ConditionSet::scale`]):
+//! x = [ P̂_ab (a ≤ b, upper triangle column by column: index b(b+1)/2 + a),
+//!       Γ̂_1 (row-major, nx·ny), …, Γ̂_N ], with P = s P̂ and Γ_l = s Γ̂_l.
+//! The variables are the plain entries; only the cone slacks use the
+//! √2-scaled upper-triangle packing Clarabel's PSD triangle cone expects.
+//!
+//! Rows, in order (every condition carries a margin, see
+//! [`crate::search::Settings::margin_rel`]):
+//! 1. (S1) P̂ − ε I ⪰ 0                                   PSD(nx)
+//! 2. sound (S2): 1 − ε − x̂ᵢᵀ P̂ x̂ᵢ ≥ 0 (x̂ = x/ρ)          Nonnegative(p)
+//!    paper (13): [1 x̂ᵢᵀ; x̂ᵢ P̂] − ε I ⪰ 0                 p × PSD(nx+1)
+//! 3. sound (S3): [1 γâₖᵀ; γâₖ P̂] − ε I ⪰ 0 (â = ρa)      q × PSD(nx+1)
+//!    paper (14): [1 γâₖᵀP̂; γP̂âₖ P̂] − ε I ⪰ 0             q × PSD(nx+1)
+//! 4. rate: −He{P̂K − Γ̂_l H} − ε κ I ⪰ 0 per (l, i, j)      N p² × PSD(nx)
+//!
+//! (2)-(3) are the printed blocks after the congruence diag(1, ρ^{±1} I),
+//! which changes no sign of any eigenvalue; (4) is the printed LMI divided
+//! by s > 0. The objective is ½ w Σ_l ‖Γ̂_l‖_F² (or 0 for pure feasibility).
+
+use crate::conditions::{region_radius, ConditionSet, PairTerms, RegionForm};
+use crate::report::Status;
+use crate::search::{Settings, SolveError};
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
+};
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::PolytopicModel;
+use std::time::Instant;
+
+const SQRT2: f64 = std::f64::consts::SQRT_2;
+
+/// Number of entries of the upper triangle of an n × n matrix.
+#[inline]
+pub fn tri(n: usize) -> usize {
+    n * (n + 1) / 2
+}
+
+/// Position of (r, c), r ≤ c, in the upper triangle packed column by column.
+#[inline]
+fn tri_idx(r: usize, c: usize) -> usize {
+    debug_assert!(r <= c);
+    c * (c + 1) / 2 + r
+}
+
+/// Column-wise builder of a sparse CSC matrix whose rows arrive in
+/// increasing order within every column.
+struct Columns {
+    cols: Vec<Vec<(usize, f64)>>,
+}
+
+impl Columns {
+    fn new(n: usize) -> Self {
+        Columns {
+            cols: vec![Vec::new(); n],
+        }
+    }
+    #[inline]
+    fn push(&mut self, row: usize, col: usize, v: f64) {
+        if v != 0.0 {
+            self.cols[col].push((row, v));
+        }
+    }
+    fn into_csc(self, m: usize) -> CscMatrix<f64> {
+        let n = self.cols.len();
+        let nnz: usize = self.cols.iter().map(|c| c.len()).sum();
+        let mut colptr = Vec::with_capacity(n + 1);
+        let mut rowval = Vec::with_capacity(nnz);
+        let mut nzval = Vec::with_capacity(nnz);
+        colptr.push(0);
+        for col in self.cols {
+            for (r, v) in col {
+                rowval.push(r);
+                nzval.push(v);
+            }
+            colptr.push(rowval.len());
+        }
+        CscMatrix::new(m, n, colptr, rowval, nzval)
+    }
+}
+
+/// One assembled problem in Clarabel's standard form.
+pub struct Assembled {
+    /// Quadratic objective (upper triangle).
+    pub p: CscMatrix<f64>,
+    /// Linear objective.
+    pub q: Vec<f64>,
+    /// Constraint matrix.
+    pub a: CscMatrix<f64>,
+    /// Constraint right-hand side.
+    pub b: Vec<f64>,
+    /// Cones, in row order.
+    pub cones: Vec<SupportedConeT<f64>>,
+}
+
+/// The raw result of one solve, unscaled to the model's units.
+#[derive(Debug, Clone)]
+pub struct SolveResult {
+    /// Interpreted status.
+    pub status: Status,
+    /// Clarabel's status name.
+    pub detail: String,
+    /// Iterations.
+    pub iterations: u32,
+    /// Clarabel's solve time, seconds.
+    pub solve_seconds: f64,
+    /// Assembly time, seconds.
+    pub assembly_seconds: f64,
+    /// P (model units) if Clarabel returned a point (Solved / AlmostSolved / …).
+    pub p: Option<DMatrix<f64>>,
+    /// Γ_l (model units).
+    pub gammas: Vec<DMatrix<f64>>,
+}
+
+/// The precomputed, (α, γ)-independent part of a design problem.
+pub struct Problem<'m> {
+    model: &'m PolytopicModel,
+    set: ConditionSet,
+    nx: usize,
+    ny: usize,
+    nv: usize,
+    np: usize,
+    /// Region radius ρ.
+    pub rho: f64,
+    /// Variable scale s.
+    pub scale: f64,
+    xs_hat: Vec<DVector<f64>>,
+    as_hat: Vec<DVector<f64>>,
+    terms: PairTerms,
+    max_a_fro: f64,
+    max_r_fro: f64,
+}
+
+impl<'m> Problem<'m> {
+    /// Precomputes everything that does not depend on (α, γ).
+    pub fn new(model: &'m PolytopicModel, set: ConditionSet) -> Result<Self, SolveError> {
+        crate::conditions::validate(model)?;
+        let nx = model.nx();
+        let rho = region_radius(model);
+        let terms = PairTerms::new(model);
+        let np = model.region.vertices.len();
+        let mut max_r_fro: f64 = 0.0;
+        for l in 0..model.nv() {
+            for i in 0..np {
+                for j in 0..np {
+                    let mut acc = 0.0;
+                    let (h, w) = (&terms.nhe[l][j], &terms.nrw[l][i]);
+                    for k in 0..nx * nx {
+                        let d = h[k] - w[k];
+                        acc += d * d;
+                    }
+                    max_r_fro = max_r_fro.max(acc.sqrt());
+                }
+            }
+        }
+        Ok(Problem {
+            model,
+            set,
+            nx,
+            ny: model.ny(),
+            nv: model.nv(),
+            np: tri(nx),
+            rho,
+            scale: set.scale(rho),
+            xs_hat: model.region.vertices.iter().map(|x| x / rho).collect(),
+            as_hat: model.region.facets.iter().map(|a| a * rho).collect(),
+            terms,
+            max_a_fro: model.vertices.iter().map(|v| v.a.norm()).fold(0.0, f64::max),
+            max_r_fro,
+        })
+    }
+
+    /// Number of decision variables.
+    pub fn n_vars(&self) -> usize {
+        self.np + self.nv * self.nx * self.ny
+    }
+
+    /// Number of rate LMI blocks (N p²).
+    pub fn n_rate_blocks(&self) -> usize {
+        let p = self.model.region.vertices.len();
+        self.nv * p * p
+    }
+
+    /// The condition set.
+    pub fn set(&self) -> ConditionSet {
+        self.set
+    }
+
+    /// κ: the data size of the rate LMIs used to scale their margin.
+    pub fn rate_scale(&self, alpha: f64, gamma: f64) -> f64 {
+        gamma * (alpha + self.max_a_fro) + self.max_r_fro
+    }
+
+    #[inline]
+    fn gvar(&self, l: usize, r: usize, c: usize) -> usize {
+        self.np + l * self.nx * self.ny + r * self.ny + c
+    }
+
+    /// K and H of the rate block (l, i, j) in scaled form (see the module doc
+    /// of [`crate::conditions`]).
+    pub fn rate_kh(&self, alpha: f64, gamma: f64, l: usize, i: usize, j: usize) -> (DMatrix<f64>, DMatrix<f64>) {
+        let sigma = self.set.nonlinear_sign();
+        let v = &self.model.vertices[l];
+        let mut k = &v.a * gamma + (&self.terms.nhe[l][j] - &self.terms.nrw[l][i]) * sigma;
+        for d in 0..self.nx {
+            k[(d, d)] += 0.5 * gamma * alpha;
+        }
+        let h = &self.model.c * gamma + (&self.terms.mhe[j] - &self.terms.mrw[i]);
+        (k, h)
+    }
+
+    /// Assembles the problem at (α, γ). `objective`: use the gain
+    /// regularisation (weight `settings.gain_weight`) or none.
+    pub fn assemble(&self, alpha: f64, gamma: f64, settings: &Settings, objective: bool) -> Assembled {
+        let nx = self.nx;
+        let ny = self.ny;
+        let n = self.n_vars();
+        let eps = settings.margin_rel;
+        let eps_rate = settings.margin_rel * self.rate_scale(alpha, gamma);
+        let p_reg = self.model.region.vertices.len();
+        let t = tri(nx);
+        let t1 = tri(nx + 1);
+        let mut cols = Columns::new(n);
+        let mut b: Vec<f64> = Vec::new();
+        let mut cones: Vec<SupportedConeT<f64>> = Vec::new();
+
+        // (S1): P̂ − εI ⪰ 0: s = svec(P̂) − ε svec(I) ⇒ b = −ε svec(I), A = −svec(E_v).
+        let row0 = b.len();
+        b.resize(row0 + t, 0.0);
+        for c in 0..nx {
+            b[row0 + tri_idx(c, c)] = -eps;
+            for r in 0..=c {
+                let scale = if r == c { 1.0 } else { SQRT2 };
+                cols.push(row0 + tri_idx(r, c), tri_idx(r, c), -scale);
+            }
+        }
+        cones.push(SupportedConeT::PSDTriangleConeT(nx));
+
+        // Region vertices.
+        match self.set.vertex_form() {
+            RegionForm::VertexQuadratic => {
+                // 1 − ε − x̂ᵀP̂x̂ ≥ 0: b = 1 − ε, A[v] = x̂ᵀ E_v x̂.
+                let row0 = b.len();
+                for (i, x) in self.xs_hat.iter().enumerate() {
+                    b.push(1.0 - eps);
+                    for c in 0..nx {
+                        for r in 0..=c {
+                            let v = if r == c { x[r] * x[r] } else { 2.0 * x[r] * x[c] };
+                            cols.push(row0 + i, tri_idx(r, c), v);
+                        }
+                    }
+                }
+                cones.push(SupportedConeT::NonnegativeConeT(p_reg));
+            }
+            RegionForm::VertexSchur => {
+                // [1 x̂ᵀ; x̂ P̂] − εI ⪰ 0 (indices: 0 = the scalar, 1.. = P̂).
+                for x in &self.xs_hat {
+                    let row0 = b.len();
+                    b.resize(row0 + t1, 0.0);
+                    b[row0] = 1.0 - eps;
+                    for c in 0..nx {
+                        b[row0 + tri_idx(0, c + 1)] = SQRT2 * x[c];
+                        b[row0 + tri_idx(c + 1, c + 1)] = -eps;
+                    }
+                    for c in 0..nx {
+                        for r in 0..=c {
+                            let scale = if r == c { 1.0 } else { SQRT2 };
+                            cols.push(row0 + tri_idx(r + 1, c + 1), tri_idx(r, c), -scale);
+                        }
+                    }
+                    cones.push(SupportedConeT::PSDTriangleConeT(nx + 1));
+                }
+            }
+            _ => unreachable!("vertex form"),
+        }
+
+        // Region facets.
+        let facet_form = self.set.facet_form();
+        for a in &self.as_hat {
+            let row0 = b.len();
+            b.resize(row0 + t1, 0.0);
+            b[row0] = 1.0 - eps;
+            for c in 0..nx {
+                b[row0 + tri_idx(c + 1, c + 1)] = -eps;
+            }
+            match facet_form {
+                RegionForm::FacetSchur => {
+                    for c in 0..nx {
+                        b[row0 + tri_idx(0, c + 1)] = SQRT2 * gamma * a[c];
+                    }
+                    for c in 0..nx {
+                        for r in 0..=c {
+                            let scale = if r == c { 1.0 } else { SQRT2 };
+                            cols.push(row0 + tri_idx(r + 1, c + 1), tri_idx(r, c), -scale);
+                        }
+                    }
+                }
+                RegionForm::FacetSchurP => {
+                    // Off-diagonal block row 0, column m+1: γ (P̂ â)_m, linear in P̂.
+                    // ∂(P̂â)_m/∂P̂_rc = [m==r] a_c + [m==c] a_r (r≠c); [m==r] a_r (r==c).
+                    for c in 0..nx {
+                        for r in 0..=c {
+                            let v = tri_idx(r, c);
+                            // Entries (0, m+1) for m ∈ {r, c}, increasing row order.
+                            if r == c {
+                                cols.push(row0 + tri_idx(0, r + 1), v, -SQRT2 * gamma * a[r]);
+                            } else {
+                                cols.push(row0 + tri_idx(0, r + 1), v, -SQRT2 * gamma * a[c]);
+                            }
+                            // P̂ block entries come after column r+1's top entry in row order
+                            // only within the same column of the packed triangle; the packing
+                            // index increases with column, so push in increasing index order.
+                            let top_c = row0 + tri_idx(0, c + 1);
+                            let diag = row0 + tri_idx(r + 1, c + 1);
+                            if r == c {
+                                cols.push(diag, v, -1.0);
+                            } else {
+                                // index order: (0,r+1) < (0,c+1) < (r+1,c+1)
+                                cols.push(top_c, v, -SQRT2 * gamma * a[r]);
+                                cols.push(diag, v, -SQRT2);
+                            }
+                        }
+                    }
+                }
+                _ => unreachable!("facet form"),
+            }
+            cones.push(SupportedConeT::PSDTriangleConeT(nx + 1));
+        }
+
+        // Rate LMIs: s = −svec(F) − ε_rate svec(I), F = He{P̂K − Γ̂H}:
+        // b = −ε_rate svec(I), A[v] = svec(∂F/∂v).
+        let p_cnt = p_reg;
+        let mut df = vec![0.0; nx * nx];
+        for l in 0..self.nv {
+            for i in 0..p_cnt {
+                for j in 0..p_cnt {
+                    let (k, h) = self.rate_kh(alpha, gamma, l, i, j);
+                    let row0 = b.len();
+                    b.resize(row0 + t, 0.0);
+                    for c in 0..nx {
+                        b[row0 + tri_idx(c, c)] = -eps_rate;
+                    }
+                    // P̂ variables.
+                    for pc in 0..nx {
+                        for pr in 0..=pc {
+                            let v = tri_idx(pr, pc);
+                            // W = E K; ∂F = W + Wᵀ, computed on the upper triangle.
+                            df.iter_mut().for_each(|x| *x = 0.0);
+                            for cc in 0..nx {
+                                for rr in 0..=cc {
+                                    let mut w = 0.0;
+                                    if pr == pc {
+                                        if rr == pr {
+                                            w += k[(pr, cc)];
+                                        }
+                                        if cc == pr {
+                                            w += k[(pr, rr)];
+                                        }
+                                    } else {
+                                        if rr == pr {
+                                            w += k[(pc, cc)];
+                                        }
+                                        if rr == pc {
+                                            w += k[(pr, cc)];
+                                        }
+                                        if cc == pr {
+                                            w += k[(pc, rr)];
+                                        }
+                                        if cc == pc {
+                                            w += k[(pr, rr)];
+                                        }
+                                    }
+                                    df[tri_idx(rr, cc)] = w;
+                                }
+                            }
+                            for cc in 0..nx {
+                                for rr in 0..=cc {
+                                    let idx = tri_idx(rr, cc);
+                                    let sc = if rr == cc { 1.0 } else { SQRT2 };
+                                    cols.push(row0 + idx, v, sc * df[idx]);
+                                }
+                            }
+                        }
+                    }
+                    // Γ̂_l variables: ∂F/∂Γ_rc = −(E_rc H + Hᵀ E_rcᵀ),
+                    // entry (a, b) = −([a==r] H[c,b] + [b==r] H[c,a]).
+                    for gr in 0..nx {
+                        for gc in 0..ny {
+                            let v = self.gvar(l, gr, gc);
+                            for cc in 0..nx {
+                                for rr in 0..=cc {
+                                    let mut w = 0.0;
+                                    if rr == gr {
+                                        w += h[(gc, cc)];
+                                    }
+                                    if cc == gr {
+                                        w += h[(gc, rr)];
+                                    }
+                                    if w != 0.0 {
+                                        let sc = if rr == cc { 1.0 } else { SQRT2 };
+                                        cols.push(row0 + tri_idx(rr, cc), v, -sc * w);
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    cones.push(SupportedConeT::PSDTriangleConeT(nx));
+                }
+            }
+        }
+
+        let m = b.len();
+        let a = cols.into_csc(m);
+        // Objective ½ w Σ Γ̂², diagonal on the Γ̂ columns.
+        let p = if objective && settings.gain_weight > 0.0 {
+            let mut colptr = Vec::with_capacity(n + 1);
+            let mut rowval = Vec::new();
+            let mut nzval = Vec::new();
+            colptr.push(0);
+            for c in 0..n {
+                if c >= self.np {
+                    rowval.push(c);
+                    nzval.push(settings.gain_weight);
+                }
+                colptr.push(rowval.len());
+            }
+            CscMatrix::new(n, n, colptr, rowval, nzval)
+        } else {
+            CscMatrix::zeros((n, n))
+        };
+        Assembled {
+            p,
+            q: vec![0.0; n],
+            a,
+            b,
+            cones,
+        }
+    }
+
+    /// Unpacks a solution vector into (P, Γ_l) in model units.
+    pub fn unpack(&self, x: &[f64]) -> (DMatrix<f64>, Vec<DMatrix<f64>>) {
+        let nx = self.nx;
+        let s = self.scale;
+        let mut p = DMatrix::zeros(nx, nx);
+        for c in 0..nx {
+            for r in 0..=c {
+                let v = s * x[tri_idx(r, c)];
+                p[(r, c)] = v;
+                p[(c, r)] = v;
+            }
+        }
+        let gammas = (0..self.nv)
+            .map(|l| DMatrix::from_fn(nx, self.ny, |r, c| s * x[self.gvar(l, r, c)]))
+            .collect();
+        (p, gammas)
+    }
+
+    /// Packs (P, Γ_l) in model units into a scaled variable vector (the
+    /// inverse of [`Problem::unpack`]; used by tests).
+    pub fn pack(&self, p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Vec<f64> {
+        let mut x = vec![0.0; self.n_vars()];
+        for c in 0..self.nx {
+            for r in 0..=c {
+                x[tri_idx(r, c)] = p[(r, c)] / self.scale;
+            }
+        }
+        for (l, g) in gammas.iter().enumerate() {
+            for r in 0..self.nx {
+                for c in 0..self.ny {
+                    x[self.gvar(l, r, c)] = g[(r, c)] / self.scale;
+                }
+            }
+        }
+        x
+    }
+
+    /// Assembles and solves at (α, γ).
+    pub fn solve(&self, alpha: f64, gamma: f64, settings: &Settings, objective: bool) -> Result<SolveResult, SolveError> {
+        ensure_lapack();
+        let t0 = Instant::now();
+        let prob = self.assemble(alpha, gamma, settings, objective);
+        let assembly_seconds = t0.elapsed().as_secs_f64();
+        let cs = clarabel_settings(settings);
+        let mut solver = DefaultSolver::new(&prob.p, &prob.q, &prob.a, &prob.b, &prob.cones, cs)
+            .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
+        drop(prob);
+        solver.solve();
+        let sol = &solver.solution;
+        let status = interpret(sol.status);
+        let has_point = matches!(
+            sol.status,
+            SolverStatus::Solved
+                | SolverStatus::AlmostSolved
+                | SolverStatus::InsufficientProgress
+                | SolverStatus::MaxIterations
+                | SolverStatus::MaxTime
+        ) && sol.x.iter().all(|v| v.is_finite());
+        let (p, gammas) = if has_point {
+            let (p, g) = self.unpack(&sol.x);
+            (Some(p), g)
+        } else {
+            (None, Vec::new())
+        };
+        Ok(SolveResult {
+            status,
+            detail: format!("{:?}", sol.status),
+            iterations: sol.iterations,
+            solve_seconds: sol.solve_time,
+            assembly_seconds,
+            p,
+            gammas,
+        })
+    }
+}
+
+/// Only a full-accuracy primal-infeasibility certificate counts as infeasible.
+pub fn interpret(s: SolverStatus) -> Status {
+    match s {
+        SolverStatus::Solved => Status::Solved,
+        SolverStatus::PrimalInfeasible => Status::Infeasible,
+        SolverStatus::Unsolved => Status::NotRun,
+        _ => Status::Unknown,
+    }
+}
+
+/// Clarabel settings from ours.
+pub fn clarabel_settings(s: &Settings) -> DefaultSettings<f64> {
+    DefaultSettings {
+        max_iter: s.max_iter,
+        time_limit: s.time_limit,
+        verbose: s.verbose,
+        tol_gap_abs: s.tol_gap_abs,
+        tol_gap_rel: s.tol_gap_rel,
+        tol_feas: s.tol_feas,
+        tol_infeas_abs: s.tol_infeas_abs,
+        tol_infeas_rel: s.tol_infeas_rel,
+        ..DefaultSettings::default()
+    }
+}
+
+/// Makes sure the BLAS/LAPACK symbols Clarabel's PSD cones call are linked.
+#[inline]
+pub fn ensure_lapack() {
+    #[cfg(feature = "pure-lapack")]
+    crate::lapack::ensure_linked();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::conditions::reference::{paper_model, synthetic_model};
+    use crate::conditions::{rows, rows_he};
+    use qpv_dsl::Mode;
+
+    /// Unpacks a √2-scaled upper triangle (column by column).
+    fn smat(v: &[f64], n: usize) -> DMatrix<f64> {
+        let mut m = DMatrix::zeros(n, n);
+        for c in 0..n {
+            for r in 0..=c {
+                let x = v[tri_idx(r, c)];
+                if r == c {
+                    m[(r, c)] = x;
+                } else {
+                    m[(r, c)] = x / SQRT2;
+                    m[(c, r)] = x / SQRT2;
+                }
+            }
+        }
+        m
+    }
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    /// s = b − A x at a random (P, Γ), cone by cone, against the condition
+    /// matrices computed directly in model units.
+    fn check_assembly(model: &PolytopicModel, mode: Mode) {
+        let set = ConditionSet::from_mode(mode);
+        let prob = Problem::new(model, set).unwrap();
+        let (alpha, gamma) = (3.7, 0.35);
+        let settings = Settings::default();
+        let asm = prob.assemble(alpha, gamma, &settings, true);
+        let nx = model.nx();
+        let ny = model.ny();
+        let mut seed = 7u64;
+        let s = prob.scale;
+        let mut p = DMatrix::from_fn(nx, nx, |_, _| lcg(&mut seed));
+        p = (&p * p.transpose() + DMatrix::identity(nx, nx)) * s;
+        let gammas: Vec<DMatrix<f64>> = (0..model.nv())
+            .map(|_| DMatrix::from_fn(nx, ny, |_, _| lcg(&mut seed) * s))
+            .collect();
+        let x = prob.pack(&p, &gammas);
+        let (p2, g2) = prob.unpack(&x);
+        assert!((&p2 - &p).norm() < 1e-12 * p.norm());
+        assert!((&g2[1] - &gammas[1]).norm() < 1e-12 * gammas[1].norm());
+        // slack = b − A x
+        let a = &asm.a;
+        let mut slack = asm.b.clone();
+        for col in 0..a.n {
+            for k in a.colptr[col]..a.colptr[col + 1] {
+                slack[a.rowval[k]] -= a.nzval[k] * x[col];
+            }
+        }
+        let eps = settings.margin_rel;
+        let ph = &p / s;
+        let rho = prob.rho;
+        let mut row = 0;
+        let mut cone = 0;
+        let tol = 1e-10;
+        // (S1)
+        let g = smat(&slack[row..row + tri(nx)], nx);
+        assert!((&g - (&ph - DMatrix::identity(nx, nx) * eps)).norm() < tol);
+        row += tri(nx);
+        cone += 1;
+        // region vertices
+        match set {
+            ConditionSet::Sound => {
+                for (i, xv) in model.region.vertices.iter().enumerate() {
+                    let want = 1.0 - eps - xv.dot(&(&p * xv));
+                    assert!((slack[row + i] - want).abs() < tol, "S2 {i}");
+                }
+                row += model.region.vertices.len();
+                cone += 1;
+            }
+            ConditionSet::Paper => {
+                for xv in &model.region.vertices {
+                    let g = smat(&slack[row..row + tri(nx + 1)], nx + 1);
+                    let mut want = DMatrix::zeros(nx + 1, nx + 1);
+                    want[(0, 0)] = 1.0;
+                    for r in 0..nx {
+                        want[(0, r + 1)] = xv[r] / rho;
+                        want[(r + 1, 0)] = xv[r] / rho;
+                    }
+                    want.view_mut((1, 1), (nx, nx)).copy_from(&ph);
+                    want -= DMatrix::identity(nx + 1, nx + 1) * eps;
+                    assert!((&g - &want).norm() < tol, "13");
+                    row += tri(nx + 1);
+                    cone += 1;
+                }
+            }
+        }
+        for av in &model.region.facets {
+            let g = smat(&slack[row..row + tri(nx + 1)], nx + 1);
+            let ah = av * rho;
+            let off = match set {
+                ConditionSet::Sound => &ah * gamma,
+                ConditionSet::Paper => (&ph * &ah) * gamma,
+            };
+            let mut want = DMatrix::zeros(nx + 1, nx + 1);
+            want[(0, 0)] = 1.0;
+            for r in 0..nx {
+                want[(0, r + 1)] = off[r];
+                want[(r + 1, 0)] = off[r];
+            }
+            want.view_mut((1, 1), (nx, nx)).copy_from(&ph);
+            want -= DMatrix::identity(nx + 1, nx + 1) * eps;
+            assert!((&g - &want).norm() < tol, "facet");
+            row += tri(nx + 1);
+            cone += 1;
+        }
+        // rate LMIs, in model units, as printed
+        let sigma = set.nonlinear_sign();
+        let eps_rate = eps * prob.rate_scale(alpha, gamma);
+        for (l, v) in model.vertices.iter().enumerate() {
+            for xi in &model.region.vertices {
+                for xj in &model.region.vertices {
+                    let r = rows_he(&v.n, xj) - rows(&v.n, xi);
+                    let sm = rows_he(&model.m, xj) - rows(&model.m, xi);
+                    let inner = (&p * &v.a - &gammas[l] * &model.c) * gamma + &p * &r * sigma
+                        - &gammas[l] * &sm;
+                    let f = &inner + inner.transpose() + &p * (gamma * alpha);
+                    let want = -f / s - DMatrix::identity(nx, nx) * eps_rate;
+                    let g = smat(&slack[row..row + tri(nx)], nx);
+                    assert!((&g - &want).norm() < 1e-9 * (1.0 + want.norm()), "rate l={l}");
+                    row += tri(nx);
+                    cone += 1;
+                }
+            }
+        }
+        assert_eq!(row, slack.len());
+        assert_eq!(cone, asm.cones.len());
+    }
+
+    #[test]
+    fn assembly_matches_direct_matrices_sound() {
+        check_assembly(&paper_model(), Mode::Sound);
+    }
+
+    #[test]
+    fn assembly_matches_direct_matrices_paper() {
+        check_assembly(&paper_model(), Mode::Paper);
+    }
+
+    #[test]
+    fn assembly_matches_direct_matrices_synthetic4() {
+        check_assembly(&synthetic_model(4), Mode::Sound);
+        check_assembly(&synthetic_model(4), Mode::Paper);
+    }
+}

@@ -1,8 +1,35 @@
 //! The design driver: fixed (α, γ), α-bisection at fixed γ, and γ-search.
-//! (in progress: API fixed, bodies being filled in)
+//!
+//! * Fixed (α, γ): one solve with the gain-regularising objective, then the
+//!   independent certificate.
+//! * α = max at fixed γ: bisection on "certified" (relative tolerance
+//!   [`Settings::bisection_rel_tol`]). The bisection solves pure feasibility
+//!   problems (no objective), whose interior-point solution lies well inside
+//!   the feasible set; every certified point also yields, exactly, the
+//!   largest α the *same* (P, Γ_l) satisfy ([`alpha_capacity`]), which is
+//!   re-certified and raises the lower bound — usually a handful of solves.
+//!   Feasibility is monotone in α (γαP with P ≻ 0), so bisection is exact.
+//! * γ = search: a coarse grid γ_hi·k/n (k = 1..n) over (0, γ_hi],
+//!   γ_hi = min(1, γ_max) (sound; γ_max from (S4)) or 1 (paper), minus 1e-6
+//!   relative, then golden-section refinement around the best grid point,
+//!   each point an α-bisection warm-started from the best α so far.
+//!
+//! Solver outcomes: only Clarabel's `PrimalInfeasible` counts as infeasible;
+//! every other non-`Solved` status is *unknown*. In a bisection both are
+//! "not certified" (an upper bound for that run), unknowns are counted and
+//! reported. A `Solved` point that fails the certificate is also not
+//! certified. The final (α, γ) is solved once more with the gain
+//! regularisation; if that point does not certify, the certified point found
+//! by the search at the same (α, γ) is reported instead.
 
-use crate::report::{Design, SearchStep};
-use qpv_dsl::{DesignRequest, PolytopicModel};
+use crate::certificate::{alpha_capacity, check, data_checks, Certificate};
+use crate::conditions::{gamma_max, ConditionSet};
+use crate::report::{matrix_to_rows, DataCheck, Design, SearchStep, SolverInfo, Status};
+use crate::sdp::Problem;
+use nalgebra::DMatrix;
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, StateBound};
+use std::collections::BTreeMap;
+use std::time::Instant;
 
 /// Numerical settings of a design. All fields have documented defaults
 /// ([`Settings::default`]).
@@ -110,6 +137,233 @@ pub fn design(
     design_with_progress(model, request, settings, &mut |_| {})
 }
 
+/// A candidate observer: P, Γ_l, L_l and its certificate at (α, γ).
+#[derive(Debug, Clone)]
+struct Point {
+    alpha: f64,
+    gamma: f64,
+    p: DMatrix<f64>,
+    gammas: Vec<DMatrix<f64>>,
+    l: Vec<DMatrix<f64>>,
+    cert: Certificate,
+    solver: SolverInfo,
+}
+
+/// The result of one attempt at (α, γ).
+struct Attempt {
+    status: Status,
+    /// The returned point (certified or not), if any.
+    point: Option<Point>,
+    /// Whether `point` passed the certificate at the tested α.
+    certified: bool,
+}
+
+/// L_l = P⁻¹ Γ_l (Cholesky, else LU); None if P is singular.
+fn gains(p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Option<Vec<DMatrix<f64>>> {
+    let ps = (p + p.transpose()) * 0.5;
+    if let Some(ch) = ps.clone().cholesky() {
+        return Some(gammas.iter().map(|g| ch.solve(g)).collect());
+    }
+    let lu = ps.lu();
+    gammas.iter().map(|g| lu.solve(g)).collect()
+}
+
+struct Ctx<'a, 'm> {
+    model: &'m PolytopicModel,
+    mode: Mode,
+    settings: &'a Settings,
+    prob: Problem<'m>,
+    steps: Vec<SearchStep>,
+    progress: &'a mut dyn FnMut(&SearchStep),
+}
+
+impl Ctx<'_, '_> {
+    /// Whether a certificate counts: every family and, in sound mode, (S4).
+    fn accepts(&self, cert: &Certificate) -> bool {
+        cert.passed
+    }
+
+    /// One solve at (α, γ), certified. `bisect`: pure feasibility problem and
+    /// capacity lift (the returned point's α may then exceed `alpha`).
+    fn attempt(&mut self, alpha: f64, gamma: f64, bisect: bool, phase: &str) -> Result<Attempt, SolveError> {
+        let t0 = Instant::now();
+        let res = self.prob.solve(alpha, gamma, self.settings, !bisect)?;
+        let mut solver = SolverInfo {
+            status: res.status,
+            detail: res.detail.clone(),
+            iterations: res.iterations,
+            seconds: res.solve_seconds,
+            assembly_seconds: res.assembly_seconds,
+            certify_seconds: 0.0,
+        };
+        let mut point = None;
+        let mut certified = false;
+        let mut alpha_certified = 0.0;
+        if let Some(p) = res.p {
+            if let Some(l) = gains(&p, &res.gammas) {
+                let tc = Instant::now();
+                let cert = check(self.model, self.mode, alpha, gamma, &p, &l);
+                solver.certify_seconds = tc.elapsed().as_secs_f64();
+                certified = self.accepts(&cert);
+                // Γ_l as the certificate sees them (P L_l).
+                let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &p * li).collect();
+                let mut pt = Point { alpha, gamma, p, gammas, l, cert, solver: solver.clone() };
+                if certified {
+                    alpha_certified = alpha;
+                    if bisect {
+                        let cap = alpha_capacity(self.model, self.mode, gamma, &pt.p, &pt.gammas);
+                        let lifted = cap * (1.0 - 1e-4);
+                        if lifted > alpha {
+                            let c2 = check(self.model, self.mode, lifted, gamma, &pt.p, &pt.l);
+                            if self.accepts(&c2) {
+                                pt.alpha = lifted;
+                                pt.cert = c2;
+                                alpha_certified = lifted;
+                            }
+                        }
+                        pt.solver.certify_seconds = tc.elapsed().as_secs_f64();
+                    }
+                }
+                point = Some(pt);
+            }
+        }
+        let step = SearchStep {
+            gamma,
+            alpha,
+            status: res.status,
+            detail: res.detail,
+            certified,
+            alpha_certified,
+            iterations: res.iterations,
+            seconds: t0.elapsed().as_secs_f64(),
+            phase: phase.to_string(),
+        };
+        (self.progress)(&step);
+        self.steps.push(step);
+        Ok(Attempt { status: res.status, point, certified })
+    }
+
+    /// Largest certified α at this γ (bisection), starting from `hint`.
+    /// Returns the certified point at the final lower bound, if any.
+    fn alpha_max(&mut self, gamma: f64, hint: Option<f64>, phase: &str) -> Result<Option<Point>, SolveError> {
+        let tol = self.settings.bisection_rel_tol;
+        let cap = self.settings.alpha_cap;
+        let floor = self.settings.alpha_floor;
+        let mut lo: Option<Point>;
+        let mut hi: Option<f64> = None;
+        // Phase 1: find a certified α.
+        let mut a = hint.unwrap_or(floor).clamp(floor, cap);
+        loop {
+            let at = self.attempt(a, gamma, true, phase)?;
+            if at.certified {
+                lo = at.point;
+                break;
+            }
+            hi = Some(a);
+            if a <= floor {
+                return Ok(None);
+            }
+            // Jump to the floor once the hint has failed: a certified point
+            // there gives a capacity-lifted lower bound at once.
+            a = if a > 16.0 * floor { (a / 8.0).max(floor) } else { floor };
+        }
+        // Phase 2: bracket and bisect.
+        loop {
+            let l = lo.as_ref().map(|p| p.alpha).unwrap_or(0.0);
+            if l >= cap {
+                break;
+            }
+            let next = match hi {
+                Some(h) if h <= l * (1.0 + tol) => break,
+                Some(h) if h > 4.0 * l => (l * h).sqrt(),
+                Some(h) => 0.5 * (l + h),
+                None => (2.0 * l).min(cap),
+            };
+            // Stop if the remaining interval is below tolerance.
+            let at = self.attempt(next, gamma, true, phase)?;
+            if at.certified {
+                let pt = at.point.expect("certified attempts carry a point");
+                if let Some(h) = hi {
+                    if pt.alpha >= h {
+                        // An earlier "not certified" was spurious (unknown status).
+                        hi = None;
+                    }
+                }
+                if pt.alpha > l {
+                    lo = Some(pt);
+                }
+            } else {
+                hi = Some(hi.map_or(next, |h| h.min(next)));
+            }
+        }
+        Ok(lo)
+    }
+
+    /// γ search maximising α: grid, then golden-section refinement.
+    fn gamma_search(&mut self, gamma_hi: f64) -> Result<Option<Point>, SolveError> {
+        let n = self.settings.gamma_grid.max(2);
+        let grid: Vec<f64> = (1..=n).map(|k| gamma_hi * k as f64 / n as f64).collect();
+        let mut vals: Vec<f64> = vec![0.0; n];
+        let mut best: Option<Point> = None;
+        for (k, &g) in grid.iter().enumerate() {
+            let hint = best.as_ref().map(|p| p.alpha);
+            if let Some(pt) = self.alpha_max(g, hint, "grid")? {
+                vals[k] = pt.alpha;
+                if best.as_ref().map_or(true, |b| pt.alpha > b.alpha) {
+                    best = Some(pt);
+                }
+            }
+        }
+        let Some(b) = best.as_ref() else {
+            return Ok(None);
+        };
+        // Refine between the neighbours of the best grid point.
+        let kb = grid.iter().position(|&g| g == b.gamma).unwrap_or(0);
+        let mut a = if kb == 0 { grid[0] * 0.25 } else { grid[kb - 1] };
+        let mut c = if kb + 1 < n { grid[kb + 1] } else { gamma_hi };
+        let phi = (5f64.sqrt() - 1.0) / 2.0;
+        let mut memo: Vec<(f64, f64)> = grid.iter().copied().zip(vals.iter().copied()).collect();
+        let mut eval = |ctx: &mut Self, g: f64, best: &mut Option<Point>| -> Result<f64, SolveError> {
+            if let Some(&(_, v)) = memo.iter().find(|(x, _)| (*x - g).abs() <= 1e-12 * g) {
+                return Ok(v);
+            }
+            let hint = best.as_ref().map(|p| p.alpha);
+            let v = match ctx.alpha_max(g, hint, "refine")? {
+                Some(pt) => {
+                    let v = pt.alpha;
+                    if best.as_ref().map_or(true, |b| v > b.alpha) {
+                        *best = Some(pt);
+                    }
+                    v
+                }
+                None => 0.0,
+            };
+            memo.push((g, v));
+            Ok(v)
+        };
+        let mut x1 = c - phi * (c - a);
+        let mut x2 = a + phi * (c - a);
+        let mut f1 = eval(self, x1, &mut best)?;
+        let mut f2 = eval(self, x2, &mut best)?;
+        for _ in 0..self.settings.gamma_refine {
+            if f1 >= f2 {
+                c = x2;
+                x2 = x1;
+                f2 = f1;
+                x1 = c - phi * (c - a);
+                f1 = eval(self, x1, &mut best)?;
+            } else {
+                a = x1;
+                x1 = x2;
+                f1 = f2;
+                x2 = a + phi * (c - a);
+                f2 = eval(self, x2, &mut best)?;
+            }
+        }
+        Ok(best)
+    }
+}
+
 /// As [`design`], calling `progress` after every solve.
 pub fn design_with_progress(
     model: &PolytopicModel,
@@ -117,6 +371,236 @@ pub fn design_with_progress(
     settings: &Settings,
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
-    let _ = (model, request, settings, progress);
-    todo!("in progress")
+    let t_start = Instant::now();
+    let mode = request.mode;
+    let set = ConditionSet::from_mode(mode);
+    crate::conditions::validate(model)?;
+    let has_q = matches!(model.state_bound, StateBound::Given(_));
+    if set.requires_s4() && !has_q {
+        return Err(SolveError::MissingStateBound(model.name.clone()));
+    }
+    if let AlphaSpec::Fixed(a) = request.alpha {
+        if !(a.is_finite() && a > 0.0) {
+            return Err(SolveError::BadAlpha(a));
+        }
+    }
+    if let GammaSpec::Fixed(g) = request.gamma {
+        if !(g.is_finite() && g > 0.0 && g < 1.0) {
+            return Err(SolveError::BadGamma(g));
+        }
+    }
+    let gmax = gamma_max(model);
+    let gamma_hi = match set {
+        ConditionSet::Sound => {
+            let gm = gmax.unwrap_or(f64::NAN);
+            if !(gm.is_finite() && gm > 0.0) {
+                if matches!(request.gamma, GammaSpec::Search) {
+                    return Err(SolveError::NoGammaRange(gm));
+                }
+            }
+            gm.min(1.0) * (1.0 - 1e-6)
+        }
+        ConditionSet::Paper => 1.0 - 1e-6,
+    };
+    let prob = Problem::new(model, set)?;
+    let mut ctx = Ctx { model, mode, settings, prob, steps: Vec::new(), progress };
+
+    // The search.
+    let mut notes: Vec<String> = Vec::new();
+    let (alpha_t, gamma_t, searched): (Option<f64>, f64, Option<Point>) = match (request.alpha, request.gamma) {
+        (AlphaSpec::Fixed(a), GammaSpec::Fixed(g)) => (Some(a), g, None),
+        (AlphaSpec::Max, GammaSpec::Fixed(g)) => {
+            let pt = ctx.alpha_max(g, None, "bisect")?;
+            (pt.as_ref().map(|p| p.alpha), g, pt)
+        }
+        (alpha, GammaSpec::Search) => {
+            let pt = ctx.gamma_search(gamma_hi)?;
+            let g = pt.as_ref().map(|p| p.gamma).unwrap_or(gamma_hi);
+            match alpha {
+                AlphaSpec::Max => (pt.as_ref().map(|p| p.alpha), g, pt),
+                AlphaSpec::Fixed(a) => {
+                    if let Some(p) = &pt {
+                        if p.alpha < a {
+                            notes.push(format!(
+                                "the requested α = {a} exceeds the best certified α = {:.6} (at γ = {:.6})",
+                                p.alpha, p.gamma
+                            ));
+                        }
+                    }
+                    // Keep the searched point only if it covers α.
+                    let keep = pt.filter(|p| p.alpha >= a);
+                    (Some(a), g, keep)
+                }
+            }
+        }
+    };
+
+    // The final solve, with the gain regularisation.
+    let mut chosen: Option<Point> = None;
+    let mut last: Option<Point> = None;
+    let mut final_status = Status::NotRun;
+    let mut final_solver = SolverInfo::default();
+    if let Some(a) = alpha_t {
+        let at = ctx.attempt(a, gamma_t, false, "final")?;
+        final_status = at.status;
+        if let Some(p) = &at.point {
+            final_solver = p.solver.clone();
+        } else if let Some(s) = ctx.steps.last() {
+            final_solver = SolverInfo {
+                status: s.status,
+                detail: s.detail.clone(),
+                iterations: s.iterations,
+                seconds: s.seconds,
+                ..SolverInfo::default()
+            };
+        }
+        if at.certified {
+            chosen = at.point;
+        } else {
+            last = at.point;
+            if let Some(mut sp) = searched.filter(|p| p.alpha >= a && p.gamma == gamma_t) {
+                // Re-certify the search's point at exactly the reported α.
+                sp.cert = check(model, mode, a, gamma_t, &sp.p, &sp.l);
+                if sp.cert.passed {
+                    sp.alpha = a;
+                    notes.push(format!(
+                        "the regularised final solve did not certify ({}); the search's certified point at the same (α, γ) is reported (its gains are not regularised)",
+                        at.status
+                    ));
+                    final_solver = sp.solver.clone();
+                    chosen = Some(sp);
+                }
+            }
+        }
+    } else if let Some(s) = ctx.steps.last() {
+        final_status = s.status;
+        final_solver = SolverInfo { status: s.status, detail: s.detail.clone(), iterations: s.iterations, seconds: s.seconds, ..SolverInfo::default() };
+    }
+
+    let feasible = chosen.is_some();
+    let shown = chosen.or(last);
+    let alpha_r = shown.as_ref().map(|p| p.alpha).or(alpha_t).unwrap_or_else(|| {
+        ctx.steps.iter().map(|s| s.alpha).fold(f64::INFINITY, f64::min).min(settings.alpha_floor)
+    });
+    let gamma_r = shown.as_ref().map(|p| p.gamma).unwrap_or(gamma_t);
+    let dchecks: BTreeMap<String, DataCheck> = match &shown {
+        Some(p) => p.cert.data_checks.clone(),
+        None => data_checks(model, mode, gamma_r),
+    };
+    let margins = shown.as_ref().map(|p| p.cert.margins()).unwrap_or_default();
+
+    // Notes and summary.
+    let unknown = ctx.steps.iter().filter(|s| s.status == Status::Unknown).count();
+    if unknown > 0 {
+        let mut kinds: Vec<String> = ctx.steps.iter().filter(|s| s.status == Status::Unknown).map(|s| s.detail.clone()).collect();
+        kinds.sort();
+        kinds.dedup();
+        notes.push(format!(
+            "{unknown} of {} solves ended with an unknown status ({}): neither feasible nor infeasible, counted as not certified",
+            ctx.steps.len(),
+            kinds.join(", ")
+        ));
+    }
+    let uncert = ctx.steps.iter().filter(|s| s.status == Status::Solved && !s.certified).count();
+    if uncert > 0 {
+        notes.push(format!("{uncert} solved points failed the independent certificate and were rejected"));
+    }
+    let s4 = dchecks.get("S4").cloned();
+    if mode == Mode::Paper {
+        notes.insert(
+            0,
+            "REPRODUCTION MODE: the paper's printed conditions (13), (14), (26); they do not imply convergence (spec §6). This design certifies nothing.".to_string(),
+        );
+        match &s4 {
+            Some(d) if !d.passed => notes.push(format!(
+                "violated assumption (15)/(S4): max_k γ² a_kᵀ Q a_k = {:.4} > 1 at γ = {}",
+                d.value, gamma_r
+            )),
+            Some(_) => {}
+            None => notes.push("(15)/(S4) not checked: the model has no state bound Q".into()),
+        }
+    } else if let Some(d) = &s4 {
+        if !d.passed {
+            notes.push(format!(
+                "(S4) fails: max_k γ² a_kᵀ Q a_k = {:.4} > 1 at γ = {} (γ_max = {:.5})",
+                d.value,
+                gamma_r,
+                gmax.unwrap_or(f64::NAN)
+            ));
+        }
+    }
+    if let Some(d) = dchecks.get("region_in_F") {
+        if !d.passed {
+            notes.push(format!(
+                "region_in_F fails: max_i x_(i)ᵀ Q⁻¹ x_(i) = {:.4} > 1 (the region is not inside the state bound F)",
+                d.value
+            ));
+        }
+    }
+    let failed: Vec<String> = shown
+        .as_ref()
+        .map(|p| p.cert.families.iter().filter(|f| !f.passed).map(|f| format!("{} ({:.3e} at {})", f.name, f.margin, f.worst_at)).collect())
+        .unwrap_or_default();
+
+    let (p_rows, g_rows, l_rows, norms) = match &shown {
+        Some(pt) => (
+            matrix_to_rows(&pt.p),
+            pt.gammas.iter().map(matrix_to_rows).collect(),
+            pt.l.iter().map(matrix_to_rows).collect(),
+            pt.l.iter().map(|l| l.clone().singular_values().max()).collect::<Vec<f64>>(),
+        ),
+        None => (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
+    };
+    let certifies = feasible && mode == Mode::Sound;
+    let summary = {
+        let head = match (mode, feasible) {
+            (Mode::Sound, true) => format!(
+                "CERTIFIED (sound conditions S1-S5): V' ≤ −αV with α = {alpha_r:.6}, γ = {gamma_r:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {:.4}.",
+                norms.iter().copied().fold(0.0, f64::max)
+            ),
+            (Mode::Sound, false) => format!(
+                "NOT CERTIFIED (sound conditions) at α = {alpha_r:.6}, γ = {gamma_r:.6}: solver {}{}.",
+                final_status,
+                if failed.is_empty() { String::new() } else { format!("; failed: {}", failed.join(", ")) }
+            ),
+            (Mode::Paper, true) => format!(
+                "PAPER MODE (certifies nothing): the printed conditions (13), (14), (26) hold at α = {alpha_r:.6}, γ = {gamma_r:.6}; max ‖L_l‖₂ = {:.4}.",
+                norms.iter().copied().fold(0.0, f64::max)
+            ),
+            (Mode::Paper, false) => format!(
+                "PAPER MODE (certifies nothing): the printed conditions are not satisfied at α = {alpha_r:.6}, γ = {gamma_r:.6}: solver {}{}.",
+                final_status,
+                if failed.is_empty() { String::new() } else { format!("; failed: {}", failed.join(", ")) }
+            ),
+        };
+        let mut s = head;
+        for n in &notes {
+            s.push(' ');
+            s.push_str(n);
+            if !n.ends_with('.') {
+                s.push('.');
+            }
+        }
+        s
+    };
+
+    Ok(Design {
+        model: model.name.clone(),
+        mode,
+        feasible,
+        certifies,
+        alpha: alpha_r,
+        gamma: gamma_r,
+        p: p_rows,
+        gamma_l: g_rows,
+        l: l_rows,
+        gain_norms: norms,
+        margins,
+        data_checks: dchecks,
+        solver: final_solver,
+        seconds_total: t_start.elapsed().as_secs_f64(),
+        search: ctx.steps,
+        notes,
+        summary,
+    })
 }
