@@ -1,0 +1,237 @@
+//! A cache of solved designs, so an unchanged `qpv!` block does not re-run
+//! the SDP search on every build.
+//!
+//! * Key: the normalised polytopic model (every number printed exactly), the
+//!   request (α, γ, mode — not its position in the file), the solver
+//!   settings and the versions of qpv-macros, qpv-dsl and qpv-solve. The file
+//!   name is a 64-bit FNV-1a hash of the key; the full key is stored in the
+//!   file and compared on load, so a hash collision is a miss, never a wrong hit.
+//! * Location: `$QPV_CACHE_DIR` if set; else `$CARGO_TARGET_DIR/qpv-cache`;
+//!   else `target/qpv-cache` in the nearest ancestor of the calling crate's
+//!   directory that holds a `Cargo.lock` (the workspace root). `QPV_CACHE=off`
+//!   disables the cache. `cargo clean` empties it.
+//! * Only certified designs are stored, and a hit is never trusted blindly:
+//!   the caller re-runs the independent certificate on the cached P and L_l
+//!   (milliseconds) and re-solves if it does not pass.
+//! * Writes go to a temporary file renamed into place, so concurrent rustc
+//!   processes never see a half-written entry. Any I/O problem is a miss.
+
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, StateBound};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// The cached numbers of one certified design.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Entry {
+    /// Certified α.
+    pub alpha: f64,
+    /// Certified γ.
+    pub gamma: f64,
+    /// Solver status name of the accepted solve.
+    pub status: String,
+    /// Solver iterations of the accepted solve.
+    pub iterations: u32,
+    /// P, nx × nx row-major.
+    pub p: Vec<f64>,
+    /// L_l per vertex, nx × ny row-major.
+    pub l: Vec<Vec<f64>>,
+}
+
+/// 64-bit FNV-1a: small, stable across Rust versions (unlike `DefaultHasher`).
+fn fnv1a(text: &str) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+fn push_nums<'a>(s: &mut String, label: &str, it: impl IntoIterator<Item = &'a f64>) {
+    s.push_str(label);
+    for v in it {
+        let _ = write!(s, " {v:?}");
+    }
+    s.push('\n');
+}
+
+/// The cache key: everything that determines the solver's answer, normalised
+/// (positions and formatting of the source do not matter).
+pub fn key(model: &PolytopicModel, request: &DesignRequest, settings: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "qpv-cache v1 macros {} settings {settings}",
+        env!("CARGO_PKG_VERSION")
+    );
+    let _ = writeln!(
+        s,
+        "dims nx {} ny {} nu {} ntheta {}",
+        model.nx(),
+        model.ny(),
+        model.nu(),
+        model.ntheta()
+    );
+    for p in &model.params {
+        let _ = writeln!(s, "param {:?} {:?}", p.lo, p.hi);
+    }
+    let _ = writeln!(s, "scheduling {:?}", model.scheduling);
+    for v in &model.vertices {
+        push_nums(&mut s, "theta", &v.theta);
+        push_nums(&mut s, "A", v.a.iter());
+        for n in &v.n {
+            push_nums(&mut s, "N", n.iter());
+        }
+        push_nums(&mut s, "B", v.b.iter());
+    }
+    push_nums(&mut s, "C", model.c.iter());
+    for m in &model.m {
+        push_nums(&mut s, "M", m.iter());
+    }
+    for v in &model.region.vertices {
+        push_nums(&mut s, "rv", v.iter());
+    }
+    for f in &model.region.facets {
+        push_nums(&mut s, "rf", f.iter());
+    }
+    match &model.state_bound {
+        StateBound::None => s.push_str("Q none\n"),
+        StateBound::Given(q) => push_nums(&mut s, "Q", q.iter()),
+    }
+    let alpha = match request.alpha {
+        AlphaSpec::Fixed(a) => format!("{a:?}"),
+        AlphaSpec::Max => "max".into(),
+    };
+    let gamma = match request.gamma {
+        GammaSpec::Fixed(g) => format!("{g:?}"),
+        GammaSpec::Search => "search".into(),
+    };
+    let mode = match request.mode {
+        Mode::Sound => "sound",
+        Mode::Paper => "paper",
+    };
+    let _ = writeln!(s, "request alpha {alpha} gamma {gamma} mode {mode}");
+    s
+}
+
+/// The cache directory, or `None` if caching is off or no place was found.
+pub fn dir() -> Option<PathBuf> {
+    if std::env::var("QPV_CACHE").is_ok_and(|v| v == "off" || v == "0") {
+        return None;
+    }
+    if let Some(d) = std::env::var_os("QPV_CACHE_DIR") {
+        return Some(PathBuf::from(d));
+    }
+    if let Some(d) = std::env::var_os("CARGO_TARGET_DIR") {
+        let d = PathBuf::from(d);
+        let d = if d.is_relative() {
+            std::env::current_dir().ok()?.join(d)
+        } else {
+            d
+        };
+        return Some(d.join("qpv-cache"));
+    }
+    let manifest = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR")?);
+    manifest
+        .ancestors()
+        .find(|a| a.join("Cargo.lock").is_file())
+        .map(|root| root.join("target").join("qpv-cache"))
+}
+
+fn file_for(dir: &std::path::Path, key: &str) -> PathBuf {
+    dir.join(format!("{:016x}.design", fnv1a(key)))
+}
+
+/// Looks a key up; any problem (absent, unreadable, different key, bad
+/// numbers) is a miss.
+pub fn load(key: &str) -> Option<Entry> {
+    let text = std::fs::read_to_string(file_for(&dir()?, key)).ok()?;
+    let (stored_key, body) = text.split_once("---\n")?;
+    if stored_key != key {
+        return None;
+    }
+    let mut e = Entry {
+        alpha: f64::NAN,
+        gamma: f64::NAN,
+        status: String::new(),
+        iterations: 0,
+        p: Vec::new(),
+        l: Vec::new(),
+    };
+    let nums = |rest: &str| -> Option<Vec<f64>> {
+        rest.split_whitespace()
+            .map(|t| t.parse::<f64>().ok())
+            .collect()
+    };
+    for line in body.lines() {
+        let (tag, rest) = line.split_once(' ').unwrap_or((line, ""));
+        match tag {
+            "alpha" => e.alpha = rest.trim().parse().ok()?,
+            "gamma" => e.gamma = rest.trim().parse().ok()?,
+            "status" => e.status = rest.to_string(),
+            "iterations" => e.iterations = rest.trim().parse().ok()?,
+            "P" => e.p = nums(rest)?,
+            "L" => e.l.push(nums(rest)?),
+            _ => return None,
+        }
+    }
+    let finite = e.alpha.is_finite()
+        && e.gamma.is_finite()
+        && e.p
+            .iter()
+            .chain(e.l.iter().flatten())
+            .all(|v| v.is_finite());
+    (finite && !e.p.is_empty() && !e.l.is_empty()).then_some(e)
+}
+
+/// Stores an entry; failures are ignored (the cache is an optimisation).
+pub fn store(key: &str, e: &Entry) {
+    let Some(dir) = dir() else { return };
+    if std::fs::create_dir_all(&dir).is_err() {
+        return;
+    }
+    let mut s = String::from(key);
+    s.push_str("---\n");
+    let _ = writeln!(s, "alpha {:?}", e.alpha);
+    let _ = writeln!(s, "gamma {:?}", e.gamma);
+    let _ = writeln!(s, "status {}", e.status.replace('\n', " "));
+    let _ = writeln!(s, "iterations {}", e.iterations);
+    push_nums(&mut s, "P", &e.p);
+    for l in &e.l {
+        push_nums(&mut s, "L", l);
+    }
+    let path = file_for(&dir, key);
+    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+    if std::fs::write(&tmp, s).is_ok() && std::fs::rename(&tmp, &path).is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv_is_stable() {
+        assert_eq!(fnv1a(""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a("a"), 0xaf63_dc4c_8601_ec8c);
+    }
+
+    #[test]
+    fn round_trip_through_a_directory() {
+        let dir = std::env::temp_dir().join(format!("qpv-cache-test-{}", std::process::id()));
+        std::env::set_var("QPV_CACHE_DIR", &dir);
+        let e = Entry {
+            alpha: 10.0,
+            gamma: 0.1889,
+            status: "Solved".into(),
+            iterations: 23,
+            p: vec![1.0, 0.1, 0.1, 2.0],
+            l: vec![vec![0.1, -3.5e-7], vec![1.0 / 3.0, 4.0]],
+        };
+        store("some key\n", &e);
+        assert_eq!(load("some key\n"), Some(e));
+        assert_eq!(load("another key\n"), None);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

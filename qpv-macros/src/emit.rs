@@ -1,0 +1,1037 @@
+//! Code generation: one module per model with the certified constants, the
+//! scheduling weights μ(θ), the gain L(θ), an unrolled `Observer` and the
+//! plant equations.
+//!
+//! The emitter is fed by [`EmitModel`] (the symbolic model plus certified
+//! numbers) and knows nothing of the solver. Generated code is fully
+//! unrolled and constant-folded: zero coefficients are dropped, factors ±1
+//! disappear, θ-dependent coefficients, θ monomials, μ products and state
+//! products x̂_i x̂_j are each computed once. It uses `::core` paths only,
+//! never allocates, never indexes (arrays are destructured) and cannot panic.
+
+use proc_macro2::{Ident, Literal, Span, TokenStream};
+use qpv_dsl::{Model, PolyMatrix, ThetaPoly};
+use quote::{format_ident, quote};
+use std::collections::BTreeMap;
+
+/// Everything the emitter needs for one model.
+pub struct EmitModel<'a> {
+    /// The validated symbolic model (plant equations, names, bounds).
+    pub model: &'a Model,
+    /// Indices into `model.params` of the parameters that generate vertices,
+    /// first most significant (the vertex order of `PolytopicModel`).
+    pub scheduling: Vec<usize>,
+    /// The designs, in source order; at least one has `certifies` (the
+    /// caller checks), and the first such is re-exported at the model level.
+    pub designs: Vec<CertifiedDesign>,
+}
+
+/// The numbers of one certified design.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CertifiedDesign {
+    /// The request as the user wrote it, in words (`alpha = 10, gamma = 0.18, mode = sound`).
+    pub request: String,
+    /// `"sound"` or `"paper"`.
+    pub mode: String,
+    /// True for a certified sound-mode design: an `Observer` is generated.
+    /// False for a paper-mode reproduction: only its record is generated
+    /// (the printed conditions hold, but they certify nothing), no gain.
+    pub certifies: bool,
+    /// Certified decay rate α.
+    pub alpha: f64,
+    /// Certified region scaling γ.
+    pub gamma: f64,
+    /// The Lyapunov matrix P, nx × nx, row-major.
+    pub p: Vec<f64>,
+    /// The vertex gains L_l, each nx × ny row-major, one per vertex.
+    pub l: Vec<Vec<f64>>,
+    /// Worst margin per condition family (positive = satisfied).
+    pub margins: Vec<(String, f64)>,
+    /// The solver's final status.
+    pub status: String,
+    /// Solver iterations of the accepted solve.
+    pub iterations: u32,
+}
+
+/// A float literal; negative values become `-` followed by the magnitude.
+/// Callers guarantee finiteness (checked before emission).
+fn lit(v: f64) -> TokenStream {
+    let a = Literal::f64_unsuffixed(v.abs());
+    if v.is_sign_negative() {
+        quote!(-#a)
+    } else {
+        quote!(#a)
+    }
+}
+
+/// A signed sum of `coefficient × factor` terms, rendered constant-folded:
+/// zero terms dropped, `1 ×` and `-1 ×` folded into the sign.
+#[derive(Default)]
+struct Sum {
+    terms: Vec<(f64, Option<TokenStream>)>,
+}
+
+impl Sum {
+    fn push(&mut self, c: f64, factor: Option<TokenStream>) {
+        if c != 0.0 {
+            self.terms.push((c, factor));
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    fn render(&self) -> TokenStream {
+        if self.terms.is_empty() {
+            return quote!(0.0);
+        }
+        let mut out = TokenStream::new();
+        for (i, (c, f)) in self.terms.iter().enumerate() {
+            let neg = *c < 0.0;
+            let a = c.abs();
+            let al = Literal::f64_unsuffixed(a);
+            let body = match f {
+                None => quote!(#al),
+                Some(f) if a == 1.0 => f.clone(),
+                Some(f) => quote!(#al * #f),
+            };
+            out.extend(match (i, neg) {
+                (0, false) => body,
+                (0, true) => quote!(-#body),
+                (_, false) => quote!(+ #body),
+                (_, true) => quote!(- #body),
+            });
+        }
+        out
+    }
+}
+
+/// A monomial of the state and input: the key under which θ-coefficients
+/// of one equation are collected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Mono {
+    /// x_j
+    X(usize),
+    /// x_i x_j with i ≤ j
+    XX(usize, usize),
+    /// u_j
+    U(usize),
+}
+
+/// The right-hand side of one polynomial equation: monomial → θ-polynomial.
+type Equation = BTreeMap<Mono, ThetaPoly>;
+
+fn add_poly(eq: &mut Equation, key: Mono, p: &ThetaPoly) {
+    if p.is_zero() {
+        return;
+    }
+    let e = eq.entry(key).or_default();
+    for &(mask, c) in &p.terms {
+        e.add_term(mask, c);
+    }
+    if e.is_zero() {
+        eq.remove(&key);
+    }
+}
+
+/// Row k of `lin · x + Σ_ij quad_k[i][j] x_i x_j + inp · u`.
+fn equation(
+    lin: &PolyMatrix,
+    quad: Option<&PolyMatrix>,
+    inp: Option<&PolyMatrix>,
+    k: usize,
+) -> Equation {
+    let mut eq = Equation::new();
+    for j in 0..lin.cols {
+        if let Some(p) = lin.entries.get(k * lin.cols + j) {
+            add_poly(&mut eq, Mono::X(j), p);
+        }
+    }
+    if let Some(q) = quad {
+        for i in 0..q.rows {
+            for j in 0..q.cols {
+                if let Some(p) = q.entries.get(i * q.cols + j) {
+                    add_poly(&mut eq, Mono::XX(i.min(j), i.max(j)), p);
+                }
+            }
+        }
+    }
+    if let Some(b) = inp {
+        for j in 0..b.cols {
+            if let Some(p) = b.entries.get(k * b.cols + j) {
+                add_poly(&mut eq, Mono::U(j), p);
+            }
+        }
+    }
+    eq
+}
+
+/// The plant's state equations (one per state) and output equations (one per output).
+fn equations(m: &Model) -> (Vec<Equation>, Vec<Equation>) {
+    let nx = m.nx();
+    let ny = m.ny();
+    let states = (0..nx)
+        .map(|k| {
+            let b = (m.nu() > 0).then_some(&m.b);
+            equation(&m.a, m.n.get(k), b, k)
+        })
+        .collect();
+    let outputs = (0..ny)
+        .map(|o| equation(&m.c, m.m.get(o), None, o))
+        .collect();
+    (states, outputs)
+}
+
+/// Names of θ monomials (`t0`, `t0_1`, ...) for a term mask.
+fn theta_mono(mask: u64) -> Ident {
+    let idx: Vec<String> = (0..64usize)
+        .filter(|i| mask >> i & 1 == 1)
+        .map(|i| i.to_string())
+        .collect();
+    format_ident!("t{}", idx.join("_"))
+}
+
+/// Interned θ-dependent coefficients: each distinct non-constant polynomial
+/// becomes one field `k<i>` of the generated `Coeffs` struct.
+#[derive(Default)]
+struct Coeffs {
+    polys: Vec<ThetaPoly>,
+}
+
+/// How a θ-polynomial coefficient appears in an expression.
+enum Coef {
+    /// A number.
+    Const(f64),
+    /// The field `k<i>` of `Coeffs`.
+    Field(Ident),
+}
+
+impl Coeffs {
+    fn intern(&mut self, p: &ThetaPoly) -> Coef {
+        if let Some(c) = p.as_constant() {
+            return Coef::Const(c);
+        }
+        let i = match self.polys.iter().position(|q| q == p) {
+            Some(i) => i,
+            None => {
+                self.polys.push(p.clone());
+                self.polys.len() - 1
+            }
+        };
+        Coef::Field(format_ident!("k{}", i))
+    }
+
+    /// The masks (≥ 2 parameters) of θ monomials the coefficients use.
+    fn products(&self) -> Vec<u64> {
+        let mut v: Vec<u64> = self
+            .polys
+            .iter()
+            .flat_map(|p| p.terms.iter().map(|t| t.0))
+            .filter(|m| m.count_ones() >= 2)
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+}
+
+/// Adds `coef(θ) × factor` to a sum.
+fn push_term(sum: &mut Sum, coef: Coef, factor: TokenStream, sign: f64) {
+    match coef {
+        Coef::Const(c) => sum.push(sign * c, Some(factor)),
+        Coef::Field(k) => sum.push(sign, Some(quote!(c.#k * #factor))),
+    }
+}
+
+/// The factor a monomial stands for in generated code.
+fn mono_tokens(m: Mono) -> TokenStream {
+    match m {
+        Mono::X(j) => {
+            let x = format_ident!("x{}", j);
+            quote!(#x)
+        }
+        Mono::XX(i, j) => {
+            let p = format_ident!("x{}x{}", i, j);
+            quote!(#p)
+        }
+        Mono::U(j) => {
+            let u = format_ident!("u{}", j);
+            quote!(#u)
+        }
+    }
+}
+
+/// Renders one equation as a sum over its monomials.
+fn render_equation(eq: &Equation, coeffs: &mut Coeffs, sum: &mut Sum, sign: f64) {
+    for (&m, p) in eq {
+        push_term(sum, coeffs.intern(p), mono_tokens(m), sign);
+    }
+}
+
+/// `let x0x1 = x0 * x1;` for every product the equations use.
+fn product_lets(eqs: &[&Equation]) -> TokenStream {
+    let mut seen = std::collections::BTreeSet::new();
+    for eq in eqs {
+        for m in eq.keys() {
+            if let Mono::XX(i, j) = *m {
+                seen.insert((i, j));
+            }
+        }
+    }
+    seen.into_iter()
+        .map(|(i, j)| {
+            let p = format_ident!("x{}x{}", i, j);
+            let a = format_ident!("x{}", i);
+            let b = format_ident!("x{}", j);
+            quote!(let #p = #a * #b;)
+        })
+        .collect()
+}
+
+/// True if the identifier `name` occurs anywhere in `ts`.
+fn uses(ts: &TokenStream, name: &str) -> bool {
+    ts.clone().into_iter().any(|tt| match tt {
+        proc_macro2::TokenTree::Ident(i) => i == name,
+        proc_macro2::TokenTree::Group(g) => uses(&g.stream(), name),
+        _ => false,
+    })
+}
+
+/// `let [a, _, c] = *arr;` binding only the names `body` uses.
+fn destructure(arr: &Ident, prefix: &str, n: usize, body: &TokenStream) -> TokenStream {
+    let pats = (0..n).map(|i| {
+        let name = format!("{prefix}{i}");
+        if uses(body, &name) {
+            let id = Ident::new(&name, Span::call_site());
+            quote!(#id)
+        } else {
+            quote!(_)
+        }
+    });
+    quote!(let [#(#pats),*] = *#arr;)
+}
+
+/// A `[[f64; C]; R]` constant from a row-major slice.
+fn matrix_lit(rows: usize, cols: usize, data: &[f64]) -> TokenStream {
+    let rs = (0..rows).map(|i| {
+        let es = (0..cols).map(|j| lit(data.get(i * cols + j).copied().unwrap_or(0.0)));
+        quote!([#(#es),*])
+    });
+    quote!([#(#rs),*])
+}
+
+fn usize_lit(n: usize) -> Literal {
+    Literal::usize_unsuffixed(n)
+}
+
+/// Formats a number for documentation text.
+fn num(v: f64) -> String {
+    format!("{v}")
+}
+
+/// Emits the module for one model.
+pub fn emit(em: &EmitModel<'_>) -> TokenStream {
+    let m = em.model;
+    let name = Ident::new(&m.name, Span::call_site());
+    let nx = m.nx();
+    let ny = m.ny();
+    let nu = m.nu();
+    let nth = m.ntheta();
+    let ns = em.scheduling.len();
+    let nv = 1usize << ns;
+    let (nx_l, ny_l, nu_l, nth_l, nv_l) = (
+        usize_lit(nx),
+        usize_lit(ny),
+        usize_lit(nu),
+        usize_lit(nth),
+        usize_lit(nv),
+    );
+    let lo: Vec<TokenStream> = m.params.iter().map(|p| lit(p.lo)).collect();
+    let hi: Vec<TokenStream> = m.params.iter().map(|p| lit(p.hi)).collect();
+
+    let (state_eqs, out_eqs) = equations(m);
+    let mut coeffs = Coeffs::default();
+
+    // Plant: f(x, u, θ) and h(x, θ).
+    let plant_f: Vec<TokenStream> = state_eqs
+        .iter()
+        .map(|eq| {
+            let mut s = Sum::default();
+            render_equation(eq, &mut coeffs, &mut s, 1.0);
+            s.render()
+        })
+        .collect();
+    let plant_h: Vec<TokenStream> = out_eqs
+        .iter()
+        .map(|eq| {
+            let mut s = Sum::default();
+            render_equation(eq, &mut coeffs, &mut s, 1.0);
+            s.render()
+        })
+        .collect();
+    let state_products = product_lets(&state_eqs.iter().collect::<Vec<_>>());
+    let output_products = product_lets(&out_eqs.iter().collect::<Vec<_>>());
+
+    let primary_index = em.designs.iter().position(|d| d.certifies).unwrap_or(0) + 1;
+    let primary = format_ident!("design{}", primary_index);
+    // Designs first: they intern the same coefficients as the plant, so the
+    // `Coeffs` struct built below covers both.
+    let designs: Vec<TokenStream> = em
+        .designs
+        .iter()
+        .enumerate()
+        .map(|(i, d)| emit_design(em, d, i + 1, &state_eqs, &out_eqs, &mut coeffs))
+        .collect();
+
+    // The Coeffs struct: one field per distinct θ-dependent coefficient.
+    let kfields: Vec<Ident> = (0..coeffs.polys.len())
+        .map(|i| format_ident!("k{}", i))
+        .collect();
+    let kvalues: Vec<TokenStream> = coeffs
+        .polys
+        .iter()
+        .map(|p| {
+            let mut s = Sum::default();
+            for &(mask, c) in &p.terms {
+                if mask == 0 {
+                    s.push(c, None);
+                } else {
+                    let t = theta_mono(mask);
+                    s.push(c, Some(quote!(#t)));
+                }
+            }
+            s.render()
+        })
+        .collect();
+    let mono_lets: TokenStream = coeffs
+        .products()
+        .into_iter()
+        .map(|mask| {
+            let name = theta_mono(mask);
+            let factors: Vec<Ident> = (0..64usize)
+                .filter(|i| mask >> i & 1 == 1)
+                .map(|i| format_ident!("t{}", i))
+                .collect();
+            quote!(let #name = #(#factors)**;)
+        })
+        .collect();
+    let coeffs_body = quote! { #mono_lets Coeffs { #(#kfields: #kvalues),* } };
+    let theta_ident = format_ident!("theta");
+    let coeffs_destructure = destructure(&theta_ident, "t", nth, &coeffs_body);
+
+    // μ(θ) for a clamped θ: w_i = normalised position, v_i = 1 − w_i,
+    // vertex products built as a prefix tree (first parameter most significant).
+    let mut mu_lets = TokenStream::new();
+    for (i, &pi) in em.scheduling.iter().enumerate() {
+        let (plo, phi) = match m.params.get(pi) {
+            Some(p) => (p.lo, p.hi),
+            None => (0.0, 1.0),
+        };
+        let t = format_ident!("t{}", pi);
+        let w = format_ident!("w{}", i);
+        let v = format_ident!("v{}", i);
+        let num_expr = if plo == 0.0 {
+            quote!(#t)
+        } else {
+            let l = lit(plo);
+            quote!((#t - (#l)))
+        };
+        let w_expr = if phi - plo == 1.0 {
+            num_expr
+        } else {
+            let inv = lit(1.0 / (phi - plo));
+            quote!(#num_expr * #inv)
+        };
+        mu_lets.extend(quote! { let #w = #w_expr; let #v = 1.0 - #w; });
+    }
+    let mut level: Vec<(String, TokenStream)> = vec![(String::new(), quote!(1.0))];
+    for i in 0..ns {
+        let w = format_ident!("w{}", i);
+        let v = format_ident!("v{}", i);
+        let mut next = Vec::with_capacity(level.len() * 2);
+        for (bits, expr) in &level {
+            for (bit, f) in [("0", &v), ("1", &w)] {
+                let nb = format!("{bits}{bit}");
+                let e = if i == 0 {
+                    quote!(#f)
+                } else {
+                    quote!(#expr * #f)
+                };
+                if i + 1 < ns {
+                    let id = format_ident!("p{}", nb);
+                    mu_lets.extend(quote!(let #id = #e;));
+                    next.push((nb, quote!(#id)));
+                } else {
+                    next.push((nb, e));
+                }
+            }
+        }
+        level = next;
+    }
+    let mu_exprs: Vec<TokenStream> = level.into_iter().map(|(_, e)| e).collect();
+    let mu_body = quote! { #mu_lets [#(#mu_exprs),*] };
+    let mu_destructure = destructure(&theta_ident, "t", nth, &mu_body);
+
+    // clamp_theta: each component into [lo, hi]; NaN → lo.
+    let clamp_items: Vec<TokenStream> = (0..nth)
+        .map(|i| {
+            let th = format_ident!("th{}", i);
+            let (l, h) = (&lo[i], &hi[i]);
+            quote! {
+                if #th >= #l {
+                    if #th <= #h { #th } else { clamped = true; #h }
+                } else {
+                    clamped = true;
+                    #l
+                }
+            }
+        })
+        .collect();
+    let th_names: Vec<Ident> = (0..nth).map(|i| format_ident!("th{}", i)).collect();
+    let clamp_mut = if nth > 0 {
+        quote!(let mut clamped = false;)
+    } else {
+        quote!(let clamped = false;)
+    };
+
+    // Plant functions.
+    let x_ident = format_ident!("x");
+    let u_ident = format_ident!("u");
+    let plant_f_body = quote! { #state_products [#(#plant_f),*] };
+    let plant_h_body = quote! { #output_products [#(#plant_h),*] };
+    let pf_x = destructure(&x_ident, "x", nx, &plant_f_body);
+    let pf_u = destructure(&u_ident, "u", nu, &plant_f_body);
+    let ph_x = destructure(&x_ident, "x", nx, &plant_h_body);
+    let pf_c = if uses(&plant_f_body, "c") {
+        quote!(let c = super::coeffs(theta);)
+    } else {
+        quote!(let _ = theta;)
+    };
+    let ph_c = if uses(&plant_h_body, "c") {
+        quote!(let c = super::coeffs(theta);)
+    } else {
+        quote!(let _ = theta;)
+    };
+
+    let state_list = m.states.join(", ");
+    let output_list = m.outputs.join(", ");
+    let input_list = if m.inputs.is_empty() {
+        "none".to_string()
+    } else {
+        m.inputs.join(", ")
+    };
+    let param_list: Vec<String> = m
+        .params
+        .iter()
+        .map(|p| format!("{} ∈ [{}, {}]", p.name, num(p.lo), num(p.hi)))
+        .collect();
+    let param_list = if param_list.is_empty() {
+        "none".to_string()
+    } else {
+        param_list.join(", ")
+    };
+    let sched_list: Vec<&str> = em
+        .scheduling
+        .iter()
+        .filter_map(|&i| m.params.get(i).map(|p| p.name.as_str()))
+        .collect();
+    let mod_doc = format!(
+        " Generated by `qpv!` for model `{}`: states {state_list}; outputs {output_list}; \
+         inputs {input_list}; parameters {param_list}.\n\n \
+         The θ vector has one entry per declared parameter, in declaration order. \
+         The gain is scheduled over {nv} vertices (the corners of the box of {}), first \
+         parameter most significant, lo before hi.\n\n \
+         Designs: {} (`design{primary_index}`, the first certified one, is re-exported here; \
+         a paper-mode design only records that the paper's printed conditions hold — they \
+         certify nothing, so it gets no gain and no observer).\n\n \
+         θ outside its bounds: the observer, `mu` and `gain` clamp θ into Θ (a NaN \
+         component is replaced by its lower bound) and `Observer` counts the steps \
+         where that happened ([`Observer::clamped`]); the design is only certified inside Θ. \
+         The `plant` functions evaluate the equations at θ as given. NaN in x, y or u \
+         propagates into the result (never a panic).",
+        m.name,
+        if sched_list.is_empty() {
+            "no parameter".to_string()
+        } else {
+            sched_list.join(", ")
+        },
+        em.designs
+            .iter()
+            .enumerate()
+            .map(|(i, d)| format!("`design{}` ({}: {})", i + 1, d.mode, d.request))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+
+    quote! {
+        #[doc = #mod_doc]
+        #[allow(
+            non_snake_case,
+            clippy::approx_constant,
+            clippy::excessive_precision,
+            clippy::unreadable_literal,
+            clippy::too_many_arguments,
+            clippy::let_and_return,
+            clippy::just_underscores_and_digits,
+            clippy::neg_multiply,
+            clippy::double_neg
+        )]
+        pub mod #name {
+            /// Number of states.
+            pub const NX: usize = #nx_l;
+            /// Number of measured outputs.
+            pub const NY: usize = #ny_l;
+            /// Number of known inputs (0 for a model without inputs).
+            pub const NU: usize = #nu_l;
+            /// Number of declared parameters (length of θ).
+            pub const NTHETA: usize = #nth_l;
+            /// Number of vertices of the parameter box (gain-scheduling weights).
+            pub const NV: usize = #nv_l;
+            /// Lower bounds of θ, in declaration order.
+            pub const THETA_MIN: [f64; NTHETA] = [#(#lo),*];
+            /// Upper bounds of θ, in declaration order.
+            pub const THETA_MAX: [f64; NTHETA] = [#(#hi),*];
+
+            /// The worst margin of one family of design conditions (positive = satisfied).
+            #[derive(Clone, Copy, Debug, PartialEq)]
+            pub struct Margin {
+                /// The condition family, e.g. `S5 decay`.
+                pub family: &'static str,
+                /// Its worst margin, recomputed independently of the solver.
+                pub margin: f64,
+            }
+
+            /// The proof that travels with the code: what was requested, what was
+            /// certified, and by how much every condition family holds.
+            #[derive(Clone, Copy, Debug, PartialEq)]
+            pub struct Certificate {
+                /// The model's name.
+                pub model: &'static str,
+                /// The design request as written.
+                pub request: &'static str,
+                /// The condition set: `sound`, or `paper` (reproduction only).
+                pub mode: &'static str,
+                /// True if the conditions prove V' ≤ −αV on the certified set
+                /// (sound mode); false for a paper-mode reproduction.
+                pub certifies: bool,
+                /// Certified decay rate α of V = eᵀPe.
+                pub alpha: f64,
+                /// Certified region scaling γ.
+                pub gamma: f64,
+                /// Worst margin per condition family, all positive (recomputed by
+                /// the macro from the baked P and L_l).
+                pub margins: &'static [Margin],
+                /// The solver's final status for the accepted solve.
+                pub solver_status: &'static str,
+                /// Interior-point iterations of the accepted solve.
+                pub iterations: u32,
+            }
+
+            impl ::core::fmt::Display for Certificate {
+                fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
+                    ::core::writeln!(
+                        f,
+                        "model {}: {} ({} mode) alpha = {}, gamma = {}",
+                        self.model,
+                        if self.certifies { "certified" } else { "reproduction, certifies nothing" },
+                        self.mode,
+                        self.alpha,
+                        self.gamma
+                    )?;
+                    ::core::writeln!(f, "  request: {}", self.request)?;
+                    for m in self.margins {
+                        ::core::writeln!(f, "  {:<24} margin {:.3e}", m.family, m.margin)?;
+                    }
+                    ::core::write!(
+                        f,
+                        "  solver: {} after {} iterations",
+                        self.solver_status, self.iterations
+                    )
+                }
+            }
+
+            /// θ clamped into Θ = [THETA_MIN, THETA_MAX] (a NaN component becomes its
+            /// lower bound), and whether any component had to be changed.
+            #[inline]
+            pub fn clamp_theta(theta: &[f64; NTHETA]) -> ([f64; NTHETA], bool) {
+                let [#(#th_names),*] = *theta;
+                #clamp_mut
+                let t = [#(#clamp_items),*];
+                (t, clamped)
+            }
+
+            /// The scheduling weights μ_l(θ), l = 1..NV: non-negative, summing to 1
+            /// (θ is clamped into Θ first).
+            #[inline]
+            pub fn mu(theta: &[f64; NTHETA]) -> [f64; NV] {
+                mu_clamped(&clamp_theta(theta).0)
+            }
+
+            #[inline(always)]
+            fn mu_clamped(theta: &[f64; NTHETA]) -> [f64; NV] {
+                #mu_destructure
+                #mu_body
+            }
+
+            /// θ-dependent coefficients of the equations, each computed once.
+            #[derive(Clone, Copy)]
+            struct Coeffs {
+                #(#kfields: f64,)*
+            }
+
+            #[inline(always)]
+            fn coeffs(theta: &[f64; NTHETA]) -> Coeffs {
+                #coeffs_destructure
+                #coeffs_body
+            }
+
+            pub use self::#primary::{gain, Observer, ALPHA, CERTIFICATE, CERTIFIES, GAMMA, L, P};
+
+            #(#designs)*
+
+            /// The plant equations x' = A(θ)x + N(θ,x)x + B(θ)u, y = C(θ)x + M(θ,x)x,
+            /// for simulation and tests (θ used as given, not clamped).
+            pub mod plant {
+                use super::{NTHETA, NU, NX, NY};
+
+                /// x' = A(θ)x + N(θ,x)x + B(θ)u.
+                #[inline]
+                pub fn derivative(x: &[f64; NX], u: &[f64; NU], theta: &[f64; NTHETA]) -> [f64; NX] {
+                    #pf_c
+                    #pf_x
+                    #pf_u
+                    #plant_f_body
+                }
+
+                /// y = C(θ)x + M(θ,x)x.
+                #[inline]
+                pub fn output(x: &[f64; NX], theta: &[f64; NTHETA]) -> [f64; NY] {
+                    #ph_c
+                    #ph_x
+                    #plant_h_body
+                }
+            }
+        }
+    }
+}
+
+/// Emits `pub mod design<i>` with the certified constants, `gain` and `Observer`.
+fn emit_design(
+    em: &EmitModel<'_>,
+    d: &CertifiedDesign,
+    index: usize,
+    state_eqs: &[Equation],
+    out_eqs: &[Equation],
+    coeffs: &mut Coeffs,
+) -> TokenStream {
+    let m = em.model;
+    let nx = m.nx();
+    let ny = m.ny();
+    let nu = m.nu();
+    let nv = 1usize << em.scheduling.len();
+    let modname = format_ident!("design{}", index);
+
+    let alpha = lit(d.alpha);
+    let gamma = lit(d.gamma);
+    let p = matrix_lit(nx, nx, &d.p);
+    let l_vertices: Vec<TokenStream> = (0..nv)
+        .map(|l| match d.l.get(l) {
+            Some(lv) => matrix_lit(nx, ny, lv),
+            None => matrix_lit(nx, ny, &[]),
+        })
+        .collect();
+    let fam: Vec<TokenStream> = d
+        .margins
+        .iter()
+        .map(|(f, v)| {
+            let v = lit(*v);
+            quote!(super::Margin { family: #f, margin: #v })
+        })
+        .collect();
+    let (model_name, request, mode, status) = (&m.name, &d.request, &d.mode, &d.status);
+    let iterations = Literal::u32_unsuffixed(d.iterations);
+    let certifies = d.certifies;
+    let certificate = quote! {
+        /// The independent certificate of this design.
+        pub const CERTIFICATE: Certificate = Certificate {
+            model: #model_name,
+            request: #request,
+            mode: #mode,
+            certifies: #certifies,
+            alpha: ALPHA,
+            gamma: GAMMA,
+            margins: &[#(#fam),*],
+            solver_status: #status,
+            iterations: #iterations,
+        };
+    };
+    if !d.certifies {
+        let doc = format!(
+            " Design {index} of model `{model_name}` ({request}): a reproduction of the \
+             paper's printed conditions, which hold at alpha = {}, gamma = {} but certify \
+             nothing (spec §6). No gain and no observer are generated for it.",
+            num(d.alpha),
+            num(d.gamma)
+        );
+        return quote! {
+            #[doc = #doc]
+            pub mod #modname {
+                use super::Certificate;
+                /// False: this design proves nothing about convergence.
+                pub const CERTIFIES: bool = false;
+                /// α at which the printed conditions hold.
+                pub const ALPHA: f64 = #alpha;
+                /// γ at which the printed conditions hold.
+                pub const GAMMA: f64 = #gamma;
+                #certificate
+            }
+        };
+    }
+
+    // gain entries g_ko(μ) = Σ_l μ_l L_l[k][o]
+    let lval = |l: usize, k: usize, o: usize| -> f64 {
+        d.l.get(l)
+            .and_then(|lv| lv.get(k * ny + o))
+            .copied()
+            .unwrap_or(0.0)
+    };
+    let mu_ident = format_ident!("mu");
+    let g_exprs: Vec<Vec<TokenStream>> = (0..nx)
+        .map(|k| {
+            (0..ny)
+                .map(|o| {
+                    let mut s = Sum::default();
+                    if nv == 1 {
+                        s.push(lval(0, k, o), None);
+                    } else {
+                        for l in 0..nv {
+                            let ml = format_ident!("m{}", l);
+                            s.push(lval(l, k, o), Some(quote!(#ml)));
+                        }
+                    }
+                    s.render()
+                })
+                .collect()
+        })
+        .collect();
+    let g_rows: Vec<TokenStream> = g_exprs.iter().map(|r| quote!([#(#r),*])).collect();
+    let gains_body = quote!([#(#g_rows),*]);
+    let gains_mu = destructure(&mu_ident, "m", nv, &gains_body);
+
+    // Observer right-hand side: f(x̂, u) + G (y − h(x̂)).
+    let resid: Vec<TokenStream> = out_eqs
+        .iter()
+        .enumerate()
+        .map(|(o, eq)| {
+            let y = format_ident!("y{}", o);
+            let mut s = Sum::default();
+            s.push(1.0, Some(quote!(#y)));
+            render_equation(eq, coeffs, &mut s, -1.0);
+            let r = format_ident!("r{}", o);
+            let e = s.render();
+            quote!(let #r = #e;)
+        })
+        .collect();
+    let rows: Vec<TokenStream> = state_eqs
+        .iter()
+        .enumerate()
+        .map(|(k, eq)| {
+            let mut s = Sum::default();
+            render_equation(eq, coeffs, &mut s, 1.0);
+            for o in 0..ny {
+                let r = format_ident!("r{}", o);
+                let all_zero = (0..nv).all(|l| lval(l, k, o) == 0.0);
+                if all_zero {
+                    continue;
+                }
+                if nv == 1 {
+                    s.push(lval(0, k, o), Some(quote!(#r)));
+                } else {
+                    let g = format_ident!("g{}_{}", k, o);
+                    s.push(1.0, Some(quote!(#g * #r)));
+                }
+            }
+            if s.is_empty() {
+                quote!(0.0)
+            } else {
+                s.render()
+            }
+        })
+        .collect();
+    let all: Vec<&Equation> = state_eqs.iter().chain(out_eqs.iter()).collect();
+    let products = product_lets(&all);
+    let rhs_body = quote! { #products #(#resid)* [#(#rows),*] };
+    let x_ident = format_ident!("x");
+    let y_ident = format_ident!("y");
+    let u_ident = format_ident!("u");
+    let g_ident = format_ident!("g");
+    let rhs_x = destructure(&x_ident, "x", nx, &rhs_body);
+    let rhs_y = destructure(&y_ident, "y", ny, &rhs_body);
+    let rhs_u = destructure(&u_ident, "u", nu, &rhs_body);
+    let g_pats: Vec<TokenStream> = (0..nx)
+        .map(|k| {
+            let ps = (0..ny).map(|o| {
+                let name = format!("g{k}_{o}");
+                if nv > 1 && uses(&rhs_body, &name) {
+                    let id = Ident::new(&name, Span::call_site());
+                    quote!(#id)
+                } else {
+                    quote!(_)
+                }
+            });
+            quote!([#(#ps),*])
+        })
+        .collect();
+    let rhs_g = quote!(let [#(#g_pats),*] = *#g_ident;);
+    let rhs_c = if uses(&rhs_body, "c") {
+        quote!()
+    } else {
+        quote!(let _ = c;)
+    };
+
+    // RK4 and Euler combinations, unrolled.
+    let idx: Vec<usize> = (0..nx).collect();
+    let xs: Vec<Ident> = idx.iter().map(|i| format_ident!("x{}", i)).collect();
+    let k1: Vec<Ident> = idx.iter().map(|i| format_ident!("a{}", i)).collect();
+    let k2: Vec<Ident> = idx.iter().map(|i| format_ident!("b{}", i)).collect();
+    let k3: Vec<Ident> = idx.iter().map(|i| format_ident!("c{}", i)).collect();
+    let k4: Vec<Ident> = idx.iter().map(|i| format_ident!("d{}", i)).collect();
+
+    let doc = format!(
+        " Design {index} of model `{model_name}`: {request}. Certified alpha = {}, gamma = {}.",
+        num(d.alpha),
+        num(d.gamma)
+    );
+    let obs_doc = format!(
+        " The certified observer of model `{model_name}` (design {index}): \
+         x̂' = A(θ)x̂ + N(θ,x̂)x̂ + B(θ)u + L(θ)[y − C x̂ − M(x̂)x̂], fully unrolled.\n\n \
+         θ is clamped into Θ (NaN → lower bound) before use; `step_euler`/`step_rk4` count \
+         the steps where that happened ([`Observer::clamped`]). NaN in y or u propagates \
+         into the estimate; nothing here can panic or allocate."
+    );
+
+    quote! {
+        #[doc = #doc]
+        pub mod #modname {
+            use super::{Certificate, Coeffs, NTHETA, NU, NV, NX, NY};
+
+            /// Certified decay rate: V = eᵀPe satisfies V' ≤ −α V.
+            pub const ALPHA: f64 = #alpha;
+            /// Certified region scaling γ.
+            pub const GAMMA: f64 = #gamma;
+            /// The Lyapunov matrix P (symmetric positive definite).
+            pub const P: [[f64; NX]; NX] = #p;
+            /// The vertex gains L_l; L(θ) = Σ_l μ_l(θ) L_l.
+            pub const L: [[[f64; NY]; NX]; NV] = [#(#l_vertices),*];
+            /// True: the conditions prove V' ≤ −αV on the certified set.
+            pub const CERTIFIES: bool = true;
+            #certificate
+
+            /// The scheduled gain L(θ) = Σ_l μ_l(θ) L_l (θ clamped into Θ).
+            #[inline]
+            pub fn gain(theta: &[f64; NTHETA]) -> [[f64; NY]; NX] {
+                gains(&super::mu_clamped(&super::clamp_theta(theta).0))
+            }
+
+            #[inline(always)]
+            fn gains(mu: &[f64; NV]) -> [[f64; NY]; NX] {
+                #gains_mu
+                #gains_body
+            }
+
+            #[inline(always)]
+            fn rhs(
+                c: &Coeffs,
+                g: &[[f64; NY]; NX],
+                x: &[f64; NX],
+                y: &[f64; NY],
+                u: &[f64; NU],
+            ) -> [f64; NX] {
+                #rhs_c
+                #rhs_g
+                #rhs_x
+                #rhs_y
+                #rhs_u
+                #rhs_body
+            }
+
+            /// The θ-dependent data of one evaluation, and whether θ was clamped.
+            #[inline(always)]
+            fn schedule(theta: &[f64; NTHETA]) -> (Coeffs, [[f64; NY]; NX], bool) {
+                let (t, clamped) = super::clamp_theta(theta);
+                (super::coeffs(&t), gains(&super::mu_clamped(&t)), clamped)
+            }
+
+            #[doc = #obs_doc]
+            #[derive(Clone, Copy, Debug, PartialEq)]
+            pub struct Observer {
+                xhat: [f64; NX],
+                clamped: u64,
+            }
+
+            impl ::core::default::Default for Observer {
+                fn default() -> Self {
+                    Self::new()
+                }
+            }
+
+            impl Observer {
+                /// An observer with x̂(0) = 0.
+                pub const fn new() -> Self {
+                    Observer { xhat: [0.0; NX], clamped: 0 }
+                }
+
+                /// An observer with x̂(0) = `x0`.
+                pub fn with_state(x0: &[f64; NX]) -> Self {
+                    Observer { xhat: *x0, clamped: 0 }
+                }
+
+                /// The current estimate x̂.
+                #[inline]
+                pub fn estimate(&self) -> [f64; NX] {
+                    self.xhat
+                }
+
+                /// How many steps had θ outside Θ (or NaN) and clamped it.
+                #[inline]
+                pub fn clamped(&self) -> u64 {
+                    self.clamped
+                }
+
+                /// x̂' at the current estimate (eq. (9)), θ clamped into Θ.
+                #[inline]
+                pub fn derivative(&self, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) -> [f64; NX] {
+                    let (c, g, _) = schedule(theta);
+                    rhs(&c, &g, &self.xhat, y, u)
+                }
+
+                /// One explicit Euler step of length `dt` with y, u, θ held.
+                #[inline]
+                pub fn step_euler(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
+                    let (c, g, clamped) = schedule(theta);
+                    self.clamped = self.clamped.saturating_add(clamped as u64);
+                    let [#(#k1),*] = rhs(&c, &g, &self.xhat, y, u);
+                    let [#(#xs),*] = self.xhat;
+                    self.xhat = [#(#xs + dt * #k1),*];
+                }
+
+                /// One classical Runge–Kutta 4 step of length `dt` with y, u, θ held
+                /// over the step.
+                #[inline]
+                pub fn step_rk4(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
+                    let (c, g, clamped) = schedule(theta);
+                    self.clamped = self.clamped.saturating_add(clamped as u64);
+                    let h2 = 0.5 * dt;
+                    let h6 = dt / 6.0;
+                    let [#(#xs),*] = self.xhat;
+                    let [#(#k1),*] = rhs(&c, &g, &self.xhat, y, u);
+                    let [#(#k2),*] = rhs(&c, &g, &[#(#xs + h2 * #k1),*], y, u);
+                    let [#(#k3),*] = rhs(&c, &g, &[#(#xs + h2 * #k2),*], y, u);
+                    let [#(#k4),*] = rhs(&c, &g, &[#(#xs + dt * #k3),*], y, u);
+                    self.xhat = [#(#xs + h6 * (#k1 + 2.0 * #k2 + 2.0 * #k3 + #k4)),*];
+                }
+            }
+        }
+    }
+}

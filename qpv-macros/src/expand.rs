@@ -1,0 +1,385 @@
+//! The expansion pipeline: input → `qpv_dsl::parse` → polytopic model →
+//! for each design request: cache or solve → independent certificate → emit.
+//!
+//! The first error stops everything and becomes one `compile_error!` on the
+//! offending tokens (see [`crate::fallback`]).
+
+use crate::cache;
+use crate::emit::{self, CertifiedDesign, EmitModel};
+use crate::fallback::{self, Failure};
+use crate::input::{Input, Source};
+use proc_macro2::TokenStream;
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, Model, PolytopicModel};
+use qpv_solve::report::{matrix_to_rows, rows_to_matrix};
+use qpv_solve::{Design, Settings};
+use quote::quote;
+
+/// Expands one `qpv!` invocation.
+pub fn expand(tokens: TokenStream) -> TokenStream {
+    let input = match Input::from_tokens(tokens) {
+        Ok(i) => i,
+        Err(e) => return fallback::emit(&Failure::at(e.span, e.message), TokenStream::new()),
+    };
+    let mut out = TokenStream::new();
+    if let Source::File { absolute, .. } = &input.source {
+        // Makes cargo rebuild the calling crate when the model file changes.
+        let path = absolute.to_string_lossy().into_owned();
+        out.extend(quote!(
+            const _: &str = ::core::include_str!(#path);
+        ));
+    }
+    match models(&input) {
+        Ok(tokens) => out.extend(tokens),
+        Err((failure, stub)) => out.extend(fallback::emit(&failure, stub)),
+    }
+    out
+}
+
+/// A failure at the text range `start..end` of the input.
+fn failure_at(input: &Input, start: usize, end: usize, message: &str) -> Failure {
+    let (first, last) = input.spans(start, end);
+    Failure {
+        first,
+        last,
+        message: input.locate(start, message),
+    }
+}
+
+/// Parses the text and expands every model; the first error wins.
+fn models(input: &Input) -> Result<TokenStream, (Failure, TokenStream)> {
+    let models = qpv_dsl::parse(&input.text).map_err(|e| {
+        (
+            failure_at(input, e.span.start, e.span.end, &e.message),
+            TokenStream::new(),
+        )
+    })?;
+    if models.is_empty() {
+        return Err((
+            failure_at(input, 0, 0, "no model found: expected `model NAME { ... }`"),
+            TokenStream::new(),
+        ));
+    }
+    let mut out = TokenStream::new();
+    for model in &models {
+        out.extend(one_model(input, model)?);
+    }
+    Ok(out)
+}
+
+/// The request as the user wrote it, in words.
+pub fn describe(req: &DesignRequest) -> String {
+    let alpha = match req.alpha {
+        AlphaSpec::Fixed(a) => format!("{a}"),
+        AlphaSpec::Max => "max".into(),
+    };
+    let gamma = match req.gamma {
+        GammaSpec::Fixed(g) => format!("{g}"),
+        GammaSpec::Search => "search".into(),
+    };
+    let mode = mode_name(req.mode);
+    format!("alpha = {alpha}; gamma = {gamma}; mode = {mode}")
+}
+
+fn mode_name(m: Mode) -> &'static str {
+    match m {
+        Mode::Sound => "sound",
+        Mode::Paper => "paper",
+    }
+}
+
+/// Four significant digits for messages.
+fn sig(v: f64) -> String {
+    format!("{}", format!("{v:.4e}").parse::<f64>().unwrap_or(v))
+}
+
+/// Solver settings used by the macro (the library defaults).
+fn settings() -> Settings {
+    Settings::default()
+}
+
+/// Expands one model: its designs, then the module.
+fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, TokenStream)> {
+    let no_stub = TokenStream::new;
+    let at_name = |msg: &str| {
+        failure_at(
+            input,
+            model.span.start,
+            model.span.end,
+            &format!("model `{}`: {msg}", model.name),
+        )
+    };
+    if syn::parse_str::<syn::Ident>(&model.name).is_err() || model.name.starts_with("r#") {
+        return Err((
+            at_name(
+                "the model name must be a Rust identifier that is not a keyword: \
+                 it becomes the name of the generated module",
+            ),
+            no_stub(),
+        ));
+    }
+    if model.designs.is_empty() {
+        return Err((
+            at_name(
+                "no `design { ... }` block: qpv! synthesises an observer, add e.g. \
+                 `design { alpha = max; gamma = search; }`",
+            ),
+            no_stub(),
+        ));
+    }
+    let poly = model.polytopic();
+    if poly.nx() != model.nx() || poly.ny() != model.ny() || poly.nu() != model.nu() {
+        return Err((
+            at_name(
+                "the output equations depend on θ and were augmented with an output \
+                 filter; qpv! cannot generate code for augmented models yet (use the \
+                 `qpv` command line, or make C and M_k constant)",
+            ),
+            no_stub(),
+        ));
+    }
+
+    if model.designs.iter().all(|d| d.mode == Mode::Paper) {
+        let first = &model.designs[0];
+        return Err((
+            failure_at(
+                input,
+                first.span.start,
+                first.span.end,
+                &format!(
+                    "model `{}` has only paper-mode designs: they reproduce the published \
+                     conditions, which certify nothing, and qpv! only generates observers \
+                     from certified gains; add a sound design such as \
+                     `design {{ alpha = max; gamma = search; }}`{}",
+                    model.name,
+                    best_hint(&poly)
+                ),
+            ),
+            no_stub(),
+        ));
+    }
+
+    // The stub used if a design fails: the real API with zero data.
+    let stub = || {
+        let zero = CertifiedDesign {
+            request: String::new(),
+            mode: String::new(),
+            certifies: true,
+            alpha: 0.0,
+            gamma: 0.0,
+            p: vec![0.0; model.nx() * model.nx()],
+            l: vec![vec![0.0; model.nx() * model.ny()]; poly.nv()],
+            margins: Vec::new(),
+            status: String::new(),
+            iterations: 0,
+        };
+        emit::emit(&EmitModel {
+            model,
+            scheduling: poly.scheduling.clone(),
+            designs: vec![zero; model.designs.len()],
+        })
+    };
+
+    let mut designs = Vec::with_capacity(model.designs.len());
+    for req in &model.designs {
+        let fail = |msg: String| {
+            (
+                failure_at(input, req.span.start, req.span.end, &msg),
+                stub(),
+            )
+        };
+        designs.push(one_design(model, &poly, req).map_err(fail)?);
+    }
+    Ok(emit::emit(&EmitModel {
+        model,
+        scheduling: poly.scheduling.clone(),
+        designs,
+    }))
+}
+
+/// A row-major slice as rows of `cols` entries.
+fn rows(data: &[f64], cols: usize) -> Vec<Vec<f64>> {
+    data.chunks(cols.max(1)).map(<[f64]>::to_vec).collect()
+}
+
+/// The cached or freshly solved design for one request, independently
+/// certified; or the message of the compile error.
+fn one_design(
+    model: &Model,
+    poly: &PolytopicModel,
+    req: &DesignRequest,
+) -> Result<CertifiedDesign, String> {
+    let request = describe(req);
+    let (nx, ny, nv) = (model.nx(), model.ny(), poly.nv());
+    let settings = settings();
+    let key = cache::key(poly, req, &format!("{settings:?}"));
+
+    // A cache hit is re-certified, never trusted blindly.
+    if let Some(e) = cache::load(&key) {
+        if e.p.len() == nx * nx && e.l.len() == nv && e.l.iter().all(|l| l.len() == nx * ny) {
+            let p = rows_to_matrix(&rows(&e.p, nx));
+            let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
+            let cert = qpv_solve::check(poly, req.mode, e.alpha, e.gamma, &p, &ls);
+            if cert.passed {
+                return Ok(CertifiedDesign {
+                    request,
+                    mode: mode_name(req.mode).into(),
+                    certifies: req.mode == Mode::Sound,
+                    alpha: e.alpha,
+                    gamma: e.gamma,
+                    p: e.p,
+                    l: e.l,
+                    margins: cert
+                        .families
+                        .iter()
+                        .map(|f| (f.name.clone(), f.margin))
+                        .collect(),
+                    status: e.status,
+                    iterations: e.iterations,
+                });
+            }
+        }
+    }
+
+    let design = qpv_solve::design(poly, req, &settings)
+        .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?;
+    let accepted = match req.mode {
+        Mode::Sound => design.feasible && design.certifies,
+        Mode::Paper => design.feasible,
+    };
+    if !accepted {
+        return Err(not_certified(&request, &design, poly));
+    }
+    let p = design.p_matrix();
+    let ls = design.l_matrices();
+    let shapes_ok = p.nrows() == nx
+        && p.ncols() == nx
+        && ls.len() == nv
+        && ls.iter().all(|l| l.nrows() == nx && l.ncols() == ny);
+    if !shapes_ok {
+        return Err(format!(
+            "design `{request}`: the solver returned matrices of unexpected size \
+             (an internal error; please report it)"
+        ));
+    }
+    // The solver already certified; the macro checks again itself, on exactly
+    // the numbers it is about to bake.
+    let cert = qpv_solve::check(poly, req.mode, design.alpha, design.gamma, &p, &ls);
+    let finite = p
+        .iter()
+        .chain(ls.iter().flat_map(|l| l.iter()))
+        .all(|v| v.is_finite());
+    if !cert.passed || !finite {
+        let worst = cert
+            .families
+            .iter()
+            .filter(|f| !f.passed)
+            .map(|f| format!("{} margin {}", f.name, sig(f.margin)))
+            .collect::<Vec<_>>()
+            .join(", ");
+        return Err(format!(
+            "design `{request}`: the solver's point did not pass the macro's own \
+             certificate check ({worst}); not baked"
+        ));
+    }
+    let entry = cache::Entry {
+        alpha: design.alpha,
+        gamma: design.gamma,
+        status: design.solver.detail.clone(),
+        iterations: design.solver.iterations,
+        p: matrix_to_rows(&p).concat(),
+        l: ls.iter().map(|l| matrix_to_rows(l).concat()).collect(),
+    };
+    cache::store(&key, &entry);
+    Ok(CertifiedDesign {
+        request,
+        mode: mode_name(req.mode).into(),
+        certifies: req.mode == Mode::Sound,
+        alpha: entry.alpha,
+        gamma: entry.gamma,
+        p: entry.p,
+        l: entry.l,
+        margins: cert
+            .families
+            .iter()
+            .map(|f| (f.name.clone(), f.margin))
+            .collect(),
+        status: entry.status,
+        iterations: entry.iterations,
+    })
+}
+
+/// The best certified sound design of a model, for error messages: a full
+/// α = max / γ = search run.
+fn best_certified(poly: &PolytopicModel) -> Option<(f64, f64)> {
+    let req = DesignRequest {
+        alpha: AlphaSpec::Max,
+        gamma: GammaSpec::Search,
+        mode: Mode::Sound,
+        span: Default::default(),
+    };
+    let d = qpv_solve::design(poly, &req, &settings()).ok()?;
+    (d.feasible && d.certifies).then_some((d.alpha, d.gamma))
+}
+
+fn best_hint(poly: &PolytopicModel) -> String {
+    match best_certified(poly) {
+        Some((a, g)) => format!(
+            " (the best certified sound design of this model is alpha = {}, gamma = {})",
+            sig(a),
+            sig(g)
+        ),
+        None => " (no sound design of this model could be certified)".into(),
+    }
+}
+
+/// The message for a design that was not certified: the request, the best
+/// certified (α, γ) if any, and the failing condition families with margins.
+fn not_certified(request: &str, d: &Design, poly: &PolytopicModel) -> String {
+    let mut failing: Vec<String> = d
+        .data_checks
+        .iter()
+        .filter(|(_, c)| c.required && !c.passed)
+        .map(|(name, c)| format!("{name} ({}) margin {}", c.description, sig(c.margin)))
+        .collect();
+    failing.extend(
+        d.margins
+            .iter()
+            .filter(|(_, m)| **m <= 0.0)
+            .map(|(name, m)| format!("{name} margin {}", sig(*m))),
+    );
+    let why = if failing.is_empty() {
+        format!(
+            "the solver found no certified point (status: {}{})",
+            d.solver.status,
+            if d.solver.detail.is_empty() {
+                String::new()
+            } else {
+                format!(", {}", d.solver.detail)
+            }
+        )
+    } else {
+        format!("failing: {}", failing.join("; "))
+    };
+    // Best certified point inside this request's own search, else a full search.
+    let own = d
+        .search
+        .iter()
+        .filter(|s| s.certified)
+        .map(|s| (s.alpha_certified.max(s.alpha), s.gamma))
+        .fold(None, |best: Option<(f64, f64)>, p| match best {
+            Some(b) if b.0 >= p.0 => Some(b),
+            _ => Some(p),
+        });
+    let best = match own {
+        Some((a, g)) => format!(
+            "; best certified for this request: alpha = {}, gamma = {}",
+            sig(a),
+            sig(g)
+        ),
+        None => best_hint(poly)
+            .replacen(" (", "; ", 1)
+            .trim_end_matches(')')
+            .to_string(),
+    };
+    format!("design `{request}` is not certified: {why}{best}; no gain was baked")
+}
