@@ -78,7 +78,11 @@ impl fmt::Display for Error {
             .take(self.column.saturating_sub(1))
             .map(|c| if c == '\t' { '\t' } else { ' ' })
             .collect();
-        write!(f, "  | {pad}^")
+        // underline the span as far as it stays on this line
+        let rest = self.excerpt.chars().count().saturating_sub(self.column - 1);
+        let width = self.span.end.saturating_sub(self.span.start);
+        let carets = "^".repeat(width.min(rest).max(1));
+        write!(f, "  | {pad}{carets}")
     }
 }
 

@@ -113,11 +113,10 @@ pub(crate) fn outputs(src: &str, names: &Names, eqs: &[Poly], split: Split) -> R
                     return Err(Diag::new(
                         term.span,
                         format!(
-                            "`{label}` depends on the input `{}` ({}): direct feedthrough (y = ... + D u) \
+                            "`{label}` depends on the input `{}`: direct feedthrough (y = ... + D u) \
                              is not supported; subtract D u from the measurement and give the \
                              observer y − D u instead",
-                            names.inputs[*u],
-                            quote(src, term.span)
+                            names.inputs[*u]
                         ),
                     ))
                 }

@@ -419,9 +419,8 @@ fn divisor(v: &Poly, span: Span, scope: &Scope<'_>) -> Result<f64, Diag> {
     Err(Diag::new(
         span,
         format!(
-            "division by {what} in {}: only division by constant numbers is allowed \
-             (the result would not be multi-affine in the parameters)",
-            quote(scope.src, span)
+            "division by {what}: only division by constant numbers is allowed \
+             (the result would not be multi-affine in the parameters)"
         ),
     ))
 }

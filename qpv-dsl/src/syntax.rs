@@ -482,14 +482,14 @@ fn want(rule: Rule) -> Option<Want> {
 
 fn want_text(w: Want) -> &'static str {
     match w {
-        Want::Model => "`model`",
+        Want::Model => "a model `model NAME { ... }`",
         Want::Statement => {
             "a statement (`state`, `input`, `output`, `param`, `der`, `out`, `region`, \
              `state_bound`, `design` or a matrix such as `A = [...]`)"
         }
         Want::DesignKey => "a design setting (`alpha`, `gamma` or `mode`)",
         Want::Name => "a name",
-        Want::Expression => "a number, a name or `(`",
+        Want::Expression => "an expression (a number, a name or `(`)",
         Want::Exponent => "a whole-number exponent",
         Want::Operator => "an operator (`+ - * / ^`)",
         Want::Token(t) => t,

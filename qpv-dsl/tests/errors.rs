@@ -1,0 +1,154 @@
+//! A table of bad inputs: each must fail at the right line and column with a
+//! message that says what is wrong and what was expected (never a grammar
+//! rule name).
+
+use qpv_dsl::parse;
+
+const BASE: &str = "model m {
+    state x1, x2;
+    output y;
+    param th in [0, 1];
+    A = [-1, th; 0, -2];
+    C = [1, 0];
+    region box(1);
+}
+";
+
+/// (what, input, line, column, expected text of the error at that point,
+/// a fragment of the message)
+fn cases() -> Vec<(&'static str, String, usize, usize, &'static str, &'static str)> {
+    let r = |from: &str, to: &str| {
+        assert!(BASE.contains(from), "{from}");
+        BASE.replacen(from, to, 1)
+    };
+    vec![
+        ("missing comma", r("x1, x2", "x1 x2"), 2, 14, "x2", "expected `,` or `;`, found `x2`"),
+        ("typo in keyword", r("state x1", "stat x1"), 2, 5, "stat", "unknown statement `stat`: did you mean `state`?"),
+        ("unknown statement", r("state x1", "foo x1"), 2, 5, "foo", "unknown statement `foo`"),
+        ("unterminated model", r("}\n", ""), 8, 1, "", "the `{` at 1:9 is never closed"),
+        ("unterminated matrix", r("0, -2]", "0, -2"), 6, 7, "=", "expected an operator (`+ - * / ^`), `,`, `;` or `]`, found `=`"),
+        ("short row", r("[-1, th; 0, -2]", "[-1, th; 0]"), 5, 18, "0", "row 2 of A has 1 entry, expected 2 (one per state)"),
+        ("too few rows", r("[-1, th; 0, -2]", "[-1, th]"), 5, 9, "[-1, th]", "A must have 2 rows (one per state), found 1"),
+        ("wrong C width", r("C = [1, 0]", "C = [1, 0, 0]"), 6, 10, "1, 0, 0", "row 1 of C has 3 entries, expected 2 (one per state)"),
+        ("unknown parameter", r("-1, th;", "-1, th2;"), 5, 14, "th2", "unknown name `th2` in an entry of A: expected a declared parameter or a number (did you mean `th`?)"),
+        ("th*th", r("-1, th;", "-1, th*th;"), 5, 14, "th*th", "not multi-affine in the parameters: it contains the term th^2"),
+        ("th^2", r("-1, th;", "-1, 2 + th^2;"), 5, 18, "th^2", "`th^2` is not multi-affine"),
+        ("division by parameter", r("-1, th;", "-1, 1/th;"), 5, 16, "th", "division by the parameter `th`: only division by constant numbers"),
+        ("division by zero", r("-1, th;", "-1, 1/(2-2);"), 5, 16, "(2-2)", "division by zero"),
+        ("state in a matrix", r("-1, th;", "-1, x1;"), 5, 14, "x1", "state `x1` cannot appear in an entry of A"),
+        ("implicit multiplication", r("-1, th;", "-1, 2th;"), 5, 15, "th", "(write multiplication explicitly, e.g. `2*x1`)"),
+        ("dangling operator", r("-1, th;", "-1, 1 +;"), 5, 17, ";", "expected an expression (a number, a name or `(`), found `;`"),
+        ("junk character", r("-1, th;", "-1, $;"), 5, 14, "$", "found `$`"),
+        ("nested brackets", r("[-1, th; 0, -2]", "[[-1, th], [0, -2]]"), 5, 10, "[", "matrix rows are separated by `;`"),
+        ("non-ASCII name", r("[0, 1]", "[0, θ]"), 4, 21, "θ", "names use ASCII letters"),
+        ("empty bounds", r("[0, 1]", "[1, 1]"), 4, 17, "[1, 1]", "empty parameter range [1, 1]"),
+        ("reversed bounds", r("[0, 1]", "[1, 0]"), 4, 17, "[1, 0]", "reversed parameter range [1, 0]: the lower bound comes first, write [0, 1]"),
+        ("parameter in a bound", r("[0, 1]", "[0, th]"), 4, 21, "th", "parameter `th` cannot appear in a parameter bound: a constant number is expected"),
+        ("huge number", r("[0, 1]", "[0, 1e999]"), 4, 21, "1e999", "the number `1e999` is too large"),
+        ("bad exponent", r("-1, th;", "-1, th^0.5;"), 5, 17, "0.5", "the exponent of `^` must be a whole number"),
+        ("duplicate name", r("output y;", "output y, x1;"), 3, 15, "x1", "`x1` is already declared as a state at 2:11"),
+        ("duplicate matrix", r("C = [1, 0];", "C = [1, 0]; A = [1, 0; 0, 1];"), 6, 17, "A", "A is defined twice (first at 5:5)"),
+        ("unknown matrix", r("C = [1, 0];", "C = [1, 0]; Q = [1, 0; 0, 1];"), 6, 17, "Q", "unknown matrix `Q`: expected A, B, C, N1..N2 or M1 (the state bound is written `state_bound Q = [...];`)"),
+        ("N out of range", r("C = [1, 0];", "C = [1, 0]; N3 = 0;"), 6, 17, "N3", "`N3` does not exist: the model has 2 states, so N1..N2"),
+        ("missing N_k", r("C = [1, 0];", "C = [1, 0]; N1 = [1, 0; 0, 0];"), 6, 17, "N1", "N2 is missing (N1 given): give all of N1..N2"),
+        ("N as a non-zero scalar", r("C = [1, 0];", "C = [1, 0]; N1 = 0; N2 = 1;"), 6, 30, "1", "N2 must be a matrix `[...]` of size 2×2; only `0` may stand for a whole (zero) matrix"),
+        ("theta-dependent C", r("C = [1, 0]", "C = [1, th]"), 6, 13, "th", "C depends on the parameters: entry (1, 2) is th"),
+        ("theta-dependent M", r("C = [1, 0];", "C = [1, 0]; M1 = [0, 2*th; 0, 0];"), 6, 26, "2*th", "output post-filter augmentation"),
+        ("B without inputs", r("C = [1, 0];", "C = [1, 0]; B = [1; 0];"), 6, 17, "B", "B is given but the model declares no inputs"),
+        ("inputs without B", r("output y;", "output y; input u;"), 1, 7, "m", "declares inputs (u) but gives no `B = [...];` (2×1)"),
+        ("no states", r("state x1, x2;", ""), 1, 7, "m", "model `m` declares no states"),
+        ("no outputs", r("output y;", ""), 1, 7, "m", "model `m` declares no outputs"),
+        ("no dynamics", r("A = [-1, th; 0, -2];", ""), 1, 7, "m", "model `m` has no dynamics"),
+        ("no region", r("region box(1);", ""), 1, 7, "m", "model `m` has no region"),
+        ("two regions", r("region box(1);", "region box(1); region box(2);"), 7, 20, "region box(2);", "the region is given twice (first at 7:5)"),
+        ("negative radius", r("box(1)", "box(-1)"), 7, 16, "-1", "a box radius must be positive, found -1"),
+        ("wrong number of radii", r("box(1)", "box([1, 2, 3])"), 7, 16, "[1, 2, 3]", "box radii: expected 2 values (one per state), found 3"),
+        ("origin outside", r("region box(1);", "region vertices [1, 0; 0, 1; 1, 1];"), 7, 21, "[1, 0; 0, 1; 1, 1]", "the origin must lie strictly inside the region"),
+        ("unbounded", r("region box(1);", "region halfspaces [1, 0; -1, 0; 0, 1];"), 7, 23, "[1, 0; -1, 0; 0, 1]", "the region is unbounded"),
+        ("vertex of wrong size", r("region box(1);", "region vertices [1, 0; 0, 1, 2; -1, -1];"), 7, 28, "0, 1, 2", "vertex 2 has 3 coordinates, expected 2 (one per state)"),
+        ("state in the region", r("box(1)", "box(x1)"), 7, 16, "x1", "state `x1` cannot appear in the region: a constant number is expected"),
+        ("unsymmetric Q", r("region box(1);", "region box(1); state_bound Q = [1, 2; 3, 4];"), 7, 43, "3", "Q must be symmetric: entry (2, 1) is 3 but entry (1, 2) is 2"),
+        ("indefinite Q", r("region box(1);", "region box(1); state_bound Q = [1, 2; 2, 1];"), 7, 36, "[1, 2; 2, 1]", "Q must be positive definite"),
+        ("Q of wrong size", r("region box(1);", "region box(1); state_bound Q = [1];"), 7, 37, "1", "row 1 of Q has 1 entry, expected 2"),
+        ("state bound not named Q", r("region box(1);", "region box(1); state_bound P = [1, 0; 0, 1];"), 7, 32, "P", "expected `Q` (write `state_bound Q = [...]`), found `P`"),
+        ("unknown design key", r("region box(1);", "region box(1); design { alpha = 10; beta = 2; }"), 7, 41, "beta", "unknown design setting `beta`: expected `alpha`, `gamma` or `mode`"),
+        ("design key typo", r("region box(1);", "region box(1); design { gama = 0.5; }"), 7, 29, "gama", "(did you mean `gamma`?)"),
+        ("duplicate design key", r("region box(1);", "region box(1); design { mode = paper; mode = sound; }"), 7, 43, "mode", "`mode` is set twice in this design block"),
+        ("negative alpha", r("region box(1);", "region box(1); design { alpha = -1; }"), 7, 37, "-1", "`alpha` must be a positive number or `max`, found `-1`"),
+        ("gamma out of range", r("region box(1);", "region box(1); design { gamma = 1; }"), 7, 37, "1", "`gamma` must be a number strictly between 0 and 1 or `search`, found `1`"),
+        ("unknown mode", r("region box(1);", "region box(1); design { mode = fast; }"), 7, 36, "fast", "`mode` must be `sound` or `paper`, found `fast`"),
+        ("unterminated design", r("region box(1);\n}\n", "region box(1); design { alpha = 1;\n"), 8, 1, "", "expected a design setting (`alpha`, `gamma` or `mode`) or `}`, found the end of the input (the `{` at 7:27 is never closed)"),
+        ("constant term", r("A = [-1, th; 0, -2];", "der x1 = -x1 + th*x2; der x2 = -2*x2 + 5;"), 5, 44, "5", "`der x2` has a constant term (`5`)"),
+        ("parameter-only term", r("A = [-1, th; 0, -2];", "der x1 = -x1 + th; der x2 = -2*x2;"), 5, 20, "th", "`der x1` has the term th without a state"),
+        ("cubic term", r("A = [-1, th; 0, -2];", "der x1 = -x1 + x1*x2*x1; der x2 = -2*x2;"), 5, 20, "x1*x2*x1", "of degree 3 in the states"),
+        ("input times state", r("A = [-1, th; 0, -2];", "der x1 = -x1 + u*x1; der x2 = -2*x2;").replace("output y;", "output y; input u;"), 5, 20, "u*x1", "input `u` multiplied by state `x1`: inputs may only enter linearly"),
+        ("missing der", r("A = [-1, th; 0, -2];", "der x1 = -x1 + th*x2;"), 1, 7, "m", "no equation for the state `x2`: add `der x2 = ...;`"),
+        ("duplicate der", r("A = [-1, th; 0, -2];", "der x1 = -x1; der x2 = -x2; der x1 = x2;"), 5, 37, "x1", "`der x1` is given twice (first at 5:5)"),
+        ("der of unknown state", r("A = [-1, th; 0, -2];", "der x1 = -x1; der x3 = -x2;"), 5, 23, "x3", "`der x3`: `x3` is not a declared state"),
+        ("der of an output", r("A = [-1, th; 0, -2];", "der x1 = -x1; der y = -x2;"), 5, 23, "y", "`der y`: `y` is an output, not a state (write `out y = ...;` for an output)"),
+        ("mixed forms", r("C = [1, 0];", "C = [1, 0]; der x1 = -x1; der x2 = -x2;"), 5, 5, "A", "A is given as a matrix, but the dynamics are also written as equations"),
+        ("output used in an expression", r("A = [-1, th; 0, -2];", "der x1 = -y; der x2 = -x2;"), 5, 15, "y", "`y` is an output: outputs cannot appear in expressions"),
+        ("feedthrough", r("C = [1, 0];", "out y = x1 + u;").replace("output y;", "output y; input u;").replace("A = [-1, th; 0, -2];", "A = [-1, th; 0, -2]; B = [1; 0];"), 6, 18, "u", "direct feedthrough"),
+        ("theta in out equation", r("C = [1, 0];", "out y = x1 + th*x2;"), 6, 18, "th*x2", "C depends on the parameters: entry (1, 2) is th"),
+        ("unterminated comment", BASE.to_string() + "/* open", 9, 1, "/*", "unterminated comment: `/*` has no closing `*/`"),
+        ("empty input", String::new(), 1, 1, "", "expected a model `model NAME { ... }`, found the end of the input"),
+        ("junk after a model", BASE.to_string() + "junk", 9, 1, "junk", "expected a model `model NAME { ... }` or the end of the input, found `junk`"),
+        ("keyword as a name", r("state x1, x2;", "state x1, in;"), 2, 15, "in", "expected a name, found the keyword `in`"),
+        ("duplicate model", BASE.to_string() + BASE, 9, 7, "m", "a model named `m` is already defined at 1:7"),
+        ("deep nesting", r("-1, th;", &format!("-1, {}1{};", "(".repeat(70), ")".repeat(70))), 5, 76, "(", "brackets nested too deeply"),
+    ]
+}
+
+#[test]
+fn error_table() {
+    let mut failures = Vec::new();
+    for (what, src, line, col, at, fragment) in cases() {
+        match parse(&src) {
+            Ok(_) => failures.push(format!("{what}: parsed without error")),
+            Err(e) => {
+                let text = &src[e.span.start..e.span.end];
+                let ok = e.line == line
+                    && e.column == col
+                    && (at.is_empty() || text == at)
+                    && e.message.contains(fragment)
+                    && !e.message.contains("Rule")
+                    && !e.message.contains("kw_")
+                    && !e.message.contains("_decl");
+                if !ok {
+                    failures.push(format!(
+                        "{what}: got {}:{} on `{text}` (want {line}:{col} on `{at}`)\n   {}\n   want: {fragment}",
+                        e.line, e.column, e.message
+                    ));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{} of {} cases failed:\n{}", failures.len(), cases().len(), failures.join("\n"));
+}
+
+#[test]
+fn display_has_position_excerpt_and_caret() {
+    let e = parse(&BASE.replacen("-1, th;", "-1, th2;", 1)).unwrap_err();
+    let shown = e.to_string();
+    assert_eq!(
+        shown,
+        "5:14: unknown name `th2` in an entry of A: expected a declared parameter or a number (did you mean `th`?)\n  |     A = [-1, th2; 0, -2];\n  |              ^^^"
+    );
+}
+
+#[test]
+fn warnings_are_positioned() {
+    let src = BASE
+        .replacen("param th in [0, 1];", "param th in [0, 1]; param unused in [0, 1];", 1)
+        .replacen("region box(1);", "region vertices [1, 0; 0, 1; -1, -1; 0.1, 0.1]; state_bound Q = [0.5, 0; 0, 0.5];", 1);
+    let m = parse(&src).unwrap().remove(0);
+    let msgs: Vec<(&str, &str)> = m
+        .warnings
+        .iter()
+        .map(|w| (&src[w.span.start..w.span.end], w.message.as_str()))
+        .collect();
+    assert_eq!(msgs.len(), 3, "{msgs:?}");
+    assert!(msgs.iter().any(|(at, msg)| *at == "0.1, 0.1" && msg.contains("vertex 4 is not a vertex")));
+    assert!(msgs.iter().any(|(at, msg)| *at == "unused" && msg.contains("appears in no matrix")));
+    assert!(msgs.iter().any(|(at, msg)| at.starts_with("state_bound") && msg.contains("xᵀQ⁻¹x = 4.0000 > 1")));
+}
