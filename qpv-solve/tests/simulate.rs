@@ -468,3 +468,48 @@ fn lyapunov_values_follow_the_error() {
     }
     assert_eq!(traj.lyapunov(&DMatrix::identity(2, 2)), None);
 }
+
+fn parse_one(src: &str) -> PolytopicModel {
+    let models = qpv_dsl::parse(src).unwrap();
+    assert_eq!(models.len(), 1);
+    models[0].polytopic()
+}
+
+#[test]
+fn parsed_paper_example_simulates_like_the_hand_built_model() {
+    let parsed = parse_one(include_str!("../../examples/paper.qpv"));
+    let model = paper_model();
+    assert_eq!(parsed.vertices.len(), 4);
+    for (p, m) in parsed.vertices.iter().zip(&model.vertices) {
+        assert_eq!((&p.theta, &p.a, &p.n), (&m.theta, &m.a, &m.n));
+    }
+    assert_eq!((&parsed.c, &parsed.m), (&model.c, &model.m));
+    assert_eq!(parsed.state_bound, model.state_bound);
+
+    let base = DMatrix::from_row_slice(3, 2, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+    let gains: Vec<DMatrix<f64>> = (1..=4).map(|l| &base * l as f64).collect();
+    let a = simulate(&parsed, &gains, &Scenario::paper(&parsed)).unwrap();
+    let b = simulate(&model, &gains, &Scenario::paper(&model)).unwrap();
+    assert_eq!(a, b);
+}
+
+#[test]
+fn every_example_model_runs_its_default_scenario() {
+    for src in [
+        include_str!("../../examples/paper.qpv"),
+        include_str!("../../examples/paper_equations.qpv"),
+        include_str!("../../examples/lorenz.qpv"),
+        include_str!("../../examples/lotka_volterra.qpv"),
+        include_str!("../../examples/van_de_vusse.qpv"),
+    ] {
+        for model in qpv_dsl::parse(src).unwrap() {
+            let p = model.polytopic();
+            let traj = simulate(&p, &zero_gains(&p), &Scenario::default_for(&p)).unwrap();
+            assert!(!traj.is_empty(), "{}", p.name);
+            assert_eq!(traj.x[0], Scenario::default_for(&p).x0, "{}", p.name);
+            if traj.diverged_at.is_none() {
+                assert_eq!(traj.len(), 2001, "{}", p.name);
+            }
+        }
+    }
+}
