@@ -413,7 +413,14 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
                 .filter(|i| mask >> i & 1 == 1)
                 .map(|i| format_ident!("t{}", i))
                 .collect();
-            quote!(let #name = #(#factors)**;)
+            let mut product = TokenStream::new();
+            for (i, f) in factors.iter().enumerate() {
+                if i > 0 {
+                    product.extend(quote!(*));
+                }
+                product.extend(quote!(#f));
+            }
+            quote!(let #name = #product;)
         })
         .collect();
     let coeffs_body = quote! { #mono_lets Coeffs { #(#kfields: #kvalues),* } };
@@ -458,7 +465,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
                 } else {
                     quote!(#expr * #f)
                 };
-                if i + 1 < ns {
+                if i > 0 && i + 1 < ns {
                     let id = format_ident!("p{}", nb);
                     mu_lets.extend(quote!(let #id = #e;));
                     next.push((nb, quote!(#id)));
@@ -596,7 +603,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
             /// The worst margin of one family of design conditions (positive = satisfied).
             #[derive(Clone, Copy, Debug, PartialEq)]
             pub struct Margin {
-                /// The condition family, e.g. `S5 decay`.
+                /// The condition family: `S1`, `S2`, `S3`, `S5` (sound) or `S1`, `13`, `14`, `26` (paper).
                 pub family: &'static str,
                 /// Its worst margin, recomputed independently of the solver.
                 pub margin: f64,

@@ -61,9 +61,22 @@ fn models(input: &Input) -> Result<TokenStream, (Failure, TokenStream)> {
     }
     let mut out = TokenStream::new();
     for model in &models {
-        out.extend(one_model(input, model)?);
+        let tokens = one_model(input, model)?;
+        dump(&model.name, &tokens);
+        out.extend(tokens);
     }
     Ok(out)
+}
+
+/// With `QPV_DUMP_DIR` set, writes the generated module of each model to
+/// `<dir>/<model>.rs` (one line of tokens; run rustfmt on it) for review.
+fn dump(name: &str, tokens: &TokenStream) {
+    if let Some(dir) = std::env::var_os("QPV_DUMP_DIR") {
+        let dir = std::path::PathBuf::from(dir);
+        if std::fs::create_dir_all(&dir).is_ok() {
+            let _ = std::fs::write(dir.join(format!("{name}.rs")), tokens.to_string());
+        }
+    }
 }
 
 /// The request as the user wrote it, in words.

@@ -142,7 +142,7 @@ impl Input {
     fn print(&mut self, tokens: TokenStream) {
         let mut joint = false;
         for tt in tokens {
-            if !self.text.is_empty() && !joint {
+            if !joint && !self.text.is_empty() && !self.text.ends_with(' ') {
                 self.text.push(' ');
             }
             joint = false;
@@ -159,9 +159,6 @@ impl Input {
                     }
                     let inner = g.stream();
                     let empty = inner.is_empty();
-                    if !open.is_empty() && !empty {
-                        self.text.push(' ');
-                    }
                     self.print(inner);
                     if !close.is_empty() {
                         if !empty {
@@ -304,8 +301,8 @@ mod tests {
     #[test]
     fn every_token_is_in_the_table() {
         let i = inline("model m { x = [1, 2]; }");
-        // model m { x = [ 1 , 2 ] ; }  → 11 tokens
-        assert_eq!(i.table.len(), 11);
+        // model m { x = [ 1 , 2 ] ; }  → 12 tokens
+        assert_eq!(i.table.len(), 12);
         for w in i.table.windows(2) {
             assert!(w[0].1 <= w[1].0, "table sorted and disjoint");
         }

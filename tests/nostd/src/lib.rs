@@ -1,0 +1,29 @@
+//! A `#![no_std]` crate that uses `qpv!`: it compiles only if the generated
+//! observer needs nothing but `core` (no `std`, no `alloc`, no heap).
+
+#![no_std]
+#![deny(missing_docs, unsafe_code)]
+
+qpv_macros::qpv!(include "paper_sound.qpv");
+
+/// One RK4 step of the generated observer, as firmware would call it.
+pub fn observer_step(
+    obs: &mut paper_sound::Observer,
+    dt: f64,
+    y: &[f64; paper_sound::NY],
+    theta: &[f64; paper_sound::NTHETA],
+) -> [f64; paper_sound::NX] {
+    obs.step_rk4(dt, y, &[], theta);
+    obs.estimate()
+}
+
+/// The plant's output, evaluated without `std`.
+pub fn plant_output(
+    x: &[f64; paper_sound::NX],
+    theta: &[f64; paper_sound::NTHETA],
+) -> [f64; paper_sound::NY] {
+    paper_sound::plant::output(x, theta)
+}
+
+/// The certified decay rate, usable in `const` context.
+pub const ALPHA: f64 = paper_sound::ALPHA;
