@@ -256,38 +256,55 @@ enum Enum {
 }
 
 /// A ray of the homogenised cone with the set of processed constraints it
-/// makes tight.
+/// makes tight (a bit set over the constraint rows).
 #[derive(Clone)]
 struct Ray {
-    z: DVector<f64>,
+    z: Vec<f64>,
     zero: Vec<u64>,
-}
-
-fn has(set: &[u64], i: usize) -> bool {
-    set[i / 64] >> (i % 64) & 1 == 1
 }
 
 fn insert(set: &mut [u64], i: usize) {
     set[i / 64] |= 1 << (i % 64);
 }
 
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut s = 0.0;
+    for i in 0..a.len() {
+        s += a[i] * b[i];
+    }
+    s
+}
+
+fn normalize(z: &mut [f64]) -> f64 {
+    let norm = dot(z, z).sqrt();
+    if norm > 0.0 {
+        for x in z.iter_mut() {
+            *x /= norm;
+        }
+    }
+    norm
+}
+
 /// Vertices of {x ∈ Rⁿ : a_kᵀ x ≤ 1}, or a direction of unboundedness.
+///
+/// Double description on the cone {z = (x, t) : t − a_kᵀx ≥ 0, t ≥ 0}:
+/// start from the simplicial cone of d = n + 1 independent rows, then add
+/// the other rows one at a time (in the given order, which did best on
+/// degenerate inputs), combining each pair of adjacent rays on both sides of
+/// the new hyperplane; adjacency is the combinatorial test with an inverted
+/// index from rows to the rays tight on them.
 fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>, Enum> {
     let d = n + 1;
-    // Cone rows h·z ≥ 0 for z = (x, t): (−a_k, 1), then t ≥ 0 (row index m).
-    let mut h: Vec<DVector<f64>> = a
+    let mut h: Vec<Vec<f64>> = a
         .iter()
         .map(|ak| {
-            let mut r = DVector::zeros(d);
-            for i in 0..n {
-                r[i] = -ak[i];
-            }
-            r[n] = 1.0;
-            let norm = r.norm();
-            r / norm
+            let mut r: Vec<f64> = ak.iter().map(|x| -x).collect();
+            r.push(1.0);
+            normalize(&mut r);
+            r
         })
         .collect();
-    let mut t_row = DVector::zeros(d);
+    let mut t_row = vec![0.0; d];
     t_row[n] = 1.0;
     h.push(t_row);
     let m = h.len();
@@ -296,39 +313,52 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
     // Initial basis: d linearly independent rows, greedily the most
     // independent, starting with t ≥ 0.
     let mut basis: Vec<usize> = vec![m - 1];
-    let mut ortho: Vec<DVector<f64>> = vec![h[m - 1].clone()];
+    let mut ortho: Vec<Vec<f64>> = vec![h[m - 1].clone()];
+    let residual = |v: &[f64], ortho: &[Vec<f64>]| {
+        let mut r = v.to_vec();
+        for q in ortho {
+            let c = dot(q, &r);
+            for i in 0..r.len() {
+                r[i] -= c * q[i];
+            }
+        }
+        r
+    };
     while basis.len() < d {
-        let best = (0..m)
-            .filter(|i| !basis.contains(i))
-            .map(|i| {
-                let mut r = h[i].clone();
-                for q in &ortho {
-                    r -= q * q.dot(&r);
-                }
-                (r.norm(), i, r)
-            })
-            .max_by(|x, y| x.0.total_cmp(&y.0));
+        let mut best: Option<(f64, usize, Vec<f64>)> = None;
+        for i in 0..m {
+            if basis.contains(&i) {
+                continue;
+            }
+            let r = residual(&h[i], &ortho);
+            let norm = dot(&r, &r).sqrt();
+            if best.as_ref().is_none_or(|b| norm > b.0) {
+                best = Some((norm, i, r));
+            }
+        }
         match best {
-            Some((norm, i, r)) if norm > 1e-9 => {
+            Some((norm, i, mut r)) if norm > 1e-9 => {
                 basis.push(i);
-                ortho.push(r / norm);
+                normalize(&mut r);
+                ortho.push(r);
             }
             _ => {
                 // rank < d: a direction in the null space is a line of the cone
-                let mut dir = (0..d)
-                    .map(|j| {
-                        let mut e = DVector::zeros(d);
-                        e[j] = 1.0;
-                        for q in &ortho {
-                            e -= q * q.dot(&e);
-                        }
-                        e
-                    })
-                    .max_by(|x, y| x.norm().total_cmp(&y.norm()))
-                    .unwrap_or_else(|| DVector::zeros(d));
-                let norm = dir.norm().max(f64::MIN_POSITIVE);
-                dir /= norm;
-                return Err(Enum::Unbounded(dir.rows(0, n).into_owned()));
+                let mut dir = vec![0.0; d];
+                let mut best_norm = 0.0;
+                for j in 0..d {
+                    let mut e = vec![0.0; d];
+                    e[j] = 1.0;
+                    let r = residual(&e, &ortho);
+                    let norm = dot(&r, &r).sqrt();
+                    if norm > best_norm {
+                        best_norm = norm;
+                        dir = r;
+                    }
+                }
+                dir.truncate(n);
+                normalize(&mut dir);
+                return Err(Enum::Unbounded(DVector::from_vec(dir)));
             }
         }
     }
@@ -336,8 +366,8 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
     let binv = b.try_inverse().ok_or(Enum::TooComplex)?;
     let mut rays: Vec<Ray> = (0..d)
         .map(|i| {
-            let z = binv.column(i).into_owned();
-            let z = &z / z.norm();
+            let mut z: Vec<f64> = binv.column(i).iter().copied().collect();
+            normalize(&mut z);
             let mut zero = vec![0u64; words];
             for (j, &row) in basis.iter().enumerate() {
                 if j != i {
@@ -348,14 +378,15 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
         })
         .collect();
 
-    let mut processed: Vec<usize> = basis.clone();
-    for k in 0..m {
-        if basis.contains(&k) {
-            continue;
-        }
-        let vals: Vec<f64> = rays.iter().map(|r| h[k].dot(&r.z)).collect();
-        let pos: Vec<usize> = (0..rays.len()).filter(|&i| vals[i] > TOL).collect();
-        let neg: Vec<usize> = (0..rays.len()).filter(|&i| vals[i] < -TOL).collect();
+    let mut vals: Vec<f64> = Vec::new();
+    let mut common = vec![0u64; words];
+    let mut acc: Vec<u64> = Vec::new();
+    // tight[j]: bit set over the current rays that are tight on row j
+    let mut tight: Vec<Vec<u64>> = vec![Vec::new(); m];
+    for k in (0..m).filter(|k| !basis.contains(k)) {
+        let hk = &h[k];
+        vals.clear();
+        vals.extend(rays.iter().map(|r| dot(hk, &r.z)));
         let mut next: Vec<Ray> = Vec::with_capacity(rays.len());
         for (i, r) in rays.iter().enumerate() {
             if vals[i] >= -TOL {
@@ -366,46 +397,94 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
                 next.push(r);
             }
         }
-        for &p in &pos {
-            for &q in &neg {
-                let common: Vec<u64> = rays[p].zero.iter().zip(&rays[q].zero).map(|(x, y)| x & y).collect();
-                let count: u32 = common.iter().map(|w| w.count_ones()).sum();
-                if (count as usize) + 2 < d {
+        let has_pos = vals.iter().any(|v| *v > TOL);
+        let has_neg = vals.iter().any(|v| *v < -TOL);
+        if has_pos && has_neg {
+            // inverted index of the zero sets, for the adjacency test
+            let rwords = rays.len().div_ceil(64);
+            for t in tight.iter_mut() {
+                t.clear();
+                t.resize(rwords, 0);
+            }
+            for (i, r) in rays.iter().enumerate() {
+                for (w, &bitsw) in r.zero.iter().enumerate() {
+                    let mut b = bitsw;
+                    while b != 0 {
+                        let j = w * 64 + b.trailing_zeros() as usize;
+                        insert(&mut tight[j], i);
+                        b &= b - 1;
+                    }
+                }
+            }
+            for p in 0..rays.len() {
+                if vals[p] <= TOL {
                     continue;
                 }
-                let adjacent = rays.iter().enumerate().all(|(r, ray)| {
-                    r == p || r == q || common.iter().zip(&ray.zero).any(|(c, z)| c & !z != 0)
-                });
-                if !adjacent {
-                    continue;
-                }
-                let z = &rays[q].z * vals[p] - &rays[p].z * vals[q];
-                let norm = z.norm();
-                if norm <= f64::MIN_POSITIVE {
-                    continue;
-                }
-                let mut zero = common;
-                insert(&mut zero, k);
-                next.push(Ray { z: z / norm, zero });
-                if next.len() > MAX_RAYS {
-                    return Err(Enum::TooComplex);
+                for q in 0..rays.len() {
+                    if vals[q] >= -TOL {
+                        continue;
+                    }
+                    let (zp, zq) = (&rays[p].zero, &rays[q].zero);
+                    let mut count = 0u32;
+                    for w in 0..words {
+                        common[w] = zp[w] & zq[w];
+                        count += common[w].count_ones();
+                    }
+                    if (count as usize) + 2 < d {
+                        continue;
+                    }
+                    // adjacent iff no other ray is tight on every row of `common`
+                    acc.clear();
+                    acc.resize(rwords, u64::MAX);
+                    if rays.len() % 64 != 0 {
+                        acc[rwords - 1] = (1u64 << (rays.len() % 64)) - 1;
+                    }
+                    let mut adjacent = rays.len() <= 2;
+                    'rows: for w in 0..words {
+                        let mut b = common[w];
+                        while b != 0 {
+                            let j = w * 64 + b.trailing_zeros() as usize;
+                            b &= b - 1;
+                            let mut left = 0u32;
+                            for (x, t) in acc.iter_mut().zip(&tight[j]) {
+                                *x &= *t;
+                                left += x.count_ones();
+                            }
+                            if left <= 2 {
+                                adjacent = true; // only p and q remain
+                                break 'rows;
+                            }
+                        }
+                    }
+                    if !adjacent {
+                        continue;
+                    }
+                    let (vp, vq) = (vals[p], vals[q]);
+                    let mut z: Vec<f64> = (0..d).map(|i| vp * rays[q].z[i] - vq * rays[p].z[i]).collect();
+                    if normalize(&mut z) <= f64::MIN_POSITIVE {
+                        continue;
+                    }
+                    let mut zero = common.clone();
+                    insert(&mut zero, k);
+                    next.push(Ray { z, zero });
+                    if next.len() > MAX_RAYS {
+                        return Err(Enum::TooComplex);
+                    }
                 }
             }
         }
         rays = next;
-        processed.push(k);
     }
-    let _ = processed;
 
     let mut vertices: Vec<DVector<f64>> = Vec::new();
     for r in &rays {
         let t = r.z[n];
-        let x = r.z.rows(0, n).into_owned();
+        let mut x = r.z[..n].to_vec();
         if t <= 1e-10 {
-            let norm = x.norm().max(f64::MIN_POSITIVE);
-            return Err(Enum::Unbounded(x / norm));
+            normalize(&mut x);
+            return Err(Enum::Unbounded(DVector::from_vec(x)));
         }
-        let v = x / t;
+        let v = DVector::from_vec(x) / t;
         if !vertices
             .iter()
             .any(|w| (w - &v).norm() <= TOL * (1.0 + v.norm()))
@@ -416,8 +495,6 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
             return Err(Enum::TooComplex);
         }
     }
-    // sanity: every row satisfied at every vertex
-    let _ = has;
     Ok(vertices)
 }
 
