@@ -112,17 +112,33 @@ fn paper_model() -> PolytopicModel {
     }
 }
 
-/// Median of `runs` timings of `f`, in seconds.
-fn median_seconds(runs: usize, mut f: impl FnMut()) -> f64 {
-    let mut times: Vec<f64> = (0..runs)
-        .map(|_| {
-            let start = Instant::now();
-            f();
-            start.elapsed().as_secs_f64()
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[runs / 2]
+/// CPU time of this thread in seconds (Linux: /proc/thread-self/schedstat),
+/// so the numbers mean something on a loaded machine; `None` elsewhere.
+fn cpu_seconds() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: f64 = text.split_whitespace().next()?.parse().ok()?;
+    Some(ns * 1e-9)
+}
+
+/// Median wall and CPU time of `runs` runs of `f`, in seconds.
+fn median_seconds(runs: usize, mut f: impl FnMut()) -> (f64, Option<f64>) {
+    let mut wall = Vec::with_capacity(runs);
+    let mut cpu = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let (start, cpu_start) = (Instant::now(), cpu_seconds());
+        f();
+        wall.push(start.elapsed().as_secs_f64());
+        if let (Some(a), Some(b)) = (cpu_start, cpu_seconds()) {
+            cpu.push(b - a);
+        }
+    }
+    wall.sort_by(f64::total_cmp);
+    cpu.sort_by(f64::total_cmp);
+    (wall[runs / 2], cpu.get(cpu.len() / 2).copied())
+}
+
+fn cpu_text(cpu: Option<f64>, scale: f64, unit: &str) -> String {
+    cpu.map_or(String::new(), |c| format!(", CPU {:.3} {unit}", c * scale))
 }
 
 fn main() {
@@ -135,25 +151,28 @@ fn main() {
 
     let scenario = Scenario::paper(&model);
     let mut steps = 0;
-    let t_sim = median_seconds(21, || {
+    let (t_sim, cpu_sim) = median_seconds(21, || {
         let traj = simulate(&model, &gains, black_box(&scenario)).expect("valid scenario");
         steps = traj.len() - 1;
         black_box(traj);
     });
     println!(
-        "simulate, paper scenario (t_end = 2, dt = 1e-3, {steps} RK4 steps): {:.3} ms median of 21 ({:.2} µs/step)",
+        "simulate, paper scenario (t_end = 2, dt = 1e-3, {steps} RK4 steps): wall {:.3} ms{} (median of 21; {:.2} µs/step wall)",
         t_sim * 1e3,
+        cpu_text(cpu_sim, 1e3, "ms"),
         t_sim * 1e6 / steps as f64
     );
 
     let p = DMatrix::identity(3, 3) * 2500.0;
     let samples = 1_000_000;
-    let t_fals = median_seconds(5, || {
+    let (t_fals, cpu_fals) = median_seconds(5, || {
         black_box(falsify(&model, &p, &gains, 1.0, 0.1889, samples, 1).expect("valid input"));
     });
     println!(
-        "falsify, paper example: {samples} samples in {:.3} s median of 5 ({:.2} M samples/s)",
+        "falsify, paper example: {samples} samples: wall {:.3} s{} (median of 5; {:.2} M samples/s wall{})",
         t_fals,
-        samples as f64 / t_fals / 1e6
+        cpu_text(cpu_fals, 1.0, "s"),
+        samples as f64 / t_fals / 1e6,
+        cpu_fals.map_or(String::new(), |c| format!(", {:.2} M samples/s CPU", samples as f64 / c / 1e6))
     );
 }
