@@ -82,6 +82,24 @@ impl Columns {
     }
 }
 
+/// What the solve optimises.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Objective {
+    /// None: a pure feasibility problem (the rate LMIs keep their margin).
+    Feasibility,
+    /// The default: ½ w Σ_l ‖Γ̂_l‖_F² (w = `Settings::gain_weight`), keeping
+    /// the gains moderate; rate LMIs ⪯ −ε κ I.
+    Gains,
+    /// Maximise the common margin t of the rate LMIs: −He{P̂K − Γ̂H} ⪰ κ t̂ W,
+    /// t̂ ≤ 1 (t̂ free below, so the problem is feasible whenever the region
+    /// conditions are), with W = I or, given a reference P_ref,
+    /// W = P̂_ref/λ_max(P̂_ref) (the metric of the generalised eigenvalue
+    /// problem in α, which makes the capacity lift of the α search nearly
+    /// exact in one step). t̂ < 0 at the optimum means no (P, Γ) satisfies
+    /// the rate LMIs at this α.
+    MaxMargin,
+}
+
 /// One assembled problem in Clarabel's standard form.
 pub struct Assembled {
     /// Quadratic objective (upper triangle).
@@ -113,6 +131,8 @@ pub struct SolveResult {
     pub p: Option<DMatrix<f64>>,
     /// Γ_l (model units).
     pub gammas: Vec<DMatrix<f64>>,
+    /// [`Objective::MaxMargin`]: the optimal normalised margin t̂ (NaN otherwise).
+    pub margin: f64,
 }
 
 /// The precomputed, (α, γ)-independent part of a design problem.
@@ -173,7 +193,8 @@ impl<'m> Problem<'m> {
         })
     }
 
-    /// Number of decision variables.
+    /// Number of decision variables (P̂ and Γ̂_l; the margin variable of
+    /// [`Objective::MaxMargin`] comes after them).
     pub fn n_vars(&self) -> usize {
         self.np + self.nv * self.nx * self.ny
     }
@@ -212,14 +233,47 @@ impl<'m> Problem<'m> {
         (k, h)
     }
 
-    /// Assembles the problem at (α, γ). `objective`: use the gain
-    /// regularisation (weight `settings.gain_weight`) or none.
-    pub fn assemble(&self, alpha: f64, gamma: f64, settings: &Settings, objective: bool) -> Assembled {
+    /// Assembles the problem at (α, γ) with the given objective.
+    pub fn assemble(&self, alpha: f64, gamma: f64, settings: &Settings, objective: Objective) -> Assembled {
+        self.assemble_with_metric(alpha, gamma, settings, objective, None)
+    }
+
+    /// As [`Problem::assemble`]; `metric` (P_ref in model units) sets W of
+    /// [`Objective::MaxMargin`] (ignored otherwise).
+    pub fn assemble_with_metric(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        settings: &Settings,
+        objective: Objective,
+        metric: Option<&DMatrix<f64>>,
+    ) -> Assembled {
         let nx = self.nx;
         let ny = self.ny;
-        let n = self.n_vars();
+        let max_margin = objective == Objective::MaxMargin;
+        let n = self.n_vars() + usize::from(max_margin);
+        let tvar = self.n_vars();
+        let kappa = self.rate_scale(alpha, gamma);
         let eps = settings.margin_rel;
-        let eps_rate = settings.margin_rel * self.rate_scale(alpha, gamma);
+        let eps_rate = if max_margin { 0.0 } else { settings.margin_rel * kappa };
+        // svec(W)·κ for the margin column (upper triangle, √2 off-diagonal).
+        let wcol: Vec<f64> = {
+            let mut w = vec![0.0; tri(nx)];
+            let m = metric
+                .filter(|m| m.shape() == (nx, nx) && m.iter().all(|v| v.is_finite()))
+                .map(|m| (m + m.transpose()) * 0.5);
+            let lmax = m.as_ref().map(|m| m.clone().symmetric_eigenvalues().max()).unwrap_or(0.0);
+            for c in 0..nx {
+                for r in 0..=c {
+                    let v = match &m {
+                        Some(m) if lmax > 0.0 => m[(r, c)] / lmax,
+                        _ => f64::from(u8::from(r == c)),
+                    };
+                    w[tri_idx(r, c)] = if r == c { v * kappa } else { SQRT2 * v * kappa };
+                }
+            }
+            w
+        };
         let p_reg = self.model.region.vertices.len();
         let t = tri(nx);
         let t1 = tri(nx + 1);
@@ -340,8 +394,10 @@ impl<'m> Problem<'m> {
                     let (k, h) = self.rate_kh(alpha, gamma, l, i, j);
                     let row0 = b.len();
                     b.resize(row0 + t, 0.0);
-                    for c in 0..nx {
-                        b[row0 + tri_idx(c, c)] = -eps_rate;
+                    if eps_rate != 0.0 {
+                        for c in 0..nx {
+                            b[row0 + tri_idx(c, c)] = -eps_rate;
+                        }
                     }
                     // P̂ variables.
                     for pc in 0..nx {
@@ -407,21 +463,33 @@ impl<'m> Problem<'m> {
                             }
                         }
                     }
+                    if max_margin {
+                        for (idx, &w) in wcol.iter().enumerate() {
+                            cols.push(row0 + idx, tvar, w);
+                        }
+                    }
                     cones.push(SupportedConeT::PSDTriangleConeT(nx));
                 }
             }
+        }
+        if max_margin {
+            // t̂ ≤ 1.
+            let row = b.len();
+            b.push(1.0);
+            cols.push(row, tvar, 1.0);
+            cones.push(SupportedConeT::NonnegativeConeT(1));
         }
 
         let m = b.len();
         let a = cols.into_csc(m);
         // Objective ½ w Σ Γ̂², diagonal on the Γ̂ columns.
-        let p = if objective && settings.gain_weight > 0.0 {
+        let p = if objective == Objective::Gains && settings.gain_weight > 0.0 {
             let mut colptr = Vec::with_capacity(n + 1);
             let mut rowval = Vec::new();
             let mut nzval = Vec::new();
             colptr.push(0);
             for c in 0..n {
-                if c >= self.np {
+                if c >= self.np && c < self.n_vars() {
                     rowval.push(c);
                     nzval.push(settings.gain_weight);
                 }
@@ -431,9 +499,13 @@ impl<'m> Problem<'m> {
         } else {
             CscMatrix::zeros((n, n))
         };
+        let mut q = vec![0.0; n];
+        if max_margin {
+            q[tvar] = -1.0;
+        }
         Assembled {
             p,
-            q: vec![0.0; n],
+            q,
             a,
             b,
             cones,
@@ -478,12 +550,32 @@ impl<'m> Problem<'m> {
     }
 
     /// Assembles and solves at (α, γ).
-    pub fn solve(&self, alpha: f64, gamma: f64, settings: &Settings, objective: bool) -> Result<SolveResult, SolveError> {
+    pub fn solve(&self, alpha: f64, gamma: f64, settings: &Settings, objective: Objective) -> Result<SolveResult, SolveError> {
+        self.solve_with_metric(alpha, gamma, settings, objective, None)
+    }
+
+    /// As [`Problem::solve`] with the [`Objective::MaxMargin`] metric P_ref.
+    pub fn solve_with_metric(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        settings: &Settings,
+        objective: Objective,
+        metric: Option<&DMatrix<f64>>,
+    ) -> Result<SolveResult, SolveError> {
         ensure_lapack();
         let t0 = Instant::now();
-        let prob = self.assemble(alpha, gamma, settings, objective);
+        let prob = self.assemble_with_metric(alpha, gamma, settings, objective, metric);
         let assembly_seconds = t0.elapsed().as_secs_f64();
-        let cs = clarabel_settings(settings);
+        let mut cs = clarabel_settings(settings);
+        if objective == Objective::MaxMargin {
+            // Search steps only need a good interior point: the certificate
+            // and the capacity are computed independently of the solver's
+            // accuracy, and these problems are always feasible.
+            cs.tol_gap_abs = cs.tol_gap_abs.max(settings.search_tol);
+            cs.tol_gap_rel = cs.tol_gap_rel.max(settings.search_tol);
+            cs.tol_feas = cs.tol_feas.max(settings.search_tol);
+        }
         let mut solver = DefaultSolver::new(&prob.p, &prob.q, &prob.a, &prob.b, &prob.cones, cs)
             .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
         drop(prob);
@@ -504,6 +596,11 @@ impl<'m> Problem<'m> {
         } else {
             (None, Vec::new())
         };
+        let margin = if objective == Objective::MaxMargin && has_point {
+            sol.x[self.n_vars()]
+        } else {
+            f64::NAN
+        };
         Ok(SolveResult {
             status,
             detail: format!("{:?}", sol.status),
@@ -512,6 +609,7 @@ impl<'m> Problem<'m> {
             assembly_seconds,
             p,
             gammas,
+            margin,
         })
     }
 }
@@ -584,7 +682,7 @@ mod tests {
         let prob = Problem::new(model, set).unwrap();
         let (alpha, gamma) = (3.7, 0.35);
         let settings = Settings::default();
-        let asm = prob.assemble(alpha, gamma, &settings, true);
+        let asm = prob.assemble(alpha, gamma, &settings, Objective::Gains);
         let nx = model.nx();
         let ny = model.ny();
         let mut seed = 7u64;

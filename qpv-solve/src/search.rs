@@ -25,7 +25,7 @@
 use crate::certificate::{alpha_capacity, check, data_checks, Certificate};
 use crate::conditions::{gamma_max, ConditionSet};
 use crate::report::{matrix_to_rows, DataCheck, Design, SearchStep, SolverInfo, Status};
-use crate::sdp::Problem;
+use crate::sdp::{Objective, Problem};
 use nalgebra::DMatrix;
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, StateBound};
 use std::collections::BTreeMap;
@@ -46,10 +46,13 @@ pub struct Settings {
     /// Relative tolerance of the α bisection: stop when (hi − lo) ≤ tol · lo.
     /// Default 1e-3.
     pub bisection_rel_tol: f64,
-    /// Number of points of the coarse γ grid (γ_hi·k/n, k = 1..n). Default 8.
+    /// Number of points of the coarse γ grid (γ_hi·k/n, k = 1..n). Default 6.
     pub gamma_grid: usize,
-    /// Golden-section refinement steps in γ after the grid. Default 8.
+    /// Golden-section evaluations in γ after the grid. Default 6.
     pub gamma_refine: usize,
+    /// Max-margin solves per γ when ranking γ values (the first grid point,
+    /// which has no seed, gets 6). Default 2.
+    pub gamma_steps: usize,
     /// Largest α the bisection will try. Default 1e6.
     pub alpha_cap: f64,
     /// Smallest α tried when looking for any feasible α (α must be > 0). Default 1e-4.
@@ -72,6 +75,10 @@ pub struct Settings {
     pub tol_infeas_abs: f64,
     /// See `tol_infeas_abs`.
     pub tol_infeas_rel: f64,
+    /// Clarabel gap/feasibility tolerance of the α/γ search's max-margin
+    /// solves (never tighter than the tolerances above). Their points are
+    /// certified independently, so they need no more accuracy. Default 1e-6.
+    pub search_tol: f64,
     /// Print Clarabel's iteration log. Default false.
     pub verbose: bool,
 }
@@ -81,8 +88,9 @@ impl Default for Settings {
         Settings {
             margin_rel: 1e-5,
             bisection_rel_tol: 1e-3,
-            gamma_grid: 8,
-            gamma_refine: 8,
+            gamma_grid: 6,
+            gamma_refine: 6,
+            gamma_steps: 2,
             alpha_cap: 1e6,
             alpha_floor: 1e-4,
             gain_weight: 1.0,
@@ -93,6 +101,7 @@ impl Default for Settings {
             tol_feas: 1e-8,
             tol_infeas_abs: 1e-8,
             tol_infeas_rel: 1e-8,
+            search_tol: 1e-6,
             verbose: false,
         }
     }
@@ -156,6 +165,8 @@ struct Attempt {
     point: Option<Point>,
     /// Whether `point` passed the certificate at the tested α.
     certified: bool,
+    /// The max-margin optimum t̂ (NaN for other objectives / no point).
+    margin: f64,
 }
 
 /// L_l = P⁻¹ Γ_l (Cholesky, else LU); None if P is singular.
@@ -183,11 +194,36 @@ impl Ctx<'_, '_> {
         cert.passed
     }
 
-    /// One solve at (α, γ), certified. `bisect`: pure feasibility problem and
-    /// capacity lift (the returned point's α may then exceed `alpha`).
-    fn attempt(&mut self, alpha: f64, gamma: f64, bisect: bool, phase: &str) -> Result<Attempt, SolveError> {
+    /// The largest α at which the point's (P, Γ_l, L_l) certify at `gamma`
+    /// (exact capacity, times 1 − 1e-4, re-certified); None if they do not
+    /// certify at any α > 0 there.
+    fn lift(&self, base: &Point, gamma: f64) -> Option<Point> {
+        let cap = alpha_capacity(self.model, self.mode, gamma, &base.p, &base.gammas);
+        let a = cap * (1.0 - 1e-4);
+        if !(a > 0.0 && a.is_finite()) {
+            return None;
+        }
+        let a = a.min(self.settings.alpha_cap);
+        let cert = check(self.model, self.mode, a, gamma, &base.p, &base.l);
+        if self.accepts(&cert) {
+            Some(Point { alpha: a, gamma, cert, ..base.clone() })
+        } else {
+            None
+        }
+    }
+
+    /// One solve at (α, γ), certified. With [`Objective::MaxMargin`] a
+    /// certified point is lifted to its capacity (its α may exceed `alpha`).
+    fn attempt(
+        &mut self,
+        alpha: f64,
+        gamma: f64,
+        objective: Objective,
+        metric: Option<&DMatrix<f64>>,
+        phase: &str,
+    ) -> Result<Attempt, SolveError> {
         let t0 = Instant::now();
-        let res = self.prob.solve(alpha, gamma, self.settings, !bisect)?;
+        let res = self.prob.solve_with_metric(alpha, gamma, self.settings, objective, metric)?;
         let mut solver = SolverInfo {
             status: res.status,
             detail: res.detail.clone(),
@@ -210,15 +246,11 @@ impl Ctx<'_, '_> {
                 let mut pt = Point { alpha, gamma, p, gammas, l, cert, solver: solver.clone() };
                 if certified {
                     alpha_certified = alpha;
-                    if bisect {
-                        let cap = alpha_capacity(self.model, self.mode, gamma, &pt.p, &pt.gammas);
-                        let lifted = cap * (1.0 - 1e-4);
-                        if lifted > alpha {
-                            let c2 = check(self.model, self.mode, lifted, gamma, &pt.p, &pt.l);
-                            if self.accepts(&c2) {
-                                pt.alpha = lifted;
-                                pt.cert = c2;
-                                alpha_certified = lifted;
+                    if objective == Objective::MaxMargin {
+                        if let Some(up) = self.lift(&pt, gamma) {
+                            if up.alpha > alpha {
+                                pt = up;
+                                alpha_certified = pt.alpha;
                             }
                         }
                         pt.solver.certify_seconds = tc.elapsed().as_secs_f64();
@@ -227,11 +259,15 @@ impl Ctx<'_, '_> {
                 point = Some(pt);
             }
         }
+        let mut detail = res.detail;
+        if objective == Objective::MaxMargin && res.margin.is_finite() {
+            detail = format!("{detail} (max margin t = {:.3e})", res.margin);
+        }
         let step = SearchStep {
             gamma,
             alpha,
             status: res.status,
-            detail: res.detail,
+            detail,
             certified,
             alpha_certified,
             iterations: res.iterations,
@@ -240,79 +276,185 @@ impl Ctx<'_, '_> {
         };
         (self.progress)(&step);
         self.steps.push(step);
-        Ok(Attempt { status: res.status, point, certified })
+        Ok(Attempt { status: res.status, point, certified, margin: res.margin })
     }
 
-    /// Largest certified α at this γ (bisection), starting from `hint`.
-    /// Returns the certified point at the final lower bound, if any.
-    fn alpha_max(&mut self, gamma: f64, hint: Option<f64>, phase: &str) -> Result<Option<Point>, SolveError> {
-        let tol = self.settings.bisection_rel_tol;
+    /// Largest certified α at this γ, to relative tolerance `tol`. `seed`: a
+    /// point found elsewhere (its capacity at this γ is a free lower bound;
+    /// its α the first guess).
+    ///
+    /// Each step solves the max-margin problem at a trial α (metric: the
+    /// best P so far). A certified solution is lifted to its exact capacity
+    /// α_c ≥ α (a Dinkelbach-type step for this generalised-eigenvalue
+    /// problem) and raises the lower bound lo; a non-certified one is an
+    /// upper bound hi. Trial points: once the optimal margin t̂(α) is known
+    /// on both sides, the secant root of t̂ (shifted by 0.3·tol to cross the
+    /// root); else from lo while lifts gain more than `tol`; else bisection
+    /// of [lo, hi] or a probe at lo·(1 + 0.9·tol). Stops when
+    /// hi ≤ lo·(1 + tol): lo is certified, hi was not.
+    fn alpha_max(&mut self, gamma: f64, seed: Option<&Point>, tol: f64, phase: &str) -> Result<Option<Point>, SolveError> {
         let cap = self.settings.alpha_cap;
         let floor = self.settings.alpha_floor;
-        let mut lo: Option<Point>;
+        let mut lo: Option<Point> = seed.and_then(|sp| self.lift(sp, gamma));
         let mut hi: Option<f64> = None;
-        // Phase 1: find a certified α.
-        let mut a = hint.unwrap_or(floor).clamp(floor, cap);
+        let mut a = match (&lo, seed) {
+            (Some(p), _) => p.alpha,
+            (None, Some(sp)) => sp.alpha.clamp(floor, cap),
+            (None, None) => floor,
+        };
+        let mut big_gain;
+        // Last trial with a positive (uncapped) margin, and the lowest
+        // trial with a negative margin: (α, t̂).
+        let mut pos: Option<(f64, f64)> = None;
+        let mut neg: Option<(f64, f64)> = None;
+        let mut last_ok;
+        // Illinois factor on the retained positive end after repeated failures.
+        let mut fails_in_row = 0i32;
         loop {
-            let at = self.attempt(a, gamma, true, phase)?;
+            let metric = lo.as_ref().or(seed).map(|p| p.p.clone());
+            let at = self.attempt(a, gamma, Objective::MaxMargin, metric.as_ref(), phase)?;
+            let t = at.margin;
             if at.certified {
-                lo = at.point;
-                break;
-            }
-            hi = Some(a);
-            if a <= floor {
-                return Ok(None);
-            }
-            // Jump to the floor once the hint has failed: a certified point
-            // there gives a capacity-lifted lower bound at once.
-            a = if a > 16.0 * floor { (a / 8.0).max(floor) } else { floor };
-        }
-        // Phase 2: bracket and bisect.
-        loop {
-            let l = lo.as_ref().map(|p| p.alpha).unwrap_or(0.0);
-            if l >= cap {
-                break;
-            }
-            let next = match hi {
-                Some(h) if h <= l * (1.0 + tol) => break,
-                Some(h) if h > 4.0 * l => (l * h).sqrt(),
-                Some(h) => 0.5 * (l + h),
-                None => (2.0 * l).min(cap),
-            };
-            // Stop if the remaining interval is below tolerance.
-            let at = self.attempt(next, gamma, true, phase)?;
-            if at.certified {
+                last_ok = true;
+                fails_in_row = 0;
+                if t.is_finite() && t > 0.0 && t < 0.999 {
+                    pos = Some((a, t));
+                }
                 let pt = at.point.expect("certified attempts carry a point");
-                if let Some(h) = hi {
-                    if pt.alpha >= h {
-                        // An earlier "not certified" was spurious (unknown status).
-                        hi = None;
-                    }
+                let l = lo.as_ref().map_or(0.0, |p| p.alpha);
+                big_gain = pt.alpha > l * (1.0 + tol);
+                if hi.is_some_and(|h| pt.alpha >= h) {
+                    // An earlier "not certified" was spurious.
+                    hi = None;
+                    neg = None;
                 }
                 if pt.alpha > l {
                     lo = Some(pt);
                 }
             } else {
-                hi = Some(hi.map_or(next, |h| h.min(next)));
+                if at.status == Status::Infeasible {
+                    // Max-margin problems are infeasible only through the
+                    // region conditions, which do not depend on α.
+                    return Ok(lo);
+                }
+                last_ok = false;
+                fails_in_row += 1;
+                big_gain = false;
+                if t.is_finite() && t < 0.0 && neg.map_or(true, |(na, _)| a < na) {
+                    neg = Some((a, t));
+                }
+                hi = Some(hi.map_or(a, |h| h.min(a)));
+                if lo.is_none() {
+                    if a <= floor {
+                        return Ok(None);
+                    }
+                    a = if a > 16.0 * floor { (a / 8.0).max(floor) } else { floor };
+                    continue;
+                }
+            }
+            let l = lo.as_ref().map_or(0.0, |p| p.alpha);
+            if l >= cap {
+                break;
+            }
+            let h = match hi {
+                Some(h) if h <= l * (1.0 + tol) => break,
+                h => h,
+            };
+            let secant = match (pos, neg) {
+                (Some((ap, tp)), Some((an, tn))) if ap < an && tp > tn => {
+                    let tp = tp * 0.5f64.powi((fails_in_row - 1).max(0));
+                    let r = ap + tp * (an - ap) / (tp - tn);
+                    let d = 0.3 * tol * l;
+                    let r = if last_ok { r + d } else { r - d };
+                    let top = h.map_or(f64::INFINITY, |h| h - d);
+                    Some(r.min(top).max(l * (1.0 + 0.3 * tol)))
+                }
+                _ => None,
+            };
+            a = match (secant, h) {
+                _ if big_gain => l,
+                (Some(r), _) => r,
+                (_, Some(h)) if h > 4.0 * l => (l * h).sqrt(),
+                (_, Some(h)) => (0.5 * (l + h)).max(l * (1.0 + 0.9 * tol)),
+                (_, None) => l * (1.0 + 0.9 * tol),
+            }
+            .min(cap);
+        }
+        Ok(lo)
+    }
+
+    /// A certified lower estimate of α_max(γ) from at most `steps`
+    /// max-margin solves (Dinkelbach steps from the seed's capacity at this
+    /// γ); stops early when a step gains less than `tol`. Used to rank γ.
+    fn alpha_estimate(&mut self, gamma: f64, seed: Option<&Point>, steps: usize, tol: f64, phase: &str) -> Result<Option<Point>, SolveError> {
+        let floor = self.settings.alpha_floor;
+        let cap = self.settings.alpha_cap;
+        let mut lo: Option<Point> = seed.and_then(|sp| self.lift(sp, gamma));
+        let mut a = match (&lo, seed) {
+            (Some(p), _) => p.alpha,
+            // The seed does not certify here: α_max is likely lower.
+            (None, Some(sp)) => (0.6 * sp.alpha).clamp(floor, cap),
+            (None, None) => floor,
+        };
+        let mut done = 0;
+        let mut misses = 0;
+        while done < steps {
+            let metric = lo.as_ref().or(seed).map(|p| p.p.clone());
+            let at = self.attempt(a, gamma, Objective::MaxMargin, metric.as_ref(), phase)?;
+            if at.certified {
+                done += 1;
+                let pt = at.point.expect("certified attempts carry a point");
+                let l = lo.as_ref().map_or(0.0, |p| p.alpha);
+                let gain = pt.alpha > l * (1.0 + tol);
+                if pt.alpha > l {
+                    lo = Some(pt);
+                }
+                if !gain {
+                    break;
+                }
+                a = lo.as_ref().map_or(a, |p| p.alpha);
+            } else {
+                if at.status == Status::Infeasible || lo.is_some() || a <= floor {
+                    break;
+                }
+                misses += 1;
+                if misses > 6 {
+                    break;
+                }
+                a = if a > 16.0 * floor { (a / 8.0).max(floor) } else { floor };
             }
         }
         Ok(lo)
     }
 
-    /// γ search maximising α: grid, then golden-section refinement.
+    /// γ search maximising α: a coarse grid (top down, each point a short
+    /// [`Ctx::alpha_estimate`] seeded by the best point so far),
+    /// golden-section refinement around the best grid point (same
+    /// estimates), then α_max to the full tolerance at the best γ.
     fn gamma_search(&mut self, gamma_hi: f64) -> Result<Option<Point>, SolveError> {
+        let tol = self.settings.bisection_rel_tol;
+        let coarse = (10.0 * tol).min(0.05);
+        let steps = self.settings.gamma_steps.max(1);
         let n = self.settings.gamma_grid.max(2);
         let grid: Vec<f64> = (1..=n).map(|k| gamma_hi * k as f64 / n as f64).collect();
-        let mut vals: Vec<f64> = vec![0.0; n];
+        let mut memo: Vec<(f64, f64)> = Vec::new();
         let mut best: Option<Point> = None;
-        for (k, &g) in grid.iter().enumerate() {
-            let hint = best.as_ref().map(|p| p.alpha);
-            if let Some(pt) = self.alpha_max(g, hint, "grid")? {
-                vals[k] = pt.alpha;
-                if best.as_ref().map_or(true, |b| pt.alpha > b.alpha) {
-                    best = Some(pt);
+        for &g in grid.iter().rev() {
+            let seed = best.clone();
+            // The first point has no seed: give it more steps, so that it is
+            // ranked fairly and seeds the others well.
+            let st = if seed.is_none() { 6 } else { steps };
+            let v = match self.alpha_estimate(g, seed.as_ref(), st, coarse, "grid")? {
+                Some(pt) => {
+                    let v = pt.alpha;
+                    if best.as_ref().map_or(true, |b| v > b.alpha) {
+                        best = Some(pt);
+                    }
+                    v
                 }
-            }
+                None => 0.0,
+            };
+            memo.push((g, v));
         }
         let Some(b) = best.as_ref() else {
             return Ok(None);
@@ -322,13 +464,12 @@ impl Ctx<'_, '_> {
         let mut a = if kb == 0 { grid[0] * 0.25 } else { grid[kb - 1] };
         let mut c = if kb + 1 < n { grid[kb + 1] } else { gamma_hi };
         let phi = (5f64.sqrt() - 1.0) / 2.0;
-        let mut memo: Vec<(f64, f64)> = grid.iter().copied().zip(vals.iter().copied()).collect();
         let mut eval = |ctx: &mut Self, g: f64, best: &mut Option<Point>| -> Result<f64, SolveError> {
             if let Some(&(_, v)) = memo.iter().find(|(x, _)| (*x - g).abs() <= 1e-12 * g) {
                 return Ok(v);
             }
-            let hint = best.as_ref().map(|p| p.alpha);
-            let v = match ctx.alpha_max(g, hint, "refine")? {
+            let seed = best.clone();
+            let v = match ctx.alpha_estimate(g, seed.as_ref(), steps, coarse, "refine")? {
                 Some(pt) => {
                     let v = pt.alpha;
                     if best.as_ref().map_or(true, |b| v > b.alpha) {
@@ -341,26 +482,36 @@ impl Ctx<'_, '_> {
             memo.push((g, v));
             Ok(v)
         };
-        let mut x1 = c - phi * (c - a);
-        let mut x2 = a + phi * (c - a);
-        let mut f1 = eval(self, x1, &mut best)?;
-        let mut f2 = eval(self, x2, &mut best)?;
-        for _ in 0..self.settings.gamma_refine {
-            if f1 >= f2 {
-                c = x2;
-                x2 = x1;
-                f2 = f1;
-                x1 = c - phi * (c - a);
-                f1 = eval(self, x1, &mut best)?;
-            } else {
-                a = x1;
-                x1 = x2;
-                f1 = f2;
-                x2 = a + phi * (c - a);
-                f2 = eval(self, x2, &mut best)?;
+        if c > a && self.settings.gamma_refine > 0 {
+            let mut x1 = c - phi * (c - a);
+            let mut x2 = a + phi * (c - a);
+            let mut f1 = eval(self, x1, &mut best)?;
+            let mut f2 = eval(self, x2, &mut best)?;
+            for _ in 2..self.settings.gamma_refine {
+                if f1 >= f2 {
+                    c = x2;
+                    x2 = x1;
+                    f2 = f1;
+                    x1 = c - phi * (c - a);
+                    f1 = eval(self, x1, &mut best)?;
+                } else {
+                    a = x1;
+                    x1 = x2;
+                    f1 = f2;
+                    x2 = a + phi * (c - a);
+                    f2 = eval(self, x2, &mut best)?;
+                }
             }
         }
-        Ok(best)
+        // Full precision at the best γ.
+        let Some(b) = best.clone() else {
+            return Ok(None);
+        };
+        let fine = self.alpha_max(b.gamma, Some(&b), tol, "final-bisect")?;
+        Ok(match fine {
+            Some(p) if p.alpha >= b.alpha => Some(p),
+            _ => Some(b),
+        })
     }
 }
 
@@ -410,7 +561,7 @@ pub fn design_with_progress(
     let (alpha_t, gamma_t, searched): (Option<f64>, f64, Option<Point>) = match (request.alpha, request.gamma) {
         (AlphaSpec::Fixed(a), GammaSpec::Fixed(g)) => (Some(a), g, None),
         (AlphaSpec::Max, GammaSpec::Fixed(g)) => {
-            let pt = ctx.alpha_max(g, None, "bisect")?;
+            let pt = ctx.alpha_max(g, None, settings.bisection_rel_tol, "bisect")?;
             (pt.as_ref().map(|p| p.alpha), g, pt)
         }
         (alpha, GammaSpec::Search) => {
@@ -441,7 +592,7 @@ pub fn design_with_progress(
     let mut final_status = Status::NotRun;
     let mut final_solver = SolverInfo::default();
     if let Some(a) = alpha_t {
-        let at = ctx.attempt(a, gamma_t, false, "final")?;
+        let at = ctx.attempt(a, gamma_t, Objective::Gains, None, "final")?;
         final_status = at.status;
         if let Some(p) = &at.point {
             final_solver = p.solver.clone();
@@ -499,6 +650,12 @@ pub fn design_with_progress(
             "{unknown} of {} solves ended with an unknown status ({}): neither feasible nor infeasible, counted as not certified",
             ctx.steps.len(),
             kinds.join(", ")
+        ));
+    }
+    if feasible && final_solver.status != Status::Solved {
+        notes.push(format!(
+            "the solver stopped with {} but its point passes the independent certificate",
+            final_solver.detail
         ));
     }
     let uncert = ctx.steps.iter().filter(|s| s.status == Status::Solved && !s.certified).count();

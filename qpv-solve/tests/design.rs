@@ -1,0 +1,274 @@
+//! Spec §7 acceptance: the paper's example designed in both modes.
+//!
+//! Reference results (spec §7): paper mode feasible at α = 10, γ = 0.4 with
+//! (15)/(S4) violated (γ² a_kᵀQa_k = 4.48); sound mode rejected at γ = 0.4
+//! ((S4) fails and the LMIs are infeasible); γ_max = 0.18898; sound mode
+//! certified at α = 10, γ = 0.1889.
+
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Span, StateBound};
+use qpv_solve::conditions::reference::paper_model;
+use qpv_solve::{check, design, design_with_progress, Design, SearchStep, Settings, SolveError, Status};
+
+fn req(alpha: AlphaSpec, gamma: GammaSpec, mode: Mode) -> DesignRequest {
+    DesignRequest {
+        alpha,
+        gamma,
+        mode,
+        span: Span::default(),
+    }
+}
+
+fn fixed(alpha: f64, gamma: f64, mode: Mode) -> DesignRequest {
+    req(AlphaSpec::Fixed(alpha), GammaSpec::Fixed(gamma), mode)
+}
+
+fn run(model: &PolytopicModel, r: &DesignRequest) -> Design {
+    design(model, r, &Settings::default()).expect("design runs")
+}
+
+/// Re-checks a design from its JSON (P and L only), as an outside user would.
+fn recheck_json(model: &PolytopicModel, d: &Design) -> qpv_solve::Certificate {
+    let back = Design::from_json(&d.to_json()).expect("JSON round trip");
+    assert_eq!(&back, d, "Design survives a JSON round trip unchanged");
+    check(model, back.mode, back.alpha, back.gamma, &back.p_matrix(), &back.l_matrices())
+}
+
+#[test]
+fn paper_mode_published_point_satisfies_printed_conditions() {
+    let model = paper_model();
+    let d = run(&model, &fixed(10.0, 0.4, Mode::Paper));
+    assert!(d.feasible, "{}", d.summary);
+    assert!(!d.certifies, "paper mode never certifies");
+    assert_eq!(d.solver.status, Status::Solved);
+    for key in ["S1", "13", "14", "26"] {
+        assert!(d.margins[key] > 0.0, "{key}: {}", d.margins[key]);
+    }
+    let s4 = &d.data_checks["S4"];
+    assert!((s4.value - 4.48).abs() < 1e-9, "S4 value {}", s4.value);
+    assert!(!s4.passed && !s4.required);
+    assert!(d.notes.iter().any(|n| n.contains("certifies nothing")));
+    assert!(d.notes.iter().any(|n| n.contains("violated assumption (15)/(S4)") && n.contains("4.48")));
+    assert!(d.summary.contains("certifies nothing"));
+    // The independent checker agrees from the JSON alone.
+    let c = recheck_json(&model, &d);
+    assert!(c.families_passed());
+    // ... and the same gains fail the sound conditions.
+    let s = check(&model, Mode::Sound, 10.0, 0.4, &d.p_matrix(), &d.l_matrices());
+    assert!(!s.passed);
+}
+
+#[test]
+fn sound_mode_rejected_at_gamma_04() {
+    let model = paper_model();
+    let d = run(&model, &fixed(10.0, 0.4, Mode::Sound));
+    assert!(!d.feasible && !d.certifies, "{}", d.summary);
+    // With N_k as printed the LMIs are infeasible: Clarabel's certificate.
+    assert_eq!(d.solver.status, Status::Infeasible, "{:?}", d.solver);
+    assert_eq!(d.solver.detail, "PrimalInfeasible");
+    let s4 = &d.data_checks["S4"];
+    assert!((s4.value - 4.48).abs() < 1e-9 && !s4.passed && s4.required);
+    assert!(d.p.is_empty() && d.l.is_empty());
+    assert!(d.summary.contains("NOT CERTIFIED"));
+}
+
+#[test]
+fn sound_mode_certified_at_gamma_01889() {
+    let model = paper_model();
+    let d = run(&model, &fixed(10.0, 0.1889, Mode::Sound));
+    assert!(d.feasible && d.certifies, "{}", d.summary);
+    for key in ["S1", "S2", "S3", "S5"] {
+        assert!(d.margins[key] > 0.0, "{key}: {}", d.margins[key]);
+    }
+    let s4 = &d.data_checks["S4"];
+    assert!(s4.passed && s4.value < 1.0);
+    assert!(d.data_checks["region_in_F"].passed);
+    assert_eq!(d.l.len(), 4);
+    assert_eq!((d.l[0].len(), d.l[0][0].len()), (3, 2));
+    // Moderate gains (the default objective).
+    assert!(d.gain_norms.iter().all(|&g| g > 0.0 && g < 100.0), "{:?}", d.gain_norms);
+    let c = recheck_json(&model, &d);
+    assert!(c.passed, "{c:?}");
+    // Not certifiable at a slightly larger α with the same gains ⇒ the
+    // checker is not vacuous.
+    let c2 = check(&model, Mode::Sound, 10.0, 0.4, &d.p_matrix(), &d.l_matrices());
+    assert!(!c2.passed);
+}
+
+#[test]
+fn gamma_max_from_s4() {
+    let g = qpv_solve::conditions::gamma_max(&paper_model()).unwrap();
+    assert!((g - 0.18898).abs() < 1e-5, "{g}");
+}
+
+#[test]
+fn alpha_max_paper_mode_at_gamma_04() {
+    let model = paper_model();
+    let d = run(&model, &req(AlphaSpec::Max, GammaSpec::Fixed(0.4), Mode::Paper));
+    assert!(d.feasible, "{}", d.summary);
+    // The published α = 10 is feasible, so α_max ≥ 10; measured 10.03.
+    assert!(d.alpha >= 10.0 && d.alpha < 10.1, "α_max = {}", d.alpha);
+    // The bisection brackets α_max: some step above α was not certified.
+    let tol = Settings::default().bisection_rel_tol;
+    assert!(d
+        .search
+        .iter()
+        .any(|s| !s.certified && s.alpha > d.alpha && s.alpha <= d.alpha * (1.0 + tol)));
+    println!("paper α_max(γ=0.4) = {:.5} in {} solves, {:.3} s", d.alpha, d.search.len(), d.seconds_total);
+}
+
+#[test]
+fn alpha_max_sound_mode_at_gamma_01889() {
+    let model = paper_model();
+    let d = run(&model, &req(AlphaSpec::Max, GammaSpec::Fixed(0.1889), Mode::Sound));
+    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.alpha >= 10.0 && d.alpha < 11.0, "α_max = {}", d.alpha);
+    let tol = Settings::default().bisection_rel_tol;
+    assert!(d
+        .search
+        .iter()
+        .any(|s| !s.certified && s.alpha > d.alpha && s.alpha <= d.alpha * (1.0 + tol)));
+    assert!(recheck_json(&model, &d).passed);
+    println!("sound α_max(γ=0.1889) = {:.5} in {} solves, {:.3} s", d.alpha, d.search.len(), d.seconds_total);
+}
+
+#[test]
+fn sound_mode_gamma_search_optimum() {
+    let model = paper_model();
+    let mut steps: Vec<SearchStep> = Vec::new();
+    let d = design_with_progress(
+        &model,
+        &req(AlphaSpec::Max, GammaSpec::Search, Mode::Sound),
+        &Settings::default(),
+        &mut |s| steps.push(s.clone()),
+    )
+    .unwrap();
+    assert!(d.feasible && d.certifies, "{}", d.summary);
+    let gmax = qpv_solve::conditions::gamma_max(&model).unwrap();
+    assert!(d.gamma > 0.0 && d.gamma <= gmax, "γ = {}", d.gamma);
+    // At least as good as the fixed γ = 0.1889 point (α_max ≈ 10.605).
+    assert!(d.alpha >= 10.55, "α = {}", d.alpha);
+    assert_eq!(steps, d.search, "progress saw every step");
+    assert!(steps.iter().any(|s| s.phase == "grid"));
+    assert!(recheck_json(&model, &d).passed);
+    println!(
+        "sound optimum α = {:.5}, γ = {:.5} in {} solves, {:.3} s",
+        d.alpha,
+        d.gamma,
+        d.search.len(),
+        d.seconds_total
+    );
+}
+
+#[test]
+fn paper_mode_gamma_search_stays_in_open_unit_interval() {
+    let model = paper_model();
+    let d = run(&model, &req(AlphaSpec::Max, GammaSpec::Search, Mode::Paper));
+    assert!(d.feasible && !d.certifies, "{}", d.summary);
+    assert!(d.gamma > 0.0 && d.gamma < 1.0);
+    assert!(d.alpha >= 10.0, "α = {}", d.alpha);
+    println!("paper optimum α = {:.5}, γ = {:.5}", d.alpha, d.gamma);
+}
+
+#[test]
+fn fixed_alpha_with_gamma_search() {
+    let model = paper_model();
+    let d = run(&model, &req(AlphaSpec::Fixed(10.0), GammaSpec::Search, Mode::Sound));
+    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert_eq!(d.alpha, 10.0);
+    // Too fast a rate: no γ works, and the report says so.
+    let d = run(&model, &req(AlphaSpec::Fixed(50.0), GammaSpec::Search, Mode::Sound));
+    assert!(!d.feasible, "{}", d.summary);
+    assert!(d.notes.iter().any(|n| n.contains("exceeds the best certified")));
+}
+
+#[test]
+fn unknown_solver_status_counts_only_through_the_certificate() {
+    let model = paper_model();
+    let mut seen_uncertified = false;
+    for max_iter in [1, 2, 3, 5] {
+        let settings = Settings {
+            max_iter,
+            ..Settings::default()
+        };
+        let d = design(&model, &fixed(10.0, 0.1889, Mode::Sound), &settings).unwrap();
+        assert_eq!(d.solver.status, Status::Unknown, "{:?}", d.solver);
+        assert_eq!(d.solver.detail, "MaxIterations");
+        assert!(d.notes.iter().any(|n| n.contains("unknown status")));
+        // An unfinished solve may still return a point that passes the
+        // independent certificate; feasible is exactly "the certificate passed".
+        let passed = !d.p.is_empty() && recheck_json(&model, &d).passed;
+        assert_eq!(d.feasible, passed, "max_iter {max_iter}: {}", d.summary);
+        seen_uncertified |= !d.feasible;
+        // The search treats unknowns as "not certified" and reports them.
+        let d = design(&model, &req(AlphaSpec::Max, GammaSpec::Fixed(0.1889), Mode::Sound), &settings).unwrap();
+        assert!(d.search.iter().all(|s| s.status == Status::Unknown));
+        assert!(d.search.iter().all(|s| !s.certified || s.alpha_certified > 0.0));
+    }
+    assert!(seen_uncertified, "at least the 1-iteration point is rejected");
+}
+
+#[test]
+fn request_errors() {
+    let model = paper_model();
+    let s = Settings::default();
+    assert_eq!(design(&model, &fixed(10.0, 1.0, Mode::Sound), &s), Err(SolveError::BadGamma(1.0)));
+    assert_eq!(design(&model, &fixed(10.0, 0.0, Mode::Paper), &s), Err(SolveError::BadGamma(0.0)));
+    assert_eq!(design(&model, &fixed(-1.0, 0.1, Mode::Sound), &s), Err(SolveError::BadAlpha(-1.0)));
+    assert!(matches!(design(&model, &fixed(f64::NAN, 0.1, Mode::Sound), &s), Err(SolveError::BadAlpha(_))));
+    let mut no_q = model.clone();
+    no_q.state_bound = StateBound::None;
+    assert!(matches!(
+        design(&no_q, &fixed(10.0, 0.1, Mode::Sound), &s),
+        Err(SolveError::MissingStateBound(_))
+    ));
+    // Paper mode runs without Q; (S4) is then reported as not checked.
+    let d = design(&no_q, &fixed(10.0, 0.4, Mode::Paper), &s).unwrap();
+    assert!(d.feasible && d.data_checks.is_empty());
+    assert!(d.notes.iter().any(|n| n.contains("not checked")));
+    let mut empty = model.clone();
+    empty.region.vertices.clear();
+    assert_eq!(design(&empty, &fixed(10.0, 0.1, Mode::Sound), &s), Err(SolveError::EmptyRegion));
+}
+
+#[test]
+fn json_keys_are_exactly_the_documented_ones() {
+    let model = paper_model();
+    let d = run(&model, &fixed(10.0, 0.1889, Mode::Sound));
+    let v: serde_json::Value = serde_json::from_str(&d.to_json()).unwrap();
+    let obj = v.as_object().unwrap();
+    for key in [
+        "model", "mode", "feasible", "certifies", "alpha", "gamma", "P", "Gamma", "L", "gain_norms", "margins",
+        "data_checks", "solver", "seconds_total", "search", "notes", "summary",
+    ] {
+        assert!(obj.contains_key(key), "missing key {key}");
+    }
+    assert_eq!(obj.len(), 17);
+    assert_eq!(v["mode"], "sound");
+    assert_eq!(v["solver"]["status"], "solved");
+    for key in ["status", "iterations", "seconds"] {
+        assert!(v["solver"].get(key).is_some());
+    }
+    assert_eq!(v["P"].as_array().unwrap().len(), 3);
+    assert_eq!(v["L"][0][0].as_array().unwrap().len(), 2);
+}
+
+#[test]
+fn parsed_paper_example_matches_hand_built_model() {
+    let models = qpv_dsl::parse(include_str!("../../examples/paper.qpv")).expect("paper.qpv parses");
+    let parsed = models[0].polytopic();
+    let hand = paper_model();
+    assert_eq!(parsed.nv(), hand.nv());
+    for (a, b) in parsed.vertices.iter().zip(&hand.vertices) {
+        assert!((&a.a - &b.a).norm() < 1e-12);
+        for (x, y) in a.n.iter().zip(&b.n) {
+            assert!((x - y).norm() < 1e-12);
+        }
+    }
+    // The model's own requests: the published paper point, then the sound search.
+    let d0 = run(&parsed, &parsed.designs[0]);
+    assert_eq!(d0.mode, Mode::Paper);
+    assert!(d0.feasible && !d0.certifies);
+    // The gains designed on the hand-built model certify on the parsed one.
+    let d = run(&hand, &fixed(10.0, 0.1889, Mode::Sound));
+    assert!(check(&parsed, Mode::Sound, 10.0, 0.1889, &d.p_matrix(), &d.l_matrices()).passed);
+}
