@@ -12,6 +12,24 @@
 //!
 //! [`falsify`] samples (e, x, θ) and reports the largest ratio
 //! r = (V' + αV)/V found; any r ≥ 0 is a counterexample to the claim.
+//!
+//! ```
+//! use nalgebra::DMatrix;
+//! use qpv_solve::falsify::falsify;
+//!
+//! // x' = −x, y = x: with L = 0 and P = I, V' = −2V, so α = 1 holds (r = −1)
+//! let src = "model decay {
+//!     state x;  output y;  param th in [0, 1];
+//!     der x = -x;  out y = x;
+//!     region box(1);  state_bound Q = [4];
+//! }";
+//! let model = qpv_dsl::parse(src)?.remove(0).polytopic();
+//! let gains = vec![DMatrix::zeros(1, 1); model.nv()];
+//! let f = falsify(&model, &DMatrix::identity(1, 1), &gains, 1.0, 0.5, 1000, 7)?;
+//! assert!(f.passed());
+//! assert!((f.worst_ratio + 1.0).abs() < 1e-12);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use crate::report::Design;
 use crate::simulate::{check_gains, check_model, output_into, Frozen, SimError};

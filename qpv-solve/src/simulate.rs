@@ -18,6 +18,30 @@
 //! Vectors are taken as slices and returned as `Vec<f64>`. Every function
 //! checks dimensions and finiteness of the model and the gains and returns a
 //! [`SimError`] instead of panicking.
+//!
+//! ```
+//! use nalgebra::DMatrix;
+//! use qpv_solve::simulate::{simulate, Scenario};
+//!
+//! let src = "model decay {
+//!     state x1, x2;  output y;  param th in [0, 1];
+//!     der x1 = -(1 + th)*x1 + x2;
+//!     der x2 = -x2 + x1*x2;
+//!     out y = x1;
+//!     region box(0.1);
+//! }";
+//! let model = qpv_dsl::parse(src)?.remove(0).polytopic();
+//! // one gain L_l (nx × ny) per vertex
+//! let gains = vec![DMatrix::from_row_slice(2, 1, &[2.0, 0.5]); model.nv()];
+//! let traj = simulate(&model, &gains, &Scenario::default_for(&model))?;
+//! assert_eq!(traj.diverged_at, None);
+//! assert!(traj.error_norm.last() < traj.error_norm.first());
+//!
+//! let mut csv = Vec::new();
+//! traj.write_csv(&mut csv)?;
+//! assert!(csv.starts_with(b"t,x1,x2,xhat1,xhat2,theta1,mu1,mu2,error_norm"));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use nalgebra::DMatrix;
 use qpv_dsl::PolytopicModel;
