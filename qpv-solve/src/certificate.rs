@@ -417,6 +417,31 @@ fn check_inner(
     }
 }
 
+/// The rate LMI matrix of block (l, i, j) (0-based) in model units:
+/// He{γ(PA_l − Γ_lC) + σ P R_{l,i,j} − Γ_l S_{i,j}} + γαP with σ = +1 for
+/// (S5) and −1 for (26) — required ≺ 0. For e = x_(i)/γ and x = x_(j)/γ it
+/// equals γ·He{P F(θ_l, e, x)} + γαP, F being the error-dynamics matrix.
+#[allow(clippy::too_many_arguments)]
+pub fn rate_lmi(
+    model: &PolytopicModel,
+    mode: Mode,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    gamma_l: &DMatrix<f64>,
+    l: usize,
+    i: usize,
+    j: usize,
+) -> DMatrix<f64> {
+    let sigma = ConditionSet::from_mode(mode).nonlinear_sign();
+    let v = &model.vertices[l];
+    let (xi, xj) = (&model.region.vertices[i], &model.region.vertices[j]);
+    let r = rows_he(&v.n, xj) - rows(&v.n, xi);
+    let s = rows_he(&model.m, xj) - rows(&model.m, xi);
+    let x = (p * &v.a - gamma_l * &model.c) * gamma + p * r * sigma - gamma_l * s;
+    &x + x.transpose() + p * (gamma * alpha)
+}
+
 /// The largest α at which the *same* (P, Γ_l) satisfy every rate LMI at
 /// this γ (exactly: −λ_max(L⁻¹ M₀ L⁻ᵀ)/γ minimised over the blocks, with
 /// P = LLᵀ and M₀ the rate LMI without its γαP term). Returns 0 if P is not

@@ -1,0 +1,182 @@
+//! The independent checker: agrees with the true error dynamics, rejects
+//! what it must, accepts externally supplied gains.
+
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Span};
+use qpv_solve::certificate::{alpha_capacity, rate_lmi};
+use qpv_solve::conditions::reference::{paper_model, synthetic_model};
+use qpv_solve::{check, design, Design, Settings};
+
+fn fixed(alpha: f64, gamma: f64, mode: Mode) -> DesignRequest {
+    DesignRequest {
+        alpha: AlphaSpec::Fixed(alpha),
+        gamma: GammaSpec::Fixed(gamma),
+        mode,
+        span: Span::default(),
+    }
+}
+
+fn sound_design(model: &PolytopicModel) -> Design {
+    let d = design(model, &fixed(10.0, 0.1889, Mode::Sound), &Settings::default()).unwrap();
+    assert!(d.feasible, "{}", d.summary);
+    d
+}
+
+/// Row k of the quadratic term: xᵀ T_k x.
+fn quad(t: &[DMatrix<f64>], x: &DVector<f64>) -> DVector<f64> {
+    DVector::from_iterator(t.len(), t.iter().map(|tk| x.dot(&(tk * x))))
+}
+
+/// e' of plant minus observer at vertex l (θ fixed at the corner, u = 0),
+/// computed from the nonlinear right-hand sides themselves, not the LMI.
+fn error_rate(model: &PolytopicModel, l: usize, gain: &DMatrix<f64>, x: &DVector<f64>, e: &DVector<f64>) -> DVector<f64> {
+    let v = &model.vertices[l];
+    let xh = x - e;
+    let fx = &v.a * x + quad(&v.n, x);
+    let fxh = &v.a * &xh + quad(&v.n, &xh);
+    let y = &model.c * x + quad(&model.m, x);
+    let yh = &model.c * &xh + quad(&model.m, &xh);
+    fx - fxh - gain * (y - yh)
+}
+
+#[test]
+fn sound_rate_lmi_is_the_true_lyapunov_derivative() {
+    // For e = x_(i)/γ, x = x_(j)/γ:  eᵀ(S5 − γαP)e = γ · 2 eᵀ P e'.
+    let model = paper_model();
+    let d = sound_design(&model);
+    let (alpha, gamma) = (d.alpha, d.gamma);
+    let p = d.p_matrix();
+    let ls = d.l_matrices();
+    let mut worst: f64 = 0.0;
+    for l in 0..model.nv() {
+        let g = &p * &ls[l];
+        for i in 0..model.region.vertices.len() {
+            for j in 0..model.region.vertices.len() {
+                let m = rate_lmi(&model, Mode::Sound, alpha, gamma, &p, &g, l, i, j);
+                let e = &model.region.vertices[i] / gamma;
+                let x = &model.region.vertices[j] / gamma;
+                let lhs = e.dot(&((&m - &p * (gamma * alpha)) * &e));
+                let rhs = gamma * 2.0 * e.dot(&(&p * error_rate(&model, l, &ls[l], &x, &e)));
+                worst = worst.max((lhs - rhs).abs() / (1.0 + rhs.abs()));
+                // The certified LMI ≺ 0 implies V' + αV < 0 at this (θ_l, e, x).
+                let vdot = 2.0 * e.dot(&(&p * error_rate(&model, l, &ls[l], &x, &e)));
+                assert!(vdot + alpha * e.dot(&(&p * &e)) < 0.0);
+            }
+        }
+    }
+    assert!(worst < 1e-10, "relative mismatch {worst:e}");
+}
+
+#[test]
+fn paper_rate_lmi_has_the_opposite_nonlinear_sign() {
+    // (26) flips the sign of the P-term: S5 + (26) = 2·(the linear part).
+    let model = paper_model();
+    let d = sound_design(&model);
+    let p = d.p_matrix();
+    let g = &p * &d.l_matrices()[2];
+    let (a, gm) = (d.alpha, d.gamma);
+    let s5 = rate_lmi(&model, Mode::Sound, a, gm, &p, &g, 2, 3, 5);
+    let p26 = rate_lmi(&model, Mode::Paper, a, gm, &p, &g, 2, 3, 5);
+    let v = &model.vertices[2];
+    let xi = &model.region.vertices[3];
+    let xj = &model.region.vertices[5];
+    let r = qpv_solve::conditions::rows_he(&v.n, xj) - qpv_solve::conditions::rows(&v.n, xi);
+    let pr = &p * r;
+    let diff = &s5 - &p26 - (&pr + pr.transpose()) * 2.0;
+    assert!(diff.norm() < 1e-9 * s5.norm());
+}
+
+#[test]
+fn checker_rejects_broken_inputs() {
+    let model = paper_model();
+    let d = sound_design(&model);
+    let p = d.p_matrix();
+    let ls = d.l_matrices();
+    let ok = check(&model, Mode::Sound, d.alpha, d.gamma, &p, &ls);
+    assert!(ok.passed && ok.input_errors.is_empty());
+    // Zero gains: no output injection, the rate LMIs fail.
+    let zero: Vec<DMatrix<f64>> = ls.iter().map(|l| l * 0.0).collect();
+    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &p, &zero);
+    assert!(!c.passed && !c.family("S5").unwrap().passed);
+    assert!(c.family("S5").unwrap().worst_at.starts_with("l="));
+    // −P: not positive definite.
+    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &(-&p), &ls);
+    assert!(!c.family("S1").unwrap().passed);
+    // Non-symmetric P.
+    let mut q = p.clone();
+    q[(0, 1)] += 1e-3 * p.norm();
+    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &q, &ls);
+    assert!(!c.family("S1").unwrap().passed);
+    assert!(c.family("S1").unwrap().worst_at.contains("not symmetric"));
+    // 2P: the region no longer lies in the ellipsoid (S2).
+    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &(&p * 2.0), &ls);
+    assert!(!c.family("S2").unwrap().passed);
+    // P/100: the ellipsoid leaves P/γ (S3).
+    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &(&p / 100.0), &ls);
+    assert!(!c.family("S3").unwrap().passed);
+    // γ beyond γ_max: (S4) fails and is required in sound mode.
+    let c = check(&model, Mode::Sound, d.alpha, 0.2, &p, &ls);
+    assert!(!c.passed && !c.data_checks["S4"].passed);
+    // Wrong shapes, NaN, bad α/γ: input errors, never a pass.
+    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &DMatrix::identity(2, 2), &ls);
+    assert!(!c.passed && !c.input_errors.is_empty());
+    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &p, &ls[..3]);
+    assert!(!c.passed && !c.input_errors.is_empty());
+    let mut nan = p.clone();
+    nan[(1, 1)] = f64::NAN;
+    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &nan, &ls);
+    assert!(!c.passed && !c.input_errors.is_empty());
+    assert!(!check(&model, Mode::Sound, 0.0, d.gamma, &p, &ls).passed);
+    assert!(!check(&model, Mode::Sound, d.alpha, 1.5, &p, &ls).passed);
+    // The certificate serialises (no NaN/∞ in JSON).
+    let json = serde_json::to_string(&c).unwrap();
+    assert!(json.contains("input_errors"));
+}
+
+#[test]
+fn capacity_is_the_exact_alpha_boundary() {
+    let model = paper_model();
+    let d = sound_design(&model);
+    let p = d.p_matrix();
+    let ls = d.l_matrices();
+    let gs: Vec<DMatrix<f64>> = ls.iter().map(|l| &p * l).collect();
+    let cap = alpha_capacity(&model, Mode::Sound, d.gamma, &p, &gs);
+    assert!(cap > d.alpha, "capacity {cap} ≥ the designed α");
+    let below = check(&model, Mode::Sound, cap * (1.0 - 1e-7), d.gamma, &p, &ls);
+    let above = check(&model, Mode::Sound, cap * (1.0 + 1e-7), d.gamma, &p, &ls);
+    assert!(below.family("S5").unwrap().passed);
+    assert!(!above.family("S5").unwrap().passed);
+}
+
+#[test]
+fn external_gains_can_be_checked() {
+    // Gains from elsewhere (here: a paper-mode design) are checked against
+    // both condition sets without any solver involvement.
+    let model = paper_model();
+    let dp = design(&model, &fixed(10.0, 0.4, Mode::Paper), &Settings::default()).unwrap();
+    let p = dp.p_matrix();
+    let ls = dp.l_matrices();
+    let paper = check(&model, Mode::Paper, 10.0, 0.4, &p, &ls);
+    assert!(paper.families_passed());
+    assert!(!paper.data_checks["S4"].passed && !paper.data_checks["S4"].required);
+    let sound = check(&model, Mode::Sound, 10.0, 0.1889, &p, &ls);
+    assert!(!sound.passed);
+    let keys: Vec<String> = paper.margins().keys().cloned().collect();
+    assert_eq!(keys, ["13", "14", "26", "S1"]);
+}
+
+#[test]
+fn synthetic_models_design_and_certify() {
+    for nx in [3, 4] {
+        let model = synthetic_model(nx);
+        let r = DesignRequest {
+            alpha: AlphaSpec::Max,
+            gamma: GammaSpec::Fixed(0.3),
+            mode: Mode::Sound,
+            span: Span::default(),
+        };
+        let d = design(&model, &r, &Settings::default()).unwrap();
+        assert!(d.feasible && d.certifies, "nx = {nx}: {}", d.summary);
+        assert!(check(&model, Mode::Sound, d.alpha, d.gamma, &d.p_matrix(), &d.l_matrices()).passed);
+    }
+}
