@@ -230,6 +230,80 @@ impl<'a> Ratio<'a> {
     }
 }
 
+/// A random e: a region vertex scaled into E (1/8), on the boundary of E
+/// (1/4) or uniform inside it (5/8).
+fn draw_e(
+    rng: &mut Rng,
+    z: &mut DVector<f64>,
+    e_vertices: &[DVector<f64>],
+    to_e: &impl Fn(&DVector<f64>) -> Option<DVector<f64>>,
+) -> DVector<f64> {
+    let pick = rng.uniform();
+    if pick < 0.125 && !e_vertices.is_empty() {
+        return e_vertices[rng.index(e_vertices.len())].clone();
+    }
+    rng.ball(z.as_mut_slice(), pick >= 0.75);
+    // the factor has a positive diagonal, so the solve cannot fail
+    to_e(z).unwrap_or_else(|| DVector::zeros(z.len()))
+}
+
+/// A random x: in F = {x = R_q z, |z| ≤ 1} like e (with region vertices
+/// scaled onto ∂F), or, without a state bound (`rq` = None), a vertex of P/γ
+/// (1/4) or a random convex combination of them.
+fn draw_x(
+    rng: &mut Rng,
+    z: &mut DVector<f64>,
+    rq: Option<&DMatrix<f64>>,
+    x_vertices: &[DVector<f64>],
+) -> DVector<f64> {
+    let pick = rng.uniform();
+    match rq {
+        Some(rq) => {
+            if pick < 0.125 && !x_vertices.is_empty() {
+                x_vertices[rng.index(x_vertices.len())].clone()
+            } else {
+                rng.ball(z.as_mut_slice(), pick >= 0.75);
+                rq * &*z
+            }
+        }
+        None => {
+            if pick < 0.25 {
+                x_vertices[rng.index(x_vertices.len())].clone()
+            } else {
+                // random convex combination (exponential weights)
+                let w: Vec<f64> = x_vertices
+                    .iter()
+                    .map(|_| -(1.0 - rng.uniform()).ln())
+                    .collect();
+                let total: f64 = w.iter().sum();
+                x_vertices
+                    .iter()
+                    .zip(&w)
+                    .fold(DVector::zeros(z.len()), |acc, (v, wi)| {
+                        acc + v * (wi / total)
+                    })
+            }
+        }
+    }
+}
+
+/// A random θ: uniform in the box (3/4) or a random corner (1/4).
+fn draw_theta(rng: &mut Rng, model: &PolytopicModel, theta: &mut [f64]) {
+    let corner = rng.uniform() < 0.25;
+    for (t, prm) in theta.iter_mut().zip(&model.params) {
+        let s = if corner {
+            if rng.uniform() < 0.5 {
+                0.0
+            } else {
+                1.0
+            }
+        } else {
+            rng.uniform()
+        };
+        *t = prm.lo + s * (prm.hi - prm.lo);
+    }
+}
+
 /// Samples the claim "V' + αV < 0 for e ∈ E, x ∈ F, θ ∈ Θ" on the true
 /// nonlinear error dynamics and reports the worst ratio r = (V' + αV)/V.
 ///
@@ -241,6 +315,11 @@ impl<'a> Ratio<'a> {
 ///   divided by γ, or a random convex combination of those vertices);
 ///   `gamma` is used only then.
 /// * θ: uniform in the parameter box (3/4) or a random corner (1/4).
+///
+/// The last tenth of the `samples` is a local search instead: random steps
+/// from the worst point found so far (projected back into E, F or P/γ and
+/// the box; the step grows after an improvement and shrinks otherwise), which
+/// pushes the worst ratio towards the true maximum.
 ///
 /// `gains[l]` = L_l in the model's vertex order; `p` is the Lyapunov matrix.
 /// The same `seed` gives the same samples. Points with e = 0 are skipped.
@@ -337,59 +416,65 @@ pub fn falsify(
         worst: None,
     };
 
-    for _ in 0..samples {
-        // e
-        let pick = rng.uniform();
-        let e = if pick < 0.125 && !e_vertices.is_empty() {
-            e_vertices[rng.index(e_vertices.len())].clone()
+    // facets of P/γ (γ a_kᵀ x ≤ 1), to keep local moves inside it
+    let x_facets: Vec<DVector<f64>> = model
+        .region
+        .facets
+        .iter()
+        .filter(|a| a.len() == nx && a.iter().all(|c| c.is_finite()))
+        .map(|a| a * gamma)
+        .collect();
+    let x_radius = x_vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
+    let local_start = samples - samples / 10;
+    let mut step = 0.1;
+
+    for i in 0..samples {
+        let local = match &out.worst {
+            Some(w) if i >= local_start => Some(w.clone()),
+            _ => None,
+        };
+        let (e, x) = if let Some(w) = &local {
+            // local search around the worst point so far, kept inside the sets
+            let mut e = DVector::from_row_slice(&w.e);
+            rng.ball(z.as_mut_slice(), false);
+            e += to_e(&z).unwrap_or_else(|| DVector::zeros(nx)) * step;
+            let v = e.dot(&(p * &e));
+            if v > 1.0 {
+                e /= v.sqrt();
+            }
+            let mut x = DVector::from_row_slice(&w.x);
+            rng.ball(z.as_mut_slice(), false);
+            match &rq {
+                Some(rq) => {
+                    x += rq * &z * step;
+                    if let Some(r) = rq.solve_lower_triangular(&x).map(|y| y.norm()) {
+                        if r > 1.0 {
+                            x /= r;
+                        }
+                    }
+                }
+                None if !x_facets.is_empty() => {
+                    x += &z * (step * x_radius);
+                    let m = x_facets.iter().map(|a| a.dot(&x)).fold(0.0, f64::max);
+                    if m > 1.0 {
+                        x /= m;
+                    }
+                }
+                None => {}
+            }
+            for ((t, prm), t0) in theta.iter_mut().zip(&model.params).zip(&w.theta) {
+                let s = (t0 - prm.lo) / (prm.hi - prm.lo) + step * rng.normal();
+                *t = prm.lo + s.clamp(0.0, 1.0) * (prm.hi - prm.lo);
+            }
+            (e, x)
         } else {
-            rng.ball(z.as_mut_slice(), pick >= 0.75);
-            match to_e(&z) {
-                Some(e) => e,
-                None => continue, // unreachable: the factor has a nonzero diagonal
-            }
+            (
+                draw_e(&mut rng, &mut z, &e_vertices, &to_e),
+                draw_x(&mut rng, &mut z, rq.as_ref(), &x_vertices),
+            )
         };
-        // x
-        let pick = rng.uniform();
-        let x = match &rq {
-            Some(rq) => {
-                if pick < 0.125 && !x_vertices.is_empty() {
-                    x_vertices[rng.index(x_vertices.len())].clone()
-                } else {
-                    rng.ball(z.as_mut_slice(), pick >= 0.75);
-                    rq * &z
-                }
-            }
-            None => {
-                if pick < 0.25 {
-                    x_vertices[rng.index(x_vertices.len())].clone()
-                } else {
-                    // random convex combination (exponential weights)
-                    let w: Vec<f64> = x_vertices
-                        .iter()
-                        .map(|_| -(1.0 - rng.uniform()).ln())
-                        .collect();
-                    let total: f64 = w.iter().sum();
-                    x_vertices
-                        .iter()
-                        .zip(&w)
-                        .fold(DVector::zeros(nx), |acc, (v, wi)| acc + v * (wi / total))
-                }
-            }
-        };
-        // θ
-        let corner = rng.uniform() < 0.25;
-        for (t, prm) in theta.iter_mut().zip(&model.params) {
-            let s = if corner {
-                if rng.uniform() < 0.5 {
-                    0.0
-                } else {
-                    1.0
-                }
-            } else {
-                rng.uniform()
-            };
-            *t = prm.lo + s * (prm.hi - prm.lo);
+        if local.is_none() {
+            draw_theta(&mut rng, model, &mut theta);
         }
 
         let Some(r) = ratio.eval(e.as_slice(), x.as_slice(), &theta) else {
@@ -401,7 +486,11 @@ pub fn falsify(
         if r.is_nan() || r >= 0.0 {
             out.counterexamples += 1;
         }
-        if out.worst.is_none() || r_key > out.worst_ratio {
+        let improved = out.worst.is_none() || r_key > out.worst_ratio;
+        if local.is_some() {
+            step = if improved { step * 2.0 } else { step * 0.85 }.clamp(1e-6, 1.0);
+        }
+        if improved {
             out.worst_ratio = r_key;
             out.worst = Some(Sample {
                 e: e.iter().copied().collect(),
