@@ -575,8 +575,10 @@ fn word_before(src: &str, pos: usize) -> Option<(Span, &str)> {
     let head = src.get(..pos)?;
     let trimmed = head.trim_end();
     let start = trimmed
-        .rfind(|c: char| !is_ident_char(c))
-        .map(|i| i + 1)
+        .char_indices()
+        .rev()
+        .find(|(_, c)| !is_ident_char(*c))
+        .map(|(i, c)| i + c.len_utf8())
         .unwrap_or(0);
     let w = &trimmed[start..];
     if w.is_empty() || !w.starts_with(is_ident_start) {
