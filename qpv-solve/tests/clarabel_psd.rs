@@ -61,6 +61,7 @@ fn solve(
     b: &[f64],
     cones: &[SupportedConeT<f64>],
 ) -> DefaultSolver<f64> {
+    #[cfg(feature = "pure-lapack")]
     qpv_solve::lapack::ensure_linked();
     let n = q.len();
     let a = CscMatrix::from(rows);
