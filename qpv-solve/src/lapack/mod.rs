@@ -39,13 +39,19 @@
 //!
 //! # Linking
 //! GNU ld pulls an archive member only if it resolves a symbol that is
-//! undefined *at that point*, and rustc lists rlibs dependents-first, so
-//! `clarabel`'s references to `dgemm_` etc. can come after this crate's rlib
-//! has been scanned. Code that runs Clarabel must therefore call
-//! [`ensure_linked`] (cheap) before solving: it references every exported
-//! symbol, so the objects defining them are part of every link that contains
-//! the caller. (`rust-lld`, rustc's default linker on x86_64 Linux since 1.90,
-//! does not have the problem, but `-fuse-ld=bfd` or older toolchains do.)
+//! undefined *at that point*, and rustc lists rlibs dependents-first
+//! (`libqpv_solve.rlib` before `libclarabel.rlib`). Measured with rustc 1.95
+//! and GNU ld (`-Clinker-features=-lld`): rustc puts a synthetic `symbols.o`
+//! first on the link line that references every `#[no_mangle]` symbol of each
+//! linked rlib, so the definitions here are pulled in as soon as qpv-solve is
+//! linked at all (any item used, or `use qpv_solve as _;`); a binary that
+//! calls Clarabel without using anything from qpv-solve fails with undefined
+//! references to `dgemm_` etc. (reproduced). Code that runs Clarabel should
+//! therefore call [`ensure_linked`] (cheap; `sdp::ensure_lapack` does, before
+//! every solve): it references every exported symbol, so the objects defining
+//! them are part of every link that contains the caller, whatever the linker.
+//! (`rust-lld`, rustc's default on x86_64 Linux, resolves archive members
+//! regardless of order.)
 //!
 //! The module exists only with the default `pure-lapack` feature; switch it
 //! off (`default-features = false`) when linking a system BLAS/LAPACK.
