@@ -27,7 +27,7 @@
 //! let gains = vec![DMatrix::zeros(1, 1); model.nv()];
 //! let f = falsify(&model, &DMatrix::identity(1, 1), &gains, 1.0, 0.5, 1000, 7)?;
 //! assert!(f.passed());
-//! assert!((f.worst_ratio + 1.0).abs() < 1e-12);
+//! assert!((f.worst_ratio + 1.0).abs() < 1e-9);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
@@ -230,6 +230,10 @@ impl<'a> Ratio<'a> {
     }
 }
 
+/// The local search keeps V(e) = eᵀPe above this (‖e‖ at least 1e-3 of the
+/// size of E): see [`falsify`].
+const LOCAL_MIN_V: f64 = 1e-6;
+
 /// A random e: a region vertex scaled into E (1/8), on the boundary of E
 /// (1/4) or uniform inside it (5/8).
 fn draw_e(
@@ -319,7 +323,9 @@ fn draw_theta(rng: &mut Rng, model: &PolytopicModel, theta: &mut [f64]) {
 /// The last tenth of the `samples` is a local search instead: random steps
 /// from the worst point found so far (projected back into E, F or P/γ and
 /// the box; the step grows after an improvement and shrinks otherwise), which
-/// pushes the worst ratio towards the true maximum.
+/// pushes the worst ratio towards the true maximum. It does not move e
+/// below V(e) = 1e-6: e' is computed as the difference f(x) − f(x̂) of the
+/// true dynamics, whose rounding error grows like ε‖x‖/‖e‖ as e → 0.
 ///
 /// `gains[l]` = L_l in the model's vertex order; `p` is the Lyapunov matrix.
 /// The same `seed` gives the same samples. Points with e = 0 are skipped.
@@ -441,6 +447,10 @@ pub fn falsify(
             let v = e.dot(&(p * &e));
             if v > 1.0 {
                 e /= v.sqrt();
+            } else if v < LOCAL_MIN_V {
+                // f(x) − f(x̂) loses digits as e → 0 (rounding error about
+                // ε‖x‖/‖e‖): do not let the search chase that noise
+                e = DVector::from_row_slice(&w.e);
             }
             let mut x = DVector::from_row_slice(&w.x);
             rng.ball(z.as_mut_slice(), false);

@@ -168,8 +168,9 @@ fn trivially_stable_case_has_no_counterexample_and_the_exact_ratio() {
     assert_eq!(f.samples + f.skipped, 10_000);
     assert_eq!(f.counterexamples, 0);
     assert_eq!(f.state_set, StateSet::StateBound);
+    // exact up to rounding: e' is computed as the difference f(x) − f(x̂)
     assert!(
-        (f.worst_ratio + 1.0).abs() < 1e-12,
+        (f.worst_ratio + 1.0).abs() < 1e-9,
         "worst {}",
         f.worst_ratio
     );
@@ -182,7 +183,7 @@ fn too_large_alpha_is_caught_everywhere() {
     let f = falsify(&model, &p, &zero_gains(&model), 3.0, 0.5, 1_000, 1).unwrap();
     assert!(!f.passed());
     assert_eq!(f.counterexamples, f.samples);
-    assert!((f.worst_ratio - 1.0).abs() < 1e-12);
+    assert!((f.worst_ratio - 1.0).abs() < 1e-9);
 }
 
 #[test]
