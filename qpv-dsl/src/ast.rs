@@ -73,7 +73,7 @@ pub struct ParamDecl {
 /// `NAME = value;`
 #[derive(Debug, Clone, PartialEq)]
 pub struct MatrixDef {
-    /// The matrix name (A, B, C, N<k>, M<k>).
+    /// The matrix name (`A`, `B`, `C`, `N<k>`, `M<k>`).
     pub name: Ident,
     /// The right-hand side.
     pub value: MatrixValue,

@@ -60,7 +60,12 @@ fn constant_term(src: &str, names: &Names, eq: &str, mono: &Mono, span: Span) ->
 }
 
 /// Builds A, N_k, B from one polynomial per state (in state order).
-pub(crate) fn dynamics(src: &str, names: &Names, eqs: &[Poly], split: Split) -> Result<Dynamics, Diag> {
+pub(crate) fn dynamics(
+    src: &str,
+    names: &Names,
+    eqs: &[Poly],
+    split: Split,
+) -> Result<Dynamics, Diag> {
     let nx = names.states.len();
     let nu = names.inputs.len();
     let mut a = PolyMatrix::zeros(nx, nx);
@@ -80,7 +85,10 @@ pub(crate) fn dynamics(src: &str, names: &Names, eqs: &[Poly], split: Split) -> 
                 _ => {
                     return Err(Diag::new(
                         term.span,
-                        format!("internal error: unexpected term {} in `{label}`", names.mono_text(mono)),
+                        format!(
+                            "internal error: unexpected term {} in `{label}`",
+                            names.mono_text(mono)
+                        ),
                     ))
                 }
             }
@@ -90,7 +98,12 @@ pub(crate) fn dynamics(src: &str, names: &Names, eqs: &[Poly], split: Split) -> 
 }
 
 /// Builds C, M_k from one polynomial per output (in output order).
-pub(crate) fn outputs(src: &str, names: &Names, eqs: &[Poly], split: Split) -> Result<Outputs, Diag> {
+pub(crate) fn outputs(
+    src: &str,
+    names: &Names,
+    eqs: &[Poly],
+    split: Split,
+) -> Result<Outputs, Diag> {
     let nx = names.states.len();
     let ny = names.outputs.len();
     let mut c = PolyMatrix::zeros(ny, nx);
@@ -113,22 +126,29 @@ pub(crate) fn outputs(src: &str, names: &Names, eqs: &[Poly], split: Split) -> R
                     return Err(Diag::new(
                         term.span,
                         format!(
-                            "`{label}` depends on the input `{}`: direct feedthrough (y = ... + D u) \
+                        "`{label}` depends on the input `{}`: direct feedthrough (y = ... + D u) \
                              is not supported; subtract D u from the measurement and give the \
                              observer y − D u instead",
-                            names.inputs[*u]
-                        ),
+                        names.inputs[*u]
+                    ),
                     ))
                 }
                 [] => return Err(constant_term(src, names, &label, mono, term.span)),
                 _ => {
                     return Err(Diag::new(
                         term.span,
-                        format!("internal error: unexpected term {} in `{label}`", names.mono_text(mono)),
+                        format!(
+                            "internal error: unexpected term {} in `{label}`",
+                            names.mono_text(mono)
+                        ),
                     ))
                 }
             };
-            if mono.theta != 0 && !theta_terms.iter().any(|t: &(usize, usize, usize, Span)| (t.0, t.1, t.2) == (which, i, j)) {
+            if mono.theta != 0
+                && !theta_terms
+                    .iter()
+                    .any(|t: &(usize, usize, usize, Span)| (t.0, t.1, t.2) == (which, i, j))
+            {
                 theta_terms.push((which, i, j, term.span));
             }
         }
@@ -138,7 +158,14 @@ pub(crate) fn outputs(src: &str, names: &Names, eqs: &[Poly], split: Split) -> R
 
 /// The error for a θ-dependent entry of C or M_k: the design needs constant
 /// output matrices; explains the two remedies.
-pub(crate) fn theta_output_error(names: &Names, matrix: &str, i: usize, j: usize, p: &ThetaPoly, span: Span) -> Diag {
+pub(crate) fn theta_output_error(
+    names: &Names,
+    matrix: &str,
+    i: usize,
+    j: usize,
+    p: &ThetaPoly,
+    span: Span,
+) -> Diag {
     Diag::new(
         span,
         format!(

@@ -35,7 +35,10 @@ fn parse_diag(src: &str) -> Result<Vec<Model>, diagnostic::Diag> {
             let (l, c) = diagnostic::line_col(src, prev.span.start);
             return Err(diagnostic::Diag::new(
                 m.name.span,
-                format!("a model named `{}` is already defined at {l}:{c}", m.name.name),
+                format!(
+                    "a model named `{}` is already defined at {l}:{c}",
+                    m.name.name
+                ),
             ));
         }
         models.push(model::build(src, m)?);

@@ -251,8 +251,12 @@ impl<'a> Builder<'a> {
             context,
         };
         let p = eval(e, &scope)?;
-        p.as_constant()
-            .ok_or_else(|| Diag::new(e.span, format!("a constant number is expected in {context}")))
+        p.as_constant().ok_or_else(|| {
+            Diag::new(
+                e.span,
+                format!("a constant number is expected in {context}"),
+            )
+        })
     }
 
     // ----- declarations -----
@@ -286,7 +290,10 @@ impl<'a> Builder<'a> {
                     _ => (&mut self.names.params, MAX_PARAMS, "parameters"),
                 };
                 if vec.len() >= limit {
-                    return Err(Diag::new(id.span, format!("too many {what}: at most {limit} are supported")));
+                    return Err(Diag::new(
+                        id.span,
+                        format!("too many {what}: at most {limit} are supported"),
+                    ));
                 }
                 let r = match kind {
                     0 => NameRef::State(vec.len()),
@@ -303,7 +310,10 @@ impl<'a> Builder<'a> {
         if self.names.states.is_empty() {
             return Err(Diag::new(
                 name.span,
-                format!("model `{}` declares no states: add `state x1, x2, ...;`", name.name),
+                format!(
+                    "model `{}` declares no states: add `state x1, x2, ...;`",
+                    name.name
+                ),
             ));
         }
         if self.names.outputs.is_empty() {
@@ -367,8 +377,16 @@ impl<'a> Builder<'a> {
         let w = id.name.as_str();
         let unknown = || {
             let mut list = String::from("A, B, C");
-            list.push_str(&if nx == 1 { ", N1".to_string() } else { format!(", N1..N{nx}") });
-            list.push_str(&if ny == 1 { " or M1".to_string() } else { format!(" or M1..M{ny}") });
+            list.push_str(&if nx == 1 {
+                ", N1".to_string()
+            } else {
+                format!(", N1..N{nx}")
+            });
+            list.push_str(&if ny == 1 {
+                " or M1".to_string()
+            } else {
+                format!(" or M1..M{ny}")
+            });
             let extra = if w == "Q" {
                 " (the state bound is written `state_bound Q = [...];`)"
             } else if w == "D" {
@@ -376,7 +394,10 @@ impl<'a> Builder<'a> {
             } else {
                 ""
             };
-            Diag::new(id.span, format!("unknown matrix `{w}`: expected {list}{extra}"))
+            Diag::new(
+                id.span,
+                format!("unknown matrix `{w}`: expected {list}{extra}"),
+            )
         };
         match w {
             "A" => return Ok(MatName::A),
@@ -407,7 +428,11 @@ impl<'a> Builder<'a> {
                 ),
             ));
         }
-        Ok(if letter == 'N' { MatName::N(k - 1) } else { MatName::M(k - 1) })
+        Ok(if letter == 'N' {
+            MatName::N(k - 1)
+        } else {
+            MatName::M(k - 1)
+        })
     }
 
     /// Size and meaning of rows/columns of each matrix.
@@ -415,14 +440,32 @@ impl<'a> Builder<'a> {
         let nx = self.names.states.len();
         match m {
             MatName::A => (nx, nx, "one per state", "one per state"),
-            MatName::B => (nx, self.names.inputs.len(), "one per state", "one per input"),
-            MatName::C => (self.names.outputs.len(), nx, "one per output", "one per state"),
+            MatName::B => (
+                nx,
+                self.names.inputs.len(),
+                "one per state",
+                "one per input",
+            ),
+            MatName::C => (
+                self.names.outputs.len(),
+                nx,
+                "one per output",
+                "one per state",
+            ),
             MatName::N(_) | MatName::M(_) => (nx, nx, "one per state", "one per state"),
         }
     }
 
     /// Checks the shape of a literal: each row's length, then the row count.
-    fn check_shape(&self, lit: &MatrixLit, label: &str, rows: usize, cols: usize, rmean: &str, cmean: &str) -> R<()> {
+    fn check_shape(
+        &self,
+        lit: &MatrixLit,
+        label: &str,
+        rows: usize,
+        cols: usize,
+        rmean: &str,
+        cmean: &str,
+    ) -> R<()> {
         for (r, row) in lit.rows.iter().enumerate() {
             if row.entries.len() != cols {
                 return Err(Diag::new(
@@ -431,7 +474,11 @@ impl<'a> Builder<'a> {
                         "row {} of {label} has {} {}, expected {cols} ({cmean})",
                         r + 1,
                         row.entries.len(),
-                        if row.entries.len() == 1 { "entry" } else { "entries" }
+                        if row.entries.len() == 1 {
+                            "entry"
+                        } else {
+                            "entries"
+                        }
                     ),
                 ));
             }
@@ -439,7 +486,10 @@ impl<'a> Builder<'a> {
         if lit.rows.len() != rows {
             return Err(Diag::new(
                 lit.span,
-                format!("{label} must have {rows} rows ({rmean}), found {}", lit.rows.len()),
+                format!(
+                    "{label} must have {rows} rows ({rmean}), found {}",
+                    lit.rows.len()
+                ),
             ));
         }
         Ok(())
@@ -495,7 +545,11 @@ impl<'a> Builder<'a> {
             if let Some((_, prev)) = out.iter().find(|(n, _)| *n == m) {
                 return Err(Diag::new(
                     def.name.span,
-                    format!("{} is defined twice (first at {})", m.label(), pos(self.src, prev.name.span)),
+                    format!(
+                        "{} is defined twice (first at {})",
+                        m.label(),
+                        pos(self.src, prev.name.span)
+                    ),
                 ));
             }
             out.push((m, def));
@@ -506,7 +560,11 @@ impl<'a> Builder<'a> {
     /// Equations `der`/`out` by target index; duplicates and unknown targets rejected.
     fn equations(&self, der: bool) -> R<Vec<(usize, &'a ast::Equation)>> {
         let mut out: Vec<(usize, &ast::Equation)> = Vec::new();
-        let (kw, want) = if der { ("der", "state") } else { ("out", "output") };
+        let (kw, want) = if der {
+            ("der", "state")
+        } else {
+            ("out", "output")
+        };
         for item in &self.ast.items {
             let eq = match (item, der) {
                 (Item::Der(e), true) | (Item::Out(e), false) => e,
@@ -517,30 +575,51 @@ impl<'a> Builder<'a> {
                 (Some(NameRef::State(i)), true) | (Some(NameRef::Output(i)), false) => *i,
                 (Some(r), _) => {
                     let hint = match r {
-                        NameRef::Output(_) => format!(" (write `out {} = ...;` for an output)", t.name),
-                        NameRef::State(_) => format!(" (write `der {} = ...;` for a state)", t.name),
+                        NameRef::Output(_) => {
+                            format!(" (write `out {} = ...;` for an output)", t.name)
+                        }
+                        NameRef::State(_) => {
+                            format!(" (write `der {} = ...;` for a state)", t.name)
+                        }
                         _ => String::new(),
                     };
                     return Err(Diag::new(
                         t.span,
-                        format!("`{kw} {}`: `{}` is {}, not {} {want}{hint}", t.name, t.name, kind_word(*r), if der { "a" } else { "an" }),
+                        format!(
+                            "`{kw} {}`: `{}` is {}, not {} {want}{hint}",
+                            t.name,
+                            t.name,
+                            kind_word(*r),
+                            if der { "a" } else { "an" }
+                        ),
                     ));
                 }
                 (None, _) => {
-                    let list = if der { &self.names.states } else { &self.names.outputs };
+                    let list = if der {
+                        &self.names.states
+                    } else {
+                        &self.names.outputs
+                    };
                     let hint = suggest(&t.name, list.iter().map(|s| s.as_str()))
                         .map(|s| format!(" (did you mean `{s}`?)"))
                         .unwrap_or_default();
                     return Err(Diag::new(
                         t.span,
-                        format!("`{kw} {}`: `{}` is not a declared {want}{hint}", t.name, t.name),
+                        format!(
+                            "`{kw} {}`: `{}` is not a declared {want}{hint}",
+                            t.name, t.name
+                        ),
                     ));
                 }
             };
             if let Some((_, prev)) = out.iter().find(|(i, _)| *i == idx) {
                 return Err(Diag::new(
                     t.span,
-                    format!("`{kw} {}` is given twice (first at {})", t.name, pos(self.src, prev.span)),
+                    format!(
+                        "`{kw} {}` is given twice (first at {})",
+                        t.name,
+                        pos(self.src, prev.span)
+                    ),
                 ));
             }
             out.push((idx, eq));
@@ -611,26 +690,25 @@ impl<'a> Builder<'a> {
             ));
         };
         let (a, _) = self.matrix_value(adef, MatName::A)?;
-        let b = match (get(MatName::B), nu) {
-            (Some(def), 0) => {
-                return Err(Diag::new(
+        let b =
+            match (get(MatName::B), nu) {
+                (Some(def), 0) => return Err(Diag::new(
                     def.name.span,
                     "B is given but the model declares no inputs: add `input u1, ...;` or remove B",
-                ))
-            }
-            (Some(def), _) => self.matrix_value(def, MatName::B)?.0,
-            (None, 0) => PolyMatrix::zeros(nx, 0),
-            (None, _) => {
-                return Err(Diag::new(
-                    self.ast.name.span,
-                    format!(
-                        "model `{}` declares inputs ({}) but gives no `B = [...];` ({nx}×{nu})",
-                        self.ast.name.name,
-                        self.names.inputs.join(", ")
-                    ),
-                ))
-            }
-        };
+                )),
+                (Some(def), _) => self.matrix_value(def, MatName::B)?.0,
+                (None, 0) => PolyMatrix::zeros(nx, 0),
+                (None, _) => {
+                    return Err(Diag::new(
+                        self.ast.name.span,
+                        format!(
+                            "model `{}` declares inputs ({}) but gives no `B = [...];` ({nx}×{nu})",
+                            self.ast.name.name,
+                            self.names.inputs.join(", ")
+                        ),
+                    ))
+                }
+            };
         let n = self.all_or_none(&defs, true)?;
         Ok((a, n, b))
     }
@@ -678,7 +756,10 @@ impl<'a> Builder<'a> {
         let nx = self.names.states.len();
         let ny = self.names.outputs.len();
         if !outs.is_empty() {
-            if let Some((m, def)) = defs.iter().find(|(m, _)| matches!(m, MatName::C | MatName::M(_))) {
+            if let Some((m, def)) = defs
+                .iter()
+                .find(|(m, _)| matches!(m, MatName::C | MatName::M(_)))
+            {
                 return Err(Diag::new(
                     def.name.span,
                     format!(
@@ -705,7 +786,14 @@ impl<'a> Builder<'a> {
                 };
                 let p = mat.get(i, j);
                 if p.as_constant().is_none() {
-                    return Err(equations::theta_output_error(&self.names, &label, i, j, p, span));
+                    return Err(equations::theta_output_error(
+                        &self.names,
+                        &label,
+                        i,
+                        j,
+                        p,
+                        span,
+                    ));
                 }
             }
             return Ok((o.c, o.m));
@@ -741,8 +829,18 @@ impl<'a> Builder<'a> {
             for j in 0..p.cols {
                 let e = p.get(i, j);
                 if e.as_constant().is_none() {
-                    let span = spans.get(i * p.cols + j).copied().unwrap_or(self.ast.name.span);
-                    return Err(equations::theta_output_error(&self.names, label, i, j, e, span));
+                    let span = spans
+                        .get(i * p.cols + j)
+                        .copied()
+                        .unwrap_or(self.ast.name.span);
+                    return Err(equations::theta_output_error(
+                        &self.names,
+                        label,
+                        i,
+                        j,
+                        e,
+                        span,
+                    ));
                 }
             }
         }
@@ -761,7 +859,11 @@ impl<'a> Builder<'a> {
                         "{what} {} has {} {}, expected {nx} (one per state)",
                         r + 1,
                         row.entries.len(),
-                        if row.entries.len() == 1 { "coordinate" } else { "coordinates" }
+                        if row.entries.len() == 1 {
+                            "coordinate"
+                        } else {
+                            "coordinates"
+                        }
                     ),
                 ));
             }
@@ -787,7 +889,10 @@ impl<'a> Builder<'a> {
                 if let Some(prev) = decl {
                     return Err(Diag::new(
                         r.span,
-                        format!("the region is given twice (first at {})", pos(self.src, prev.span)),
+                        format!(
+                            "the region is given twice (first at {})",
+                            pos(self.src, prev.span)
+                        ),
                     ));
                 }
                 decl = Some(r);
@@ -833,7 +938,10 @@ impl<'a> Builder<'a> {
                 if v.len() != nx {
                     return Err(Diag::new(
                         *span,
-                        format!("box radii: expected {nx} values (one per state), found {}", v.len()),
+                        format!(
+                            "box radii: expected {nx} values (one per state), found {}",
+                            v.len()
+                        ),
                     ));
                 }
                 let r = v.iter().map(radius).collect::<R<Vec<f64>>>()?;
@@ -887,7 +995,10 @@ impl<'a> Builder<'a> {
                 if let Some((_, prev)) = decl {
                     return Err(Diag::new(
                         *span,
-                        format!("the state bound is given twice (first at {})", pos(self.src, prev)),
+                        format!(
+                            "the state bound is given twice (first at {})",
+                            pos(self.src, prev)
+                        ),
                     ));
                 }
                 decl = Some((lit, *span));
@@ -924,8 +1035,16 @@ impl<'a> Builder<'a> {
             }
         }
         let q = (&q + q.transpose()) * 0.5;
-        let min_eig = q.clone().symmetric_eigenvalues().iter().fold(f64::INFINITY, |m, x| m.min(*x));
-        let chol = if min_eig > 1e-12 * scale { q.clone().cholesky() } else { None };
+        let min_eig = q
+            .clone()
+            .symmetric_eigenvalues()
+            .iter()
+            .fold(f64::INFINITY, |m, x| m.min(*x));
+        let chol = if min_eig > 1e-12 * scale {
+            q.clone().cholesky()
+        } else {
+            None
+        };
         let Some(chol) = chol else {
             return Err(Diag::new(
                 lit.span,
@@ -973,7 +1092,10 @@ impl<'a> Builder<'a> {
                 if let Some((_, prev)) = seen.iter().find(|(k, _)| *k == key) {
                     return Err(Diag::new(
                         entry.key.span,
-                        format!("`{key}` is set twice in this design block (first at {})", pos(self.src, *prev)),
+                        format!(
+                            "`{key}` is set twice in this design block (first at {})",
+                            pos(self.src, *prev)
+                        ),
                     ));
                 }
                 let word = match &entry.value.kind {
@@ -985,11 +1107,23 @@ impl<'a> Builder<'a> {
                     "alpha" => {
                         req.alpha = match word {
                             Some("max") => AlphaSpec::Max,
-                            Some(w) => return Err(bad_value(v.span, "alpha", "a positive number or `max`", w)),
+                            Some(w) => {
+                                return Err(bad_value(
+                                    v.span,
+                                    "alpha",
+                                    "a positive number or `max`",
+                                    w,
+                                ))
+                            }
                             None => {
                                 let a = self.constant(v, "the design value of alpha")?;
                                 if a <= 0.0 {
-                                    return Err(bad_value(v.span, "alpha", "a positive number or `max`", &fmt_num(a)));
+                                    return Err(bad_value(
+                                        v.span,
+                                        "alpha",
+                                        "a positive number or `max`",
+                                        &fmt_num(a),
+                                    ));
                                 }
                                 AlphaSpec::Fixed(a)
                             }
@@ -999,7 +1133,12 @@ impl<'a> Builder<'a> {
                         req.gamma = match word {
                             Some("search") => GammaSpec::Search,
                             Some(w) => {
-                                return Err(bad_value(v.span, "gamma", "a number strictly between 0 and 1 or `search`", w))
+                                return Err(bad_value(
+                                    v.span,
+                                    "gamma",
+                                    "a number strictly between 0 and 1 or `search`",
+                                    w,
+                                ))
                             }
                             None => {
                                 let g = self.constant(v, "the design value of gamma")?;
@@ -1136,7 +1275,9 @@ impl Model {
     /// Indices of the parameters that appear in A, N_k or B (those that
     /// generate vertices), in declaration order.
     pub fn scheduling(&self) -> Vec<usize> {
-        let used = self.a.param_mask() | self.b.param_mask() | self.n.iter().fold(0, |m, p| m | p.param_mask());
+        let used = self.a.param_mask()
+            | self.b.param_mask()
+            | self.n.iter().fold(0, |m, p| m | p.param_mask());
         bits(used).collect()
     }
 }

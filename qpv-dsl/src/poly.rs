@@ -254,7 +254,11 @@ impl Poly {
 
 /// Text of a span for a message, shortened if long.
 pub(crate) fn quote(src: &str, span: Span) -> String {
-    let t: String = span.text(src).split_whitespace().collect::<Vec<_>>().join(" ");
+    let t: String = span
+        .text(src)
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
     if t.chars().count() > 60 {
         let head: String = t.chars().take(57).collect();
         format!("`{head}...`")
@@ -267,13 +271,19 @@ fn check_finite(p: &Poly, span: Span, scope: &Scope<'_>) -> Result<(), Diag> {
     if p.terms.values().any(|t| !t.coef.is_finite()) {
         return Err(Diag::new(
             span,
-            format!("the value of {} overflows a 64-bit float", quote(scope.src, span)),
+            format!(
+                "the value of {} overflows a 64-bit float",
+                quote(scope.src, span)
+            ),
         ));
     }
     if p.terms.len() > MAX_TERMS {
         return Err(Diag::new(
             span,
-            format!("{} expands to more than {MAX_TERMS} terms", quote(scope.src, span)),
+            format!(
+                "{} expands to more than {MAX_TERMS} terms",
+                quote(scope.src, span)
+            ),
         ));
     }
     Ok(())
@@ -311,9 +321,19 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
             if let (Some(&u), true) = (input, vars.len() > 1) {
                 let other = vars.iter().find(|v| **v != u).copied().unwrap_or(u);
                 let what = match other {
-                    Var::Input(_) if other == u => format!("input `{}` multiplied by itself", names.var(u)),
-                    Var::Input(_) => format!("inputs `{}` and `{}` multiplied together", names.var(u), names.var(other)),
-                    Var::State(_) => format!("input `{}` multiplied by state `{}`", names.var(u), names.var(other)),
+                    Var::Input(_) if other == u => {
+                        format!("input `{}` multiplied by itself", names.var(u))
+                    }
+                    Var::Input(_) => format!(
+                        "inputs `{}` and `{}` multiplied together",
+                        names.var(u),
+                        names.var(other)
+                    ),
+                    Var::State(_) => format!(
+                        "input `{}` multiplied by state `{}`",
+                        names.var(u),
+                        names.var(other)
+                    ),
                 };
                 return Err(Diag::new(
                     span,
@@ -402,7 +422,10 @@ pub(crate) fn eval(e: &Expr, scope: &Scope<'_>) -> Result<Poly, Diag> {
 fn divisor(v: &Poly, span: Span, scope: &Scope<'_>) -> Result<f64, Diag> {
     if let Some(c) = v.as_constant() {
         if c == 0.0 {
-            return Err(Diag::new(span, format!("division by zero: {} is 0", quote(scope.src, span))));
+            return Err(Diag::new(
+                span,
+                format!("division by zero: {} is 0", quote(scope.src, span)),
+            ));
         }
         return Ok(c);
     }
@@ -467,8 +490,7 @@ fn name(n: &str, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> {
         Some(r @ (NameRef::State(_) | NameRef::Input(_))) => {
             let (kind, var) = match r {
                 NameRef::State(i) => ("state", Var::State(i)),
-                NameRef::Input(i) => ("input", Var::Input(i)),
-                _ => unreachable!(),
+                NameRef::Input(i) | NameRef::Output(i) | NameRef::Param(i) => ("input", Var::Input(i)),
             };
             match scope.allowed {
                 Allowed::Equation => Ok(Poly::single(

@@ -158,7 +158,9 @@ impl Region {
 
     /// True if every facet inequality holds at `x` (with a relative tolerance).
     pub fn contains(&self, x: &DVector<f64>) -> bool {
-        self.facets.iter().all(|a| a.dot(x) <= 1.0 + TOL * (1.0 + a.norm() * x.norm()))
+        self.facets
+            .iter()
+            .all(|a| a.dot(x) <= 1.0 + TOL * (1.0 + a.norm() * x.norm()))
     }
 
     /// The largest xᵀ W x over the vertices (e.g. W = Q⁻¹ to test P ⊂ F),
@@ -186,12 +188,16 @@ fn check_points(points: &[DVector<f64>]) -> Result<usize, RegionError> {
 }
 
 /// [`Region::from_vertices`], also returning the indices of the dropped points.
-pub(crate) fn hull_from_vertices(points: &[DVector<f64>]) -> Result<(Region, Vec<usize>), RegionError> {
+pub(crate) fn hull_from_vertices(
+    points: &[DVector<f64>],
+) -> Result<(Region, Vec<usize>), RegionError> {
     let n = check_points(points)?;
     // facets of Co{x_i} = vertices of the polar {a : x_iᵀ a ≤ 1}
     let facets = match enumerate_vertices(points, n) {
         Ok(f) => f,
-        Err(Enum::Unbounded(direction)) => return Err(RegionError::OriginNotInterior { direction }),
+        Err(Enum::Unbounded(direction)) => {
+            return Err(RegionError::OriginNotInterior { direction })
+        }
         Err(Enum::TooComplex) => return Err(RegionError::TooComplex),
     };
     let keep = irredundant(points, &facets, n);
@@ -201,7 +207,9 @@ pub(crate) fn hull_from_vertices(points: &[DVector<f64>]) -> Result<(Region, Vec
 }
 
 /// [`Region::from_halfspaces`], also returning the indices of the dropped rows.
-pub(crate) fn hull_from_halfspaces(normals: &[DVector<f64>]) -> Result<(Region, Vec<usize>), RegionError> {
+pub(crate) fn hull_from_halfspaces(
+    normals: &[DVector<f64>],
+) -> Result<(Region, Vec<usize>), RegionError> {
     let n = check_points(normals)?;
     let vertices = match enumerate_vertices(normals, n) {
         Ok(v) => v,
@@ -239,7 +247,10 @@ fn irredundant(rows: &[DVector<f64>], vertices: &[DVector<f64>], n: usize) -> Ve
             continue;
         }
         let d = DMatrix::from_fn(on.len() - 1, n, |i, j| on[i + 1][j] - on[0][j]);
-        let scale = d.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(f64::MIN_POSITIVE);
+        let scale = d
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()))
+            .max(f64::MIN_POSITIVE);
         if (d / scale).rank(1e-8) == n - 1 {
             keep.push(k);
         }
@@ -326,13 +337,13 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
     };
     while basis.len() < d {
         let mut best: Option<(f64, usize, Vec<f64>)> = None;
-        for i in 0..m {
+        for (i, hi) in h.iter().enumerate() {
             if basis.contains(&i) {
                 continue;
             }
-            let r = residual(&h[i], &ortho);
+            let r = residual(hi, &ortho);
             let norm = dot(&r, &r).sqrt();
-            if best.as_ref().is_none_or(|b| norm > b.0) {
+            if best.as_ref().map_or(true, |b| norm > b.0) {
                 best = Some((norm, i, r));
             }
         }
@@ -440,8 +451,8 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
                         acc[rwords - 1] = (1u64 << (rays.len() % 64)) - 1;
                     }
                     let mut adjacent = rays.len() <= 2;
-                    'rows: for w in 0..words {
-                        let mut b = common[w];
+                    'rows: for (w, &cw) in common.iter().enumerate() {
+                        let mut b = cw;
                         while b != 0 {
                             let j = w * 64 + b.trailing_zeros() as usize;
                             b &= b - 1;
@@ -460,7 +471,9 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
                         continue;
                     }
                     let (vp, vq) = (vals[p], vals[q]);
-                    let mut z: Vec<f64> = (0..d).map(|i| vp * rays[q].z[i] - vq * rays[p].z[i]).collect();
+                    let mut z: Vec<f64> = (0..d)
+                        .map(|i| vp * rays[q].z[i] - vq * rays[p].z[i])
+                        .collect();
                     if normalize(&mut z) <= f64::MIN_POSITIVE {
                         continue;
                     }
@@ -531,7 +544,12 @@ mod tests {
         ));
         // origin on the boundary
         assert!(matches!(
-            Region::from_vertices(&[v(&[0.0, 0.0]), v(&[1.0, 0.0]), v(&[0.0, 1.0]), v(&[-1.0, 1.0])]),
+            Region::from_vertices(&[
+                v(&[0.0, 0.0]),
+                v(&[1.0, 0.0]),
+                v(&[0.0, 1.0]),
+                v(&[-1.0, 1.0])
+            ]),
             Err(RegionError::OriginNotInterior { .. })
         ));
         // flat

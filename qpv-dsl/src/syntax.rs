@@ -83,7 +83,11 @@ fn internal(span: Span, what: &str) -> Diag {
     )
 }
 
-fn next<'i>(it: &mut impl Iterator<Item = Pair<'i, Rule>>, span: Span, what: &str) -> Result<Pair<'i, Rule>> {
+fn next<'i>(
+    it: &mut impl Iterator<Item = Pair<'i, Rule>>,
+    span: Span,
+    what: &str,
+) -> Result<Pair<'i, Rule>> {
     it.next().ok_or_else(|| internal(span, what))
 }
 
@@ -92,7 +96,8 @@ fn next<'i>(it: &mut impl Iterator<Item = Pair<'i, Rule>>, span: Span, what: &st
 /// Parses a whole input into its syntax tree.
 pub(crate) fn parse_file(src: &str) -> Result<File> {
     check_nesting(src)?;
-    let mut pairs: Pairs<'_, Rule> = QpvParser::parse(Rule::file, src).map_err(|e| pest_error(src, e))?;
+    let mut pairs: Pairs<'_, Rule> =
+        QpvParser::parse(Rule::file, src).map_err(|e| pest_error(src, e))?;
     let whole = Span::new(0, src.len());
     let file = next(&mut pairs, whole, "file")?;
     let models = children(file)
@@ -123,7 +128,9 @@ fn check_nesting(src: &str) -> Result<()> {
                 if depth > MAX_NESTING {
                     return Err(Diag::new(
                         Span::new(i, i + 1),
-                        format!("brackets nested too deeply: at most {MAX_NESTING} levels are accepted"),
+                        format!(
+                            "brackets nested too deeply: at most {MAX_NESTING} levels are accepted"
+                        ),
                     ));
                 }
             }
@@ -289,7 +296,9 @@ fn parse_region_box(pair: Pair<'_, Rule>) -> Result<RegionShape> {
 
 fn parse_design_block(pair: Pair<'_, Rule>) -> Result<DesignBlock> {
     let span = span_of(&pair);
-    let entries = children(pair).map(parse_design_entry).collect::<Result<Vec<_>>>()?;
+    let entries = children(pair)
+        .map(parse_design_entry)
+        .collect::<Result<Vec<_>>>()?;
     Ok(DesignBlock { entries, span })
 }
 
@@ -314,7 +323,10 @@ fn parse_expr(pair: Pair<'_, Rule>) -> Result<Expr> {
                     kind: ExprKind::Neg(Box::new(rhs)),
                     span,
                 },
-                _ => Expr { kind: rhs.kind, span },
+                _ => Expr {
+                    kind: rhs.kind,
+                    span,
+                },
             })
         })
         .map_infix(|lhs, op, rhs| {
@@ -336,7 +348,10 @@ fn parse_expr(pair: Pair<'_, Rule>) -> Result<Expr> {
                     ExprKind::Product(factors)
                 }
                 (is_sum, kind) => {
-                    let lhs = Expr { kind, span: lhs.span };
+                    let lhs = Expr {
+                        kind,
+                        span: lhs.span,
+                    };
                     if is_sum {
                         ExprKind::Sum(vec![(false, lhs), (flag, rhs)])
                     } else {
@@ -403,7 +418,10 @@ fn parse_number(pair: &Pair<'_, Rule>) -> Result<f64> {
         Ok(v) if v.is_finite() => Ok(v),
         _ => Err(Diag::new(
             span_of(pair),
-            format!("the number `{}` is too large (it exceeds the range of a 64-bit float)", pair.as_str()),
+            format!(
+                "the number `{}` is too large (it exceeds the range of a 64-bit float)",
+                pair.as_str()
+            ),
         )),
     }
 }
@@ -453,7 +471,13 @@ fn want(rule: Rule) -> Option<Want> {
         | Rule::matrix_def => Statement,
         Rule::design_key | Rule::design_entry => DesignKey,
         Rule::ident | Rule::name_list => Name,
-        Rule::number | Rule::paren | Rule::expr | Rule::power | Rule::neg | Rule::pos | Rule::row => Expression,
+        Rule::number
+        | Rule::paren
+        | Rule::expr
+        | Rule::power
+        | Rule::neg
+        | Rule::pos
+        | Rule::row => Expression,
         Rule::exponent => Exponent,
         Rule::add | Rule::sub | Rule::mul | Rule::div | Rule::caret => Operator,
         Rule::semi => Token("`;`"),
@@ -551,8 +575,11 @@ fn found_token(src: &str, pos: usize) -> (Span, String) {
         return (Span::new(pos, pos), "the end of the input".into());
     };
     let len = if is_ident_start(c) {
-        rest.find(|ch: char| !is_ident_char(ch)).unwrap_or(rest.len())
-    } else if c.is_ascii_digit() || (c == '.' && rest[1..].starts_with(|d: char| d.is_ascii_digit())) {
+        rest.find(|ch: char| !is_ident_char(ch))
+            .unwrap_or(rest.len())
+    } else if c.is_ascii_digit()
+        || (c == '.' && rest[1..].starts_with(|d: char| d.is_ascii_digit()))
+    {
         rest.find(|ch: char| !(ch.is_ascii_alphanumeric() || ch == '.'))
             .unwrap_or(rest.len())
     } else if rest.starts_with("/*") {
@@ -642,7 +669,8 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
     if wants == [Want::Token("`=`")] {
         if let Some((wspan, w)) = word_before(src, pos) {
             let before = src[..wspan.start].trim_end();
-            let at_statement_start = before.ends_with(';') || before.ends_with('{') || before.ends_with('}');
+            let at_statement_start =
+                before.ends_with(';') || before.ends_with('{') || before.ends_with('}');
             if at_statement_start && !is_matrix_name_shape(w) {
                 let suggestion = STATEMENT_KEYWORDS
                     .iter()
@@ -694,7 +722,10 @@ pub(crate) fn is_matrix_name_shape(w: &str) -> bool {
     matches!(w, "A" | "B" | "C")
         || ((w.starts_with('N') || w.starts_with('M'))
             && w.len() > 1
-            && w[1..].trim_start_matches('_').chars().all(|c| c.is_ascii_digit())
+            && w[1..]
+                .trim_start_matches('_')
+                .chars()
+                .all(|c| c.is_ascii_digit())
             && !w[1..].trim_start_matches('_').is_empty())
 }
 

@@ -84,7 +84,11 @@ impl PolytopicModel {
         for &pi in &self.scheduling {
             let p = &self.params[pi];
             let t = theta.get(pi).copied().unwrap_or(p.lo);
-            let t = if t.is_nan() { p.lo } else { t.clamp(p.lo, p.hi) };
+            let t = if t.is_nan() {
+                p.lo
+            } else {
+                t.clamp(p.lo, p.hi)
+            };
             w.push((t - p.lo) / (p.hi - p.lo));
         }
         (0..1usize << s)
@@ -164,7 +168,11 @@ impl crate::model::Model {
                 let mut theta = base.clone();
                 for (i, &pi) in scheduling.iter().enumerate() {
                     let p = &self.params[pi];
-                    theta[pi] = if (l >> (s - 1 - i)) & 1 == 1 { p.hi } else { p.lo };
+                    theta[pi] = if (l >> (s - 1 - i)) & 1 == 1 {
+                        p.hi
+                    } else {
+                        p.lo
+                    };
                 }
                 Vertex {
                     a: self.eval_a(&theta),

@@ -16,7 +16,14 @@ const BASE: &str = "model m {
 
 /// (what, input, line, column, expected text of the error at that point,
 /// a fragment of the message)
-fn cases() -> Vec<(&'static str, String, usize, usize, &'static str, &'static str)> {
+fn cases() -> Vec<(
+    &'static str,
+    String,
+    usize,
+    usize,
+    &'static str,
+    &'static str,
+)> {
     let r = |from: &str, to: &str| {
         assert!(BASE.contains(from), "{from}");
         BASE.replacen(from, to, 1)
@@ -123,7 +130,13 @@ fn error_table() {
             }
         }
     }
-    assert!(failures.is_empty(), "{} of {} cases failed:\n{}", failures.len(), cases().len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases failed:\n{}",
+        failures.len(),
+        cases().len(),
+        failures.join("\n")
+    );
 }
 
 #[test]
@@ -139,8 +152,16 @@ fn display_has_position_excerpt_and_caret() {
 #[test]
 fn warnings_are_positioned() {
     let src = BASE
-        .replacen("param th in [0, 1];", "param th in [0, 1]; param unused in [0, 1];", 1)
-        .replacen("region box(1);", "region vertices [1, 0; 0, 1; -1, -1; 0.1, 0.1]; state_bound Q = [0.5, 0; 0, 0.5];", 1);
+        .replacen(
+            "param th in [0, 1];",
+            "param th in [0, 1]; param unused in [0, 1];",
+            1,
+        )
+        .replacen(
+            "region box(1);",
+            "region vertices [1, 0; 0, 1; -1, -1; 0.1, 0.1]; state_bound Q = [0.5, 0; 0, 0.5];",
+            1,
+        );
     let m = parse(&src).unwrap().remove(0);
     let msgs: Vec<(&str, &str)> = m
         .warnings
@@ -148,7 +169,13 @@ fn warnings_are_positioned() {
         .map(|w| (&src[w.span.start..w.span.end], w.message.as_str()))
         .collect();
     assert_eq!(msgs.len(), 3, "{msgs:?}");
-    assert!(msgs.iter().any(|(at, msg)| *at == "0.1, 0.1" && msg.contains("vertex 4 is not a vertex")));
-    assert!(msgs.iter().any(|(at, msg)| *at == "unused" && msg.contains("appears in no matrix")));
-    assert!(msgs.iter().any(|(at, msg)| at.starts_with("state_bound") && msg.contains("xᵀQ⁻¹x = 4.0000 > 1")));
+    assert!(msgs
+        .iter()
+        .any(|(at, msg)| *at == "0.1, 0.1" && msg.contains("vertex 4 is not a vertex")));
+    assert!(msgs
+        .iter()
+        .any(|(at, msg)| *at == "unused" && msg.contains("appears in no matrix")));
+    assert!(msgs
+        .iter()
+        .any(|(at, msg)| at.starts_with("state_bound") && msg.contains("xᵀQ⁻¹x = 4.0000 > 1")));
 }

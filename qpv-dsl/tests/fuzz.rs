@@ -26,12 +26,84 @@ const SEEDS: &[&str] = &[
 ];
 
 const VOCAB: &[&str] = &[
-    "model", "state", "input", "output", "param", "in", "der", "out", "region", "box", "vertices",
-    "halfspaces", "state_bound", "Q", "design", "alpha", "gamma", "mode", "max", "search", "sound",
-    "paper", "A", "B", "C", "N1", "N2", "N3", "N0", "M1", "M2", "x1", "x2", "x3", "y1", "th1", "th2",
-    "u", "{", "}", "[", "]", "(", ")", ";", ",", "=", "+", "-", "*", "/", "^", "0", "1", "2.5",
-    "1e999", "1e-300", "0.0", "-0", ".5", "3.", "//", "/*", "*/", "\n", " ", "θ", "\"", "#", "__",
-    "99999999999999999999", "x1^64", "th1*th1", "(((", ")))", "[1, 2; 3, 4]", "box(0)", "box(-1)",
+    "model",
+    "state",
+    "input",
+    "output",
+    "param",
+    "in",
+    "der",
+    "out",
+    "region",
+    "box",
+    "vertices",
+    "halfspaces",
+    "state_bound",
+    "Q",
+    "design",
+    "alpha",
+    "gamma",
+    "mode",
+    "max",
+    "search",
+    "sound",
+    "paper",
+    "A",
+    "B",
+    "C",
+    "N1",
+    "N2",
+    "N3",
+    "N0",
+    "M1",
+    "M2",
+    "x1",
+    "x2",
+    "x3",
+    "y1",
+    "th1",
+    "th2",
+    "u",
+    "{",
+    "}",
+    "[",
+    "]",
+    "(",
+    ")",
+    ";",
+    ",",
+    "=",
+    "+",
+    "-",
+    "*",
+    "/",
+    "^",
+    "0",
+    "1",
+    "2.5",
+    "1e999",
+    "1e-300",
+    "0.0",
+    "-0",
+    ".5",
+    "3.",
+    "//",
+    "/*",
+    "*/",
+    "\n",
+    " ",
+    "θ",
+    "\"",
+    "#",
+    "__",
+    "99999999999999999999",
+    "x1^64",
+    "th1*th1",
+    "(((",
+    ")))",
+    "[1, 2; 3, 4]",
+    "box(0)",
+    "box(-1)",
 ];
 
 struct Rng(u64);
@@ -58,10 +130,7 @@ fn tokens(s: &str) -> Vec<&str> {
     let mut in_word = false;
     for (i, c) in s.char_indices() {
         let w = c.is_alphanumeric() || c == '_' || c == '.';
-        if in_word && !w {
-            out.push(&s[start..i]);
-            start = i;
-        } else if !in_word && i > start {
+        if (in_word && !w) || (!in_word && i > start) {
             out.push(&s[start..i]);
             start = i;
         }
@@ -164,7 +233,9 @@ fn random_input(rng: &mut Rng) -> String {
             .collect()
     } else {
         // token soup, often inside a model block
-        let body: Vec<&str> = (0..rng.below(80)).map(|_| VOCAB[rng.below(VOCAB.len())]).collect();
+        let body: Vec<&str> = (0..rng.below(80))
+            .map(|_| VOCAB[rng.below(VOCAB.len())])
+            .collect();
         let body = body.join(if rng.below(2) == 0 { " " } else { "" });
         if rng.below(2) == 0 {
             format!("model f {{ {body} }}")
@@ -204,7 +275,10 @@ fn check(src: &str) -> Option<String> {
             if line_col(src, e.span.start) != (e.line, e.column) {
                 return Some("line/column inconsistent with the span".to_string());
             }
-            if e.message.is_empty() || e.message.contains("Rule") || e.message.contains("internal error") {
+            if e.message.is_empty()
+                || e.message.contains("Rule")
+                || e.message.contains("internal error")
+            {
                 return Some(format!("bad message: {}", e.message));
             }
             let _ = e.to_string();
@@ -226,14 +300,18 @@ fn no_input_panics() {
         .max(100_000);
     let seeds = seeds();
     let seeds = &seeds;
-    let threads = std::thread::available_parallelism().map_or(4, |n| n.get()).clamp(1, 16);
+    let threads = std::thread::available_parallelism()
+        .map_or(4, |n| n.get())
+        .clamp(1, 16);
     let per = total.div_ceil(threads);
     let start = std::time::Instant::now();
     let failures: Vec<(String, String)> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..threads)
             .map(|t| {
                 s.spawn(move || {
-                    let mut rng = Rng(0x1234_5678_9ABC_DEF1 ^ (t as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+                    let mut rng =
+                        Rng(0x1234_5678_9ABC_DEF1
+                            ^ (t as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
                     let mut bad = Vec::new();
                     for _ in 0..per {
                         let src = if rng.below(5) == 0 {
@@ -253,9 +331,16 @@ fn no_input_panics() {
                 })
             })
             .collect();
-        handles.into_iter().flat_map(|h| h.join().unwrap_or_default()).collect()
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap_or_default())
+            .collect()
     });
-    eprintln!("{} inputs on {threads} threads in {:?}", per * threads, start.elapsed());
+    eprintln!(
+        "{} inputs on {threads} threads in {:?}",
+        per * threads,
+        start.elapsed()
+    );
     assert!(
         failures.is_empty(),
         "{} failing inputs, e.g.:\n{}",

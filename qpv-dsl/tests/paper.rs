@@ -65,24 +65,41 @@ fn expected_vertices() -> Vec<(DMatrix<f64>, [DMatrix<f64>; 3])> {
 fn matrix_form_parses_with_the_published_vertices() {
     let model = one(MATRIX_FORM);
     assert_eq!(model.name, "paper_example");
-    assert_eq!((model.nx(), model.ny(), model.nu(), model.ntheta()), (3, 2, 0, 2));
+    assert_eq!(
+        (model.nx(), model.ny(), model.nu(), model.ntheta()),
+        (3, 2, 0, 2)
+    );
     assert!(model.warnings.is_empty(), "{:?}", model.warnings);
     let p = model.polytopic();
     assert_eq!(p.scheduling, vec![0, 1]);
     assert_eq!(p.nv(), 4);
     // the two values the issue states
-    assert_eq!(p.vertices[0].a, m(&[[-4., 10., 2.], [-1., -1., 1.5], [1., 1., -4.]]));
-    assert_eq!(p.vertices[1].n[0], m(&[[0.5, 1., 0.], [0., 0., -1.], [0., 2., 0.]]));
+    assert_eq!(
+        p.vertices[0].a,
+        m(&[[-4., 10., 2.], [-1., -1., 1.5], [1., 1., -4.]])
+    );
+    assert_eq!(
+        p.vertices[1].n[0],
+        m(&[[0.5, 1., 0.], [0., 0., -1.], [0., 2., 0.]])
+    );
     let corners = [[0., 0.], [0., 1.], [1., 0.], [1., 1.]];
     for (l, (a, n)) in expected_vertices().iter().enumerate() {
         assert_eq!(p.vertices[l].theta, corners[l].to_vec(), "corner {l}");
         assert_close(&p.vertices[l].a, a, 0.0, &format!("A_{}", l + 1));
-        for k in 0..3 {
-            assert_close(&p.vertices[l].n[k], &n[k], 0.0, &format!("N_{},{}", k + 1, l + 1));
+        for (k, nk) in n.iter().enumerate() {
+            assert_close(
+                &p.vertices[l].n[k],
+                nk,
+                0.0,
+                &format!("N_{},{}", k + 1, l + 1),
+            );
         }
         assert_eq!(p.vertices[l].b.shape(), (3, 0));
     }
-    assert_eq!(p.c, DMatrix::from_row_slice(2, 3, &[1., 0., 0., 0., 1., 0.]));
+    assert_eq!(
+        p.c,
+        DMatrix::from_row_slice(2, 3, &[1., 0., 0., 0., 1., 0.])
+    );
     assert_eq!(p.m[0], m(&[[0., 0., 0.], [0., 0., 1.], [0., 0., 0.]]));
     assert_eq!(p.m[1], m(&[[0., 0., 1.], [0., 0., 0.], [0., 0., 0.]]));
     // μ at the corners picks the corner; the documented order
@@ -180,7 +197,10 @@ fn polytopic_decomposition_is_exact_at_random_theta() {
     let p = model.polytopic();
     assert_eq!(p.scheduling, vec![0, 1, 2]);
     assert_eq!(p.nv(), 8);
-    assert_eq!(p.vertices[0].theta[3], 0.5, "unused parameter at its midpoint");
+    assert_eq!(
+        p.vertices[0].theta[3], 0.5,
+        "unused parameter at its midpoint"
+    );
     check_exact(&model, &mut rng, 2000);
 }
 
@@ -196,17 +216,33 @@ fn all_examples_parse_and_their_bounds_contain_the_region() {
         let src = std::fs::read_to_string(&path).unwrap();
         let models = parse(&src).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         for model in &models {
-            assert!(model.warnings.is_empty(), "{}: {:?}", path.display(), model.warnings);
-            assert!(!model.designs.is_empty(), "{}: no design request", path.display());
+            assert!(
+                model.warnings.is_empty(),
+                "{}: {:?}",
+                path.display(),
+                model.warnings
+            );
+            assert!(
+                !model.designs.is_empty(),
+                "{}: no design request",
+                path.display()
+            );
             let StateBound::Given(q) = &model.state_bound else {
                 panic!("{}: no state bound", path.display())
             };
             let qinv = q.clone().try_inverse().unwrap();
             let (worst, _) = model.region.max_quadratic(&qinv).unwrap();
-            assert!(worst <= 1.0, "{}: region not inside Q ({worst})", path.display());
+            assert!(
+                worst <= 1.0,
+                "{}: region not inside Q ({worst})",
+                path.display()
+            );
             check_exact(model, &mut Rng(7), 200);
         }
         count += 1;
     }
-    assert!(count >= 5, "expected the paper examples and at least three more");
+    assert!(
+        count >= 5,
+        "expected the paper examples and at least three more"
+    );
 }

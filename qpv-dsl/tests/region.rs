@@ -35,7 +35,10 @@ fn consistent(r: &Region, what: &str) {
         let mut on = 0;
         for v in &r.vertices {
             let s = a.dot(v);
-            assert!(s <= 1.0 + 1e-9, "{what}: vertex {v} violates facet {a} ({s})");
+            assert!(
+                s <= 1.0 + 1e-9,
+                "{what}: vertex {v} violates facet {a} ({s})"
+            );
             if (s - 1.0).abs() <= 1e-9 {
                 on += 1;
             }
@@ -93,7 +96,9 @@ fn simplices() {
 #[test]
 fn cross_polytopes() {
     for n in 1..=6 {
-        let pts: Vec<DVector<f64>> = (0..n).flat_map(|i| [unit(n, i, 2.0), unit(n, i, -2.0)]).collect();
+        let pts: Vec<DVector<f64>> = (0..n)
+            .flat_map(|i| [unit(n, i, 2.0), unit(n, i, -2.0)])
+            .collect();
         let r = round_trip(&pts, Some(1 << n), &format!("cross-polytope {n}"));
         // facets are (±1, ..., ±1)/2
         for a in &r.facets {
@@ -114,7 +119,9 @@ fn brute_facets(points: &[DVector<f64>], n: usize) -> Vec<DVector<f64>> {
             // aᵀx = 1 through the n points: a = A⁻¹ 1
             let normal = inv * DVector::from_element(n, 1.0);
             if points.iter().all(|p| normal.dot(p) <= 1.0 + 1e-9)
-                && !out.iter().any(|o| (o - &normal).norm() < 1e-9 * (1.0 + normal.norm()))
+                && !out
+                    .iter()
+                    .any(|o| (o - &normal).norm() < 1e-9 * (1.0 + normal.norm()))
             {
                 out.push(normal);
             }
@@ -148,7 +155,9 @@ fn random_polytopes() {
                 5 => 14,
                 _ => 12,
             };
-            let mut pts: Vec<DVector<f64>> = (0..count).map(|_| DVector::from_fn(n, |_, _| rng.sym())).collect();
+            let mut pts: Vec<DVector<f64>> = (0..count)
+                .map(|_| DVector::from_fn(n, |_, _| rng.sym()))
+                .collect();
             // guarantee the origin strictly inside: a small cross-polytope
             for i in 0..n {
                 pts.push(unit(n, i, 0.05));
@@ -197,9 +206,18 @@ fn rejects_bad_regions() {
         Region::from_vertices(&[v(&[1.0, 1.0]), v(&[2.0, 1.0]), v(&[1.0, 2.0])]),
         Err(RegionError::OriginNotInterior { .. })
     ));
-    assert!(matches!(Region::from_box(&[1.0, 0.0]), Err(RegionError::BadRadius { index: 1 })));
-    assert!(matches!(Region::from_box(&[1.0; 13]), Err(RegionError::TooComplex)));
-    assert!(matches!(Region::from_vertices(&[]), Err(RegionError::Empty)));
+    assert!(matches!(
+        Region::from_box(&[1.0, 0.0]),
+        Err(RegionError::BadRadius { index: 1 })
+    ));
+    assert!(matches!(
+        Region::from_box(&[1.0; 13]),
+        Err(RegionError::TooComplex)
+    ));
+    assert!(matches!(
+        Region::from_vertices(&[]),
+        Err(RegionError::Empty)
+    ));
     assert!(matches!(
         Region::from_vertices(&[v(&[1.0, f64::NAN])]),
         Err(RegionError::BadPoint { index: 0 })
