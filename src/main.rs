@@ -1,1 +1,19 @@
-fn main() {}
+//! The `qpv` command line: design, check, inspect and simulate QPV observers
+//! from model files. Exit codes: 0 success, 1 infeasible or not certified,
+//! 2 bad input.
+
+mod cli;
+
+use clap::Parser;
+
+fn main() {
+    let args = cli::Cli::parse();
+    let code = match cli::run(args) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e}");
+            e.exit_code()
+        }
+    };
+    std::process::exit(code);
+}

@@ -1,0 +1,114 @@
+//! `qpv check`: certify externally supplied P and L_l.
+
+use super::design::parse_mode;
+use super::input::{emit_json, load_model, CliError};
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode};
+use qpv_solve::report::rows_to_matrix;
+use std::path::Path;
+
+/// The gains file: `P` (rows), `L` (per vertex, NX rows of NY), and
+/// optionally the `alpha`, `gamma` and `mode` they were designed for (a
+/// `qpv design --json` report is such a file).
+#[derive(serde::Deserialize)]
+struct Gains {
+    #[serde(rename = "P")]
+    p: Vec<Vec<f64>>,
+    #[serde(rename = "L")]
+    l: Vec<Vec<Vec<f64>>>,
+    alpha: Option<f64>,
+    gamma: Option<f64>,
+    mode: Option<String>,
+}
+
+fn rectangular(rows: &[Vec<f64>]) -> bool {
+    rows.iter().all(|r| r.len() == rows.first().map_or(0, Vec::len))
+}
+
+/// Runs `qpv check`.
+pub fn run(
+    file: &Path,
+    gains: &Path,
+    model_name: Option<&str>,
+    mode: Option<&str>,
+    alpha: Option<f64>,
+    gamma: Option<f64>,
+    json: Option<&str>,
+) -> Result<i32, CliError> {
+    let (_, model) = load_model(file, model_name)?;
+    let text = std::fs::read_to_string(gains)
+        .map_err(|e| CliError::Input(format!("cannot read {}: {e}", gains.display())))?;
+    let g: Gains = serde_json::from_str(&text)
+        .map_err(|e| CliError::Input(format!("{}: {e}", gains.display())))?;
+    if !rectangular(&g.p) || g.l.iter().any(|l| !rectangular(l)) {
+        return Err(CliError::Input(format!(
+            "{}: P and every L_l must have rows of equal length",
+            gains.display()
+        )));
+    }
+    let first = model.designs.first();
+    let mode = match mode.or(g.mode.as_deref()) {
+        Some(m) => parse_mode(m)?,
+        None => first.map_or(Mode::Sound, |d| d.mode),
+    };
+    let alpha = alpha
+        .or(g.alpha)
+        .or(first.and_then(|d| match d.alpha {
+            AlphaSpec::Fixed(a) => Some(a),
+            AlphaSpec::Max => None,
+        }))
+        .ok_or_else(|| CliError::Input("no alpha to check: pass --alpha".into()))?;
+    let gamma = gamma
+        .or(g.gamma)
+        .or(first.and_then(|d| match d.gamma {
+            GammaSpec::Fixed(g) => Some(g),
+            GammaSpec::Search => None,
+        }))
+        .ok_or_else(|| CliError::Input("no gamma to check: pass --gamma".into()))?;
+    let poly = model.polytopic();
+    let p = rows_to_matrix(&g.p);
+    let l: Vec<_> = g.l.iter().map(|r| rows_to_matrix(r)).collect();
+    let cert = qpv_solve::check(&poly, mode, alpha, gamma, &p, &l);
+    let mut s = format!(
+        "check of {} against {} mode at alpha = {alpha}, gamma = {gamma}:\n",
+        gains.display(),
+        match mode {
+            Mode::Sound => "sound",
+            Mode::Paper => "paper (reproduction: certifies nothing)",
+        }
+    );
+    for e in &cert.input_errors {
+        s.push_str(&format!("  input error: {e}\n"));
+    }
+    for f in &cert.families {
+        s.push_str(&format!(
+            "  {:<6} worst margin {:>12.4e} at {:<16} over {:>6} conditions: {}\n",
+            f.name,
+            f.margin,
+            f.worst_at,
+            f.count,
+            if f.passed { "pass" } else { "FAIL" }
+        ));
+    }
+    for (k, c) in &cert.data_checks {
+        s.push_str(&format!(
+            "  {k:<6} value {:.4} <= {}: {}{}  ({})\n",
+            c.value,
+            c.bound,
+            if c.passed { "pass" } else { "FAIL" },
+            if c.required { "" } else { " (not required)" },
+            c.description
+        ));
+    }
+    s.push_str(if cert.passed {
+        "  => all conditions hold\n"
+    } else {
+        "  => NOT certified\n"
+    });
+    if json == Some("-") {
+        eprint!("{s}");
+    } else {
+        print!("{s}");
+    }
+    emit_json(json, &cert)?;
+    Ok(if cert.passed { 0 } else { 1 })
+}

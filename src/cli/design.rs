@@ -1,0 +1,215 @@
+//! `qpv design`: parse, derive, solve, certify, and report.
+
+use super::input::{emit_json, fmt_matrix, load_model, CliError};
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, Model, Span};
+use qpv_solve::report::{Design, Status};
+use std::path::Path;
+
+/// Parses `--mode`.
+pub fn parse_mode(s: &str) -> Result<Mode, CliError> {
+    match s {
+        "sound" => Ok(Mode::Sound),
+        "paper" => Ok(Mode::Paper),
+        _ => Err(CliError::Input(format!(
+            "--mode {s:?}: expected `sound` or `paper`"
+        ))),
+    }
+}
+
+fn parse_alpha(s: &str) -> Result<AlphaSpec, CliError> {
+    if s == "max" {
+        return Ok(AlphaSpec::Max);
+    }
+    match s.parse::<f64>() {
+        Ok(a) if a.is_finite() && a > 0.0 => Ok(AlphaSpec::Fixed(a)),
+        _ => Err(CliError::Input(format!(
+            "--alpha {s:?}: expected a positive number or `max`"
+        ))),
+    }
+}
+
+fn parse_gamma(s: &str) -> Result<GammaSpec, CliError> {
+    if s == "search" {
+        return Ok(GammaSpec::Search);
+    }
+    match s.parse::<f64>() {
+        Ok(g) if g > 0.0 && g < 1.0 => Ok(GammaSpec::Fixed(g)),
+        _ => Err(CliError::Input(format!(
+            "--gamma {s:?}: expected a number in (0, 1) or `search`"
+        ))),
+    }
+}
+
+/// The requests to run: without flags, the model's own `design` blocks (or
+/// α = max, γ = search, sound if it has none); with any of `--mode`,
+/// `--alpha`, `--gamma`, one request built from the flags alone, the
+/// unspecified ones taking those same defaults.
+fn requests(
+    model: &Model,
+    mode: Option<&str>,
+    alpha: Option<&str>,
+    gamma: Option<&str>,
+) -> Result<Vec<DesignRequest>, CliError> {
+    let default = DesignRequest {
+        alpha: AlphaSpec::Max,
+        gamma: GammaSpec::Search,
+        mode: Mode::Sound,
+        span: Span::default(),
+    };
+    if mode.is_none() && alpha.is_none() && gamma.is_none() {
+        return Ok(if model.designs.is_empty() {
+            vec![default]
+        } else {
+            model.designs.clone()
+        });
+    }
+    let mut r = default;
+    if let Some(m) = mode {
+        r.mode = parse_mode(m)?;
+    }
+    if let Some(a) = alpha {
+        r.alpha = parse_alpha(a)?;
+    }
+    if let Some(g) = gamma {
+        r.gamma = parse_gamma(g)?;
+    }
+    Ok(vec![r])
+}
+
+fn describe_request(r: &DesignRequest) -> String {
+    let a = match r.alpha {
+        AlphaSpec::Fixed(a) => format!("alpha = {a}"),
+        AlphaSpec::Max => "alpha = max".into(),
+    };
+    let g = match r.gamma {
+        GammaSpec::Fixed(g) => format!("gamma = {g}"),
+        GammaSpec::Search => "gamma = search".into(),
+    };
+    let m = match r.mode {
+        Mode::Sound => "sound",
+        Mode::Paper => "paper",
+    };
+    format!("{a}; {g}; mode = {m}")
+}
+
+/// A human-readable report of one design.
+pub fn describe_design(d: &Design) -> String {
+    let mut s = String::new();
+    let verdict = match (d.feasible, d.mode) {
+        (true, Mode::Sound) => "CERTIFIED".to_string(),
+        (true, Mode::Paper) => {
+            "satisfies the paper's printed conditions (reproduction mode: certifies nothing)".into()
+        }
+        (false, _) => "NOT CERTIFIED".to_string(),
+    };
+    s.push_str(&format!(
+        "model {} ({} mode): {verdict}\n",
+        d.model,
+        match d.mode {
+            Mode::Sound => "sound",
+            Mode::Paper => "paper",
+        }
+    ));
+    s.push_str(&format!("  alpha = {:.6}, gamma = {:.6}\n", d.alpha, d.gamma));
+    if !d.p.is_empty() {
+        s.push_str(&format!("  P:\n{}", fmt_matrix(&d.p_matrix(), "    ")));
+        for (l, m) in d.l_matrices().iter().enumerate() {
+            let norm = d.gain_norms.get(l).copied().unwrap_or(f64::NAN);
+            s.push_str(&format!("  L_{} (||L||_2 = {norm:.4}):\n{}", l + 1, fmt_matrix(m, "    ")));
+        }
+    }
+    if !d.margins.is_empty() {
+        s.push_str("  condition families (worst margin, positive = satisfied):\n");
+        for (k, v) in &d.margins {
+            s.push_str(&format!(
+                "    {k:<12} {v:>13.4e}  {}\n",
+                if *v > 0.0 { "pass" } else { "FAIL" }
+            ));
+        }
+    }
+    if !d.data_checks.is_empty() {
+        s.push_str("  data checks:\n");
+        for (k, c) in &d.data_checks {
+            s.push_str(&format!(
+                "    {k:<12} value {:>10.4} <= {:<6} {}{}  ({})\n",
+                c.value,
+                c.bound,
+                if c.passed { "pass" } else { "FAIL" },
+                if c.required { "" } else { " (not required)" },
+                c.description
+            ));
+        }
+    }
+    s.push_str(&format!(
+        "  solver: {} ({}), {} iterations, {:.3} s solve; {} solves, {:.3} s total\n",
+        d.solver.status,
+        d.solver.detail,
+        d.solver.iterations,
+        d.solver.seconds,
+        d.search.len(),
+        d.seconds_total
+    ));
+    let unknown = d.search.iter().filter(|s| s.status == Status::Unknown).count();
+    if unknown > 0 {
+        s.push_str(&format!(
+            "  {unknown} solve(s) ended with an unknown status (neither solved nor a certificate of infeasibility)\n"
+        ));
+    }
+    for n in &d.notes {
+        s.push_str(&format!("  note: {n}\n"));
+    }
+    s
+}
+
+/// Runs `qpv design`.
+pub fn run(
+    file: &Path,
+    model_name: Option<&str>,
+    mode: Option<&str>,
+    alpha: Option<&str>,
+    gamma: Option<&str>,
+    json: Option<&str>,
+) -> Result<i32, CliError> {
+    let (_, model) = load_model(file, model_name)?;
+    let reqs = requests(&model, mode, alpha, gamma)?;
+    let poly = model.polytopic();
+    let settings = qpv_solve::Settings::default();
+    let to_stdout = json == Some("-");
+    let mut designs = Vec::new();
+    for r in &reqs {
+        let bar = indicatif::ProgressBar::new_spinner();
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+        );
+        bar.set_message(format!("designing {} ({})", model.name, describe_request(r)));
+        let mut n = 0usize;
+        let result = qpv_solve::design_with_progress(&poly, r, &settings, &mut |step| {
+            n += 1;
+            bar.set_message(format!(
+                "solve {n}: {} gamma = {:.4}, alpha = {:.4}: {}{}",
+                step.phase,
+                step.gamma,
+                step.alpha,
+                step.status,
+                if step.certified { ", certified" } else { "" }
+            ));
+            bar.tick();
+        });
+        bar.finish_and_clear();
+        let d = result.map_err(|e| CliError::Input(format!("{}: {e}", file.display())))?;
+        let text = describe_design(&d);
+        if to_stdout {
+            eprint!("{text}");
+        } else {
+            print!("{text}");
+        }
+        designs.push(d);
+    }
+    if designs.len() == 1 {
+        emit_json(json, &designs[0])?;
+    } else {
+        emit_json(json, &designs)?;
+    }
+    Ok(if designs.iter().all(|d| d.feasible) { 0 } else { 1 })
+}

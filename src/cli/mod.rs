@@ -1,0 +1,176 @@
+//! Command-line front end: argument definitions and one module per
+//! subcommand.
+
+mod check;
+mod design;
+mod input;
+pub mod plot;
+mod simulate;
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+pub use input::CliError;
+
+/// qpv: certified gain-scheduled observers for quadratic parameter-varying systems.
+#[derive(Parser, Debug)]
+#[command(name = "qpv", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Parse, derive, solve and certify an observer design.
+    Design {
+        /// The model file (.qpv).
+        file: PathBuf,
+        /// Which model of the file (default: the only one, or the first).
+        #[arg(long)]
+        model: Option<String>,
+        /// Condition set: sound (default, certifies) or paper (reproduction only).
+        #[arg(long)]
+        mode: Option<String>,
+        /// Decay rate: a number or `max`.
+        #[arg(long)]
+        alpha: Option<String>,
+        /// Region scaling: a number in (0,1) or `search`.
+        #[arg(long)]
+        gamma: Option<String>,
+        /// Write the JSON report to this file (`-` for stdout).
+        #[arg(long)]
+        json: Option<String>,
+    },
+    /// Certify gains that came from anywhere (a paper, another tool).
+    Check {
+        /// The model file (.qpv).
+        file: PathBuf,
+        /// JSON file with `P` (rows) and `L` (per vertex, NX rows of NY).
+        #[arg(long)]
+        gains: PathBuf,
+        /// Which model of the file.
+        #[arg(long)]
+        model: Option<String>,
+        /// Condition set to check: sound (default) or paper.
+        #[arg(long)]
+        mode: Option<String>,
+        /// Decay rate to check (default: the gains file's `alpha`, else the model's design).
+        #[arg(long)]
+        alpha: Option<f64>,
+        /// Region scaling to check (default: the gains file's `gamma`, else the model's design).
+        #[arg(long)]
+        gamma: Option<f64>,
+        /// Write the JSON report to this file (`-` for stdout).
+        #[arg(long)]
+        json: Option<String>,
+    },
+    /// Show the derived polytopic model: vertices, μ order, matrices, region.
+    Vertices {
+        /// The model file (.qpv).
+        file: PathBuf,
+        /// Which model of the file.
+        #[arg(long)]
+        model: Option<String>,
+        /// Write the JSON to this file (`-` for stdout).
+        #[arg(long)]
+        json: Option<String>,
+    },
+    /// Simulate plant + observer with a design report's gains and plot it.
+    Simulate {
+        /// The model file (.qpv).
+        file: PathBuf,
+        /// A design report written by `qpv design --json`.
+        #[arg(long)]
+        design: PathBuf,
+        /// Which model of the file.
+        #[arg(long)]
+        model: Option<String>,
+        /// End time [s].
+        #[arg(long, default_value_t = 2.0)]
+        t_end: f64,
+        /// RK4 step [s].
+        #[arg(long, default_value_t = 1e-3)]
+        dt: f64,
+        /// Initial plant state, comma-separated (default: the scenario's).
+        #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+        x0: Option<Vec<f64>>,
+        /// Ready-made scenario: `paper` (spec §7) or `default`.
+        #[arg(long, default_value = "default")]
+        scenario: String,
+        /// Directory for the SVG figures and the CSV of trajectories.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
+}
+
+/// Runs one command and returns the process exit code.
+pub fn run(cli: Cli) -> Result<i32, CliError> {
+    match cli.command {
+        Command::Vertices { file, model, json } => {
+            let (_, m) = input::load_model(&file, model.as_deref())?;
+            let poly = m.polytopic();
+            input::emit_json(json.as_deref(), &poly)?;
+            let text = input::describe_vertices(&poly);
+            if json.as_deref() == Some("-") {
+                eprint!("{text}");
+            } else {
+                print!("{text}");
+            }
+            Ok(0)
+        }
+        Command::Design {
+            file,
+            model,
+            mode,
+            alpha,
+            gamma,
+            json,
+        } => design::run(
+            &file,
+            model.as_deref(),
+            mode.as_deref(),
+            alpha.as_deref(),
+            gamma.as_deref(),
+            json.as_deref(),
+        ),
+        Command::Check {
+            file,
+            gains,
+            model,
+            mode,
+            alpha,
+            gamma,
+            json,
+        } => check::run(
+            &file,
+            &gains,
+            model.as_deref(),
+            mode.as_deref(),
+            alpha,
+            gamma,
+            json.as_deref(),
+        ),
+        Command::Simulate {
+            file,
+            design,
+            model,
+            t_end,
+            dt,
+            x0,
+            scenario,
+            plot,
+        } => simulate::run(simulate::Options {
+            file: &file,
+            design: &design,
+            model: model.as_deref(),
+            t_end,
+            dt,
+            x0,
+            scenario: &scenario,
+            plot: plot.as_deref(),
+        }),
+    }
+}

@@ -1,0 +1,122 @@
+//! SVG line charts (plotters) for simulated trajectories: one function that
+//! draws named series against time, linear or logarithmic in y.
+
+use plotters::prelude::*;
+use std::path::Path;
+
+/// One named curve of a chart.
+pub struct Series {
+    /// Legend label.
+    pub name: String,
+    /// Points (t, value).
+    pub points: Vec<(f64, f64)>,
+    /// Colour of the line.
+    pub color: RGBColor,
+    /// Dashed (estimates, envelopes) or solid (true values).
+    pub dashed: bool,
+}
+
+impl Series {
+    /// A solid or dashed series.
+    pub fn new(name: impl Into<String>, points: Vec<(f64, f64)>, color: RGBColor, dashed: bool) -> Self {
+        Series { name: name.into(), points, color, dashed }
+    }
+}
+
+/// The palette used for successive series.
+pub const PALETTE: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(23, 190, 207),
+];
+
+/// Draws `series` into an SVG file at `path`; `log_y` uses a logarithmic y
+/// axis (non-positive values are dropped from the log plot, not clamped).
+pub fn line_chart(
+    path: &Path,
+    title: &str,
+    y_label: &str,
+    series: &[Series],
+    log_y: bool,
+) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let pts = |s: &Series| -> Vec<(f64, f64)> {
+        s.points
+            .iter()
+            .copied()
+            .filter(|&(t, v)| t.is_finite() && v.is_finite() && (!log_y || v > 0.0))
+            .collect()
+    };
+    let all: Vec<(f64, f64)> = series.iter().flat_map(pts).collect();
+    if all.is_empty() {
+        return Err(format!("{}: nothing to plot", path.display()));
+    }
+    let (t0, t1) = all.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (mut y0, mut y1) = all.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
+    if log_y {
+        y0 = y0.max(y1 * 1e-16);
+        if y1 <= y0 {
+            y1 = y0 * 10.0;
+        }
+    } else {
+        let pad = if y1 > y0 { 0.05 * (y1 - y0) } else { 1e-3_f64.max(y0.abs() * 0.1) };
+        y0 -= pad;
+        y1 += pad;
+    }
+    let root = SVGBackend::new(path, (900, 520)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let mut builder = ChartBuilder::on(&root);
+    builder
+        .caption(title, ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70);
+    macro_rules! draw {
+        ($chart:expr) => {{
+            let mut chart = $chart;
+            chart
+                .configure_mesh()
+                .x_desc("t [s]")
+                .y_desc(y_label)
+                .draw()
+                .map_err(|e| err(&e))?;
+            for s in series {
+                let p = pts(s);
+                let style = s.color.stroke_width(2);
+                if s.dashed {
+                    chart
+                        .draw_series(DashedLineSeries::new(p, 6, 4, style))
+                        .map_err(|e| err(&e))?
+                        .label(s.name.clone())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                } else {
+                    chart
+                        .draw_series(LineSeries::new(p, style))
+                        .map_err(|e| err(&e))?
+                        .label(s.name.clone())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                }
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()
+                .map_err(|e| err(&e))?;
+        }};
+    }
+    if log_y {
+        draw!(builder
+            .build_cartesian_2d(t0..t1, (y0..y1).log_scale())
+            .map_err(|e| err(&e))?);
+    } else {
+        draw!(builder.build_cartesian_2d(t0..t1, y0..y1).map_err(|e| err(&e))?);
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
