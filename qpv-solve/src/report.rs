@@ -103,6 +103,8 @@ pub struct SearchStep {
     pub iterations: u32,
     /// Wall time of this step (assembly + solve + certificate), seconds.
     pub seconds: f64,
+    /// Clarabel's own solve time within this step, seconds.
+    pub solver_seconds: f64,
     /// What this step was for: "fixed", "bisect", "grid", "refine", "final".
     pub phase: String,
 }

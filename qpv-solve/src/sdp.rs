@@ -785,6 +785,51 @@ mod tests {
     }
 
     #[test]
+    fn max_margin_column_is_kappa_times_metric() {
+        // The margin variable t̂ enters every rate block as κ t̂ W and the
+        // objective as −t̂; W = P_ref/λ_max(P_ref), or I without a reference.
+        let model = paper_model();
+        let prob = Problem::new(&model, ConditionSet::Sound).unwrap();
+        let s = Settings::default();
+        let (alpha, gamma) = (2.0, 0.15);
+        let kappa = prob.rate_scale(alpha, gamma);
+        let pref = DMatrix::from_row_slice(3, 3, &[4.0, 1.0, 0.0, 1.0, 3.0, 0.5, 0.0, 0.5, 2.0]);
+        let lmax = pref.clone().symmetric_eigenvalues().max();
+        for metric in [None, Some(&pref)] {
+            let asm = prob.assemble_with_metric(alpha, gamma, &s, Objective::MaxMargin, metric);
+            let t = prob.n_vars();
+            assert_eq!(asm.a.n, t + 1);
+            assert_eq!(asm.q[t], -1.0);
+            let rows: Vec<(usize, f64)> = (asm.a.colptr[t]..asm.a.colptr[t + 1])
+                .map(|k| (asm.a.rowval[k], asm.a.nzval[k]))
+                .collect();
+            // Last row: t̂ ≤ 1.
+            assert_eq!(*rows.last().unwrap(), (asm.b.len() - 1, 1.0));
+            assert_eq!(asm.b[asm.b.len() - 1], 1.0);
+            // First rate block starts after S1 (6), S2 (8), S3 (6 × 10).
+            let row0 = 6 + 8 + 60;
+            let w = match metric {
+                Some(m) => m / lmax,
+                None => DMatrix::identity(3, 3),
+            };
+            let mut got = vec![0.0; 6];
+            for &(r, v) in &rows {
+                if (row0..row0 + 6).contains(&r) {
+                    got[r - row0] = v;
+                }
+            }
+            let want = smat(&got, 3) / kappa;
+            assert!((&want - &w).norm() < 1e-12, "{want} vs {w}");
+            // No ε margin on the rate blocks in this form.
+            assert!(asm.b[row0..row0 + 6].iter().all(|&b| b == 0.0));
+            // 256 rate blocks each carry the column.
+            let in_rate = rows.iter().filter(|(r, _)| *r >= row0 && *r < asm.b.len() - 1).count();
+            let per_block = if metric.is_some() { 5 } else { 3 }; // W has 5 nonzeros in its triangle
+            assert_eq!(in_rate, 256 * per_block);
+        }
+    }
+
+    #[test]
     fn assembly_matches_direct_matrices_sound() {
         check_assembly(&paper_model(), Mode::Sound);
     }

@@ -1,26 +1,40 @@
-//! The design driver: fixed (α, γ), α-bisection at fixed γ, and γ-search.
+//! The design driver: fixed (α, γ), α = max at fixed γ, and the γ search.
 //!
-//! * Fixed (α, γ): one solve with the gain-regularising objective, then the
-//!   independent certificate.
-//! * α = max at fixed γ: bisection on "certified" (relative tolerance
-//!   [`Settings::bisection_rel_tol`]). The bisection solves pure feasibility
-//!   problems (no objective), whose interior-point solution lies well inside
-//!   the feasible set; every certified point also yields, exactly, the
-//!   largest α the *same* (P, Γ_l) satisfy ([`alpha_capacity`]), which is
-//!   re-certified and raises the lower bound — usually a handful of solves.
-//!   Feasibility is monotone in α (γαP with P ≻ 0), so bisection is exact.
-//! * γ = search: a coarse grid γ_hi·k/n (k = 1..n) over (0, γ_hi],
-//!   γ_hi = min(1, γ_max) (sound; γ_max from (S4)) or 1 (paper), minus 1e-6
-//!   relative, then golden-section refinement around the best grid point,
-//!   each point an α-bisection warm-started from the best α so far.
+//! * Fixed (α, γ): one solve with the default objective (½ w Σ‖Γ̂_l‖_F²,
+//!   moderate gains), then the independent certificate.
+//! * α = max at fixed γ: feasibility is monotone in α
+//!   (the γαP term with P ≻ 0), so the largest certified α is bracketed
+//!   [lo, hi] with lo certified and hi not, until hi ≤ lo·(1 + tol)
+//!   (tol = [`Settings::bisection_rel_tol`], 1e-3). Each trial solves the
+//!   *max-margin* problem (maximise t with every rate LMI ⪯ −t W, W the
+//!   best P so far): its point lies deep inside the feasible set, and the
+//!   exact largest α the *same* (P, Γ_l) satisfy
+//!   ([`crate::certificate::alpha_capacity`], re-certified) becomes the new
+//!   lower bound — a Dinkelbach-type step for this generalised-eigenvalue
+//!   problem. Trials: from lo while that gains more than tol; the secant
+//!   root of the optimal margin t̂(α) once it has been seen on both sides
+//!   (Illinois-damped, nudged by 0.3·tol across the root); bisection of
+//!   [lo, hi] otherwise. Typically 5–10 solves instead of ~20 for plain
+//!   bisection.
+//! * γ = search over (0, γ_hi], γ_hi = min(1, γ_max)·(1 − 1e-6) in sound
+//!   mode (γ_max from (S4)), 1 − 1e-6 in paper mode: a coarse grid
+//!   γ_hi·k/n ([`Settings::gamma_grid`]) visited top down, each point
+//!   ranked by a short certified estimate of α_max (a few max-margin solves
+//!   seeded by the best point so far, [`Settings::gamma_steps`]), then
+//!   golden-section refinement between the neighbours of the best grid
+//!   point ([`Settings::gamma_refine`] evaluations), then α_max to the full
+//!   tolerance at the best γ. The result is the best *certified* (α, γ)
+//!   found; α_max(γ) is not assumed unimodal, so it is a search, not a proof
+//!   of global optimality in γ.
 //!
-//! Solver outcomes: only Clarabel's `PrimalInfeasible` counts as infeasible;
-//! every other non-`Solved` status is *unknown*. In a bisection both are
-//! "not certified" (an upper bound for that run), unknowns are counted and
-//! reported. A `Solved` point that fails the certificate is also not
-//! certified. The final (α, γ) is solved once more with the gain
-//! regularisation; if that point does not certify, the certified point found
-//! by the search at the same (α, γ) is reported instead.
+//! Solver outcomes: only Clarabel's `PrimalInfeasible` counts as
+//! infeasible; every other non-`Solved` status is *unknown*. A point is
+//! accepted only through the independent certificate (an unknown status
+//! with a point that certifies is accepted, and noted); in the search,
+//! infeasible, unknown and not-certified are all "not certified" (an upper
+//! bound), and the report counts the unknowns. The final (α, γ) is solved
+//! once more with the default objective; if that point does not certify,
+//! the search's certified point at the same (α, γ) is reported instead.
 
 use crate::certificate::{alpha_capacity, check, data_checks, Certificate};
 use crate::conditions::{gamma_max, ConditionSet};
@@ -167,6 +181,8 @@ struct Attempt {
     certified: bool,
     /// The max-margin optimum t̂ (NaN for other objectives / no point).
     margin: f64,
+    /// Solver statistics of this attempt.
+    solver: SolverInfo,
 }
 
 /// L_l = P⁻¹ Γ_l (Cholesky, else LU); None if P is singular.
@@ -272,11 +288,12 @@ impl Ctx<'_, '_> {
             alpha_certified,
             iterations: res.iterations,
             seconds: t0.elapsed().as_secs_f64(),
+            solver_seconds: res.solve_seconds,
             phase: phase.to_string(),
         };
         (self.progress)(&step);
         self.steps.push(step);
-        Ok(Attempt { status: res.status, point, certified, margin: res.margin })
+        Ok(Attempt { status: res.status, point, certified, margin: res.margin, solver })
     }
 
     /// Largest certified α at this γ, to relative tolerance `tol`. `seed`: a
@@ -594,17 +611,7 @@ pub fn design_with_progress(
     if let Some(a) = alpha_t {
         let at = ctx.attempt(a, gamma_t, Objective::Gains, None, "final")?;
         final_status = at.status;
-        if let Some(p) = &at.point {
-            final_solver = p.solver.clone();
-        } else if let Some(s) = ctx.steps.last() {
-            final_solver = SolverInfo {
-                status: s.status,
-                detail: s.detail.clone(),
-                iterations: s.iterations,
-                seconds: s.seconds,
-                ..SolverInfo::default()
-            };
-        }
+        final_solver = at.solver.clone();
         if at.certified {
             chosen = at.point;
         } else {
@@ -625,7 +632,13 @@ pub fn design_with_progress(
         }
     } else if let Some(s) = ctx.steps.last() {
         final_status = s.status;
-        final_solver = SolverInfo { status: s.status, detail: s.detail.clone(), iterations: s.iterations, seconds: s.seconds, ..SolverInfo::default() };
+        final_solver = SolverInfo {
+            status: s.status,
+            detail: s.detail.clone(),
+            iterations: s.iterations,
+            seconds: s.solver_seconds,
+            ..SolverInfo::default()
+        };
     }
 
     let feasible = chosen.is_some();
