@@ -2,8 +2,11 @@
 //! (spec §7). Run with `cargo bench -p qpv-solve --bench sim`; prints numbers.
 
 use nalgebra::{DMatrix, DVector};
-use qpv_dsl::{Param, PolytopicModel, Region, Span, StateBound, Vertex};
-use qpv_solve::falsify::falsify;
+use qpv_dsl::{
+    AlphaSpec, DesignRequest, GammaSpec, Mode, Param, PolytopicModel, Region, Span, StateBound,
+    Vertex,
+};
+use qpv_solve::falsify::{falsify, falsify_design};
 use qpv_solve::simulate::{simulate, Scenario};
 use std::hint::black_box;
 use std::time::Instant;
@@ -175,4 +178,33 @@ fn main() {
         samples as f64 / t_fals / 1e6,
         cpu_fals.map_or(String::new(), |c| format!(", {:.2} M samples/s CPU", samples as f64 / c / 1e6))
     );
+
+    // the certified sound design of spec §7 (α = 10, γ = 0.1889)
+    let request = DesignRequest {
+        alpha: AlphaSpec::Fixed(10.0),
+        gamma: GammaSpec::Fixed(0.1889),
+        mode: Mode::Sound,
+        span: Span::default(),
+    };
+    match qpv_solve::design(&model, &request, &qpv_solve::Settings::default()) {
+        Ok(design) if design.certifies => {
+            let traj = simulate(&model, &design.l_matrices(), &scenario).expect("valid scenario");
+            println!(
+                "certified design (α = 10, γ = 0.1889): error {:.3e} at t = 1, below 1e-6 from t = {:?}",
+                traj.error_norm[1000],
+                traj.error_below(1e-6)
+            );
+            let start = Instant::now();
+            let f = falsify_design(&model, &design, 100_000, 2026).expect("valid design");
+            println!(
+                "falsify certified design: {} samples, {} counterexamples, worst ratio {:.4} ({:.3} s)",
+                f.samples,
+                f.counterexamples,
+                f.worst_ratio,
+                start.elapsed().as_secs_f64()
+            );
+        }
+        Ok(design) => println!("design not certified: {}", design.summary),
+        Err(e) => println!("design failed: {e}"),
+    }
 }
