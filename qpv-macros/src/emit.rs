@@ -1042,3 +1042,150 @@ fn emit_design(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MODEL: &str = "model t {
+        state x1, x2; input u1; output y1;
+        param a in [-1, 3]; param b in [0, 1];
+        A = [-1 - a, 0; 1, -2*a*b];
+        N1 = [0, 1; 0, 0]; N2 = 0;
+        B = [0; 1];
+        C = [1, 0]; M1 = 0;
+        region box(1);
+        state_bound Q = [0.1, 0; 0, 0.1];
+        design { alpha = 1; gamma = 0.5; }
+    }";
+
+    fn generated() -> String {
+        let models = qpv_dsl::parse(MODEL).expect("test model parses");
+        let model = &models[0];
+        let design = CertifiedDesign {
+            request: "alpha = 1; gamma = 0.5; mode = sound".into(),
+            mode: "sound".into(),
+            certifies: true,
+            alpha: 1.0,
+            gamma: 0.5,
+            p: vec![1.0, 0.0, 0.0, 1.0],
+            l: (0..4).map(|l| vec![f64::from(l), 0.0]).collect(),
+            margins: vec![("S1".into(), 0.5)],
+            status: "Solved".into(),
+            iterations: 7,
+        };
+        emit(&EmitModel {
+            model,
+            scheduling: vec![0, 1],
+            designs: vec![design],
+        })
+        .to_string()
+    }
+
+    #[test]
+    fn output_is_a_valid_rust_file() {
+        let code = generated();
+        assert!(syn::parse_str::<syn::File>(&code).is_ok(), "{code}");
+    }
+
+    /// Every identifier of a token stream (string literals and docs skipped).
+    fn idents(ts: TokenStream, out: &mut Vec<String>) {
+        for tt in ts {
+            match tt {
+                proc_macro2::TokenTree::Ident(i) => out.push(i.to_string()),
+                proc_macro2::TokenTree::Group(g) => idents(g.stream(), out),
+                _ => {}
+            }
+        }
+    }
+
+    #[test]
+    fn no_loops_no_heap_no_std_no_panics() {
+        let code: TokenStream = generated().parse().expect("tokens");
+        let mut ids = Vec::new();
+        idents(code, &mut ids);
+        for word in [
+            "while",
+            "loop",
+            "unwrap",
+            "expect",
+            "panic",
+            "unreachable",
+            "Vec",
+            "Box",
+            "std",
+            "alloc",
+            "unsafe",
+        ] {
+            assert!(
+                !ids.iter().any(|i| i == word),
+                "generated code uses `{word}`"
+            );
+        }
+        // the only `for … in` loop prints the certificate's margins (Display)
+        assert_eq!(ids.iter().filter(|i| *i == "in").count(), 1);
+        assert!(
+            !indexes(generated().parse().expect("tokens")),
+            "arrays are destructured, never indexed"
+        );
+    }
+
+    /// True if some `[...]` follows a name or a call, i.e. an index expression.
+    fn indexes(ts: TokenStream) -> bool {
+        let tts: Vec<proc_macro2::TokenTree> = ts.into_iter().collect();
+        tts.iter().enumerate().any(|(i, tt)| match tt {
+            proc_macro2::TokenTree::Group(g) => {
+                let indexed = g.delimiter() == proc_macro2::Delimiter::Bracket
+                    && match i.checked_sub(1).and_then(|j| tts.get(j)) {
+                        Some(proc_macro2::TokenTree::Ident(id)) => {
+                            // `let [..]`, `mut`, and the lifetime in `&'static [..]`
+                            id != "let" && id != "mut" && id != "static"
+                        }
+                        Some(proc_macro2::TokenTree::Group(p)) => {
+                            p.delimiter() == proc_macro2::Delimiter::Parenthesis
+                        }
+                        _ => false,
+                    };
+                indexed || indexes(g.stream())
+            }
+            _ => false,
+        })
+    }
+
+    #[test]
+    fn constants_are_folded() {
+        let code = generated();
+        assert!(!code.contains("0.0 * "), "zero terms are dropped");
+        assert!(!code.contains("1.0 * "), "unit factors are dropped");
+        // the θ product a·b is computed once and reused
+        assert_eq!(code.matches("let t0_1 = t0 * t1").count(), 1);
+        // L_l[1][0] = 0 at every vertex: no gain term in the second equation
+        assert!(code.contains("g0_0 * r0"));
+        assert!(!code.contains("g1_0 * r0"));
+        // the state product is computed once
+        assert_eq!(
+            code.matches("let x0x1 = x0 * x1").count(),
+            2,
+            "observer + plant"
+        );
+    }
+
+    #[test]
+    fn float_literals_round_trip() {
+        for v in [0.1, -2.5e-300, 1.0 / 3.0, 123456.789, -0.0] {
+            let t = lit(v).to_string().replace(' ', "");
+            assert_eq!(t.parse::<f64>().ok(), Some(v), "{t}");
+        }
+    }
+
+    #[test]
+    fn sums_fold_signs_and_units() {
+        let mut s = Sum::default();
+        s.push(-1.0, Some(quote!(x)));
+        s.push(0.0, Some(quote!(y)));
+        s.push(1.0, Some(quote!(z)));
+        s.push(-2.5, None);
+        assert_eq!(s.render().to_string(), "- x + z - 2.5");
+        assert_eq!(Sum::default().render().to_string(), "0.0");
+    }
+}

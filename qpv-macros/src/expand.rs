@@ -200,7 +200,10 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 stub(),
             )
         };
-        designs.push(one_design(model, &poly, req).map_err(fail)?);
+        let start = std::time::Instant::now();
+        let design = one_design(model, &poly, req).map_err(fail)?;
+        timing(&model.name, &design.numbers.request, design.origin, start);
+        designs.push(design.numbers);
     }
     Ok(emit::emit(&EmitModel {
         model,
@@ -220,7 +223,7 @@ fn one_design(
     model: &Model,
     poly: &PolytopicModel,
     req: &DesignRequest,
-) -> Result<CertifiedDesign, String> {
+) -> Result<Outcome, String> {
     let request = describe(req);
     let (nx, ny, nv) = (model.nx(), model.ny(), poly.nv());
     let settings = settings();
@@ -233,21 +236,24 @@ fn one_design(
             let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
             let cert = qpv_solve::check(poly, req.mode, e.alpha, e.gamma, &p, &ls);
             if cert.passed {
-                return Ok(CertifiedDesign {
-                    request,
-                    mode: mode_name(req.mode).into(),
-                    certifies: req.mode == Mode::Sound,
-                    alpha: e.alpha,
-                    gamma: e.gamma,
-                    p: e.p,
-                    l: e.l,
-                    margins: cert
-                        .families
-                        .iter()
-                        .map(|f| (f.name.clone(), f.margin))
-                        .collect(),
-                    status: e.status,
-                    iterations: e.iterations,
+                return Ok(Outcome {
+                    origin: "cache hit, re-certified",
+                    numbers: CertifiedDesign {
+                        request,
+                        mode: mode_name(req.mode).into(),
+                        certifies: req.mode == Mode::Sound,
+                        alpha: e.alpha,
+                        gamma: e.gamma,
+                        p: e.p,
+                        l: e.l,
+                        margins: cert
+                            .families
+                            .iter()
+                            .map(|f| (f.name.clone(), f.margin))
+                            .collect(),
+                        status: e.status,
+                        iterations: e.iterations,
+                    },
                 });
             }
         }
@@ -303,7 +309,7 @@ fn one_design(
         l: ls.iter().map(|l| matrix_to_rows(l).concat()).collect(),
     };
     cache::store(&key, &entry);
-    Ok(CertifiedDesign {
+    let numbers = CertifiedDesign {
         request,
         mode: mode_name(req.mode).into(),
         certifies: req.mode == Mode::Sound,
@@ -318,7 +324,27 @@ fn one_design(
             .collect(),
         status: entry.status,
         iterations: entry.iterations,
+    };
+    Ok(Outcome {
+        origin: "solved",
+        numbers,
     })
+}
+
+/// A design ready for emission and where it came from (for `QPV_TIMING`).
+struct Outcome {
+    origin: &'static str,
+    numbers: CertifiedDesign,
+}
+
+/// With `QPV_TIMING` set, prints how long each design took at expansion.
+fn timing(model: &str, request: &str, origin: &str, start: std::time::Instant) {
+    if std::env::var_os("QPV_TIMING").is_some() {
+        eprintln!(
+            "qpv!: model `{model}`, design `{request}`: {origin} in {:.1} ms",
+            start.elapsed().as_secs_f64() * 1e3
+        );
+    }
 }
 
 /// The best certified sound design of a model, for error messages: a full
@@ -394,5 +420,9 @@ fn not_certified(request: &str, d: &Design, poly: &PolytopicModel) -> String {
             .trim_end_matches(')')
             .to_string(),
     };
-    format!("design `{request}` is not certified: {why}{best}; no gain was baked")
+    let verdict = match d.mode {
+        Mode::Sound => "is not certified",
+        Mode::Paper => "does not satisfy the paper's printed conditions",
+    };
+    format!("design `{request}` {verdict}: {why}{best}; no gain was baked")
 }

@@ -20,19 +20,66 @@ use proc_macro::TokenStream;
 /// Builds a certified observer at compile time from a QPV model.
 ///
 /// ```ignore
-/// qpv::qpv!(include "examples/paper.qpv");
-/// let mut obs = paper_example::Observer::new();
-/// obs.step_rk4(1e-3, &y, &[], &theta);
+/// qpv::qpv!(include "examples/paper.qpv");      // path relative to Cargo.toml
+/// // or inline: qpv::qpv! { model plant { state x1, x2; ... design { ... } } }
+///
+/// let mut obs = paper_example::Observer::new();  // x̂(0) = 0
+/// obs.step_rk4(1e-3, &y, &[], &theta);           // y, u, θ held over the step
+/// let xhat = obs.estimate();
+/// println!("{}", paper_example::CERTIFICATE);
 /// ```
 ///
-/// Expands to one module per model (named after it) with the constants
-/// `NX, NY, NU, NTHETA, NV, THETA_MIN, THETA_MAX, ALPHA, GAMMA, P, L,
-/// CERTIFICATE`, the functions `mu`, `gain`, `clamp_theta`, the `Observer`
-/// type and `plant::{derivative, output}`. A model with several `design`
-/// blocks gets one submodule per design (`design1`, `design2`, ...); the
-/// first is re-exported at the model level. Only certified sound-mode
-/// designs are baked: anything else is a compile error on the `design`
-/// block that says why and what would be certified.
+/// # Generated API (one module per model, named after it)
+///
+/// * constants `NX`, `NY`, `NU`, `NTHETA`, `NV`, `THETA_MIN`, `THETA_MAX`;
+///   `ALPHA`, `GAMMA`, `P: [[f64; NX]; NX]`, `L: [[[f64; NY]; NX]; NV]`,
+///   `CERTIFIES` and `CERTIFICATE` (margins per condition family, solver
+///   status and iterations; implements `Display`);
+/// * `mu(&θ) -> [f64; NV]`, `gain(&θ) -> [[f64; NY]; NX]`,
+///   `clamp_theta(&θ) -> ([f64; NTHETA], bool)`;
+/// * `Observer`: `new()`, `with_state(&x0)`, `derivative(&y, &u, &θ)`
+///   (spec eq. (9)), `step_euler(dt, &y, &u, &θ)`, `step_rk4(dt, &y, &u, &θ)`,
+///   `estimate()`, `clamped()`;
+/// * `plant::derivative(&x, &u, &θ)`, `plant::output(&x, &θ)`.
+///
+/// Everything is fully unrolled and constant-folded, uses `::core` only (it
+/// builds in `#![no_std]` crates), never allocates and cannot panic.
+///
+/// # Several designs
+///
+/// Each `design { ... }` block of a model becomes a submodule `design1`,
+/// `design2`, ... in source order. The first *certified* (sound-mode) design
+/// is re-exported at the model level. A `mode = paper` design is solved and
+/// checked against the paper's printed conditions, but those certify
+/// nothing: its submodule records `ALPHA`, `GAMMA`, `CERTIFIES = false` and
+/// the `CERTIFICATE`, with no gain and no observer. A model needs at least
+/// one sound design.
+///
+/// # Run-time behaviour
+///
+/// θ outside Θ: `Observer`, `mu` and `gain` clamp each component into
+/// [`THETA_MIN`, `THETA_MAX`] (NaN becomes the lower bound); the `step_*`
+/// methods count such steps (`Observer::clamped`). The certificate only
+/// covers θ ∈ Θ. The `plant` functions use θ as given. NaN in x, y or u
+/// propagates into the result.
+///
+/// # Errors
+///
+/// Every error is one `compile_error!` on the offending token: syntax and
+/// validation errors on the token the parser points at (for `include`, on
+/// the string literal, with `file:line:column` in the message); a design
+/// that is not certified on its `design` block, with the request, the best
+/// certified (α, γ) and the failing condition family with its margin. No
+/// uncertified gain is ever baked.
+///
+/// # Build time
+///
+/// The SDP solve runs inside rustc: set `[profile.dev.build-override]
+/// opt-level = 3` (the qpv workspace does). Solved designs are cached (see
+/// the `cache` module: `$QPV_CACHE_DIR`, else `$CARGO_TARGET_DIR/qpv-cache`,
+/// else `target/qpv-cache` of the workspace; `QPV_CACHE=off` disables it);
+/// a cache hit is re-certified before use. `QPV_DUMP_DIR=dir` writes the
+/// generated code of each model to `dir/<model>.rs` for review.
 #[proc_macro]
 pub fn qpv(input: TokenStream) -> TokenStream {
     expand::expand(input.into()).into()
