@@ -82,6 +82,13 @@ pub fn line_chart(
                 .configure_mesh()
                 .x_desc("t [s]")
                 .y_desc(y_label)
+                .y_label_formatter(&|v: &f64| {
+                    if log_y {
+                        format!("{v:.0e}")
+                    } else {
+                        format!("{v:.3}")
+                    }
+                })
                 .draw()
                 .map_err(|e| err(&e))?;
             for s in series {
