@@ -62,7 +62,7 @@ pub struct Settings {
     pub bisection_rel_tol: f64,
     /// Number of points of the coarse γ grid (γ_hi·k/n, k = 1..n). Default 6.
     pub gamma_grid: usize,
-    /// Golden-section evaluations in γ after the grid. Default 6.
+    /// Golden-section evaluations in γ after the grid. Default 4.
     pub gamma_refine: usize,
     /// Max-margin solves per γ when ranking γ values (the first grid point,
     /// which has no seed, gets 6). Default 2.
@@ -91,7 +91,7 @@ pub struct Settings {
     pub tol_infeas_rel: f64,
     /// Clarabel gap/feasibility tolerance of the α/γ search's max-margin
     /// solves (never tighter than the tolerances above). Their points are
-    /// certified independently, so they need no more accuracy. Default 1e-6.
+    /// certified independently, so they need no more accuracy. Default 1e-5.
     pub search_tol: f64,
     /// Print Clarabel's iteration log. Default false.
     pub verbose: bool,
@@ -103,7 +103,7 @@ impl Default for Settings {
             margin_rel: 1e-5,
             bisection_rel_tol: 1e-3,
             gamma_grid: 6,
-            gamma_refine: 6,
+            gamma_refine: 4,
             gamma_steps: 2,
             alpha_cap: 1e6,
             alpha_floor: 1e-4,
@@ -115,7 +115,7 @@ impl Default for Settings {
             tol_feas: 1e-8,
             tol_infeas_abs: 1e-8,
             tol_infeas_rel: 1e-8,
-            search_tol: 1e-6,
+            search_tol: 1e-5,
             verbose: false,
         }
     }
