@@ -117,8 +117,7 @@ impl Acc {
     }
     fn add(&mut self, margin: f64, guard: f64, at: impl FnOnce() -> String) {
         self.count += 1;
-        if !(margin > guard) {
-            // NaN fails too
+        if margin.is_nan() || margin <= guard {
             self.passed = false;
         }
         let worse = self.count == 1
@@ -482,13 +481,10 @@ pub fn alpha_capacity(
                 let m0 = &x + x.transpose();
                 let w = &linv * m0 * linv.transpose();
                 let a = -lambda_max(&w) / gamma;
-                if !(a < worst) {
-                    if a.is_nan() {
-                        return 0.0;
-                    }
-                    continue;
+                if a.is_nan() {
+                    return 0.0;
                 }
-                worst = a;
+                worst = worst.min(a);
             }
         }
     }

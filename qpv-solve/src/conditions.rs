@@ -273,6 +273,7 @@ pub fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
 

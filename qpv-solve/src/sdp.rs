@@ -647,6 +647,7 @@ pub fn ensure_lapack() {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
     use crate::conditions::reference::{paper_model, synthetic_model};

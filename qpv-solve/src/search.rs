@@ -561,10 +561,9 @@ pub fn design_with_progress(
     let gamma_hi = match set {
         ConditionSet::Sound => {
             let gm = gmax.unwrap_or(f64::NAN);
-            if !(gm.is_finite() && gm > 0.0) {
-                if matches!(request.gamma, GammaSpec::Search) {
-                    return Err(SolveError::NoGammaRange(gm));
-                }
+            let usable = gm.is_finite() && gm > 0.0;
+            if !usable && matches!(request.gamma, GammaSpec::Search) {
+                return Err(SolveError::NoGammaRange(gm));
             }
             gm.min(1.0) * (1.0 - 1e-6)
         }

@@ -1,6 +1,8 @@
 //! The independent checker: agrees with the true error dynamics, rejects
 //! what it must, accepts externally supplied gains.
 
+#![allow(clippy::needless_range_loop)]
+
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Span};
 use qpv_solve::certificate::{alpha_capacity, rate_lmi};

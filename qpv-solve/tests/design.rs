@@ -5,6 +5,8 @@
 //! ((S4) fails and the LMIs are infeasible); γ_max = 0.18898; sound mode
 //! certified at α = 10, γ = 0.1889.
 
+#![allow(clippy::needless_range_loop)]
+
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Span, StateBound};
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::{check, design, design_with_progress, Design, SearchStep, Settings, SolveError, Status};
