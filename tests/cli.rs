@@ -30,12 +30,35 @@ fn json_stdout(out: &Output) -> serde_json::Value {
 #[test]
 fn paper_mode_reproduces_the_published_point_with_json_on_stdout_only() {
     let out = qpv(&[
-        "design", "examples/paper.qpv", "--mode", "paper", "--alpha", "10", "--gamma", "0.4", "--json", "-",
+        "design",
+        "examples/paper.qpv",
+        "--mode",
+        "paper",
+        "--alpha",
+        "10",
+        "--gamma",
+        "0.4",
+        "--json",
+        "-",
     ]);
-    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let j = json_stdout(&out);
     for key in [
-        "model", "mode", "feasible", "alpha", "gamma", "P", "L", "margins", "data_checks", "solver",
+        "model",
+        "mode",
+        "feasible",
+        "alpha",
+        "gamma",
+        "P",
+        "L",
+        "margins",
+        "data_checks",
+        "solver",
         "seconds_total",
     ] {
         assert!(j.get(key).is_some(), "report lacks key {key}");
@@ -54,7 +77,16 @@ fn paper_mode_reproduces_the_published_point_with_json_on_stdout_only() {
 
 #[test]
 fn sound_mode_at_the_papers_gamma_is_rejected_with_exit_1() {
-    let out = qpv(&["design", "examples/paper.qpv", "--alpha", "10", "--gamma", "0.4", "--json", "-"]);
+    let out = qpv(&[
+        "design",
+        "examples/paper.qpv",
+        "--alpha",
+        "10",
+        "--gamma",
+        "0.4",
+        "--json",
+        "-",
+    ]);
     assert_eq!(out.status.code(), Some(1));
     let j = json_stdout(&out);
     assert_eq!(j["feasible"], false);
@@ -65,22 +97,54 @@ fn sound_mode_at_the_papers_gamma_is_rejected_with_exit_1() {
 fn sound_design_certifies_and_check_and_simulate_accept_it() {
     let report = tmp("sound.json");
     let r = report.to_str().expect("utf-8 path");
-    let out = qpv(&["design", "examples/paper.qpv", "--alpha", "10", "--gamma", "0.1889", "--json", r]);
-    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = qpv(&[
+        "design",
+        "examples/paper.qpv",
+        "--alpha",
+        "10",
+        "--gamma",
+        "0.1889",
+        "--json",
+        r,
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(String::from_utf8_lossy(&out.stdout).contains("CERTIFIED"));
     let j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report).expect("report written")).expect("json");
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report written"))
+            .expect("json");
     assert_eq!(j["feasible"], true);
     assert_eq!(j["certifies"], true);
     for fam in ["S1", "S2", "S3", "S5"] {
-        assert!(j["margins"][fam].as_f64().expect("margin") > 0.0, "family {fam}");
+        assert!(
+            j["margins"][fam].as_f64().expect("margin") > 0.0,
+            "family {fam}"
+        );
     }
     assert_eq!(j["L"].as_array().expect("L").len(), 4);
 
     // The same gains pass `qpv check`, and fail it at a much larger α.
     let ok = qpv(&["check", "examples/paper.qpv", "--gains", r]);
-    assert_eq!(ok.status.code(), Some(0), "{}", String::from_utf8_lossy(&ok.stdout));
-    let bad = qpv(&["check", "examples/paper.qpv", "--gains", r, "--alpha", "1000", "--json", "-"]);
+    assert_eq!(
+        ok.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&ok.stdout)
+    );
+    let bad = qpv(&[
+        "check",
+        "examples/paper.qpv",
+        "--gains",
+        r,
+        "--alpha",
+        "1000",
+        "--json",
+        "-",
+    ]);
     assert_eq!(bad.status.code(), Some(1));
     let c = json_stdout(&bad);
     assert_eq!(c["passed"], false);
@@ -88,21 +152,50 @@ fn sound_design_certifies_and_check_and_simulate_accept_it() {
     // Simulation writes the figures and the CSV.
     let dir = tmp("figs");
     let d = dir.to_str().expect("utf-8 path");
-    let sim = qpv(&["simulate", "examples/paper.qpv", "--design", r, "--scenario", "paper", "--plot", d]);
-    assert_eq!(sim.status.code(), Some(0), "{}", String::from_utf8_lossy(&sim.stderr));
-    for f in ["x1.svg", "x2.svg", "x3.svg", "mu.svg", "error.svg", "trajectories.csv"] {
+    let sim = qpv(&[
+        "simulate",
+        "examples/paper.qpv",
+        "--design",
+        r,
+        "--scenario",
+        "paper",
+        "--plot",
+        d,
+    ]);
+    assert_eq!(
+        sim.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&sim.stderr)
+    );
+    for f in [
+        "x1.svg",
+        "x2.svg",
+        "x3.svg",
+        "mu.svg",
+        "error.svg",
+        "trajectories.csv",
+    ] {
         let meta = std::fs::metadata(dir.join(f)).unwrap_or_else(|_| panic!("{f} missing"));
         assert!(meta.len() > 100, "{f} is empty");
     }
     let csv = std::fs::read_to_string(dir.join("trajectories.csv")).expect("csv");
     assert!(csv.starts_with("t,x1,x2,x3,xhat1"));
-    assert_eq!(csv.lines().count(), 2002, "header + 2001 samples of 2 s at 1 ms");
+    assert_eq!(
+        csv.lines().count(),
+        2002,
+        "header + 2001 samples of 2 s at 1 ms"
+    );
 }
 
 #[test]
 fn bad_input_exits_2_with_a_positioned_message() {
     let bad = tmp("bad.qpv");
-    std::fs::write(&bad, "model m {\n    state x1;\n    output y1;\n    A = [ -1, 2 ];\n}\n").expect("write");
+    std::fs::write(
+        &bad,
+        "model m {\n    state x1;\n    output y1;\n    A = [ -1, 2 ];\n}\n",
+    )
+    .expect("write");
     let out = qpv(&["vertices", bad.to_str().expect("utf-8")]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);

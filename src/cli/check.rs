@@ -21,7 +21,8 @@ struct Gains {
 }
 
 fn rectangular(rows: &[Vec<f64>]) -> bool {
-    rows.iter().all(|r| r.len() == rows.first().map_or(0, Vec::len))
+    rows.iter()
+        .all(|r| r.len() == rows.first().map_or(0, Vec::len))
 }
 
 /// Runs `qpv check`.

@@ -110,12 +110,19 @@ pub fn describe_design(d: &Design) -> String {
             Mode::Paper => "paper",
         }
     ));
-    s.push_str(&format!("  alpha = {:.6}, gamma = {:.6}\n", d.alpha, d.gamma));
+    s.push_str(&format!(
+        "  alpha = {:.6}, gamma = {:.6}\n",
+        d.alpha, d.gamma
+    ));
     if !d.p.is_empty() {
         s.push_str(&format!("  P:\n{}", fmt_matrix(&d.p_matrix(), "    ")));
         for (l, m) in d.l_matrices().iter().enumerate() {
             let norm = d.gain_norms.get(l).copied().unwrap_or(f64::NAN);
-            s.push_str(&format!("  L_{} (||L||_2 = {norm:.4}):\n{}", l + 1, fmt_matrix(m, "    ")));
+            s.push_str(&format!(
+                "  L_{} (||L||_2 = {norm:.4}):\n{}",
+                l + 1,
+                fmt_matrix(m, "    ")
+            ));
         }
     }
     if !d.margins.is_empty() {
@@ -149,7 +156,11 @@ pub fn describe_design(d: &Design) -> String {
         d.search.len(),
         d.seconds_total
     ));
-    let unknown = d.search.iter().filter(|s| s.status == Status::Unknown).count();
+    let unknown = d
+        .search
+        .iter()
+        .filter(|s| s.status == Status::Unknown)
+        .count();
     if unknown > 0 {
         s.push_str(&format!(
             "  {unknown} solve(s) ended with an unknown status (neither solved nor a certificate of infeasibility)\n"
@@ -182,7 +193,11 @@ pub fn run(
             indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
                 .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
         );
-        bar.set_message(format!("designing {} ({})", model.name, describe_request(r)));
+        bar.set_message(format!(
+            "designing {} ({})",
+            model.name,
+            describe_request(r)
+        ));
         let mut n = 0usize;
         let result = qpv_solve::design_with_progress(&poly, r, &settings, &mut |step| {
             n += 1;
@@ -211,5 +226,9 @@ pub fn run(
     } else {
         emit_json(json, &designs)?;
     }
-    Ok(if designs.iter().all(|d| d.feasible) { 0 } else { 1 })
+    Ok(if designs.iter().all(|d| d.feasible) {
+        0
+    } else {
+        1
+    })
 }

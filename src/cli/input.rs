@@ -29,16 +29,16 @@ impl CliError {
 pub fn load_model(path: &Path, name: Option<&str>) -> Result<(String, Model), CliError> {
     let src = std::fs::read_to_string(path)
         .map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
-    let models = qpv_dsl::parse(&src)
-        .map_err(|e| CliError::Input(format!("{}:{e}", path.display())))?;
+    let models =
+        qpv_dsl::parse(&src).map_err(|e| CliError::Input(format!("{}:{e}", path.display())))?;
     let model = match name {
-        Some(n) => models.into_iter().find(|m| m.name == n).ok_or_else(|| {
-            CliError::Input(format!("{}: no model named `{n}`", path.display()))
-        })?,
-        None => models
+        Some(n) => models
             .into_iter()
-            .next()
-            .ok_or_else(|| CliError::Input(format!("{}: the file holds no model", path.display())))?,
+            .find(|m| m.name == n)
+            .ok_or_else(|| CliError::Input(format!("{}: no model named `{n}`", path.display())))?,
+        None => models.into_iter().next().ok_or_else(|| {
+            CliError::Input(format!("{}: the file holds no model", path.display()))
+        })?,
     };
     for w in &model.warnings {
         let (l, c) = qpv_dsl::diagnostic::line_col(&src, w.span.start);
@@ -55,7 +55,8 @@ pub fn emit_json<T: serde::Serialize>(target: Option<&str>, value: &T) -> Result
         println!("{text}");
         Ok(())
     } else {
-        std::fs::write(target, text + "\n").map_err(|e| CliError::Io(format!("cannot write {target}: {e}")))
+        std::fs::write(target, text + "\n")
+            .map_err(|e| CliError::Io(format!("cannot write {target}: {e}")))
     }
 }
 
@@ -84,7 +85,11 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         p.ntheta(),
         p.nv()
     );
-    let sched: Vec<&str> = p.scheduling.iter().map(|&i| p.params[i].name.as_str()).collect();
+    let sched: Vec<&str> = p
+        .scheduling
+        .iter()
+        .map(|&i| p.params[i].name.as_str())
+        .collect();
     s.push_str(&format!(
         "vertex order: corners of ({}), first most significant, lo before hi\n",
         sched.join(", ")
@@ -95,7 +100,12 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
             .iter()
             .map(|&i| format!("{} = {}", p.params[i].name, v.theta[i]))
             .collect();
-        s.push_str(&format!("\nvertex {} ({}):\n  A:\n{}", l + 1, corner.join(", "), fmt_matrix(&v.a, "    ")));
+        s.push_str(&format!(
+            "\nvertex {} ({}):\n  A:\n{}",
+            l + 1,
+            corner.join(", "),
+            fmt_matrix(&v.a, "    ")
+        ));
         for (k, n) in v.n.iter().enumerate() {
             if n.iter().any(|x| *x != 0.0) {
                 s.push_str(&format!("  N{}:\n{}", k + 1, fmt_matrix(n, "    ")));

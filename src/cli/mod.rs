@@ -4,7 +4,6 @@
 mod check;
 mod design;
 mod input;
-pub mod plot;
 mod simulate;
 
 use clap::{Parser, Subcommand};

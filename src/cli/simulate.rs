@@ -1,7 +1,7 @@
 //! `qpv simulate`: plant + observer with a design's gains; SVG figures and CSV.
 
 use super::input::{load_model, CliError};
-use super::plot::{line_chart, Series, PALETTE};
+use qpv::plot::{line_chart, Series, PALETTE};
 use qpv_solve::report::Design;
 use qpv_solve::simulate::{simulate, Scenario, Trajectory};
 use std::path::Path;
@@ -71,14 +71,19 @@ fn describe(traj: &Trajectory, alpha: f64) -> String {
     let mut s = String::from("      t     ||x - xhat||\n");
     for target in [0.0, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0, 5.0, 10.0] {
         if let Some(i) = traj.t.iter().position(|&t| t >= target - 1e-12) {
-            s.push_str(&format!("  {:>6.3}   {:.3e}\n", traj.t[i], traj.error_norm[i]));
+            s.push_str(&format!(
+                "  {:>6.3}   {:.3e}\n",
+                traj.t[i], traj.error_norm[i]
+            ));
         }
     }
     match traj.error_below(1e-6) {
         Some(t) => s.push_str(&format!("error below 1e-6 from t = {t:.3} s on")),
         None => s.push_str("error not below 1e-6 at the end"),
     }
-    s.push_str(&format!(" (certified decay rate alpha = {alpha:.4}: V(t) <= V(0) e^(-alpha t))"));
+    s.push_str(&format!(
+        " (certified decay rate alpha = {alpha:.4}: V(t) <= V(0) e^(-alpha t))"
+    ));
     if let Some(t) = traj.diverged_at {
         s.push_str(&format!("\nsimulation diverged at t = {t}"));
     }
@@ -86,7 +91,10 @@ fn describe(traj: &Trajectory, alpha: f64) -> String {
 }
 
 fn column(rows: &[Vec<f64>], t: &[f64], k: usize) -> Vec<(f64, f64)> {
-    t.iter().zip(rows).filter_map(|(&t, r)| r.get(k).map(|&v| (t, v))).collect()
+    t.iter()
+        .zip(rows)
+        .filter_map(|(&t, r)| r.get(k).map(|&v| (t, v)))
+        .collect()
 }
 
 /// Writes `x{i}.svg` (state and estimate), `mu.svg`, `error.svg` (log
@@ -102,42 +110,91 @@ pub fn write_figures(
     let io = |e: String| CliError::Io(e);
     for (k, name) in poly.states.iter().enumerate() {
         let series = vec![
-            Series::new(format!("{name}"), column(&traj.x, &traj.t, k), PALETTE[0], false),
-            Series::new(format!("{name} estimate"), column(&traj.xhat, &traj.t, k), PALETTE[1], true),
+            Series::new(
+                format!("{name}"),
+                column(&traj.x, &traj.t, k),
+                PALETTE[0],
+                false,
+            ),
+            Series::new(
+                format!("{name} estimate"),
+                column(&traj.xhat, &traj.t, k),
+                PALETTE[1],
+                true,
+            ),
         ];
         let title = format!("{} and its estimate ({} model)", name, poly.name);
-        line_chart(&dir.join(format!("x{}.svg", k + 1)), &title, name, &series, false).map_err(io)?;
+        line_chart(
+            &dir.join(format!("x{}.svg", k + 1)),
+            &title,
+            name,
+            &series,
+            false,
+        )
+        .map_err(io)?;
     }
     let mu: Vec<Series> = (0..poly.nv())
         .map(|l| {
-            Series::new(format!("mu{}", l + 1), column(&traj.mu, &traj.t, l), PALETTE[l % PALETTE.len()], false)
+            Series::new(
+                format!("mu{}", l + 1),
+                column(&traj.mu, &traj.t, l),
+                PALETTE[l % PALETTE.len()],
+                false,
+            )
         })
         .collect();
-    line_chart(&dir.join("mu.svg"), "vertex weights mu_l(theta(t))", "mu", &mu, false).map_err(io)?;
+    line_chart(
+        &dir.join("mu.svg"),
+        "vertex weights mu_l(theta(t))",
+        "mu",
+        &mu,
+        false,
+    )
+    .map_err(io)?;
     // Guaranteed envelope from V(t) <= V(0) e^{-alpha t}:
     // ||e(t)|| <= sqrt(cond(P)) ||e(0)|| e^{-alpha t / 2}.
     let p = design.p_matrix();
     let eig = nalgebra::SymmetricEigen::new(p).eigenvalues;
-    let (lo, hi) = eig.iter().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+    let (lo, hi) = eig
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
     let e0 = traj.error_norm.first().copied().unwrap_or(0.0);
     let mut series = vec![Series::new(
         "||x - xhat||",
-        traj.t.iter().copied().zip(traj.error_norm.iter().copied()).collect(),
+        traj.t
+            .iter()
+            .copied()
+            .zip(traj.error_norm.iter().copied())
+            .collect(),
         PALETTE[0],
         false,
     )];
     if lo > 0.0 && e0 > 0.0 {
         let k = (hi / lo).sqrt() * e0;
         series.push(Series::new(
-            format!("guaranteed envelope sqrt(cond P)||e0|| e^(-{:.2} t/2)", design.alpha),
-            traj.t.iter().map(|&t| (t, k * (-design.alpha * t / 2.0).exp())).collect(),
+            format!(
+                "guaranteed envelope sqrt(cond P)||e0|| e^(-{:.2} t/2)",
+                design.alpha
+            ),
+            traj.t
+                .iter()
+                .map(|&t| (t, k * (-design.alpha * t / 2.0).exp()))
+                .collect(),
             PALETTE[1],
             true,
         ));
     }
-    line_chart(&dir.join("error.svg"), "estimation error (log scale)", "||e||", &series, true).map_err(io)?;
+    line_chart(
+        &dir.join("error.svg"),
+        "estimation error (log scale)",
+        "||e||",
+        &series,
+        true,
+    )
+    .map_err(io)?;
     let mut csv = Vec::new();
-    traj.write_csv(&mut csv).map_err(|e| CliError::Io(e.to_string()))?;
+    traj.write_csv(&mut csv)
+        .map_err(|e| CliError::Io(e.to_string()))?;
     std::fs::write(dir.join("trajectories.csv"), csv)
         .map_err(|e| CliError::Io(format!("cannot write trajectories.csv: {e}")))?;
     Ok(())

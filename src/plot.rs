@@ -18,8 +18,18 @@ pub struct Series {
 
 impl Series {
     /// A solid or dashed series.
-    pub fn new(name: impl Into<String>, points: Vec<(f64, f64)>, color: RGBColor, dashed: bool) -> Self {
-        Series { name: name.into(), points, color, dashed }
+    pub fn new(
+        name: impl Into<String>,
+        points: Vec<(f64, f64)>,
+        color: RGBColor,
+        dashed: bool,
+    ) -> Self {
+        Series {
+            name: name.into(),
+            points,
+            color,
+            dashed,
+        }
     }
 }
 
@@ -54,8 +64,12 @@ pub fn line_chart(
     if all.is_empty() {
         return Err(format!("{}: nothing to plot", path.display()));
     }
-    let (t0, t1) = all.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
-    let (mut y0, mut y1) = all.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    let (t0, t1) = all
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let (mut y0, mut y1) = all
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
     let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
     if log_y {
         y0 = y0.max(y1 * 1e-16);
@@ -63,7 +77,11 @@ pub fn line_chart(
             y1 = y0 * 10.0;
         }
     } else {
-        let pad = if y1 > y0 { 0.05 * (y1 - y0) } else { 1e-3_f64.max(y0.abs() * 0.1) };
+        let pad = if y1 > y0 {
+            0.05 * (y1 - y0)
+        } else {
+            1e-3_f64.max(y0.abs() * 0.1)
+        };
         y0 -= pad;
         y1 += pad;
     }
@@ -122,7 +140,9 @@ pub fn line_chart(
             .build_cartesian_2d(t0..t1, (y0..y1).log_scale())
             .map_err(|e| err(&e))?);
     } else {
-        draw!(builder.build_cartesian_2d(t0..t1, y0..y1).map_err(|e| err(&e))?);
+        draw!(builder
+            .build_cartesian_2d(t0..t1, y0..y1)
+            .map_err(|e| err(&e))?);
     }
     root.present().map_err(|e| err(&e))?;
     Ok(())
