@@ -4,9 +4,9 @@
 //!
 //! `cargo bench -p qpv-solve --bench design_fixed [-- REPEATS]`
 
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, Span};
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode};
 use qpv_solve::conditions::reference::paper_model;
-use qpv_solve::{design, Settings};
+use qpv_solve::{design, request, Settings};
 use std::time::Instant;
 
 fn median(v: &mut [f64]) -> f64 {
@@ -31,12 +31,7 @@ fn main() {
         ("paper α=10 γ=0.4", Mode::Paper, 10.0, 0.4),
         ("sound α=10 γ=0.4 (infeas.)", Mode::Sound, 10.0, 0.4),
     ] {
-        let req = DesignRequest {
-            alpha: AlphaSpec::Fixed(alpha),
-            gamma: GammaSpec::Fixed(gamma),
-            mode,
-            span: Span::default(),
-        };
+        let req = request(AlphaSpec::Fixed(alpha), GammaSpec::Fixed(gamma), mode);
         let (mut tot, mut sol, mut asm, mut cer) = (vec![], vec![], vec![], vec![]);
         let mut iters = 0;
         let mut feasible = false;

@@ -6,11 +6,11 @@
 //!
 //! `cargo bench -p qpv-solve --bench design_scale [-- NX...]`
 
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, Span};
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode};
 use qpv_solve::conditions::reference::synthetic_model;
 use qpv_solve::sdp::{Objective, Problem};
 use qpv_solve::conditions::ConditionSet;
-use qpv_solve::{design, Settings};
+use qpv_solve::{design, request, Settings};
 use std::process::Command;
 use std::time::Instant;
 
@@ -35,12 +35,7 @@ fn child(nx: usize) {
     let t_asm = t.elapsed().as_secs_f64();
     let (m, n, nnz) = (asm.a.m, asm.a.n, asm.a.nzval.len());
     drop(asm);
-    let req = DesignRequest {
-        alpha: AlphaSpec::Fixed(ALPHA),
-        gamma: GammaSpec::Fixed(GAMMA),
-        mode: Mode::Sound,
-        span: Span::default(),
-    };
+    let req = request(AlphaSpec::Fixed(ALPHA), GammaSpec::Fixed(GAMMA), Mode::Sound);
     let t0 = Instant::now();
     let d = design(&model, &req, &settings).expect("design");
     let wall = t0.elapsed().as_secs_f64();

@@ -3,9 +3,9 @@
 //!
 //! `cargo bench -p qpv-solve --bench design_search [-- REPEATS]`
 
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, Span};
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode};
 use qpv_solve::conditions::reference::paper_model;
-use qpv_solve::{design, Settings};
+use qpv_solve::{design, request, Settings};
 use std::time::Instant;
 
 fn main() {
@@ -26,7 +26,7 @@ fn main() {
         ("sound α=max γ=0.1889", Mode::Sound, AlphaSpec::Max, GammaSpec::Fixed(0.1889)),
         ("paper α=max γ=0.4", Mode::Paper, AlphaSpec::Max, GammaSpec::Fixed(0.4)),
     ] {
-        let req = DesignRequest { alpha, gamma, mode, span: Span::default() };
+        let req = request(alpha, gamma, mode);
         let mut walls = vec![];
         let mut last = None;
         for _ in 0..repeats {

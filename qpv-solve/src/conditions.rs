@@ -202,18 +202,16 @@ pub fn region_radius(model: &PolytopicModel) -> f64 {
 
 /// γ_max = 1 / max_k sqrt(a_kᵀ Q a_k) from (S4), if Q is given.
 pub fn gamma_max(model: &PolytopicModel) -> Option<f64> {
-    match &model.state_bound {
-        StateBound::Given(q) => {
-            let worst = model
-                .region
-                .facets
-                .iter()
-                .map(|a| a.dot(&(q * a)))
-                .fold(0.0, f64::max);
-            Some(1.0 / worst.sqrt())
-        }
-        StateBound::None => None,
-    }
+    let StateBound::Given(q) = &model.state_bound else {
+        return None;
+    };
+    let worst = model
+        .region
+        .facets
+        .iter()
+        .map(|a| a.dot(&(q * a)))
+        .fold(0.0, f64::max);
+    Some(1.0 / worst.sqrt())
 }
 
 /// Checks that the model data have consistent dimensions and a usable region.

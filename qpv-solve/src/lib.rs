@@ -1,12 +1,39 @@
 //! LMI synthesis with Clarabel, independent certification and simulation of
 //! QPV observers: `PolytopicModel` + design request → certified `Design`.
 //!
-//! * [`design`] / [`design_with_progress`]: fixed (α, γ), α = max by
-//!   bisection, or a γ search maximising α; returns a [`Design`] that is
-//!   `feasible` only if the independent [`check`] passed.
-//! * [`check`]: recomputes every condition (sound (S1)-(S5) or the paper's
-//!   (13),(14),(26)) from P and L_l with nalgebra eigenvalues; usable on
-//!   externally supplied gains.
+//! * [`design`] / [`design_with_progress`]: fixed (α, γ), α = max at fixed
+//!   γ, or a γ search maximising α ([`search`] documents the algorithms);
+//!   returns a [`Design`] that is `feasible` only if the independent
+//!   [`check`] passed, and `certifies` only in sound mode.
+//! * [`check`]: recomputes every condition — sound (S1)-(S5) or the paper's
+//!   printed (13), (14), (26) — from P and L_l with nalgebra eigenvalues and
+//!   reports the worst margin per family (positive = satisfied) plus the
+//!   data checks (S4) and P ⊂ F; usable on externally supplied gains.
+//! * [`sdp`]: the LMIs assembled directly into Clarabel's standard form
+//!   (PSD triangle cones, no modelling layer); [`conditions`]: the condition
+//!   sets and the one place where the two modes differ.
+//!
+//! Conventions: N_k and M_k are used exactly as written in the model (no
+//! symmetrisation); row k of rows(T, v) is vᵀT_k. Strict inequalities are
+//! solved with margins relative to the data ([`Settings::margin_rel`]); the
+//! default objective minimises Σ_l ‖Γ_l‖_F² (scaled), which keeps the gains
+//! L_l = P⁻¹Γ_l moderate; ‖L_l‖₂ is reported. Only Clarabel's primal
+//! infeasibility certificate counts as *infeasible*; any other non-solved
+//! status is *unknown* ([`Status`]).
+//!
+//! ```no_run
+//! use qpv_dsl::{AlphaSpec, GammaSpec, Mode};
+//! use qpv_solve::{check, design, request, Settings};
+//!
+//! let model = qpv_solve::conditions::reference::paper_model();
+//! let req = request(AlphaSpec::Fixed(10.0), GammaSpec::Fixed(0.1889), Mode::Sound);
+//! let d = design(&model, &req, &Settings::default()).unwrap();
+//! assert!(d.feasible && d.certifies);
+//! // Anyone can re-check the gains without the solver:
+//! let c = check(&model, d.mode, d.alpha, d.gamma, &d.p_matrix(), &d.l_matrices());
+//! assert!(c.passed);
+//! println!("{}", d.to_json());
+//! ```
 
 #[cfg(feature = "pure-lapack")]
 pub mod lapack;
@@ -22,4 +49,4 @@ pub mod svec;
 
 pub use certificate::{check, Certificate, FamilyMargin};
 pub use report::{DataCheck, Design, SearchStep, SolverInfo, Status};
-pub use search::{design, design_with_progress, Settings, SolveError};
+pub use search::{design, design_with_progress, request, Settings, SolveError};

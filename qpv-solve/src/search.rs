@@ -150,6 +150,19 @@ pub enum SolveError {
     Setup(String),
 }
 
+/// A design request with the given α, γ and mode (every other setting at
+/// its default, no source span): the one place that builds the struct, for
+/// tests, benchmarks and programmatic use.
+pub fn request(alpha: AlphaSpec, gamma: GammaSpec, mode: Mode) -> DesignRequest {
+    DesignRequest {
+        alpha,
+        gamma,
+        mode,
+        split: qpv_dsl::Split::default_for(mode),
+        ..Default::default()
+    }
+}
+
 /// Runs the design requested: fixed (α, γ), α = max by bisection at fixed γ,
 /// or a γ search maximising α. See [`design_with_progress`].
 pub fn design(

@@ -4,18 +4,13 @@
 #![allow(clippy::needless_range_loop)]
 
 use nalgebra::{DMatrix, DVector};
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Span};
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel};
 use qpv_solve::certificate::{alpha_capacity, rate_lmi};
 use qpv_solve::conditions::reference::{paper_model, synthetic_model};
 use qpv_solve::{check, design, Design, Settings};
 
 fn fixed(alpha: f64, gamma: f64, mode: Mode) -> DesignRequest {
-    DesignRequest {
-        alpha: AlphaSpec::Fixed(alpha),
-        gamma: GammaSpec::Fixed(gamma),
-        mode,
-        span: Span::default(),
-    }
+    qpv_solve::request(AlphaSpec::Fixed(alpha), GammaSpec::Fixed(gamma), mode)
 }
 
 fn sound_design(model: &PolytopicModel) -> Design {
@@ -171,12 +166,7 @@ fn external_gains_can_be_checked() {
 fn synthetic_models_design_and_certify() {
     for nx in [3, 4] {
         let model = synthetic_model(nx);
-        let r = DesignRequest {
-            alpha: AlphaSpec::Max,
-            gamma: GammaSpec::Fixed(0.3),
-            mode: Mode::Sound,
-            span: Span::default(),
-        };
+        let r = qpv_solve::request(AlphaSpec::Max, GammaSpec::Fixed(0.3), Mode::Sound);
         let d = design(&model, &r, &Settings::default()).unwrap();
         assert!(d.feasible && d.certifies, "nx = {nx}: {}", d.summary);
         assert!(check(&model, Mode::Sound, d.alpha, d.gamma, &d.p_matrix(), &d.l_matrices()).passed);

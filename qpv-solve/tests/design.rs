@@ -7,17 +7,12 @@
 
 #![allow(clippy::needless_range_loop)]
 
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Span, StateBound};
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, StateBound};
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::{check, design, design_with_progress, Design, SearchStep, Settings, SolveError, Status};
 
 fn req(alpha: AlphaSpec, gamma: GammaSpec, mode: Mode) -> DesignRequest {
-    DesignRequest {
-        alpha,
-        gamma,
-        mode,
-        span: Span::default(),
-    }
+    qpv_solve::request(alpha, gamma, mode)
 }
 
 fn fixed(alpha: f64, gamma: f64, mode: Mode) -> DesignRequest {
