@@ -114,9 +114,8 @@ impl Input {
         let text = std::fs::read_to_string(&path).map_err(|e| InputError {
             span: lit.span(),
             message: format!(
-                "cannot read model file `{}` ({}): the path is relative to the \
+                "cannot read model file `{written}` ({}): the path is relative to the \
                  directory of the calling crate's Cargo.toml",
-                path.display(),
                 io_reason(&e)
             ),
         })?;
@@ -348,6 +347,25 @@ mod tests {
             .err()
             .expect("an error");
         assert!(e.message.contains("model NAME"));
+    }
+
+    #[test]
+    fn errors_in_an_included_file_quote_file_line_column() {
+        let input = Input {
+            text: "model m {\n    state x1 x2;\n}\n".into(),
+            source: Source::File {
+                written: "models/m.qpv".into(),
+                absolute: PathBuf::from("/abs/models/m.qpv"),
+                literal: Span::call_site(),
+            },
+            table: Vec::new(),
+        };
+        let at = input.text.find("x2").expect("x2 in text");
+        let msg = input.locate(at, "expected `,` or `;`, found `x2`");
+        assert_eq!(
+            msg,
+            "models/m.qpv:2:14: expected `,` or `;`, found `x2`\n  |     state x1 x2;\n  |              ^"
+        );
     }
 
     #[test]
