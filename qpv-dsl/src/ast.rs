@@ -51,10 +51,20 @@ pub enum Item {
     Out(Equation),
     /// `region box(...);`, `region vertices [...];`, `region halfspaces [...];`
     Region(RegionDecl),
-    /// `state_bound Q = [...];`
-    StateBound(MatrixLit, Span),
+    /// `state_bound Q = [...];` or `state_bound auto;` / `state_bound auto(h = 0.08);`
+    StateBound(BoundDecl, Span),
     /// `design { key = value; ... }`
     Design(DesignBlock),
+}
+
+/// The right-hand side of a `state_bound` statement.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BoundDecl {
+    /// `Q = [...]`: the matrix Q of F = {x : xᵀQ⁻¹x ≤ 1}.
+    Given(MatrixLit),
+    /// `auto` or `auto(key = value, ...)`: computed by the solver; the
+    /// options in source order (only `h` is accepted).
+    Auto(Vec<DesignEntry>),
 }
 
 /// `param NAMES in [lo, hi];`
@@ -150,7 +160,8 @@ pub struct DesignBlock {
     pub span: Span,
 }
 
-/// `key = value;` inside a design block.
+/// `key = value;` inside a design block (or `key = value` inside
+/// `state_bound auto(...)`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DesignEntry {
     /// The key.

@@ -12,7 +12,9 @@ pub mod vertices;
 
 pub use diagnostic::{Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
-pub use model::{AlphaSpec, DesignRequest, GammaSpec, Mode, Model, Param, StateBound};
+pub use model::{
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, Param, Split, StateBound,
+};
 pub use region::{Region, RegionError};
 pub use vertices::{PolytopicModel, Vertex};
 

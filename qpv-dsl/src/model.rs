@@ -51,7 +51,52 @@ pub enum GammaSpec {
     Search,
 }
 
+/// How N_k (and M_k) are represented in the design LMIs (spec §1).
+///
+/// Only the symmetric part of N_k moves the plant, but the matrix
+/// rows(N_k, e) in the conditions depends on the representation, so the
+/// choice changes what can be certified.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Split {
+    /// N_k and M_k exactly as written (the paper's representation; the
+    /// default in paper mode, which reproduces the printed conditions).
+    AsWritten,
+    /// N_k → (N_k + N_kᵀ)/2 and M_k → (M_k + M_kᵀ)/2: the same plant; the
+    /// default in sound mode (measured better on the paper example).
+    #[default]
+    Symmetric,
+}
+
+impl Split {
+    /// The default split of a condition set: [`Split::Symmetric`] in sound
+    /// mode, [`Split::AsWritten`] in paper mode.
+    pub fn default_for(mode: Mode) -> Split {
+        match mode {
+            Mode::Sound => Split::Symmetric,
+            Mode::Paper => Split::AsWritten,
+        }
+    }
+}
+
+/// Which family of vertex conditions (S5) is imposed (issue 6 §3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Conditions {
+    /// All p² vertex pairs (i, j) per θ-vertex.
+    #[default]
+    Full,
+    /// One slack Z_l per θ-vertex: 2p blocks per θ-vertex (sufficient for
+    /// the full family, which certification still re-checks).
+    Decoupled,
+}
+
 /// One `design { ... }` request of a model.
+///
+/// Build one with `..Default::default()` so that new settings do not break
+/// construction sites: the default is `alpha = max; gamma = search;
+/// mode = sound; split = symmetric; conditions = full;`. In paper mode set
+/// `split: Split::AsWritten` as well (see [`Split::default_for`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DesignRequest {
     /// Requested decay rate.
@@ -60,8 +105,25 @@ pub struct DesignRequest {
     pub gamma: GammaSpec,
     /// Condition set.
     pub mode: Mode,
+    /// Representation of N_k, M_k in the LMIs.
+    pub split: Split,
+    /// Full or decoupled vertex conditions.
+    pub conditions: Conditions,
     /// The `design` block in the source, for errors about this request.
     pub span: Span,
+}
+
+impl Default for DesignRequest {
+    fn default() -> Self {
+        DesignRequest {
+            alpha: AlphaSpec::Max,
+            gamma: GammaSpec::Search,
+            mode: Mode::Sound,
+            split: Split::default_for(Mode::Sound),
+            conditions: Conditions::Full,
+            span: Span::default(),
+        }
+    }
 }
 
 /// The set F = {x : xᵀ Q⁻¹ x ≤ 1} known to contain the state trajectory.
@@ -71,6 +133,14 @@ pub enum StateBound {
     None,
     /// `state_bound Q = [...]`: a symmetric positive definite Q (nx × nx).
     Given(nalgebra::DMatrix<f64>),
+    /// `state_bound auto;` or `state_bound auto(h = ...);`: Q is computed by
+    /// the solver (an invariant ellipsoid containing the region, inside the
+    /// box |x_i| ≤ h, maximising γ_max). With `h` given the box size is
+    /// fixed; otherwise it is searched.
+    Auto {
+        /// The half-width of the enclosing box, if fixed by the model.
+        h: Option<f64>,
+    },
 }
 
 /// One validated `model` block with symbolic θ-dependent matrices.
@@ -136,7 +206,7 @@ impl Model {
 
 use crate::ast::{self, Expr, ExprKind, Item, MatrixLit, MatrixValue, ModelAst};
 use crate::diagnostic::{line_col, suggest, Diag};
-use crate::equations::{self, Split};
+use crate::equations::{self, Split as TermSplit};
 use crate::poly::{bits, eval, fmt_num, quote, Allowed, NameRef, Names, Poly, Scope};
 use crate::region::{hull_from_halfspaces, hull_from_vertices, RegionError, MAX_REGION_VERTICES};
 use nalgebra::{DMatrix, DVector};
@@ -674,7 +744,7 @@ impl<'a> Builder<'a> {
             for (i, eq) in &ders {
                 polys[*i] = eval(&eq.rhs, &scope)?;
             }
-            let d = equations::dynamics(self.src, &self.names, &polys, Split::AsWritten)?;
+            let d = equations::dynamics(self.src, &self.names, &polys, TermSplit::AsWritten)?;
             return Ok((d.a, d.n, d.b));
         }
         // matrix form
@@ -777,7 +847,7 @@ impl<'a> Builder<'a> {
             for (i, eq) in &outs {
                 polys[*i] = eval(&eq.rhs, &scope)?;
             }
-            let o = equations::outputs(self.src, &self.names, &polys, Split::AsWritten)?;
+            let o = equations::outputs(self.src, &self.names, &polys, TermSplit::AsWritten)?;
             for &(which, i, j, span) in &o.theta_terms {
                 let (mat, label) = if which == 0 {
                     (&o.c, "C".to_string())
@@ -989,9 +1059,9 @@ impl<'a> Builder<'a> {
     }
 
     fn state_bound(&mut self, region: &Region) -> R<StateBound> {
-        let mut decl: Option<(&MatrixLit, Span)> = None;
+        let mut decl: Option<(&ast::BoundDecl, Span)> = None;
         for item in &self.ast.items {
-            if let Item::StateBound(lit, span) = item {
+            if let Item::StateBound(bound, span) = item {
                 if let Some((_, prev)) = decl {
                     return Err(Diag::new(
                         *span,
@@ -1001,11 +1071,15 @@ impl<'a> Builder<'a> {
                         ),
                     ));
                 }
-                decl = Some((lit, *span));
+                decl = Some((bound, *span));
             }
         }
-        let Some((lit, span)) = decl else {
+        let Some((bound, span)) = decl else {
             return Ok(StateBound::None);
+        };
+        let lit = match bound {
+            ast::BoundDecl::Given(lit) => lit,
+            ast::BoundDecl::Auto(options) => return self.auto_bound(options, region),
         };
         let nx = self.names.states.len();
         self.check_shape(lit, "Q", nx, nx, "one per state", "one per state")?;
@@ -1076,16 +1150,67 @@ impl<'a> Builder<'a> {
         Ok(StateBound::Given(q))
     }
 
+    /// `state_bound auto(h = ...);`: validates the options.
+    fn auto_bound(&self, options: &[ast::DesignEntry], region: &Region) -> R<StateBound> {
+        let mut h = None;
+        let mut seen: Option<Span> = None;
+        for entry in options {
+            let key = entry.key.name.as_str();
+            if key != "h" {
+                let hint = suggest(key, ["h"])
+                    .map(|s| format!(" (did you mean `{s}`?)"))
+                    .unwrap_or_default();
+                return Err(Diag::new(
+                    entry.key.span,
+                    format!(
+                        "unknown state bound option `{key}`: expected `h` (the half-width of the \
+                         box |x_i| ≤ h that encloses F){hint}"
+                    ),
+                ));
+            }
+            if let Some(prev) = seen {
+                return Err(Diag::new(
+                    entry.key.span,
+                    format!("`h` is set twice (first at {})", pos(self.src, prev)),
+                ));
+            }
+            seen = Some(entry.key.span);
+            let v = &entry.value;
+            let value = self.constant(v, "the state bound option h")?;
+            if !(value > 0.0 && value.is_finite()) {
+                return Err(bad_value(v.span, "h", "a positive number", &fmt_num(value)));
+            }
+            let reach = region
+                .vertices
+                .iter()
+                .flat_map(|x| x.iter())
+                .fold(0.0f64, |m, x| m.max(x.abs()));
+            if value <= reach {
+                return Err(Diag::new(
+                    v.span,
+                    format!(
+                        "`h` = {} is too small: F must contain the region and lie inside the box \
+                         |x_i| ≤ h, but the region reaches |x_i| = {}; choose h > {}",
+                        fmt_num(value),
+                        fmt_num(reach),
+                        fmt_num(reach)
+                    ),
+                ));
+            }
+            h = Some(value);
+        }
+        Ok(StateBound::Auto { h })
+    }
+
     fn designs(&self) -> R<Vec<DesignRequest>> {
         let mut out = Vec::new();
         for item in &self.ast.items {
             let Item::Design(block) = item else { continue };
             let mut req = DesignRequest {
-                alpha: AlphaSpec::Max,
-                gamma: GammaSpec::Search,
-                mode: Mode::Sound,
                 span: block.span,
+                ..Default::default()
             };
+            let mut split: Option<Split> = None;
             let mut seen: Vec<(&str, Span)> = Vec::new();
             for entry in &block.entries {
                 let key = entry.key.name.as_str();
@@ -1168,18 +1293,50 @@ impl<'a> Builder<'a> {
                             }
                         }
                     }
+                    "split" => {
+                        split = Some(match word {
+                            Some("as_written") => Split::AsWritten,
+                            Some("symmetric") => Split::Symmetric,
+                            _ => {
+                                return Err(bad_value(
+                                    v.span,
+                                    "split",
+                                    "`as_written` or `symmetric`",
+                                    &quote(self.src, v.span).replace('`', ""),
+                                ))
+                            }
+                        })
+                    }
+                    "conditions" => {
+                        req.conditions = match word {
+                            Some("full") => Conditions::Full,
+                            Some("decoupled") => Conditions::Decoupled,
+                            _ => {
+                                return Err(bad_value(
+                                    v.span,
+                                    "conditions",
+                                    "`full` or `decoupled`",
+                                    &quote(self.src, v.span).replace('`', ""),
+                                ))
+                            }
+                        }
+                    }
                     _ => {
-                        let hint = suggest(key, ["alpha", "gamma", "mode"])
+                        let hint = suggest(key, DESIGN_KEYS)
                             .map(|s| format!(" (did you mean `{s}`?)"))
                             .unwrap_or_default();
                         return Err(Diag::new(
                             entry.key.span,
-                            format!("unknown design setting `{key}`: expected `alpha`, `gamma` or `mode`{hint}"),
+                            format!(
+                                "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
+                                 `split` or `conditions`{hint}"
+                            ),
                         ));
                     }
                 }
                 seen.push((key, entry.key.span));
             }
+            req.split = split.unwrap_or(Split::default_for(req.mode));
             out.push(req);
         }
         Ok(out)
@@ -1227,6 +1384,9 @@ impl<'a> Builder<'a> {
         Ok(())
     }
 }
+
+/// The keys of a `design { ... }` block.
+const DESIGN_KEYS: [&str; 5] = ["alpha", "gamma", "mode", "split", "conditions"];
 
 fn bad_value(span: Span, key: &str, expected: &str, found: &str) -> Diag {
     Diag::new(span, format!("`{key}` must be {expected}, found `{found}`"))

@@ -65,6 +65,7 @@ fn is_token(rule: Rule) -> bool {
             | Rule::kw_state_bound
             | Rule::kw_design
             | Rule::q_name
+            | Rule::kw_auto
             | Rule::EOI
     )
 }
@@ -177,8 +178,21 @@ fn parse_statement(pair: Pair<'_, Rule>) -> Result<Item> {
         Rule::region_decl => Ok(Item::Region(parse_region_decl(pair)?)),
         Rule::bound_decl => {
             let mut it = children(pair);
-            let m = parse_matrix(next(&mut it, span, "state bound matrix")?)?;
-            Ok(Item::StateBound(m, span))
+            let inner = next(&mut it, span, "state bound")?;
+            let bound = match inner.as_rule() {
+                Rule::bound_given => {
+                    let ispan = span_of(&inner);
+                    let mut it = children(inner);
+                    BoundDecl::Given(parse_matrix(next(&mut it, ispan, "state bound matrix")?)?)
+                }
+                _ => {
+                    let options = children(inner)
+                        .map(parse_design_entry)
+                        .collect::<Result<Vec<_>>>()?;
+                    BoundDecl::Auto(options)
+                }
+            };
+            Ok(Item::StateBound(bound, span))
         }
         Rule::design_block => Ok(Item::Design(parse_design_block(pair)?)),
         _ => Err(internal(span, "unexpected statement")),
@@ -434,6 +448,7 @@ enum Want {
     Model,
     Statement,
     DesignKey,
+    BoundOption,
     Name,
     Expression,
     Exponent,
@@ -470,6 +485,7 @@ fn want(rule: Rule) -> Option<Want> {
         | Rule::design_block
         | Rule::matrix_def => Statement,
         Rule::design_key | Rule::design_entry => DesignKey,
+        Rule::bound_key | Rule::bound_option => BoundOption,
         Rule::ident | Rule::name_list => Name,
         Rule::number
         | Rule::paren
@@ -490,7 +506,8 @@ fn want(rule: Rule) -> Option<Want> {
         Rule::lparen => Token("`(`"),
         Rule::rparen => Token("`)`"),
         Rule::kw_in => Token("`in`"),
-        Rule::q_name => Token("`Q` (write `state_bound Q = [...]`)"),
+        Rule::q_name | Rule::bound_given => Token("`Q` (write `state_bound Q = [...]`)"),
+        Rule::kw_auto | Rule::bound_auto => Token("`auto`"),
         Rule::kw_box
         | Rule::kw_vertices
         | Rule::kw_halfspaces
@@ -511,7 +528,8 @@ fn want_text(w: Want) -> &'static str {
             "a statement (`state`, `input`, `output`, `param`, `der`, `out`, `region`, \
              `state_bound`, `design` or a matrix such as `A = [...]`)"
         }
-        Want::DesignKey => "a design setting (`alpha`, `gamma` or `mode`)",
+        Want::DesignKey => "a design setting (`alpha`, `gamma`, `mode`, `split` or `conditions`)",
+        Want::BoundOption => "a state bound option (`h = ...`)",
         Want::Name => "a name",
         Want::Expression => "an expression (a number, a name or `(`)",
         Want::Exponent => "a whole-number exponent",

@@ -1,7 +1,7 @@
 //! The polytopic model: matrices at the corners of the parameter box and the
 //! multilinear weights μ_l(θ) (spec §3).
 
-use crate::model::{DesignRequest, Param, StateBound};
+use crate::model::{DesignRequest, Param, Split, StateBound};
 use crate::region::Region;
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -141,6 +141,23 @@ impl PolytopicModel {
             s += &v.b * *w;
         }
         s
+    }
+
+    /// The same model with N_{k,l} and M_k represented by `split`:
+    /// [`Split::Symmetric`] replaces each by its symmetric part (N + Nᵀ)/2,
+    /// [`Split::AsWritten`] returns an unchanged copy. The plant (and the
+    /// output map) is the same either way, since xᵀ N x = xᵀ (N + Nᵀ)/2 x;
+    /// only the matrix rows(N, e) of the design conditions changes.
+    pub fn with_split(&self, split: Split) -> PolytopicModel {
+        let mut out = self.clone();
+        if split == Split::Symmetric {
+            let sym = |m: &mut DMatrix<f64>| *m = (&*m + m.transpose()) * 0.5;
+            for v in &mut out.vertices {
+                v.n.iter_mut().for_each(sym);
+            }
+            out.m.iter_mut().for_each(sym);
+        }
+        out
     }
 
     /// The parameter vector of corner `l` restricted to the scheduling

@@ -184,7 +184,7 @@ fn main() {
         alpha: AlphaSpec::Fixed(10.0),
         gamma: GammaSpec::Fixed(0.1889),
         mode: Mode::Sound,
-        span: Span::default(),
+        ..Default::default()
     };
     match qpv_solve::design(&model, &request, &qpv_solve::Settings::default()) {
         Ok(design) if design.certifies => {

@@ -379,6 +379,13 @@ pub fn falsify(
                 .collect();
             (StateSet::StateBound, Some(rq), onto_boundary)
         }
+        StateBound::Auto { .. } => {
+            return Err(SimError::Model(
+                "the state bound is `auto`: compute Q first (a design reports it; \
+                 `qpv_solve::state_bound::resolve` gives the model with Q)"
+                    .to_string(),
+            ));
+        }
         StateBound::None => {
             if !(gamma.is_finite() && gamma > 0.0) {
                 return Err(SimError::Argument(format!(

@@ -5,8 +5,8 @@
 
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{
-    AlphaSpec, DesignRequest, GammaSpec, Mode, Param, PolytopicModel, Region, Span, StateBound,
-    Vertex,
+    AlphaSpec, DesignRequest, GammaSpec, Mode, Param, PolytopicModel, Region, Span, Split,
+    StateBound, Vertex,
 };
 use qpv_solve::falsify::{falsify, falsify_design, StateSet};
 use qpv_solve::simulate::{simulate, Scenario, SimError};
@@ -316,7 +316,8 @@ fn paper_design(alpha: f64, gamma: f64, mode: Mode) -> qpv_solve::Design {
         alpha: AlphaSpec::Fixed(alpha),
         gamma: GammaSpec::Fixed(gamma),
         mode,
-        span: Span::default(),
+        split: Split::default_for(mode),
+        ..Default::default()
     };
     qpv_solve::design(&paper_model(), &request, &qpv_solve::Settings::default()).unwrap()
 }

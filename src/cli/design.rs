@@ -1,7 +1,7 @@
 //! `qpv design`: parse, derive, solve, certify, and report.
 
 use super::input::{emit_json, fmt_matrix, load_model, CliError};
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, Model, Span};
+use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, Split};
 use qpv_solve::report::{Design, Status};
 use std::path::Path;
 
@@ -50,12 +50,7 @@ fn requests(
     alpha: Option<&str>,
     gamma: Option<&str>,
 ) -> Result<Vec<DesignRequest>, CliError> {
-    let default = DesignRequest {
-        alpha: AlphaSpec::Max,
-        gamma: GammaSpec::Search,
-        mode: Mode::Sound,
-        span: Span::default(),
-    };
+    let default = DesignRequest::default();
     if mode.is_none() && alpha.is_none() && gamma.is_none() {
         return Ok(if model.designs.is_empty() {
             vec![default]
@@ -66,6 +61,7 @@ fn requests(
     let mut r = default;
     if let Some(m) = mode {
         r.mode = parse_mode(m)?;
+        r.split = Split::default_for(r.mode);
     }
     if let Some(a) = alpha {
         r.alpha = parse_alpha(a)?;
@@ -89,7 +85,15 @@ fn describe_request(r: &DesignRequest) -> String {
         Mode::Sound => "sound",
         Mode::Paper => "paper",
     };
-    format!("{a}; {g}; mode = {m}")
+    let split = match r.split {
+        Split::AsWritten => "as_written",
+        Split::Symmetric => "symmetric",
+    };
+    let conditions = match r.conditions {
+        Conditions::Full => "full",
+        Conditions::Decoupled => "decoupled",
+    };
+    format!("{a}; {g}; mode = {m}; split = {split}; conditions = {conditions}")
 }
 
 /// A human-readable report of one design.

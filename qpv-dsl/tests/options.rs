@@ -1,0 +1,149 @@
+//! The design and state-bound options of issue 6: `state_bound auto`,
+//! `split = as_written | symmetric`, `conditions = full | decoupled`, their
+//! mode-dependent defaults, and `PolytopicModel::with_split` (same plant).
+
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::{parse, Conditions, DesignRequest, Mode, Model, PolytopicModel, Split, StateBound};
+
+const PAPER: &str = include_str!("../../examples/paper.qpv");
+
+const BASE: &str = "model m {
+    state x1, x2;
+    output y;
+    param th in [0, 1];
+    A = [-1, th; 0, -2];
+    N1 = [0, 1; 0, 0];
+    N2 = [0, 0; 2*th, 0];
+    C = [1, 0];
+    M1 = [0, 3; 0, 0];
+    region box([1, 2]);
+    EXTRA
+}
+";
+
+fn one(extra: &str) -> Model {
+    let src = BASE.replace("EXTRA", extra);
+    let mut models = parse(&src).unwrap_or_else(|e| panic!("{extra}: {e}"));
+    models.remove(0)
+}
+
+#[test]
+fn state_bound_auto_parses() {
+    assert_eq!(
+        one("state_bound auto;").state_bound,
+        StateBound::Auto { h: None }
+    );
+    assert_eq!(
+        one("state_bound auto(h = 2.5);").state_bound,
+        StateBound::Auto { h: Some(2.5) }
+    );
+    // constant expressions and a trailing comma are accepted
+    assert_eq!(
+        one("state_bound auto(h = 5/2,);").state_bound,
+        StateBound::Auto { h: Some(2.5) }
+    );
+    // `auto` stays usable as an ordinary name elsewhere
+    let src = BASE
+        .replace("param th", "param auto")
+        .replace("th", "auto")
+        .replace("EXTRA", "");
+    assert!(parse(&src).is_ok(), "{src}");
+}
+
+#[test]
+fn design_defaults_follow_the_mode() {
+    let m = one("design { }
+         design { mode = paper; }
+         design { split = as_written; }
+         design { mode = paper; split = symmetric; conditions = decoupled; }
+         design { split = symmetric; mode = paper; }
+         design { conditions = full; }");
+    let got: Vec<(Mode, Split, Conditions)> = m
+        .designs
+        .iter()
+        .map(|d| (d.mode, d.split, d.conditions))
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            (Mode::Sound, Split::Symmetric, Conditions::Full),
+            (Mode::Paper, Split::AsWritten, Conditions::Full),
+            (Mode::Sound, Split::AsWritten, Conditions::Full),
+            (Mode::Paper, Split::Symmetric, Conditions::Decoupled),
+            (Mode::Paper, Split::Symmetric, Conditions::Full),
+            (Mode::Sound, Split::Symmetric, Conditions::Full),
+        ]
+    );
+    let d = DesignRequest::default();
+    assert_eq!(
+        (d.mode, d.split, d.conditions),
+        (Mode::Sound, Split::Symmetric, Conditions::Full)
+    );
+    assert_eq!(Split::default_for(Mode::Paper), Split::AsWritten);
+}
+
+/// f(x, θ) = A(θ)x + (xᵀ N_k(θ) x)_k and h(x) = Cx + (xᵀ M_k x)_k from the
+/// polytopic data.
+fn plant(p: &PolytopicModel, x: &DVector<f64>, theta: &[f64]) -> (DVector<f64>, DVector<f64>) {
+    let mut f = p.a_at(theta) * x;
+    for (k, nk) in p.n_at(theta).iter().enumerate() {
+        f[k] += x.dot(&(nk * x));
+    }
+    let mut y = &p.c * x;
+    for (k, mk) in p.m.iter().enumerate() {
+        y[k] += x.dot(&(mk * x));
+    }
+    (f, y)
+}
+
+fn is_symmetric(m: &DMatrix<f64>) -> bool {
+    (m - m.transpose()).abs().max() == 0.0
+}
+
+#[test]
+fn symmetric_split_keeps_the_plant() {
+    for src in [PAPER.to_string(), BASE.replace("EXTRA", "")] {
+        let model = parse(&src).unwrap().remove(0);
+        let written = model.polytopic();
+        let sym = written.with_split(Split::Symmetric);
+        assert_eq!(written.with_split(Split::AsWritten), written);
+        // the representation does change (N_k as written are not symmetric)...
+        assert_ne!(sym, written);
+        for v in &sym.vertices {
+            assert!(v.n.iter().all(is_symmetric));
+        }
+        assert!(sym.m.iter().all(is_symmetric));
+        // ...but A, B, C and the vertex order do not
+        for (a, b) in sym.vertices.iter().zip(&written.vertices) {
+            assert_eq!((&a.a, &a.b, &a.theta), (&b.a, &b.b, &b.theta));
+        }
+        // and the plant right-hand side and output are the same everywhere
+        let nx = model.nx();
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..200 {
+            let x = DVector::from_fn(nx, |_, _| 4.0 * rnd() - 2.0);
+            let theta: Vec<f64> = model
+                .params
+                .iter()
+                .map(|p| p.lo + (p.hi - p.lo) * rnd())
+                .collect();
+            let (f0, y0) = plant(&written, &x, &theta);
+            let (f1, y1) = plant(&sym, &x, &theta);
+            let (fm, ym) = (
+                model.rhs(&x, &DVector::zeros(model.nu()), &theta),
+                model.output(&x),
+            );
+            let scale = 1.0 + f0.amax() + y0.amax();
+            assert!((&f0 - &f1).amax() <= 1e-12 * scale, "{f0} vs {f1}");
+            assert!((&y0 - &y1).amax() <= 1e-12 * scale, "{y0} vs {y1}");
+            assert!((&f1 - &fm).amax() <= 1e-12 * scale, "{f1} vs {fm}");
+            assert!((&y1 - &ym).amax() <= 1e-12 * scale, "{y1} vs {ym}");
+        }
+    }
+}
