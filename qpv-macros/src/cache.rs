@@ -16,7 +16,7 @@
 //! * Writes go to a temporary file renamed into place, so concurrent rustc
 //!   processes never see a half-written entry. Any I/O problem is a miss.
 
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, StateBound};
+use qpv_dsl::{DesignRequest, PolytopicModel};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -94,23 +94,13 @@ pub fn key(model: &PolytopicModel, request: &DesignRequest, settings: &str) -> S
     for f in &model.region.facets {
         push_nums(&mut s, "rf", f.iter());
     }
-    match &model.state_bound {
-        StateBound::None => s.push_str("Q none\n"),
-        StateBound::Given(q) => push_nums(&mut s, "Q", q.iter()),
-    }
-    let alpha = match request.alpha {
-        AlphaSpec::Fixed(a) => format!("{a:?}"),
-        AlphaSpec::Max => "max".into(),
+    // Debug prints every f64 exactly (shortest round-trip form).
+    let _ = writeln!(s, "Q {:?}", model.state_bound);
+    let request = DesignRequest {
+        span: Default::default(),
+        ..request.clone()
     };
-    let gamma = match request.gamma {
-        GammaSpec::Fixed(g) => format!("{g:?}"),
-        GammaSpec::Search => "search".into(),
-    };
-    let mode = match request.mode {
-        Mode::Sound => "sound",
-        Mode::Paper => "paper",
-    };
-    let _ = writeln!(s, "request alpha {alpha} gamma {gamma} mode {mode}");
+    let _ = writeln!(s, "request {request:?}");
     s
 }
 

@@ -9,7 +9,9 @@ use crate::emit::{self, CertifiedDesign, EmitModel};
 use crate::fallback::{self, Failure};
 use crate::input::{Input, Source};
 use proc_macro2::TokenStream;
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, Model, PolytopicModel};
+use qpv_dsl::{
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, PolytopicModel, Split,
+};
 use qpv_solve::report::{matrix_to_rows, rows_to_matrix};
 use qpv_solve::{Design, Settings};
 use quote::quote;
@@ -90,7 +92,20 @@ pub fn describe(req: &DesignRequest) -> String {
         GammaSpec::Search => "search".into(),
     };
     let mode = mode_name(req.mode);
-    format!("alpha = {alpha}; gamma = {gamma}; mode = {mode}")
+    let mut text = format!("alpha = {alpha}; gamma = {gamma}; mode = {mode}");
+    if req.split != Split::default_for(req.mode) {
+        text.push_str(match req.split {
+            Split::AsWritten => "; split = as_written",
+            Split::Symmetric => "; split = symmetric",
+        });
+    }
+    if req.conditions != Conditions::default() {
+        text.push_str(match req.conditions {
+            Conditions::Full => "; conditions = full",
+            Conditions::Decoupled => "; conditions = decoupled",
+        });
+    }
+    text
 }
 
 fn mode_name(m: Mode) -> &'static str {
@@ -100,9 +115,9 @@ fn mode_name(m: Mode) -> &'static str {
     }
 }
 
-/// Four significant digits for messages.
+/// Three significant digits for messages (stable across solver versions).
 fn sig(v: f64) -> String {
-    format!("{}", format!("{v:.4e}").parse::<f64>().unwrap_or(v))
+    format!("{}", format!("{v:.2e}").parse::<f64>().unwrap_or(v))
 }
 
 /// Solver settings used by the macro (the library defaults).
@@ -228,13 +243,16 @@ fn one_design(
     let (nx, ny, nv) = (model.nx(), model.ny(), poly.nv());
     let settings = settings();
     let key = cache::key(poly, req, &format!("{settings:?}"));
+    // The conditions are checked on the representation of N_k, M_k the
+    // design used (the plant, hence the generated code, is the same).
+    let split_model = poly.with_split(req.split);
 
     // A cache hit is re-certified, never trusted blindly.
     if let Some(e) = cache::load(&key) {
         if e.p.len() == nx * nx && e.l.len() == nv && e.l.iter().all(|l| l.len() == nx * ny) {
             let p = rows_to_matrix(&rows(&e.p, nx));
             let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
-            let cert = qpv_solve::check(poly, req.mode, e.alpha, e.gamma, &p, &ls);
+            let cert = qpv_solve::check(&split_model, req.mode, e.alpha, e.gamma, &p, &ls);
             if cert.passed {
                 return Ok(Outcome {
                     origin: "cache hit, re-certified",
@@ -282,7 +300,7 @@ fn one_design(
     }
     // The solver already certified; the macro checks again itself, on exactly
     // the numbers it is about to bake.
-    let cert = qpv_solve::check(poly, req.mode, design.alpha, design.gamma, &p, &ls);
+    let cert = qpv_solve::check(&split_model, req.mode, design.alpha, design.gamma, &p, &ls);
     let finite = p
         .iter()
         .chain(ls.iter().flat_map(|l| l.iter()))
@@ -350,12 +368,8 @@ fn timing(model: &str, request: &str, origin: &str, start: std::time::Instant) {
 /// The best certified sound design of a model, for error messages: a full
 /// α = max / γ = search run.
 fn best_certified(poly: &PolytopicModel) -> Option<(f64, f64)> {
-    let req = DesignRequest {
-        alpha: AlphaSpec::Max,
-        gamma: GammaSpec::Search,
-        mode: Mode::Sound,
-        span: Default::default(),
-    };
+    // alpha = max; gamma = search; mode = sound, default split and conditions
+    let req = DesignRequest::default();
     let d = qpv_solve::design(poly, &req, &settings()).ok()?;
     (d.feasible && d.certifies).then_some((d.alpha, d.gamma))
 }
@@ -378,13 +392,19 @@ fn not_certified(request: &str, d: &Design, poly: &PolytopicModel) -> String {
         .data_checks
         .iter()
         .filter(|(_, c)| c.required && !c.passed)
-        .map(|(name, c)| format!("{name} ({}) margin {}", c.description, sig(c.margin)))
+        .map(|(name, c)| {
+            if c.description.contains(name.as_str()) {
+                format!("{}, margin {}", c.description, sig(c.margin))
+            } else {
+                format!("{name} ({}), margin {}", c.description, sig(c.margin))
+            }
+        })
         .collect();
     failing.extend(
         d.margins
             .iter()
             .filter(|(_, m)| **m <= 0.0)
-            .map(|(name, m)| format!("{name} margin {}", sig(*m))),
+            .map(|(name, m)| format!("{name}, margin {}", sig(*m))),
     );
     let why = if failing.is_empty() {
         format!(

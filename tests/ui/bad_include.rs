@@ -1,0 +1,4 @@
+// `include` takes one string literal.
+qpv::qpv!(include models / paper);
+
+fn main() {}
