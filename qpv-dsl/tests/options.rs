@@ -147,3 +147,24 @@ fn symmetric_split_keeps_the_plant() {
         }
     }
 }
+
+#[test]
+fn paper_auto_example_parses() {
+    let src = include_str!("../../examples/paper_auto.qpv");
+    let m = parse(src).unwrap().remove(0);
+    assert_eq!(m.state_bound, StateBound::Auto { h: None });
+    assert!(m.warnings.is_empty(), "{:?}", m.warnings);
+    let d = &m.designs[0];
+    assert_eq!(
+        (d.mode, d.split, d.conditions),
+        (Mode::Sound, Split::Symmetric, Conditions::Full)
+    );
+    // the same plant as the paper's example
+    let paper = parse(PAPER).unwrap().remove(0).polytopic();
+    let auto = m.polytopic();
+    assert_eq!(auto.vertices, paper.vertices);
+    assert_eq!(
+        (&auto.c, &auto.m, &auto.region),
+        (&paper.c, &paper.m, &paper.region)
+    );
+}
