@@ -23,7 +23,7 @@
 
 use crate::search::SolveError;
 use nalgebra::{DMatrix, DVector};
-use qpv_dsl::{Mode, PolytopicModel, StateBound};
+use qpv_dsl::{Mode, PolytopicModel, Split, StateBound};
 
 /// rows(T, v): the matrix whose row k is vᵀ T_k (one row per T_k).
 pub fn rows(t: &[DMatrix<f64>], v: &DVector<f64>) -> DMatrix<f64> {
@@ -187,6 +187,19 @@ impl PairTerms {
     /// S_{i,j} = rowsHe(M, x_(j)) − rows(M, x_(i)).
     pub fn s(&self, i: usize, j: usize) -> DMatrix<f64> {
         &self.mhe[j] - &self.mrw[i]
+    }
+}
+
+/// The model with the requested representation of N_k and M_k: as written
+/// (borrowed, no copy), or symmetrised (N_{k,l} → (N_{k,l} + N_{k,l}ᵀ)/2,
+/// M_k → (M_k + M_kᵀ)/2, by [`PolytopicModel::with_split`]).
+/// Both describe the same plant (xᵀTx only sees the symmetric part of T),
+/// so a certificate for either is a certificate for the plant; they differ
+/// in the LMIs, through rows(N, e).
+pub fn with_split(model: &PolytopicModel, split: Split) -> std::borrow::Cow<'_, PolytopicModel> {
+    match split {
+        Split::AsWritten => std::borrow::Cow::Borrowed(model),
+        _ => std::borrow::Cow::Owned(model.with_split(split)),
     }
 }
 

@@ -1,7 +1,7 @@
 //! The serialisable result of a design: [`Design`] and its parts.
 //!
-//! JSON layout (keys exactly as written): `model`, `mode`, `feasible`,
-//! `certifies`, `alpha`, `gamma`, `P` (rows), `Gamma` (one matrix per
+//! JSON layout (keys exactly as written): `model`, `mode`, `split`,
+//! `feasible`, `certifies`, `alpha`, `gamma`, `P` (rows), `Gamma` (one matrix per
 //! vertex, rows), `L` (one nx × ny matrix per vertex, rows), `gain_norms`,
 //! `margins` (family → worst margin, positive = satisfied), `data_checks`,
 //! `solver` {`status`, `detail`, `iterations`, `seconds`, `assembly_seconds`,
@@ -11,7 +11,7 @@
 //! a reloaded design certifies exactly as the written one.
 
 use nalgebra::DMatrix;
-use qpv_dsl::Mode;
+use qpv_dsl::{Mode, PolytopicModel, Split};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -135,6 +135,11 @@ pub struct Design {
     /// Condition set used ("sound" or "paper").
     #[serde(with = "mode_serde")]
     pub mode: Mode,
+    /// Representation of N_k, M_k used in the LMIs and the certificate
+    /// ("as_written" or "symmetric"; the same plant either way). Re-check a
+    /// reloaded design with [`Design::recheck`], which applies it.
+    #[serde(with = "split_serde")]
+    pub split: Split,
     /// True only if the independent certificate passed for every condition
     /// family (and, in sound mode, the data check (S4)). In paper mode this
     /// means "satisfies the paper's printed conditions", which certifies nothing.
@@ -188,6 +193,13 @@ impl Design {
     pub fn l_matrices(&self) -> Vec<DMatrix<f64>> {
         self.l.iter().map(|g| rows_to_matrix(g)).collect()
     }
+    /// The independent certificate of this design's P and L_l against
+    /// `model` (with this design's split applied), at its α and γ.
+    pub fn recheck(&self, model: &PolytopicModel) -> crate::Certificate {
+        let m = crate::conditions::with_split(model, self.split);
+        crate::check(&m, self.mode, self.alpha, self.gamma, &self.p_matrix(), &self.l_matrices())
+    }
+
     /// JSON text (pretty-printed).
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("a Design always serialises")
@@ -210,6 +222,32 @@ pub fn rows_to_matrix(rows: &[Vec<f64>]) -> DMatrix<f64> {
     let r = rows.len();
     let c = rows.first().map_or(0, |x| x.len());
     DMatrix::from_fn(r, c, |i, j| rows[i].get(j).copied().unwrap_or(f64::NAN))
+}
+
+/// (De)serialises [`Split`] as "as_written" / "symmetric".
+pub mod split_serde {
+    use qpv_dsl::Split;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Writes "as_written" or "symmetric".
+    pub fn serialize<S: Serializer>(m: &Split, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(match m {
+            Split::AsWritten => "as_written",
+            Split::Symmetric => "symmetric",
+        })
+    }
+
+    /// Reads "as_written" or "symmetric".
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Split, D::Error> {
+        let s = String::deserialize(d)?;
+        match s.as_str() {
+            "as_written" => Ok(Split::AsWritten),
+            "symmetric" => Ok(Split::Symmetric),
+            other => Err(serde::de::Error::custom(format!(
+                "unknown split {other:?}, expected \"as_written\" or \"symmetric\""
+            ))),
+        }
+    }
 }
 
 /// (De)serialises [`Mode`] as "sound" / "paper".

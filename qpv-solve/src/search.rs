@@ -41,7 +41,7 @@ use crate::conditions::{gamma_max, ConditionSet};
 use crate::report::{matrix_to_rows, DataCheck, Design, SearchStep, SolverInfo, Status};
 use crate::sdp::{Objective, Problem};
 use nalgebra::DMatrix;
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, StateBound};
+use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -145,6 +145,12 @@ pub enum SolveError {
     /// Inconsistent dimensions in the model data.
     #[error("inconsistent model data: {0}")]
     Dimensions(String),
+    /// A requested option that this version does not implement.
+    #[error("not implemented: {0}")]
+    Unsupported(String),
+    /// `state_bound auto` found no usable state bound (or cannot be applied).
+    #[error("state_bound auto: {0}")]
+    StateBound(String),
     /// Clarabel refused the problem data (a bug here, reported as an error).
     #[error("solver setup failed: {0}")]
     Setup(String),
@@ -556,6 +562,14 @@ pub fn design_with_progress(
     let mode = request.mode;
     let set = ConditionSet::from_mode(mode);
     crate::conditions::validate(model)?;
+    if request.conditions != Conditions::Full {
+        return Err(SolveError::Unsupported(
+            "conditions = decoupled (issue 6 §3); use conditions = full".into(),
+        ));
+    }
+    // Solve and certify with the requested representation of N_k, M_k.
+    let split_model = crate::conditions::with_split(model, request.split);
+    let model: &PolytopicModel = &split_model;
     let has_q = matches!(model.state_bound, StateBound::Given(_));
     if set.requires_s4() && !has_q {
         return Err(SolveError::MissingStateBound(model.name.clone()));
@@ -587,6 +601,9 @@ pub fn design_with_progress(
 
     // The search.
     let mut notes: Vec<String> = Vec::new();
+    if request.split == Split::Symmetric {
+        notes.push("N_k and M_k symmetrised ((T + Tᵀ)/2, the same plant); re-check with this split".into());
+    }
     let (alpha_t, gamma_t, searched): (Option<f64>, f64, Option<Point>) = match (request.alpha, request.gamma) {
         (AlphaSpec::Fixed(a), GammaSpec::Fixed(g)) => (Some(a), g, None),
         (AlphaSpec::Max, GammaSpec::Fixed(g)) => {
@@ -769,6 +786,7 @@ pub fn design_with_progress(
     Ok(Design {
         model: model.name.clone(),
         mode,
+        split: request.split,
         feasible,
         certifies,
         alpha: alpha_r,

@@ -10,7 +10,9 @@ use qpv_solve::conditions::reference::{paper_model, synthetic_model};
 use qpv_solve::{check, design, Design, Settings};
 
 fn fixed(alpha: f64, gamma: f64, mode: Mode) -> DesignRequest {
-    qpv_solve::request(AlphaSpec::Fixed(alpha), GammaSpec::Fixed(gamma), mode)
+    let mut r = qpv_solve::request(AlphaSpec::Fixed(alpha), GammaSpec::Fixed(gamma), mode);
+    r.split = qpv_dsl::Split::AsWritten;
+    r
 }
 
 fn sound_design(model: &PolytopicModel) -> Design {
@@ -169,6 +171,40 @@ fn synthetic_models_design_and_certify() {
         let r = qpv_solve::request(AlphaSpec::Max, GammaSpec::Fixed(0.3), Mode::Sound);
         let d = design(&model, &r, &Settings::default()).unwrap();
         assert!(d.feasible && d.certifies, "nx = {nx}: {}", d.summary);
-        assert!(check(&model, Mode::Sound, d.alpha, d.gamma, &d.p_matrix(), &d.l_matrices()).passed);
+        // Designed with the default (symmetric) split: re-checked with it.
+        assert!(d.recheck(&model).passed);
     }
+}
+
+#[test]
+fn symmetric_split_lmi_is_the_true_lyapunov_derivative_too() {
+    // A design made on the symmetrised data (N_k, M_k → (T + Tᵀ)/2) is checked
+    // along the error dynamics of the model *as written*: same plant, so the
+    // identity eᵀ(S5 − γαP)e = γ·2eᵀPe' must hold exactly as well.
+    let model = paper_model();
+    let r = qpv_solve::request(AlphaSpec::Fixed(12.0), GammaSpec::Fixed(0.1889), Mode::Sound);
+    assert_eq!(r.split, qpv_dsl::Split::Symmetric);
+    let d = design(&model, &r, &Settings::default()).unwrap();
+    assert!(d.feasible, "{}", d.summary);
+    let sym = qpv_solve::conditions::with_split(&model, d.split);
+    let (alpha, gamma) = (d.alpha, d.gamma);
+    let p = d.p_matrix();
+    let ls = d.l_matrices();
+    let mut worst: f64 = 0.0;
+    for l in 0..model.nv() {
+        let g = &p * &ls[l];
+        for i in 0..model.region.vertices.len() {
+            for j in 0..model.region.vertices.len() {
+                let m = rate_lmi(&sym, Mode::Sound, alpha, gamma, &p, &g, l, i, j);
+                let e = &model.region.vertices[i] / gamma;
+                let x = &model.region.vertices[j] / gamma;
+                let lhs = e.dot(&((&m - &p * (gamma * alpha)) * &e));
+                let ed = error_rate(&model, l, &ls[l], &x, &e);
+                let rhs = gamma * 2.0 * e.dot(&(&p * &ed));
+                worst = worst.max((lhs - rhs).abs() / (1.0 + rhs.abs()));
+                assert!(2.0 * e.dot(&(&p * &ed)) + alpha * e.dot(&(&p * &e)) < 0.0);
+            }
+        }
+    }
+    assert!(worst < 1e-10, "relative mismatch {worst:e}");
 }
