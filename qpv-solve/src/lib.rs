@@ -45,6 +45,7 @@ pub mod report;
 pub mod sdp;
 pub mod search;
 pub mod simulate;
+pub mod state_bound;
 pub mod svec;
 
 pub use certificate::{check, Certificate, FamilyMargin};

@@ -1,0 +1,191 @@
+//! `state_bound auto` (issue 6 §1): the computed F contains the region, lies
+//! in its box, passes the independent check, improves γ_max over the
+//! paper's Q, and trajectories started at the region's vertices stay in F.
+
+use nalgebra::DMatrix;
+use qpv_dsl::{PolytopicModel, Split, StateBound};
+use qpv_solve::conditions::reference::paper_model;
+use qpv_solve::simulate::{simulate, Scenario, Signal};
+use qpv_solve::state_bound::{check, compute, resolve, BoundSearch};
+use qpv_solve::{Settings, SolveError};
+
+fn auto_paper(h: Option<f64>) -> PolytopicModel {
+    let mut m = paper_model();
+    m.state_bound = StateBound::Auto { h };
+    m
+}
+
+fn paper_gamma_max() -> f64 {
+    qpv_solve::conditions::gamma_max(&paper_model()).unwrap()
+}
+
+#[test]
+fn paper_auto_bound_beats_the_papers_q() {
+    let t0 = std::time::Instant::now();
+    let (model, info) = resolve(&auto_paper(None), &Settings::default()).unwrap();
+    let secs = t0.elapsed().as_secs_f64();
+    let StateBound::Given(q) = &model.state_bound else {
+        panic!("resolve must give Q");
+    };
+    let g = info.gamma_max.unwrap();
+    let h = info.h.unwrap();
+    eprintln!(
+        "auto Q: h = {h:.5}, γ_max = {g:.5} (paper's Q: {:.5}), split {:?}, {} solves, {secs:.3} s\nQ = {q:.6}",
+        paper_gamma_max(),
+        info.split,
+        info.solves
+    );
+    assert_eq!(info.source, "auto");
+    assert!(!info.h_fixed);
+    assert!(g > paper_gamma_max(), "γ_max {g} not above the paper's");
+    // the reported γ_max is that of the returned Q
+    assert!((qpv_solve::conditions::gamma_max(&model).unwrap() - g).abs() <= 1e-12 * g);
+    // re-check independently from Q alone
+    let w = q.clone().cholesky().unwrap().inverse();
+    let split = if info.split.as_deref() == Some("symmetric") {
+        Split::Symmetric
+    } else {
+        Split::AsWritten
+    };
+    let c = check(&model.with_split(split), &w, h);
+    assert!(c.passed, "{c:?}");
+    assert!(c.region <= 1.0 && c.in_box <= 1.0 && c.invariance < 0.0 && c.w_min_eig > 0.0);
+    // a given Q passes through untouched
+    let (same, given) = resolve(&paper_model(), &Settings::default()).unwrap();
+    assert_eq!(same, paper_model());
+    assert_eq!(given.source, "given");
+    assert!((given.gamma_max.unwrap() - paper_gamma_max()).abs() < 1e-15);
+}
+
+#[test]
+fn fixed_h_is_respected_and_smaller_boxes_cost_gamma() {
+    let search = BoundSearch::default();
+    let s = Settings::default();
+    let at = |h: f64| compute(&paper_model(), Some(h), &s, &search);
+    let b = at(0.09).unwrap();
+    assert_eq!(b.h, 0.09);
+    assert_eq!(b.steps.len(), 1);
+    for j in 0..3 {
+        assert!(b.q[(j, j)] <= 0.09 * 0.09, "F leaves the box in x{}", j + 1);
+    }
+    // the searched h does at least as well as this fixed one
+    let searched = compute(&paper_model(), None, &s, &search).unwrap();
+    assert!(searched.gamma_max >= b.gamma_max);
+    assert!(searched.steps.len() == search.grid + search.refine);
+    // a box barely larger than the region cannot hold an ellipsoid around it
+    // (an ellipsoid containing the cube |x_j| ≤ r has some Q_jj ≥ 3r²)
+    match at(0.03) {
+        Err(SolveError::StateBound(msg)) => {
+            assert!(msg.contains("no invariant ellipsoid"), "{msg}")
+        }
+        other => panic!("expected no bound at h = 0.03, got {other:?}"),
+    }
+    // h must exceed the region
+    assert!(matches!(at(0.01), Err(SolveError::StateBound(_))));
+    assert!(matches!(at(f64::NAN), Err(SolveError::StateBound(_))));
+}
+
+#[test]
+fn check_rejects_bad_bounds() {
+    let m = paper_model();
+    let b = compute(
+        &m,
+        Some(0.09),
+        &Settings::default(),
+        &BoundSearch::default(),
+    )
+    .unwrap();
+    assert!(check(&m, &b.w, 0.09).passed);
+    // the same F in a box too small to contain it
+    assert!(!check(&m, &b.w, 0.03).passed);
+    // a ball that does not contain the region
+    let tiny = DMatrix::identity(3, 3) * (1.0 / (0.01 * 0.01));
+    let c = check(&m, &tiny, 0.09);
+    assert!(!c.passed && c.region > 1.0);
+    // not positive definite, wrong size, non-finite
+    assert!(!check(&m, &(-&b.w), 0.09).passed);
+    assert!(!check(&m, &DMatrix::identity(2, 2), 0.09).passed);
+    let mut nan = b.w.clone();
+    nan[(0, 1)] = f64::NAN;
+    assert!(!check(&m, &nan, 0.09).passed);
+    // an unstable plant has no invariant ellipsoid: W of the stable one fails
+    let mut unstable = m.clone();
+    for v in &mut unstable.vertices {
+        v.a = -&v.a;
+    }
+    let c = check(&unstable, &b.w, 0.09);
+    assert!(!c.passed && c.invariance > 0.0);
+}
+
+/// Plant trajectories (zero gains; only x matters) from every region vertex
+/// under fast and slow θ signals stay in F.
+#[test]
+fn trajectories_from_the_region_stay_in_f() {
+    let (model, info) = resolve(&auto_paper(None), &Settings::default()).unwrap();
+    let StateBound::Given(q) = &model.state_bound else {
+        unreachable!()
+    };
+    let w = q.clone().cholesky().unwrap().inverse();
+    let gains = vec![DMatrix::zeros(3, 2); model.nv()];
+    let signals = [
+        (
+            Signal::Sin {
+                offset: 0.5,
+                amplitude: 0.5,
+                omega: 4.0 * std::f64::consts::PI,
+                phase: 0.0,
+            },
+            Signal::Cos {
+                offset: 0.5,
+                amplitude: 0.5,
+                omega: 0.6,
+                phase: 0.5,
+            },
+        ),
+        (Signal::Constant(0.0), Signal::Constant(1.0)),
+        (Signal::Constant(1.0), Signal::Constant(0.0)),
+        (
+            Signal::custom(|t| if (t * 20.0) as i64 % 2 == 0 { 0.0 } else { 1.0 }),
+            Signal::custom(|t| if (t * 7.0) as i64 % 2 == 0 { 1.0 } else { 0.0 }),
+        ),
+    ];
+    let mut worst: f64 = 0.0;
+    let mut first_max: f64 = 0.0;
+    for x0 in &model.region.vertices {
+        for (s1, s2) in &signals {
+            let sc = Scenario {
+                theta: vec![s1.clone(), s2.clone()],
+                u: vec![],
+                x0: x0.iter().copied().collect(),
+                xhat0: vec![0.0; 3],
+                t_end: 2.0,
+                dt: 1e-3,
+            };
+            let traj = simulate(&model, &gains, &sc).unwrap();
+            assert_eq!(traj.diverged_at, None);
+            let v: Vec<f64> = traj
+                .x
+                .iter()
+                .map(|x| {
+                    let x = nalgebra::DVector::from_column_slice(x);
+                    x.dot(&(&w * &x))
+                })
+                .collect();
+            first_max = first_max.max(v[0]);
+            // V = xᵀWx never increases beyond its start (up to RK4 error)
+            let vmax = v.iter().copied().fold(0.0, f64::max);
+            assert!(
+                vmax <= v[0] * (1.0 + 1e-9),
+                "V rose from {} to {vmax}",
+                v[0]
+            );
+            worst = worst.max(vmax);
+        }
+    }
+    eprintln!(
+        "max xᵀWx along trajectories: {worst:.6} (start ≤ {first_max:.6}), h = {:?}",
+        info.h
+    );
+    assert!(worst <= 1.0, "a trajectory left F: {worst}");
+    assert!(first_max > 0.5, "the region should reach well into F");
+}
