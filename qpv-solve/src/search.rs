@@ -420,15 +420,33 @@ impl Ctx<'_, '_> {
     }
 
     /// A certified lower estimate of α_max(γ) from at most `steps`
-    /// max-margin solves (Dinkelbach steps from the seed's capacity at this
-    /// γ); stops early when a step gains less than `tol`. Used to rank γ.
-    fn alpha_estimate(&mut self, gamma: f64, seed: Option<&Point>, steps: usize, tol: f64, phase: &str) -> Result<Option<Point>, SolveError> {
+    /// max-margin solves (Dinkelbach steps), starting from the best capacity
+    /// at this γ of the points found so far (nearest γ below and above, and
+    /// the best overall); stops early when a step gains less than `tol`.
+    /// Used to rank γ.
+    fn alpha_estimate(&mut self, gamma: f64, found: &[Point], steps: usize, tol: f64, phase: &str) -> Result<Option<Point>, SolveError> {
         let floor = self.settings.alpha_floor;
         let cap = self.settings.alpha_cap;
-        let mut lo: Option<Point> = seed.and_then(|sp| self.lift(sp, gamma));
+        // Candidate seeds: nearest γ below, nearest above, best overall.
+        let below = found.iter().filter(|p| p.gamma <= gamma).max_by(|a, b| a.gamma.total_cmp(&b.gamma));
+        let above = found.iter().filter(|p| p.gamma > gamma).min_by(|a, b| a.gamma.total_cmp(&b.gamma));
+        let best = found.iter().max_by(|a, b| a.alpha.total_cmp(&b.alpha));
+        let nearest = match (below, above) {
+            (Some(b), Some(a)) => Some(if gamma - b.gamma <= a.gamma - gamma { b } else { a }),
+            (b, a) => b.or(a),
+        };
+        let mut lo: Option<Point> = None;
+        for cand in [below, above, best].into_iter().flatten() {
+            if let Some(pt) = self.lift(cand, gamma) {
+                if lo.as_ref().map_or(true, |l| pt.alpha > l.alpha) {
+                    lo = Some(pt);
+                }
+            }
+        }
+        let seed = nearest;
         let mut a = match (&lo, seed) {
             (Some(p), _) => p.alpha,
-            // The seed does not certify here: α_max is likely lower.
+            // No seed certifies here: α_max is likely lower than the nearest.
             (None, Some(sp)) => (0.6 * sp.alpha).clamp(floor, cap),
             (None, None) => floor,
         };
@@ -475,17 +493,18 @@ impl Ctx<'_, '_> {
         let grid: Vec<f64> = (1..=n).map(|k| gamma_hi * k as f64 / n as f64).collect();
         let mut memo: Vec<(f64, f64)> = Vec::new();
         let mut best: Option<Point> = None;
+        let mut found: Vec<Point> = Vec::new();
         for &g in grid.iter().rev() {
-            let seed = best.clone();
             // The first point has no seed: give it more steps, so that it is
             // ranked fairly and seeds the others well.
-            let st = if seed.is_none() { 6 } else { steps };
-            let v = match self.alpha_estimate(g, seed.as_ref(), st, coarse, "grid")? {
+            let st = if found.is_empty() { 6 } else { steps };
+            let v = match self.alpha_estimate(g, &found, st, coarse, "grid")? {
                 Some(pt) => {
                     let v = pt.alpha;
                     if best.as_ref().map_or(true, |b| v > b.alpha) {
-                        best = Some(pt);
+                        best = Some(pt.clone());
                     }
+                    found.push(pt);
                     v
                 }
                 None => 0.0,
@@ -504,13 +523,13 @@ impl Ctx<'_, '_> {
             if let Some(&(_, v)) = memo.iter().find(|(x, _)| (*x - g).abs() <= 1e-12 * g) {
                 return Ok(v);
             }
-            let seed = best.clone();
-            let v = match ctx.alpha_estimate(g, seed.as_ref(), steps, coarse, "refine")? {
+            let v = match ctx.alpha_estimate(g, &found, steps, coarse, "refine")? {
                 Some(pt) => {
                     let v = pt.alpha;
                     if best.as_ref().map_or(true, |b| v > b.alpha) {
-                        *best = Some(pt);
+                        *best = Some(pt.clone());
                     }
+                    found.push(pt);
                     v
                 }
                 None => 0.0,
