@@ -1,12 +1,22 @@
 //! Bench (2): the full α/γ search of the paper example (goal < 1 s in
-//! release), and the α bisections at the published γ values.
+//! release), and the α bisections at the published γ values; N_k as printed
+//! (spec §7), plus the sound search with the symmetric split.
 //!
 //! `cargo bench -p qpv-solve --bench design_search [-- REPEATS]`
 
-use qpv_dsl::{AlphaSpec, GammaSpec, Mode};
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::{design, request, Settings};
 use std::time::Instant;
+
+/// User + system CPU seconds of this process (less sensitive to other load
+/// on the machine than wall time).
+fn cpu_seconds() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let f: Vec<&str> = s.rsplit(')').next().unwrap_or("").split_whitespace().collect();
+    let tick = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    (tick(11) + tick(12)) / 100.0
+}
 
 fn main() {
     let repeats: usize = std::env::args()
@@ -17,32 +27,39 @@ fn main() {
     let settings = Settings::default();
     println!("bench design_search: paper example, {repeats} repeats (median wall time)");
     println!(
-        "{:<30} {:>9} {:>9} {:>7} {:>7} {:>11} {:>10} {:>9}",
-        "case", "wall s", "clarabel", "solves", "iters", "α", "γ", "feasible"
+        "{:<30} {:>9} {:>9} {:>9} {:>7} {:>7} {:>11} {:>10} {:>9}",
+        "case", "wall s", "cpu s", "clarabel", "solves", "iters", "α", "γ", "feasible"
     );
-    for (name, mode, alpha, gamma) in [
-        ("sound α=max γ=search", Mode::Sound, AlphaSpec::Max, GammaSpec::Search),
-        ("paper α=max γ=search", Mode::Paper, AlphaSpec::Max, GammaSpec::Search),
-        ("sound α=max γ=0.1889", Mode::Sound, AlphaSpec::Max, GammaSpec::Fixed(0.1889)),
-        ("paper α=max γ=0.4", Mode::Paper, AlphaSpec::Max, GammaSpec::Fixed(0.4)),
+    let w = Split::AsWritten;
+    for (name, mode, alpha, gamma, split) in [
+        ("sound α=max γ=search", Mode::Sound, AlphaSpec::Max, GammaSpec::Search, w),
+        ("paper α=max γ=search", Mode::Paper, AlphaSpec::Max, GammaSpec::Search, w),
+        ("sound α=max γ=0.1889", Mode::Sound, AlphaSpec::Max, GammaSpec::Fixed(0.1889), w),
+        ("paper α=max γ=0.4", Mode::Paper, AlphaSpec::Max, GammaSpec::Fixed(0.4), w),
+        ("sound sym. α=max γ=search", Mode::Sound, AlphaSpec::Max, GammaSpec::Search, Split::Symmetric),
     ] {
-        let req = request(alpha, gamma, mode);
+        let mut req = request(alpha, gamma, mode);
+        req.split = split;
         let mut walls = vec![];
+        let mut cpus = vec![];
         let mut last = None;
         for _ in 0..repeats {
-            let t0 = Instant::now();
+            let (t0, c0) = (Instant::now(), cpu_seconds());
             let d = design(&model, &req, &settings).expect("design");
             walls.push(t0.elapsed().as_secs_f64());
+            cpus.push(cpu_seconds() - c0);
             last = Some(d);
         }
         walls.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        cpus.sort_by(|a, b| a.partial_cmp(b).unwrap());
         let d = last.unwrap();
         let clarabel: f64 = d.search.iter().map(|s| s.solver_seconds).sum();
         let iters: u32 = d.search.iter().map(|s| s.iterations).sum();
         println!(
-            "{:<30} {:>9.3} {:>9.3} {:>7} {:>7} {:>11.5} {:>10.5} {:>9}",
+            "{:<30} {:>9.3} {:>9.2} {:>9.3} {:>7} {:>7} {:>11.5} {:>10.5} {:>9}",
             name,
             walls[walls.len() / 2],
+            cpus[cpus.len() / 2],
             clarabel,
             d.search.len(),
             iters,
