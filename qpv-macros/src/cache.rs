@@ -18,7 +18,7 @@
 
 use qpv_dsl::{DesignRequest, PolytopicModel};
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The cached numbers of one certified design.
 #[derive(Debug, Clone, PartialEq)]
@@ -128,14 +128,15 @@ pub fn dir() -> Option<PathBuf> {
         .map(|root| root.join("target").join("qpv-cache"))
 }
 
-fn file_for(dir: &std::path::Path, key: &str) -> PathBuf {
+/// The file holding `key` in `dir`.
+pub fn file_for(dir: &Path, key: &str) -> PathBuf {
     dir.join(format!("{:016x}.design", fnv1a(key)))
 }
 
 /// Looks a key up; any problem (absent, unreadable, different key, bad
 /// numbers) is a miss.
-pub fn load(key: &str) -> Option<Entry> {
-    let text = std::fs::read_to_string(file_for(&dir()?, key)).ok()?;
+pub fn load(dir: &Path, key: &str) -> Option<Entry> {
+    let text = std::fs::read_to_string(file_for(dir, key)).ok()?;
     let (stored_key, body) = text.split_once("---\n")?;
     if stored_key != key {
         return None;
@@ -175,9 +176,8 @@ pub fn load(key: &str) -> Option<Entry> {
 }
 
 /// Stores an entry; failures are ignored (the cache is an optimisation).
-pub fn store(key: &str, e: &Entry) {
-    let Some(dir) = dir() else { return };
-    if std::fs::create_dir_all(&dir).is_err() {
+pub fn store(dir: &Path, key: &str, e: &Entry) {
+    if std::fs::create_dir_all(dir).is_err() {
         return;
     }
     let mut s = String::from(key);
@@ -190,7 +190,7 @@ pub fn store(key: &str, e: &Entry) {
     for l in &e.l {
         push_nums(&mut s, "L", l);
     }
-    let path = file_for(&dir, key);
+    let path = file_for(dir, key);
     let tmp = path.with_extension(format!("tmp{}", std::process::id()));
     if std::fs::write(&tmp, s).is_ok() && std::fs::rename(&tmp, &path).is_err() {
         let _ = std::fs::remove_file(&tmp);
@@ -210,7 +210,6 @@ mod tests {
     #[test]
     fn round_trip_through_a_directory() {
         let dir = std::env::temp_dir().join(format!("qpv-cache-test-{}", std::process::id()));
-        std::env::set_var("QPV_CACHE_DIR", &dir);
         let e = Entry {
             alpha: 10.0,
             gamma: 0.1889,
@@ -219,9 +218,9 @@ mod tests {
             p: vec![1.0, 0.1, 0.1, 2.0],
             l: vec![vec![0.1, -3.5e-7], vec![1.0 / 3.0, 4.0]],
         };
-        store("some key\n", &e);
-        assert_eq!(load("some key\n"), Some(e));
-        assert_eq!(load("another key\n"), None);
+        store(&dir, "some key\n", &e);
+        assert_eq!(load(&dir, "some key\n"), Some(e));
+        assert_eq!(load(&dir, "another key\n"), None);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

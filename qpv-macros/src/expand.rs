@@ -207,6 +207,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
         })
     };
 
+    let cache_dir = cache::dir();
     let mut designs = Vec::with_capacity(model.designs.len());
     for req in &model.designs {
         let fail = |msg: String| {
@@ -216,7 +217,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
             )
         };
         let start = std::time::Instant::now();
-        let design = one_design(model, &poly, req).map_err(fail)?;
+        let design = one_design(model, &poly, req, cache_dir.as_deref()).map_err(fail)?;
         timing(&model.name, &design.numbers.request, design.origin, start);
         designs.push(design.numbers);
     }
@@ -238,6 +239,7 @@ fn one_design(
     model: &Model,
     poly: &PolytopicModel,
     req: &DesignRequest,
+    cache: Option<&std::path::Path>,
 ) -> Result<Outcome, String> {
     let request = describe(req);
     let (nx, ny, nv) = (model.nx(), model.ny(), poly.nv());
@@ -248,7 +250,7 @@ fn one_design(
     let split_model = poly.with_split(req.split);
 
     // A cache hit is re-certified, never trusted blindly.
-    if let Some(e) = cache::load(&key) {
+    if let Some(e) = cache.and_then(|dir| cache::load(dir, &key)) {
         if e.p.len() == nx * nx && e.l.len() == nv && e.l.iter().all(|l| l.len() == nx * ny) {
             let p = rows_to_matrix(&rows(&e.p, nx));
             let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
@@ -326,7 +328,9 @@ fn one_design(
         p: matrix_to_rows(&p).concat(),
         l: ls.iter().map(|l| matrix_to_rows(l).concat()).collect(),
     };
-    cache::store(&key, &entry);
+    if let Some(dir) = cache {
+        cache::store(dir, &key, &entry);
+    }
     let numbers = CertifiedDesign {
         request,
         mode: mode_name(req.mode).into(),
@@ -445,4 +449,65 @@ fn not_certified(request: &str, d: &Design, poly: &PolytopicModel) -> String {
         Mode::Paper => "does not satisfy the paper's printed conditions",
     };
     format!("design `{request}` {verdict}: {why}{best}; no gain was baked")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MODEL: &str = "model t {
+        state x1, x2; output y1;
+        A = [-1, 1; 0, -2]; N1 = [0.1, 0; 0, 0]; N2 = 0;
+        C = [1, 0]; M1 = 0;
+        region box(1);
+        state_bound Q = [0.1, 0; 0, 0.1];
+        design { alpha = 0.5; gamma = 0.5; }
+    }";
+
+    #[test]
+    fn cache_hits_are_recertified_and_tampered_entries_re_solved() {
+        let models = qpv_dsl::parse(MODEL).expect("test model parses");
+        let model = &models[0];
+        let poly = model.polytopic();
+        let req = &model.designs[0];
+        let dir = std::env::temp_dir().join(format!("qpv-expand-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+
+        let first = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(first.origin, "solved");
+        let second = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(second.origin, "cache hit, re-certified");
+        assert_eq!(second.numbers.p, first.numbers.p);
+        assert_eq!(second.numbers.l, first.numbers.l);
+
+        // A cached P that no longer certifies (here: negated) is not trusted.
+        let key = cache::key(&poly, req, &format!("{:?}", settings()));
+        let file = cache::file_for(&dir, &key);
+        let text = std::fs::read_to_string(&file).expect("cache file written");
+        let tampered: String = text
+            .lines()
+            .map(|l| match l.strip_prefix("P ") {
+                Some(rest) => {
+                    let neg: Vec<String> = rest.split(' ').map(|v| format!("-{v}")).collect();
+                    format!("P {}\n", neg.join(" ").replace("--", ""))
+                }
+                None => format!("{l}\n"),
+            })
+            .collect();
+        assert_ne!(tampered, text);
+        std::fs::write(&file, tampered).expect("rewrite cache file");
+        let third = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(third.origin, "solved", "a tampered entry is re-solved");
+        assert_eq!(third.numbers.p, first.numbers.p);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn requests_are_described_as_written() {
+        let models = qpv_dsl::parse(MODEL).expect("test model parses");
+        assert_eq!(
+            describe(&models[0].designs[0]),
+            "alpha = 0.5; gamma = 0.5; mode = sound"
+        );
+    }
 }
