@@ -2,7 +2,7 @@
 
 use super::design::parse_mode;
 use super::input::{emit_json, load_model, CliError};
-use qpv_dsl::{AlphaSpec, GammaSpec, Mode};
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
 use qpv_solve::report::rows_to_matrix;
 use std::path::Path;
 
@@ -18,6 +18,9 @@ struct Gains {
     alpha: Option<f64>,
     gamma: Option<f64>,
     mode: Option<String>,
+    /// Representation of N_k, M_k the gains were designed with
+    /// ("as_written" | "symmetric"; a design report carries it).
+    split: Option<String>,
 }
 
 fn rectangular(rows: &[Vec<f64>]) -> bool {
@@ -65,7 +68,20 @@ pub fn run(
             GammaSpec::Search => None,
         }))
         .ok_or_else(|| CliError::Input("no gamma to check: pass --gamma".into()))?;
-    let poly = model.polytopic();
+    // The same plant either way; the conditions are checked in the
+    // representation the gains were designed with (default: the mode's).
+    let split = match g.split.as_deref() {
+        Some("as_written") => Split::AsWritten,
+        Some("symmetric") => Split::Symmetric,
+        Some(other) => {
+            return Err(CliError::Input(format!(
+                "{}: unknown split {other:?} (expected \"as_written\" or \"symmetric\")",
+                gains.display()
+            )))
+        }
+        None => Split::default_for(mode),
+    };
+    let poly = model.polytopic().with_split(split);
     let p = rows_to_matrix(&g.p);
     let l: Vec<_> = g.l.iter().map(|r| rows_to_matrix(r)).collect();
     let cert = qpv_solve::check(&poly, mode, alpha, gamma, &p, &l);
