@@ -42,6 +42,23 @@ inline_model! {
     }
 }
 
+// No parameters at all: one vertex, constant gain, θ = [].
+inline_model! {
+    FIXED_TEXT,
+    model fixed {
+        state x1, x2;
+        output y1;
+        A = [-1, 1; 0, -2];
+        N1 = [0.1, 0; 0, 0];
+        N2 = 0;
+        C = [1, 0];
+        M1 = 0;
+        region box(1);
+        state_bound Q = [0.1, 0; 0, 0.1];
+        design { alpha = 0.5; gamma = 0.5; }
+    }
+}
+
 /// xorshift64*: reproducible random numbers without a dependency.
 struct Rng(u64);
 
@@ -305,4 +322,23 @@ fn observer_keeps_its_certified_decay_on_the_paper_scenario() {
     let err = (0..3).map(|i| (x[i] - e[i]).abs()).fold(0.0, f64::max);
     assert!(err < 1e-6, "error at t = 2: {err:e}");
     assert_eq!(obs.clamped(), 0);
+}
+
+#[test]
+fn model_without_parameters_has_one_vertex_and_matches_reference() {
+    assert_eq!((fixed::NTHETA, fixed::NV), (0, 1));
+    assert_eq!(fixed::mu(&[]), [1.0]);
+    assert_eq!(fixed::gain(&[]), fixed::L[0]);
+    let poly = polytopic(FIXED_TEXT);
+    let ls = gains(&fixed::L);
+    let mut rng = Rng(3);
+    let mut worst: f64 = 0.0;
+    for _ in 0..500 {
+        let x: [f64; 2] = core::array::from_fn(|_| rng.uniform(-2.0, 2.0));
+        let y = [rng.uniform(-2.0, 2.0)];
+        let got = fixed::Observer::with_state(&x).derivative(&y, &[], &[]);
+        let want = simulate::observer_derivative(&poly, &ls, &x, &y, &[], &[]).expect("reference");
+        worst = worst.max(rel_err(&got, &want));
+    }
+    assert!(worst <= 1e-12, "worst relative error {worst:e}");
 }
