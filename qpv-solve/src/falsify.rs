@@ -524,13 +524,24 @@ pub fn falsify(
 ///
 /// A design without a solution (empty P) is reported as a [`SimError::Shape`]
 /// error. Falsifying a paper-mode design is allowed; it tests the claim
-/// V' + αV < 0 on E × F even though that mode certifies nothing.
+/// V' + αV < 0 on E × F even though that mode certifies nothing. For a
+/// model with `state_bound auto`, x is sampled in the F the design computed.
 pub fn falsify_design(
     model: &PolytopicModel,
     design: &Design,
     samples: usize,
     seed: u64,
 ) -> Result<Falsification, SimError> {
+    let resolved;
+    let model = match (&model.state_bound, design.state_bound_q()) {
+        (StateBound::Auto { .. }, Some(q)) => {
+            let mut m = model.clone();
+            m.state_bound = StateBound::Given(q);
+            resolved = m;
+            &resolved
+        }
+        _ => model,
+    };
     falsify(
         model,
         &design.p_matrix(),

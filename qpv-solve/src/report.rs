@@ -6,7 +6,9 @@
 //! `margins` (family → worst margin, positive = satisfied), `data_checks`,
 //! `solver` {`status`, `detail`, `iterations`, `seconds`, `assembly_seconds`,
 //! `certify_seconds`}, `seconds_total`, `search` (every step tried),
-//! `notes` and a human `summary`. Matrices are plain `Vec<Vec<f64>>` rows;
+//! `notes`, a human `summary` and `state_bound` {`source`, `Q`, `h`,
+//! `h_fixed`, `gamma_max`, `split`, `check`, `solves`, `seconds`, `notes`}
+//! (see [`crate::state_bound::StateBoundInfo`]). Matrices are plain `Vec<Vec<f64>>` rows;
 //! serde_json writes the shortest round-tripping decimal of every `f64`, so
 //! a reloaded design certifies exactly as the written one.
 
@@ -178,6 +180,11 @@ pub struct Design {
     pub notes: Vec<String>,
     /// A human-readable summary.
     pub summary: String,
+    /// The state bound the design used: its source ("given", "auto" or
+    /// "none"), Q, and for a computed bound h, γ_max and its check
+    /// ([`crate::state_bound`]). Absent in reports written before it existed.
+    #[serde(default)]
+    pub state_bound: Option<crate::state_bound::StateBoundInfo>,
 }
 
 impl Design {
@@ -193,10 +200,21 @@ impl Design {
     pub fn l_matrices(&self) -> Vec<DMatrix<f64>> {
         self.l.iter().map(|g| rows_to_matrix(g)).collect()
     }
+    /// The Q of the state bound this design used (given or computed), if any.
+    pub fn state_bound_q(&self) -> Option<DMatrix<f64>> {
+        self.state_bound
+            .as_ref()
+            .and_then(|s| s.q.as_ref())
+            .map(|q| rows_to_matrix(q))
+    }
     /// The independent certificate of this design's P and L_l against
-    /// `model` (with this design's split applied), at its α and γ.
+    /// `model` (with this design's split applied), at its α and γ. A model
+    /// with `state_bound auto` is checked with the Q this design computed.
     pub fn recheck(&self, model: &PolytopicModel) -> crate::Certificate {
-        let m = crate::conditions::with_split(model, self.split);
+        let mut m = crate::conditions::with_split(model, self.split);
+        if let (qpv_dsl::StateBound::Auto { .. }, Some(q)) = (&m.state_bound, self.state_bound_q()) {
+            m.to_mut().state_bound = qpv_dsl::StateBound::Given(q);
+        }
         crate::check(&m, self.mode, self.alpha, self.gamma, &self.p_matrix(), &self.l_matrices())
     }
 

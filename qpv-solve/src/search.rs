@@ -581,6 +581,9 @@ pub fn design_with_progress(
     let mode = request.mode;
     let set = ConditionSet::from_mode(mode);
     crate::conditions::validate(model)?;
+    // `state_bound auto`: compute Q first; the design then uses it as given.
+    let (resolved, bound_info) = crate::state_bound::resolve(model, settings)?;
+    let model: &PolytopicModel = &resolved;
     if request.conditions != Conditions::Full {
         return Err(SolveError::Unsupported(
             "conditions = decoupled (issue 6 §3); use conditions = full".into(),
@@ -620,6 +623,16 @@ pub fn design_with_progress(
 
     // The search.
     let mut notes: Vec<String> = Vec::new();
+    if bound_info.source == "auto" {
+        notes.push(format!(
+            "state bound computed (state_bound auto): h = {:.6}, γ_max = {:.6}, in {} solves, {:.3} s",
+            bound_info.h.unwrap_or(f64::NAN),
+            bound_info.gamma_max.unwrap_or(f64::NAN),
+            bound_info.solves,
+            bound_info.seconds
+        ));
+        notes.extend(bound_info.notes.iter().cloned());
+    }
     if request.split == Split::Symmetric {
         notes.push("N_k and M_k symmetrised ((T + Tᵀ)/2, the same plant); re-check with this split".into());
     }
@@ -821,5 +834,6 @@ pub fn design_with_progress(
         search: ctx.steps,
         notes,
         summary,
+        state_bound: Some(bound_info),
     })
 }

@@ -3,11 +3,12 @@
 //! paper's Q, and trajectories started at the region's vertices stay in F.
 
 use nalgebra::DMatrix;
-use qpv_dsl::{PolytopicModel, Split, StateBound};
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound};
 use qpv_solve::conditions::reference::paper_model;
+use qpv_solve::falsify::falsify_design;
 use qpv_solve::simulate::{simulate, Scenario, Signal};
 use qpv_solve::state_bound::{check, compute, resolve, BoundSearch};
-use qpv_solve::{Settings, SolveError};
+use qpv_solve::{design, Design, Settings, SolveError};
 
 fn auto_paper(h: Option<f64>) -> PolytopicModel {
     let mut m = paper_model();
@@ -188,4 +189,46 @@ fn trajectories_from_the_region_stay_in_f() {
     );
     assert!(worst <= 1.0, "a trajectory left F: {worst}");
     assert!(first_max > 0.5, "the region should reach well into F");
+}
+
+/// design() resolves `state_bound auto` first, reports it, and the design
+/// re-checks and survives falsification against the auto model.
+#[test]
+fn design_uses_and_reports_the_computed_bound() {
+    let model = auto_paper(None);
+    // γ = 0.23 > 0.189 = γ_max of the paper's Q: only the computed Q allows it
+    let req = DesignRequest {
+        alpha: AlphaSpec::Fixed(10.5),
+        gamma: GammaSpec::Fixed(0.23),
+        split: Split::AsWritten,
+        ..Default::default()
+    };
+    let d = design(&model, &req, &Settings::default()).unwrap();
+    assert!(d.feasible && d.certifies, "{}", d.summary);
+    let sb = d.state_bound.as_ref().unwrap();
+    assert_eq!(sb.source, "auto");
+    assert!(sb.gamma_max.unwrap() > 0.23 && sb.check.as_ref().unwrap().passed);
+    assert!(d.data_checks["S4"].passed);
+    assert!(d.notes.iter().any(|n| n.contains("state_bound auto")));
+    let with_paper_q = design(&paper_model(), &req, &Settings::default()).unwrap();
+    assert!(!with_paper_q.feasible && !with_paper_q.data_checks["S4"].passed);
+    // re-check and falsify against the auto model use the design's Q
+    assert!(d.recheck(&model).passed);
+    let f = falsify_design(&model, &d, 20_000, 7).unwrap();
+    assert!(f.passed(), "{f:?}");
+    // the JSON report carries the bound and reloads to the same design
+    let json = d.to_json();
+    assert!(json.contains("\"state_bound\"") && json.contains("\"h_fixed\""));
+    let back = Design::from_json(&json).unwrap();
+    assert_eq!(back.state_bound, d.state_bound);
+    assert!(back.recheck(&model).passed);
+    // a given Q is reported as given
+    let g = design(
+        &paper_model(),
+        &qpv_solve::request(AlphaSpec::Fixed(5.0), GammaSpec::Fixed(0.15), Mode::Sound),
+        &Settings::default(),
+    )
+    .unwrap();
+    let gsb = g.state_bound.unwrap();
+    assert_eq!((gsb.source.as_str(), gsb.h), ("given", None));
 }

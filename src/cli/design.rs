@@ -3,6 +3,7 @@
 use super::input::{emit_json, fmt_matrix, load_model, CliError};
 use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, Split};
 use qpv_solve::report::{Design, Status};
+use qpv_solve::state_bound::StateBoundInfo;
 use std::path::Path;
 
 /// Parses `--mode`.
@@ -96,6 +97,35 @@ fn describe_request(r: &DesignRequest) -> String {
     format!("{a}; {g}; mode = {m}; split = {split}; conditions = {conditions}")
 }
 
+/// The state bound lines of a design report.
+fn describe_state_bound(sb: &StateBoundInfo) -> String {
+    let gmax = sb.gamma_max.map_or("-".to_string(), |g| format!("{g:.6}"));
+    let mut s = match sb.source.as_str() {
+        "auto" => format!(
+            "  state bound: computed (state_bound auto): h = {:.6}{}, gamma_max = {gmax}, \
+             invariance with N_k {}, {} solves, {:.3} s\n",
+            sb.h.unwrap_or(f64::NAN),
+            if sb.h_fixed {
+                " (fixed)"
+            } else {
+                " (searched)"
+            },
+            sb.split.as_deref().unwrap_or("as_written"),
+            sb.solves,
+            sb.seconds
+        ),
+        "given" => format!("  state bound: given, gamma_max = {gmax}\n"),
+        _ => "  state bound: none\n".to_string(),
+    };
+    if let (Some(q), "auto") = (&sb.q, sb.source.as_str()) {
+        s.push_str(&format!(
+            "  Q:\n{}",
+            fmt_matrix(&qpv_solve::report::rows_to_matrix(q), "    ")
+        ));
+    }
+    s
+}
+
 /// A human-readable report of one design.
 pub fn describe_design(d: &Design) -> String {
     let mut s = String::new();
@@ -118,6 +148,9 @@ pub fn describe_design(d: &Design) -> String {
         "  alpha = {:.6}, gamma = {:.6}\n",
         d.alpha, d.gamma
     ));
+    if let Some(sb) = &d.state_bound {
+        s.push_str(&describe_state_bound(sb));
+    }
     if !d.p.is_empty() {
         s.push_str(&format!("  P:\n{}", fmt_matrix(&d.p_matrix(), "    ")));
         for (l, m) in d.l_matrices().iter().enumerate() {
