@@ -9,4 +9,7 @@ qpv::qpv! {
     }
 }
 
-fn main() {}
+fn main() {
+    // No second error for the module that could not be generated.
+    let _ = m::Observer::new();
+}
