@@ -6,7 +6,8 @@
 //!
 //! * inline: `qpv! { model NAME { ... } }` — the tokens are printed back to
 //!   text (one space between tokens, none after a joint punctuation such as
-//!   the `-` of `->`); comments never reach the macro (rustc strips them);
+//!   the `-` of `->` or after `.`, so `.5` stays a number); comments never
+//!   reach the macro (rustc strips them);
 //! * `qpv!(include "path/to/file.qpv")` — the file is read relative to the
 //!   calling crate's `CARGO_MANIFEST_DIR`; every error points at the string
 //!   literal and quotes `file:line:column` in its message.
@@ -169,7 +170,8 @@ impl Input {
                 TokenTree::Punct(p) => {
                     let mut buf = [0u8; 4];
                     self.push(p.as_char().encode_utf8(&mut buf), p.span());
-                    joint = p.spacing() == proc_macro2::Spacing::Joint;
+                    // `.5` reaches us as `.` then `5`: keep it one number
+                    joint = p.spacing() == proc_macro2::Spacing::Joint || p.as_char() == '.';
                 }
                 TokenTree::Ident(i) => self.push(&i.to_string(), i.span()),
                 TokenTree::Literal(l) => self.push(&l.to_string(), l.span()),
@@ -295,6 +297,11 @@ mod tests {
     fn joint_punctuation_stays_together() {
         let i = inline("a -> b <= c");
         assert_eq!(i.text, "a -> b <= c");
+    }
+
+    #[test]
+    fn a_leading_dot_number_stays_one_number() {
+        assert_eq!(inline("x = .5;").text, "x = .5 ;");
     }
 
     #[test]
