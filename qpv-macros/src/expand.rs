@@ -244,6 +244,11 @@ fn one_design(
     let request = describe(req);
     let (nx, ny, nv) = (model.nx(), model.ny(), poly.nv());
     let settings = settings();
+    // `state_bound auto`: compute Q once; the design, the cache key and the
+    // macro's own certificate then use it as given.
+    let (resolved, _) = qpv_solve::state_bound::resolve(poly, &settings)
+        .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?;
+    let poly = &resolved;
     let key = cache::key(poly, req, &format!("{settings:?}"));
     // The conditions are checked on the representation of N_k, M_k the
     // design used (the plant, hence the generated code, is the same).

@@ -2,7 +2,7 @@
 
 use super::design::parse_mode;
 use super::input::{emit_json, load_model, CliError};
-use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split, StateBound};
 use qpv_solve::report::rows_to_matrix;
 use std::path::Path;
 
@@ -21,6 +21,16 @@ struct Gains {
     /// Representation of N_k, M_k the gains were designed with
     /// ("as_written" | "symmetric"; a design report carries it).
     split: Option<String>,
+    /// The state bound the design used (a design report carries it); its Q
+    /// is needed to check a model with `state_bound auto`.
+    state_bound: Option<GainsBound>,
+}
+
+/// The part of a design report's `state_bound` entry `qpv check` uses.
+#[derive(serde::Deserialize)]
+struct GainsBound {
+    #[serde(rename = "Q")]
+    q: Option<Vec<Vec<f64>>>,
 }
 
 fn rectangular(rows: &[Vec<f64>]) -> bool {
@@ -81,7 +91,23 @@ pub fn run(
         }
         None => Split::default_for(mode),
     };
-    let poly = model.polytopic().with_split(split);
+    let mut poly = model.polytopic().with_split(split);
+    if let StateBound::Auto { .. } = poly.state_bound {
+        // the Q the design computed; without it (S4) cannot be checked
+        match g.state_bound.and_then(|b| b.q) {
+            Some(q) if q.len() == model.nx() && q.iter().all(|r| r.len() == model.nx()) => {
+                poly.state_bound = StateBound::Given(rows_to_matrix(&q));
+            }
+            _ => {
+                return Err(CliError::Input(format!(
+                    "{}: the model has `state_bound auto`, so the gains file must carry the \
+                     design's state bound (`state_bound.Q`, {n}×{n}; a `qpv design --json` report does)",
+                    gains.display(),
+                    n = model.nx()
+                )))
+            }
+        }
+    }
     let p = rows_to_matrix(&g.p);
     let l: Vec<_> = g.l.iter().map(|r| rows_to_matrix(r)).collect();
     let cert = qpv_solve::check(&poly, mode, alpha, gamma, &p, &l);
