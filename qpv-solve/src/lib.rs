@@ -9,6 +9,10 @@
 //!   printed (13), (14), (26) — from P and L_l with nalgebra eigenvalues and
 //!   reports the worst margin per family (positive = satisfied) plus the
 //!   data checks (S4) and P ⊂ F; usable on externally supplied gains.
+//! * [`state_bound`]: `state_bound auto` — computes Q (an invariant
+//!   ellipsoid containing the region inside a box h·B, maximising γ_max of
+//!   (S4), h searched) and checks it independently; [`design`] resolves it
+//!   first and reports it in [`Design::state_bound`].
 //! * [`sdp`]: the LMIs assembled directly into Clarabel's standard form
 //!   (PSD triangle cones, no modelling layer); [`conditions`]: the condition
 //!   sets and the one place where the two modes differ.

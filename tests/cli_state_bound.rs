@@ -1,0 +1,77 @@
+//! `state_bound auto` through the command line (issue 6 §1): `qpv design`
+//! computes and reports Q, and `qpv check` re-checks the report with it.
+
+use std::process::{Command, Output};
+
+fn qpv(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_qpv"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the qpv binary runs")
+}
+
+#[test]
+fn paper_auto_design_reports_the_bound_and_check_uses_it() {
+    let dir = std::env::temp_dir().join(format!("qpv-cli-auto-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let report = dir.join("auto.json");
+    let out = qpv(&[
+        "design",
+        "examples/paper_auto.qpv",
+        "--json",
+        report.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("state bound: computed (state_bound auto)"),
+        "{text}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let d = if json.is_array() { &json[0] } else { &json };
+    let sb = &d["state_bound"];
+    assert_eq!(sb["source"], "auto");
+    assert_eq!(sb["Q"].as_array().map(Vec::len), Some(3));
+    assert_eq!(sb["check"]["passed"], true);
+    let gmax = sb["gamma_max"].as_f64().unwrap();
+    let h = sb["h"].as_f64().unwrap();
+    // γ_max of the paper's Q is 0.18898; the computed bound must do better
+    assert!(gmax > 0.25 && h > 0.02, "γ_max {gmax}, h {h}");
+    assert_eq!(d["certifies"], true);
+    // the issue's goal for the paper example with the computed bound
+    assert!(d["alpha"].as_f64().unwrap() >= 11.3, "{}", d["alpha"]);
+
+    // qpv check re-certifies the report with its Q ...
+    let ok = qpv(&[
+        "check",
+        "examples/paper_auto.qpv",
+        "--gains",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        ok.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&ok.stdout)
+    );
+    // ... and refuses gains without one (exit 2, says what is missing)
+    let mut stripped = d.clone();
+    stripped.as_object_mut().unwrap().remove("state_bound");
+    let bare = dir.join("bare.json");
+    std::fs::write(&bare, serde_json::to_string(&stripped).unwrap()).unwrap();
+    let err = qpv(&[
+        "check",
+        "examples/paper_auto.qpv",
+        "--gains",
+        bare.to_str().unwrap(),
+    ]);
+    assert_eq!(err.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&err.stderr).contains("state_bound.Q"));
+}
