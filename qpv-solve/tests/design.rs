@@ -241,11 +241,12 @@ fn json_keys_are_exactly_the_documented_ones() {
     let obj = v.as_object().unwrap();
     for key in [
         "model", "mode", "split", "feasible", "certifies", "alpha", "gamma", "P", "Gamma", "L", "gain_norms", "margins",
-        "data_checks", "solver", "seconds_total", "search", "notes", "summary",
+        "data_checks", "solver", "seconds_total", "search", "notes", "summary", "state_bound",
     ] {
         assert!(obj.contains_key(key), "missing key {key}");
     }
-    assert_eq!(obj.len(), 18);
+    assert_eq!(obj.len(), 19);
+    assert_eq!(v["state_bound"]["source"], "given");
     assert_eq!(v["mode"], "sound");
     assert_eq!(v["split"], "as_written");
     assert_eq!(v["solver"]["status"], "solved");
