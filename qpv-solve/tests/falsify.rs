@@ -311,12 +311,14 @@ fn invalid_inputs_are_errors_not_panics() {
     assert_eq!((none.samples, none.worst_ratio), (0, f64::NEG_INFINITY));
 }
 
+/// A fixed-point design of the paper example with N_k, M_k as printed (the
+/// split spec §7's reference results are about).
 fn paper_design(alpha: f64, gamma: f64, mode: Mode) -> qpv_solve::Design {
     let request = DesignRequest {
         alpha: AlphaSpec::Fixed(alpha),
         gamma: GammaSpec::Fixed(gamma),
         mode,
-        split: Split::default_for(mode),
+        split: Split::AsWritten,
         ..Default::default()
     };
     qpv_solve::design(&paper_model(), &request, &qpv_solve::Settings::default()).unwrap()
