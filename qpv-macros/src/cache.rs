@@ -23,6 +23,8 @@ use std::path::{Path, PathBuf};
 /// The cached numbers of one certified design.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Entry {
+    /// For `state_bound auto`: the computed bound, re-checked on load by the caller.
+    pub bound: Option<Bound>,
     /// Certified α.
     pub alpha: f64,
     /// Certified γ.
@@ -35,6 +37,17 @@ pub struct Entry {
     pub p: Vec<f64>,
     /// L_l per vertex, nx × ny row-major.
     pub l: Vec<Vec<f64>>,
+}
+
+/// A computed `state_bound auto` result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bound {
+    /// Box size h of the bound.
+    pub h: f64,
+    /// Whether the invariance check used the symmetric split of N_k.
+    pub symmetric: bool,
+    /// Q, nx × nx row-major.
+    pub q: Vec<f64>,
 }
 
 /// 64-bit FNV-1a: small, stable across Rust versions (unlike `DefaultHasher`).
@@ -142,6 +155,7 @@ pub fn load(dir: &Path, key: &str) -> Option<Entry> {
         return None;
     }
     let mut e = Entry {
+        bound: None,
         alpha: f64::NAN,
         gamma: f64::NAN,
         status: String::new(),
@@ -163,6 +177,16 @@ pub fn load(dir: &Path, key: &str) -> Option<Entry> {
             "iterations" => e.iterations = rest.trim().parse().ok()?,
             "P" => e.p = nums(rest)?,
             "L" => e.l.push(nums(rest)?),
+            "Q" => {
+                let v = nums(rest)?;
+                let (h, rest) = v.split_first()?;
+                let (sym, q) = rest.split_first()?;
+                e.bound = Some(Bound {
+                    h: *h,
+                    symmetric: *sym == 1.0,
+                    q: q.to_vec(),
+                });
+            }
             _ => return None,
         }
     }
@@ -190,6 +214,10 @@ pub fn store(dir: &Path, key: &str, e: &Entry) {
     for l in &e.l {
         push_nums(&mut s, "L", l);
     }
+    if let Some(b) = &e.bound {
+        let sym = if b.symmetric { 1.0 } else { 0.0 };
+        push_nums(&mut s, "Q", [b.h, sym].iter().chain(&b.q));
+    }
     let path = file_for(dir, key);
     let tmp = path.with_extension(format!("tmp{}", std::process::id()));
     if std::fs::write(&tmp, s).is_ok() && std::fs::rename(&tmp, &path).is_err() {
@@ -211,6 +239,11 @@ mod tests {
     fn round_trip_through_a_directory() {
         let dir = std::env::temp_dir().join(format!("qpv-cache-test-{}", std::process::id()));
         let e = Entry {
+            bound: Some(Bound {
+                h: 0.08,
+                symmetric: true,
+                q: vec![0.01, 0.0, 0.0, 0.02],
+            }),
             alpha: 10.0,
             gamma: 0.1889,
             status: "Solved".into(),

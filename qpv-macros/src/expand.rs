@@ -10,7 +10,7 @@ use crate::fallback::{self, Failure};
 use crate::input::{Input, Source};
 use proc_macro2::TokenStream;
 use qpv_dsl::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, PolytopicModel, Split,
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, PolytopicModel, Split, StateBound,
 };
 use qpv_solve::report::{matrix_to_rows, rows_to_matrix};
 use qpv_solve::{Design, Settings};
@@ -244,23 +244,55 @@ fn one_design(
     let request = describe(req);
     let (nx, ny, nv) = (model.nx(), model.ny(), poly.nv());
     let settings = settings();
-    // `state_bound auto`: compute Q once; the design, the cache key and the
-    // macro's own certificate then use it as given.
-    let (resolved, _) = qpv_solve::state_bound::resolve(poly, &settings)
-        .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?;
-    let poly = &resolved;
+    // The key is the model as written (`state_bound auto` included), so an
+    // auto bound is cached with the design.
     let key = cache::key(poly, req, &format!("{settings:?}"));
+    let cached = cache.and_then(|dir| cache::load(dir, &key));
+    // `state_bound auto`: Q from the cache if it passes the independent
+    // state-bound check again, else computed; the design and the macro's own
+    // certificate then use it as given.
+    let reused = cached
+        .as_ref()
+        .and_then(|e| e.bound.as_ref())
+        .and_then(|b| recheck_bound(poly, (b.h, b.symmetric, &b.q)));
+    let (resolved, bound) = match reused {
+        Some(found) => found,
+        None => {
+            let (m, info) = qpv_solve::state_bound::resolve(poly, &settings)
+                .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?;
+            let bound = match (&poly.state_bound, &m.state_bound, info.h) {
+                (StateBound::Auto { .. }, StateBound::Given(q), Some(h)) => Some(cache::Bound {
+                    h,
+                    symmetric: info.split.as_deref() == Some("symmetric"),
+                    q: matrix_to_rows(q).concat(),
+                }),
+                _ => None,
+            };
+            (m, bound)
+        }
+    };
+    let poly = &resolved;
     // The conditions are checked on the representation of N_k, M_k the
     // design used (the plant, hence the generated code, is the same).
     let split_model = poly.with_split(req.split);
 
     // A cache hit is re-certified, never trusted blindly.
-    if let Some(e) = cache.and_then(|dir| cache::load(dir, &key)) {
+    if let Some(e) = cached {
         if e.p.len() == nx * nx && e.l.len() == nv && e.l.iter().all(|l| l.len() == nx * ny) {
             let p = rows_to_matrix(&rows(&e.p, nx));
             let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
             let cert = qpv_solve::check(&split_model, req.mode, e.alpha, e.gamma, &p, &ls);
             if cert.passed {
+                if e.bound != bound {
+                    // the state bound was recomputed: keep the fresh one
+                    if let Some(dir) = cache {
+                        let fresh = cache::Entry {
+                            bound: bound.clone(),
+                            ..e.clone()
+                        };
+                        cache::store(dir, &key, &fresh);
+                    }
+                }
                 return Ok(Outcome {
                     origin: "cache hit, re-certified",
                     numbers: CertifiedDesign {
@@ -326,6 +358,7 @@ fn one_design(
         ));
     }
     let entry = cache::Entry {
+        bound,
         alpha: design.alpha,
         gamma: design.gamma,
         status: design.solver.detail.clone(),
@@ -372,6 +405,37 @@ fn timing(model: &str, request: &str, origin: &str, start: std::time::Instant) {
             start.elapsed().as_secs_f64() * 1e3
         );
     }
+}
+
+/// A cached `state_bound auto` result (box size `h`, split of the invariance
+/// check, Q row-major) re-checked with qpv-solve's independent state-bound
+/// check on W = Q⁻¹: the model with that Q given, or `None` (then Q is
+/// computed again).
+fn recheck_bound(
+    poly: &PolytopicModel,
+    (h, symmetric, q): (f64, bool, &[f64]),
+) -> Option<(PolytopicModel, Option<cache::Bound>)> {
+    if !matches!(poly.state_bound, StateBound::Auto { .. }) || q.len() != poly.nx() * poly.nx() {
+        return None;
+    }
+    let q_m = rows_to_matrix(&rows(q, poly.nx()));
+    let w = q_m.clone().try_inverse()?;
+    let split = if symmetric {
+        Split::Symmetric
+    } else {
+        Split::AsWritten
+    };
+    if !qpv_solve::state_bound::check(&poly.with_split(split), &w, h).passed {
+        return None;
+    }
+    let mut model = poly.clone();
+    model.state_bound = StateBound::Given(q_m);
+    let bound = cache::Bound {
+        h,
+        symmetric,
+        q: q.to_vec(),
+    };
+    Some((model, Some(bound)))
 }
 
 /// The best certified sound design of a model, for error messages: a full
@@ -504,6 +568,32 @@ mod tests {
         let third = one_design(model, &poly, req, Some(&dir)).expect("certified");
         assert_eq!(third.origin, "solved", "a tampered entry is re-solved");
         assert_eq!(third.numbers.p, first.numbers.p);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn an_auto_state_bound_is_cached_with_the_design() {
+        let text = MODEL.replace("state_bound Q = [0.1, 0; 0, 0.1];", "state_bound auto;");
+        let models = qpv_dsl::parse(&text).expect("test model parses");
+        let model = &models[0];
+        let poly = model.polytopic();
+        let req = &model.designs[0];
+        let dir = std::env::temp_dir().join(format!("qpv-expand-auto-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let first = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(first.origin, "solved");
+        let key = cache::key(&poly, req, &format!("{:?}", settings()));
+        let entry = cache::load(&dir, &key).expect("cached");
+        let b = entry.bound.expect("the computed Q is cached");
+        assert!(b.h > 0.0 && b.q.len() == 4);
+        let fresh = recheck_bound(&poly, (b.h, b.symmetric, &b.q));
+        assert!(fresh.is_some(), "the cached Q re-checks");
+        let huge = [1e6, 0.0, 0.0, 1e6];
+        let rejected = recheck_bound(&poly, (b.h, b.symmetric, &huge));
+        assert!(rejected.is_none(), "a Q whose F leaves the box fails");
+        let second = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(second.origin, "cache hit, re-certified");
+        assert_eq!(second.numbers.l, first.numbers.l);
         let _ = std::fs::remove_dir_all(&dir);
     }
 
