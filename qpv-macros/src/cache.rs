@@ -12,7 +12,10 @@
 //!   disables the cache. `cargo clean` empties it.
 //! * Only certified designs are stored, and a hit is never trusted blindly:
 //!   the caller re-runs the independent certificate on the cached P and L_l
-//!   (milliseconds) and re-solves if it does not pass.
+//!   (milliseconds) and re-solves if it does not pass. For `state_bound
+//!   auto` the computed Q is stored too and re-checked (invariance, region
+//!   inside F, F inside the box) before it is used; otherwise it is
+//!   recomputed.
 //! * Writes go to a temporary file renamed into place, so concurrent rustc
 //!   processes never see a half-written entry. Any I/O problem is a miss.
 
