@@ -51,6 +51,10 @@ use std::time::Instant;
 /// Most states for `state_bound auto` (the box h·B has 2^nx vertices).
 pub const MAX_STATES: usize = 12;
 
+/// Most invariance blocks (box vertices × θ-vertices) per solve (about a
+/// minute per solve at this size on one core).
+pub const MAX_BLOCKS: usize = 16_384;
+
 const SQRT2: f64 = std::f64::consts::SQRT_2;
 
 /// How the box size h is searched when the model does not fix it.
@@ -128,6 +132,10 @@ pub struct AutoBound {
     pub split: Split,
     /// The passed check of `w`.
     pub check: BoundCheck,
+    /// The solver's estimate of the largest γ_max any ellipsoid containing
+    /// the region has (no box, no invariance): the search stops when it is
+    /// reached. Not a certified number.
+    pub gamma_upper: Option<f64>,
     /// Every solve, in order.
     pub steps: Vec<BoundStep>,
     /// Wall time of the whole computation, seconds.
@@ -148,6 +156,11 @@ pub struct StateBoundInfo {
     pub h_fixed: bool,
     /// γ_max = 1 / max_k √(a_kᵀ Q a_k) from (S4), if Q is known.
     pub gamma_max: Option<f64>,
+    /// For a computed bound: the solver's estimate of the largest γ_max of
+    /// any ellipsoid containing the region (without invariance), for
+    /// comparison; not certified.
+    #[serde(default)]
+    pub gamma_upper: Option<f64>,
     /// Representation of N_k used by the invariance LMIs of a computed bound
     /// ("as_written" or "symmetric").
     pub split: Option<String>,
@@ -196,6 +209,14 @@ fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
         return Err(SolveError::StateBound(format!(
             "state_bound auto supports at most {MAX_STATES} states (the enclosing box has 2^nx \
              vertices); the model has {nx}: give Q instead"
+        )));
+    }
+    let blocks = model.nv().saturating_mul(1usize << nx);
+    if blocks > MAX_BLOCKS {
+        return Err(SolveError::StateBound(format!(
+            "the invariance conditions would have {blocks} blocks (2^{nx} box vertices × {} \
+             θ-vertices); at most {MAX_BLOCKS} are supported: give Q instead",
+            model.nv()
         )));
     }
     if region_reach(model)
@@ -383,6 +404,67 @@ pub fn solve_at(
     let t0 = Instant::now();
     let nx = model.nx();
     let half: Vec<f64> = box_shape(model).iter().map(|b| b * h).collect();
+    let (status, x) = solve_lmi(model, &half, settings, true)?;
+    let mut found = None;
+    if let Some(x) = x {
+        // W = D⁻¹ Ŵ D⁻¹
+        let w = DMatrix::from_fn(nx, nx, |r, c| x[wvar(r, c)] / (half[r] * half[c]));
+        let chk = check(model, &w, h);
+        if chk.passed {
+            let q = w
+                .clone()
+                .cholesky()
+                .map(|c| c.inverse())
+                .map(|q| (&q + q.transpose()) * 0.5);
+            if let Some(q) = q {
+                found = Some(AutoBound {
+                    gamma_max: gamma_max_of(model, &q),
+                    q,
+                    w,
+                    h,
+                    half_widths: half.clone(),
+                    split: Split::AsWritten,
+                    check: chk,
+                    gamma_upper: None,
+                    steps: Vec::new(),
+                    seconds: 0.0,
+                });
+            }
+        }
+    }
+    let step = BoundStep {
+        h,
+        status: interpret(status),
+        detail: format!("{status:?}"),
+        gamma_max: found.as_ref().map(|b| b.gamma_max),
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+    Ok((step, found))
+}
+
+/// The largest γ_max any ellipsoid containing the region can have (only
+/// P ⊂ F, no box, no invariance): the search stops once it is reached. A
+/// solver estimate, used only as a stopping rule (never as a claim).
+fn geometric_bound(model: &PolytopicModel, settings: &Settings) -> Result<Option<f64>, SolveError> {
+    let r = region_reach(model);
+    let (status, x) = solve_lmi(model, &r, settings, false)?;
+    let nw = model.nx() * (model.nx() + 1) / 2;
+    Ok(match (status, x) {
+        (SolverStatus::Solved, Some(x)) if x[nw] > 0.0 => Some(1.0 / x[nw].sqrt()),
+        _ => None,
+    })
+}
+
+/// Builds and solves the SDP in box coordinates z = D⁻¹x, D = diag(half):
+/// returns Clarabel's status and its point (if finite). `full = false`
+/// leaves out the box and invariance blocks.
+fn solve_lmi(
+    model: &PolytopicModel,
+    half: &[f64],
+    settings: &Settings,
+    full: bool,
+) -> Result<(SolverStatus, Option<Vec<f64>>), SolveError> {
+    let nx = model.nx();
     let eps = settings.margin_rel;
     let nw = nx * (nx + 1) / 2;
     let tvar = nw;
@@ -400,10 +482,14 @@ pub fn solve_at(
         .iter()
         .map(|a| DVector::from_fn(nx, |j, _| a[j] * half[j]))
         .collect();
-    let k_hat: Vec<DMatrix<f64>> = invariance_matrices(model, &half)
-        .into_iter()
-        .map(|k| DMatrix::from_fn(nx, nx, |r, c| k[(r, c)] * half[c] / half[r]))
-        .collect();
+    let k_hat: Vec<DMatrix<f64>> = if full {
+        invariance_matrices(model, half)
+    } else {
+        Vec::new()
+    }
+    .into_iter()
+    .map(|k| DMatrix::from_fn(nx, nx, |r, c| k[(r, c)] * half[c] / half[r]))
+    .collect();
     let kappa = 1.0 + k_hat.iter().map(|k| k.norm()).fold(0.0, f64::max);
 
     let mut lmi = Lmi {
@@ -438,7 +524,7 @@ pub fn solve_at(
             vec![(wvar(r - 1, c - 1), 1.0)]
         }
     };
-    for j in 0..nx {
+    for j in (0..nx).filter(|_| full) {
         let mut f0 = -DMatrix::identity(nx + 1, nx + 1) * eps;
         f0[(0, 0)] += 1.0;
         f0[(0, j + 1)] = 1.0;
@@ -496,7 +582,6 @@ pub fn solve_at(
             .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
     solver.solve();
     let sol = &solver.solution;
-    let status = interpret(sol.status);
     let has_point = !matches!(
         sol.status,
         SolverStatus::PrimalInfeasible
@@ -504,40 +589,7 @@ pub fn solve_at(
             | SolverStatus::Unsolved
             | SolverStatus::NumericalError
     ) && sol.x.iter().all(|v| v.is_finite());
-    let mut found = None;
-    if has_point {
-        // W = D⁻¹ Ŵ D⁻¹
-        let w = DMatrix::from_fn(nx, nx, |r, c| sol.x[wvar(r, c)] / (half[r] * half[c]));
-        let chk = check(model, &w, h);
-        if chk.passed {
-            let q = w
-                .clone()
-                .cholesky()
-                .map(|c| c.inverse())
-                .map(|q| (&q + q.transpose()) * 0.5);
-            if let Some(q) = q {
-                found = Some(AutoBound {
-                    gamma_max: gamma_max_of(model, &q),
-                    q,
-                    w,
-                    h,
-                    half_widths: half.clone(),
-                    split: Split::AsWritten,
-                    check: chk,
-                    steps: Vec::new(),
-                    seconds: 0.0,
-                });
-            }
-        }
-    }
-    let step = BoundStep {
-        h,
-        status,
-        detail: format!("{:?}", sol.status),
-        gamma_max: found.as_ref().map(|b| b.gamma_max),
-        seconds: t0.elapsed().as_secs_f64(),
-    };
-    Ok((step, found))
+    Ok((sol.status, has_point.then(|| sol.x.clone())))
 }
 
 /// Computes the state bound of `model` (N_k as represented in `model`):
@@ -554,6 +606,12 @@ pub fn compute(
     let rmax = region_reach(model).iter().copied().fold(0.0, f64::max);
     let mut steps = Vec::new();
     let mut best: Option<AutoBound> = None;
+    let upper = match h {
+        Some(_) => None,
+        None => geometric_bound(model, settings)?,
+    };
+    // stop searching once a checked bound is within 1e-4 of the upper estimate
+    let enough = upper.map_or(f64::INFINITY, |u| u * (1.0 - 1e-4));
     let mut eval = |h: f64, steps: &mut Vec<BoundStep>| -> Result<f64, SolveError> {
         let (step, found) = solve_at(model, h, settings)?;
         steps.push(step);
@@ -583,13 +641,17 @@ pub fn compute(
             let mut gs = Vec::with_capacity(n);
             for &hv in &hs {
                 gs.push(eval(hv, &mut steps)?);
+                if gs.last().is_some_and(|g| *g >= enough) {
+                    break;
+                }
             }
+            let n = gs.len();
             let (ib, gb) = gs
                 .iter()
                 .copied()
                 .enumerate()
                 .fold((0, 0.0), |acc, (i, g)| if g > acc.1 { (i, g) } else { acc });
-            if gb > 0.0 && search.refine > 0 {
+            if gb > 0.0 && gb < enough && search.refine > 0 {
                 // golden section on log h between the neighbours of the best point
                 let mut a = if ib > 0 {
                     hs[ib - 1]
@@ -609,6 +671,9 @@ pub fn compute(
                 let mut gc = eval(c.exp(), &mut steps)?;
                 let mut gd = eval(d.exp(), &mut steps)?;
                 for _ in 2..search.refine {
+                    if gc.max(gd) >= enough {
+                        break;
+                    }
                     if gc >= gd {
                         b = d;
                         d = c;
@@ -638,6 +703,7 @@ pub fn compute(
         )));
     };
     bound.steps = steps;
+    bound.gamma_upper = upper;
     bound.seconds = t0.elapsed().as_secs_f64();
     Ok(bound)
 }
@@ -657,6 +723,7 @@ pub fn resolve(
         h: None,
         h_fixed: false,
         gamma_max: None,
+        gamma_upper: None,
         split: None,
         check: None,
         solves: 0,
@@ -677,10 +744,17 @@ pub fn resolve(
             let mut best: Option<AutoBound> = None;
             let mut solves = 0;
             let mut last_err = None;
-            for split in [Split::AsWritten, Split::Symmetric] {
+            for split in [Split::Symmetric, Split::AsWritten] {
                 let m = model.with_split(split);
-                if split == Split::Symmetric && m == *model {
+                if split == Split::AsWritten && model.with_split(Split::Symmetric) == m {
                     continue; // already symmetric: nothing new to try
+                }
+                let reached = best.as_ref().is_some_and(|b| {
+                    b.gamma_upper
+                        .is_some_and(|u| b.gamma_max >= u * (1.0 - 1e-4))
+                });
+                if reached {
+                    continue; // no ellipsoid containing the region does better
                 }
                 match compute(&m, *h, settings, &search) {
                     Ok(mut b) => {
@@ -706,6 +780,7 @@ pub fn resolve(
             info.h = Some(b.h);
             info.h_fixed = h.is_some();
             info.gamma_max = Some(b.gamma_max);
+            info.gamma_upper = b.gamma_upper;
             info.split = Some(split_name(b.split).to_string());
             info.check = Some(b.check.clone());
             info.solves = solves;

@@ -232,3 +232,37 @@ fn design_uses_and_reports_the_computed_bound() {
     let gsb = g.state_bound.unwrap();
     assert_eq!((gsb.source.as_str(), gsb.h), ("given", None));
 }
+
+/// When the invariance costs nothing, the search stops at the largest γ_max
+/// any ellipsoid containing the region can have (the cube's circumscribed
+/// ball, γ_max = 1/√nx) instead of running all its solves.
+#[test]
+fn search_stops_at_the_geometric_limit() {
+    let mut m = qpv_solve::conditions::reference::synthetic_model(3);
+    m.state_bound = StateBound::Auto { h: None };
+    let (_, info) = resolve(&m, &Settings::default()).unwrap();
+    let g = info.gamma_max.unwrap();
+    let upper = info.gamma_upper.unwrap();
+    assert!(
+        g <= upper * (1.0 + 1e-6) && g >= upper * (1.0 - 1e-4),
+        "{g} vs {upper}"
+    );
+    assert!((upper - 1.0 / 3f64.sqrt()).abs() < 1e-5, "{upper}");
+    let full = BoundSearch::default();
+    assert!(
+        info.solves < full.grid + full.refine,
+        "{} solves",
+        info.solves
+    );
+}
+
+/// Too many states for the 2^nx box vertices: an error, not a hang.
+#[test]
+fn too_large_models_are_refused() {
+    let mut m = qpv_solve::conditions::reference::synthetic_model(13);
+    m.state_bound = StateBound::Auto { h: None };
+    match resolve(&m, &Settings::default()) {
+        Err(SolveError::StateBound(msg)) => assert!(msg.contains("at most"), "{msg}"),
+        other => panic!("expected a refusal, got {:?}", other.map(|(_, i)| i)),
+    }
+}

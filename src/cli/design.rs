@@ -102,14 +102,16 @@ fn describe_state_bound(sb: &StateBoundInfo) -> String {
     let gmax = sb.gamma_max.map_or("-".to_string(), |g| format!("{g:.6}"));
     let mut s = match sb.source.as_str() {
         "auto" => format!(
-            "  state bound: computed (state_bound auto): h = {:.6}{}, gamma_max = {gmax}, \
-             invariance with N_k {}, {} solves, {:.3} s\n",
+            "  state bound: computed (state_bound auto): h = {:.6}{}, gamma_max = {gmax} \
+             (solver estimate for any ellipsoid around the region: {:.6}), invariance with N_k {}, \
+             {} solves, {:.3} s\n",
             sb.h.unwrap_or(f64::NAN),
             if sb.h_fixed {
                 " (fixed)"
             } else {
                 " (searched)"
             },
+            sb.gamma_upper.unwrap_or(f64::NAN),
             sb.split.as_deref().unwrap_or("as_written"),
             sb.solves,
             sb.seconds
