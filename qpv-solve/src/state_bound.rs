@@ -16,8 +16,11 @@
 //! and, among those, one with the largest γ_max of (S4): minimise
 //! t ≥ max_k a_kᵀ Q a_k, an LMI through [t a_kᵀ; a_k W] ⪰ 0, so
 //! γ_max = 1/√t. The box size h is searched in one dimension (a log-spaced
-//! grid, then golden-section refinement around the best grid point), unless
-//! the model fixes it (`state_bound auto(h = ...)`).
+//! grid starting just above the smallest box any ellipsoid around the region
+//! fits in, then golden-section refinement around the best grid point; the
+//! search stops early once γ_max reaches the largest value any ellipsoid
+//! around the region has), unless the model fixes it
+//! (`state_bound auto(h = ...)`).
 //!
 //! B is the region's bounding box scaled so that its largest half-width is
 //! 1: h·B = {x : |x_j| ≤ h β_j}, β_j = r_j / max_i r_i, r_j = max over the
@@ -166,7 +169,9 @@ pub struct StateBoundInfo {
     pub split: Option<String>,
     /// The independent check of a computed bound.
     pub check: Option<BoundCheck>,
-    /// Solves of a computed bound (0 otherwise).
+    /// Solves of the h search of a computed bound (0 otherwise); each
+    /// split tried also runs two small auxiliary solves (the geometric
+    /// limits that place the grid and stop the search), not counted here.
     pub solves: usize,
     /// Time to compute the bound, seconds (0 if given).
     pub seconds: f64,
@@ -404,7 +409,7 @@ pub fn solve_at(
     let t0 = Instant::now();
     let nx = model.nx();
     let half: Vec<f64> = box_shape(model).iter().map(|b| b * h).collect();
-    let (status, x) = solve_lmi(model, &half, settings, true)?;
+    let (status, x) = solve_lmi(model, &half, settings, Kind::Full)?;
     let mut found = None;
     if let Some(x) = x {
         // W = D⁻¹ Ŵ D⁻¹
@@ -447,7 +452,7 @@ pub fn solve_at(
 /// solver estimate, used only as a stopping rule (never as a claim).
 fn geometric_bound(model: &PolytopicModel, settings: &Settings) -> Result<Option<f64>, SolveError> {
     let r = region_reach(model);
-    let (status, x) = solve_lmi(model, &r, settings, false)?;
+    let (status, x) = solve_lmi(model, &r, settings, Kind::Geometric)?;
     let nw = model.nx() * (model.nx() + 1) / 2;
     Ok(match (status, x) {
         (SolverStatus::Solved, Some(x)) if x[nw] > 0.0 => Some(1.0 / x[nw].sqrt()),
@@ -455,14 +460,38 @@ fn geometric_bound(model: &PolytopicModel, settings: &Settings) -> Result<Option
     })
 }
 
+/// The smallest h for which some ellipsoid containing the region fits in
+/// h·B (no invariance): the h search starts just above it. A solver
+/// estimate, used only to place the grid.
+fn smallest_box(model: &PolytopicModel, settings: &Settings) -> Result<Option<f64>, SolveError> {
+    let shape = box_shape(model);
+    let (status, x) = solve_lmi(model, &shape, settings, Kind::MinBox)?;
+    let nw = model.nx() * (model.nx() + 1) / 2;
+    Ok(match (status, x) {
+        (SolverStatus::Solved, Some(x)) if x[nw] > 0.0 => Some(x[nw].sqrt()),
+        _ => None,
+    })
+}
+
+/// Which SDP [`solve_lmi`] builds; every kind minimises t.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    /// The state-bound SDP: region, box, invariance, t ≥ max_k âₖᵀQ̂âₖ.
+    Full,
+    /// Region and t ≥ max_k âₖᵀQ̂âₖ only ([`geometric_bound`]).
+    Geometric,
+    /// Region and Q̂_jj ≤ t only ([`smallest_box`]).
+    MinBox,
+}
+
 /// Builds and solves the SDP in box coordinates z = D⁻¹x, D = diag(half):
-/// returns Clarabel's status and its point (if finite). `full = false`
-/// leaves out the box and invariance blocks.
+/// returns Clarabel's status and its point (if finite), for the blocks of
+/// `kind`.
 fn solve_lmi(
     model: &PolytopicModel,
     half: &[f64],
     settings: &Settings,
-    full: bool,
+    kind: Kind,
 ) -> Result<(SolverStatus, Option<Vec<f64>>), SolveError> {
     let nx = model.nx();
     let eps = settings.margin_rel;
@@ -482,7 +511,7 @@ fn solve_lmi(
         .iter()
         .map(|a| DVector::from_fn(nx, |j, _| a[j] * half[j]))
         .collect();
-    let k_hat: Vec<DMatrix<f64>> = if full {
+    let k_hat: Vec<DMatrix<f64>> = if kind == Kind::Full {
         invariance_matrices(model, half)
     } else {
         Vec::new()
@@ -524,12 +553,31 @@ fn solve_lmi(
             vec![(wvar(r - 1, c - 1), 1.0)]
         }
     };
-    for j in (0..nx).filter(|_| full) {
+    for j in (0..nx).filter(|_| kind == Kind::Full) {
         let mut f0 = -DMatrix::identity(nx + 1, nx + 1) * eps;
         f0[(0, 0)] += 1.0;
         f0[(0, j + 1)] = 1.0;
         f0[(j + 1, 0)] = 1.0;
         lmi.psd(&f0, shifted, nvars);
+    }
+    // smallest box: [t e_jᵀ; e_j Ŵ] ⪰ 0, i.e. Q̂_jj ≤ t
+    for j in (0..nx).filter(|_| kind == Kind::MinBox) {
+        let mut f0 = DMatrix::zeros(nx + 1, nx + 1);
+        f0[(0, j + 1)] = 1.0;
+        f0[(j + 1, 0)] = 1.0;
+        lmi.psd(
+            &f0,
+            |r, c| {
+                if r == 0 && c == 0 {
+                    vec![(tvar, 1.0)]
+                } else if r == 0 {
+                    vec![]
+                } else {
+                    vec![(wvar(r - 1, c - 1), 1.0)]
+                }
+            },
+            nvars,
+        );
     }
     // invariance: −He{Ŵ K̂} − ε κ I ⪰ 0; entry (r, c) of He{ŴK̂} is
     // Σ_m Ŵ_rm K̂_mc + Σ_m Ŵ_cm K̂_mr
@@ -550,7 +598,7 @@ fn solve_lmi(
         );
     }
     // objective epigraph: [t âₖᵀ; âₖ Ŵ] ⪰ 0
-    for a in &a_hat {
+    for a in a_hat.iter().filter(|_| kind != Kind::MinBox) {
         let mut f0 = DMatrix::zeros(nx + 1, nx + 1);
         for j in 0..nx {
             f0[(0, j + 1)] = a[j];
@@ -634,7 +682,11 @@ pub fn compute(
         }
         None => {
             let n = search.grid.max(2);
-            let (lo, hi) = (search.lo_factor.max(1.0 + 1e-9).ln(), search.hi_factor.ln());
+            // start just above the smallest box any ellipsoid around the region fits in
+            let floor = smallest_box(model, settings)?.unwrap_or(0.0) / rmax * (1.0 + 1e-3);
+            let lo_factor = search.lo_factor.max(1.0 + 1e-9).max(floor);
+            let hi_factor = search.hi_factor.max(lo_factor * 2.0);
+            let (lo, hi) = (lo_factor.ln(), hi_factor.ln());
             let hs: Vec<f64> = (0..n)
                 .map(|i| rmax * (lo + (hi - lo) * i as f64 / (n - 1) as f64).exp())
                 .collect();
@@ -656,7 +708,7 @@ pub fn compute(
                 let mut a = if ib > 0 {
                     hs[ib - 1]
                 } else {
-                    rmax * (1.0 + 1e-6)
+                    rmax * lo_factor / (1.0 + 1e-3)
                 }
                 .ln();
                 let mut b = if ib + 1 < n {
