@@ -1,7 +1,7 @@
 //! The serialisable result of a design: [`Design`] and its parts.
 //!
 //! JSON layout (keys exactly as written): `model`, `mode`, `split`,
-//! `feasible`, `certifies`, `alpha`, `gamma`, `P` (rows), `Gamma` (one matrix per
+//! `conditions`, `feasible`, `certifies`, `alpha`, `gamma`, `P` (rows), `Gamma` (one matrix per
 //! vertex, rows), `L` (one nx × ny matrix per vertex, rows), `gain_norms`,
 //! `margins` (family → worst margin, positive = satisfied), `data_checks`,
 //! `solver` {`status`, `detail`, `iterations`, `seconds`, `assembly_seconds`,
@@ -13,7 +13,7 @@
 //! a reloaded design certifies exactly as the written one.
 
 use nalgebra::DMatrix;
-use qpv_dsl::{Mode, PolytopicModel, Split};
+use qpv_dsl::{Conditions, Mode, PolytopicModel, Split};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -142,6 +142,12 @@ pub struct Design {
     /// reloaded design with [`Design::recheck`], which applies it.
     #[serde(with = "split_serde")]
     pub split: Split,
+    /// Rate conditions solved ("full": all N p² vertex pairs; "decoupled":
+    /// N·2p blocks with one slack Z_l per θ-vertex, sufficient). The
+    /// certificate (`margins`, `feasible`) always checks the full family.
+    /// Reports written before the key existed read as "full".
+    #[serde(default, with = "conditions_serde")]
+    pub conditions: Conditions,
     /// True only if the independent certificate passed for every condition
     /// family (and, in sound mode, the data check (S4)). In paper mode this
     /// means "satisfies the paper's printed conditions", which certifies nothing.
@@ -212,10 +218,18 @@ impl Design {
     /// with `state_bound auto` is checked with the Q this design computed.
     pub fn recheck(&self, model: &PolytopicModel) -> crate::Certificate {
         let mut m = crate::conditions::with_split(model, self.split);
-        if let (qpv_dsl::StateBound::Auto { .. }, Some(q)) = (&m.state_bound, self.state_bound_q()) {
+        if let (qpv_dsl::StateBound::Auto { .. }, Some(q)) = (&m.state_bound, self.state_bound_q())
+        {
             m.to_mut().state_bound = qpv_dsl::StateBound::Given(q);
         }
-        crate::check(&m, self.mode, self.alpha, self.gamma, &self.p_matrix(), &self.l_matrices())
+        crate::check(
+            &m,
+            self.mode,
+            self.alpha,
+            self.gamma,
+            &self.p_matrix(),
+            &self.l_matrices(),
+        )
     }
 
     /// JSON text (pretty-printed).
@@ -263,6 +277,32 @@ pub mod split_serde {
             "symmetric" => Ok(Split::Symmetric),
             other => Err(serde::de::Error::custom(format!(
                 "unknown split {other:?}, expected \"as_written\" or \"symmetric\""
+            ))),
+        }
+    }
+}
+
+/// (De)serialises [`Conditions`] as "full" / "decoupled".
+pub mod conditions_serde {
+    use qpv_dsl::Conditions;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Writes "full" or "decoupled".
+    pub fn serialize<S: Serializer>(c: &Conditions, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(match c {
+            Conditions::Full => "full",
+            Conditions::Decoupled => "decoupled",
+        })
+    }
+
+    /// Reads "full" or "decoupled".
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Conditions, D::Error> {
+        let s = String::deserialize(d)?;
+        match s.as_str() {
+            "full" => Ok(Conditions::Full),
+            "decoupled" => Ok(Conditions::Decoupled),
+            other => Err(serde::de::Error::custom(format!(
+                "unknown conditions {other:?}, expected \"full\" or \"decoupled\""
             ))),
         }
     }

@@ -3,7 +3,9 @@
 //!
 //! Variables (scaled, see [`crate::conditions::ConditionSet::scale`]):
 //! x = [ P̂_ab (a ≤ b, upper triangle column by column: index b(b+1)/2 + a),
-//!       Γ̂_1 (row-major, nx·ny), …, Γ̂_N ], with P = s P̂ and Γ_l = s Γ̂_l.
+//!       Γ̂_1 (row-major, nx·ny), …, Γ̂_N,
+//!       Ẑ_1 (upper triangle like P̂), …, Ẑ_N   (decoupled conditions only) ],
+//! with P = s P̂, Γ_l = s Γ̂_l and Z_l = s Ẑ_l.
 //! The variables are the plain entries; only the cone slacks use the
 //! √2-scaled upper-triangle packing Clarabel's PSD triangle cone expects.
 //!
@@ -14,7 +16,25 @@
 //!    paper (13): [1 x̂ᵢᵀ; x̂ᵢ P̂] − ε I ⪰ 0                 p × PSD(nx+1)
 //! 3. sound (S3): [1 γâₖᵀ; γâₖ P̂] − ε I ⪰ 0 (â = ρa)      q × PSD(nx+1)
 //!    paper (14): [1 γâₖᵀP̂; γP̂âₖ P̂] − ε I ⪰ 0             q × PSD(nx+1)
-//! 4. rate: −He{P̂K − Γ̂_l H} − ε κ I ⪰ 0 per (l, i, j)      N p² × PSD(nx)
+//! 4. rate, [`Conditions::Full`]: −He{P̂K − Γ̂_l H} − ε κ I ⪰ 0
+//!    per (l, i, j)                                         N p² × PSD(nx)
+//!    rate, [`Conditions::Decoupled`], per θ-vertex l:      N 2p × PSD(nx)
+//!    −(F0_l + G_l(x_i) + Ẑ_l) − ε κ I ⪰ 0   i = 1..p  (the e-vertex blocks)
+//!    −(H_l(x_j) − Ẑ_l) ⪰ 0                 j = 1..p  (the x-vertex blocks)
+//!
+//! The decoupled split of the rate matrix F_{l,i,j} = He{P̂K − Γ̂_l H}
+//! (K, H of [`crate::conditions`]; σ = +1 sound, −1 paper):
+//!
+//! ```text
+//!     F0_l     = He{ P̂ (γA_l + (γα/2) I) − γ Γ̂_l C }
+//!     G_l(x_i) = He{ −σ P̂ rows(N_l, x_i) + Γ̂_l rows(M, x_i) }      (e-vertex x_i)
+//!     H_l(x_j) = He{ σ P̂ rowsHe(N_l, x_j) − Γ̂_l rowsHe(M, x_j) }   (x-vertex x_j)
+//! ```
+//!
+//! so F_{l,i,j} = F0_l + G_l(x_i) + H_l(x_j), and the two decoupled blocks
+//! add up to F_{l,i,j} ⪯ −εκ I for every pair (i, j): sufficient for the
+//! full family, never necessary. The certificate always re-checks the full
+//! p² family.
 //!
 //! (2)-(3) are the printed blocks after the congruence diag(1, ρ^{±1} I),
 //! which changes no sign of any eigenvalue; (4) is the printed LMI divided
@@ -24,10 +44,9 @@ use crate::conditions::{region_radius, ConditionSet, PairTerms, RegionForm};
 use crate::report::Status;
 use crate::search::{Settings, SolveError};
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{
-    DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT,
-};
+use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
 use nalgebra::{DMatrix, DVector};
+use qpv_dsl::Conditions;
 use qpv_dsl::PolytopicModel;
 use std::time::Instant;
 
@@ -139,6 +158,7 @@ pub struct SolveResult {
 pub struct Problem<'m> {
     model: &'m PolytopicModel,
     set: ConditionSet,
+    conditions: Conditions,
     nx: usize,
     ny: usize,
     nv: usize,
@@ -179,6 +199,7 @@ impl<'m> Problem<'m> {
         Ok(Problem {
             model,
             set,
+            conditions: Conditions::Full,
             nx,
             ny: model.ny(),
             nv: model.nv(),
@@ -188,19 +209,58 @@ impl<'m> Problem<'m> {
             xs_hat: model.region.vertices.iter().map(|x| x / rho).collect(),
             as_hat: model.region.facets.iter().map(|a| a * rho).collect(),
             terms,
-            max_a_fro: model.vertices.iter().map(|v| v.a.norm()).fold(0.0, f64::max),
+            max_a_fro: model
+                .vertices
+                .iter()
+                .map(|v| v.a.norm())
+                .fold(0.0, f64::max),
             max_r_fro,
         })
     }
 
-    /// Number of decision variables (P̂ and Γ̂_l; the margin variable of
-    /// [`Objective::MaxMargin`] comes after them).
+    /// The same problem with the given family of rate conditions (the
+    /// default of [`Problem::new`] is [`Conditions::Full`]).
+    pub fn with_conditions(mut self, conditions: Conditions) -> Self {
+        self.conditions = conditions;
+        self
+    }
+
+    /// The family of rate conditions assembled.
+    pub fn conditions(&self) -> Conditions {
+        self.conditions
+    }
+
+    /// Number of decision variables (P̂, Γ̂_l and, for decoupled conditions,
+    /// Ẑ_l; the margin variable of [`Objective::MaxMargin`] comes after them).
     pub fn n_vars(&self) -> usize {
+        self.gains_end() + self.n_slack_vars()
+    }
+
+    /// One past the last Γ̂ variable (the first Ẑ variable).
+    fn gains_end(&self) -> usize {
         self.np + self.nv * self.nx * self.ny
     }
 
-    /// Number of rate LMI blocks (N p²).
+    /// Number of slack variables Ẑ_l (N·nx(nx+1)/2 when decoupled, else 0).
+    pub fn n_slack_vars(&self) -> usize {
+        match self.conditions {
+            Conditions::Full => 0,
+            Conditions::Decoupled => self.nv * self.np,
+        }
+    }
+
+    /// Number of rate LMI blocks assembled: N p² (full) or N·2p (decoupled).
     pub fn n_rate_blocks(&self) -> usize {
+        let p = self.model.region.vertices.len();
+        match self.conditions {
+            Conditions::Full => self.nv * p * p,
+            Conditions::Decoupled => self.nv * 2 * p,
+        }
+    }
+
+    /// Number of blocks of the full family (N p²), which the certificate
+    /// checks whatever was assembled.
+    pub fn n_full_rate_blocks(&self) -> usize {
         let p = self.model.region.vertices.len();
         self.nv * p * p
     }
@@ -220,9 +280,22 @@ impl<'m> Problem<'m> {
         self.np + l * self.nx * self.ny + r * self.ny + c
     }
 
+    /// Variable of Ẑ_l's packed upper-triangle entry `idx` (decoupled only).
+    #[inline]
+    fn zvar(&self, l: usize, idx: usize) -> usize {
+        self.gains_end() + l * self.np + idx
+    }
+
     /// K and H of the rate block (l, i, j) in scaled form (see the module doc
     /// of [`crate::conditions`]).
-    pub fn rate_kh(&self, alpha: f64, gamma: f64, l: usize, i: usize, j: usize) -> (DMatrix<f64>, DMatrix<f64>) {
+    pub fn rate_kh(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        l: usize,
+        i: usize,
+        j: usize,
+    ) -> (DMatrix<f64>, DMatrix<f64>) {
         let sigma = self.set.nonlinear_sign();
         let v = &self.model.vertices[l];
         let mut k = &v.a * gamma + (&self.terms.nhe[l][j] - &self.terms.nrw[l][i]) * sigma;
@@ -233,8 +306,122 @@ impl<'m> Problem<'m> {
         (k, h)
     }
 
+    /// K and H of the e-vertex part F0_l + G_l(x_i) of the decoupled
+    /// conditions (module doc): K = γA_l + (γα/2) I − σ rows(N_l, x_i),
+    /// H = γC − rows(M, x_i), so that the part is He{P̂K − Γ̂_l H}.
+    pub fn decoupled_e_kh(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        l: usize,
+        i: usize,
+    ) -> (DMatrix<f64>, DMatrix<f64>) {
+        let sigma = self.set.nonlinear_sign();
+        let v = &self.model.vertices[l];
+        let mut k = &v.a * gamma - &self.terms.nrw[l][i] * sigma;
+        for d in 0..self.nx {
+            k[(d, d)] += 0.5 * gamma * alpha;
+        }
+        let h = &self.model.c * gamma - &self.terms.mrw[i];
+        (k, h)
+    }
+
+    /// K and H of the x-vertex part H_l(x_j) of the decoupled conditions:
+    /// K = σ rowsHe(N_l, x_j), H = rowsHe(M, x_j). With
+    /// [`Problem::decoupled_e_kh`] at (l, i) they add up to
+    /// [`Problem::rate_kh`] at (l, i, j).
+    pub fn decoupled_x_kh(&self, l: usize, j: usize) -> (DMatrix<f64>, DMatrix<f64>) {
+        let sigma = self.set.nonlinear_sign();
+        (&self.terms.nhe[l][j] * sigma, self.terms.mhe[j].clone())
+    }
+
+    /// Pushes the coefficients of He{P̂K − Γ̂_l H} (svec, √2 off the
+    /// diagonal) into the block starting at `row0`; `df` is scratch of nx².
+    fn push_he_block(
+        &self,
+        cols: &mut Columns,
+        row0: usize,
+        k: &DMatrix<f64>,
+        h: &DMatrix<f64>,
+        l: usize,
+        df: &mut [f64],
+    ) {
+        let nx = self.nx;
+        let ny = self.ny;
+        // P̂ variables.
+        for pc in 0..nx {
+            for pr in 0..=pc {
+                let v = tri_idx(pr, pc);
+                // W = E K; ∂F = W + Wᵀ, computed on the upper triangle.
+                df.iter_mut().for_each(|x| *x = 0.0);
+                for cc in 0..nx {
+                    for rr in 0..=cc {
+                        let mut w = 0.0;
+                        if pr == pc {
+                            if rr == pr {
+                                w += k[(pr, cc)];
+                            }
+                            if cc == pr {
+                                w += k[(pr, rr)];
+                            }
+                        } else {
+                            if rr == pr {
+                                w += k[(pc, cc)];
+                            }
+                            if rr == pc {
+                                w += k[(pr, cc)];
+                            }
+                            if cc == pr {
+                                w += k[(pc, rr)];
+                            }
+                            if cc == pc {
+                                w += k[(pr, rr)];
+                            }
+                        }
+                        df[tri_idx(rr, cc)] = w;
+                    }
+                }
+                for cc in 0..nx {
+                    for rr in 0..=cc {
+                        let idx = tri_idx(rr, cc);
+                        let sc = if rr == cc { 1.0 } else { SQRT2 };
+                        cols.push(row0 + idx, v, sc * df[idx]);
+                    }
+                }
+            }
+        }
+        // Γ̂_l variables: ∂F/∂Γ_rc = −(E_rc H + Hᵀ E_rcᵀ),
+        // entry (a, b) = −([a==r] H[c,b] + [b==r] H[c,a]).
+        for gr in 0..nx {
+            for gc in 0..ny {
+                let v = self.gvar(l, gr, gc);
+                for cc in 0..nx {
+                    for rr in 0..=cc {
+                        let mut w = 0.0;
+                        if rr == gr {
+                            w += h[(gc, cc)];
+                        }
+                        if cc == gr {
+                            w += h[(gc, rr)];
+                        }
+                        if w != 0.0 {
+                            let sc = if rr == cc { 1.0 } else { SQRT2 };
+                            cols.push(row0 + tri_idx(rr, cc), v, -sc * w);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// Assembles the problem at (α, γ) with the given objective.
-    pub fn assemble(&self, alpha: f64, gamma: f64, settings: &Settings, objective: Objective) -> Assembled {
+    pub fn assemble(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        settings: &Settings,
+        objective: Objective,
+    ) -> Assembled {
         self.assemble_with_metric(alpha, gamma, settings, objective, None)
     }
 
@@ -249,20 +436,26 @@ impl<'m> Problem<'m> {
         metric: Option<&DMatrix<f64>>,
     ) -> Assembled {
         let nx = self.nx;
-        let ny = self.ny;
         let max_margin = objective == Objective::MaxMargin;
         let n = self.n_vars() + usize::from(max_margin);
         let tvar = self.n_vars();
         let kappa = self.rate_scale(alpha, gamma);
         let eps = settings.margin_rel;
-        let eps_rate = if max_margin { 0.0 } else { settings.margin_rel * kappa };
+        let eps_rate = if max_margin {
+            0.0
+        } else {
+            settings.margin_rel * kappa
+        };
         // svec(W)·κ for the margin column (upper triangle, √2 off-diagonal).
         let wcol: Vec<f64> = {
             let mut w = vec![0.0; tri(nx)];
             let m = metric
                 .filter(|m| m.shape() == (nx, nx) && m.iter().all(|v| v.is_finite()))
                 .map(|m| (m + m.transpose()) * 0.5);
-            let lmax = m.as_ref().map(|m| m.clone().symmetric_eigenvalues().max()).unwrap_or(0.0);
+            let lmax = m
+                .as_ref()
+                .map(|m| m.clone().symmetric_eigenvalues().max())
+                .unwrap_or(0.0);
             for c in 0..nx {
                 for r in 0..=c {
                     let v = match &m {
@@ -302,7 +495,11 @@ impl<'m> Problem<'m> {
                     b.push(1.0 - eps);
                     for c in 0..nx {
                         for r in 0..=c {
-                            let v = if r == c { x[r] * x[r] } else { 2.0 * x[r] * x[c] };
+                            let v = if r == c {
+                                x[r] * x[r]
+                            } else {
+                                2.0 * x[r] * x[c]
+                            };
                             cols.push(row0 + i, tri_idx(r, c), v);
                         }
                     }
@@ -386,89 +583,67 @@ impl<'m> Problem<'m> {
 
         // Rate LMIs: s = −svec(F) − ε_rate svec(I), F = He{P̂K − Γ̂H}:
         // b = −ε_rate svec(I), A[v] = svec(∂F/∂v).
-        let p_cnt = p_reg;
         let mut df = vec![0.0; nx * nx];
-        for l in 0..self.nv {
-            for i in 0..p_cnt {
-                for j in 0..p_cnt {
-                    let (k, h) = self.rate_kh(alpha, gamma, l, i, j);
-                    let row0 = b.len();
-                    b.resize(row0 + t, 0.0);
-                    if eps_rate != 0.0 {
-                        for c in 0..nx {
-                            b[row0 + tri_idx(c, c)] = -eps_rate;
+        // Opens a block with margin `eps`, returns its first row.
+        let open_block = |b: &mut Vec<f64>, eps: f64| -> usize {
+            let row0 = b.len();
+            b.resize(row0 + t, 0.0);
+            if eps != 0.0 {
+                for c in 0..nx {
+                    b[row0 + tri_idx(c, c)] = -eps;
+                }
+            }
+            row0
+        };
+        let margin_col = |cols: &mut Columns, row0: usize| {
+            if max_margin {
+                for (idx, &w) in wcol.iter().enumerate() {
+                    cols.push(row0 + idx, tvar, w);
+                }
+            }
+        };
+        match self.conditions {
+            Conditions::Full => {
+                for l in 0..self.nv {
+                    for i in 0..p_reg {
+                        for j in 0..p_reg {
+                            let (k, h) = self.rate_kh(alpha, gamma, l, i, j);
+                            let row0 = open_block(&mut b, eps_rate);
+                            self.push_he_block(&mut cols, row0, &k, &h, l, &mut df);
+                            margin_col(&mut cols, row0);
+                            cones.push(SupportedConeT::PSDTriangleConeT(nx));
                         }
                     }
-                    // P̂ variables.
-                    for pc in 0..nx {
-                        for pr in 0..=pc {
-                            let v = tri_idx(pr, pc);
-                            // W = E K; ∂F = W + Wᵀ, computed on the upper triangle.
-                            df.iter_mut().for_each(|x| *x = 0.0);
-                            for cc in 0..nx {
-                                for rr in 0..=cc {
-                                    let mut w = 0.0;
-                                    if pr == pc {
-                                        if rr == pr {
-                                            w += k[(pr, cc)];
-                                        }
-                                        if cc == pr {
-                                            w += k[(pr, rr)];
-                                        }
-                                    } else {
-                                        if rr == pr {
-                                            w += k[(pc, cc)];
-                                        }
-                                        if rr == pc {
-                                            w += k[(pr, cc)];
-                                        }
-                                        if cc == pr {
-                                            w += k[(pc, rr)];
-                                        }
-                                        if cc == pc {
-                                            w += k[(pr, rr)];
-                                        }
-                                    }
-                                    df[tri_idx(rr, cc)] = w;
-                                }
-                            }
-                            for cc in 0..nx {
-                                for rr in 0..=cc {
-                                    let idx = tri_idx(rr, cc);
-                                    let sc = if rr == cc { 1.0 } else { SQRT2 };
-                                    cols.push(row0 + idx, v, sc * df[idx]);
-                                }
-                            }
+                }
+            }
+            Conditions::Decoupled => {
+                // Per θ-vertex: F0_l + G_l(x_i) + Ẑ_l ⪯ −ε κ I (the margin,
+                // and the max-margin column, sit here), then H_l(x_j) − Ẑ_l ⪯ 0.
+                // ∂(±Ẑ_l)/∂Ẑ_rc = ±E_rc: svec entry ±1 (diagonal) or ±√2.
+                let z_col = |cols: &mut Columns, row0: usize, l: usize, sign: f64| {
+                    for c in 0..nx {
+                        for r in 0..=c {
+                            let sc = if r == c { 1.0 } else { SQRT2 };
+                            cols.push(row0 + tri_idx(r, c), self.zvar(l, tri_idx(r, c)), sign * sc);
                         }
                     }
-                    // Γ̂_l variables: ∂F/∂Γ_rc = −(E_rc H + Hᵀ E_rcᵀ),
-                    // entry (a, b) = −([a==r] H[c,b] + [b==r] H[c,a]).
-                    for gr in 0..nx {
-                        for gc in 0..ny {
-                            let v = self.gvar(l, gr, gc);
-                            for cc in 0..nx {
-                                for rr in 0..=cc {
-                                    let mut w = 0.0;
-                                    if rr == gr {
-                                        w += h[(gc, cc)];
-                                    }
-                                    if cc == gr {
-                                        w += h[(gc, rr)];
-                                    }
-                                    if w != 0.0 {
-                                        let sc = if rr == cc { 1.0 } else { SQRT2 };
-                                        cols.push(row0 + tri_idx(rr, cc), v, -sc * w);
-                                    }
-                                }
-                            }
-                        }
+                };
+                for l in 0..self.nv {
+                    for i in 0..p_reg {
+                        let (k, h) = self.decoupled_e_kh(alpha, gamma, l, i);
+                        let row0 = open_block(&mut b, eps_rate);
+                        self.push_he_block(&mut cols, row0, &k, &h, l, &mut df);
+                        z_col(&mut cols, row0, l, 1.0);
+                        margin_col(&mut cols, row0);
+                        cones.push(SupportedConeT::PSDTriangleConeT(nx));
                     }
-                    if max_margin {
-                        for (idx, &w) in wcol.iter().enumerate() {
-                            cols.push(row0 + idx, tvar, w);
-                        }
+                    for j in 0..p_reg {
+                        let (k, h) = self.decoupled_x_kh(l, j);
+                        let row0 = open_block(&mut b, 0.0);
+                        self.push_he_block(&mut cols, row0, &k, &h, l, &mut df);
+                        z_col(&mut cols, row0, l, -1.0);
+                        cones.push(SupportedConeT::PSDTriangleConeT(nx));
                     }
-                    cones.push(SupportedConeT::PSDTriangleConeT(nx));
                 }
             }
         }
@@ -489,7 +664,7 @@ impl<'m> Problem<'m> {
             let mut nzval = Vec::new();
             colptr.push(0);
             for c in 0..n {
-                if c >= self.np && c < self.n_vars() {
+                if c >= self.np && c < self.gains_end() {
                     rowval.push(c);
                     nzval.push(settings.gain_weight);
                 }
@@ -503,13 +678,7 @@ impl<'m> Problem<'m> {
         if max_margin {
             q[tvar] = -1.0;
         }
-        Assembled {
-            p,
-            q,
-            a,
-            b,
-            cones,
-        }
+        Assembled { p, q, a, b, cones }
     }
 
     /// Unpacks a solution vector into (P, Γ_l) in model units.
@@ -549,8 +718,53 @@ impl<'m> Problem<'m> {
         x
     }
 
+    /// The slacks Z_l (model units, symmetric) of a decoupled solution
+    /// vector; empty for full conditions.
+    pub fn unpack_z(&self, x: &[f64]) -> Vec<DMatrix<f64>> {
+        if self.conditions == Conditions::Full {
+            return Vec::new();
+        }
+        let nx = self.nx;
+        (0..self.nv)
+            .map(|l| {
+                let mut z = DMatrix::zeros(nx, nx);
+                for c in 0..nx {
+                    for r in 0..=c {
+                        let v = self.scale * x[self.zvar(l, tri_idx(r, c))];
+                        z[(r, c)] = v;
+                        z[(c, r)] = v;
+                    }
+                }
+                z
+            })
+            .collect()
+    }
+
+    /// Writes the slacks Z_l (model units; upper triangles used) into a
+    /// variable vector from [`Problem::pack`] (decoupled only; used by tests).
+    pub fn pack_z(&self, x: &mut [f64], z: &[DMatrix<f64>]) {
+        assert_eq!(
+            self.conditions,
+            Conditions::Decoupled,
+            "only decoupled problems have slacks"
+        );
+        for (l, zl) in z.iter().enumerate() {
+            for c in 0..self.nx {
+                for r in 0..=c {
+                    x[self.zvar(l, tri_idx(r, c))] = zl[(r, c)] / self.scale;
+                }
+            }
+        }
+    }
+
     /// Assembles and solves at (α, γ).
-    pub fn solve(&self, alpha: f64, gamma: f64, settings: &Settings, objective: Objective) -> Result<SolveResult, SolveError> {
+    pub fn solve(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        settings: &Settings,
+        objective: Objective,
+    ) -> Result<SolveResult, SolveError> {
         self.solve_with_metric(alpha, gamma, settings, objective, None)
     }
 
@@ -675,7 +889,9 @@ mod tests {
     }
 
     fn lcg(seed: &mut u64) -> f64 {
-        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 
@@ -778,7 +994,10 @@ mod tests {
                     let f = &inner + inner.transpose() + &p * (gamma * alpha);
                     let want = -f / s - DMatrix::identity(nx, nx) * eps_rate;
                     let g = smat(&slack[row..row + tri(nx)], nx);
-                    assert!((&g - &want).norm() < 1e-9 * (1.0 + want.norm()), "rate l={l}");
+                    assert!(
+                        (&g - &want).norm() < 1e-9 * (1.0 + want.norm()),
+                        "rate l={l}"
+                    );
                     row += tri(nx);
                     cone += 1;
                 }
@@ -827,10 +1046,153 @@ mod tests {
             // No ε margin on the rate blocks in this form.
             assert!(asm.b[row0..row0 + 6].iter().all(|&b| b == 0.0));
             // 256 rate blocks each carry the column.
-            let in_rate = rows.iter().filter(|(r, _)| *r >= row0 && *r < asm.b.len() - 1).count();
+            let in_rate = rows
+                .iter()
+                .filter(|(r, _)| *r >= row0 && *r < asm.b.len() - 1)
+                .count();
             let per_block = if metric.is_some() { 5 } else { 3 }; // W has 5 nonzeros in its triangle
             assert_eq!(in_rate, 256 * per_block);
         }
+    }
+
+    /// Decoupled assembly: at a random (P, Γ_l, Z_l) every e-vertex block
+    /// is −(F0_l + G_l(x_i) + Z_l)/s − εκ I and every x-vertex block
+    /// −(H_l(x_j) − Z_l)/s, with the matrices built here in model units;
+    /// block (l, i) plus block (l, j) is the full block (l, i, j) of the
+    /// full assembly at the same point.
+    fn check_decoupled_assembly(model: &PolytopicModel, mode: Mode) {
+        let set = ConditionSet::from_mode(mode);
+        let full = Problem::new(model, set).unwrap();
+        let dec = Problem::new(model, set)
+            .unwrap()
+            .with_conditions(Conditions::Decoupled);
+        let (nx, ny, nv, np) = (
+            model.nx(),
+            model.ny(),
+            model.nv(),
+            model.region.vertices.len(),
+        );
+        assert_eq!(dec.n_rate_blocks(), nv * 2 * np);
+        assert_eq!(dec.n_full_rate_blocks(), nv * np * np);
+        assert_eq!(dec.n_vars(), full.n_vars() + nv * tri(nx));
+        let (alpha, gamma) = (3.7, 0.35);
+        let settings = Settings::default();
+        let s = dec.scale;
+        let mut seed = 11u64;
+        let mut p = DMatrix::from_fn(nx, nx, |_, _| lcg(&mut seed));
+        p = (&p * p.transpose() + DMatrix::identity(nx, nx)) * s;
+        let gammas: Vec<DMatrix<f64>> = (0..nv)
+            .map(|_| DMatrix::from_fn(nx, ny, |_, _| lcg(&mut seed) * s))
+            .collect();
+        let z: Vec<DMatrix<f64>> = (0..nv)
+            .map(|_| {
+                let m = DMatrix::from_fn(nx, nx, |_, _| lcg(&mut seed) * s);
+                &m + m.transpose()
+            })
+            .collect();
+        let slack_of = |prob: &Problem, x: &[f64]| -> (Vec<f64>, usize) {
+            let asm = prob.assemble(alpha, gamma, &settings, Objective::Gains);
+            assert_eq!(asm.a.n, x.len());
+            let a = &asm.a;
+            let mut slack = asm.b.clone();
+            for col in 0..a.n {
+                for k in a.colptr[col]..a.colptr[col + 1] {
+                    slack[a.rowval[k]] -= a.nzval[k] * x[col];
+                }
+            }
+            // Every cone is PSD(nx) from the first rate block on.
+            let rate0 = slack.len() - prob.n_rate_blocks() * tri(nx);
+            let psd = asm.cones.iter().rev().take(prob.n_rate_blocks());
+            assert!(psd
+                .into_iter()
+                .all(|c| matches!(c, SupportedConeT::PSDTriangleConeT(n) if *n == nx)));
+            (slack, rate0)
+        };
+        let mut xd = dec.pack(&p, &gammas);
+        dec.pack_z(&mut xd, &z);
+        let z2 = dec.unpack_z(&xd);
+        assert!((&z2[1] - &z[1]).norm() < 1e-12 * z[1].norm());
+        let (sd, rd) = slack_of(&dec, &xd);
+        let (sf, rf) = slack_of(&full, &full.pack(&p, &gammas));
+        // The region part is the same.
+        assert_eq!(rd, rf);
+        assert!(sd[..rd]
+            .iter()
+            .zip(&sf[..rf])
+            .all(|(a, b)| (a - b).abs() < 1e-12));
+        let sigma = set.nonlinear_sign();
+        let eps_rate = settings.margin_rel * dec.rate_scale(alpha, gamma);
+        let eye = DMatrix::<f64>::identity(nx, nx);
+        let he = |m: DMatrix<f64>| &m + m.transpose();
+        let blk =
+            |v: &[f64], b: usize, r0: usize| smat(&v[r0 + b * tri(nx)..r0 + (b + 1) * tri(nx)], nx);
+        for (l, v) in model.vertices.iter().enumerate() {
+            let g = &gammas[l];
+            let f0 = he((&p * &v.a - g * &model.c) * gamma) + &p * (gamma * alpha);
+            for (i, xi) in model.region.vertices.iter().enumerate() {
+                let gi = he(&p * rows(&v.n, xi) * (-sigma) + g * rows(&model.m, xi));
+                let want = -(&f0 + &gi + &z[l]) / s - &eye * eps_rate;
+                let got = blk(&sd, l * 2 * np + i, rd);
+                assert!(
+                    (&got - &want).norm() < 1e-9 * (1.0 + want.norm()),
+                    "e-block l={l} i={i}"
+                );
+            }
+            for (j, xj) in model.region.vertices.iter().enumerate() {
+                let hj = he(&p * rows_he(&v.n, xj) * sigma - g * rows_he(&model.m, xj));
+                let want = -(&hj - &z[l]) / s;
+                let got = blk(&sd, l * 2 * np + np + j, rd);
+                assert!(
+                    (&got - &want).norm() < 1e-9 * (1.0 + want.norm()),
+                    "x-block l={l} j={j}"
+                );
+            }
+            // Sum of the two halves = the full block (the margin sits on the e-block).
+            for i in 0..np {
+                for j in 0..np {
+                    let sum = blk(&sd, l * 2 * np + i, rd) + blk(&sd, l * 2 * np + np + j, rd);
+                    let fullb = blk(&sf, (l * np + i) * np + j, rf);
+                    assert!(
+                        (&sum - &fullb).norm() < 1e-9 * (1.0 + fullb.norm()),
+                        "sum l={l} i={i} j={j}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn decoupled_assembly_sound_and_paper() {
+        check_decoupled_assembly(&paper_model(), Mode::Sound);
+        check_decoupled_assembly(&paper_model(), Mode::Paper);
+        check_decoupled_assembly(&synthetic_model(4), Mode::Sound);
+    }
+
+    #[test]
+    fn decoupled_max_margin_column_only_on_e_blocks() {
+        let model = paper_model();
+        let prob = Problem::new(&model, ConditionSet::Sound)
+            .unwrap()
+            .with_conditions(Conditions::Decoupled);
+        let asm = prob.assemble(2.0, 0.15, &Settings::default(), Objective::MaxMargin);
+        let t = prob.n_vars();
+        assert_eq!(asm.a.n, t + 1);
+        let row0 = 6 + 8 + 60;
+        let mut per_block = vec![0usize; prob.n_rate_blocks()];
+        for k in asm.a.colptr[t]..asm.a.colptr[t + 1] {
+            let r = asm.a.rowval[k];
+            if r >= row0 && r < asm.b.len() - 1 {
+                per_block[(r - row0) / 6] += 1;
+            }
+        }
+        // 4 θ-vertices × (8 e-blocks with the column, 8 x-blocks without).
+        for (b, &n) in per_block.iter().enumerate() {
+            let e_block = (b % 16) < 8;
+            assert_eq!(n, if e_block { 3 } else { 0 }, "block {b}");
+        }
+        // No ε margin anywhere in this form; the Γ̂ objective is untouched.
+        assert!(asm.b[row0..asm.b.len() - 1].iter().all(|&b| b == 0.0));
+        assert_eq!(asm.q[t], -1.0);
     }
 
     #[test]

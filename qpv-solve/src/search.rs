@@ -27,6 +27,12 @@
 //!   found; α_max(γ) is not assumed unimodal, so it is a search, not a proof
 //!   of global optimality in γ.
 //!
+//! Rate conditions: `conditions = full` solves all N p² blocks (S5)/(26);
+//! `conditions = decoupled` solves N·2p blocks with one slack Z_l per
+//! θ-vertex ([`crate::sdp`] documents the split), which imply the full
+//! family. Either way every point is certified on the full family, and the
+//! capacity lift is the full family's, so the search itself is unchanged.
+//!
 //! Solver outcomes: only Clarabel's `PrimalInfeasible` counts as
 //! infeasible; every other non-`Solved` status is *unknown*. A point is
 //! accepted only through the independent certificate (an unknown status
@@ -41,7 +47,9 @@ use crate::conditions::{gamma_max, ConditionSet};
 use crate::report::{matrix_to_rows, DataCheck, Design, SearchStep, SolverInfo, Status};
 use crate::sdp::{Objective, Problem};
 use nalgebra::DMatrix;
-use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound};
+use qpv_dsl::{
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound,
+};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -241,7 +249,12 @@ impl Ctx<'_, '_> {
         let a = a.min(self.settings.alpha_cap);
         let cert = check(self.model, self.mode, a, gamma, &base.p, &base.l);
         if self.accepts(&cert) {
-            Some(Point { alpha: a, gamma, cert, ..base.clone() })
+            Some(Point {
+                alpha: a,
+                gamma,
+                cert,
+                ..base.clone()
+            })
         } else {
             None
         }
@@ -258,7 +271,9 @@ impl Ctx<'_, '_> {
         phase: &str,
     ) -> Result<Attempt, SolveError> {
         let t0 = Instant::now();
-        let res = self.prob.solve_with_metric(alpha, gamma, self.settings, objective, metric)?;
+        let res = self
+            .prob
+            .solve_with_metric(alpha, gamma, self.settings, objective, metric)?;
         let mut solver = SolverInfo {
             status: res.status,
             detail: res.detail.clone(),
@@ -278,7 +293,15 @@ impl Ctx<'_, '_> {
                 certified = self.accepts(&cert);
                 // Γ_l as the certificate sees them (P L_l).
                 let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &p * li).collect();
-                let mut pt = Point { alpha, gamma, p, gammas, l, cert, solver: solver.clone() };
+                let mut pt = Point {
+                    alpha,
+                    gamma,
+                    p,
+                    gammas,
+                    l,
+                    cert,
+                    solver: solver.clone(),
+                };
                 if certified {
                     alpha_certified = alpha;
                     if objective == Objective::MaxMargin {
@@ -312,7 +335,13 @@ impl Ctx<'_, '_> {
         };
         (self.progress)(&step);
         self.steps.push(step);
-        Ok(Attempt { status: res.status, point, certified, margin: res.margin, solver })
+        Ok(Attempt {
+            status: res.status,
+            point,
+            certified,
+            margin: res.margin,
+            solver,
+        })
     }
 
     /// Largest certified α at this γ, to relative tolerance `tol`. `seed`: a
@@ -328,7 +357,13 @@ impl Ctx<'_, '_> {
     /// root); else from lo while lifts gain more than `tol`; else bisection
     /// of [lo, hi] or a probe at lo·(1 + 0.9·tol). Stops when
     /// hi ≤ lo·(1 + tol): lo is certified, hi was not.
-    fn alpha_max(&mut self, gamma: f64, seed: Option<&Point>, tol: f64, phase: &str) -> Result<Option<Point>, SolveError> {
+    fn alpha_max(
+        &mut self,
+        gamma: f64,
+        seed: Option<&Point>,
+        tol: f64,
+        phase: &str,
+    ) -> Result<Option<Point>, SolveError> {
         let cap = self.settings.alpha_cap;
         let floor = self.settings.alpha_floor;
         let mut lo: Option<Point> = seed.and_then(|sp| self.lift(sp, gamma));
@@ -384,7 +419,11 @@ impl Ctx<'_, '_> {
                     if a <= floor {
                         return Ok(None);
                     }
-                    a = if a > 16.0 * floor { (a / 8.0).max(floor) } else { floor };
+                    a = if a > 16.0 * floor {
+                        (a / 8.0).max(floor)
+                    } else {
+                        floor
+                    };
                     continue;
                 }
             }
@@ -424,15 +463,32 @@ impl Ctx<'_, '_> {
     /// at this γ of the points found so far (nearest γ below and above, and
     /// the best overall); stops early when a step gains less than `tol`.
     /// Used to rank γ.
-    fn alpha_estimate(&mut self, gamma: f64, found: &[Point], steps: usize, tol: f64, phase: &str) -> Result<Option<Point>, SolveError> {
+    fn alpha_estimate(
+        &mut self,
+        gamma: f64,
+        found: &[Point],
+        steps: usize,
+        tol: f64,
+        phase: &str,
+    ) -> Result<Option<Point>, SolveError> {
         let floor = self.settings.alpha_floor;
         let cap = self.settings.alpha_cap;
         // Candidate seeds: nearest γ below, nearest above, best overall.
-        let below = found.iter().filter(|p| p.gamma <= gamma).max_by(|a, b| a.gamma.total_cmp(&b.gamma));
-        let above = found.iter().filter(|p| p.gamma > gamma).min_by(|a, b| a.gamma.total_cmp(&b.gamma));
+        let below = found
+            .iter()
+            .filter(|p| p.gamma <= gamma)
+            .max_by(|a, b| a.gamma.total_cmp(&b.gamma));
+        let above = found
+            .iter()
+            .filter(|p| p.gamma > gamma)
+            .min_by(|a, b| a.gamma.total_cmp(&b.gamma));
         let best = found.iter().max_by(|a, b| a.alpha.total_cmp(&b.alpha));
         let nearest = match (below, above) {
-            (Some(b), Some(a)) => Some(if gamma - b.gamma <= a.gamma - gamma { b } else { a }),
+            (Some(b), Some(a)) => Some(if gamma - b.gamma <= a.gamma - gamma {
+                b
+            } else {
+                a
+            }),
             (b, a) => b.or(a),
         };
         let mut lo: Option<Point> = None;
@@ -475,7 +531,11 @@ impl Ctx<'_, '_> {
                 if misses > 6 {
                     break;
                 }
-                a = if a > 16.0 * floor { (a / 8.0).max(floor) } else { floor };
+                a = if a > 16.0 * floor {
+                    (a / 8.0).max(floor)
+                } else {
+                    floor
+                };
             }
         }
         Ok(lo)
@@ -516,27 +576,32 @@ impl Ctx<'_, '_> {
         };
         // Refine between the neighbours of the best grid point.
         let kb = grid.iter().position(|&g| g == b.gamma).unwrap_or(0);
-        let mut a = if kb == 0 { grid[0] * 0.25 } else { grid[kb - 1] };
+        let mut a = if kb == 0 {
+            grid[0] * 0.25
+        } else {
+            grid[kb - 1]
+        };
         let mut c = if kb + 1 < n { grid[kb + 1] } else { gamma_hi };
         let phi = (5f64.sqrt() - 1.0) / 2.0;
-        let mut eval = |ctx: &mut Self, g: f64, best: &mut Option<Point>| -> Result<f64, SolveError> {
-            if let Some(&(_, v)) = memo.iter().find(|(x, _)| (*x - g).abs() <= 1e-12 * g) {
-                return Ok(v);
-            }
-            let v = match ctx.alpha_estimate(g, &found, steps, coarse, "refine")? {
-                Some(pt) => {
-                    let v = pt.alpha;
-                    if best.as_ref().map_or(true, |b| v > b.alpha) {
-                        *best = Some(pt.clone());
-                    }
-                    found.push(pt);
-                    v
+        let mut eval =
+            |ctx: &mut Self, g: f64, best: &mut Option<Point>| -> Result<f64, SolveError> {
+                if let Some(&(_, v)) = memo.iter().find(|(x, _)| (*x - g).abs() <= 1e-12 * g) {
+                    return Ok(v);
                 }
-                None => 0.0,
+                let v = match ctx.alpha_estimate(g, &found, steps, coarse, "refine")? {
+                    Some(pt) => {
+                        let v = pt.alpha;
+                        if best.as_ref().map_or(true, |b| v > b.alpha) {
+                            *best = Some(pt.clone());
+                        }
+                        found.push(pt);
+                        v
+                    }
+                    None => 0.0,
+                };
+                memo.push((g, v));
+                Ok(v)
             };
-            memo.push((g, v));
-            Ok(v)
-        };
         if c > a && self.settings.gamma_refine > 0 {
             let mut x1 = c - phi * (c - a);
             let mut x2 = a + phi * (c - a);
@@ -584,11 +649,6 @@ pub fn design_with_progress(
     // `state_bound auto`: compute Q first; the design then uses it as given.
     let (resolved, bound_info) = crate::state_bound::resolve(model, settings)?;
     let model: &PolytopicModel = &resolved;
-    if request.conditions != Conditions::Full {
-        return Err(SolveError::Unsupported(
-            "conditions = decoupled (issue 6 §3); use conditions = full".into(),
-        ));
-    }
     // Solve and certify with the requested representation of N_k, M_k.
     let split_model = crate::conditions::with_split(model, request.split);
     let model: &PolytopicModel = &split_model;
@@ -618,8 +678,17 @@ pub fn design_with_progress(
         }
         ConditionSet::Paper => 1.0 - 1e-6,
     };
-    let prob = Problem::new(model, set)?;
-    let mut ctx = Ctx { model, mode, settings, prob, steps: Vec::new(), progress };
+    // Full: all N p² rate blocks; decoupled: N·2p blocks with a slack Z_l per
+    // θ-vertex (sufficient). The certificate checks the full family either way.
+    let prob = Problem::new(model, set)?.with_conditions(request.conditions);
+    let mut ctx = Ctx {
+        model,
+        mode,
+        settings,
+        prob,
+        steps: Vec::new(),
+        progress,
+    };
 
     // The search.
     let mut notes: Vec<String> = Vec::new();
@@ -634,9 +703,22 @@ pub fn design_with_progress(
         notes.extend(bound_info.notes.iter().cloned());
     }
     if request.split == Split::Symmetric {
-        notes.push("N_k and M_k symmetrised ((T + Tᵀ)/2, the same plant); re-check with this split".into());
+        notes.push(
+            "N_k and M_k symmetrised ((T + Tᵀ)/2, the same plant); re-check with this split".into(),
+        );
     }
-    let (alpha_t, gamma_t, searched): (Option<f64>, f64, Option<Point>) = match (request.alpha, request.gamma) {
+    if request.conditions == Conditions::Decoupled {
+        notes.push(format!(
+            "conditions = decoupled: solved with {} rate blocks (one slack Z_l per θ-vertex, sufficient) instead of {}; the certificate checks the full family of {} blocks",
+            ctx.prob.n_rate_blocks(),
+            ctx.prob.n_full_rate_blocks(),
+            ctx.prob.n_full_rate_blocks()
+        ));
+    }
+    let (alpha_t, gamma_t, searched): (Option<f64>, f64, Option<Point>) = match (
+        request.alpha,
+        request.gamma,
+    ) {
         (AlphaSpec::Fixed(a), GammaSpec::Fixed(g)) => (Some(a), g, None),
         (AlphaSpec::Max, GammaSpec::Fixed(g)) => {
             let pt = ctx.alpha_max(g, None, settings.bisection_rel_tol, "bisect")?;
@@ -704,9 +786,17 @@ pub fn design_with_progress(
 
     let feasible = chosen.is_some();
     let shown = chosen.or(last);
-    let alpha_r = shown.as_ref().map(|p| p.alpha).or(alpha_t).unwrap_or_else(|| {
-        ctx.steps.iter().map(|s| s.alpha).fold(f64::INFINITY, f64::min).min(settings.alpha_floor)
-    });
+    let alpha_r = shown
+        .as_ref()
+        .map(|p| p.alpha)
+        .or(alpha_t)
+        .unwrap_or_else(|| {
+            ctx.steps
+                .iter()
+                .map(|s| s.alpha)
+                .fold(f64::INFINITY, f64::min)
+                .min(settings.alpha_floor)
+        });
     let gamma_r = shown.as_ref().map(|p| p.gamma).unwrap_or(gamma_t);
     let dchecks: BTreeMap<String, DataCheck> = match &shown {
         Some(p) => p.cert.data_checks.clone(),
@@ -715,9 +805,18 @@ pub fn design_with_progress(
     let margins = shown.as_ref().map(|p| p.cert.margins()).unwrap_or_default();
 
     // Notes and summary.
-    let unknown = ctx.steps.iter().filter(|s| s.status == Status::Unknown).count();
+    let unknown = ctx
+        .steps
+        .iter()
+        .filter(|s| s.status == Status::Unknown)
+        .count();
     if unknown > 0 {
-        let mut kinds: Vec<String> = ctx.steps.iter().filter(|s| s.status == Status::Unknown).map(|s| s.detail.clone()).collect();
+        let mut kinds: Vec<String> = ctx
+            .steps
+            .iter()
+            .filter(|s| s.status == Status::Unknown)
+            .map(|s| s.detail.clone())
+            .collect();
         kinds.sort();
         kinds.dedup();
         notes.push(format!(
@@ -732,9 +831,15 @@ pub fn design_with_progress(
             final_solver.detail
         ));
     }
-    let uncert = ctx.steps.iter().filter(|s| s.status == Status::Solved && !s.certified).count();
+    let uncert = ctx
+        .steps
+        .iter()
+        .filter(|s| s.status == Status::Solved && !s.certified)
+        .count();
     if uncert > 0 {
-        notes.push(format!("{uncert} solved points failed the independent certificate and were rejected"));
+        notes.push(format!(
+            "{uncert} solved points failed the independent certificate and were rejected"
+        ));
     }
     let s4 = dchecks.get("S4").cloned();
     if mode == Mode::Paper {
@@ -770,7 +875,14 @@ pub fn design_with_progress(
     }
     let failed: Vec<String> = shown
         .as_ref()
-        .map(|p| p.cert.families.iter().filter(|f| !f.passed).map(|f| format!("{} ({:.3e} at {})", f.name, f.margin, f.worst_at)).collect())
+        .map(|p| {
+            p.cert
+                .families
+                .iter()
+                .filter(|f| !f.passed)
+                .map(|f| format!("{} ({:.3e} at {})", f.name, f.margin, f.worst_at))
+                .collect()
+        })
         .unwrap_or_default();
 
     let (p_rows, g_rows, l_rows, norms) = match &shown {
@@ -778,7 +890,9 @@ pub fn design_with_progress(
             matrix_to_rows(&pt.p),
             pt.gammas.iter().map(matrix_to_rows).collect(),
             pt.l.iter().map(matrix_to_rows).collect(),
-            pt.l.iter().map(|l| l.clone().singular_values().max()).collect::<Vec<f64>>(),
+            pt.l.iter()
+                .map(|l| l.clone().singular_values().max())
+                .collect::<Vec<f64>>(),
         ),
         None => (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
     };
@@ -819,6 +933,7 @@ pub fn design_with_progress(
         model: model.name.clone(),
         mode,
         split: request.split,
+        conditions: request.conditions,
         feasible,
         certifies,
         alpha: alpha_r,

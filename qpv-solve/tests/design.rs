@@ -7,9 +7,13 @@
 
 #![allow(clippy::needless_range_loop)]
 
-use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound};
+use qpv_dsl::{
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound,
+};
 use qpv_solve::conditions::reference::paper_model;
-use qpv_solve::{check, design, design_with_progress, Design, SearchStep, Settings, SolveError, Status};
+use qpv_solve::{
+    check, design, design_with_progress, Design, SearchStep, Settings, SolveError, Status,
+};
 
 /// N_k, M_k exactly as printed (spec §7's statements are about this split).
 fn req(alpha: AlphaSpec, gamma: GammaSpec, mode: Mode) -> DesignRequest {
@@ -47,13 +51,23 @@ fn paper_mode_published_point_satisfies_printed_conditions() {
     assert!((s4.value - 4.48).abs() < 1e-9, "S4 value {}", s4.value);
     assert!(!s4.passed && !s4.required);
     assert!(d.notes.iter().any(|n| n.contains("certifies nothing")));
-    assert!(d.notes.iter().any(|n| n.contains("violated assumption (15)/(S4)") && n.contains("4.48")));
+    assert!(d
+        .notes
+        .iter()
+        .any(|n| n.contains("violated assumption (15)/(S4)") && n.contains("4.48")));
     assert!(d.summary.contains("certifies nothing"));
     // The independent checker agrees from the JSON alone.
     let c = recheck_json(&model, &d);
     assert!(c.families_passed());
     // ... and the same gains fail the sound conditions.
-    let s = check(&model, Mode::Sound, 10.0, 0.4, &d.p_matrix(), &d.l_matrices());
+    let s = check(
+        &model,
+        Mode::Sound,
+        10.0,
+        0.4,
+        &d.p_matrix(),
+        &d.l_matrices(),
+    );
     assert!(!s.passed);
 }
 
@@ -85,12 +99,23 @@ fn sound_mode_certified_at_gamma_01889() {
     assert_eq!(d.l.len(), 4);
     assert_eq!((d.l[0].len(), d.l[0][0].len()), (3, 2));
     // Moderate gains (the default objective).
-    assert!(d.gain_norms.iter().all(|&g| g > 0.0 && g < 100.0), "{:?}", d.gain_norms);
+    assert!(
+        d.gain_norms.iter().all(|&g| g > 0.0 && g < 100.0),
+        "{:?}",
+        d.gain_norms
+    );
     let c = recheck_json(&model, &d);
     assert!(c.passed, "{c:?}");
     // Not certifiable at a slightly larger α with the same gains ⇒ the
     // checker is not vacuous.
-    let c2 = check(&model, Mode::Sound, 10.0, 0.4, &d.p_matrix(), &d.l_matrices());
+    let c2 = check(
+        &model,
+        Mode::Sound,
+        10.0,
+        0.4,
+        &d.p_matrix(),
+        &d.l_matrices(),
+    );
     assert!(!c2.passed);
 }
 
@@ -103,7 +128,10 @@ fn gamma_max_from_s4() {
 #[test]
 fn alpha_max_paper_mode_at_gamma_04() {
     let model = paper_model();
-    let d = run(&model, &req(AlphaSpec::Max, GammaSpec::Fixed(0.4), Mode::Paper));
+    let d = run(
+        &model,
+        &req(AlphaSpec::Max, GammaSpec::Fixed(0.4), Mode::Paper),
+    );
     assert!(d.feasible, "{}", d.summary);
     // The published α = 10 is feasible, so α_max ≥ 10; measured 10.03.
     assert!(d.alpha >= 10.0 && d.alpha < 10.1, "α_max = {}", d.alpha);
@@ -113,13 +141,21 @@ fn alpha_max_paper_mode_at_gamma_04() {
         .search
         .iter()
         .any(|s| !s.certified && s.alpha > d.alpha && s.alpha <= d.alpha * (1.0 + tol)));
-    println!("paper α_max(γ=0.4) = {:.5} in {} solves, {:.3} s", d.alpha, d.search.len(), d.seconds_total);
+    println!(
+        "paper α_max(γ=0.4) = {:.5} in {} solves, {:.3} s",
+        d.alpha,
+        d.search.len(),
+        d.seconds_total
+    );
 }
 
 #[test]
 fn alpha_max_sound_mode_at_gamma_01889() {
     let model = paper_model();
-    let d = run(&model, &req(AlphaSpec::Max, GammaSpec::Fixed(0.1889), Mode::Sound));
+    let d = run(
+        &model,
+        &req(AlphaSpec::Max, GammaSpec::Fixed(0.1889), Mode::Sound),
+    );
     assert!(d.feasible && d.certifies, "{}", d.summary);
     assert!(d.alpha >= 10.0 && d.alpha < 11.0, "α_max = {}", d.alpha);
     let tol = Settings::default().bisection_rel_tol;
@@ -128,7 +164,12 @@ fn alpha_max_sound_mode_at_gamma_01889() {
         .iter()
         .any(|s| !s.certified && s.alpha > d.alpha && s.alpha <= d.alpha * (1.0 + tol)));
     assert!(recheck_json(&model, &d).passed);
-    println!("sound α_max(γ=0.1889) = {:.5} in {} solves, {:.3} s", d.alpha, d.search.len(), d.seconds_total);
+    println!(
+        "sound α_max(γ=0.1889) = {:.5} in {} solves, {:.3} s",
+        d.alpha,
+        d.search.len(),
+        d.seconds_total
+    );
 }
 
 #[test]
@@ -172,13 +213,22 @@ fn paper_mode_gamma_search_stays_in_open_unit_interval() {
 #[test]
 fn fixed_alpha_with_gamma_search() {
     let model = paper_model();
-    let d = run(&model, &req(AlphaSpec::Fixed(10.0), GammaSpec::Search, Mode::Sound));
+    let d = run(
+        &model,
+        &req(AlphaSpec::Fixed(10.0), GammaSpec::Search, Mode::Sound),
+    );
     assert!(d.feasible && d.certifies, "{}", d.summary);
     assert_eq!(d.alpha, 10.0);
     // Too fast a rate: no γ works, and the report says so.
-    let d = run(&model, &req(AlphaSpec::Fixed(50.0), GammaSpec::Search, Mode::Sound));
+    let d = run(
+        &model,
+        &req(AlphaSpec::Fixed(50.0), GammaSpec::Search, Mode::Sound),
+    );
     assert!(!d.feasible, "{}", d.summary);
-    assert!(d.notes.iter().any(|n| n.contains("exceeds the best certified")));
+    assert!(d
+        .notes
+        .iter()
+        .any(|n| n.contains("exceeds the best certified")));
 }
 
 #[test]
@@ -200,21 +250,44 @@ fn unknown_solver_status_counts_only_through_the_certificate() {
         assert_eq!(d.feasible, passed, "max_iter {max_iter}: {}", d.summary);
         seen_uncertified |= !d.feasible;
         // The search treats unknowns as "not certified" and reports them.
-        let d = design(&model, &req(AlphaSpec::Max, GammaSpec::Fixed(0.1889), Mode::Sound), &settings).unwrap();
+        let d = design(
+            &model,
+            &req(AlphaSpec::Max, GammaSpec::Fixed(0.1889), Mode::Sound),
+            &settings,
+        )
+        .unwrap();
         assert!(d.search.iter().all(|s| s.status == Status::Unknown));
-        assert!(d.search.iter().all(|s| !s.certified || s.alpha_certified > 0.0));
+        assert!(d
+            .search
+            .iter()
+            .all(|s| !s.certified || s.alpha_certified > 0.0));
     }
-    assert!(seen_uncertified, "at least the 1-iteration point is rejected");
+    assert!(
+        seen_uncertified,
+        "at least the 1-iteration point is rejected"
+    );
 }
 
 #[test]
 fn request_errors() {
     let model = paper_model();
     let s = Settings::default();
-    assert_eq!(design(&model, &fixed(10.0, 1.0, Mode::Sound), &s), Err(SolveError::BadGamma(1.0)));
-    assert_eq!(design(&model, &fixed(10.0, 0.0, Mode::Paper), &s), Err(SolveError::BadGamma(0.0)));
-    assert_eq!(design(&model, &fixed(-1.0, 0.1, Mode::Sound), &s), Err(SolveError::BadAlpha(-1.0)));
-    assert!(matches!(design(&model, &fixed(f64::NAN, 0.1, Mode::Sound), &s), Err(SolveError::BadAlpha(_))));
+    assert_eq!(
+        design(&model, &fixed(10.0, 1.0, Mode::Sound), &s),
+        Err(SolveError::BadGamma(1.0))
+    );
+    assert_eq!(
+        design(&model, &fixed(10.0, 0.0, Mode::Paper), &s),
+        Err(SolveError::BadGamma(0.0))
+    );
+    assert_eq!(
+        design(&model, &fixed(-1.0, 0.1, Mode::Sound), &s),
+        Err(SolveError::BadAlpha(-1.0))
+    );
+    assert!(matches!(
+        design(&model, &fixed(f64::NAN, 0.1, Mode::Sound), &s),
+        Err(SolveError::BadAlpha(_))
+    ));
     let mut no_q = model.clone();
     no_q.state_bound = StateBound::None;
     assert!(matches!(
@@ -225,12 +298,16 @@ fn request_errors() {
     let d = design(&no_q, &fixed(10.0, 0.4, Mode::Paper), &s).unwrap();
     assert!(d.feasible && d.data_checks.is_empty());
     assert!(d.notes.iter().any(|n| n.contains("not checked")));
-    let mut dec = fixed(10.0, 0.1, Mode::Sound);
+    // Decoupled conditions validate the request the same way.
+    let mut dec = fixed(10.0, 1.5, Mode::Sound);
     dec.conditions = Conditions::Decoupled;
-    assert!(matches!(design(&model, &dec, &s), Err(SolveError::Unsupported(_))));
+    assert_eq!(design(&model, &dec, &s), Err(SolveError::BadGamma(1.5)));
     let mut empty = model.clone();
     empty.region.vertices.clear();
-    assert_eq!(design(&empty, &fixed(10.0, 0.1, Mode::Sound), &s), Err(SolveError::EmptyRegion));
+    assert_eq!(
+        design(&empty, &fixed(10.0, 0.1, Mode::Sound), &s),
+        Err(SolveError::EmptyRegion)
+    );
 }
 
 #[test]
@@ -240,15 +317,34 @@ fn json_keys_are_exactly_the_documented_ones() {
     let v: serde_json::Value = serde_json::from_str(&d.to_json()).unwrap();
     let obj = v.as_object().unwrap();
     for key in [
-        "model", "mode", "split", "feasible", "certifies", "alpha", "gamma", "P", "Gamma", "L", "gain_norms", "margins",
-        "data_checks", "solver", "seconds_total", "search", "notes", "summary", "state_bound",
+        "model",
+        "mode",
+        "split",
+        "conditions",
+        "feasible",
+        "certifies",
+        "alpha",
+        "gamma",
+        "P",
+        "Gamma",
+        "L",
+        "gain_norms",
+        "margins",
+        "data_checks",
+        "solver",
+        "seconds_total",
+        "search",
+        "notes",
+        "summary",
+        "state_bound",
     ] {
         assert!(obj.contains_key(key), "missing key {key}");
     }
-    assert_eq!(obj.len(), 19);
+    assert_eq!(obj.len(), 20);
     assert_eq!(v["state_bound"]["source"], "given");
     assert_eq!(v["mode"], "sound");
     assert_eq!(v["split"], "as_written");
+    assert_eq!(v["conditions"], "full");
     assert_eq!(v["solver"]["status"], "solved");
     for key in ["status", "iterations", "seconds"] {
         assert!(v["solver"].get(key).is_some());
@@ -259,7 +355,8 @@ fn json_keys_are_exactly_the_documented_ones() {
 
 #[test]
 fn parsed_paper_example_matches_hand_built_model() {
-    let models = qpv_dsl::parse(include_str!("../../examples/paper.qpv")).expect("paper.qpv parses");
+    let models =
+        qpv_dsl::parse(include_str!("../../examples/paper.qpv")).expect("paper.qpv parses");
     let parsed = models[0].polytopic();
     let hand = paper_model();
     assert_eq!(parsed.nv(), hand.nv());
@@ -275,7 +372,17 @@ fn parsed_paper_example_matches_hand_built_model() {
     assert!(d0.feasible && !d0.certifies);
     // The gains designed on the hand-built model certify on the parsed one.
     let d = run(&hand, &fixed(10.0, 0.1889, Mode::Sound));
-    assert!(check(&parsed, Mode::Sound, 10.0, 0.1889, &d.p_matrix(), &d.l_matrices()).passed);
+    assert!(
+        check(
+            &parsed,
+            Mode::Sound,
+            10.0,
+            0.1889,
+            &d.p_matrix(),
+            &d.l_matrices()
+        )
+        .passed
+    );
 }
 
 #[test]
@@ -294,5 +401,11 @@ fn symmetric_split_certifies_a_faster_rate() {
     // The symmetrised model is the same plant: its gains make V decrease
     // along the true error dynamics of the model as written, which the
     // sound conditions on the symmetrised data guarantee.
-    println!("symmetric split: α = {:.5}, γ = {:.5} in {} solves, {:.3} s", d.alpha, d.gamma, d.search.len(), d.seconds_total);
+    println!(
+        "symmetric split: α = {:.5}, γ = {:.5} in {} solves, {:.3} s",
+        d.alpha,
+        d.gamma,
+        d.search.len(),
+        d.seconds_total
+    );
 }
