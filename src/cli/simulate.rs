@@ -111,7 +111,7 @@ pub fn write_figures(
     for (k, name) in poly.states.iter().enumerate() {
         let series = vec![
             Series::new(
-                format!("{name}"),
+                name.clone(),
                 column(&traj.x, &traj.t, k),
                 PALETTE[0],
                 false,
