@@ -13,8 +13,17 @@ use std::time::Instant;
 /// on the machine than wall time).
 fn cpu_seconds() -> f64 {
     let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let f: Vec<&str> = s.rsplit(')').next().unwrap_or("").split_whitespace().collect();
-    let tick = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    let f: Vec<&str> = s
+        .rsplit(')')
+        .next()
+        .unwrap_or("")
+        .split_whitespace()
+        .collect();
+    let tick = |i: usize| {
+        f.get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
     (tick(11) + tick(12)) / 100.0
 }
 
@@ -32,11 +41,41 @@ fn main() {
     );
     let w = Split::AsWritten;
     for (name, mode, alpha, gamma, split) in [
-        ("sound α=max γ=search", Mode::Sound, AlphaSpec::Max, GammaSpec::Search, w),
-        ("paper α=max γ=search", Mode::Paper, AlphaSpec::Max, GammaSpec::Search, w),
-        ("sound α=max γ=0.1889", Mode::Sound, AlphaSpec::Max, GammaSpec::Fixed(0.1889), w),
-        ("paper α=max γ=0.4", Mode::Paper, AlphaSpec::Max, GammaSpec::Fixed(0.4), w),
-        ("sound sym. α=max γ=search", Mode::Sound, AlphaSpec::Max, GammaSpec::Search, Split::Symmetric),
+        (
+            "sound α=max γ=search",
+            Mode::Sound,
+            AlphaSpec::Max,
+            GammaSpec::Search,
+            w,
+        ),
+        (
+            "paper α=max γ=search",
+            Mode::Paper,
+            AlphaSpec::Max,
+            GammaSpec::Search,
+            w,
+        ),
+        (
+            "sound α=max γ=0.1889",
+            Mode::Sound,
+            AlphaSpec::Max,
+            GammaSpec::Fixed(0.1889),
+            w,
+        ),
+        (
+            "paper α=max γ=0.4",
+            Mode::Paper,
+            AlphaSpec::Max,
+            GammaSpec::Fixed(0.4),
+            w,
+        ),
+        (
+            "sound sym. α=max γ=search",
+            Mode::Sound,
+            AlphaSpec::Max,
+            GammaSpec::Search,
+            Split::Symmetric,
+        ),
     ] {
         let mut req = request(alpha, gamma, mode);
         req.split = split;

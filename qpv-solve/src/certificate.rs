@@ -120,9 +120,8 @@ impl Acc {
         if margin.is_nan() || margin <= guard {
             self.passed = false;
         }
-        let worse = self.count == 1
-            || (margin.is_nan() && !self.margin.is_nan())
-            || margin < self.margin;
+        let worse =
+            self.count == 1 || (margin.is_nan() && !self.margin.is_nan()) || margin < self.margin;
         if worse {
             self.margin = margin;
             self.guard = guard;
@@ -132,7 +131,11 @@ impl Acc {
     fn finish(self) -> FamilyMargin {
         FamilyMargin {
             name: self.name.to_string(),
-            margin: if self.count == 0 { 0.0 } else { finite(self.margin) },
+            margin: if self.count == 0 {
+                0.0
+            } else {
+                finite(self.margin)
+            },
             guard: self.guard,
             passed: self.passed && self.count > 0,
             worst_at: self.worst_at,
@@ -171,13 +174,16 @@ pub fn check(
     p: &DMatrix<f64>,
     l: &[DMatrix<f64>],
 ) -> Certificate {
-    let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| {
-        if p.ncols() == li.nrows() {
-            p * li
-        } else {
-            DMatrix::zeros(0, 0)
-        }
-    }).collect();
+    let gammas: Vec<DMatrix<f64>> = l
+        .iter()
+        .map(|li| {
+            if p.ncols() == li.nrows() {
+                p * li
+            } else {
+                DMatrix::zeros(0, 0)
+            }
+        })
+        .collect();
     let lnorm: Vec<f64> = l.iter().map(|li| li.norm()).collect();
     check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm)
 }
@@ -214,11 +220,18 @@ fn input_errors(
         errs.push(format!("P is {:?}, expected ({nx}, {nx})", p.shape()));
     }
     if gammas.len() != model.nv() {
-        errs.push(format!("{} gains given, the model has {} vertices", gammas.len(), model.nv()));
+        errs.push(format!(
+            "{} gains given, the model has {} vertices",
+            gammas.len(),
+            model.nv()
+        ));
     }
     for (i, g) in gammas.iter().enumerate() {
         if g.shape() != (nx, ny) {
-            errs.push(format!("gain {} has the wrong shape (expected {nx} × {ny})", i + 1));
+            errs.push(format!(
+                "gain {} has the wrong shape (expected {nx} × {ny})",
+                i + 1
+            ));
         }
     }
     if !p.iter().all(|v| v.is_finite()) || !gammas.iter().all(|g| g.iter().all(|v| v.is_finite())) {
@@ -280,8 +293,9 @@ pub fn data_checks(model: &PolytopicModel, mode: Mode, gamma: f64) -> BTreeMap<S
             margin: finite(1.0 - inf),
             passed: inf <= 1.0,
             required: false,
-            description: "max_i x_(i)ᵀ Q⁻¹ x_(i) ≤ 1: the region P lies in the state bound F (Assumption 2)"
-                .to_string(),
+            description:
+                "max_i x_(i)ᵀ Q⁻¹ x_(i) ≤ 1: the region P lies in the state bound F (Assumption 2)"
+                    .to_string(),
         },
     );
     out
@@ -324,9 +338,13 @@ fn check_inner(
     let asym = (p - p.transpose()).norm();
     let ps = (p + p.transpose()) * 0.5;
     if asym > 4.0 * f64::EPSILON * pn {
-        s1.add(-asym, 0.0, || format!("P is not symmetric (‖P − Pᵀ‖_F = {asym:e})"));
+        s1.add(-asym, 0.0, || {
+            format!("P is not symmetric (‖P − Pᵀ‖_F = {asym:e})")
+        });
     } else {
-        s1.add(lambda_min(&ps), GUARD_C * (nx as f64 + 1.0) * pn, || "P".into());
+        s1.add(lambda_min(&ps), GUARD_C * (nx as f64 + 1.0) * pn, || {
+            "P".into()
+        });
     }
 
     // Region vertices.
@@ -396,7 +414,9 @@ fn check_inner(
                 m += &ps * (gamma * alpha);
                 let size = base_size + pn * r.norm() + gn * s.norm();
                 let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
-                sr.add(-lambda_max(&m), guard, || format!("l={} i={} j={}", l + 1, i + 1, j + 1));
+                sr.add(-lambda_max(&m), guard, || {
+                    format!("l={} i={} j={}", l + 1, i + 1, j + 1)
+                });
             }
         }
     }

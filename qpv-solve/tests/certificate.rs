@@ -16,7 +16,12 @@ fn fixed(alpha: f64, gamma: f64, mode: Mode) -> DesignRequest {
 }
 
 fn sound_design(model: &PolytopicModel) -> Design {
-    let d = design(model, &fixed(10.0, 0.1889, Mode::Sound), &Settings::default()).unwrap();
+    let d = design(
+        model,
+        &fixed(10.0, 0.1889, Mode::Sound),
+        &Settings::default(),
+    )
+    .unwrap();
     assert!(d.feasible, "{}", d.summary);
     d
 }
@@ -28,7 +33,13 @@ fn quad(t: &[DMatrix<f64>], x: &DVector<f64>) -> DVector<f64> {
 
 /// e' of plant minus observer at vertex l (θ fixed at the corner, u = 0),
 /// computed from the nonlinear right-hand sides themselves, not the LMI.
-fn error_rate(model: &PolytopicModel, l: usize, gain: &DMatrix<f64>, x: &DVector<f64>, e: &DVector<f64>) -> DVector<f64> {
+fn error_rate(
+    model: &PolytopicModel,
+    l: usize,
+    gain: &DMatrix<f64>,
+    x: &DVector<f64>,
+    e: &DVector<f64>,
+) -> DVector<f64> {
     let v = &model.vertices[l];
     let xh = x - e;
     let fx = &v.a * x + quad(&v.n, x);
@@ -117,7 +128,14 @@ fn checker_rejects_broken_inputs() {
     let c = check(&model, Mode::Sound, d.alpha, 0.2, &p, &ls);
     assert!(!c.passed && !c.data_checks["S4"].passed);
     // Wrong shapes, NaN, bad α/γ: input errors, never a pass.
-    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &DMatrix::identity(2, 2), &ls);
+    let c = check(
+        &model,
+        Mode::Sound,
+        d.alpha,
+        d.gamma,
+        &DMatrix::identity(2, 2),
+        &ls,
+    );
     assert!(!c.passed && !c.input_errors.is_empty());
     let c = check(&model, Mode::Sound, d.alpha, d.gamma, &p, &ls[..3]);
     assert!(!c.passed && !c.input_errors.is_empty());
@@ -182,7 +200,11 @@ fn symmetric_split_lmi_is_the_true_lyapunov_derivative_too() {
     // along the error dynamics of the model *as written*: same plant, so the
     // identity eᵀ(S5 − γαP)e = γ·2eᵀPe' must hold exactly as well.
     let model = paper_model();
-    let r = qpv_solve::request(AlphaSpec::Fixed(12.0), GammaSpec::Fixed(0.1889), Mode::Sound);
+    let r = qpv_solve::request(
+        AlphaSpec::Fixed(12.0),
+        GammaSpec::Fixed(0.1889),
+        Mode::Sound,
+    );
     assert_eq!(r.split, qpv_dsl::Split::Symmetric);
     let d = design(&model, &r, &Settings::default()).unwrap();
     assert!(d.feasible, "{}", d.summary);

@@ -110,12 +110,7 @@ pub fn write_figures(
     let io = |e: String| CliError::Io(e);
     for (k, name) in poly.states.iter().enumerate() {
         let series = vec![
-            Series::new(
-                name.clone(),
-                column(&traj.x, &traj.t, k),
-                PALETTE[0],
-                false,
-            ),
+            Series::new(name.clone(), column(&traj.x, &traj.t, k), PALETTE[0], false),
             Series::new(
                 format!("{name} estimate"),
                 column(&traj.xhat, &traj.t, k),
