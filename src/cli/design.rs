@@ -41,36 +41,81 @@ fn parse_gamma(s: &str) -> Result<GammaSpec, CliError> {
     }
 }
 
-/// The requests to run: without flags, the model's own `design` blocks (or
-/// α = max, γ = search, sound if it has none); with any of `--mode`,
-/// `--alpha`, `--gamma`, one request built from the flags alone, the
-/// unspecified ones taking those same defaults.
-fn requests(
-    model: &Model,
-    mode: Option<&str>,
-    alpha: Option<&str>,
-    gamma: Option<&str>,
-) -> Result<Vec<DesignRequest>, CliError> {
+/// Parses `--split`.
+fn parse_split(s: &str) -> Result<Split, CliError> {
+    match s {
+        "as_written" => Ok(Split::AsWritten),
+        "symmetric" => Ok(Split::Symmetric),
+        _ => Err(CliError::Input(format!(
+            "--split {s:?}: expected `as_written` or `symmetric`"
+        ))),
+    }
+}
+
+/// Parses `--conditions`.
+fn parse_conditions(s: &str) -> Result<Conditions, CliError> {
+    match s {
+        "full" => Ok(Conditions::Full),
+        "decoupled" => Ok(Conditions::Decoupled),
+        _ => Err(CliError::Input(format!(
+            "--conditions {s:?}: expected `full` or `decoupled`"
+        ))),
+    }
+}
+
+/// The design flags of `qpv design` (each `None` when not given).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Flags<'a> {
+    /// `--mode`.
+    pub mode: Option<&'a str>,
+    /// `--alpha`.
+    pub alpha: Option<&'a str>,
+    /// `--gamma`.
+    pub gamma: Option<&'a str>,
+    /// `--split`.
+    pub split: Option<&'a str>,
+    /// `--conditions`.
+    pub conditions: Option<&'a str>,
+}
+
+/// The requests to run: without `--mode`, `--alpha`, `--gamma`, the model's
+/// own `design` blocks (or α = max, γ = search, sound if it has none); with
+/// any of them, one request built from the flags alone, the unspecified
+/// ones taking those same defaults. `--split` and `--conditions` then
+/// override that setting in every request.
+fn requests(model: &Model, f: Flags) -> Result<Vec<DesignRequest>, CliError> {
+    let split = f.split.map(parse_split).transpose()?;
+    let conditions = f.conditions.map(parse_conditions).transpose()?;
     let default = DesignRequest::default();
-    if mode.is_none() && alpha.is_none() && gamma.is_none() {
-        return Ok(if model.designs.is_empty() {
+    let mut reqs = if f.mode.is_none() && f.alpha.is_none() && f.gamma.is_none() {
+        if model.designs.is_empty() {
             vec![default]
         } else {
             model.designs.clone()
-        });
+        }
+    } else {
+        let mut r = default;
+        if let Some(m) = f.mode {
+            r.mode = parse_mode(m)?;
+            r.split = Split::default_for(r.mode);
+        }
+        if let Some(a) = f.alpha {
+            r.alpha = parse_alpha(a)?;
+        }
+        if let Some(g) = f.gamma {
+            r.gamma = parse_gamma(g)?;
+        }
+        vec![r]
+    };
+    for r in &mut reqs {
+        if let Some(s) = split {
+            r.split = s;
+        }
+        if let Some(c) = conditions {
+            r.conditions = c;
+        }
     }
-    let mut r = default;
-    if let Some(m) = mode {
-        r.mode = parse_mode(m)?;
-        r.split = Split::default_for(r.mode);
-    }
-    if let Some(a) = alpha {
-        r.alpha = parse_alpha(a)?;
-    }
-    if let Some(g) = gamma {
-        r.gamma = parse_gamma(g)?;
-    }
-    Ok(vec![r])
+    Ok(reqs)
 }
 
 fn describe_request(r: &DesignRequest) -> String {
@@ -150,6 +195,17 @@ pub fn describe_design(d: &Design) -> String {
         "  alpha = {:.6}, gamma = {:.6}\n",
         d.alpha, d.gamma
     ));
+    s.push_str(&format!(
+        "  split = {}, conditions = {}\n",
+        match d.split {
+            Split::AsWritten => "as_written",
+            Split::Symmetric => "symmetric",
+        },
+        match d.conditions {
+            Conditions::Full => "full (all vertex pairs)",
+            Conditions::Decoupled => "decoupled (certified on all vertex pairs)",
+        }
+    ));
     if let Some(sb) = &d.state_bound {
         s.push_str(&describe_state_bound(sb));
     }
@@ -215,13 +271,11 @@ pub fn describe_design(d: &Design) -> String {
 pub fn run(
     file: &Path,
     model_name: Option<&str>,
-    mode: Option<&str>,
-    alpha: Option<&str>,
-    gamma: Option<&str>,
+    flags: Flags,
     json: Option<&str>,
 ) -> Result<i32, CliError> {
     let (_, model) = load_model(file, model_name)?;
-    let reqs = requests(&model, mode, alpha, gamma)?;
+    let reqs = requests(&model, flags)?;
     let poly = model.polytopic();
     let settings = qpv_solve::Settings::default();
     let to_stdout = json == Some("-");

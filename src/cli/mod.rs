@@ -39,6 +39,16 @@ pub enum Command {
         /// Region scaling: a number in (0,1) or `search`.
         #[arg(long)]
         gamma: Option<String>,
+        /// Representation of N_k, M_k: `as_written` or `symmetric` (default:
+        /// symmetric in sound mode, as_written in paper mode). Overrides
+        /// the model's design blocks.
+        #[arg(long)]
+        split: Option<String>,
+        /// Rate conditions solved: `full` (all p² vertex pairs) or
+        /// `decoupled` (one slack per θ-vertex, 2p blocks; the certificate
+        /// still checks all pairs). Overrides the model's design blocks.
+        #[arg(long)]
+        conditions: Option<String>,
         /// Write the JSON report to this file (`-` for stdout).
         #[arg(long)]
         json: Option<String>,
@@ -126,13 +136,19 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             mode,
             alpha,
             gamma,
+            split,
+            conditions,
             json,
         } => design::run(
             &file,
             model.as_deref(),
-            mode.as_deref(),
-            alpha.as_deref(),
-            gamma.as_deref(),
+            design::Flags {
+                mode: mode.as_deref(),
+                alpha: alpha.as_deref(),
+                gamma: gamma.as_deref(),
+                split: split.as_deref(),
+                conditions: conditions.as_deref(),
+            },
             json.as_deref(),
         ),
         Command::Check {
