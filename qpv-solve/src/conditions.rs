@@ -17,6 +17,13 @@
 //! (13) [1 xᵢᵀ; xᵢ P] ⪰ 0 and (14) [1 γaₖᵀP; γPaₖ P] ⪰ 0 (paper).
 //! (S1) P ≻ 0 is imposed in both modes.
 //!
+//! `conditions = decoupled` (issue 6 §3) writes the rate matrix as
+//! F_{l,i,j} = F0_l + G_l(x_i) + H_l(x_j): the terms of the e-vertex x_i
+//! (rows(·, x_i), with F0) and those of the x-vertex x_j (rowsHe(·, x_j)),
+//! and imposes
+//! F0_l + G_l(x_i) + Z_l ≺ 0 and H_l(x_j) ⪯ Z_l with a slack Z_l per
+//! θ-vertex ([`crate::sdp`]); the certificate checks F_{l,i,j} itself.
+//!
 //! Convention for N_k and M_k: the matrices are used exactly as written in
 //! the model (no symmetrisation): row k of rows(T, v) is vᵀ T_k and row k of
 //! rowsHe(T, v) is vᵀ (T_k + T_kᵀ).
@@ -255,7 +262,10 @@ pub fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
             return bad(format!("A at vertex {} is {:?}", l + 1, v.a.shape()));
         }
         if v.n.len() != nx || v.n.iter().any(|m| m.shape() != (nx, nx)) {
-            return bad(format!("vertex {}: expected {nx} matrices N_k of {nx} × {nx}", l + 1));
+            return bad(format!(
+                "vertex {}: expected {nx} matrices N_k of {nx} × {nx}",
+                l + 1
+            ));
         }
     }
     if model.region.vertices.iter().any(|x| x.len() != nx)
@@ -272,8 +282,16 @@ pub fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
         v.a.iter().all(|x| x.is_finite()) && v.n.iter().all(|m| m.iter().all(|x| x.is_finite()))
     }) && model.c.iter().all(|x| x.is_finite())
         && model.m.iter().all(|m| m.iter().all(|x| x.is_finite()))
-        && model.region.vertices.iter().all(|x| x.iter().all(|v| v.is_finite()))
-        && model.region.facets.iter().all(|x| x.iter().all(|v| v.is_finite()));
+        && model
+            .region
+            .vertices
+            .iter()
+            .all(|x| x.iter().all(|v| v.is_finite()))
+        && model
+            .region
+            .facets
+            .iter()
+            .all(|x| x.iter().all(|v| v.is_finite()));
     if !all_finite {
         return bad("non-finite entries in the model data".into());
     }
@@ -332,15 +350,7 @@ pub mod reference {
     /// significant, − before +) and 2n facets ±e_i/h.
     pub fn box_region(n: usize, h: f64) -> Region {
         let vertices = (0..1usize << n)
-            .map(|v| {
-                DVector::from_fn(n, |i, _| {
-                    if (v >> (n - 1 - i)) & 1 == 1 {
-                        h
-                    } else {
-                        -h
-                    }
-                })
-            })
+            .map(|v| DVector::from_fn(n, |i, _| if (v >> (n - 1 - i)) & 1 == 1 { h } else { -h }))
             .collect();
         let mut facets = Vec::with_capacity(2 * n);
         for i in 0..n {
@@ -359,9 +369,15 @@ pub mod reference {
             3,
             3,
             &[
-                -4.0 - t1, 10.0, 2.0 + 2.0 * t2, //
-                -1.0, -1.0 - t2, 1.5 + 2.0 * t1, //
-                1.0, 1.0, -4.0 - 3.0 * t1,
+                -4.0 - t1,
+                10.0,
+                2.0 + 2.0 * t2, //
+                -1.0,
+                -1.0 - t2,
+                1.5 + 2.0 * t1, //
+                1.0,
+                1.0,
+                -4.0 - 3.0 * t1,
             ],
         )
     }
@@ -369,9 +385,21 @@ pub mod reference {
     /// N_1(θ), N_2(θ), N_3(θ) of the paper's example, as printed.
     pub fn paper_n(t1: f64, t2: f64) -> Vec<DMatrix<f64>> {
         vec![
-            DMatrix::from_row_slice(3, 3, &[0.5, 1.0 + t1, 0.0, 0.0, 0.0, -t2, 0.0, 1.0 + t2, 0.0]),
-            DMatrix::from_row_slice(3, 3, &[-0.4, 0.0, 1.0 - t1, 1.5, 0.0, 1.0 + t2, 2.0 + t2, 0.0, 0.0]),
-            DMatrix::from_row_slice(3, 3, &[1.5, -0.5 - t1, 0.0, 3.0 + t1, 0.0, 0.0, 0.0, 2.0 - t2, 0.0]),
+            DMatrix::from_row_slice(
+                3,
+                3,
+                &[0.5, 1.0 + t1, 0.0, 0.0, 0.0, -t2, 0.0, 1.0 + t2, 0.0],
+            ),
+            DMatrix::from_row_slice(
+                3,
+                3,
+                &[-0.4, 0.0, 1.0 - t1, 1.5, 0.0, 1.0 + t2, 2.0 + t2, 0.0, 0.0],
+            ),
+            DMatrix::from_row_slice(
+                3,
+                3,
+                &[1.5, -0.5 - t1, 0.0, 3.0 + t1, 0.0, 0.0, 0.0, 2.0 - t2, 0.0],
+            ),
         ]
     }
 
@@ -380,7 +408,9 @@ pub mod reference {
         DMatrix::from_row_slice(
             3,
             3,
-            &[0.0112, 0.0017, 0.0006, 0.0017, 0.0025, -0.0022, 0.0006, -0.0022, 0.0061],
+            &[
+                0.0112, 0.0017, 0.0006, 0.0017, 0.0025, -0.0022, 0.0006, -0.0022, 0.0061,
+            ],
         )
     }
 
@@ -459,7 +489,15 @@ pub mod reference {
             .collect();
         let c = DMatrix::from_fn(ny, nx, |r, c| if r == c { 1.0 } else { 0.0 });
         let m = (0..ny)
-            .map(|k| DMatrix::from_fn(nx, nx, |r, c| if r == (k + 1) % nx && c == nx - 1 { 0.5 } else { 0.0 }))
+            .map(|k| {
+                DMatrix::from_fn(nx, nx, |r, c| {
+                    if r == (k + 1) % nx && c == nx - 1 {
+                        0.5
+                    } else {
+                        0.0
+                    }
+                })
+            })
             .collect();
         PolytopicModel {
             name: format!("synthetic{nx}"),
