@@ -1,119 +1,13 @@
 //! Timing of the simulator and the falsifier on the paper's example
 //! (spec §7). Run with `cargo bench -p qpv-solve --bench sim`; prints numbers.
 
-use nalgebra::{DMatrix, DVector};
-use qpv_dsl::{
-    AlphaSpec, DesignRequest, GammaSpec, Mode, Param, PolytopicModel, Region, Span, StateBound,
-    Vertex,
-};
+use nalgebra::DMatrix;
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode};
+use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::falsify::{falsify, falsify_design};
 use qpv_solve::simulate::{simulate, Scenario};
 use std::hint::black_box;
 use std::time::Instant;
-
-fn param(name: &str, lo: f64, hi: f64) -> Param {
-    Param {
-        name: name.to_string(),
-        lo,
-        hi,
-        span: Span::default(),
-    }
-}
-
-fn names(prefix: &str, n: usize) -> Vec<String> {
-    (1..=n).map(|i| format!("{prefix}{i}")).collect()
-}
-
-fn box_region(half: f64, n: usize) -> Region {
-    let vertices = (0..1usize << n)
-        .map(|c| DVector::from_fn(n, |i, _| if c >> i & 1 == 1 { half } else { -half }))
-        .collect();
-    let facets = (0..n)
-        .flat_map(|i| {
-            [1.0, -1.0].map(|s| DVector::from_fn(n, |j, _| if i == j { s / half } else { 0.0 }))
-        })
-        .collect();
-    Region { vertices, facets }
-}
-
-/// A(θ) of the paper's example (spec §7).
-fn paper_a(t1: f64, t2: f64) -> DMatrix<f64> {
-    DMatrix::from_row_slice(
-        3,
-        3,
-        &[
-            -4.0 - t1,
-            10.0,
-            2.0 + 2.0 * t2,
-            -1.0,
-            -1.0 - t2,
-            1.5 + 2.0 * t1,
-            1.0,
-            1.0,
-            -4.0 - 3.0 * t1,
-        ],
-    )
-}
-
-/// N_1(θ), N_2(θ), N_3(θ) of the paper's example (spec §7).
-fn paper_n(t1: f64, t2: f64) -> Vec<DMatrix<f64>> {
-    vec![
-        DMatrix::from_row_slice(
-            3,
-            3,
-            &[0.5, 1.0 + t1, 0.0, 0.0, 0.0, -t2, 0.0, 1.0 + t2, 0.0],
-        ),
-        DMatrix::from_row_slice(
-            3,
-            3,
-            &[-0.4, 0.0, 1.0 - t1, 1.5, 0.0, 1.0 + t2, 2.0 + t2, 0.0, 0.0],
-        ),
-        DMatrix::from_row_slice(
-            3,
-            3,
-            &[1.5, -0.5 - t1, 0.0, 3.0 + t1, 0.0, 0.0, 0.0, 2.0 - t2, 0.0],
-        ),
-    ]
-}
-
-/// The paper's example built by hand, vertices in the order
-/// μ1 = (1−θ1)(1−θ2), μ2 = (1−θ1)θ2, μ3 = θ1(1−θ2), μ4 = θ1θ2.
-fn paper_model() -> PolytopicModel {
-    let corners = [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)];
-    let vertices = corners
-        .iter()
-        .map(|&(t1, t2)| Vertex {
-            theta: vec![t1, t2],
-            a: paper_a(t1, t2),
-            n: paper_n(t1, t2),
-            b: DMatrix::zeros(3, 0),
-        })
-        .collect();
-    let mut m1 = DMatrix::zeros(3, 3);
-    m1[(1, 2)] = 1.0;
-    let mut m2 = DMatrix::zeros(3, 3);
-    m2[(0, 2)] = 1.0;
-    PolytopicModel {
-        name: "paper".to_string(),
-        states: names("x", 3),
-        inputs: vec![],
-        outputs: names("y", 2),
-        params: vec![param("theta1", 0.0, 1.0), param("theta2", 0.0, 1.0)],
-        scheduling: vec![0, 1],
-        vertices,
-        c: DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]),
-        m: vec![m1, m2],
-        region: box_region(0.02, 3),
-        state_bound: StateBound::Given(DMatrix::from_row_slice(
-            3,
-            3,
-            &[
-                0.0112, 0.0017, 0.0006, 0.0017, 0.0025, -0.0022, 0.0006, -0.0022, 0.0061,
-            ],
-        )),
-        designs: vec![],
-    }
-}
 
 /// CPU time of this thread in seconds (Linux: /proc/thread-self/schedstat),
 /// so the numbers mean something on a loaded machine; `None` elsewhere.
