@@ -220,3 +220,46 @@ fn vertices_lists_the_documented_vertex_order() {
     let text = qpv(&["vertices", "examples/paper.qpv"]);
     assert!(String::from_utf8_lossy(&text.stdout).contains("first most significant"));
 }
+
+#[test]
+fn a_report_of_several_designs_feeds_check_and_simulate() {
+    let report = tmp("several.json");
+    let r = report.to_str().expect("utf-8 path");
+    let out = qpv(&["design", "examples/van_de_vusse.qpv", "--json", r]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report written"))
+            .expect("json");
+    assert_eq!(
+        j.as_array().map(Vec::len),
+        Some(2),
+        "one report per design block"
+    );
+    let ok = qpv(&["check", "examples/van_de_vusse.qpv", "--gains", r]);
+    assert_eq!(
+        ok.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    assert!(String::from_utf8_lossy(&ok.stderr).contains("using report 1"));
+    let sim = qpv(&[
+        "simulate",
+        "examples/van_de_vusse.qpv",
+        "--design",
+        r,
+        "--t-end",
+        "0.1",
+    ]);
+    assert_eq!(
+        sim.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&sim.stderr)
+    );
+}

@@ -1,7 +1,7 @@
 //! `qpv check`: certify externally supplied P and L_l.
 
 use super::design::parse_mode;
-use super::input::{emit_json, load_model, CliError};
+use super::input::{emit_json, load_model, read_report, CliError};
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split, StateBound};
 use qpv_solve::report::rows_to_matrix;
 use std::path::Path;
@@ -49,9 +49,7 @@ pub fn run(
     json: Option<&str>,
 ) -> Result<i32, CliError> {
     let (_, model) = load_model(file, model_name)?;
-    let text = std::fs::read_to_string(gains)
-        .map_err(|e| CliError::Input(format!("cannot read {}: {e}", gains.display())))?;
-    let g: Gains = serde_json::from_str(&text)
+    let g: Gains = serde_json::from_value(read_report(gains)?)
         .map_err(|e| CliError::Input(format!("{}: {e}", gains.display())))?;
     if !rectangular(&g.p) || g.l.iter().any(|l| !rectangular(l)) {
         return Err(CliError::Input(format!(

@@ -134,3 +134,33 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
     }
     s
 }
+
+/// Reads a JSON report or gains file. A `qpv design` run over several
+/// requests writes an array of reports: then the first certified one is
+/// used (else the first feasible one, else the first), and stderr says which.
+pub fn read_report(path: &Path) -> Result<serde_json::Value, CliError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
+    let value: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
+    let serde_json::Value::Array(items) = value else {
+        return Ok(value);
+    };
+    let flag =
+        |v: &serde_json::Value, key: &str| v.get(key) == Some(&serde_json::Value::Bool(true));
+    let pick = items
+        .iter()
+        .position(|v| flag(v, "certifies"))
+        .or_else(|| items.iter().position(|v| flag(v, "feasible")))
+        .unwrap_or(0);
+    let chosen = items
+        .into_iter()
+        .nth(pick)
+        .ok_or_else(|| CliError::Input(format!("{}: an empty list of reports", path.display())))?;
+    eprintln!(
+        "note: {} holds several reports; using report {} (the first certified one, else the first feasible one)",
+        path.display(),
+        pick + 1
+    );
+    Ok(chosen)
+}

@@ -1,6 +1,6 @@
 //! `qpv simulate`: plant + observer with a design's gains; SVG figures and CSV.
 
-use super::input::{load_model, CliError};
+use super::input::{load_model, read_report, CliError};
 use qpv::plot::{line_chart, Series, PALETTE};
 use qpv_solve::report::Design;
 use qpv_solve::simulate::{simulate, Scenario, Trajectory};
@@ -30,9 +30,7 @@ pub struct Options<'a> {
 pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     let (_, model) = load_model(o.file, o.model)?;
     let poly = model.polytopic();
-    let text = std::fs::read_to_string(o.design)
-        .map_err(|e| CliError::Input(format!("cannot read {}: {e}", o.design.display())))?;
-    let design = Design::from_json(&text)
+    let design: Design = serde_json::from_value(read_report(o.design)?)
         .map_err(|e| CliError::Input(format!("{}: {e}", o.design.display())))?;
     if design.l.is_empty() {
         return Err(CliError::Input(format!(
