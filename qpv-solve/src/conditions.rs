@@ -225,13 +225,19 @@ pub fn gamma_max(model: &PolytopicModel) -> Option<f64> {
     let StateBound::Given(q) = &model.state_bound else {
         return None;
     };
+    Some(gamma_max_for(model, q))
+}
+
+/// γ_max = 1 / max_k sqrt(a_kᵀ Q a_k) of (S4) for a given Q (the state
+/// bound of the model or a candidate one, e.g. a computed `state_bound auto`).
+pub fn gamma_max_for(model: &PolytopicModel, q: &DMatrix<f64>) -> f64 {
     let worst = model
         .region
         .facets
         .iter()
         .map(|a| a.dot(&(q * a)))
         .fold(0.0, f64::max);
-    Some(1.0 / worst.sqrt())
+    1.0 / worst.sqrt()
 }
 
 /// Checks that the model data have consistent dimensions and a usable region.

@@ -307,17 +307,6 @@ pub fn check(model: &PolytopicModel, w: &DMatrix<f64>, h: f64) -> BoundCheck {
     }
 }
 
-/// γ_max = 1 / max_k √(a_kᵀ Q a_k) for a given Q.
-fn gamma_max_of(model: &PolytopicModel, q: &DMatrix<f64>) -> f64 {
-    let worst = model
-        .region
-        .facets
-        .iter()
-        .map(|a| a.dot(&(q * a)))
-        .fold(0.0, f64::max);
-    1.0 / worst.sqrt()
-}
-
 /// Column-wise sparse builder (rows pushed in increasing order per column).
 struct Cols(Vec<Vec<(usize, f64)>>);
 
@@ -423,7 +412,7 @@ pub fn solve_at(
                 .map(|q| (&q + q.transpose()) * 0.5);
             if let Some(q) = q {
                 found = Some(AutoBound {
-                    gamma_max: gamma_max_of(model, &q),
+                    gamma_max: crate::conditions::gamma_max_for(model, &q),
                     q,
                     w,
                     h,
