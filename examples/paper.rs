@@ -224,8 +224,8 @@ impl Record {
             false,
         )?;
         // V(t) <= V(0) e^{-αt} gives ||e(t)|| <= sqrt(cond P) ||e(0)|| e^{-αt/2}.
-        let eig = nalgebra::SymmetricEigen::new(p.clone()).eigenvalues;
-        let cond = eig.max() / eig.min();
+        let factor = qpv::solve::simulate::envelope_factor(p)
+            .ok_or("the baked P is not positive definite")?;
         let e0 = self.err[0];
         let s = [
             Series::new(
@@ -239,7 +239,7 @@ impl Record {
                     "certified envelope sqrt(cond P) ||e(0)|| e^(-{:.2} t/2)",
                     model::ALPHA
                 ),
-                self.series(|k| cond.sqrt() * e0 * (-model::ALPHA * self.t[k] / 2.0).exp()),
+                self.series(|k| factor * e0 * (-model::ALPHA * self.t[k] / 2.0).exp()),
                 PALETTE[1],
                 true,
             ),

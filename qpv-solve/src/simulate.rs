@@ -841,3 +841,15 @@ pub fn simulate(
     }
     Ok(traj)
 }
+
+/// √cond(P) = √(λ_max/λ_min) of a Lyapunov matrix: V(t) ≤ V(0)e^{−αt} with
+/// V = eᵀPe gives ‖e(t)‖ ≤ √cond(P) ‖e(0)‖ e^{−αt/2}, the certified error
+/// envelope drawn in the figures. `None` if P is not positive definite.
+pub fn envelope_factor(p: &DMatrix<f64>) -> Option<f64> {
+    if p.is_empty() || !p.is_square() || !p.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let eig = nalgebra::SymmetricEigen::new(p.clone()).eigenvalues;
+    let (lo, hi) = (eig.min(), eig.max());
+    (lo > 0.0).then(|| (hi / lo).sqrt())
+}

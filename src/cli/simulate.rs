@@ -3,7 +3,7 @@
 use super::input::{load_model, read_report, CliError};
 use qpv::plot::{line_chart, Series, PALETTE};
 use qpv_solve::report::Design;
-use qpv_solve::simulate::{simulate, Scenario, Trajectory};
+use qpv_solve::simulate::{envelope_factor, simulate, Scenario, Trajectory};
 use std::path::Path;
 
 /// Options of `qpv simulate`.
@@ -144,13 +144,6 @@ pub fn write_figures(
         false,
     )
     .map_err(io)?;
-    // Guaranteed envelope from V(t) <= V(0) e^{-alpha t}:
-    // ||e(t)|| <= sqrt(cond(P)) ||e(0)|| e^{-alpha t / 2}.
-    let p = design.p_matrix();
-    let eig = nalgebra::SymmetricEigen::new(p).eigenvalues;
-    let (lo, hi) = eig
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
     let e0 = traj.error_norm.first().copied().unwrap_or(0.0);
     let mut series = vec![Series::new(
         "||x - xhat||",
@@ -162,8 +155,9 @@ pub fn write_figures(
         PALETTE[0],
         false,
     )];
-    if lo > 0.0 && e0 > 0.0 {
-        let k = (hi / lo).sqrt() * e0;
+    // ||e(t)|| <= sqrt(cond P) ||e(0)|| e^{-alpha t / 2} (from V(t) <= V(0) e^{-alpha t}).
+    if let Some(factor) = envelope_factor(&design.p_matrix()).filter(|_| e0 > 0.0) {
+        let k = factor * e0;
         series.push(Series::new(
             format!(
                 "guaranteed envelope sqrt(cond P)||e0|| e^(-{:.2} t/2)",
