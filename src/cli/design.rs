@@ -2,7 +2,7 @@
 
 use super::input::{emit_json, fmt_matrix, load_model, CliError};
 use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, Split};
-use qpv_solve::report::{Design, Status};
+use qpv_solve::report::Design;
 use qpv_solve::state_bound::StateBoundInfo;
 use std::path::Path;
 
@@ -251,16 +251,6 @@ pub fn describe_design(d: &Design) -> String {
         d.search.len(),
         d.seconds_total
     ));
-    let unknown = d
-        .search
-        .iter()
-        .filter(|s| s.status == Status::Unknown)
-        .count();
-    if unknown > 0 {
-        s.push_str(&format!(
-            "  {unknown} solve(s) ended with an unknown status (neither solved nor a certificate of infeasibility)\n"
-        ));
-    }
     for n in &d.notes {
         s.push_str(&format!("  note: {n}\n"));
     }
