@@ -38,8 +38,8 @@ impl Generic {
             a: poly.vertices.iter().map(|v| v.a.clone()).collect(),
             n: poly.vertices.iter().map(|v| v.n.clone()).collect(),
             b: poly.vertices.iter().map(|v| v.b.clone()).collect(),
-            c: poly.c.clone(),
-            m: poly.m.clone(),
+            c: poly.c0().0.clone(),
+            m: poly.c0().1.to_vec(),
             l: gen::L
                 .iter()
                 .map(|l| DMatrix::from_fn(gen::NX, gen::NY, |i, j| l[i][j]))

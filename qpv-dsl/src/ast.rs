@@ -168,6 +168,9 @@ pub struct DesignEntry {
     pub key: Ident,
     /// The value: an expression or a word such as `max`.
     pub value: Expr,
+    /// Options in parentheses after the value, `filter(pole = 40)`, with the
+    /// span of the parenthesised list (`None` when there are none).
+    pub options: Option<(Vec<DesignEntry>, crate::diagnostic::Span)>,
     /// The whole entry.
     pub span: Span,
 }

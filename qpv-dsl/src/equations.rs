@@ -9,7 +9,7 @@
 //! the matrix form exactly.
 
 use crate::diagnostic::{Diag, Span};
-use crate::expr::{PolyMatrix, ThetaPoly};
+use crate::expr::PolyMatrix;
 use crate::poly::{quote, Mono, Names, Poly, Var};
 
 /// How a quadratic term x_i·x_j is placed in N_k (M_k).
@@ -27,13 +27,10 @@ pub(crate) struct Dynamics {
     pub b: PolyMatrix,
 }
 
-/// C, M_k extracted from the `out` equations, with the span of the first
-/// θ-dependent term of each entry (C first, then M_1, M_2, ...), if any.
+/// C(θ), M_k(θ) extracted from the `out` equations.
 pub(crate) struct Outputs {
     pub c: PolyMatrix,
     pub m: Vec<PolyMatrix>,
-    /// For each θ-dependent entry: (matrix index: 0 = C, k = M_k; i; j; span).
-    pub theta_terms: Vec<(usize, usize, usize, Span)>,
 }
 
 fn place(split: Split, i: usize, j: usize) -> (usize, usize) {
@@ -108,19 +105,16 @@ pub(crate) fn outputs(
     let ny = names.outputs.len();
     let mut c = PolyMatrix::zeros(ny, nx);
     let mut m = vec![PolyMatrix::zeros(nx, nx); ny];
-    let mut theta_terms = Vec::new();
     for (k, eq) in eqs.iter().enumerate() {
         let label = format!("out {}", names.outputs[k]);
         for (mono, term) in &eq.terms {
-            let (which, i, j) = match mono.vars.as_slice() {
+            match mono.vars.as_slice() {
                 [Var::State(i)] => {
                     c.get_mut(k, *i).add_term(mono.theta, term.coef);
-                    (0, k, *i)
                 }
                 [Var::State(i), Var::State(j)] => {
                     let (r, col) = place(split, *i, *j);
                     m[k].get_mut(r, col).add_term(mono.theta, term.coef);
-                    (k + 1, r, col)
                 }
                 [Var::Input(u)] => {
                     return Err(Diag::new(
@@ -143,41 +137,8 @@ pub(crate) fn outputs(
                         ),
                     ))
                 }
-            };
-            if mono.theta != 0
-                && !theta_terms
-                    .iter()
-                    .any(|t: &(usize, usize, usize, Span)| (t.0, t.1, t.2) == (which, i, j))
-            {
-                theta_terms.push((which, i, j, term.span));
             }
         }
     }
-    Ok(Outputs { c, m, theta_terms })
-}
-
-/// The error for a θ-dependent entry of C or M_k: the design needs constant
-/// output matrices; explains the two remedies.
-pub(crate) fn theta_output_error(
-    names: &Names,
-    matrix: &str,
-    i: usize,
-    j: usize,
-    p: &ThetaPoly,
-    span: Span,
-) -> Diag {
-    Diag::new(
-        span,
-        format!(
-            "{matrix} depends on the parameters: entry ({}, {}) is {}. The observer design needs \
-             constant output matrices C and M_k. Two remedies: (1) output post-filter augmentation \
-             (spec §3, Remark 3): filter the measurement, x_y' = A_y x_y + B_y y with A_y Hurwitz, \
-             and use the filter state as output, which moves the θ-dependence into the state \
-             equation; (2) the double-sum relaxation Σ_l Σ_m μ_l μ_m Γ_l C_m. Neither is \
-             automatic yet: rewrite the model with (1) or make {matrix} constant",
-            i + 1,
-            j + 1,
-            names.theta_poly_text(p)
-        ),
-    )
+    Ok(Outputs { c, m })
 }

@@ -91,11 +91,57 @@ pub enum Conditions {
     Decoupled,
 }
 
+/// How the output map enters the design (issue 6 §4; spec §3, Remark 3).
+///
+/// With a constant C and M_k both routes are available and `double_sum` is
+/// exactly the paper's single sum over θ-vertices. With a θ-dependent
+/// C(θ), M_k(θ) the choice matters: the double sum keeps the observer's
+/// structure and adds vertex-pair blocks; the filter adds ny states.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum OutputRoute {
+    /// C(θ), M_k(θ) enter the rate conditions directly, with the gain
+    /// L(θ) = Σ_l μ_l L_l: Σ_l Σ_m μ_l μ_m Ξ_{lm} ≺ 0 is imposed by the
+    /// relaxation Ξ_ll ≺ 0, (2/(r−1)) Ξ_ll + Ξ_lm + Ξ_ml ≺ 0 (l ≠ m) of
+    /// Tuan et al. (2001). The default.
+    #[default]
+    DoubleSum,
+    /// Output post-filter x_y' = −a x_y + b y (per output), and the observer
+    /// of the augmented plant (x, x_y) measures ỹ = x_y: the output matrix
+    /// is constant and the θ-dependence moves into the state equation.
+    Filter(OutputFilter),
+}
+
+/// The output post-filter x_{y,k}' = −pole·x_{y,k} + gain·y_k of
+/// [`OutputRoute::Filter`] (A_y = −pole·I Hurwitz, B_y = gain·I diagonal).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct OutputFilter {
+    /// a > 0: the filter's pole is −a (rad/s).
+    pub pole: f64,
+    /// b ≠ 0: the filter's input gain (b = a gives unit DC gain).
+    pub gain: f64,
+}
+
+impl OutputFilter {
+    /// The pole used by `output_route = filter;` without options.
+    pub const DEFAULT_POLE: f64 = 50.0;
+}
+
+impl Default for OutputFilter {
+    fn default() -> Self {
+        OutputFilter {
+            pole: Self::DEFAULT_POLE,
+            gain: Self::DEFAULT_POLE,
+        }
+    }
+}
+
 /// One `design { ... }` request of a model.
 ///
 /// Build one with `..Default::default()` so that new settings do not break
 /// construction sites: the default is `alpha = max; gamma = search;
-/// mode = sound; split = symmetric; conditions = full;`. In paper mode set
+/// mode = sound; split = symmetric; conditions = full; output_route = double_sum;`.
+/// In paper mode set
 /// `split: Split::AsWritten` as well (see [`Split::default_for`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DesignRequest {
@@ -109,6 +155,8 @@ pub struct DesignRequest {
     pub split: Split,
     /// Full or decoupled vertex conditions.
     pub conditions: Conditions,
+    /// How the output map enters the design (matters when C or M_k depend on θ).
+    pub output_route: OutputRoute,
     /// The `design` block in the source, for errors about this request.
     pub span: Span,
 }
@@ -121,6 +169,7 @@ impl Default for DesignRequest {
             mode: Mode::Sound,
             split: Split::default_for(Mode::Sound),
             conditions: Conditions::Full,
+            output_route: OutputRoute::DoubleSum,
             span: Span::default(),
         }
     }
@@ -848,24 +897,6 @@ impl<'a> Builder<'a> {
                 polys[*i] = eval(&eq.rhs, &scope)?;
             }
             let o = equations::outputs(self.src, &self.names, &polys, TermSplit::AsWritten)?;
-            for &(which, i, j, span) in &o.theta_terms {
-                let (mat, label) = if which == 0 {
-                    (&o.c, "C".to_string())
-                } else {
-                    (&o.m[which - 1], format!("M{which}"))
-                };
-                let p = mat.get(i, j);
-                if p.as_constant().is_none() {
-                    return Err(equations::theta_output_error(
-                        &self.names,
-                        &label,
-                        i,
-                        j,
-                        p,
-                        span,
-                    ));
-                }
-            }
             return Ok((o.c, o.m));
         }
         let Some((_, cdef)) = defs.iter().find(|(m, _)| *m == MatName::C) else {
@@ -878,43 +909,9 @@ impl<'a> Builder<'a> {
                 ),
             ));
         };
-        let (c, spans) = self.matrix_value(cdef, MatName::C)?;
-        self.constant_output(&c, &spans, "C")?;
+        let (c, _) = self.matrix_value(cdef, MatName::C)?;
         let m = self.all_or_none(&defs, false)?;
-        for (k, mk) in m.iter().enumerate() {
-            if mk.param_mask() != 0 {
-                let (_, def) = defs
-                    .iter()
-                    .find(|(n, _)| *n == MatName::M(k))
-                    .ok_or_else(|| Diag::new(cdef.name.span, "internal error: M"))?;
-                let (_, spans) = self.matrix_value(def, MatName::M(k))?;
-                self.constant_output(mk, &spans, &format!("M{}", k + 1))?;
-            }
-        }
         Ok((c, m))
-    }
-
-    fn constant_output(&self, p: &PolyMatrix, spans: &[Span], label: &str) -> R<()> {
-        for i in 0..p.rows {
-            for j in 0..p.cols {
-                let e = p.get(i, j);
-                if e.as_constant().is_none() {
-                    let span = spans
-                        .get(i * p.cols + j)
-                        .copied()
-                        .unwrap_or(self.ast.name.span);
-                    return Err(equations::theta_output_error(
-                        &self.names,
-                        label,
-                        i,
-                        j,
-                        e,
-                        span,
-                    ));
-                }
-            }
-        }
-        Ok(())
     }
 
     // ----- region, state bound, designs -----
@@ -1228,6 +1225,15 @@ impl<'a> Builder<'a> {
                     _ => None,
                 };
                 let v = &entry.value;
+                if let (Some((_, ospan)), false) = (&entry.options, key == "output_route") {
+                    return Err(Diag::new(
+                        *ospan,
+                        format!(
+                            "`{key}` takes no options in parentheses (only `output_route = \
+                             filter(...)` does)"
+                        ),
+                    ));
+                }
                 match key {
                     "alpha" => {
                         req.alpha = match word {
@@ -1321,6 +1327,33 @@ impl<'a> Builder<'a> {
                             }
                         }
                     }
+                    "output_route" => req.output_route = match word {
+                        Some("double_sum") => {
+                            if let Some((_, ospan)) = &entry.options {
+                                return Err(Diag::new(
+                                    *ospan,
+                                    "`double_sum` takes no options (only `filter(pole = .., \
+                                         gain = ..)` does)",
+                                ));
+                            }
+                            OutputRoute::DoubleSum
+                        }
+                        Some("filter") => OutputRoute::Filter(
+                            self.filter_options(
+                                entry
+                                    .options
+                                    .as_ref()
+                                    .map(|(o, _)| o.as_slice())
+                                    .unwrap_or(&[]),
+                            )?,
+                        ),
+                        _ => return Err(bad_value(
+                            v.span,
+                            "output_route",
+                            "`double_sum` or `filter` (optionally `filter(pole = .., gain = ..)`)",
+                            &quote(self.src, v.span).replace('`', ""),
+                        )),
+                    },
                     _ => {
                         let hint = suggest(key, DESIGN_KEYS)
                             .map(|s| format!(" (did you mean `{s}`?)"))
@@ -1329,7 +1362,7 @@ impl<'a> Builder<'a> {
                             entry.key.span,
                             format!(
                                 "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
-                                 `split` or `conditions`{hint}"
+                                 `split`, `conditions` or `output_route`{hint}"
                             ),
                         ));
                     }
@@ -1342,12 +1375,64 @@ impl<'a> Builder<'a> {
         Ok(out)
     }
 
+    /// `filter(pole = .., gain = ..)`: both optional; gain defaults to pole
+    /// (unit DC gain), pole to [`OutputFilter::DEFAULT_POLE`].
+    fn filter_options(&self, options: &[ast::DesignEntry]) -> R<OutputFilter> {
+        let mut pole = None;
+        let mut gain = None;
+        for entry in options {
+            let key = entry.key.name.as_str();
+            let slot = match key {
+                "pole" => &mut pole,
+                "gain" => &mut gain,
+                _ => {
+                    let hint = suggest(key, ["pole", "gain"])
+                        .map(|s| format!(" (did you mean `{s}`?)"))
+                        .unwrap_or_default();
+                    return Err(Diag::new(
+                        entry.key.span,
+                        format!(
+                            "unknown filter option `{key}`: expected `pole` (a > 0, the filter is \
+                             x_y' = -a x_y + b y) or `gain` (b ≠ 0){hint}"
+                        ),
+                    ));
+                }
+            };
+            if let Some((_, prev)) = slot {
+                return Err(Diag::new(
+                    entry.key.span,
+                    format!("`{key}` is set twice (first at {})", pos(self.src, *prev)),
+                ));
+            }
+            let v = &entry.value;
+            let value = self.constant(v, &format!("the filter option {key}"))?;
+            let ok = value.is_finite()
+                && if key == "pole" {
+                    value > 0.0
+                } else {
+                    value != 0.0
+                };
+            if !ok {
+                let want = if key == "pole" {
+                    "a positive number (the filter pole is -pole)"
+                } else {
+                    "a nonzero number"
+                };
+                return Err(bad_value(v.span, key, want, &fmt_num(value)));
+            }
+            *slot = Some((value, entry.key.span));
+        }
+        let pole = pole.map(|p| p.0).unwrap_or(OutputFilter::DEFAULT_POLE);
+        Ok(OutputFilter {
+            pole,
+            gain: gain.map(|g| g.0).unwrap_or(pole),
+        })
+    }
+
     // ----- usage warnings and limits -----
 
     fn usage(&mut self, model: &Model) -> R<()> {
-        let used = model.a.param_mask()
-            | model.b.param_mask()
-            | model.n.iter().fold(0, |m, p| m | p.param_mask());
+        let used = model.param_mask();
         for (i, p) in model.params.iter().enumerate() {
             if used & (1 << i) == 0 {
                 self.warnings.push(Warning {
@@ -1386,7 +1471,14 @@ impl<'a> Builder<'a> {
 }
 
 /// The keys of a `design { ... }` block.
-const DESIGN_KEYS: [&str; 5] = ["alpha", "gamma", "mode", "split", "conditions"];
+const DESIGN_KEYS: [&str; 6] = [
+    "alpha",
+    "gamma",
+    "mode",
+    "split",
+    "conditions",
+    "output_route",
+];
 
 fn bad_value(span: Span, key: &str, expected: &str, found: &str) -> Diag {
     Diag::new(span, format!("`{key}` must be {expected}, found `{found}`"))
@@ -1405,11 +1497,11 @@ impl Model {
     pub fn eval_b(&self, theta: &[f64]) -> DMatrix<f64> {
         self.b.eval(theta)
     }
-    /// C (constant after validation).
+    /// C(θ).
     pub fn eval_c(&self, theta: &[f64]) -> DMatrix<f64> {
         self.c.eval(theta)
     }
-    /// M_k (constant after validation), k = 1..ny.
+    /// M_k(θ), k = 1..ny.
     pub fn eval_m(&self, theta: &[f64]) -> Vec<DMatrix<f64>> {
         self.m.iter().map(|m| m.eval(theta)).collect()
     }
@@ -1424,20 +1516,35 @@ impl Model {
         }
         f
     }
-    /// The output h(x) = C x + M(x)x.
-    pub fn output(&self, x: &DVector<f64>) -> DVector<f64> {
-        let mut y = self.eval_c(&[]) * x;
-        for (k, mk) in self.eval_m(&[]).iter().enumerate() {
+    /// The output h(x, θ) = C(θ) x + M(θ, x)x.
+    pub fn output(&self, x: &DVector<f64>, theta: &[f64]) -> DVector<f64> {
+        let mut y = self.eval_c(theta) * x;
+        for (k, mk) in self.eval_m(theta).iter().enumerate() {
             y[k] += (x.transpose() * mk * x)[(0, 0)];
         }
         y
     }
-    /// Indices of the parameters that appear in A, N_k or B (those that
-    /// generate vertices), in declaration order.
+    /// Indices of the parameters that appear in A, N_k, B, C or M_k (those
+    /// that generate vertices), in declaration order.
     pub fn scheduling(&self) -> Vec<usize> {
-        let used = self.a.param_mask()
+        bits(self.param_mask()).collect()
+    }
+
+    /// Bit mask of the parameters that appear in some matrix.
+    fn param_mask(&self) -> u64 {
+        self.a.param_mask()
             | self.b.param_mask()
-            | self.n.iter().fold(0, |m, p| m | p.param_mask());
-        bits(used).collect()
+            | self.c.param_mask()
+            | self
+                .n
+                .iter()
+                .chain(&self.m)
+                .fold(0, |m, p| m | p.param_mask())
+    }
+
+    /// Whether C or some M_k depends on θ (issue 6 §4: such a model is
+    /// designed by the double-sum relaxation or an output post-filter).
+    pub fn output_varies(&self) -> bool {
+        self.c.param_mask() != 0 || self.m.iter().any(|p| p.param_mask() != 0)
     }
 }

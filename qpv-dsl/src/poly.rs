@@ -106,33 +106,6 @@ impl Names {
     pub fn mono_text(&self, m: &Mono) -> String {
         self.term_text(&bits(m.theta).map(|i| (i, 1)).collect::<Vec<_>>(), &m.vars)
     }
-
-    /// The text of a θ-polynomial, e.g. `1 + 2*th1`.
-    pub fn theta_poly_text(&self, p: &ThetaPoly) -> String {
-        if p.terms.is_empty() {
-            return "0".into();
-        }
-        let mut s = String::new();
-        for (k, &(mask, c)) in p.terms.iter().enumerate() {
-            let (sign, a) = if c < 0.0 { ("-", -c) } else { ("+", c) };
-            if k == 0 {
-                if sign == "-" {
-                    s.push('-');
-                }
-            } else {
-                s.push_str(&format!(" {sign} "));
-            }
-            let names: Vec<&str> = bits(mask).map(|i| self.params[i].as_str()).collect();
-            if names.is_empty() {
-                s.push_str(&fmt_num(a));
-            } else if a == 1.0 {
-                s.push_str(&names.join("*"));
-            } else {
-                s.push_str(&format!("{}*{}", fmt_num(a), names.join("*")));
-            }
-        }
-        s
-    }
 }
 
 /// Shortest round-trip text of a number.

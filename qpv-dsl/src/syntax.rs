@@ -321,7 +321,22 @@ fn parse_design_entry(pair: Pair<'_, Rule>) -> Result<DesignEntry> {
     let mut it = children(pair);
     let key = parse_ident(next(&mut it, span, "design key")?);
     let value = parse_expr(next(&mut it, span, "design value")?)?;
-    Ok(DesignEntry { key, value, span })
+    let options = match it.next() {
+        Some(opts) => {
+            let ospan = span_of(&opts);
+            let list = children(opts)
+                .map(parse_design_entry)
+                .collect::<Result<Vec<_>>>()?;
+            Some((list, ospan))
+        }
+        None => None,
+    };
+    Ok(DesignEntry {
+        key,
+        value,
+        options,
+        span,
+    })
 }
 
 // ===================== Expressions =====================
@@ -449,6 +464,7 @@ enum Want {
     Statement,
     DesignKey,
     BoundOption,
+    ValueOption,
     Name,
     Expression,
     Exponent,
@@ -486,6 +502,7 @@ fn want(rule: Rule) -> Option<Want> {
         | Rule::matrix_def => Statement,
         Rule::design_key | Rule::design_entry => DesignKey,
         Rule::bound_key | Rule::bound_option => BoundOption,
+        Rule::option_key | Rule::value_option => ValueOption,
         Rule::ident | Rule::name_list => Name,
         Rule::number
         | Rule::paren
@@ -528,8 +545,11 @@ fn want_text(w: Want) -> &'static str {
             "a statement (`state`, `input`, `output`, `param`, `der`, `out`, `region`, \
              `state_bound`, `design` or a matrix such as `A = [...]`)"
         }
-        Want::DesignKey => "a design setting (`alpha`, `gamma`, `mode`, `split` or `conditions`)",
+        Want::DesignKey => {
+            "a design setting (`alpha`, `gamma`, `mode`, `split`, `conditions` or `output_route`)"
+        }
         Want::BoundOption => "a state bound option (`h = ...`)",
+        Want::ValueOption => "an option `name = value` (e.g. `pole = 40`)",
         Want::Name => "a name",
         Want::Expression => "an expression (a number, a name or `(`)",
         Want::Exponent => "a whole-number exponent",

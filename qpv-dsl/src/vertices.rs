@@ -18,9 +18,15 @@ pub struct Vertex {
     pub n: Vec<DMatrix<f64>>,
     /// B_l.
     pub b: DMatrix<f64>,
+    /// C_l, ny × nx (the same at every vertex when C is constant).
+    pub c: DMatrix<f64>,
+    /// M_{k,l}, k = 1..ny, nx × nx (the same at every vertex when M is constant).
+    pub m: Vec<DMatrix<f64>>,
 }
 
-/// A model in polytopic form: A(θ) = Σ_l μ_l(θ) A_l exactly, constant C, M_k.
+/// A model in polytopic form: A(θ) = Σ_l μ_l(θ) A_l exactly, and likewise
+/// N_k, B, C and M_k (C and M_k are usually constant; when they depend on θ
+/// the design uses the double-sum relaxation or an output post-filter).
 ///
 /// Vertex order: corners of the box of the *scheduling* parameters (those that
 /// appear in some matrix), first declared parameter most significant, lo
@@ -41,10 +47,6 @@ pub struct PolytopicModel {
     pub scheduling: Vec<usize>,
     /// The 2^scheduling.len() vertices in the documented order.
     pub vertices: Vec<Vertex>,
-    /// C, ny × nx (constant).
-    pub c: DMatrix<f64>,
-    /// M_k, ny matrices nx × nx (constant).
-    pub m: Vec<DMatrix<f64>>,
     /// The convergence region.
     pub region: Region,
     /// The state bound F.
@@ -143,6 +145,52 @@ impl PolytopicModel {
         s
     }
 
+    /// Σ_l μ_l(θ) C_l (equals C(θ) inside the parameter box).
+    pub fn c_at(&self, theta: &[f64]) -> DMatrix<f64> {
+        let mu = self.mu(theta);
+        let mut s = DMatrix::zeros(self.ny(), self.nx());
+        for (w, v) in mu.iter().zip(&self.vertices) {
+            s += &v.c * *w;
+        }
+        s
+    }
+
+    /// Σ_l μ_l(θ) M_{k,l}, k = 1..ny.
+    pub fn m_at(&self, theta: &[f64]) -> Vec<DMatrix<f64>> {
+        let mu = self.mu(theta);
+        (0..self.ny())
+            .map(|k| {
+                let mut s = DMatrix::zeros(self.nx(), self.nx());
+                for (w, v) in mu.iter().zip(&self.vertices) {
+                    s += &v.m[k] * *w;
+                }
+                s
+            })
+            .collect()
+    }
+
+    /// The output map at the first vertex, C_1 and M_{k,1}: *the* output map
+    /// when it is constant ([`PolytopicModel::output_varies`] is false).
+    pub fn c0(&self) -> (&DMatrix<f64>, &[DMatrix<f64>]) {
+        let v = &self.vertices[0];
+        (&v.c, &v.m)
+    }
+
+    /// Whether C or some M_k differs between vertices (depends on θ).
+    pub fn output_varies(&self) -> bool {
+        let (c, m) = (&self.vertices[0].c, &self.vertices[0].m);
+        self.vertices[1..].iter().any(|v| &v.c != c || &v.m != m)
+    }
+
+    /// The output y = C(θ)x + M(θ,x)x (θ clamped into the box as in [`Self::mu`]).
+    pub fn output(&self, x: &nalgebra::DVector<f64>, theta: &[f64]) -> nalgebra::DVector<f64> {
+        let mut y = self.c_at(theta) * x;
+        for (k, mk) in self.m_at(theta).iter().enumerate() {
+            y[k] += x.dot(&(mk * x));
+        }
+        y
+    }
+
     /// The same model with N_{k,l} and M_k represented by `split`:
     /// [`Split::Symmetric`] replaces each by its symmetric part (N + Nᵀ)/2,
     /// [`Split::AsWritten`] returns an unchanged copy. The plant (and the
@@ -154,8 +202,8 @@ impl PolytopicModel {
             let sym = |m: &mut DMatrix<f64>| *m = (&*m + m.transpose()) * 0.5;
             for v in &mut out.vertices {
                 v.n.iter_mut().for_each(sym);
+                v.m.iter_mut().for_each(sym);
             }
-            out.m.iter_mut().for_each(sym);
         }
         out
     }
@@ -172,7 +220,7 @@ impl PolytopicModel {
 
 impl crate::model::Model {
     /// The polytopic form: the matrices at the 2^s corners of the box of the
-    /// s scheduling parameters (those appearing in A, N_k or B), in the
+    /// s scheduling parameters (those appearing in A, N_k, B, C or M_k), in the
     /// documented order (first parameter most significant, lo before hi).
     /// Exact because every entry is multi-affine in θ: the multilinear
     /// interpolation Σ_l μ_l(θ) A_l reproduces A(θ) on the whole box.
@@ -195,6 +243,8 @@ impl crate::model::Model {
                     a: self.eval_a(&theta),
                     n: self.eval_n(&theta),
                     b: self.eval_b(&theta),
+                    c: self.eval_c(&theta),
+                    m: self.eval_m(&theta),
                     theta,
                 }
             })
@@ -207,8 +257,6 @@ impl crate::model::Model {
             params: self.params.clone(),
             scheduling,
             vertices,
-            c: self.eval_c(&base),
-            m: self.eval_m(&base),
             region: self.region.clone(),
             state_bound: self.state_bound.clone(),
             designs: self.designs.clone(),

@@ -99,10 +99,10 @@ pub fn key(model: &PolytopicModel, request: &DesignRequest, settings: &str) -> S
             push_nums(&mut s, "N", n.iter());
         }
         push_nums(&mut s, "B", v.b.iter());
-    }
-    push_nums(&mut s, "C", model.c.iter());
-    for m in &model.m {
-        push_nums(&mut s, "M", m.iter());
+        push_nums(&mut s, "C", v.c.iter());
+        for m in &v.m {
+            push_nums(&mut s, "M", m.iter());
+        }
     }
     for v in &model.region.vertices {
         push_nums(&mut s, "rv", v.iter());

@@ -18,7 +18,7 @@
 //! in sound mode, reported as the violated assumption (15) in paper mode)
 //! and "region_in_F" max_i x_(i)ᵀQ⁻¹x_(i) ≤ 1 (reported).
 
-use crate::conditions::{rows, rows_he, ConditionSet};
+use crate::conditions::{is_double_sum, rate_combos, rows, rows_he, Combo, ConditionSet};
 use crate::report::DataCheck;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{Mode, PolytopicModel, StateBound};
@@ -388,34 +388,18 @@ fn check_inner(
         sf.add(lambda_min(&m), g, || format!("k={}", k + 1));
     }
 
-    // Rate LMIs: He{γ(PA_l − Γ_lC) + σP R − Γ_l S} + γαP ≺ 0.
-    let sigma = set.nonlinear_sign();
-    let c = &model.c;
-    let cn = c.norm();
+    // Rate LMIs: Σ_t w_t Ξ_{l_t m_t}(i, j) ≺ 0 for every combination
+    // (conditions::Combo), Ξ_{lm} = He{γ(PA_l − Γ_lC_m) + σP R_l − Γ_l S_m} + γαP.
+    let terms = Terms::new(model, &ps, gammas, lnorm, gamma);
+    let double = is_double_sum(model);
     let mut sr = Acc::new(fr);
-    let mhe: Vec<DMatrix<f64>> = xs.iter().map(|x| rows_he(&model.m, x)).collect();
-    let mrw: Vec<DMatrix<f64>> = xs.iter().map(|x| rows(&model.m, x)).collect();
-    for (l, vert) in model.vertices.iter().enumerate() {
-        let g = &gammas[l];
-        let gn = lnorm[l] * pn + g.norm();
-        let pa = &ps * &vert.a * gamma;
-        let gc = g * c * gamma;
-        let nhe: Vec<DMatrix<f64>> = xs.iter().map(|x| rows_he(&vert.n, x)).collect();
-        let nrw: Vec<DMatrix<f64>> = xs.iter().map(|x| rows(&vert.n, x)).collect();
-        let base_size = gamma * pn * vert.a.norm() + gamma * gn * cn + gamma * alpha * pn;
+    for combo in rate_combos(model) {
         for i in 0..xs.len() {
             for j in 0..xs.len() {
-                let r = &nhe[j] - &nrw[i];
-                let s = &mhe[j] - &mrw[i];
-                let pr = &ps * &r * sigma;
-                let gs = g * &s;
-                let x = &pa - &gc + &pr - &gs;
-                let mut m = &x + x.transpose();
-                m += &ps * (gamma * alpha);
-                let size = base_size + pn * r.norm() + gn * s.norm();
+                let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, i, j);
                 let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
                 sr.add(-lambda_max(&m), guard, || {
-                    format!("l={} i={} j={}", l + 1, i + 1, j + 1)
+                    format!("{} i={} j={}", combo.label(double), i + 1, j + 1)
                 });
             }
         }
@@ -436,10 +420,118 @@ fn check_inner(
     }
 }
 
-/// The rate LMI matrix of block (l, i, j) (0-based) in model units:
-/// He{γ(PA_l − Γ_lC) + σ P R_{l,i,j} − Γ_l S_{i,j}} + γαP with σ = +1 for
+fn sigma(set: ConditionSet) -> f64 {
+    set.nonlinear_sign()
+}
+
+/// The per-vertex pieces of the rate matrices Ξ_{lm}(i, j), precomputed once.
+struct Terms<'a> {
+    model: &'a PolytopicModel,
+    p: &'a DMatrix<f64>,
+    gammas: &'a [DMatrix<f64>],
+    /// γ P A_l.
+    pa: Vec<DMatrix<f64>>,
+    /// rowsHe(N_l, x_j), rows(N_l, x_i).
+    nhe: Vec<Vec<DMatrix<f64>>>,
+    nrw: Vec<Vec<DMatrix<f64>>>,
+    /// rowsHe(M_m, x_j), rows(M_m, x_i).
+    mhe: Vec<Vec<DMatrix<f64>>>,
+    mrw: Vec<Vec<DMatrix<f64>>>,
+    /// ‖L_l‖‖P‖ + ‖Γ_l‖ (error size of Γ_l).
+    gn: Vec<f64>,
+}
+
+impl<'a> Terms<'a> {
+    fn new(
+        model: &'a PolytopicModel,
+        p: &'a DMatrix<f64>,
+        gammas: &'a [DMatrix<f64>],
+        lnorm: &[f64],
+        gamma: f64,
+    ) -> Self {
+        let xs = &model.region.vertices;
+        let per = |f: &dyn Fn(&qpv_dsl::Vertex, &DVector<f64>) -> DMatrix<f64>| {
+            model
+                .vertices
+                .iter()
+                .map(|v| xs.iter().map(|x| f(v, x)).collect())
+                .collect()
+        };
+        let pn = p.norm();
+        Terms {
+            model,
+            p,
+            gammas,
+            pa: model.vertices.iter().map(|v| p * &v.a * gamma).collect(),
+            nhe: per(&|v, x| rows_he(&v.n, x)),
+            nrw: per(&|v, x| rows(&v.n, x)),
+            mhe: per(&|v, x| rows_he(&v.m, x)),
+            mrw: per(&|v, x| rows(&v.m, x)),
+            gn: gammas
+                .iter()
+                .enumerate()
+                .map(|(l, g)| lnorm.get(l).copied().unwrap_or(0.0) * pn + g.norm())
+                .collect(),
+        }
+    }
+
+    /// Ξ_{lm}(i, j) without its γαP term, and the size of its terms (for the guard).
+    fn xi0(
+        &self,
+        sigma: f64,
+        gamma: f64,
+        l: usize,
+        m: usize,
+        i: usize,
+        j: usize,
+    ) -> (DMatrix<f64>, f64) {
+        let g = &self.gammas[l];
+        let (vl, vm) = (&self.model.vertices[l], &self.model.vertices[m]);
+        let r = &self.nhe[l][j] - &self.nrw[l][i];
+        let s = &self.mhe[m][j] - &self.mrw[m][i];
+        let x = &self.pa[l] - g * &vm.c * gamma + self.p * &r * sigma - g * &s;
+        let pn = self.p.norm();
+        let size = gamma * pn * vl.a.norm()
+            + gamma * self.gn[l] * vm.c.norm()
+            + pn * r.norm()
+            + self.gn[l] * s.norm();
+        (&x + x.transpose(), size)
+    }
+
+    /// Σ_t w_t Ξ_{l_t m_t}(i, j) (with its γαP terms) and its size.
+    fn combo(
+        &self,
+        c: &Combo,
+        sigma: f64,
+        alpha: f64,
+        gamma: f64,
+        i: usize,
+        j: usize,
+    ) -> (DMatrix<f64>, f64) {
+        let (mut m, size) = self.combo0(c, sigma, gamma, i, j);
+        m += self.p * (gamma * alpha * c.weight());
+        (m, size + gamma * alpha * self.p.norm() * c.weight())
+    }
+
+    /// As [`Terms::combo`] without the γαP terms.
+    fn combo0(&self, c: &Combo, sigma: f64, gamma: f64, i: usize, j: usize) -> (DMatrix<f64>, f64) {
+        let nx = self.p.nrows();
+        let mut out = DMatrix::zeros(nx, nx);
+        let mut size = 0.0;
+        for &(l, m, w) in &c.terms {
+            let (x, s) = self.xi0(sigma, gamma, l, m, i, j);
+            out += x * w;
+            size += s * w.abs();
+        }
+        (out, size)
+    }
+}
+
+/// The rate LMI matrix Ξ_{ll} of block (l, i, j) (0-based) in model units:
+/// He{γ(PA_l − Γ_lC_l) + σ P R_{l,i,j} − Γ_l S_{l,i,j}} + γαP with σ = +1 for
 /// (S5) and −1 for (26) — required ≺ 0. For e = x_(i)/γ and x = x_(j)/γ it
 /// equals γ·He{P F(θ_l, e, x)} + γαP, F being the error-dynamics matrix.
+/// (With a constant output map these are the whole rate family.)
 #[allow(clippy::too_many_arguments)]
 pub fn rate_lmi(
     model: &PolytopicModel,
@@ -456,9 +548,31 @@ pub fn rate_lmi(
     let v = &model.vertices[l];
     let (xi, xj) = (&model.region.vertices[i], &model.region.vertices[j]);
     let r = rows_he(&v.n, xj) - rows(&v.n, xi);
-    let s = rows_he(&model.m, xj) - rows(&model.m, xi);
-    let x = (p * &v.a - gamma_l * &model.c) * gamma + p * r * sigma - gamma_l * s;
+    let s = rows_he(&v.m, xj) - rows(&v.m, xi);
+    let x = (p * &v.a - gamma_l * &v.c) * gamma + p * r * sigma - gamma_l * s;
     &x + x.transpose() + p * (gamma * alpha)
+}
+
+/// The rate block of combination `combo` at the pair (i, j) (0-based):
+/// Σ_t w_t Ξ_{l_t m_t}(i, j) in model units, required ≺ 0 (the family the
+/// certificate checks; see [`crate::conditions::Combo`]).
+#[allow(clippy::too_many_arguments)]
+pub fn combo_lmi(
+    model: &PolytopicModel,
+    mode: Mode,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+    combo: &Combo,
+    i: usize,
+    j: usize,
+) -> DMatrix<f64> {
+    let set = ConditionSet::from_mode(mode);
+    let lnorm = vec![0.0; gammas.len()];
+    Terms::new(model, p, gammas, &lnorm, gamma)
+        .combo(combo, sigma(set), alpha, gamma, i, j)
+        .0
 }
 
 /// The largest α at which the *same* (P, Γ_l) satisfy every rate LMI at
@@ -483,24 +597,15 @@ pub fn alpha_capacity(
         None => return 0.0,
     };
     let xs = &model.region.vertices;
-    let sigma = set.nonlinear_sign();
-    let mhe: Vec<DMatrix<f64>> = xs.iter().map(|x| rows_he(&model.m, x)).collect();
-    let mrw: Vec<DMatrix<f64>> = xs.iter().map(|x| rows(&model.m, x)).collect();
+    let lnorm = vec![0.0; gammas.len()];
+    let terms = Terms::new(model, &ps, gammas, &lnorm, gamma);
     let mut worst = f64::INFINITY;
-    for (l, vert) in model.vertices.iter().enumerate() {
-        let g = &gammas[l];
-        let pa = &ps * &vert.a * gamma;
-        let gc = g * &model.c * gamma;
-        let nhe: Vec<DMatrix<f64>> = xs.iter().map(|x| rows_he(&vert.n, x)).collect();
-        let nrw: Vec<DMatrix<f64>> = xs.iter().map(|x| rows(&vert.n, x)).collect();
+    for combo in rate_combos(model) {
         for i in 0..xs.len() {
             for j in 0..xs.len() {
-                let r = &nhe[j] - &nrw[i];
-                let s = &mhe[j] - &mrw[i];
-                let x = &pa - &gc + &ps * &r * sigma - g * &s;
-                let m0 = &x + x.transpose();
+                let (m0, _) = terms.combo0(&combo, sigma(set), gamma, i, j);
                 let w = &linv * m0 * linv.transpose();
-                let a = -lambda_max(&w) / gamma;
+                let a = -lambda_max(&w) / (gamma * combo.weight());
                 if a.is_nan() {
                     return 0.0;
                 }

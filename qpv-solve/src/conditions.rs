@@ -154,36 +154,37 @@ impl ConditionSet {
 
 /// The per-pair nonlinear terms of a model, precomputed once:
 /// `nhe[l][j] = rowsHe(N_l, x_(j))`, `nrw[l][i] = rows(N_l, x_(i))`,
-/// `mhe[j] = rowsHe(M, x_(j))`, `mrw[i] = rows(M, x_(i))`.
+/// `mhe[m][j] = rowsHe(M_m, x_(j))`, `mrw[m][i] = rows(M_m, x_(i))`
+/// (M_m: the M_k at θ-vertex m, the same at every vertex when M is constant).
 #[derive(Debug, Clone)]
 pub struct PairTerms {
     /// rowsHe(N_l, x_(j)), nx × nx.
     pub nhe: Vec<Vec<DMatrix<f64>>>,
     /// rows(N_l, x_(i)), nx × nx.
     pub nrw: Vec<Vec<DMatrix<f64>>>,
-    /// rowsHe(M, x_(j)), ny × nx.
-    pub mhe: Vec<DMatrix<f64>>,
-    /// rows(M, x_(i)), ny × nx.
-    pub mrw: Vec<DMatrix<f64>>,
+    /// rowsHe(M_m, x_(j)), ny × nx.
+    pub mhe: Vec<Vec<DMatrix<f64>>>,
+    /// rows(M_m, x_(i)), ny × nx.
+    pub mrw: Vec<Vec<DMatrix<f64>>>,
 }
 
 impl PairTerms {
     /// Precomputes the terms at every region vertex and parameter vertex.
     pub fn new(model: &PolytopicModel) -> Self {
         let xs = &model.region.vertices;
-        let nhe = model
-            .vertices
-            .iter()
-            .map(|v| xs.iter().map(|x| rows_he(&v.n, x)).collect())
-            .collect();
-        let nrw = model
-            .vertices
-            .iter()
-            .map(|v| xs.iter().map(|x| rows(&v.n, x)).collect())
-            .collect();
-        let mhe = xs.iter().map(|x| rows_he(&model.m, x)).collect();
-        let mrw = xs.iter().map(|x| rows(&model.m, x)).collect();
-        PairTerms { nhe, nrw, mhe, mrw }
+        let per_vertex = |f: &dyn Fn(&qpv_dsl::Vertex, &DVector<f64>) -> DMatrix<f64>| {
+            model
+                .vertices
+                .iter()
+                .map(|v| xs.iter().map(|x| f(v, x)).collect())
+                .collect()
+        };
+        PairTerms {
+            nhe: per_vertex(&|v, x| rows_he(&v.n, x)),
+            nrw: per_vertex(&|v, x| rows(&v.n, x)),
+            mhe: per_vertex(&|v, x| rows_he(&v.m, x)),
+            mrw: per_vertex(&|v, x| rows(&v.m, x)),
+        }
     }
 
     /// R_{l,i,j} = rowsHe(N_l, x_(j)) − rows(N_l, x_(i)).
@@ -191,10 +192,85 @@ impl PairTerms {
         &self.nhe[l][j] - &self.nrw[l][i]
     }
 
-    /// S_{i,j} = rowsHe(M, x_(j)) − rows(M, x_(i)).
-    pub fn s(&self, i: usize, j: usize) -> DMatrix<f64> {
-        &self.mhe[j] - &self.mrw[i]
+    /// S_{m,i,j} = rowsHe(M_m, x_(j)) − rows(M_m, x_(i)).
+    pub fn s(&self, m: usize, i: usize, j: usize) -> DMatrix<f64> {
+        &self.mhe[m][j] - &self.mrw[m][i]
     }
+}
+
+/// One member of the rate family: the block Σ_t w_t Ξ_{l_t m_t}(i, j), where
+/// Ξ_{lm} is the rate matrix built from A_l, N_l, Γ_l (the gain's vertex)
+/// and C_m, M_m (the output map's vertex):
+///
+/// ```text
+///     Ξ_{lm}(i, j) = He{ γ(P A_l − Γ_l C_m) + σ P R_{l,i,j} − Γ_l S_{m,i,j} } + γαP.
+/// ```
+///
+/// With a constant output map there is one combination per θ-vertex,
+/// Ξ_{ll} (the spec's single sum). With C(θ), M(θ) the error dynamics carry
+/// Σ_l Σ_m μ_l μ_m Ξ_{lm}, which is negative definite for every μ in the
+/// simplex if (Tuan, Apkarian, Narikiyo & Yamamoto 2001, Thm 2.2)
+///
+/// ```text
+///     Ξ_{ll} ≺ 0  (l = 1..r),    (2/(r−1)) Ξ_{ll} + Ξ_{lm} + Ξ_{ml} ≺ 0  (l ≠ m).
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Combo {
+    /// The terms (l, m, w), 0-based vertex indices.
+    pub terms: Vec<(usize, usize, f64)>,
+}
+
+impl Combo {
+    /// Σ_t w_t: the coefficient of γαP in the block.
+    pub fn weight(&self) -> f64 {
+        self.terms.iter().map(|t| t.2).sum()
+    }
+
+    /// A 1-based label for reports: "l=2" (single sum), "l=m=2" or "l=2 m=3".
+    pub fn label(&self, double: bool) -> String {
+        let (l, m, _) = self.terms[0];
+        match (double, self.terms.len()) {
+            (false, _) => format!("l={}", l + 1),
+            (true, 1) => format!("l=m={}", m + 1),
+            (true, _) => format!("l={} m={}", l + 1, self.terms[1].1 + 1),
+        }
+    }
+}
+
+/// Whether the rate family of `model` is the double sum (its output map
+/// depends on θ) rather than the single sum over θ-vertices.
+pub fn is_double_sum(model: &PolytopicModel) -> bool {
+    model.nv() > 1 && model.output_varies()
+}
+
+/// The rate family's combinations in report order (see [`Combo`]): one per
+/// θ-vertex for a constant output map; for a θ-dependent one the r diagonal
+/// blocks then the r(r−1) ordered off-diagonal ones, row by row.
+pub fn rate_combos(model: &PolytopicModel) -> Vec<Combo> {
+    let r = model.nv();
+    if !is_double_sum(model) {
+        return (0..r)
+            .map(|l| Combo {
+                terms: vec![(l, l, 1.0)],
+            })
+            .collect();
+    }
+    let w = 2.0 / (r as f64 - 1.0);
+    let mut out: Vec<Combo> = (0..r)
+        .map(|l| Combo {
+            terms: vec![(l, l, 1.0)],
+        })
+        .collect();
+    for l in 0..r {
+        for m in 0..r {
+            if l != m {
+                out.push(Combo {
+                    terms: vec![(l, l, w), (l, m, 1.0), (m, l, 1.0)],
+                });
+            }
+        }
+    }
+    out
 }
 
 /// The model with the requested representation of N_k and M_k: as written
@@ -257,13 +333,20 @@ pub fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
     if model.region.vertices.is_empty() || model.region.facets.is_empty() {
         return Err(SolveError::EmptyRegion);
     }
-    if model.c.shape() != (ny, nx) {
-        return bad(format!("C is {:?}, expected ({ny}, {nx})", model.c.shape()));
-    }
-    if model.m.len() != ny || model.m.iter().any(|m| m.shape() != (nx, nx)) {
-        return bad(format!("expected {ny} matrices M_k of {nx} × {nx}"));
-    }
     for (l, v) in model.vertices.iter().enumerate() {
+        if v.c.shape() != (ny, nx) {
+            return bad(format!(
+                "C at vertex {} is {:?}, expected ({ny}, {nx})",
+                l + 1,
+                v.c.shape()
+            ));
+        }
+        if v.m.len() != ny || v.m.iter().any(|m| m.shape() != (nx, nx)) {
+            return bad(format!(
+                "vertex {}: expected {ny} matrices M_k of {nx} × {nx}",
+                l + 1
+            ));
+        }
         if v.a.shape() != (nx, nx) {
             return bad(format!("A at vertex {} is {:?}", l + 1, v.a.shape()));
         }
@@ -285,14 +368,17 @@ pub fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
         }
     }
     let all_finite = model.vertices.iter().all(|v| {
-        v.a.iter().all(|x| x.is_finite()) && v.n.iter().all(|m| m.iter().all(|x| x.is_finite()))
-    }) && model.c.iter().all(|x| x.is_finite())
-        && model.m.iter().all(|m| m.iter().all(|x| x.is_finite()))
-        && model
-            .region
-            .vertices
-            .iter()
-            .all(|x| x.iter().all(|v| v.is_finite()))
+        v.a.iter().all(|x| x.is_finite())
+            && v.c.iter().all(|x| x.is_finite())
+            && v.n
+                .iter()
+                .chain(&v.m)
+                .all(|m| m.iter().all(|x| x.is_finite()))
+    }) && model
+        .region
+        .vertices
+        .iter()
+        .all(|x| x.iter().all(|v| v.is_finite()))
         && model
             .region
             .facets
@@ -425,6 +511,10 @@ pub mod reference {
     /// the box |x_i| ≤ 0.02; the paper's Q. No design requests.
     pub fn paper_model() -> PolytopicModel {
         let corners = [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)];
+        let mut m1 = DMatrix::zeros(3, 3);
+        m1[(1, 2)] = 1.0;
+        let mut m2 = DMatrix::zeros(3, 3);
+        m2[(0, 2)] = 1.0;
         let vertices = corners
             .iter()
             .map(|&(t1, t2)| Vertex {
@@ -432,12 +522,10 @@ pub mod reference {
                 a: paper_a(t1, t2),
                 n: paper_n(t1, t2),
                 b: DMatrix::zeros(3, 0),
+                c: DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]),
+                m: vec![m1.clone(), m2.clone()],
             })
             .collect();
-        let mut m1 = DMatrix::zeros(3, 3);
-        m1[(1, 2)] = 1.0;
-        let mut m2 = DMatrix::zeros(3, 3);
-        m2[(0, 2)] = 1.0;
         PolytopicModel {
             name: "paper".to_string(),
             states: names("x", 3),
@@ -446,8 +534,6 @@ pub mod reference {
             params: vec![param("theta1", 0.0, 1.0), param("theta2", 0.0, 1.0)],
             scheduling: vec![0, 1],
             vertices,
-            c: DMatrix::from_row_slice(2, 3, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]),
-            m: vec![m1, m2],
             region: box_region(3, 0.02),
             state_bound: StateBound::Given(paper_q()),
             designs: vec![],
@@ -462,6 +548,18 @@ pub mod reference {
         assert!(nx >= 2);
         let ny = 2;
         let h = 0.02;
+        let c = DMatrix::from_fn(ny, nx, |r, c| if r == c { 1.0 } else { 0.0 });
+        let m = (0..ny)
+            .map(|k| {
+                DMatrix::from_fn(nx, nx, |r, c| {
+                    if r == (k + 1) % nx && c == nx - 1 {
+                        0.5
+                    } else {
+                        0.0
+                    }
+                })
+            })
+            .collect::<Vec<_>>();
         let corners = [(0.0, 0.0), (0.0, 1.0), (1.0, 0.0), (1.0, 1.0)];
         let vertices = corners
             .iter()
@@ -490,19 +588,9 @@ pub mod reference {
                     a,
                     n,
                     b: DMatrix::zeros(nx, 0),
+                    c: c.clone(),
+                    m: m.clone(),
                 }
-            })
-            .collect();
-        let c = DMatrix::from_fn(ny, nx, |r, c| if r == c { 1.0 } else { 0.0 });
-        let m = (0..ny)
-            .map(|k| {
-                DMatrix::from_fn(nx, nx, |r, c| {
-                    if r == (k + 1) % nx && c == nx - 1 {
-                        0.5
-                    } else {
-                        0.0
-                    }
-                })
             })
             .collect();
         PolytopicModel {
@@ -513,8 +601,6 @@ pub mod reference {
             params: vec![param("theta1", 0.0, 1.0), param("theta2", 0.0, 1.0)],
             scheduling: vec![0, 1],
             vertices,
-            c,
-            m,
             region: box_region(nx, h),
             state_bound: StateBound::Given(DMatrix::identity(nx, nx) * (1.5 * h * h * nx as f64)),
             designs: vec![],

@@ -32,7 +32,7 @@
 //! ```
 
 use crate::report::Design;
-use crate::simulate::{check_gains, check_model, output_into, Frozen, SimError};
+use crate::simulate::{check_gains, check_model, Frozen, SimError};
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{PolytopicModel, StateBound};
 use serde::Serialize;
@@ -199,8 +199,8 @@ impl<'a> Ratio<'a> {
         // e' = f(x) − f(x̂) − L (h(x) − h(x̂)), accumulated in fx
         self.frozen.drift(x, &mut self.fx);
         self.frozen.drift(&self.xhat, &mut self.fxhat);
-        output_into(self.model, x, &mut self.hx);
-        output_into(self.model, &self.xhat, &mut self.hxhat);
+        self.frozen.output(x, &mut self.hx);
+        self.frozen.output(&self.xhat, &mut self.hxhat);
         for (a, b) in self.fx.iter_mut().zip(&self.fxhat) {
             *a -= b;
         }

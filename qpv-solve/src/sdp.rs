@@ -40,7 +40,7 @@
 //! which changes no sign of any eigenvalue; (4) is the printed LMI divided
 //! by s > 0. The objective is ½ w Σ_l ‖Γ̂_l‖_F² (or 0 for pure feasibility).
 
-use crate::conditions::{region_radius, ConditionSet, PairTerms, RegionForm};
+use crate::conditions::{rate_combos, region_radius, Combo, ConditionSet, PairTerms, RegionForm};
 use crate::report::Status;
 use crate::search::{Settings, SolveError};
 use clarabel::algebra::CscMatrix;
@@ -170,6 +170,7 @@ pub struct Problem<'m> {
     xs_hat: Vec<DVector<f64>>,
     as_hat: Vec<DVector<f64>>,
     terms: PairTerms,
+    combos: Vec<Combo>,
     max_a_fro: f64,
     max_r_fro: f64,
 }
@@ -209,6 +210,7 @@ impl<'m> Problem<'m> {
             xs_hat: model.region.vertices.iter().map(|x| x / rho).collect(),
             as_hat: model.region.facets.iter().map(|a| a * rho).collect(),
             terms,
+            combos: rate_combos(model),
             max_a_fro: model
                 .vertices
                 .iter()
@@ -241,28 +243,36 @@ impl<'m> Problem<'m> {
         self.np + self.nv * self.nx * self.ny
     }
 
-    /// Number of slack variables Ẑ_l (N·nx(nx+1)/2 when decoupled, else 0).
+    /// Number of slack variables Ẑ_c, one per rate combination
+    /// ([`crate::conditions::Combo`]) of nx(nx+1)/2 entries when decoupled, else 0.
     pub fn n_slack_vars(&self) -> usize {
         match self.conditions {
             Conditions::Full => 0,
-            Conditions::Decoupled => self.nv * self.np,
+            Conditions::Decoupled => self.combos.len() * self.np,
         }
     }
 
-    /// Number of rate LMI blocks assembled: N p² (full) or N·2p (decoupled).
+    /// Number of rate LMI blocks assembled: c p² (full) or c·2p (decoupled),
+    /// with c combinations (c = N for a constant output map, N² for the
+    /// double sum).
     pub fn n_rate_blocks(&self) -> usize {
         let p = self.model.region.vertices.len();
         match self.conditions {
-            Conditions::Full => self.nv * p * p,
-            Conditions::Decoupled => self.nv * 2 * p,
+            Conditions::Full => self.combos.len() * p * p,
+            Conditions::Decoupled => self.combos.len() * 2 * p,
         }
     }
 
-    /// Number of blocks of the full family (N p²), which the certificate
+    /// Number of blocks of the full family (c p²), which the certificate
     /// checks whatever was assembled.
     pub fn n_full_rate_blocks(&self) -> usize {
         let p = self.model.region.vertices.len();
-        self.nv * p * p
+        self.combos.len() * p * p
+    }
+
+    /// The rate family's combinations (see [`crate::conditions::Combo`]).
+    pub fn combos(&self) -> &[Combo] {
+        &self.combos
     }
 
     /// The condition set.
@@ -280,74 +290,95 @@ impl<'m> Problem<'m> {
         self.np + l * self.nx * self.ny + r * self.ny + c
     }
 
-    /// Variable of Ẑ_l's packed upper-triangle entry `idx` (decoupled only).
+    /// Variable of Ẑ_c's packed upper-triangle entry `idx` (decoupled only).
     #[inline]
-    fn zvar(&self, l: usize, idx: usize) -> usize {
-        self.gains_end() + l * self.np + idx
+    fn zvar(&self, c: usize, idx: usize) -> usize {
+        self.gains_end() + c * self.np + idx
     }
 
-    /// K and H of the rate block (l, i, j) in scaled form (see the module doc
-    /// of [`crate::conditions`]).
+    /// K and the gain terms H_l of combination `c` at the e-vertex `e`
+    /// and/or the x-vertex `x`, so that the block is He{P̂K − Σ_l Γ̂_l H_l}:
+    /// for each term (l, m, w) the e-part adds w(γA_l + (γα/2)I − σ rows(N_l, x_e))
+    /// to K and w(γC_m − rows(M_m, x_e)) to H_l; the x-part adds
+    /// wσ rowsHe(N_l, x_x) to K and w rowsHe(M_m, x_x) to H_l.
+    fn combo_kh(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        c: usize,
+        e: Option<usize>,
+        x: Option<usize>,
+    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
+        let sigma = self.set.nonlinear_sign();
+        let mut k = DMatrix::zeros(self.nx, self.nx);
+        let mut hs: Vec<(usize, DMatrix<f64>)> = Vec::new();
+        for &(l, m, w) in &self.combos[c].terms {
+            let mut h = DMatrix::zeros(self.ny, self.nx);
+            if let Some(i) = e {
+                k += (&self.model.vertices[l].a * gamma - &self.terms.nrw[l][i] * sigma) * w;
+                for d in 0..self.nx {
+                    k[(d, d)] += 0.5 * gamma * alpha * w;
+                }
+                h += (&self.model.vertices[m].c * gamma - &self.terms.mrw[m][i]) * w;
+            }
+            if let Some(j) = x {
+                k += &self.terms.nhe[l][j] * (sigma * w);
+                h += &self.terms.mhe[m][j] * w;
+            }
+            match hs.iter_mut().find(|(g, _)| *g == l) {
+                Some((_, acc)) => *acc += h,
+                None => hs.push((l, h)),
+            }
+        }
+        hs.sort_by_key(|(g, _)| *g);
+        (k, hs)
+    }
+
+    /// K and the gain terms of the rate block (combination c, pair i, j) in
+    /// scaled form (see [`crate::conditions::Combo`]); for a constant output
+    /// map combination c is θ-vertex c and this is He{P̂K − Γ̂_c H} with
+    /// K = γA_c + σR_{c,i,j} + (γα/2)I, H = γC + S_{i,j}.
     pub fn rate_kh(
         &self,
         alpha: f64,
         gamma: f64,
-        l: usize,
+        c: usize,
         i: usize,
         j: usize,
-    ) -> (DMatrix<f64>, DMatrix<f64>) {
-        let sigma = self.set.nonlinear_sign();
-        let v = &self.model.vertices[l];
-        let mut k = &v.a * gamma + (&self.terms.nhe[l][j] - &self.terms.nrw[l][i]) * sigma;
-        for d in 0..self.nx {
-            k[(d, d)] += 0.5 * gamma * alpha;
-        }
-        let h = &self.model.c * gamma + (&self.terms.mhe[j] - &self.terms.mrw[i]);
-        (k, h)
+    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
+        self.combo_kh(alpha, gamma, c, Some(i), Some(j))
     }
 
-    /// K and H of the e-vertex part F0_l + G_l(x_i) of the decoupled
-    /// conditions (module doc): K = γA_l + (γα/2) I − σ rows(N_l, x_i),
-    /// H = γC − rows(M, x_i), so that the part is He{P̂K − Γ̂_l H}.
+    /// The e-vertex part F0_c + G_c(x_i) of the decoupled conditions (module
+    /// doc of [`crate::conditions`]).
     pub fn decoupled_e_kh(
         &self,
         alpha: f64,
         gamma: f64,
-        l: usize,
+        c: usize,
         i: usize,
-    ) -> (DMatrix<f64>, DMatrix<f64>) {
-        let sigma = self.set.nonlinear_sign();
-        let v = &self.model.vertices[l];
-        let mut k = &v.a * gamma - &self.terms.nrw[l][i] * sigma;
-        for d in 0..self.nx {
-            k[(d, d)] += 0.5 * gamma * alpha;
-        }
-        let h = &self.model.c * gamma - &self.terms.mrw[i];
-        (k, h)
+    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
+        self.combo_kh(alpha, gamma, c, Some(i), None)
     }
 
-    /// K and H of the x-vertex part H_l(x_j) of the decoupled conditions:
-    /// K = σ rowsHe(N_l, x_j), H = rowsHe(M, x_j). With
-    /// [`Problem::decoupled_e_kh`] at (l, i) they add up to
-    /// [`Problem::rate_kh`] at (l, i, j).
-    pub fn decoupled_x_kh(&self, l: usize, j: usize) -> (DMatrix<f64>, DMatrix<f64>) {
-        let sigma = self.set.nonlinear_sign();
-        (&self.terms.nhe[l][j] * sigma, self.terms.mhe[j].clone())
+    /// The x-vertex part H_c(x_j) of the decoupled conditions. With
+    /// [`Problem::decoupled_e_kh`] at (c, i) it adds up to
+    /// [`Problem::rate_kh`] at (c, i, j).
+    pub fn decoupled_x_kh(&self, c: usize, j: usize) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
+        self.combo_kh(0.0, 0.0, c, None, Some(j))
     }
 
-    /// Pushes the coefficients of He{P̂K − Γ̂_l H} (svec, √2 off the
+    /// Pushes the coefficients of He{P̂K − Σ_l Γ̂_l H_l} (svec, √2 off the
     /// diagonal) into the block starting at `row0`; `df` is scratch of nx².
     fn push_he_block(
         &self,
         cols: &mut Columns,
         row0: usize,
         k: &DMatrix<f64>,
-        h: &DMatrix<f64>,
-        l: usize,
+        hs: &[(usize, DMatrix<f64>)],
         df: &mut [f64],
     ) {
         let nx = self.nx;
-        let ny = self.ny;
         // P̂ variables.
         for pc in 0..nx {
             for pr in 0..=pc {
@@ -392,6 +423,14 @@ impl<'m> Problem<'m> {
         }
         // Γ̂_l variables: ∂F/∂Γ_rc = −(E_rc H + Hᵀ E_rcᵀ),
         // entry (a, b) = −([a==r] H[c,b] + [b==r] H[c,a]).
+        for (l, h) in hs {
+            self.push_gain_columns(cols, row0, *l, h);
+        }
+    }
+
+    /// The Γ̂_l columns of one block: −He{Γ̂_l H}.
+    fn push_gain_columns(&self, cols: &mut Columns, row0: usize, l: usize, h: &DMatrix<f64>) {
+        let (nx, ny) = (self.nx, self.ny);
         for gr in 0..nx {
             for gc in 0..ny {
                 let v = self.gvar(l, gr, gc);
@@ -604,12 +643,12 @@ impl<'m> Problem<'m> {
         };
         match self.conditions {
             Conditions::Full => {
-                for l in 0..self.nv {
+                for c in 0..self.combos.len() {
                     for i in 0..p_reg {
                         for j in 0..p_reg {
-                            let (k, h) = self.rate_kh(alpha, gamma, l, i, j);
+                            let (k, hs) = self.rate_kh(alpha, gamma, c, i, j);
                             let row0 = open_block(&mut b, eps_rate);
-                            self.push_he_block(&mut cols, row0, &k, &h, l, &mut df);
+                            self.push_he_block(&mut cols, row0, &k, &hs, &mut df);
                             margin_col(&mut cols, row0);
                             cones.push(SupportedConeT::PSDTriangleConeT(nx));
                         }
@@ -628,20 +667,20 @@ impl<'m> Problem<'m> {
                         }
                     }
                 };
-                for l in 0..self.nv {
+                for c in 0..self.combos.len() {
                     for i in 0..p_reg {
-                        let (k, h) = self.decoupled_e_kh(alpha, gamma, l, i);
+                        let (k, hs) = self.decoupled_e_kh(alpha, gamma, c, i);
                         let row0 = open_block(&mut b, eps_rate);
-                        self.push_he_block(&mut cols, row0, &k, &h, l, &mut df);
-                        z_col(&mut cols, row0, l, 1.0);
+                        self.push_he_block(&mut cols, row0, &k, &hs, &mut df);
+                        z_col(&mut cols, row0, c, 1.0);
                         margin_col(&mut cols, row0);
                         cones.push(SupportedConeT::PSDTriangleConeT(nx));
                     }
                     for j in 0..p_reg {
-                        let (k, h) = self.decoupled_x_kh(l, j);
+                        let (k, hs) = self.decoupled_x_kh(c, j);
                         let row0 = open_block(&mut b, 0.0);
-                        self.push_he_block(&mut cols, row0, &k, &h, l, &mut df);
-                        z_col(&mut cols, row0, l, -1.0);
+                        self.push_he_block(&mut cols, row0, &k, &hs, &mut df);
+                        z_col(&mut cols, row0, c, -1.0);
                         cones.push(SupportedConeT::PSDTriangleConeT(nx));
                     }
                 }
@@ -725,7 +764,7 @@ impl<'m> Problem<'m> {
             return Vec::new();
         }
         let nx = self.nx;
-        (0..self.nv)
+        (0..self.combos.len())
             .map(|l| {
                 let mut z = DMatrix::zeros(nx, nx);
                 for c in 0..nx {
@@ -988,8 +1027,8 @@ mod tests {
             for xi in &model.region.vertices {
                 for xj in &model.region.vertices {
                     let r = rows_he(&v.n, xj) - rows(&v.n, xi);
-                    let sm = rows_he(&model.m, xj) - rows(&model.m, xi);
-                    let inner = (&p * &v.a - &gammas[l] * &model.c) * gamma + &p * &r * sigma
+                    let sm = rows_he(model.c0().1, xj) - rows(model.c0().1, xi);
+                    let inner = (&p * &v.a - &gammas[l] * model.c0().0) * gamma + &p * &r * sigma
                         - &gammas[l] * &sm;
                     let f = &inner + inner.transpose() + &p * (gamma * alpha);
                     let want = -f / s - DMatrix::identity(nx, nx) * eps_rate;
@@ -1128,9 +1167,9 @@ mod tests {
             |v: &[f64], b: usize, r0: usize| smat(&v[r0 + b * tri(nx)..r0 + (b + 1) * tri(nx)], nx);
         for (l, v) in model.vertices.iter().enumerate() {
             let g = &gammas[l];
-            let f0 = he((&p * &v.a - g * &model.c) * gamma) + &p * (gamma * alpha);
+            let f0 = he((&p * &v.a - g * model.c0().0) * gamma) + &p * (gamma * alpha);
             for (i, xi) in model.region.vertices.iter().enumerate() {
-                let gi = he(&p * rows(&v.n, xi) * (-sigma) + g * rows(&model.m, xi));
+                let gi = he(&p * rows(&v.n, xi) * (-sigma) + g * rows(model.c0().1, xi));
                 let want = -(&f0 + &gi + &z[l]) / s - &eye * eps_rate;
                 let got = blk(&sd, l * 2 * np + i, rd);
                 assert!(
@@ -1139,7 +1178,7 @@ mod tests {
                 );
             }
             for (j, xj) in model.region.vertices.iter().enumerate() {
-                let hj = he(&p * rows_he(&v.n, xj) * sigma - g * rows_he(&model.m, xj));
+                let hj = he(&p * rows_he(&v.n, xj) * sigma - g * rows_he(model.c0().1, xj));
                 let want = -(&hj - &z[l]) / s;
                 let got = blk(&sd, l * 2 * np + np + j, rd);
                 assert!(

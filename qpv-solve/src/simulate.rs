@@ -181,15 +181,18 @@ pub fn check_model(model: &PolytopicModel) -> Result<(), SimError> {
             check_matrix(&format!("N_{},{}", k + 1, l + 1), n, nx, nx)?;
         }
     }
-    check_matrix("C", &model.c, ny, nx)?;
-    if model.m.len() != ny {
-        return Err(SimError::Model(format!(
-            "{} matrices M_k, expected one per output ({ny})",
-            model.m.len()
-        )));
-    }
-    for (k, m) in model.m.iter().enumerate() {
-        check_matrix(&format!("M_{}", k + 1), m, nx, nx)?;
+    for (l, v) in model.vertices.iter().enumerate() {
+        check_matrix(&format!("C_{}", l + 1), &v.c, ny, nx)?;
+        if v.m.len() != ny {
+            return Err(SimError::Model(format!(
+                "vertex {} has {} matrices M_k, expected one per output ({ny})",
+                l + 1,
+                v.m.len()
+            )));
+        }
+        for (k, m) in v.m.iter().enumerate() {
+            check_matrix(&format!("M_{},{}", k + 1, l + 1), m, nx, nx)?;
+        }
     }
     Ok(())
 }
@@ -238,14 +241,16 @@ fn add_scaled(dst: &mut DMatrix<f64>, w: f64, src: &DMatrix<f64>) {
     }
 }
 
-/// The model's matrices frozen at one θ: μ(θ), A(θ), N_k(θ), B(θ) and, when
-/// gains are given, L(θ). Buffers are reused between calls.
+/// The model's matrices frozen at one θ: μ(θ), A(θ), N_k(θ), B(θ), C(θ),
+/// M_k(θ) and, when gains are given, L(θ). Buffers are reused between calls.
 #[derive(Debug, Clone)]
 pub(crate) struct Frozen {
     pub(crate) mu: Vec<f64>,
     a: DMatrix<f64>,
     n: Vec<DMatrix<f64>>,
     b: DMatrix<f64>,
+    c: DMatrix<f64>,
+    m: Vec<DMatrix<f64>>,
     l: DMatrix<f64>,
 }
 
@@ -258,6 +263,8 @@ impl Frozen {
             a: DMatrix::zeros(nx, nx),
             n: vec![DMatrix::zeros(nx, nx); nx],
             b: DMatrix::zeros(nx, nu),
+            c: DMatrix::zeros(ny, nx),
+            m: vec![DMatrix::zeros(nx, nx); ny],
             l: DMatrix::zeros(nx, ny),
         }
     }
@@ -268,15 +275,20 @@ impl Frozen {
         self.mu = model.mu(theta);
         self.a.fill(0.0);
         self.b.fill(0.0);
+        self.c.fill(0.0);
         self.l.fill(0.0);
-        for n in &mut self.n {
+        for n in self.n.iter_mut().chain(self.m.iter_mut()) {
             n.fill(0.0);
         }
         for (l, (v, &w)) in model.vertices.iter().zip(&self.mu).enumerate() {
             add_scaled(&mut self.a, w, &v.a);
             add_scaled(&mut self.b, w, &v.b);
+            add_scaled(&mut self.c, w, &v.c);
             for (n, nl) in self.n.iter_mut().zip(&v.n) {
                 add_scaled(n, w, nl);
+            }
+            for (m, ml) in self.m.iter_mut().zip(&v.m) {
+                add_scaled(m, w, ml);
             }
             if let Some(g) = gains.get(l) {
                 add_scaled(&mut self.l, w, g);
@@ -302,14 +314,14 @@ impl Frozen {
     pub(crate) fn add_gain(&self, v: &[f64], out: &mut [f64]) {
         add_mul(out, &self.l, v);
     }
-}
 
-/// out = C x + M(x) x: the output map (C and M_k are constant).
-pub(crate) fn output_into(model: &PolytopicModel, x: &[f64], out: &mut [f64]) {
-    out.fill(0.0);
-    add_mul(out, &model.c, x);
-    for (o, mk) in out.iter_mut().zip(&model.m) {
-        *o += quad(mk, x);
+    /// out = C(θ) x + M(θ, x) x: the output map.
+    pub(crate) fn output(&self, x: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        add_mul(out, &self.c, x);
+        for (o, mk) in out.iter_mut().zip(&self.m) {
+            *o += quad(mk, x);
+        }
     }
 }
 
@@ -335,11 +347,7 @@ pub fn plant_derivative(
     Ok(dx)
 }
 
-/// The plant's output y = C x + M(x) x.
-///
-/// `theta` is checked but unused: C and M_k are constant in a
-/// [`PolytopicModel`]; it is taken so callers need not change if they become
-/// scheduled.
+/// The plant's output y = C(θ) x + M(θ, x) x (θ clamped into the box).
 pub fn plant_output(
     model: &PolytopicModel,
     x: &[f64],
@@ -348,13 +356,15 @@ pub fn plant_output(
     check_model(model)?;
     check_len("x", x, model.nx())?;
     check_len("theta", theta, model.ntheta())?;
+    let mut frozen = Frozen::new(model);
+    frozen.set(model, &[], theta);
     let mut y = vec![0.0; model.ny()];
-    output_into(model, x, &mut y);
+    frozen.output(x, &mut y);
     Ok(y)
 }
 
 /// The observer's right-hand side, spec eq. (9):
-/// x̂' = A(θ) x̂ + N(θ, x̂) x̂ + B(θ) u + L(θ) [y − C x̂ − M(x̂) x̂],
+/// x̂' = A(θ) x̂ + N(θ, x̂) x̂ + B(θ) u + L(θ) [y − C(θ) x̂ − M(θ, x̂) x̂],
 /// with L(θ) = Σ_l μ_l(θ) L_l and `gains[l]` = L_l (nx × ny, vertex order of
 /// the model).
 ///
@@ -381,7 +391,7 @@ pub fn observer_derivative(
     frozen.add_input(u, &mut dxhat);
     // output error y − C x̂ − M(x̂) x̂
     let mut yhat = vec![0.0; model.ny()];
-    output_into(model, xhat, &mut yhat);
+    frozen.output(xhat, &mut yhat);
     let innovation: Vec<f64> = y.iter().zip(&yhat).map(|(y, yh)| y - yh).collect();
     frozen.add_gain(&innovation, &mut dxhat);
     Ok(dxhat)
@@ -717,8 +727,8 @@ impl<'a> Closed<'a> {
         self.frozen.drift(x, dx);
         self.frozen.add_input(&self.u, dx);
         // observer, eq. (9)
-        output_into(self.model, x, &mut self.y);
-        output_into(self.model, xhat, &mut self.yhat);
+        self.frozen.output(x, &mut self.y);
+        self.frozen.output(xhat, &mut self.yhat);
         for (y, yh) in self.y.iter_mut().zip(&self.yhat) {
             *y -= yh;
         }

@@ -44,8 +44,8 @@ fn error_rate(
     let xh = x - e;
     let fx = &v.a * x + quad(&v.n, x);
     let fxh = &v.a * &xh + quad(&v.n, &xh);
-    let y = &model.c * x + quad(&model.m, x);
-    let yh = &model.c * &xh + quad(&model.m, &xh);
+    let y = model.c0().0 * x + quad(model.c0().1, x);
+    let yh = model.c0().0 * &xh + quad(model.c0().1, &xh);
     fx - fxh - gain * (y - yh)
 }
 

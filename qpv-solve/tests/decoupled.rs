@@ -271,7 +271,7 @@ fn decoupled_solution_satisfies_the_full_family() {
         let scale = p.norm();
         for (l, v) in model.vertices.iter().enumerate() {
             let g = &gammas[l];
-            let f0 = he((&p * &v.a - g * &model.c) * gamma) + &p * (gamma * alpha);
+            let f0 = he((&p * &v.a - g * model.c0().0) * gamma) + &p * (gamma * alpha);
             let e_worst = model
                 .region
                 .vertices
@@ -279,7 +279,7 @@ fn decoupled_solution_satisfies_the_full_family() {
                 .map(|xi| {
                     lmax(
                         &(&f0
-                            + he(&p * rows(&v.n, xi) * (-sigma) + g * rows(&model.m, xi))
+                            + he(&p * rows(&v.n, xi) * (-sigma) + g * rows(model.c0().1, xi))
                             + &z[l]),
                     )
                 })
@@ -289,7 +289,10 @@ fn decoupled_solution_satisfies_the_full_family() {
                 .vertices
                 .iter()
                 .map(|xj| {
-                    lmax(&(he(&p * rows_he(&v.n, xj) * sigma - g * rows_he(&model.m, xj)) - &z[l]))
+                    lmax(
+                        &(he(&p * rows_he(&v.n, xj) * sigma - g * rows_he(model.c0().1, xj))
+                            - &z[l]),
+                    )
                 })
                 .fold(f64::NEG_INFINITY, f64::max);
             assert!(e_worst < 0.0, "{mode:?} l={l}: e-blocks λ_max {e_worst}");

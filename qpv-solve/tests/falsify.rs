@@ -41,9 +41,9 @@ fn stable_linear(nx: usize) -> PolytopicModel {
             a: -DMatrix::identity(nx, nx),
             n: vec![DMatrix::zeros(nx, nx); nx],
             b: DMatrix::zeros(nx, 0),
+            c: DMatrix::identity(nx, nx),
+            m: vec![DMatrix::zeros(nx, nx); nx],
         }],
-        c: DMatrix::identity(nx, nx),
-        m: vec![DMatrix::zeros(nx, nx); nx],
         region: box_region(nx, 1.0),
         state_bound: StateBound::Given(DMatrix::identity(nx, nx) * 4.0),
         designs: vec![],
@@ -131,9 +131,9 @@ fn samples_stay_in_the_sets_and_the_ratio_matches_the_closed_form() {
         .zip(&gains)
         .fold(DMatrix::zeros(3, 2), |acc, (m, g)| acc + g * *m);
     let n = paper_n(t1, t2);
-    let bracket = paper_a(t1, t2) - &l * &model.c + rows_he(&n, &x)
+    let bracket = paper_a(t1, t2) - &l * model.c0().0 + rows_he(&n, &x)
         - rows(&n, &e)
-        - &l * (rows_he(&model.m, &x) - rows(&model.m, &e));
+        - &l * (rows_he(model.c0().1, &x) - rows(model.c0().1, &e));
     let edot = bracket * &e;
     let v = e.dot(&(&p * &e));
     let r = (2.0 * e.dot(&(&p * edot)) + alpha * v) / v;

@@ -29,6 +29,8 @@ fn scalar_model(a0: f64, a1: f64, b: f64, nu: usize) -> PolytopicModel {
         a: DMatrix::from_element(1, 1, a),
         n: vec![DMatrix::zeros(1, 1)],
         b: DMatrix::from_element(1, nu, b),
+        c: DMatrix::from_element(1, 1, 1.0),
+        m: vec![DMatrix::zeros(1, 1)],
     };
     PolytopicModel {
         name: "scalar".to_string(),
@@ -38,8 +40,6 @@ fn scalar_model(a0: f64, a1: f64, b: f64, nu: usize) -> PolytopicModel {
         params: vec![param("theta", 0.0, 1.0)],
         scheduling: vec![0],
         vertices: vec![vertex(0.0, a0), vertex(1.0, a1)],
-        c: DMatrix::from_element(1, 1, 1.0),
-        m: vec![DMatrix::zeros(1, 1)],
         region: box_region(1, 1.0),
         state_bound: StateBound::None,
         designs: vec![],
@@ -392,8 +392,8 @@ fn parsed_paper_example_simulates_like_the_hand_built_model() {
     assert_eq!(parsed.vertices.len(), 4);
     for (p, m) in parsed.vertices.iter().zip(&model.vertices) {
         assert_eq!((&p.theta, &p.a, &p.n), (&m.theta, &m.a, &m.n));
+        assert_eq!((&p.c, &p.m), (&m.c, &m.m));
     }
-    assert_eq!((&parsed.c, &parsed.m), (&model.c, &model.m));
     assert_eq!(parsed.state_bound, model.state_bound);
 
     let base = DMatrix::from_row_slice(3, 2, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);

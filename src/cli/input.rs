@@ -1,6 +1,7 @@
 //! Loading model files, choosing a model, writing JSON, and the CLI's error
 //! type with its exit codes.
 
+use nalgebra::DMatrix;
 use qpv_dsl::{Model, PolytopicModel};
 use std::path::Path;
 
@@ -94,6 +95,7 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         "vertex order: corners of ({}), first most significant, lo before hi\n",
         sched.join(", ")
     ));
+    let varies = p.output_varies();
     for (l, v) in p.vertices.iter().enumerate() {
         let corner: Vec<String> = p
             .scheduling
@@ -114,12 +116,14 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         if p.nu() > 0 {
             s.push_str(&format!("  B:\n{}", fmt_matrix(&v.b, "    ")));
         }
-    }
-    s.push_str(&format!("\nC:\n{}", fmt_matrix(&p.c, "  ")));
-    for (k, m) in p.m.iter().enumerate() {
-        if m.iter().any(|x| *x != 0.0) {
-            s.push_str(&format!("M{}:\n{}", k + 1, fmt_matrix(m, "  ")));
+        if varies {
+            push_output(&mut s, &v.c, &v.m, "  ");
         }
+    }
+    if !varies {
+        let (c, m) = p.c0();
+        s.push('\n');
+        push_output(&mut s, c, m, "");
     }
     s.push_str(&format!(
         "\nregion: {} vertices, {} facets (a_k^T x <= 1)\n",
@@ -133,6 +137,17 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         s.push_str(&format!("  a_{} = {:?}\n", k + 1, a.as_slice()));
     }
     s
+}
+
+/// Appends C and the nonzero M_k, indented by `indent`.
+fn push_output(s: &mut String, c: &DMatrix<f64>, m: &[DMatrix<f64>], indent: &str) {
+    let inner = format!("{indent}  ");
+    s.push_str(&format!("{indent}C:\n{}", fmt_matrix(c, &inner)));
+    for (k, mk) in m.iter().enumerate() {
+        if mk.iter().any(|x| *x != 0.0) {
+            s.push_str(&format!("{indent}M{}:\n{}", k + 1, fmt_matrix(mk, &inner)));
+        }
+    }
 }
 
 /// Reads a JSON report or gains file. A `qpv design` run over several
