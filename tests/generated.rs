@@ -59,6 +59,28 @@ inline_model! {
     }
 }
 
+// The paper's plant with a θ-dependent output map C(θ), M_1(θ): designed by
+// the double-sum relaxation (the default `output_route`).
+inline_model! {
+    THETA_OUT_TEXT,
+    model theta_out {
+        state  x1, x2, x3;
+        output y1, y2;
+        param  th1 in [0, 1];
+        param  th2 in [0, 1];
+        A  = [ -4 - th1, 10, 2 + 2*th2 ; -1, -1 - th2, 1.5 + 2*th1 ; 1, 1, -4 - 3*th1 ];
+        N1 = [ 0.5, 1 + th1, 0 ;  0, 0, -th2 ;  0, 1 + th2, 0 ];
+        N2 = [ -0.4, 0, 1 - th1 ;  1.5, 0, 1 + th2 ;  2 + th2, 0, 0 ];
+        N3 = [ 1.5, -0.5 - th1, 0 ;  3 + th1, 0, 0 ;  0, 2 - th2, 0 ];
+        C  = [ 1, 0, 0 ; 0, 1 + th1, 0 ];
+        M1 = [ 0, 0, 0 ; 0, 0, 0.5*th2 ; 0, 0, 0 ];
+        M2 = [ 0, 0, 1 ; 0, 0, 0 ; 0, 0, 0 ];
+        region box(0.02);
+        state_bound Q = [ 0.0112, 0.0017, 0.0006 ; 0.0017, 0.0025, -0.0022 ; 0.0006, -0.0022, 0.0061 ];
+        design { alpha = 5; gamma = search; }
+    }
+}
+
 /// xorshift64*: reproducible random numbers without a dependency.
 struct Rng(u64);
 
@@ -341,4 +363,36 @@ fn model_without_parameters_has_one_vertex_and_matches_reference() {
         worst = worst.max(rel_err(&got, &want));
     }
     assert!(worst <= 1e-12, "worst relative error {worst:e}");
+}
+
+#[test]
+fn theta_dependent_output_double_sum_matches_reference() {
+    let poly = polytopic(THETA_OUT_TEXT);
+    assert!(poly.output_varies(), "C and M_1 depend on θ");
+    assert_eq!((theta_out::NX, theta_out::NY, theta_out::NV), (3, 2, 4));
+    assert_eq!(poly.nv(), theta_out::NV);
+    assert!(theta_out::CERTIFIES);
+    let ls = gains(&theta_out::L);
+    let mut rng = Rng(0x5eed);
+    let (mut worst_obs, mut worst_h): (f64, f64) = (0.0, 0.0);
+    for _ in 0..2000 {
+        let xhat: [f64; 3] = core::array::from_fn(|_| rng.uniform(-0.05, 0.05));
+        let y: [f64; 2] = core::array::from_fn(|_| rng.uniform(-0.05, 0.05));
+        let theta: [f64; 2] = core::array::from_fn(|_| rng.uniform(0.0, 1.0));
+        let got = theta_out::Observer::with_state(&xhat).derivative(&y, &[], &theta);
+        let want = simulate::observer_derivative(&poly, &ls, &xhat, &y, &[], &theta)
+            .expect("reference evaluates");
+        worst_obs = worst_obs.max(rel_err(&got, &want));
+        let h = theta_out::plant::output(&xhat, &theta);
+        let h_ref = simulate::plant_output(&poly, &xhat, &theta).expect("reference");
+        worst_h = worst_h.max(rel_err(&h, &h_ref));
+    }
+    assert!(
+        worst_obs <= 1e-12,
+        "observer: worst relative error {worst_obs:e}"
+    );
+    assert!(
+        worst_h <= 1e-12,
+        "plant output: worst relative error {worst_h:e}"
+    );
 }

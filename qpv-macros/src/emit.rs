@@ -917,7 +917,7 @@ fn emit_design(
     );
     let obs_doc = format!(
         " The certified observer of model `{model_name}` (design {index}): \
-         x̂' = A(θ)x̂ + N(θ,x̂)x̂ + B(θ)u + L(θ)[y − C x̂ − M(x̂)x̂], fully unrolled.\n\n \
+         x̂' = A(θ)x̂ + N(θ,x̂)x̂ + B(θ)u + L(θ)[y − C(θ)x̂ − M(θ,x̂)x̂], fully unrolled.\n\n \
          θ is clamped into Θ (NaN → lower bound) before use; `step_euler`/`step_rk4` count \
          the steps where that happened ([`Observer::clamped`]). NaN in y or u propagates \
          into the estimate; nothing here can panic or allocate."

@@ -10,7 +10,8 @@ use crate::fallback::{self, Failure};
 use crate::input::{Input, Source};
 use proc_macro2::TokenStream;
 use qpv_dsl::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, PolytopicModel, Split, StateBound,
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputRoute, PolytopicModel,
+    Split, StateBound,
 };
 use qpv_solve::report::{matrix_to_rows, rows_to_matrix};
 use qpv_solve::{Design, Settings};
@@ -105,6 +106,12 @@ pub fn describe(req: &DesignRequest) -> String {
             Conditions::Decoupled => "; conditions = decoupled",
         });
     }
+    if let OutputRoute::Filter(f) = req.output_route {
+        text.push_str(&format!(
+            "; output_route = filter(pole = {}, gain = {})",
+            f.pole, f.gain
+        ));
+    }
     text
 }
 
@@ -155,16 +162,6 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
         ));
     }
     let poly = model.polytopic();
-    if poly.nx() != model.nx() || poly.ny() != model.ny() || poly.nu() != model.nu() {
-        return Err((
-            at_name(
-                "the output equations depend on θ and were augmented with an output \
-                 filter; qpv! cannot generate code for augmented models yet (use the \
-                 `qpv` command line, or make C and M_k constant)",
-            ),
-            no_stub(),
-        ));
-    }
 
     if model.designs.iter().all(|d| d.mode == Mode::Paper) {
         let first = &model.designs[0];
