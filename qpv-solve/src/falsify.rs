@@ -524,26 +524,21 @@ pub fn falsify(
 ///
 /// A design without a solution (empty P) is reported as a [`SimError::Shape`]
 /// error. Falsifying a paper-mode design is allowed; it tests the claim
-/// V' + αV < 0 on E × F even though that mode certifies nothing. For a
-/// model with `state_bound auto`, x is sampled in the F the design computed.
+/// V' + αV < 0 on E × F even though that mode certifies nothing. The gains
+/// are tested on [`Design::observer_model`]: for a model with
+/// `state_bound auto` x is sampled in the F the design computed, and a
+/// filter-route design is tested on the augmented plant.
 pub fn falsify_design(
     model: &PolytopicModel,
     design: &Design,
     samples: usize,
     seed: u64,
 ) -> Result<Falsification, SimError> {
-    let resolved;
-    let model = match (&model.state_bound, design.state_bound_q()) {
-        (StateBound::Auto { .. }, Some(q)) => {
-            let mut m = model.clone();
-            m.state_bound = StateBound::Given(q);
-            resolved = m;
-            &resolved
-        }
-        _ => model,
-    };
+    let model = design
+        .observer_model(model)
+        .map_err(|e| SimError::Model(e.to_string()))?;
     falsify(
-        model,
+        &model,
         &design.p_matrix(),
         &design.l_matrices(),
         design.alpha,

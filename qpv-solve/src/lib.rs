@@ -13,12 +13,15 @@
 //!   ellipsoid containing the region inside a box h·B, maximising γ_max of
 //!   (S4), h searched) and checks it independently; [`design`] resolves it
 //!   first and reports it in [`Design::state_bound`].
+//! * [`output_filter`]: the output routes for a θ-dependent C(θ), M_k(θ):
+//!   the double-sum relaxation, or the output post-filter augmentation
+//!   (spec §3, Remark 3) with its region and state-bound extension.
 //! * [`sdp`]: the LMIs assembled directly into Clarabel's standard form
 //!   (PSD triangle cones, no modelling layer); [`conditions`]: the condition
 //!   sets and the one place where the two modes differ.
 //!
-//! Conventions: N_k and M_k are used exactly as written in the model (no
-//! symmetrisation); row k of rows(T, v) is vᵀT_k. Strict inequalities are
+//! Conventions: N_k and M_k are used as represented in the model handed in
+//! (a request's `split` may symmetrise them first); row k of rows(T, v) is vᵀT_k. Strict inequalities are
 //! solved with margins relative to the data ([`Settings::margin_rel`]); the
 //! default objective minimises Σ_l ‖Γ_l‖_F² (scaled), which keeps the gains
 //! L_l = P⁻¹Γ_l moderate; ‖L_l‖₂ is reported. Only Clarabel's primal
@@ -45,6 +48,7 @@ pub mod lapack;
 pub mod certificate;
 pub mod conditions;
 pub mod falsify;
+pub mod output_filter;
 pub mod report;
 pub mod sdp;
 pub mod search;

@@ -191,6 +191,13 @@ pub struct Design {
     /// ([`crate::state_bound`]). Absent in reports written before it existed.
     #[serde(default)]
     pub state_bound: Option<crate::state_bound::StateBoundInfo>,
+    /// The output route ("double_sum" or "filter" with its pole, gain and
+    /// filter-state bound) and the observer's state names: for the filter
+    /// route P is (nx+ny)² and each L_l has nx+ny rows (plant states, then
+    /// filter states). Absent in reports written before it existed (read as
+    /// double sum).
+    #[serde(default)]
+    pub output_route: Option<crate::output_filter::OutputRouteInfo>,
 }
 
 impl Design {
@@ -213,15 +220,54 @@ impl Design {
             .and_then(|s| s.q.as_ref())
             .map(|q| rows_to_matrix(q))
     }
-    /// The independent certificate of this design's P and L_l against
-    /// `model` (with this design's split applied), at its α and γ. A model
-    /// with `state_bound auto` is checked with the Q this design computed.
-    pub fn recheck(&self, model: &PolytopicModel) -> crate::Certificate {
-        let mut m = crate::conditions::with_split(model, self.split);
+    /// The output route of this design (double sum for old reports).
+    pub fn route(&self) -> qpv_dsl::OutputRoute {
+        self.output_route
+            .as_ref()
+            .map(|r| r.output_route())
+            .unwrap_or_default()
+    }
+
+    /// The model this design's P and L_l belong to, built from the plant
+    /// `model`: a `state_bound auto` replaced by the Q this design computed,
+    /// then the design's output route (the filter augmentation, if any),
+    /// then its split. Check, simulate and falsify the gains against it.
+    pub fn observer_model(
+        &self,
+        model: &PolytopicModel,
+    ) -> Result<PolytopicModel, crate::SolveError> {
+        let mut m = model.clone();
         if let (qpv_dsl::StateBound::Auto { .. }, Some(q)) = (&m.state_bound, self.state_bound_q())
         {
-            m.to_mut().state_bound = qpv_dsl::StateBound::Given(q);
+            m.state_bound = qpv_dsl::StateBound::Given(q);
         }
+        if let qpv_dsl::OutputRoute::Filter(f) = self.route() {
+            m = crate::output_filter::augment(&m, &f)?;
+        }
+        Ok(m.with_split(self.split))
+    }
+
+    /// The independent certificate of this design's P and L_l against
+    /// `model` (through [`Design::observer_model`]: the design's Q, output
+    /// route and split applied), at its α and γ. A model the route cannot
+    /// be applied to gives a failed certificate with the reason.
+    pub fn recheck(&self, model: &PolytopicModel) -> crate::Certificate {
+        let m = match self.observer_model(model) {
+            Ok(m) => m,
+            Err(e) => {
+                let mut c = crate::check(
+                    model,
+                    self.mode,
+                    self.alpha,
+                    self.gamma,
+                    &DMatrix::zeros(0, 0),
+                    &[],
+                );
+                c.passed = false;
+                c.input_errors.push(format!("output route: {e}"));
+                return c;
+            }
+        };
         crate::check(
             &m,
             self.mode,

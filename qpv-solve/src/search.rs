@@ -648,7 +648,10 @@ pub fn design_with_progress(
     crate::conditions::validate(model)?;
     // `state_bound auto`: compute Q first; the design then uses it as given.
     let (resolved, bound_info) = crate::state_bound::resolve(model, settings)?;
-    let model: &PolytopicModel = &resolved;
+    // The output route: the model itself (double sum) or its augmentation
+    // by the output post-filter (issue 6 §4).
+    let (routed, route_info) = crate::output_filter::apply(&resolved, &request.output_route)?;
+    let model: &PolytopicModel = &routed;
     // Solve and certify with the requested representation of N_k, M_k.
     let split_model = crate::conditions::with_split(model, request.split);
     let model: &PolytopicModel = &split_model;
@@ -701,6 +704,22 @@ pub fn design_with_progress(
             bound_info.seconds
         ));
         notes.extend(bound_info.notes.iter().cloned());
+    }
+    if let Some(f) = &route_info.filter {
+        let bound: Vec<String> = f.bound.iter().map(|h| format!("{h:.4e}")).collect();
+        notes.push(format!(
+            "output post-filter x_y' = −{} x_y + {} y on every output: designed for the augmented plant ({} states: {}), measurement ỹ = x_y; region extended as (x_(i), 0) for the errors (the observer starts its filter estimate at the filter state) and P × R^ny for E and F, exact since no condition reads the filter coordinates; filter-state bound |x_y| ≤ [{}]",
+            f.pole,
+            f.gain,
+            route_info.states.len(),
+            route_info.states.join(", "),
+            bound.join(", ")
+        ));
+    } else if route_info.output_varies {
+        notes.push(format!(
+            "C or M_k depend on θ: double-sum relaxation, {} rate combinations per vertex pair (Ξ_ll ≺ 0, (2/(r−1))Ξ_ll + Ξ_lm + Ξ_ml ≺ 0)",
+            route_info.combinations
+        ));
     }
     if request.split == Split::Symmetric {
         notes.push(
@@ -950,5 +969,6 @@ pub fn design_with_progress(
         notes,
         summary,
         state_bound: Some(bound_info),
+        output_route: Some(route_info),
     })
 }
