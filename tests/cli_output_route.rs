@@ -1,0 +1,203 @@
+//! θ-varying output maps through the command line (issue: θ-dependent C(θ),
+//! M_k(θ)): the example `examples/varying_output.qpv` (catch = effort ×
+//! stock) designed by the double-sum relaxation and by the output
+//! post-filter, the JSON report's `output_route`, and bad `output_route`
+//! values.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+const EXAMPLE: &str = "examples/varying_output.qpv";
+const NX: usize = 2;
+const NY: usize = 1;
+
+fn qpv(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_qpv"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the qpv binary runs")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("qpv-cli-route-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir.join(name)
+}
+
+fn example_text() -> String {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(EXAMPLE);
+    std::fs::read_to_string(path).expect("the example is readable")
+}
+
+/// The example with its design blocks replaced by `designs` (one line).
+fn example_with(name: &str, designs: &str) -> PathBuf {
+    let text: String = example_text()
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("design {"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let end = text.rfind('}').expect("the model block closes");
+    let body = format!("{}    {designs}\n}}\n", &text[..end]);
+    let path = tmp(name);
+    std::fs::write(&path, body).expect("write");
+    path
+}
+
+fn design_json(file: &str) -> (Output, serde_json::Value) {
+    let out = qpv(&["design", file, "--json", "-"]);
+    let json = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "stdout is not exactly one JSON document ({e}):\n{}\n{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        )
+    });
+    (out, json)
+}
+
+fn rows(v: &serde_json::Value) -> usize {
+    v.as_array().map_or(0, Vec::len)
+}
+
+/// `L` has one matrix per θ-vertex, each `n` rows of NY; `P` is n × n.
+fn assert_shapes(d: &serde_json::Value, n: usize) {
+    let l = d["L"].as_array().expect("L is an array of matrices");
+    assert_eq!(l.len(), 2, "two θ-vertices (E = 0.1, 0.3)");
+    for lv in l {
+        assert_eq!(rows(lv), n, "L_l has {n} rows: {lv}");
+        assert!(lv.as_array().unwrap().iter().all(|r| rows(r) == NY));
+    }
+    assert_eq!(rows(&d["P"]), n, "P is {n} × {n}");
+    assert!(d["P"].as_array().unwrap().iter().all(|r| rows(r) == n));
+}
+
+#[test]
+fn the_example_certifies_by_both_routes() {
+    let (out, j) = design_json(EXAMPLE);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let reports = j.as_array().expect("three design blocks: an array");
+    assert_eq!(reports.len(), 3);
+    for d in reports {
+        assert_eq!(d["certifies"], true, "{}", d["summary"]);
+        assert_eq!(d["output_route"]["output_varies"], true);
+    }
+
+    // 1. double sum: the plant's own states, N² = 4 rate combinations
+    let ds = &reports[0];
+    assert_eq!(ds["output_route"]["route"], "double_sum");
+    assert_eq!(ds["output_route"]["combinations"], 4);
+    assert_eq!(rows(&ds["output_route"]["states"]), NX);
+    assert_shapes(ds, NX);
+    let a_ds = ds["alpha"].as_f64().unwrap();
+    assert!(a_ds > 0.65, "double-sum α = {a_ds} (measured 0.694)");
+
+    // 2., 3. filter: one filter state per output, single sum
+    for (d, pole) in [(&reports[1], 50.0), (&reports[2], 5.0)] {
+        let r = &d["output_route"];
+        assert_eq!(r["route"], "filter");
+        assert_eq!(r["combinations"], 2);
+        assert_eq!(r["filter"]["pole"].as_f64(), Some(pole));
+        assert_eq!(r["filter"]["gain"].as_f64(), Some(pole), "unit DC gain");
+        let states: Vec<&str> = r["states"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s.as_str().unwrap())
+            .collect();
+        assert_eq!(states.len(), NX + NY);
+        assert_eq!(&states[..NX], ["e1", "e2"]);
+        assert_shapes(d, NX + NY);
+        assert!(d["alpha"].as_f64().unwrap() > 0.2, "{}", d["alpha"]);
+    }
+    let a_f50 = reports[1]["alpha"].as_f64().unwrap();
+    assert!(
+        a_f50 > 0.6,
+        "filter(pole = 50) α = {a_f50} (measured 0.676)"
+    );
+}
+
+/// Fixed (α, γ): the tradeoff of the filter pole, one solve per design.
+/// At γ = 0.3 the largest certified α is about 0.683 (double sum), 0.677
+/// (pole 50) and 0.615 (pole 5).
+#[test]
+fn a_slow_filter_costs_decay_rate() {
+    let fixed = "alpha = 0.66; gamma = 0.3;";
+    let ds = example_with(
+        "ds.qpv",
+        &format!("design {{ {fixed} output_route = double_sum; }}"),
+    );
+    let fast = example_with(
+        "fast.qpv",
+        &format!("design {{ {fixed} output_route = filter; }}"),
+    );
+    let slow = example_with(
+        "slow.qpv",
+        &format!("design {{ {fixed} output_route = filter(pole = 5); }}"),
+    );
+    for (file, route, n) in [(&ds, "double_sum", NX), (&fast, "filter", NX + NY)] {
+        let (out, d) = design_json(file.to_str().unwrap());
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{route}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(d["certifies"], true);
+        assert_eq!(d["output_route"]["route"], route);
+        assert_shapes(&d, n);
+    }
+    let (out, d) = design_json(slow.to_str().unwrap());
+    assert_eq!(out.status.code(), Some(1), "pole 5 cannot reach α = 0.66");
+    assert_eq!(d["certifies"], false);
+    assert_eq!(d["output_route"]["route"], "filter");
+}
+
+#[test]
+fn bad_output_routes_exit_2_with_a_positioned_message() {
+    let cases = [
+        (
+            "design { output_route = kalman; }",
+            "`output_route` must be `double_sum` or `filter`",
+            "kalman",
+        ),
+        (
+            "design { output_route = filter(pole = 0); }",
+            "`pole` must be a positive number",
+            "0",
+        ),
+        (
+            "design { output_route = double_sum(pole = 1); }",
+            "`double_sum` takes no options",
+            "(pole = 1)",
+        ),
+        (
+            "design { output_route = filter(gain = 0); }",
+            "`gain` must be a nonzero number",
+            "0",
+        ),
+    ];
+    for (k, (design, message, token)) in cases.into_iter().enumerate() {
+        let path = example_with(&format!("bad{k}.qpv"), design);
+        let text = std::fs::read_to_string(&path).unwrap();
+        // the design line is the last but one; its token's 1-based column
+        let line_no = text.lines().count() - 1;
+        let line = text.lines().nth(line_no - 1).unwrap();
+        let col = line.rfind(token).expect("token on the design line") + 1;
+        let out = qpv(&["design", path.to_str().unwrap(), "--json", "-"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{design}: {err}");
+        assert!(out.stdout.is_empty(), "nothing on stdout for bad input");
+        assert!(
+            err.contains(&format!(":{line_no}:{col}: ")),
+            "{design}: expected position {line_no}:{col} in {err}"
+        );
+        assert!(err.contains(message), "{design}: {err}");
+        assert!(err.contains(line.trim()), "the line is quoted: {err}");
+    }
+}
