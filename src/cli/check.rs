@@ -2,7 +2,8 @@
 
 use super::design::parse_mode;
 use super::input::{emit_json, load_model, read_report, CliError};
-use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split, StateBound};
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode, OutputRoute, Split, StateBound};
+use qpv_solve::output_filter::OutputRouteInfo;
 use qpv_solve::report::rows_to_matrix;
 use std::path::Path;
 
@@ -24,6 +25,9 @@ struct Gains {
     /// The state bound the design used (a design report carries it); its Q
     /// is needed to check a model with `state_bound auto`.
     state_bound: Option<GainsBound>,
+    /// The output route the design used (a design report carries it): a
+    /// filter-route design is checked against the augmented plant.
+    output_route: Option<OutputRouteInfo>,
 }
 
 /// The part of a design report's `state_bound` entry `qpv check` uses.
@@ -105,6 +109,16 @@ pub fn run(
                 )))
             }
         }
+    }
+    if let Some(OutputRoute::Filter(f)) = g.output_route.as_ref().map(|r| r.output_route()) {
+        poly = qpv_solve::output_filter::augment(&poly, &f)
+            .map_err(|e| CliError::Input(format!("{}: output filter: {e}", gains.display())))?;
+        eprintln!(
+            "output filter route (pole {}, gain {}): checking against the augmented plant ({})",
+            f.pole,
+            f.gain,
+            poly.states.join(", ")
+        );
     }
     let p = rows_to_matrix(&g.p);
     let l: Vec<_> = g.l.iter().map(|r| rows_to_matrix(r)).collect();

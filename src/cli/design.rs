@@ -1,7 +1,10 @@
 //! `qpv design`: parse, derive, solve, certify, and report.
 
 use super::input::{emit_json, fmt_matrix, load_model, CliError};
-use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, Split};
+use qpv_dsl::{
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute, Split,
+};
+use qpv_solve::output_filter::OutputRouteInfo;
 use qpv_solve::report::Design;
 use qpv_solve::state_bound::StateBoundInfo;
 use std::path::Path;
@@ -52,6 +55,41 @@ fn parse_split(s: &str) -> Result<Split, CliError> {
     }
 }
 
+/// Parses `--output-route`, `--filter-pole` and `--filter-gain` (either
+/// filter option implies the filter route).
+fn parse_route(
+    route: Option<&str>,
+    pole: Option<f64>,
+    gain: Option<f64>,
+) -> Result<Option<OutputRoute>, CliError> {
+    let filter = pole.is_some() || gain.is_some();
+    match route {
+        Some("double_sum") if filter => Err(CliError::Input(
+            "--filter-pole/--filter-gain need --output-route filter (not double_sum)".into(),
+        )),
+        Some("double_sum") => Ok(Some(OutputRoute::DoubleSum)),
+        Some("filter") | None if filter || route.is_some() => {
+            let pole = pole.unwrap_or(OutputFilter::DEFAULT_POLE);
+            let gain = gain.unwrap_or(pole);
+            if !(pole.is_finite() && pole > 0.0) {
+                return Err(CliError::Input(format!(
+                    "--filter-pole {pole}: expected a positive number"
+                )));
+            }
+            if !(gain.is_finite() && gain != 0.0) {
+                return Err(CliError::Input(format!(
+                    "--filter-gain {gain}: expected a nonzero number"
+                )));
+            }
+            Ok(Some(OutputRoute::Filter(OutputFilter { pole, gain })))
+        }
+        None => Ok(None),
+        Some(other) => Err(CliError::Input(format!(
+            "--output-route {other:?}: expected `double_sum` or `filter`"
+        ))),
+    }
+}
+
 /// Parses `--conditions`.
 fn parse_conditions(s: &str) -> Result<Conditions, CliError> {
     match s {
@@ -76,6 +114,12 @@ pub struct Flags<'a> {
     pub split: Option<&'a str>,
     /// `--conditions`.
     pub conditions: Option<&'a str>,
+    /// `--output-route`.
+    pub output_route: Option<&'a str>,
+    /// `--filter-pole`.
+    pub filter_pole: Option<f64>,
+    /// `--filter-gain`.
+    pub filter_gain: Option<f64>,
 }
 
 /// The requests to run: without `--mode`, `--alpha`, `--gamma`, the model's
@@ -107,12 +151,16 @@ fn requests(model: &Model, f: Flags) -> Result<Vec<DesignRequest>, CliError> {
         }
         vec![r]
     };
+    let route = parse_route(f.output_route, f.filter_pole, f.filter_gain)?;
     for r in &mut reqs {
         if let Some(s) = split {
             r.split = s;
         }
         if let Some(c) = conditions {
             r.conditions = c;
+        }
+        if let Some(o) = route {
+            r.output_route = o;
         }
     }
     Ok(reqs)
@@ -139,7 +187,38 @@ fn describe_request(r: &DesignRequest) -> String {
         Conditions::Full => "full",
         Conditions::Decoupled => "decoupled",
     };
-    format!("{a}; {g}; mode = {m}; split = {split}; conditions = {conditions}")
+    let route = match r.output_route {
+        OutputRoute::DoubleSum => String::new(),
+        OutputRoute::Filter(f) => {
+            format!(
+                "; output_route = filter(pole = {}, gain = {})",
+                f.pole, f.gain
+            )
+        }
+    };
+    format!("{a}; {g}; mode = {m}; split = {split}; conditions = {conditions}{route}")
+}
+
+/// The output-route line of a design report (nothing for a constant
+/// output map designed by the single sum).
+fn describe_route(r: &OutputRouteInfo) -> String {
+    match &r.filter {
+        Some(f) => {
+            let h: Vec<String> = f.bound.iter().map(|h| format!("{h:.4e}")).collect();
+            format!(
+                "  output route: filter x_y' = -{} x_y + {} y; observer states: {}; filter-state bound [{}]\n",
+                f.pole,
+                f.gain,
+                r.states.join(", "),
+                h.join(", ")
+            )
+        }
+        None if r.output_varies => format!(
+            "  output route: double sum (C or M_k depend on theta; {} rate combinations per vertex pair)\n",
+            r.combinations
+        ),
+        None => String::new(),
+    }
 }
 
 /// The state bound lines of a design report.
@@ -206,6 +285,9 @@ pub fn describe_design(d: &Design) -> String {
             Conditions::Decoupled => "decoupled (certified on all vertex pairs)",
         }
     ));
+    if let Some(r) = &d.output_route {
+        s.push_str(&describe_route(r));
+    }
     if let Some(sb) = &d.state_bound {
         s.push_str(&describe_state_bound(sb));
     }

@@ -49,6 +49,19 @@ pub enum Command {
         /// still checks all pairs). Overrides the model's design blocks.
         #[arg(long)]
         conditions: Option<String>,
+        /// How a θ-dependent output map is handled: `double_sum` (the
+        /// double-sum relaxation) or `filter` (output post-filter
+        /// augmentation). Overrides the model's design blocks.
+        #[arg(long = "output-route")]
+        output_route: Option<String>,
+        /// Pole a of the output filter x_y' = −a x_y + b y (implies
+        /// `--output-route filter`; default 50).
+        #[arg(long = "filter-pole")]
+        filter_pole: Option<f64>,
+        /// Gain b of the output filter (implies `--output-route filter`;
+        /// default: the pole, unit DC gain).
+        #[arg(long = "filter-gain")]
+        filter_gain: Option<f64>,
         /// Write the JSON report to this file (`-` for stdout).
         #[arg(long)]
         json: Option<String>,
@@ -138,6 +151,9 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             gamma,
             split,
             conditions,
+            output_route,
+            filter_pole,
+            filter_gain,
             json,
         } => design::run(
             &file,
@@ -148,6 +164,9 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
                 gamma: gamma.as_deref(),
                 split: split.as_deref(),
                 conditions: conditions.as_deref(),
+                output_route: output_route.as_deref(),
+                filter_pole,
+                filter_gain,
             },
             json.as_deref(),
         ),

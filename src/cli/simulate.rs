@@ -55,6 +55,23 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     if let Some(x0) = o.x0 {
         sc.x0 = x0;
     }
+    // The gains belong to the design's observer model: for the filter route
+    // the plant augmented by the output filter, whose states start at 0
+    // (and the observer's filter estimate exactly there).
+    let obs = design
+        .observer_model(&poly)
+        .map_err(|e| CliError::Input(format!("{}: {e}", o.design.display())))?;
+    if obs.nx() != poly.nx() {
+        sc.x0.resize(obs.nx(), 0.0);
+        sc.xhat0.resize(obs.nx(), 0.0);
+        println!(
+            "output filter route: simulating the plant with its output filter ({} states: {}); \
+             filter states start at 0, as does their estimate",
+            obs.nx(),
+            obs.states.join(", ")
+        );
+    }
+    let poly = obs;
     let traj = simulate(&poly, &design.l_matrices(), &sc)
         .map_err(|e| CliError::Input(format!("simulation: {e}")))?;
     println!("{}", describe(&traj, design.alpha));
