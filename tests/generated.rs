@@ -81,6 +81,28 @@ inline_model! {
     }
 }
 
+// The same plant designed through the output post-filter
+// x_y' = −40 x_y + 40 y: the observer estimates (x, x_y) and filters y itself.
+inline_model! {
+    THETA_FILT_TEXT,
+    model theta_filt {
+        state  x1, x2, x3;
+        output y1, y2;
+        param  th1 in [0, 1];
+        param  th2 in [0, 1];
+        A  = [ -4 - th1, 10, 2 + 2*th2 ; -1, -1 - th2, 1.5 + 2*th1 ; 1, 1, -4 - 3*th1 ];
+        N1 = [ 0.5, 1 + th1, 0 ;  0, 0, -th2 ;  0, 1 + th2, 0 ];
+        N2 = [ -0.4, 0, 1 - th1 ;  1.5, 0, 1 + th2 ;  2 + th2, 0, 0 ];
+        N3 = [ 1.5, -0.5 - th1, 0 ;  3 + th1, 0, 0 ;  0, 2 - th2, 0 ];
+        C  = [ 1, 0, 0 ; 0, 1 + th1, 0 ];
+        M1 = [ 0, 0, 0 ; 0, 0, 0.5*th2 ; 0, 0, 0 ];
+        M2 = [ 0, 0, 1 ; 0, 0, 0 ; 0, 0, 0 ];
+        region box(0.02);
+        state_bound Q = [ 0.0112, 0.0017, 0.0006 ; 0.0017, 0.0025, -0.0022 ; 0.0006, -0.0022, 0.0061 ];
+        design { alpha = 5; gamma = search; output_route = filter(pole = 40, gain = 40); }
+    }
+}
+
 /// xorshift64*: reproducible random numbers without a dependency.
 struct Rng(u64);
 
@@ -395,4 +417,141 @@ fn theta_dependent_output_double_sum_matches_reference() {
         worst_h <= 1e-12,
         "plant output: worst relative error {worst_h:e}"
     );
+}
+
+/// The filter-route observer's state derivative from the reference: the
+/// augmented plant's observer (`output_filter::augment` + `observer_derivative`)
+/// for (x̂, x̂_y) with the measurement x_y, and the filter x_y' = −a x_y + b y.
+fn filter_reference(
+    aug: &PolytopicModel,
+    ls: &[DMatrix<f64>],
+    s: &[f64; 7],
+    y: &[f64; 2],
+    theta: &[f64; 2],
+) -> Vec<f64> {
+    let (a, b) = (theta_filt::FILTER_POLE, theta_filt::FILTER_GAIN);
+    let (z, xy) = s.split_at(5);
+    let mut d = simulate::observer_derivative(aug, ls, z, xy, &[], theta).expect("reference");
+    d.extend(xy.iter().zip(y).map(|(m, yk)| -a * m + b * yk));
+    d
+}
+
+#[test]
+fn theta_dependent_output_filter_route_matches_reference() {
+    use qpv::dsl::OutputFilter;
+    assert_eq!(theta_filt::ROUTE, "filter");
+    assert_eq!(theta_filt::CERTIFICATE.route, "filter");
+    assert_eq!(
+        (theta_filt::FILTER_POLE, theta_filt::FILTER_GAIN),
+        (40.0, 40.0)
+    );
+    assert_eq!((theta_filt::NZ, theta_filt::NS), (5, 7));
+    assert_eq!(theta_filt::Observer::NS, 7);
+    assert_eq!(theta_out::ROUTE, "double_sum");
+    assert_eq!((theta_out::NZ, theta_out::NS), (3, 3));
+    let poly = polytopic(THETA_FILT_TEXT);
+    let filter = OutputFilter {
+        pole: theta_filt::FILTER_POLE,
+        gain: theta_filt::FILTER_GAIN,
+    };
+    let aug = qpv::solve::output_filter::augment(&poly, &filter).expect("augments");
+    assert_eq!((aug.nx(), aug.ny(), aug.nv()), (5, 2, theta_filt::NV));
+    let ls = gains(&theta_filt::L);
+    // the baked P and L_l pass the independent certificate on the augmented plant
+    let p = DMatrix::from_fn(5, 5, |i, j| theta_filt::P[i][j]);
+    let cert = qpv::solve::check(
+        &aug.with_split(poly.designs[0].split),
+        qpv::dsl::Mode::Sound,
+        theta_filt::ALPHA,
+        theta_filt::GAMMA,
+        &p,
+        &ls,
+    );
+    assert!(cert.passed, "{cert:?}");
+
+    let mut rng = Rng(0xf117);
+    let mut worst: f64 = 0.0;
+    for _ in 0..2000 {
+        let s: [f64; 7] = core::array::from_fn(|_| rng.uniform(-0.05, 0.05));
+        let y: [f64; 2] = core::array::from_fn(|_| rng.uniform(-0.05, 0.05));
+        let theta: [f64; 2] = core::array::from_fn(|_| rng.uniform(0.0, 1.0));
+        let obs = theta_filt::Observer::from_state(&s);
+        assert_eq!(obs.state(), s);
+        assert_eq!(obs.estimate(), [s[0], s[1], s[2]]);
+        let got = obs.derivative(&y, &[], &theta);
+        let want = filter_reference(&aug, &ls, &s, &y, &theta);
+        worst = worst.max(rel_err(&got, &want));
+    }
+    assert!(worst <= 1e-12, "worst relative error {worst:e}");
+    // with_state starts the filter states at 0
+    let o = theta_filt::Observer::with_state(&[0.1, 0.2, 0.3]);
+    assert_eq!(o.state(), [0.1, 0.2, 0.3, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(theta_filt::Observer::new().state(), [0.0; 7]);
+}
+
+#[test]
+fn filter_route_observer_converges_on_the_paper_scenario() {
+    // spec §7's scenario on the plant with C(θ), M_1(θ); e_z(0) = (x(0), 0) is
+    // a vertex of the augmented region, so V_z(t) ≤ V_z(0) e^{−αt} is certified.
+    use std::f64::consts::PI;
+    let theta = |t: f64| {
+        [
+            0.5 + 0.5 * (4.0 * PI * t).sin(),
+            0.5 + 0.5 * (PI * t / 5.0 + PI / 6.0).cos(),
+        ]
+    };
+    let v = |e: &[f64; 5]| -> f64 {
+        let p = theta_filt::P;
+        (0..5)
+            .map(|i| (0..5).map(|j| e[i] * p[i][j] * e[j]).sum::<f64>())
+            .sum()
+    };
+    let dt = 1e-4;
+    let mut x = [-0.02; 3];
+    let mut obs = theta_filt::Observer::new();
+    let err = |x: &[f64; 3], obs: &theta_filt::Observer| {
+        let s = obs.state();
+        let ez: [f64; 5] = [
+            x[0] - s[0],
+            x[1] - s[1],
+            x[2] - s[2],
+            s[5] - s[3],
+            s[6] - s[4],
+        ];
+        let ex = (0..3).map(|i| ez[i].abs()).fold(0.0, f64::max);
+        (ez, ex)
+    };
+    let (ez0, e0) = err(&x, &obs);
+    let v0 = v(&ez0);
+    let mut worst_ratio: f64 = 0.0;
+    let steps = 30_000;
+    for n in 0..steps {
+        let t = n as f64 * dt;
+        let th = theta(t);
+        let y = theta_filt::plant::output(&x, &th);
+        obs.step_rk4(dt, &y, &[], &th);
+        let f = |x: &[f64; 3], t: f64| theta_filt::plant::derivative(x, &[], &theta(t));
+        let k1 = f(&x, t);
+        let k2 = f(
+            &core::array::from_fn(|i| x[i] + 0.5 * dt * k1[i]),
+            t + 0.5 * dt,
+        );
+        let k3 = f(
+            &core::array::from_fn(|i| x[i] + 0.5 * dt * k2[i]),
+            t + 0.5 * dt,
+        );
+        let k4 = f(&core::array::from_fn(|i| x[i] + dt * k3[i]), t + dt);
+        x = core::array::from_fn(|i| x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+        let (ez, _) = err(&x, &obs);
+        let bound = v0 * (-theta_filt::ALPHA * (t + dt)).exp();
+        worst_ratio = worst_ratio.max(v(&ez) / bound);
+    }
+    let (_, e_end) = err(&x, &obs);
+    eprintln!("filter route: |e|∞ {e0:e} → {e_end:e} at t = 3, worst V/bound {worst_ratio}");
+    assert!(
+        worst_ratio <= 1.01,
+        "V(t) / (V(0) e^(-αt)) reached {worst_ratio}"
+    );
+    assert!(e_end < 1e-4 * e0, "error {e0:e} → {e_end:e}");
+    assert_eq!(obs.clamped(), 0);
 }

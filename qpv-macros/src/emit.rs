@@ -10,7 +10,7 @@
 //! never allocates, never indexes (arrays are destructured) and cannot panic.
 
 use proc_macro2::{Ident, Literal, Span, TokenStream};
-use qpv_dsl::{Model, PolyMatrix, ThetaPoly};
+use qpv_dsl::{Model, OutputFilter, PolyMatrix, ThetaPoly};
 use quote::{format_ident, quote};
 use std::collections::BTreeMap;
 
@@ -41,9 +41,9 @@ pub struct CertifiedDesign {
     pub alpha: f64,
     /// Certified region scaling γ.
     pub gamma: f64,
-    /// The Lyapunov matrix P, nx × nx, row-major.
+    /// The Lyapunov matrix P, nz × nz row-major (nz = nx, or nx + ny for a filter design).
     pub p: Vec<f64>,
-    /// The vertex gains L_l, each nx × ny row-major, one per vertex.
+    /// The vertex gains L_l, each nz × ny row-major, one per vertex.
     pub l: Vec<Vec<f64>>,
     /// Worst margin per condition family (positive = satisfied).
     pub margins: Vec<(String, f64)>,
@@ -51,6 +51,11 @@ pub struct CertifiedDesign {
     pub status: String,
     /// Solver iterations of the accepted solve.
     pub iterations: u32,
+    /// The output post-filter of a filter-route design (`output_route =
+    /// filter`): then P is (nx+ny)² and each L_l is (nx+ny) × ny, the
+    /// design being for the plant augmented by the filter. `None`: the
+    /// double-sum route, P is nx × nx, L_l is nx × ny.
+    pub filter: Option<OutputFilter>,
 }
 
 /// A float literal; negative values become `-` followed by the magnitude.
@@ -76,10 +81,6 @@ impl Sum {
         if c != 0.0 {
             self.terms.push((c, factor));
         }
-    }
-
-    fn is_empty(&self) -> bool {
-        self.terms.is_empty()
     }
 
     fn render(&self) -> TokenStream {
@@ -375,6 +376,10 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
 
     let primary_index = em.designs.iter().position(|d| d.certifies).unwrap_or(0) + 1;
     let primary = format_ident!("design{}", primary_index);
+    let primary_filter = match em.designs.get(primary_index - 1).and_then(|d| d.filter) {
+        Some(_) => quote!(pub use self::#primary::{FILTER_GAIN, FILTER_POLE};),
+        None => quote!(),
+    };
     // Designs first: they intern the same coefficients as the plant, so the
     // `Coeffs` struct built below covers both.
     let designs: Vec<TokenStream> = em
@@ -624,6 +629,8 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
                 pub request: &'static str,
                 /// The condition set: `sound`, or `paper` (reproduction only).
                 pub mode: &'static str,
+                /// The output route: `double_sum` or `filter` (output post-filter).
+                pub route: &'static str,
                 /// True if the conditions prove V' ≤ −αV on the certified set
                 /// (sound mode); false for a paper-mode reproduction.
                 pub certifies: bool,
@@ -652,6 +659,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
                         self.gamma
                     )?;
                     ::core::writeln!(f, "  request: {}", self.request)?;
+                    ::core::writeln!(f, "  output route: {}", self.route)?;
                     for m in self.margins {
                         ::core::writeln!(f, "  {:<24} margin {:.3e}", m.family, m.margin)?;
                     }
@@ -698,7 +706,8 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
                 #coeffs_body
             }
 
-            pub use self::#primary::{gain, Observer, ALPHA, CERTIFICATE, CERTIFIES, GAMMA, L, P};
+            pub use self::#primary::{gain, Observer, ALPHA, CERTIFICATE, CERTIFIES, GAMMA, L, NS, NZ, P, ROUTE};
+            #primary_filter
 
             #(#designs)*
 
@@ -728,6 +737,20 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
     }
 }
 
+/// Binds the names of `names` that `body` uses, `_` for the others:
+/// `let [x0, _, zh0] = *arr;`.
+fn destructure_names(arr: &Ident, names: &[String], body: &TokenStream) -> TokenStream {
+    let pats = names.iter().map(|name| {
+        if uses(body, name) {
+            let id = Ident::new(name, Span::call_site());
+            quote!(#id)
+        } else {
+            quote!(_)
+        }
+    });
+    quote!(let [#(#pats),*] = *#arr;)
+}
+
 /// Emits `pub mod design<i>` with the certified constants, `gain` and `Observer`.
 fn emit_design(
     em: &EmitModel<'_>,
@@ -743,14 +766,20 @@ fn emit_design(
     let nu = m.nu();
     let nv = 1usize << em.scheduling.len();
     let modname = format_ident!("design{}", index);
+    // The design's state: the plant's (double sum), or the plant's and one
+    // filter state per output (filter route). The observer's state adds the
+    // filtered measurement x_y for the filter route.
+    let filter = d.filter;
+    let nz = if filter.is_some() { nx + ny } else { nx };
+    let ns = if filter.is_some() { nx + 2 * ny } else { nx };
 
     let alpha = lit(d.alpha);
     let gamma = lit(d.gamma);
-    let p = matrix_lit(nx, nx, &d.p);
+    let p = matrix_lit(nz, nz, &d.p);
     let l_vertices: Vec<TokenStream> = (0..nv)
         .map(|l| match d.l.get(l) {
-            Some(lv) => matrix_lit(nx, ny, lv),
-            None => matrix_lit(nx, ny, &[]),
+            Some(lv) => matrix_lit(nz, ny, lv),
+            None => matrix_lit(nz, ny, &[]),
         })
         .collect();
     let fam: Vec<TokenStream> = d
@@ -762,6 +791,11 @@ fn emit_design(
         })
         .collect();
     let (model_name, request, mode, status) = (&m.name, &d.request, &d.mode, &d.status);
+    let route = if filter.is_some() {
+        "filter"
+    } else {
+        "double_sum"
+    };
     let iterations = Literal::u32_unsuffixed(d.iterations);
     let certifies = d.certifies;
     let certificate = quote! {
@@ -770,6 +804,7 @@ fn emit_design(
             model: #model_name,
             request: #request,
             mode: #mode,
+            route: #route,
             certifies: #certifies,
             alpha: ALPHA,
             gamma: GAMMA,
@@ -792,6 +827,8 @@ fn emit_design(
                 use super::Certificate;
                 /// False: this design proves nothing about convergence.
                 pub const CERTIFIES: bool = false;
+                /// The output route of the request (`"double_sum"` or `"filter"`).
+                pub const ROUTE: &str = #route;
                 /// α at which the printed conditions hold.
                 pub const ALPHA: f64 = #alpha;
                 /// γ at which the printed conditions hold.
@@ -801,7 +838,7 @@ fn emit_design(
         };
     }
 
-    // gain entries g_ko(μ) = Σ_l μ_l L_l[k][o]
+    // gain entries g_ko(μ) = Σ_l μ_l L_l[k][o], k over the design's nz states
     let lval = |l: usize, k: usize, o: usize| -> f64 {
         d.l.get(l)
             .and_then(|lv| lv.get(k * ny + o))
@@ -809,7 +846,7 @@ fn emit_design(
             .unwrap_or(0.0)
     };
     let mu_ident = format_ident!("mu");
-    let g_exprs: Vec<Vec<TokenStream>> = (0..nx)
+    let g_exprs: Vec<Vec<TokenStream>> = (0..nz)
         .map(|k| {
             (0..ny)
                 .map(|o| {
@@ -831,57 +868,93 @@ fn emit_design(
     let gains_body = quote!([#(#g_rows),*]);
     let gains_mu = destructure(&mu_ident, "m", nv, &gains_body);
 
-    // Observer right-hand side: f(x̂, u) + G (y − h(x̂)).
-    let resid: Vec<TokenStream> = out_eqs
-        .iter()
-        .enumerate()
-        .map(|(o, eq)| {
-            let y = format_ident!("y{}", o);
-            let mut s = Sum::default();
-            s.push(1.0, Some(quote!(#y)));
-            render_equation(eq, coeffs, &mut s, -1.0);
+    // The observer state's names: x̂ (x<i>), then for the filter route the
+    // filter estimate x̂_y (zh<k>) and the filtered measurement x_y (zm<k>).
+    let mut state_names: Vec<String> = (0..nx).map(|i| format!("x{i}")).collect();
+    if filter.is_some() {
+        state_names.extend((0..ny).map(|k| format!("zh{k}")));
+        state_names.extend((0..ny).map(|k| format!("zm{k}")));
+    }
+
+    // The residual the gain multiplies: y − C(θ)x̂ − M(θ,x̂)x̂ (double sum),
+    // x_y − x̂_y (filter).
+    let resid: Vec<TokenStream> = (0..ny)
+        .map(|o| {
             let r = format_ident!("r{}", o);
+            let mut s = Sum::default();
+            match (filter, out_eqs.get(o)) {
+                (Some(_), _) => {
+                    let (zm, zh) = (format_ident!("zm{}", o), format_ident!("zh{}", o));
+                    s.push(1.0, Some(quote!(#zm)));
+                    s.push(-1.0, Some(quote!(#zh)));
+                }
+                (None, eq) => {
+                    let y = format_ident!("y{}", o);
+                    s.push(1.0, Some(quote!(#y)));
+                    if let Some(eq) = eq {
+                        render_equation(eq, coeffs, &mut s, -1.0);
+                    }
+                }
+            }
             let e = s.render();
             quote!(let #r = #e;)
         })
         .collect();
-    let rows: Vec<TokenStream> = state_eqs
+    // Σ_o g_ko r_o added to row k of the design state.
+    let inject = |s: &mut Sum, k: usize| {
+        for o in 0..ny {
+            let r = format_ident!("r{}", o);
+            if (0..nv).all(|l| lval(l, k, o) == 0.0) {
+                continue;
+            }
+            if nv == 1 {
+                s.push(lval(0, k, o), Some(quote!(#r)));
+            } else {
+                let g = format_ident!("g{}_{}", k, o);
+                s.push(1.0, Some(quote!(#g * #r)));
+            }
+        }
+    };
+    let mut rows: Vec<TokenStream> = state_eqs
         .iter()
         .enumerate()
         .map(|(k, eq)| {
             let mut s = Sum::default();
             render_equation(eq, coeffs, &mut s, 1.0);
-            for o in 0..ny {
-                let r = format_ident!("r{}", o);
-                let all_zero = (0..nv).all(|l| lval(l, k, o) == 0.0);
-                if all_zero {
-                    continue;
-                }
-                if nv == 1 {
-                    s.push(lval(0, k, o), Some(quote!(#r)));
-                } else {
-                    let g = format_ident!("g{}_{}", k, o);
-                    s.push(1.0, Some(quote!(#g * #r)));
-                }
-            }
-            if s.is_empty() {
-                quote!(0.0)
-            } else {
-                s.render()
-            }
+            inject(&mut s, k);
+            s.render()
         })
         .collect();
+    if let Some(f) = filter {
+        // x̂_y' = −a x̂_y + b (C(θ)x̂ + M(θ,x̂)x̂) + L_y(θ)(x_y − x̂_y)
+        for (k, eq) in out_eqs.iter().enumerate() {
+            let zh = format_ident!("zh{}", k);
+            let mut s = Sum::default();
+            s.push(-f.pole, Some(quote!(#zh)));
+            render_equation(eq, coeffs, &mut s, f.gain);
+            inject(&mut s, nx + k);
+            rows.push(s.render());
+        }
+        // x_y' = −a x_y + b y: the observer filters the measurement itself.
+        for k in 0..ny {
+            let (zm, y) = (format_ident!("zm{}", k), format_ident!("y{}", k));
+            let mut s = Sum::default();
+            s.push(-f.pole, Some(quote!(#zm)));
+            s.push(f.gain, Some(quote!(#y)));
+            rows.push(s.render());
+        }
+    }
     let all: Vec<&Equation> = state_eqs.iter().chain(out_eqs.iter()).collect();
     let products = product_lets(&all);
     let rhs_body = quote! { #products #(#resid)* [#(#rows),*] };
-    let x_ident = format_ident!("x");
+    let s_ident = format_ident!("s");
     let y_ident = format_ident!("y");
     let u_ident = format_ident!("u");
     let g_ident = format_ident!("g");
-    let rhs_x = destructure(&x_ident, "x", nx, &rhs_body);
+    let rhs_s = destructure_names(&s_ident, &state_names, &rhs_body);
     let rhs_y = destructure(&y_ident, "y", ny, &rhs_body);
     let rhs_u = destructure(&u_ident, "u", nu, &rhs_body);
-    let g_pats: Vec<TokenStream> = (0..nx)
+    let g_pats: Vec<TokenStream> = (0..nz)
         .map(|k| {
             let ps = (0..ny).map(|o| {
                 let name = format!("g{k}_{o}");
@@ -902,52 +975,131 @@ fn emit_design(
         quote!(let _ = c;)
     };
 
-    // RK4 and Euler combinations, unrolled.
-    let idx: Vec<usize> = (0..nx).collect();
-    let xs: Vec<Ident> = idx.iter().map(|i| format_ident!("x{}", i)).collect();
+    // RK4 and Euler combinations over the whole observer state, unrolled.
+    let idx: Vec<usize> = (0..ns).collect();
+    let xs: Vec<Ident> = idx.iter().map(|i| format_ident!("s{}", i)).collect();
     let k1: Vec<Ident> = idx.iter().map(|i| format_ident!("a{}", i)).collect();
     let k2: Vec<Ident> = idx.iter().map(|i| format_ident!("b{}", i)).collect();
     let k3: Vec<Ident> = idx.iter().map(|i| format_ident!("c{}", i)).collect();
     let k4: Vec<Ident> = idx.iter().map(|i| format_ident!("d{}", i)).collect();
+    // estimate(): the first NX entries; with_state(x0): x0 then zeros.
+    let est: Vec<&Ident> = xs.iter().take(nx).collect();
+    let est_pat = if ns > nx {
+        quote!(let [#(#est,)* ..] = self.state;)
+    } else {
+        quote!(let [#(#est),*] = self.state;)
+    };
+    let init_zeros: Vec<TokenStream> = (nx..ns).map(|_| quote!(0.0)).collect();
+    let ns_l = usize_lit(ns);
+    let nz_l = usize_lit(nz);
 
+    let route_doc = match filter {
+        None => " Output route of this design: `\"double_sum\"` (the output map enters the \
+                  rate conditions directly; L(θ) = Σ_l μ_l(θ) L_l multiplies y − C(θ)x̂ − \
+                  M(θ,x̂)x̂)."
+            .to_string(),
+        Some(f) => format!(
+            " Output route of this design: `\"filter\"`, the output post-filter \
+             x_y' = −{a} x_y + {b} y (per output; [`FILTER_POLE`] = {a}, [`FILTER_GAIN`] = {b}). \
+             The design is for the augmented plant z = (x, x_y), [`NZ`] = NX + NY states, \
+             measured output x_y: P is NZ × NZ, each L_l is NZ × NY (plant rows first).",
+            a = num(f.pole),
+            b = num(f.gain)
+        ),
+    };
     let doc = format!(
-        " Design {index} of model `{model_name}`: {request}. Certified alpha = {}, gamma = {}.",
+        " Design {index} of model `{model_name}`: {request}. Certified alpha = {}, gamma = {}.\n\n{route_doc}",
         num(d.alpha),
         num(d.gamma)
     );
-    let obs_doc = format!(
-        " The certified observer of model `{model_name}` (design {index}): \
-         x̂' = A(θ)x̂ + N(θ,x̂)x̂ + B(θ)u + L(θ)[y − C(θ)x̂ − M(θ,x̂)x̂], fully unrolled.\n\n \
-         θ is clamped into Θ (NaN → lower bound) before use; `step_euler`/`step_rk4` count \
-         the steps where that happened ([`Observer::clamped`]). NaN in y or u propagates \
-         into the estimate; nothing here can panic or allocate."
-    );
+    let obs_doc = match filter {
+        None => " The certified observer of model `MODEL` (design INDEX): \
+                 x̂' = A(θ)x̂ + N(θ,x̂)x̂ + B(θ)u + L(θ)[y − C(θ)x̂ − M(θ,x̂)x̂], fully unrolled. \
+                 Its state is x̂ ([`NS`] = NX entries).\n\n"
+            .to_string(),
+        Some(f) => format!(
+            " The certified observer of model `MODEL` (design INDEX), output route `filter` \
+             (pole a = {a}, gain b = {b}), fully unrolled:\n\n \
+             ```text\n \
+             x̂'   = A(θ)x̂ + N(θ,x̂)x̂ + B(θ)u + L_x(θ)(x_y − x̂_y)\n \
+             x̂_y' = −a x̂_y + b (C(θ)x̂ + M(θ,x̂)x̂) + L_y(θ)(x_y − x̂_y)\n \
+             x_y'  = −a x_y + b y\n \
+             ```\n\n \
+             with L_x, L_y the first NX and last NY rows of L(θ). The observer runs the output \
+             filter on the measurement itself: its state ([`NS`] = NX + 2·NY entries, \
+             [`Observer::state`]) is (x̂, x̂_y, x_y), in that order, and starts with \
+             x̂_y = x_y = 0 (the certificate assumes the filter-state error starts at 0; \
+             `new` and `with_state` do that). [`Observer::estimate`] returns x̂ only.\n\n",
+            a = num(f.pole),
+            b = num(f.gain)
+        ),
+    }
+    .replace("MODEL", model_name)
+    .replace("INDEX", &index.to_string())
+        + " θ is clamped into Θ (NaN → lower bound) before use; `step_euler`/`step_rk4` count \
+           the steps where that happened ([`Observer::clamped`]). NaN in y or u propagates \
+           into the estimate; nothing here can panic or allocate.";
+    let filter_consts = match filter {
+        Some(f) => {
+            let (a, b) = (lit(f.pole), lit(f.gain));
+            quote! {
+                /// The output filter's pole a: x_y' = −a x_y + b y.
+                pub const FILTER_POLE: f64 = #a;
+                /// The output filter's input gain b: x_y' = −a x_y + b y.
+                pub const FILTER_GAIN: f64 = #b;
+            }
+        }
+        None => quote!(),
+    };
+    let nz_doc = if filter.is_some() {
+        " Size of the design's state z = (x, x_y): NX + NY (P is NZ × NZ, L_l is NZ × NY)."
+    } else {
+        " Size of the design's state: NX (P is NZ × NZ, L_l is NZ × NY)."
+    };
+    let ns_doc = if filter.is_some() {
+        " Size of the observer's state (x̂, x̂_y, x_y): NX + 2·NY."
+    } else {
+        " Size of the observer's state x̂: NX."
+    };
+    let from_state_doc = if filter.is_some() {
+        " An observer with the whole state (x̂, x̂_y, x_y) given. The certificate \
+         assumes x̂_y(0) = x_y(0); `with_state` is the usual start."
+    } else {
+        " An observer with the whole state given (the same as `with_state` for this route)."
+    };
 
     quote! {
         #[doc = #doc]
         pub mod #modname {
             use super::{Certificate, Coeffs, NTHETA, NU, NV, NX, NY};
 
+            /// The output route of this design: `"double_sum"` or `"filter"`.
+            pub const ROUTE: &str = #route;
+            #[doc = #nz_doc]
+            pub const NZ: usize = #nz_l;
+            #[doc = #ns_doc]
+            pub const NS: usize = #ns_l;
+            #filter_consts
             /// Certified decay rate: V = eᵀPe satisfies V' ≤ −α V.
             pub const ALPHA: f64 = #alpha;
             /// Certified region scaling γ.
             pub const GAMMA: f64 = #gamma;
-            /// The Lyapunov matrix P (symmetric positive definite).
-            pub const P: [[f64; NX]; NX] = #p;
-            /// The vertex gains L_l; L(θ) = Σ_l μ_l(θ) L_l.
-            pub const L: [[[f64; NY]; NX]; NV] = [#(#l_vertices),*];
+            /// The Lyapunov matrix P (symmetric positive definite), NZ × NZ.
+            pub const P: [[f64; NZ]; NZ] = #p;
+            /// The vertex gains L_l, NZ × NY each; L(θ) = Σ_l μ_l(θ) L_l.
+            pub const L: [[[f64; NY]; NZ]; NV] = [#(#l_vertices),*];
             /// True: the conditions prove V' ≤ −αV on the certified set.
             pub const CERTIFIES: bool = true;
             #certificate
 
             /// The scheduled gain L(θ) = Σ_l μ_l(θ) L_l (θ clamped into Θ).
             #[inline]
-            pub fn gain(theta: &[f64; NTHETA]) -> [[f64; NY]; NX] {
+            pub fn gain(theta: &[f64; NTHETA]) -> [[f64; NY]; NZ] {
                 gains(&super::mu_clamped(&super::clamp_theta(theta).0))
             }
 
             #[inline(always)]
-            fn gains(mu: &[f64; NV]) -> [[f64; NY]; NX] {
+            fn gains(mu: &[f64; NV]) -> [[f64; NY]; NZ] {
                 #gains_mu
                 #gains_body
             }
@@ -955,14 +1107,14 @@ fn emit_design(
             #[inline(always)]
             fn rhs(
                 c: &Coeffs,
-                g: &[[f64; NY]; NX],
-                x: &[f64; NX],
+                g: &[[f64; NY]; NZ],
+                s: &[f64; NS],
                 y: &[f64; NY],
                 u: &[f64; NU],
-            ) -> [f64; NX] {
+            ) -> [f64; NS] {
                 #rhs_c
                 #rhs_g
-                #rhs_x
+                #rhs_s
                 #rhs_y
                 #rhs_u
                 #rhs_body
@@ -970,7 +1122,7 @@ fn emit_design(
 
             /// The θ-dependent data of one evaluation, and whether θ was clamped.
             #[inline(always)]
-            fn schedule(theta: &[f64; NTHETA]) -> (Coeffs, [[f64; NY]; NX], bool) {
+            fn schedule(theta: &[f64; NTHETA]) -> (Coeffs, [[f64; NY]; NZ], bool) {
                 let (t, clamped) = super::clamp_theta(theta);
                 (super::coeffs(&t), gains(&super::mu_clamped(&t)), clamped)
             }
@@ -978,7 +1130,7 @@ fn emit_design(
             #[doc = #obs_doc]
             #[derive(Clone, Copy, Debug, PartialEq)]
             pub struct Observer {
-                xhat: [f64; NX],
+                state: [f64; NS],
                 clamped: u64,
             }
 
@@ -989,20 +1141,36 @@ fn emit_design(
             }
 
             impl Observer {
-                /// An observer with x̂(0) = 0.
+                #[doc = #ns_doc]
+                pub const NS: usize = NS;
+
+                /// An observer with x̂(0) = 0 (and, for the filter route, x̂_y = x_y = 0).
                 pub const fn new() -> Self {
-                    Observer { xhat: [0.0; NX], clamped: 0 }
+                    Observer { state: [0.0; NS], clamped: 0 }
                 }
 
-                /// An observer with x̂(0) = `x0`.
+                /// An observer with x̂(0) = `x0` (and, for the filter route, x̂_y = x_y = 0).
                 pub fn with_state(x0: &[f64; NX]) -> Self {
-                    Observer { xhat: *x0, clamped: 0 }
+                    let [#(#est),*] = *x0;
+                    Observer { state: [#(#est,)* #(#init_zeros),*], clamped: 0 }
                 }
 
-                /// The current estimate x̂.
+                #[doc = #from_state_doc]
+                pub fn from_state(state: &[f64; NS]) -> Self {
+                    Observer { state: *state, clamped: 0 }
+                }
+
+                /// The current estimate x̂ of the plant's state.
                 #[inline]
                 pub fn estimate(&self) -> [f64; NX] {
-                    self.xhat
+                    #est_pat
+                    [#(#est),*]
+                }
+
+                /// The whole observer state ([`NS`] entries; see [`Observer`]).
+                #[inline]
+                pub fn state(&self) -> [f64; NS] {
+                    self.state
                 }
 
                 /// How many steps had θ outside Θ (or NaN) and clamped it.
@@ -1011,11 +1179,12 @@ fn emit_design(
                     self.clamped
                 }
 
-                /// x̂' at the current estimate (eq. (9)), θ clamped into Θ.
+                /// The derivative of the whole observer state ([`NS`] entries) at
+                /// the current state, θ clamped into Θ.
                 #[inline]
-                pub fn derivative(&self, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) -> [f64; NX] {
+                pub fn derivative(&self, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) -> [f64; NS] {
                     let (c, g, _) = schedule(theta);
-                    rhs(&c, &g, &self.xhat, y, u)
+                    rhs(&c, &g, &self.state, y, u)
                 }
 
                 /// One explicit Euler step of length `dt` with y, u, θ held.
@@ -1023,9 +1192,9 @@ fn emit_design(
                 pub fn step_euler(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
                     let (c, g, clamped) = schedule(theta);
                     self.clamped = self.clamped.saturating_add(clamped as u64);
-                    let [#(#k1),*] = rhs(&c, &g, &self.xhat, y, u);
-                    let [#(#xs),*] = self.xhat;
-                    self.xhat = [#(#xs + dt * #k1),*];
+                    let [#(#k1),*] = rhs(&c, &g, &self.state, y, u);
+                    let [#(#xs),*] = self.state;
+                    self.state = [#(#xs + dt * #k1),*];
                 }
 
                 /// One classical Runge–Kutta 4 step of length `dt` with y, u, θ held
@@ -1036,12 +1205,12 @@ fn emit_design(
                     self.clamped = self.clamped.saturating_add(clamped as u64);
                     let h2 = 0.5 * dt;
                     let h6 = dt / 6.0;
-                    let [#(#xs),*] = self.xhat;
-                    let [#(#k1),*] = rhs(&c, &g, &self.xhat, y, u);
+                    let [#(#xs),*] = self.state;
+                    let [#(#k1),*] = rhs(&c, &g, &self.state, y, u);
                     let [#(#k2),*] = rhs(&c, &g, &[#(#xs + h2 * #k1),*], y, u);
                     let [#(#k3),*] = rhs(&c, &g, &[#(#xs + h2 * #k2),*], y, u);
                     let [#(#k4),*] = rhs(&c, &g, &[#(#xs + dt * #k3),*], y, u);
-                    self.xhat = [#(#xs + h6 * (#k1 + 2.0 * #k2 + 2.0 * #k3 + #k4)),*];
+                    self.state = [#(#xs + h6 * (#k1 + 2.0 * #k2 + 2.0 * #k3 + #k4)),*];
                 }
             }
         }
@@ -1065,6 +1234,11 @@ mod tests {
     }";
 
     fn generated() -> String {
+        generated_with(None)
+    }
+
+    fn generated_with(filter: Option<OutputFilter>) -> String {
+        let nz = if filter.is_some() { 3 } else { 2 };
         let models = qpv_dsl::parse(MODEL).expect("test model parses");
         let model = &models[0];
         let design = CertifiedDesign {
@@ -1073,11 +1247,20 @@ mod tests {
             certifies: true,
             alpha: 1.0,
             gamma: 0.5,
-            p: vec![1.0, 0.0, 0.0, 1.0],
-            l: (0..4).map(|l| vec![f64::from(l), 0.0]).collect(),
+            p: (0..nz * nz)
+                .map(|i| if i % (nz + 1) == 0 { 1.0 } else { 0.0 })
+                .collect(),
+            l: (0..4)
+                .map(|l| {
+                    let mut v = vec![0.0; nz];
+                    v[0] = f64::from(l);
+                    v
+                })
+                .collect(),
             margins: vec![("S1".into(), 0.5)],
             status: "Solved".into(),
             iterations: 7,
+            filter,
         };
         emit(&EmitModel {
             model,
@@ -1091,6 +1274,30 @@ mod tests {
     fn output_is_a_valid_rust_file() {
         let code = generated();
         assert!(syn::parse_str::<syn::File>(&code).is_ok(), "{code}");
+    }
+
+    #[test]
+    fn filter_route_output_is_valid_and_documents_the_filter() {
+        let code = generated_with(Some(OutputFilter {
+            pole: 40.0,
+            gain: 20.0,
+        }));
+        assert!(syn::parse_str::<syn::File>(&code).is_ok(), "{code}");
+        assert!(
+            code.contains("pub const ROUTE : & str = \"filter\""),
+            "{code}"
+        );
+        assert!(code.contains("pub const FILTER_POLE : f64 = 40.0"));
+        assert!(code.contains("pub const FILTER_GAIN : f64 = 20.0"));
+        assert!(code.contains("pub const NZ : usize = 3"));
+        assert!(code.contains("pub const NS : usize = 4"));
+        // the filter rows: x̂_y' = −a x̂_y + b·h(x̂) + …, x_y' = −a x_y + b y
+        assert!(code.contains("- 40.0 * zh0 + 20.0 * x0"), "{code}");
+        assert!(code.contains("- 40.0 * zm0 + 20.0 * y0"), "{code}");
+        // the residual is the filter-state error
+        assert!(code.contains("let r0 = zm0 - zh0"), "{code}");
+        let code: TokenStream = code.parse().expect("tokens");
+        assert!(!indexes(code), "arrays are destructured, never indexed");
     }
 
     /// Every identifier of a token stream (string literals and docs skipped).

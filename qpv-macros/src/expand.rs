@@ -10,8 +10,8 @@ use crate::fallback::{self, Failure};
 use crate::input::{Input, Source};
 use proc_macro2::TokenStream;
 use qpv_dsl::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputRoute, PolytopicModel,
-    Split, StateBound,
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute,
+    PolytopicModel, Split, StateBound,
 };
 use qpv_solve::report::{matrix_to_rows, rows_to_matrix};
 use qpv_solve::{Design, Settings};
@@ -185,22 +185,27 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
 
     // The stub used if a design fails: the real API with zero data.
     let stub = || {
-        let zero = CertifiedDesign {
-            request: String::new(),
-            mode: String::new(),
-            certifies: true,
-            alpha: 0.0,
-            gamma: 0.0,
-            p: vec![0.0; model.nx() * model.nx()],
-            l: vec![vec![0.0; model.nx() * model.ny()]; poly.nv()],
-            margins: Vec::new(),
-            status: String::new(),
-            iterations: 0,
+        let zero = |req: &DesignRequest| {
+            let filter = filter_of(req);
+            let nz = model.nx() + if filter.is_some() { model.ny() } else { 0 };
+            CertifiedDesign {
+                request: String::new(),
+                mode: String::new(),
+                certifies: true,
+                alpha: 0.0,
+                gamma: 0.0,
+                p: vec![0.0; nz * nz],
+                l: vec![vec![0.0; nz * model.ny()]; poly.nv()],
+                margins: Vec::new(),
+                status: String::new(),
+                iterations: 0,
+                filter,
+            }
         };
         emit::emit(&EmitModel {
             model,
             scheduling: poly.scheduling.clone(),
-            designs: vec![zero; model.designs.len()],
+            designs: model.designs.iter().map(zero).collect(),
         })
     };
 
@@ -225,6 +230,14 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
     }))
 }
 
+/// The output post-filter of a filter-route request.
+fn filter_of(req: &DesignRequest) -> Option<OutputFilter> {
+    match req.output_route {
+        OutputRoute::Filter(f) => Some(f),
+        OutputRoute::DoubleSum => None,
+    }
+}
+
 /// A row-major slice as rows of `cols` entries.
 fn rows(data: &[f64], cols: usize) -> Vec<Vec<f64>> {
     data.chunks(cols.max(1)).map(<[f64]>::to_vec).collect()
@@ -239,7 +252,11 @@ fn one_design(
     cache: Option<&std::path::Path>,
 ) -> Result<Outcome, String> {
     let request = describe(req);
+    let filter = filter_of(req);
+    // The design's state: the plant's, plus one filter state per output for
+    // the filter route (P is nz × nz, each L_l nz × ny).
     let (nx, ny, nv) = (model.nx(), model.ny(), poly.nv());
+    let nz = nx + if filter.is_some() { ny } else { 0 };
     let settings = settings();
     // The key is the model as written (`state_bound auto` included), so an
     // auto bound is cached with the design.
@@ -269,14 +286,21 @@ fn one_design(
         }
     };
     let poly = &resolved;
-    // The conditions are checked on the representation of N_k, M_k the
-    // design used (the plant, hence the generated code, is the same).
-    let split_model = poly.with_split(req.split);
+    // The conditions are checked on the model the observer is designed for
+    // (the plant, or the plant augmented by the output filter), with the
+    // representation of N_k, M_k the design used (the plant, hence the
+    // generated code, is the same).
+    let routed = match &filter {
+        Some(f) => qpv_solve::output_filter::augment(poly, f)
+            .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?,
+        None => poly.clone(),
+    };
+    let split_model = routed.with_split(req.split);
 
     // A cache hit is re-certified, never trusted blindly.
     if let Some(e) = cached {
-        if e.p.len() == nx * nx && e.l.len() == nv && e.l.iter().all(|l| l.len() == nx * ny) {
-            let p = rows_to_matrix(&rows(&e.p, nx));
+        if e.p.len() == nz * nz && e.l.len() == nv && e.l.iter().all(|l| l.len() == nz * ny) {
+            let p = rows_to_matrix(&rows(&e.p, nz));
             let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
             let cert = qpv_solve::check(&split_model, req.mode, e.alpha, e.gamma, &p, &ls);
             if cert.passed {
@@ -307,6 +331,7 @@ fn one_design(
                             .collect(),
                         status: e.status,
                         iterations: e.iterations,
+                        filter,
                     },
                 });
             }
@@ -324,10 +349,10 @@ fn one_design(
     }
     let p = design.p_matrix();
     let ls = design.l_matrices();
-    let shapes_ok = p.nrows() == nx
-        && p.ncols() == nx
+    let shapes_ok = p.nrows() == nz
+        && p.ncols() == nz
         && ls.len() == nv
-        && ls.iter().all(|l| l.nrows() == nx && l.ncols() == ny);
+        && ls.iter().all(|l| l.nrows() == nz && l.ncols() == ny);
     if !shapes_ok {
         return Err(format!(
             "design `{request}`: the solver returned matrices of unexpected size \
@@ -381,6 +406,7 @@ fn one_design(
             .collect(),
         status: entry.status,
         iterations: entry.iterations,
+        filter,
     };
     Ok(Outcome {
         origin: "solved",

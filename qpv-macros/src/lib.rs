@@ -32,15 +32,39 @@ use proc_macro::TokenStream;
 /// # Generated API (one module per model, named after it)
 ///
 /// * constants `NX`, `NY`, `NU`, `NTHETA`, `NV`, `THETA_MIN`, `THETA_MAX`;
-///   `ALPHA`, `GAMMA`, `P: [[f64; NX]; NX]`, `L: [[[f64; NY]; NX]; NV]`,
-///   `CERTIFIES` and `CERTIFICATE` (margins per condition family, solver
-///   status and iterations; implements `Display`);
-/// * `mu(&θ) -> [f64; NV]`, `gain(&θ) -> [[f64; NY]; NX]`,
+///   `ROUTE` (`"double_sum"` or `"filter"`), `NZ` (the design's state
+///   size), `NS` (the observer's state size), `ALPHA`, `GAMMA`,
+///   `P: [[f64; NZ]; NZ]`, `L: [[[f64; NY]; NZ]; NV]`, `CERTIFIES` and
+///   `CERTIFICATE` (route, margins per condition family, solver status and
+///   iterations; implements `Display`);
+/// * `mu(&θ) -> [f64; NV]`, `gain(&θ) -> [[f64; NY]; NZ]`,
 ///   `clamp_theta(&θ) -> ([f64; NTHETA], bool)`;
-/// * `Observer`: `new()`, `with_state(&x0)`, `derivative(&y, &u, &θ)`
-///   (spec eq. (9)), `step_euler(dt, &y, &u, &θ)`, `step_rk4(dt, &y, &u, &θ)`,
-///   `estimate()`, `clamped()`;
+/// * `Observer`: `new()`, `with_state(&x0)`, `from_state(&s)`, `state()`,
+///   `derivative(&y, &u, &θ) -> [f64; NS]`, `step_euler(dt, &y, &u, &θ)`,
+///   `step_rk4(dt, &y, &u, &θ)`, `estimate() -> [f64; NX]`, `clamped()`;
 /// * `plant::derivative(&x, &u, &θ)`, `plant::output(&x, &θ)`.
+///
+/// # Output routes
+///
+/// `output_route = double_sum` (the default): the observer is spec eq. (9),
+/// x̂' = A(θ)x̂ + N(θ,x̂)x̂ + B(θ)u + L(θ)[y − C(θ)x̂ − M(θ,x̂)x̂]; its state
+/// is x̂ (`NZ = NS = NX`).
+///
+/// `output_route = filter(pole = a, gain = b)`: the design is for the plant
+/// augmented by the output post-filter x_y' = −a x_y + b y (`NZ = NX + NY`,
+/// plant states first; the design module also has `FILTER_POLE`,
+/// `FILTER_GAIN`). The observer runs the filter on the measurement itself;
+/// its state (`NS = NX + 2·NY`) is (x̂, x̂_y, x_y):
+///
+/// ```text
+/// x̂'   = A(θ)x̂ + N(θ,x̂)x̂ + B(θ)u + L_x(θ)(x_y − x̂_y)
+/// x̂_y' = −a x̂_y + b (C(θ)x̂ + M(θ,x̂)x̂) + L_y(θ)(x_y − x̂_y)
+/// x_y'  = −a x_y + b y
+/// ```
+///
+/// with L_x, L_y the first NX and last NY rows of L(θ). `new` and
+/// `with_state` start x̂_y = x_y = 0, as the certificate assumes;
+/// `estimate()` is x̂ only.
 ///
 /// Everything is fully unrolled and constant-folded, uses `::core` only (it
 /// builds in `#![no_std]` crates), never allocates and cannot panic.

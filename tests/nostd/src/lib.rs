@@ -27,3 +27,16 @@ pub fn plant_output(
 
 /// The certified decay rate, usable in `const` context.
 pub const ALPHA: f64 = paper_sound::ALPHA;
+
+qpv_macros::qpv!(include "theta_filter.qpv");
+
+/// One RK4 step of a filter-route observer (state x̂, x̂_y, x_y), without `std`.
+pub fn filter_observer_step(
+    obs: &mut theta_filter::Observer,
+    dt: f64,
+    y: &[f64; theta_filter::NY],
+    theta: &[f64; theta_filter::NTHETA],
+) -> [f64; theta_filter::NS] {
+    obs.step_rk4(dt, y, &[], theta);
+    obs.state()
+}
