@@ -621,6 +621,49 @@ mod tests {
     }
 
     #[test]
+    fn filter_designs_are_augmented_cached_and_recertified() {
+        let text = MODEL
+            .replace(
+                "state x1, x2; output y1;",
+                "state x1, x2; output y1; param th in [0, 1];",
+            )
+            .replace("C = [1, 0];", "C = [1 + th, 0];")
+            .replace(
+                "design { alpha = 0.5; gamma = 0.5; }",
+                "design { alpha = 0.5; gamma = 0.5; output_route = filter(pole = 10, gain = 5); }",
+            );
+        let models = qpv_dsl::parse(&text).expect("test model parses");
+        let model = &models[0];
+        let poly = model.polytopic();
+        assert!(poly.output_varies());
+        let req = &model.designs[0];
+        let dir = std::env::temp_dir().join(format!("qpv-expand-filter-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let first = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(first.origin, "solved");
+        let f = first.numbers.filter.expect("filter route");
+        assert_eq!((f.pole, f.gain), (10.0, 5.0));
+        // the design is for (x, x_y): P is 3 × 3, L_l is 3 × 1
+        assert_eq!(first.numbers.p.len(), 9);
+        assert!(first.numbers.l.iter().all(|l| l.len() == 3));
+        let second = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(second.origin, "cache hit, re-certified");
+        assert_eq!(second.numbers, first.numbers);
+        assert!(describe(req).ends_with("output_route = filter(pole = 10, gain = 5)"));
+        // the double-sum request of the same model is another cache entry
+        let ds = DesignRequest {
+            output_route: OutputRoute::DoubleSum,
+            ..req.clone()
+        };
+        assert_ne!(
+            cache::key(&poly, req, "s"),
+            cache::key(&poly, &ds, "s"),
+            "the route is part of the key"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn requests_are_described_as_written() {
         let models = qpv_dsl::parse(MODEL).expect("test model parses");
         assert_eq!(
