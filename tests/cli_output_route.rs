@@ -45,7 +45,11 @@ fn example_with(name: &str, designs: &str) -> PathBuf {
 }
 
 fn design_json(file: &str) -> (Output, serde_json::Value) {
-    let out = qpv(&["design", file, "--json", "-"]);
+    design_json_args(&["design", file, "--json", "-"])
+}
+
+fn design_json_args(args: &[&str]) -> (Output, serde_json::Value) {
+    let out = qpv(args);
     let json = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
         panic!(
             "stdout is not exactly one JSON document ({e}):\n{}\n{}",
@@ -199,5 +203,76 @@ fn bad_output_routes_exit_2_with_a_positioned_message() {
         );
         assert!(err.contains(message), "{design}: {err}");
         assert!(err.contains(line.trim()), "the line is quoted: {err}");
+    }
+}
+
+/// `--output-route`, `--filter-pole`: one request from the flags; `qpv
+/// check` re-certifies a filter report against the augmented plant.
+#[test]
+fn route_flags_override_and_check_recertifies_a_filter_design() {
+    let report = tmp("f20.json");
+    let report = report.to_str().unwrap();
+    let out = qpv(&[
+        "design",
+        EXAMPLE,
+        "--output-route",
+        "filter",
+        "--filter-pole",
+        "20",
+        "--alpha",
+        "0.6",
+        "--gamma",
+        "0.3",
+        "--json",
+        report,
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let d: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
+    assert!(d.is_object(), "one request from the flags: one report");
+    assert_eq!(d["certifies"], true);
+    assert_eq!(d["output_route"]["route"], "filter");
+    assert_eq!(d["output_route"]["filter"]["pole"].as_f64(), Some(20.0));
+    assert_shapes(&d, NX + NY);
+    let check = qpv(&["check", EXAMPLE, "--gains", report]);
+    assert_eq!(
+        check.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&check.stdout)
+    );
+
+    let (out, d) = design_json_args(&[
+        "design",
+        EXAMPLE,
+        "--output-route",
+        "double_sum",
+        "--alpha",
+        "0.6",
+        "--gamma",
+        "0.3",
+        "--json",
+        "-",
+    ]);
+    assert_eq!(out.status.code(), Some(0));
+    assert_eq!(d["output_route"]["route"], "double_sum");
+    assert_shapes(&d, NX);
+
+    for bad in [
+        &["--output-route", "kalman"][..],
+        &["--output-route", "double_sum", "--filter-pole", "3"][..],
+        &["--filter-pole", "0"][..],
+    ] {
+        let mut args = vec!["design", EXAMPLE];
+        args.extend_from_slice(bad);
+        let out = qpv(&args);
+        assert_eq!(out.status.code(), Some(2), "{bad:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(bad[0]), "{bad:?}: {err}");
     }
 }
