@@ -1020,22 +1020,27 @@ mod tests {
             row += tri(nx + 1);
             cone += 1;
         }
-        // rate LMIs, in model units, as printed
+        // rate LMIs, in model units, as printed: Σ_t w_t Ξ_{l_t m_t}(i, j)
+        // with Ξ_lm = He{γ(PA_l − Γ_l C_m) + σ P R_l − Γ_l S_m} + γαP.
         let sigma = set.nonlinear_sign();
         let eps_rate = eps * prob.rate_scale(alpha, gamma);
-        for (l, v) in model.vertices.iter().enumerate() {
+        for combo in crate::conditions::rate_combos(model) {
             for xi in &model.region.vertices {
                 for xj in &model.region.vertices {
-                    let r = rows_he(&v.n, xj) - rows(&v.n, xi);
-                    let sm = rows_he(model.c0().1, xj) - rows(model.c0().1, xi);
-                    let inner = (&p * &v.a - &gammas[l] * model.c0().0) * gamma + &p * &r * sigma
-                        - &gammas[l] * &sm;
-                    let f = &inner + inner.transpose() + &p * (gamma * alpha);
+                    let mut f = DMatrix::zeros(nx, nx);
+                    for &(l, m, w) in &combo.terms {
+                        let (vl, vm) = (&model.vertices[l], &model.vertices[m]);
+                        let r = rows_he(&vl.n, xj) - rows(&vl.n, xi);
+                        let sm = rows_he(&vm.m, xj) - rows(&vm.m, xi);
+                        let inner = (&p * &vl.a - &gammas[l] * &vm.c) * gamma + &p * &r * sigma
+                            - &gammas[l] * &sm;
+                        f += (&inner + inner.transpose() + &p * (gamma * alpha)) * w;
+                    }
                     let want = -f / s - DMatrix::identity(nx, nx) * eps_rate;
                     let g = smat(&slack[row..row + tri(nx)], nx);
                     assert!(
                         (&g - &want).norm() < 1e-9 * (1.0 + want.norm()),
-                        "rate l={l}"
+                        "rate {combo:?}"
                     );
                     row += tri(nx);
                     cone += 1;
@@ -1111,9 +1116,11 @@ mod tests {
             model.nv(),
             model.region.vertices.len(),
         );
-        assert_eq!(dec.n_rate_blocks(), nv * 2 * np);
-        assert_eq!(dec.n_full_rate_blocks(), nv * np * np);
-        assert_eq!(dec.n_vars(), full.n_vars() + nv * tri(nx));
+        let combos = crate::conditions::rate_combos(model);
+        let nc = combos.len();
+        assert_eq!(dec.n_rate_blocks(), nc * 2 * np);
+        assert_eq!(dec.n_full_rate_blocks(), nc * np * np);
+        assert_eq!(dec.n_vars(), full.n_vars() + nc * tri(nx));
         let (alpha, gamma) = (3.7, 0.35);
         let settings = Settings::default();
         let s = dec.scale;
@@ -1123,7 +1130,7 @@ mod tests {
         let gammas: Vec<DMatrix<f64>> = (0..nv)
             .map(|_| DMatrix::from_fn(nx, ny, |_, _| lcg(&mut seed) * s))
             .collect();
-        let z: Vec<DMatrix<f64>> = (0..nv)
+        let z: Vec<DMatrix<f64>> = (0..nc)
             .map(|_| {
                 let m = DMatrix::from_fn(nx, nx, |_, _| lcg(&mut seed) * s);
                 &m + m.transpose()
@@ -1165,39 +1172,76 @@ mod tests {
         let he = |m: DMatrix<f64>| &m + m.transpose();
         let blk =
             |v: &[f64], b: usize, r0: usize| smat(&v[r0 + b * tri(nx)..r0 + (b + 1) * tri(nx)], nx);
-        for (l, v) in model.vertices.iter().enumerate() {
-            let g = &gammas[l];
-            let f0 = he((&p * &v.a - g * model.c0().0) * gamma) + &p * (gamma * alpha);
+        for (c, combo) in combos.iter().enumerate() {
+            // F0 + G(x_i) and H(x_j) of the combination, term by term.
+            let e_part = |xi: &DVector<f64>| {
+                let mut f = DMatrix::zeros(nx, nx);
+                for &(l, m, w) in &combo.terms {
+                    let (vl, vm, g) = (&model.vertices[l], &model.vertices[m], &gammas[l]);
+                    f += (he((&p * &vl.a - g * &vm.c) * gamma)
+                        + &p * (gamma * alpha)
+                        + he(&p * rows(&vl.n, xi) * (-sigma) + g * rows(&vm.m, xi)))
+                        * w;
+                }
+                f
+            };
+            let x_part = |xj: &DVector<f64>| {
+                let mut f = DMatrix::zeros(nx, nx);
+                for &(l, m, w) in &combo.terms {
+                    let (vl, vm, g) = (&model.vertices[l], &model.vertices[m], &gammas[l]);
+                    f += he(&p * rows_he(&vl.n, xj) * sigma - g * rows_he(&vm.m, xj)) * w;
+                }
+                f
+            };
             for (i, xi) in model.region.vertices.iter().enumerate() {
-                let gi = he(&p * rows(&v.n, xi) * (-sigma) + g * rows(model.c0().1, xi));
-                let want = -(&f0 + &gi + &z[l]) / s - &eye * eps_rate;
-                let got = blk(&sd, l * 2 * np + i, rd);
+                let want = -(e_part(xi) + &z[c]) / s - &eye * eps_rate;
+                let got = blk(&sd, c * 2 * np + i, rd);
                 assert!(
                     (&got - &want).norm() < 1e-9 * (1.0 + want.norm()),
-                    "e-block l={l} i={i}"
+                    "e-block c={c} i={i}"
                 );
             }
             for (j, xj) in model.region.vertices.iter().enumerate() {
-                let hj = he(&p * rows_he(&v.n, xj) * sigma - g * rows_he(model.c0().1, xj));
-                let want = -(&hj - &z[l]) / s;
-                let got = blk(&sd, l * 2 * np + np + j, rd);
+                let want = -(x_part(xj) - &z[c]) / s;
+                let got = blk(&sd, c * 2 * np + np + j, rd);
                 assert!(
                     (&got - &want).norm() < 1e-9 * (1.0 + want.norm()),
-                    "x-block l={l} j={j}"
+                    "x-block c={c} j={j}"
                 );
             }
             // Sum of the two halves = the full block (the margin sits on the e-block).
             for i in 0..np {
                 for j in 0..np {
-                    let sum = blk(&sd, l * 2 * np + i, rd) + blk(&sd, l * 2 * np + np + j, rd);
-                    let fullb = blk(&sf, (l * np + i) * np + j, rf);
+                    let sum = blk(&sd, c * 2 * np + i, rd) + blk(&sd, c * 2 * np + np + j, rd);
+                    let fullb = blk(&sf, (c * np + i) * np + j, rf);
                     assert!(
                         (&sum - &fullb).norm() < 1e-9 * (1.0 + fullb.norm()),
-                        "sum l={l} i={i} j={j}"
+                        "sum c={c} i={i} j={j}"
                     );
                 }
             }
         }
+        let _ = nv;
+    }
+
+    /// The paper model with a θ-dependent output map (C_22 = 1 + θ1,
+    /// M_1[2,3] = 0.5 θ2): the double-sum family.
+    fn varying_output_model() -> PolytopicModel {
+        let mut m = paper_model();
+        for v in &mut m.vertices {
+            v.c[(1, 1)] = 1.0 + v.theta[0];
+            v.m[0][(1, 2)] = 0.5 * v.theta[1];
+        }
+        assert!(crate::conditions::is_double_sum(&m));
+        m
+    }
+
+    #[test]
+    fn double_sum_assembly_matches_direct_matrices() {
+        let m = varying_output_model();
+        assert_eq!(crate::conditions::rate_combos(&m).len(), 16);
+        check_assembly(&m, Mode::Sound);
+        check_decoupled_assembly(&m, Mode::Sound);
     }
 
     #[test]
