@@ -86,7 +86,8 @@ pub enum Conditions {
     /// All p² vertex pairs (i, j) per θ-vertex.
     #[default]
     Full,
-    /// One slack Z_l per θ-vertex: 2p blocks per θ-vertex (sufficient for
+    /// One slack Z_l per θ-vertex (per rate combination for the double sum):
+    /// 2p blocks per θ-vertex (sufficient for
     /// the full family, which certification still re-checks).
     Decoupled,
 }

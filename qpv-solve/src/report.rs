@@ -143,7 +143,8 @@ pub struct Design {
     #[serde(with = "split_serde")]
     pub split: Split,
     /// Rate conditions solved ("full": all N p² vertex pairs; "decoupled":
-    /// N·2p blocks with one slack Z_l per θ-vertex, sufficient). The
+    /// N·2p blocks with one slack Z per rate combination — per θ-vertex, or
+    /// per (l, m) combination of the double sum — sufficient). The
     /// certificate (`margins`, `feasible`) always checks the full family.
     /// Reports written before the key existed read as "full".
     #[serde(default, with = "conditions_serde")]
@@ -165,7 +166,8 @@ pub struct Design {
     /// Γ_l = P L_l per vertex (rows).
     #[serde(rename = "Gamma")]
     pub gamma_l: Vec<Vec<Vec<f64>>>,
-    /// Observer gains L_l = P⁻¹ Γ_l per vertex (nx rows of ny).
+    /// Observer gains L_l = P⁻¹ Γ_l per vertex (nx rows of ny; nx + ny rows
+    /// for the filter route, see `output_route`).
     #[serde(rename = "L")]
     pub l: Vec<Vec<Vec<f64>>>,
     /// Spectral norms ‖L_l‖₂ per vertex.

@@ -728,7 +728,7 @@ pub fn design_with_progress(
     }
     if request.conditions == Conditions::Decoupled {
         notes.push(format!(
-            "conditions = decoupled: solved with {} rate blocks (one slack Z_l per θ-vertex, sufficient) instead of {}; the certificate checks the full family of {} blocks",
+            "conditions = decoupled: solved with {} rate blocks (one slack Z per rate combination, sufficient) instead of {}; the certificate checks the full family of {} blocks",
             ctx.prob.n_rate_blocks(),
             ctx.prob.n_full_rate_blocks(),
             ctx.prob.n_full_rate_blocks()
