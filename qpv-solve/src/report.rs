@@ -8,7 +8,11 @@
 //! `certify_seconds`}, `seconds_total`, `search` (every step tried),
 //! `notes`, a human `summary` and `state_bound` {`source`, `Q`, `h`,
 //! `h_fixed`, `gamma_max`, `split`, `check`, `solves`, `seconds`, `notes`}
-//! (see [`crate::state_bound::StateBoundInfo`]). Matrices are plain `Vec<Vec<f64>>` rows;
+//! (see [`crate::state_bound::StateBoundInfo`]) and `output_route` {`route`
+//! ("double_sum" | "filter"), `output_varies`, `filter` {`pole`, `gain`,
+//! `bound`} or null, `states`, `combinations`} (see
+//! [`crate::output_filter::OutputRouteInfo`]; for the filter route `P` is
+//! (nx+ny)² and each `L` has nx + ny rows). Matrices are plain `Vec<Vec<f64>>` rows;
 //! serde_json writes the shortest round-tripping decimal of every `f64`, so
 //! a reloaded design certifies exactly as the written one.
 

@@ -337,10 +337,15 @@ fn json_keys_are_exactly_the_documented_ones() {
         "notes",
         "summary",
         "state_bound",
+        "output_route",
     ] {
         assert!(obj.contains_key(key), "missing key {key}");
     }
-    assert_eq!(obj.len(), 20);
+    assert_eq!(obj.len(), 21);
+    assert_eq!(v["output_route"]["route"], "double_sum");
+    assert_eq!(v["output_route"]["output_varies"], false);
+    assert_eq!(v["output_route"]["combinations"], 4);
+    assert!(v["output_route"]["filter"].is_null());
     assert_eq!(v["state_bound"]["source"], "given");
     assert_eq!(v["mode"], "sound");
     assert_eq!(v["split"], "as_written");
