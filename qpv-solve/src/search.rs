@@ -383,7 +383,23 @@ impl Ctx<'_, '_> {
         let mut fails_in_row = 0i32;
         loop {
             let metric = lo.as_ref().or(seed).map(|p| p.p.clone());
-            let at = self.attempt(a, gamma, Objective::MaxMargin, metric.as_ref(), phase)?;
+            let mut at = self.attempt(a, gamma, Objective::MaxMargin, metric.as_ref(), phase)?;
+            if !at.certified && at.status == Status::Solved {
+                // A "solved" max-margin point that the certificate rejects is
+                // numerical trouble (e.g. an unbounded optimal face, as P's
+                // filter block of an output-filter design), not evidence of
+                // infeasibility: retry this α with the regularised objective
+                // before counting it as a failure.
+                let retry = self.attempt(a, gamma, Objective::Gains, None, "retry")?;
+                if retry.certified {
+                    at = retry;
+                    if let Some(up) = at.point.as_ref().and_then(|p| self.lift(p, gamma)) {
+                        if up.alpha > a {
+                            at.point = Some(up);
+                        }
+                    }
+                }
+            }
             let t = at.margin;
             if at.certified {
                 last_ok = true;
