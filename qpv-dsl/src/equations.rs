@@ -45,12 +45,18 @@ fn constant_term(src: &str, names: &Names, eq: &str, mono: &Mono, span: Span) ->
     } else {
         format!("the term {} without a state", names.mono_text(mono))
     };
+    let remedy = if eq.starts_with("out ") {
+        "Shift the state to an equilibrium, or subtract the known offset from the \
+         measurement before giving it to the observer"
+    } else {
+        "Shift the state to an equilibrium, or give the offset as a known input (for \
+         example `input one;` and `... + 5*one`)"
+    };
     Diag::new(
         span,
         format!(
             "`{eq}` has {what} ({}): the system class x' = A(θ)x + N(θ,x)x + B(θ)u, \
-             y = C x + M(x)x has no offsets. Shift the state to an equilibrium, or give \
-             the offset as a known input (for example `input one;` and `... + 5*one`)",
+             y = C(θ)x + M(θ,x)x has no offsets. {remedy}",
             quote(src, span)
         ),
     )

@@ -56,11 +56,11 @@ pub enum Command {
         output_route: Option<String>,
         /// Pole a of the output filter x_y' = −a x_y + b y (implies
         /// `--output-route filter`; default 50).
-        #[arg(long = "filter-pole")]
+        #[arg(long = "filter-pole", allow_negative_numbers = true)]
         filter_pole: Option<f64>,
         /// Gain b of the output filter (implies `--output-route filter`;
         /// default: the pole, unit DC gain).
-        #[arg(long = "filter-gain")]
+        #[arg(long = "filter-gain", allow_negative_numbers = true)]
         filter_gain: Option<f64>,
         /// Write the JSON report to this file (`-` for stdout).
         #[arg(long)]
