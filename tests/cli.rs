@@ -1,21 +1,13 @@
 //! End-to-end tests of the `qpv` command line: exit codes, JSON report keys,
 //! stdout discipline with `--json -`, positioned errors, figures.
 
+mod common;
+use common::qpv;
 use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn qpv(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_qpv"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the qpv binary runs")
-}
+use std::process::Output;
 
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("qpv-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir.join(name)
+    common::tmp("test", name)
 }
 
 fn json_stdout(out: &Output) -> serde_json::Value {

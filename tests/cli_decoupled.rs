@@ -1,15 +1,8 @@
 //! `qpv design --conditions full|decoupled --split as_written|symmetric`
 //! (issue 6 §2, §3): the flags reach the design and its report.
 
-use std::process::{Command, Output};
-
-fn qpv(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_qpv"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the qpv binary runs")
-}
+mod common;
+use common::qpv;
 
 fn design_json(extra: &[&str]) -> (serde_json::Value, String) {
     let mut args = vec![

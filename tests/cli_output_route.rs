@@ -4,25 +4,17 @@
 //! post-filter, the JSON report's `output_route`, and bad `output_route`
 //! values.
 
+mod common;
+use common::qpv;
 use std::path::PathBuf;
-use std::process::{Command, Output};
+use std::process::Output;
 
 const EXAMPLE: &str = "examples/varying_output.qpv";
 const NX: usize = 2;
 const NY: usize = 1;
 
-fn qpv(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_qpv"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the qpv binary runs")
-}
-
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("qpv-cli-route-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir.join(name)
+    common::tmp("route", name)
 }
 
 fn example_text() -> String {

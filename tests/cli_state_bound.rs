@@ -1,21 +1,12 @@
 //! `state_bound auto` through the command line (issue 6 §1): `qpv design`
 //! computes and reports Q, and `qpv check` re-checks the report with it.
 
-use std::process::{Command, Output};
-
-fn qpv(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_qpv"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the qpv binary runs")
-}
+mod common;
+use common::qpv;
 
 #[test]
 fn paper_auto_design_reports_the_bound_and_check_uses_it() {
-    let dir = std::env::temp_dir().join(format!("qpv-cli-auto-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let report = dir.join("auto.json");
+    let report = common::tmp("auto", "auto.json");
     let out = qpv(&[
         "design",
         "examples/paper_auto.qpv",
@@ -64,7 +55,7 @@ fn paper_auto_design_reports_the_bound_and_check_uses_it() {
     // ... and refuses gains without one (exit 2, says what is missing)
     let mut stripped = d.clone();
     stripped.as_object_mut().unwrap().remove("state_bound");
-    let bare = dir.join("bare.json");
+    let bare = common::tmp("auto", "bare.json");
     std::fs::write(&bare, serde_json::to_string(&stripped).unwrap()).unwrap();
     let err = qpv(&[
         "check",

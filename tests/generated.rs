@@ -142,6 +142,26 @@ fn rel_err(a: &[f64], b: &[f64]) -> f64 {
     diff / scale
 }
 
+/// One classical RK4 step of x' = f(x, t) (the plant in the simulation tests).
+fn rk4_step<const N: usize>(
+    f: impl Fn(&[f64; N], f64) -> [f64; N],
+    x: &[f64; N],
+    t: f64,
+    dt: f64,
+) -> [f64; N] {
+    let k1 = f(x, t);
+    let k2 = f(
+        &core::array::from_fn(|i| x[i] + 0.5 * dt * k1[i]),
+        t + 0.5 * dt,
+    );
+    let k3 = f(
+        &core::array::from_fn(|i| x[i] + 0.5 * dt * k2[i]),
+        t + 0.5 * dt,
+    );
+    let k4 = f(&core::array::from_fn(|i| x[i] + dt * k3[i]), t + dt);
+    core::array::from_fn(|i| x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
+}
+
 #[test]
 fn paper_observer_matches_reference_on_random_inputs() {
     let poly = polytopic(include_str!("nostd/paper_sound.qpv"));
@@ -341,17 +361,7 @@ fn observer_keeps_its_certified_decay_on_the_paper_scenario() {
         obs.step_rk4(dt, &y, &[], &th);
         // plant: RK4 with θ(t) at the stages
         let f = |x: &[f64; 3], t: f64| paper_sound::plant::derivative(x, &[], &theta(t));
-        let k1 = f(&x, t);
-        let k2 = f(
-            &core::array::from_fn(|i| x[i] + 0.5 * dt * k1[i]),
-            t + 0.5 * dt,
-        );
-        let k3 = f(
-            &core::array::from_fn(|i| x[i] + 0.5 * dt * k2[i]),
-            t + 0.5 * dt,
-        );
-        let k4 = f(&core::array::from_fn(|i| x[i] + dt * k3[i]), t + dt);
-        x = core::array::from_fn(|i| x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+        x = rk4_step(f, &x, t, dt);
         let xh = obs.estimate();
         let e: [f64; 3] = core::array::from_fn(|i| x[i] - xh[i]);
         let bound = v0 * (-paper_sound::ALPHA * (t + dt)).exp();
@@ -531,17 +541,7 @@ fn filter_route_observer_converges_on_the_paper_scenario() {
         let y = theta_filt::plant::output(&x, &th);
         obs.step_rk4(dt, &y, &[], &th);
         let f = |x: &[f64; 3], t: f64| theta_filt::plant::derivative(x, &[], &theta(t));
-        let k1 = f(&x, t);
-        let k2 = f(
-            &core::array::from_fn(|i| x[i] + 0.5 * dt * k1[i]),
-            t + 0.5 * dt,
-        );
-        let k3 = f(
-            &core::array::from_fn(|i| x[i] + 0.5 * dt * k2[i]),
-            t + 0.5 * dt,
-        );
-        let k4 = f(&core::array::from_fn(|i| x[i] + dt * k3[i]), t + dt);
-        x = core::array::from_fn(|i| x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+        x = rk4_step(f, &x, t, dt);
         let (ez, _) = err(&x, &obs);
         let bound = v0 * (-theta_filt::ALPHA * (t + dt)).exp();
         worst_ratio = worst_ratio.max(v(&ez) / bound);

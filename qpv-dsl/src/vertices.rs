@@ -111,61 +111,47 @@ impl PolytopicModel {
 }
 
 impl PolytopicModel {
-    /// Σ_l μ_l(θ) A_l (equals A(θ) inside the parameter box).
-    pub fn a_at(&self, theta: &[f64]) -> DMatrix<f64> {
+    /// Σ_l μ_l(θ) X_l for the vertex matrix `pick` selects (rows × cols).
+    fn weighted(
+        &self,
+        theta: &[f64],
+        (rows, cols): (usize, usize),
+        pick: impl Fn(&Vertex) -> &DMatrix<f64>,
+    ) -> DMatrix<f64> {
         let mu = self.mu(theta);
-        let mut s = DMatrix::zeros(self.nx(), self.nx());
+        let mut s = DMatrix::zeros(rows, cols);
         for (w, v) in mu.iter().zip(&self.vertices) {
-            s += &v.a * *w;
+            s += pick(v) * *w;
         }
         s
     }
 
+    /// Σ_l μ_l(θ) A_l (equals A(θ) inside the parameter box).
+    pub fn a_at(&self, theta: &[f64]) -> DMatrix<f64> {
+        self.weighted(theta, (self.nx(), self.nx()), |v| &v.a)
+    }
+
     /// Σ_l μ_l(θ) N_{k,l}, k = 1..nx.
     pub fn n_at(&self, theta: &[f64]) -> Vec<DMatrix<f64>> {
-        let mu = self.mu(theta);
         (0..self.nx())
-            .map(|k| {
-                let mut s = DMatrix::zeros(self.nx(), self.nx());
-                for (w, v) in mu.iter().zip(&self.vertices) {
-                    s += &v.n[k] * *w;
-                }
-                s
-            })
+            .map(|k| self.weighted(theta, (self.nx(), self.nx()), |v| &v.n[k]))
             .collect()
     }
 
     /// Σ_l μ_l(θ) B_l.
     pub fn b_at(&self, theta: &[f64]) -> DMatrix<f64> {
-        let mu = self.mu(theta);
-        let mut s = DMatrix::zeros(self.nx(), self.nu());
-        for (w, v) in mu.iter().zip(&self.vertices) {
-            s += &v.b * *w;
-        }
-        s
+        self.weighted(theta, (self.nx(), self.nu()), |v| &v.b)
     }
 
     /// Σ_l μ_l(θ) C_l (equals C(θ) inside the parameter box).
     pub fn c_at(&self, theta: &[f64]) -> DMatrix<f64> {
-        let mu = self.mu(theta);
-        let mut s = DMatrix::zeros(self.ny(), self.nx());
-        for (w, v) in mu.iter().zip(&self.vertices) {
-            s += &v.c * *w;
-        }
-        s
+        self.weighted(theta, (self.ny(), self.nx()), |v| &v.c)
     }
 
     /// Σ_l μ_l(θ) M_{k,l}, k = 1..ny.
     pub fn m_at(&self, theta: &[f64]) -> Vec<DMatrix<f64>> {
-        let mu = self.mu(theta);
         (0..self.ny())
-            .map(|k| {
-                let mut s = DMatrix::zeros(self.nx(), self.nx());
-                for (w, v) in mu.iter().zip(&self.vertices) {
-                    s += &v.m[k] * *w;
-                }
-                s
-            })
+            .map(|k| self.weighted(theta, (self.nx(), self.nx()), |v| &v.m[k]))
             .collect()
     }
 

@@ -544,13 +544,12 @@ pub fn rate_lmi(
     i: usize,
     j: usize,
 ) -> DMatrix<f64> {
-    let sigma = ConditionSet::from_mode(mode).nonlinear_sign();
-    let v = &model.vertices[l];
-    let (xi, xj) = (&model.region.vertices[i], &model.region.vertices[j]);
-    let r = rows_he(&v.n, xj) - rows(&v.n, xi);
-    let s = rows_he(&v.m, xj) - rows(&v.m, xi);
-    let x = (p * &v.a - gamma_l * &v.c) * gamma + p * r * sigma - gamma_l * s;
-    &x + x.transpose() + p * (gamma * alpha)
+    let mut gammas = vec![DMatrix::zeros(gamma_l.nrows(), gamma_l.ncols()); model.nv()];
+    gammas[l] = gamma_l.clone();
+    let own = Combo {
+        terms: vec![(l, l, 1.0)],
+    };
+    combo_lmi(model, mode, alpha, gamma, p, &gammas, &own, i, j)
 }
 
 /// The rate block of combination `combo` at the pair (i, j) (0-based):
