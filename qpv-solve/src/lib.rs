@@ -16,6 +16,9 @@
 //! * [`output_filter`]: the output routes for a θ-dependent C(θ), M_k(θ):
 //!   the double-sum relaxation, or the output post-filter augmentation
 //!   (spec §3, Remark 3) with its region and state-bound extension.
+//! * [`skew_slack`]: an experiment (issue 6 §2, optional) — alternating
+//!   solves over a skew-symmetric slack K_k (N_k + K_k is the same plant)
+//!   and what it buys (bench `skew_slack`).
 //! * [`sdp`]: the LMIs assembled directly into Clarabel's standard form
 //!   (PSD triangle cones, no modelling layer); [`conditions`]: the condition
 //!   sets and the one place where the two modes differ.
@@ -53,6 +56,7 @@ pub mod report;
 pub mod sdp;
 pub mod search;
 pub mod simulate;
+pub mod skew_slack;
 pub mod state_bound;
 pub mod svec;
 

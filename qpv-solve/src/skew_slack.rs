@@ -1,0 +1,327 @@
+//! A skew-symmetric slack for N_k (issue 6 §2, optional): what it buys.
+//!
+//! Only the symmetric part of N_k moves the plant, so N_k + K_k with
+//! K_k = −K_kᵀ (per θ-vertex, K_k(θ) = Σ_l μ_l K_{k,l}) is the same plant for
+//! every choice of K. In the rate LMI K only enters through the e-vertex
+//! term: rowsHe(N + K, x) = rowsHe(N, x) and rows(N + K, e) = rows(N, e) +
+//! rows(K, e), so (S5) becomes
+//!
+//! ```text
+//!     He{ P(γA_l + R_{l,i,j} − rows(K_l, x_(i))) − Γ_l H_{i,j} } + γαP ≺ 0,
+//! ```
+//!
+//! bilinear in (P, K). [`search`] alternates two convex steps from a
+//! certified design at a fixed γ:
+//!
+//! 1. P fixed: the rate LMIs are linear in (Γ_l, K_l, α) jointly (α
+//!    multiplies the fixed P), and the region conditions only involve P, so
+//!    one SDP maximises α over (Γ, K) ([`max_alpha_fixed_p`]);
+//! 2. K fixed: the ordinary α search on the model with N_k + K_k, written as
+//!    is (`split = as_written`, which keeps K).
+//!
+//! Every accepted point is re-checked by the independent certificate on the
+//! model with N_k + K_k — a valid representation of the same plant, so the
+//! certificate is a certificate for the plant. Sound mode, constant output
+//! map and full conditions only: this is an experiment whose result is
+//! reported (bench `skew_slack`), not a design option.
+
+use crate::certificate::check;
+use crate::conditions::{rows, rows_he};
+use crate::sdp::{clarabel_settings, ensure_lapack, interpret};
+use crate::search::{Settings, SolveError};
+use crate::svec::svec_into;
+use crate::{Design, Status};
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
+use nalgebra::DMatrix;
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode, PolytopicModel, Split};
+
+/// One round of the alternation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Round {
+    /// Certified α after step 1 (P fixed, (Γ, K) optimised); NaN if the
+    /// step's point did not certify.
+    pub alpha_fixed_p: f64,
+    /// Certified α after step 2 (K fixed, P re-optimised).
+    pub alpha: f64,
+    /// max_{k,l} ‖K_{k,l}‖_F after the round.
+    pub k_norm: f64,
+}
+
+/// Result of [`search`].
+#[derive(Debug, Clone)]
+pub struct SkewResult {
+    /// γ of the whole alternation.
+    pub gamma: f64,
+    /// α of the starting design (K = 0).
+    pub alpha_start: f64,
+    /// Every round, in order.
+    pub rounds: Vec<Round>,
+    /// The model with N_k + K_k of the best round (the same plant).
+    pub model: PolytopicModel,
+    /// The best certified design, on [`SkewResult::model`].
+    pub design: Design,
+}
+
+impl SkewResult {
+    /// The best certified α reached.
+    pub fn alpha_best(&self) -> f64 {
+        self.design.alpha
+    }
+}
+
+/// The model with K_{k,l} added to N_{k,l} (K must be skew-symmetric).
+pub fn with_skew(model: &PolytopicModel, k: &[Vec<DMatrix<f64>>]) -> PolytopicModel {
+    let mut out = model.clone();
+    for (v, kl) in out.vertices.iter_mut().zip(k) {
+        for (n, kk) in v.n.iter_mut().zip(kl) {
+            *n += kk;
+        }
+    }
+    out
+}
+
+/// The answer of [`max_alpha_fixed_p`]: α, the gains L_l and the skew
+/// increments K_{k,l} (per θ-vertex l, per state k).
+pub type FixedP = (f64, Vec<DMatrix<f64>>, Vec<Vec<DMatrix<f64>>>);
+
+/// Step 1: with P fixed, the largest α (and the gains Γ_l, the skew
+/// increments K_{k,l}) such that every rate block of `model` at γ holds,
+/// He{P(γA_l + R − rows(K_l, x_i)) − Γ_l H} + γαP ⪯ −ε κ I. Returns
+/// (α, L_l, K_{k,l}) or `None` if the solver found no usable point. The
+/// caller certifies.
+pub fn max_alpha_fixed_p(
+    model: &PolytopicModel,
+    p: &DMatrix<f64>,
+    gamma: f64,
+    settings: &Settings,
+) -> Result<Option<FixedP>, SolveError> {
+    ensure_lapack();
+    let (nx, ny, nv) = (model.nx(), model.ny(), model.nv());
+    if model.output_varies() {
+        return Err(SolveError::Dimensions(
+            "the skew-slack search supports a constant output map only".into(),
+        ));
+    }
+    // The LMIs are homogeneous in (P, Γ): work with P̂ = P/λ_max(P).
+    let lmax = p.clone().symmetric_eigenvalues().max();
+    let ph = p / lmax;
+    let nskew = nx * (nx - 1) / 2;
+    let n_g = nv * nx * ny;
+    let n_k = nv * nx * nskew;
+    let n = n_g + n_k + 1; // …, α
+    let avar = n - 1;
+    let xs = &model.region.vertices;
+    let t = nx * (nx + 1) / 2;
+    let (c, m) = model.c0();
+    let kappa = gamma
+        * model
+            .vertices
+            .iter()
+            .map(|v| v.a.norm())
+            .fold(0.0, f64::max)
+        + 1.0;
+    let eps = settings.margin_rel * kappa;
+    // Column-wise sparse A, b, cones: one PSD(nx) block per (l, i, j).
+    let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+    let mut b: Vec<f64> = Vec::new();
+    let mut cones = Vec::new();
+    let he = |x: &DMatrix<f64>| x + x.transpose();
+    let mut buf = vec![0.0; t];
+    let mut push =
+        |cols: &mut Vec<Vec<(usize, f64)>>, row0: usize, var: usize, mat: &DMatrix<f64>| {
+            svec_into(mat, &mut buf);
+            for (r, v) in buf.iter().enumerate() {
+                if *v != 0.0 {
+                    cols[var].push((row0 + r, *v));
+                }
+            }
+        };
+    // The linear pieces that do not depend on (l, i, j) are rebuilt per
+    // block; the problem is small (this is an experiment on small models).
+    for (l, v) in model.vertices.iter().enumerate() {
+        for xi in xs {
+            for xj in xs {
+                let r = rows_he(&v.n, xj) - rows(&v.n, xi);
+                let h = c * gamma + (rows_he(m, xj) - rows(m, xi));
+                let f0 = he(&(&ph * (&v.a * gamma + &r)));
+                // s = −F − εI ⪰ 0 with F = F0 + Σ x_v F_v: b = svec(−F0 − εI), A col v = svec(F_v).
+                let row0 = b.len();
+                let mut rhs = -f0;
+                for d in 0..nx {
+                    rhs[(d, d)] -= eps;
+                }
+                b.resize(row0 + t, 0.0);
+                svec_into(&rhs, &mut b[row0..row0 + t]);
+                // Γ_l entries: −He{E_rc H}.
+                for gr in 0..nx {
+                    for gc in 0..ny {
+                        let mut e = DMatrix::zeros(nx, ny);
+                        e[(gr, gc)] = 1.0;
+                        push(
+                            &mut cols,
+                            row0,
+                            l * nx * ny + gr * ny + gc,
+                            &(-he(&(e * &h))),
+                        );
+                    }
+                }
+                // K_{k,l} entries (skew basis E_ab − E_ba, a < b): −He{P̂ rows(K, x_i)}.
+                for k in 0..nx {
+                    let mut idx = 0;
+                    for a in 0..nx {
+                        for bb in a + 1..nx {
+                            let mut kk = vec![DMatrix::zeros(nx, nx); nx];
+                            kk[k][(a, bb)] = 1.0;
+                            kk[k][(bb, a)] = -1.0;
+                            let term = -he(&(&ph * rows(&kk, xi)));
+                            push(&mut cols, row0, n_g + (l * nx + k) * nskew + idx, &term);
+                            idx += 1;
+                        }
+                    }
+                }
+                // α: γP̂.
+                push(&mut cols, row0, avar, &(&ph * gamma));
+                cones.push(SupportedConeT::PSDTriangleConeT(nx));
+            }
+        }
+    }
+    // α ≤ cap keeps the problem bounded.
+    let row = b.len();
+    b.push(settings.alpha_cap);
+    cols[avar].push((row, 1.0));
+    cones.push(SupportedConeT::NonnegativeConeT(1));
+    let mrows = b.len();
+    let mut colptr = vec![0];
+    let mut rowval = Vec::new();
+    let mut nzval = Vec::new();
+    for col in &cols {
+        for &(r, v) in col {
+            rowval.push(r);
+            nzval.push(v);
+        }
+        colptr.push(rowval.len());
+    }
+    let a = CscMatrix::new(mrows, n, colptr, rowval, nzval);
+    // Objective: −α + ½ w (‖Γ̂‖² + ‖K‖²) with a tiny w: it only keeps the
+    // problem bounded in directions α does not care about (a weight like
+    // the design's gain regularisation costs α here: measured 10.6 → 4.9).
+    let w = 1e-9;
+    let pdiag = CscMatrix::new(
+        n,
+        n,
+        (0..=n).map(|i| i.min(n - 1)).collect(),
+        (0..n - 1).collect(),
+        vec![w; n - 1],
+    );
+    let mut q = vec![0.0; n];
+    q[avar] = -1.0;
+    let mut solver = DefaultSolver::new(&pdiag, &q, &a, &b, &cones, clarabel_settings(settings))
+        .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
+    solver.solve();
+    let sol = &solver.solution;
+    if interpret(sol.status) != Status::Solved || !sol.x.iter().all(|v| v.is_finite()) {
+        return Ok(None);
+    }
+    let x = &sol.x;
+    let pinv = match p.clone().cholesky() {
+        Some(ch) => ch.inverse(),
+        None => return Ok(None),
+    };
+    let gains = (0..nv)
+        .map(|l| {
+            let g = DMatrix::from_fn(nx, ny, |r, c| x[l * nx * ny + r * ny + c] * lmax);
+            &pinv * g
+        })
+        .collect();
+    let k = (0..nv)
+        .map(|l| {
+            (0..nx)
+                .map(|kk| {
+                    let mut km = DMatrix::zeros(nx, nx);
+                    let mut idx = 0;
+                    for a in 0..nx {
+                        for bb in a + 1..nx {
+                            let v = x[n_g + (l * nx + kk) * nskew + idx];
+                            km[(a, bb)] = v;
+                            km[(bb, a)] = -v;
+                            idx += 1;
+                        }
+                    }
+                    km
+                })
+                .collect()
+        })
+        .collect();
+    Ok(Some((x[avar], gains, k)))
+}
+
+/// Alternates step 1 and step 2 (module doc) for at most `rounds` rounds,
+/// starting from `start` (a certified sound design of `model`, whose split
+/// is applied first), at its γ. Stops when a round gains less than 0.1 %.
+pub fn search(
+    model: &PolytopicModel,
+    start: &Design,
+    rounds: usize,
+    settings: &Settings,
+) -> Result<SkewResult, SolveError> {
+    if !start.certifies {
+        return Err(SolveError::Dimensions(
+            "the skew-slack search starts from a certified sound design".into(),
+        ));
+    }
+    let gamma = start.gamma;
+    let base = start.observer_model(model)?;
+    let mut cur_model = base.clone();
+    let mut cur = start.clone();
+    let mut best = (cur_model.clone(), cur.clone());
+    let mut out = Vec::new();
+    for _ in 0..rounds {
+        // Step 1: P fixed.
+        let p = cur.p_matrix();
+        let mut alpha_fixed_p = f64::NAN;
+        if let Some((a, gains, dk)) = max_alpha_fixed_p(&cur_model, &p, gamma, settings)? {
+            let next_model = with_skew(&cur_model, &dk);
+            // certify slightly below the solver's α (its margin is relative)
+            let a_c = a * (1.0 - 1e-6);
+            let cert = check(&next_model, Mode::Sound, a_c, gamma, &p, &gains);
+            if cert.passed {
+                alpha_fixed_p = a_c;
+                cur_model = next_model;
+            }
+        }
+        // Step 2: K fixed, P re-optimised (as written: keeps K).
+        let mut req = crate::request(AlphaSpec::Max, GammaSpec::Fixed(gamma), Mode::Sound);
+        req.split = Split::AsWritten;
+        let d = crate::design(&cur_model, &req, settings)?;
+        let k_norm = cur_model
+            .vertices
+            .iter()
+            .zip(&base.vertices)
+            .flat_map(|(a, b)| a.n.iter().zip(&b.n).map(|(na, nb)| (na - nb).norm()))
+            .fold(0.0, f64::max);
+        let alpha = if d.certifies { d.alpha } else { f64::NAN };
+        out.push(Round {
+            alpha_fixed_p,
+            alpha,
+            k_norm,
+        });
+        let prev = best.1.alpha;
+        if d.certifies && d.alpha > prev {
+            best = (cur_model.clone(), d.clone());
+            cur = d;
+        } else {
+            break;
+        }
+        if best.1.alpha < prev * 1.001 {
+            break;
+        }
+    }
+    Ok(SkewResult {
+        gamma,
+        alpha_start: start.alpha,
+        rounds: out,
+        model: best.0,
+        design: best.1,
+    })
+}
