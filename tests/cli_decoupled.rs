@@ -51,11 +51,52 @@ fn conditions_and_split_flags_reach_the_report() {
 fn bad_flag_values_are_rejected() {
     for (flag, value, want) in [
         ("--conditions", "partial", "expected `full` or `decoupled`"),
-        ("--split", "skew", "expected `as_written` or `symmetric`"),
+        (
+            "--split",
+            "skew",
+            "expected `as_written`, `symmetric` or `skew_slack`",
+        ),
     ] {
         let out = qpv(&["design", "examples/paper.qpv", flag, value]);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_ne!(out.status.code(), Some(0));
         assert!(stderr.contains(want) && stderr.contains(value), "{stderr}");
     }
+}
+
+#[test]
+fn split_skew_slack_reports_the_slack_and_check_uses_it() {
+    let report = common::tmp("decoupled", "skew.json");
+    let out = qpv(&[
+        "design",
+        "examples/paper.qpv",
+        "--alpha",
+        "max",
+        "--gamma",
+        "0.1889",
+        "--split",
+        "skew_slack",
+        "--json",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(v["split"], "skew_slack");
+    assert_eq!(v["skew"].as_array().map(Vec::len), Some(4));
+    assert!(v["alpha"].as_f64().unwrap() > 13.0);
+    let out = qpv(&[
+        "check",
+        "examples/paper.qpv",
+        "--gains",
+        report.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{text}");
+    assert!(text.contains("all conditions hold"), "{text}");
 }

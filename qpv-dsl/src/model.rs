@@ -66,6 +66,22 @@ pub enum Split {
     /// default in sound mode (measured better on the paper example).
     #[default]
     Symmetric,
+    /// The symmetric split plus a skew-symmetric slack K_{k,l} = −K_{k,l}ᵀ
+    /// per θ-vertex, searched by alternating solves after the symmetric
+    /// design (N_k + K_k is still the same plant). Sound mode only; the
+    /// report carries K so the design can be re-checked.
+    SkewSlack,
+}
+
+impl Split {
+    /// The name used in the language, reports and the CLI.
+    pub fn name(self) -> &'static str {
+        match self {
+            Split::AsWritten => "as_written",
+            Split::Symmetric => "symmetric",
+            Split::SkewSlack => "skew_slack",
+        }
+    }
 }
 
 impl Split {
@@ -1304,11 +1320,12 @@ impl<'a> Builder<'a> {
                         split = Some(match word {
                             Some("as_written") => Split::AsWritten,
                             Some("symmetric") => Split::Symmetric,
+                            Some("skew_slack") => Split::SkewSlack,
                             _ => {
                                 return Err(bad_value(
                                     v.span,
                                     "split",
-                                    "`as_written` or `symmetric`",
+                                    "`as_written`, `symmetric` or `skew_slack`",
                                     &quote(self.src, v.span).replace('`', ""),
                                 ))
                             }
@@ -1371,6 +1388,18 @@ impl<'a> Builder<'a> {
                 seen.push((key, entry.key.span));
             }
             req.split = split.unwrap_or(Split::default_for(req.mode));
+            if req.split == Split::SkewSlack && req.mode == Mode::Paper {
+                let (_, at) = seen
+                    .iter()
+                    .find(|(k, _)| *k == "split")
+                    .copied()
+                    .unwrap_or(("", block.span));
+                return Err(Diag::new(
+                    at,
+                    "`split = skew_slack` needs `mode = sound`: the paper's printed conditions \
+                     are reproduced as written, with no slack",
+                ));
+            }
             out.push(req);
         }
         Ok(out)

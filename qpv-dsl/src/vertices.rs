@@ -178,13 +178,14 @@ impl PolytopicModel {
     }
 
     /// The same model with N_{k,l} and M_k represented by `split`:
-    /// [`Split::Symmetric`] replaces each by its symmetric part (N + Nᵀ)/2,
+    /// [`Split::Symmetric`] (and [`Split::SkewSlack`], whose slack the
+    /// solver adds) replaces each by its symmetric part (N + Nᵀ)/2,
     /// [`Split::AsWritten`] returns an unchanged copy. The plant (and the
     /// output map) is the same either way, since xᵀ N x = xᵀ (N + Nᵀ)/2 x;
     /// only the matrix rows(N, e) of the design conditions changes.
     pub fn with_split(&self, split: Split) -> PolytopicModel {
         let mut out = self.clone();
-        if split == Split::Symmetric {
+        if split != Split::AsWritten {
             let sym = |m: &mut DMatrix<f64>| *m = (&*m + m.transpose()) * 0.5;
             for v in &mut out.vertices {
                 v.n.iter_mut().for_each(sym);

@@ -57,7 +57,8 @@ fn design_defaults_follow_the_mode() {
          design { split = as_written; }
          design { mode = paper; split = symmetric; conditions = decoupled; }
          design { split = symmetric; mode = paper; }
-         design { conditions = full; }");
+         design { conditions = full; }
+         design { split = skew_slack; conditions = decoupled; }");
     let got: Vec<(Mode, Split, Conditions)> = m
         .designs
         .iter()
@@ -72,6 +73,7 @@ fn design_defaults_follow_the_mode() {
             (Mode::Paper, Split::Symmetric, Conditions::Decoupled),
             (Mode::Paper, Split::Symmetric, Conditions::Full),
             (Mode::Sound, Split::Symmetric, Conditions::Full),
+            (Mode::Sound, Split::SkewSlack, Conditions::Decoupled),
         ]
     );
     let d = DesignRequest::default();

@@ -40,6 +40,9 @@ pub struct Entry {
     pub p: Vec<f64>,
     /// L_l per vertex, nx × ny row-major.
     pub l: Vec<Vec<f64>>,
+    /// `split = skew_slack`: the slack K_{k,l}, per vertex, per k, row-major
+    /// (empty without one); re-applied before the re-certification.
+    pub skew: Vec<f64>,
 }
 
 /// A computed `state_bound auto` result.
@@ -165,6 +168,7 @@ pub fn load(dir: &Path, key: &str) -> Option<Entry> {
         iterations: 0,
         p: Vec::new(),
         l: Vec::new(),
+        skew: Vec::new(),
     };
     let nums = |rest: &str| -> Option<Vec<f64>> {
         rest.split_whitespace()
@@ -180,6 +184,7 @@ pub fn load(dir: &Path, key: &str) -> Option<Entry> {
             "iterations" => e.iterations = rest.trim().parse().ok()?,
             "P" => e.p = nums(rest)?,
             "L" => e.l.push(nums(rest)?),
+            "K" => e.skew = nums(rest)?,
             "Q" => {
                 let v = nums(rest)?;
                 let (h, rest) = v.split_first()?;
@@ -198,6 +203,7 @@ pub fn load(dir: &Path, key: &str) -> Option<Entry> {
         && e.p
             .iter()
             .chain(e.l.iter().flatten())
+            .chain(&e.skew)
             .all(|v| v.is_finite());
     (finite && !e.p.is_empty() && !e.l.is_empty()).then_some(e)
 }
@@ -216,6 +222,9 @@ pub fn store(dir: &Path, key: &str, e: &Entry) {
     push_nums(&mut s, "P", &e.p);
     for l in &e.l {
         push_nums(&mut s, "L", l);
+    }
+    if !e.skew.is_empty() {
+        push_nums(&mut s, "K", &e.skew);
     }
     if let Some(b) = &e.bound {
         let sym = if b.symmetric { 1.0 } else { 0.0 };
@@ -253,6 +262,7 @@ mod tests {
             iterations: 23,
             p: vec![1.0, 0.1, 0.1, 2.0],
             l: vec![vec![0.1, -3.5e-7], vec![1.0 / 3.0, 4.0]],
+            skew: vec![0.0, 0.25, -0.25, 0.0],
         };
         store(&dir, "some key\n", &e);
         assert_eq!(load(&dir, "some key\n"), Some(e));

@@ -95,10 +95,8 @@ pub fn describe(req: &DesignRequest) -> String {
     let mode = mode_name(req.mode);
     let mut text = format!("alpha = {alpha}; gamma = {gamma}; mode = {mode}");
     if req.split != Split::default_for(req.mode) {
-        text.push_str(match req.split {
-            Split::AsWritten => "; split = as_written",
-            Split::Symmetric => "; split = symmetric",
-        });
+        text.push_str("; split = ");
+        text.push_str(req.split.name());
     }
     if req.conditions != Conditions::default() {
         text.push_str(match req.conditions {
@@ -296,13 +294,36 @@ fn one_design(
         None => poly.clone(),
     };
     let split_model = routed.with_split(req.split);
+    // `split = skew_slack`: the slack K_{k,l} (flattened: per vertex, per k,
+    // row-major nz × nz) the numbers were certified with, added to N_k.
+    let with_skew = |k: &[f64]| -> Option<qpv_dsl::PolytopicModel> {
+        if k.is_empty() {
+            return Some(split_model.clone());
+        }
+        if k.len() != nv * nz * nz * nz {
+            return None;
+        }
+        let mats: Vec<Vec<_>> = k
+            .chunks(nz * nz * nz)
+            .map(|kl| {
+                kl.chunks(nz * nz)
+                    .map(|kk| rows_to_matrix(&rows(kk, nz)))
+                    .collect()
+            })
+            .collect();
+        Some(qpv_solve::skew_slack::with_skew(&split_model, &mats))
+    };
 
     // A cache hit is re-certified, never trusted blindly.
     if let Some(e) = cached {
-        if e.p.len() == nz * nz && e.l.len() == nv && e.l.iter().all(|l| l.len() == nz * ny) {
+        let checked_model = with_skew(&e.skew);
+        if let (Some(cm), true) = (
+            checked_model,
+            e.p.len() == nz * nz && e.l.len() == nv && e.l.iter().all(|l| l.len() == nz * ny),
+        ) {
             let p = rows_to_matrix(&rows(&e.p, nz));
             let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
-            let cert = qpv_solve::check(&split_model, req.mode, e.alpha, e.gamma, &p, &ls);
+            let cert = qpv_solve::check(&cm, req.mode, e.alpha, e.gamma, &p, &ls);
             if cert.passed {
                 if e.bound != bound {
                     // the state bound was recomputed: keep the fresh one
@@ -360,8 +381,30 @@ fn one_design(
         ));
     }
     // The solver already certified; the macro checks again itself, on exactly
-    // the numbers it is about to bake.
-    let cert = qpv_solve::check(&split_model, req.mode, design.alpha, design.gamma, &p, &ls);
+    // the numbers it is about to bake (and the skew slack they came with).
+    let skew: Vec<f64> = design
+        .skew
+        .iter()
+        .flatten()
+        .flatten()
+        .flatten()
+        .flatten()
+        .copied()
+        .collect();
+    let checked_model = with_skew(&skew).ok_or_else(|| {
+        format!(
+            "design `{request}`: the solver returned a skew slack of unexpected size \
+             (an internal error; please report it)"
+        )
+    })?;
+    let cert = qpv_solve::check(
+        &checked_model,
+        req.mode,
+        design.alpha,
+        design.gamma,
+        &p,
+        &ls,
+    );
     let finite = p
         .iter()
         .chain(ls.iter().flat_map(|l| l.iter()))
@@ -387,6 +430,7 @@ fn one_design(
         iterations: design.solver.iterations,
         p: matrix_to_rows(&p).concat(),
         l: ls.iter().map(|l| matrix_to_rows(l).concat()).collect(),
+        skew,
     };
     if let Some(dir) = cache {
         cache::store(dir, &key, &entry);

@@ -5,7 +5,7 @@
 //!
 //! `cargo bench -p qpv-solve --bench skew_slack [-- ROUNDS]`
 
-use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
+use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, Split};
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::{design, request, skew_slack, Settings};
 use std::time::Instant;
@@ -23,7 +23,8 @@ fn main() {
         req.split = split;
         let start = design(&model, &req, &settings).expect("design");
         let t0 = Instant::now();
-        let r = skew_slack::search(&model, &start, rounds, &settings).expect("search");
+        let r = skew_slack::search(&model, &start, rounds, &settings, Conditions::Full)
+            .expect("search");
         let secs = t0.elapsed().as_secs_f64();
         println!(
             "split {split:?}: start α = {:.5} at γ = {:.5}; best with K: α = {:.5} ({:+.2} %), {} rounds, {secs:.2} s",

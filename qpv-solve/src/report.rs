@@ -204,6 +204,13 @@ pub struct Design {
     /// double sum).
     #[serde(default)]
     pub output_route: Option<crate::output_filter::OutputRouteInfo>,
+    /// `split = skew_slack`: the skew-symmetric slack K_{k,l} added to the
+    /// symmetric N_{k,l} (per θ-vertex l, then per k = 1..n, rows), which
+    /// P and L_l were certified with ([`crate::skew_slack`]); n is the
+    /// observer's state count. Absent otherwise (and when the slack gained
+    /// nothing).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub skew: Option<Vec<Vec<Vec<Vec<f64>>>>>,
 }
 
 impl Design {
@@ -237,7 +244,8 @@ impl Design {
     /// The model this design's P and L_l belong to, built from the plant
     /// `model`: a `state_bound auto` replaced by the Q this design computed,
     /// then the design's output route (the filter augmentation, if any),
-    /// then its split. Check, simulate and falsify the gains against it.
+    /// then its split (and skew slack). Check, simulate and falsify the
+    /// gains against it.
     pub fn observer_model(
         &self,
         model: &PolytopicModel,
@@ -250,7 +258,16 @@ impl Design {
         if let qpv_dsl::OutputRoute::Filter(f) = self.route() {
             m = crate::output_filter::augment(&m, &f)?;
         }
-        Ok(m.with_split(self.split))
+        let m = m.with_split(self.split);
+        Ok(match &self.skew {
+            Some(k) => crate::skew_slack::with_skew(
+                &m,
+                &k.iter()
+                    .map(|kl| kl.iter().map(|kk| rows_to_matrix(kk)).collect())
+                    .collect::<Vec<_>>(),
+            ),
+            None => m,
+        })
     }
 
     /// The independent certificate of this design's P and L_l against
@@ -308,29 +325,27 @@ pub fn rows_to_matrix(rows: &[Vec<f64>]) -> DMatrix<f64> {
     DMatrix::from_fn(r, c, |i, j| rows[i].get(j).copied().unwrap_or(f64::NAN))
 }
 
-/// (De)serialises [`Split`] as "as_written" / "symmetric".
+/// (De)serialises [`Split`] as "as_written" / "symmetric" / "skew_slack".
 pub mod split_serde {
     use qpv_dsl::Split;
     use serde::{Deserialize, Deserializer, Serializer};
 
-    /// Writes "as_written" or "symmetric".
+    /// Writes the split's name ([`Split::name`]).
     pub fn serialize<S: Serializer>(m: &Split, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(match m {
-            Split::AsWritten => "as_written",
-            Split::Symmetric => "symmetric",
-        })
+        s.serialize_str(m.name())
     }
 
-    /// Reads "as_written" or "symmetric".
+    /// Reads "as_written", "symmetric" or "skew_slack".
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Split, D::Error> {
         let s = String::deserialize(d)?;
-        match s.as_str() {
-            "as_written" => Ok(Split::AsWritten),
-            "symmetric" => Ok(Split::Symmetric),
-            other => Err(serde::de::Error::custom(format!(
-                "unknown split {other:?}, expected \"as_written\" or \"symmetric\""
-            ))),
-        }
+        [Split::AsWritten, Split::Symmetric, Split::SkewSlack]
+            .into_iter()
+            .find(|v| v.name() == s)
+            .ok_or_else(|| {
+                serde::de::Error::custom(format!(
+                    "unknown split {s:?}, expected \"as_written\", \"symmetric\" or \"skew_slack\""
+                ))
+            })
     }
 }
 

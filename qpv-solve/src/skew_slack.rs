@@ -21,12 +21,13 @@
 //!
 //! Every accepted point is re-checked by the independent certificate on the
 //! model with N_k + K_k — a valid representation of the same plant, so the
-//! certificate is a certificate for the plant. Sound mode, constant output
-//! map and full conditions only: this is an experiment whose result is
-//! reported (bench `skew_slack`), not a design option.
+//! certificate is a certificate for the plant. Sound mode; step 1 imposes
+//! the full rate family (every combination of [`crate::conditions::Combo`]
+//! at every region-vertex pair), step 2 the request's conditions. Used by
+//! `split = skew_slack` ([`crate::design`]) and the bench `skew_slack`.
 
 use crate::certificate::check;
-use crate::conditions::{rows, rows_he};
+use crate::conditions::{rate_combos, rows, rows_he};
 use crate::sdp::{clarabel_settings, ensure_lapack, interpret};
 use crate::search::{Settings, SolveError};
 use crate::svec::svec_into;
@@ -34,7 +35,7 @@ use crate::{Design, Status};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
 use nalgebra::DMatrix;
-use qpv_dsl::{AlphaSpec, GammaSpec, Mode, PolytopicModel, Split};
+use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel, Split};
 
 /// One round of the alternation.
 #[derive(Debug, Clone, PartialEq)]
@@ -98,11 +99,6 @@ pub fn max_alpha_fixed_p(
 ) -> Result<Option<FixedP>, SolveError> {
     ensure_lapack();
     let (nx, ny, nv) = (model.nx(), model.ny(), model.nv());
-    if model.output_varies() {
-        return Err(SolveError::Dimensions(
-            "the skew-slack search supports a constant output map only".into(),
-        ));
-    }
     // The LMIs are homogeneous in (P, Γ): work with P̂ = P/λ_max(P).
     let lmax = p.clone().symmetric_eigenvalues().max();
     let ph = p / lmax;
@@ -113,7 +109,6 @@ pub fn max_alpha_fixed_p(
     let avar = n - 1;
     let xs = &model.region.vertices;
     let t = nx * (nx + 1) / 2;
-    let (c, m) = model.c0();
     let kappa = gamma
         * model
             .vertices
@@ -122,7 +117,7 @@ pub fn max_alpha_fixed_p(
             .fold(0.0, f64::max)
         + 1.0;
     let eps = settings.margin_rel * kappa;
-    // Column-wise sparse A, b, cones: one PSD(nx) block per (l, i, j).
+    // Column-wise sparse A, b, cones: one PSD(nx) block per (combination, i, j).
     let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
     let mut b: Vec<f64> = Vec::new();
     let mut cones = Vec::new();
@@ -137,15 +132,48 @@ pub fn max_alpha_fixed_p(
                 }
             }
         };
-    // The linear pieces that do not depend on (l, i, j) are rebuilt per
-    // block; the problem is small (this is an experiment on small models).
-    for (l, v) in model.vertices.iter().enumerate() {
-        for xi in xs {
+    // −He{P̂ rows(E_ab^k, x)} for the skew basis E_ab − E_ba (a < b) of K_k,
+    // per region vertex: the K columns of every block at that e-vertex.
+    let k_basis: Vec<Vec<DMatrix<f64>>> = xs
+        .iter()
+        .map(|xi| {
+            let mut out = Vec::with_capacity(nx * nskew);
+            for k in 0..nx {
+                for a in 0..nx {
+                    for bb in a + 1..nx {
+                        let mut kk = vec![DMatrix::zeros(nx, nx); nx];
+                        kk[k][(a, bb)] = 1.0;
+                        kk[k][(bb, a)] = -1.0;
+                        out.push(-he(&(&ph * rows(&kk, xi))));
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    // The problem is small (this is an experiment on small models): the
+    // blocks are built densely, one unit variable at a time.
+    for combo in rate_combos(model) {
+        for (i, xi) in xs.iter().enumerate() {
             for xj in xs {
-                let r = rows_he(&v.n, xj) - rows(&v.n, xi);
-                let h = c * gamma + (rows_he(m, xj) - rows(m, xi));
-                let f0 = he(&(&ph * (&v.a * gamma + &r)));
                 // s = −F − εI ⪰ 0 with F = F0 + Σ x_v F_v: b = svec(−F0 − εI), A col v = svec(F_v).
+                let mut f0 = DMatrix::zeros(nx, nx);
+                let mut fg: Vec<(usize, DMatrix<f64>)> = Vec::new(); // (l, Σ w H_m)
+                let mut fk: Vec<(usize, f64)> = Vec::new(); // (l, Σ w)
+                for &(l, m, w) in &combo.terms {
+                    let (vl, vm) = (&model.vertices[l], &model.vertices[m]);
+                    let r = rows_he(&vl.n, xj) - rows(&vl.n, xi);
+                    let h = &vm.c * gamma + (rows_he(&vm.m, xj) - rows(&vm.m, xi));
+                    f0 += he(&(&ph * (&vl.a * gamma + &r))) * w;
+                    match fg.iter_mut().find(|(g, _)| *g == l) {
+                        Some((_, acc)) => *acc += h * w,
+                        None => fg.push((l, h * w)),
+                    }
+                    match fk.iter_mut().find(|(g, _)| *g == l) {
+                        Some((_, acc)) => *acc += w,
+                        None => fk.push((l, w)),
+                    }
+                }
                 let row0 = b.len();
                 let mut rhs = -f0;
                 for d in 0..nx {
@@ -153,35 +181,31 @@ pub fn max_alpha_fixed_p(
                 }
                 b.resize(row0 + t, 0.0);
                 svec_into(&rhs, &mut b[row0..row0 + t]);
+                fg.sort_by_key(|(l, _)| *l);
+                fk.sort_by_key(|(l, _)| *l);
                 // Γ_l entries: −He{E_rc H}.
-                for gr in 0..nx {
-                    for gc in 0..ny {
-                        let mut e = DMatrix::zeros(nx, ny);
-                        e[(gr, gc)] = 1.0;
-                        push(
-                            &mut cols,
-                            row0,
-                            l * nx * ny + gr * ny + gc,
-                            &(-he(&(e * &h))),
-                        );
-                    }
-                }
-                // K_{k,l} entries (skew basis E_ab − E_ba, a < b): −He{P̂ rows(K, x_i)}.
-                for k in 0..nx {
-                    let mut idx = 0;
-                    for a in 0..nx {
-                        for bb in a + 1..nx {
-                            let mut kk = vec![DMatrix::zeros(nx, nx); nx];
-                            kk[k][(a, bb)] = 1.0;
-                            kk[k][(bb, a)] = -1.0;
-                            let term = -he(&(&ph * rows(&kk, xi)));
-                            push(&mut cols, row0, n_g + (l * nx + k) * nskew + idx, &term);
-                            idx += 1;
+                for (l, h) in &fg {
+                    for gr in 0..nx {
+                        for gc in 0..ny {
+                            let mut e = DMatrix::zeros(nx, ny);
+                            e[(gr, gc)] = 1.0;
+                            push(
+                                &mut cols,
+                                row0,
+                                l * nx * ny + gr * ny + gc,
+                                &(-he(&(e * h))),
+                            );
                         }
                     }
                 }
-                // α: γP̂.
-                push(&mut cols, row0, avar, &(&ph * gamma));
+                // K_{k,l} entries.
+                for &(l, w) in &fk {
+                    for (idx, term) in k_basis[i].iter().enumerate() {
+                        push(&mut cols, row0, n_g + l * nx * nskew + idx, &(term * w));
+                    }
+                }
+                // α: (Σ w) γP̂.
+                push(&mut cols, row0, avar, &(&ph * (gamma * combo.weight())));
                 cones.push(SupportedConeT::PSDTriangleConeT(nx));
             }
         }
@@ -242,7 +266,7 @@ pub fn max_alpha_fixed_p(
                     let mut idx = 0;
                     for a in 0..nx {
                         for bb in a + 1..nx {
-                            let v = x[n_g + (l * nx + kk) * nskew + idx];
+                            let v = x[n_g + l * nx * nskew + kk * nskew + idx];
                             km[(a, bb)] = v;
                             km[(bb, a)] = -v;
                             idx += 1;
@@ -257,13 +281,15 @@ pub fn max_alpha_fixed_p(
 }
 
 /// Alternates step 1 and step 2 (module doc) for at most `rounds` rounds,
-/// starting from `start` (a certified sound design of `model`, whose split
-/// is applied first), at its γ. Stops when a round gains less than 0.1 %.
+/// starting from `start` (a certified sound design of `model`; its state
+/// bound, output route and split are applied first), at its γ; step 2
+/// solves `conditions`. Stops when a round gains less than 0.1 %.
 pub fn search(
     model: &PolytopicModel,
     start: &Design,
     rounds: usize,
     settings: &Settings,
+    conditions: Conditions,
 ) -> Result<SkewResult, SolveError> {
     if !start.certifies {
         return Err(SolveError::Dimensions(
@@ -293,6 +319,7 @@ pub fn search(
         // Step 2: K fixed, P re-optimised (as written: keeps K).
         let mut req = crate::request(AlphaSpec::Max, GammaSpec::Fixed(gamma), Mode::Sound);
         req.split = Split::AsWritten;
+        req.conditions = conditions;
         let d = crate::design(&cur_model, &req, settings)?;
         let k_norm = cur_model
             .vertices

@@ -180,10 +180,7 @@ pub struct StateBoundInfo {
 }
 
 fn split_name(s: Split) -> &'static str {
-    match s {
-        Split::AsWritten => "as_written",
-        Split::Symmetric => "symmetric",
-    }
+    s.name()
 }
 
 /// The half-widths r_j of the region's bounding box.

@@ -3,7 +3,7 @@
 //! result survives the independent certificate and falsification.
 
 use nalgebra::DVector;
-use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
+use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, Split};
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::falsify::falsify;
 use qpv_solve::{check, design, request, skew_slack, Settings};
@@ -16,7 +16,7 @@ fn skew_slack_keeps_the_plant_and_raises_the_certified_alpha() {
     req.split = Split::Symmetric;
     let start = design(&model, &req, &settings).unwrap();
     assert!(start.certifies, "{}", start.summary);
-    let r = skew_slack::search(&model, &start, 2, &settings).unwrap();
+    let r = skew_slack::search(&model, &start, 2, &settings, Conditions::Full).unwrap();
     assert!(!r.rounds.is_empty());
     assert!(
         r.alpha_best() > start.alpha * 1.02,
@@ -60,4 +60,30 @@ fn skew_slack_keeps_the_plant_and_raises_the_certified_alpha() {
     )
     .unwrap();
     assert_eq!(f.counterexamples, 0, "worst ratio {}", f.worst_ratio);
+}
+
+#[test]
+fn split_skew_slack_reports_k_and_rechecks_from_json() {
+    let model = paper_model();
+    let mut req = request(AlphaSpec::Max, GammaSpec::Fixed(0.1889), Mode::Sound);
+    req.split = Split::SkewSlack;
+    let d = design(&model, &req, &Settings::default()).unwrap();
+    assert!(d.certifies, "{}", d.summary);
+    assert_eq!(d.split, Split::SkewSlack);
+    assert!(d.alpha > 13.0, "α = {}", d.alpha);
+    let k = d.skew.as_ref().expect("the slack is reported");
+    assert_eq!((k.len(), k[0].len(), k[0][0].len()), (4, 3, 3));
+    assert!(d.notes.iter().any(|n| n.contains("skew-symmetric slack")));
+    // an outside user re-checks from the JSON alone (K included) …
+    let back = qpv_solve::Design::from_json(&d.to_json()).unwrap();
+    assert_eq!(back, d);
+    assert!(back.recheck(&model).passed);
+    // … and without K the same gains are not certified at this α
+    let mut no_k = back.clone();
+    no_k.skew = None;
+    assert!(!no_k.recheck(&model).passed);
+    // the paper's printed conditions take no slack
+    let mut paper = req.clone();
+    paper.mode = Mode::Paper;
+    assert!(design(&model, &paper, &Settings::default()).is_err());
 }

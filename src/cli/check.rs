@@ -1,6 +1,6 @@
 //! `qpv check`: certify externally supplied P and L_l.
 
-use super::design::parse_mode;
+use super::design::{parse_mode, parse_split};
 use super::input::{emit_json, load_model, read_report, CliError};
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, OutputRoute, Split, StateBound};
 use qpv_solve::output_filter::OutputRouteInfo;
@@ -28,6 +28,9 @@ struct Gains {
     /// The output route the design used (a design report carries it): a
     /// filter-route design is checked against the augmented plant.
     output_route: Option<OutputRouteInfo>,
+    /// `split = skew_slack`: the skew-symmetric slack K_{k,l} the gains were
+    /// certified with (a design report carries it).
+    skew: Option<Vec<Vec<Vec<Vec<f64>>>>>,
 }
 
 /// The part of a design report's `state_bound` entry `qpv check` uses.
@@ -83,14 +86,8 @@ pub fn run(
     // The same plant either way; the conditions are checked in the
     // representation the gains were designed with (default: the mode's).
     let split = match g.split.as_deref() {
-        Some("as_written") => Split::AsWritten,
-        Some("symmetric") => Split::Symmetric,
-        Some(other) => {
-            return Err(CliError::Input(format!(
-                "{}: unknown split {other:?} (expected \"as_written\" or \"symmetric\")",
-                gains.display()
-            )))
-        }
+        Some(name) => parse_split(name)
+            .map_err(|_| CliError::Input(format!("{}: unknown split {name:?}", gains.display())))?,
         None => Split::default_for(mode),
     };
     let mut poly = model.polytopic().with_split(split);
@@ -119,6 +116,29 @@ pub fn run(
             f.gain,
             poly.states.join(", ")
         );
+    }
+    if let Some(k) = &g.skew {
+        let k: Vec<Vec<_>> = k
+            .iter()
+            .map(|kl| kl.iter().map(|kk| rows_to_matrix(kk)).collect())
+            .collect();
+        let fits = k.len() == poly.nv()
+            && k.iter().all(|kl| {
+                kl.len() == poly.nx()
+                    && kl.iter().all(|kk| {
+                        kk.shape() == (poly.nx(), poly.nx())
+                            && (kk + kk.transpose()).amax() <= 1e-12 * (1.0 + kk.amax())
+                    })
+            });
+        if !fits {
+            return Err(CliError::Input(format!(
+                "{}: `skew` must hold one skew-symmetric {n}×{n} matrix per state and θ-vertex",
+                gains.display(),
+                n = poly.nx()
+            )));
+        }
+        poly = qpv_solve::skew_slack::with_skew(&poly, &k);
+        eprintln!("skew-symmetric slack K_k (from the gains file) added to N_k: the same plant");
     }
     let p = rows_to_matrix(&g.p);
     let l: Vec<_> = g.l.iter().map(|r| rows_to_matrix(r)).collect();

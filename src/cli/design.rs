@@ -45,14 +45,15 @@ fn parse_gamma(s: &str) -> Result<GammaSpec, CliError> {
 }
 
 /// Parses `--split`.
-fn parse_split(s: &str) -> Result<Split, CliError> {
-    match s {
-        "as_written" => Ok(Split::AsWritten),
-        "symmetric" => Ok(Split::Symmetric),
-        _ => Err(CliError::Input(format!(
-            "--split {s:?}: expected `as_written` or `symmetric`"
-        ))),
-    }
+pub(super) fn parse_split(s: &str) -> Result<Split, CliError> {
+    [Split::AsWritten, Split::Symmetric, Split::SkewSlack]
+        .into_iter()
+        .find(|v| v.name() == s)
+        .ok_or_else(|| {
+            CliError::Input(format!(
+                "--split {s:?}: expected `as_written`, `symmetric` or `skew_slack`"
+            ))
+        })
 }
 
 /// Parses `--output-route`, `--filter-pole` and `--filter-gain` (either
@@ -179,10 +180,7 @@ fn describe_request(r: &DesignRequest) -> String {
         Mode::Sound => "sound",
         Mode::Paper => "paper",
     };
-    let split = match r.split {
-        Split::AsWritten => "as_written",
-        Split::Symmetric => "symmetric",
-    };
+    let split = r.split.name();
     let conditions = match r.conditions {
         Conditions::Full => "full",
         Conditions::Decoupled => "decoupled",
@@ -276,10 +274,7 @@ pub fn describe_design(d: &Design) -> String {
     ));
     s.push_str(&format!(
         "  split = {}, conditions = {}\n",
-        match d.split {
-            Split::AsWritten => "as_written",
-            Split::Symmetric => "symmetric",
-        },
+        d.split.name(),
         match d.conditions {
             Conditions::Full => "full (all vertex pairs)",
             Conditions::Decoupled => "decoupled (certified on all vertex pairs)",

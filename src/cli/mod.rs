@@ -39,9 +39,10 @@ pub enum Command {
         /// Region scaling: a number in (0,1) or `search`.
         #[arg(long)]
         gamma: Option<String>,
-        /// Representation of N_k, M_k: `as_written` or `symmetric` (default:
-        /// symmetric in sound mode, as_written in paper mode). Overrides
-        /// the model's design blocks.
+        /// Representation of N_k, M_k: `as_written`, `symmetric` or
+        /// `skew_slack` (symmetric plus a searched skew-symmetric slack;
+        /// sound mode) (default: symmetric in sound mode, as_written in
+        /// paper mode). Overrides the model's design blocks.
         #[arg(long)]
         split: Option<String>,
         /// Rate conditions solved: `full` (all p² vertex pairs) or
