@@ -384,12 +384,13 @@ impl Ctx<'_, '_> {
         loop {
             let metric = lo.as_ref().or(seed).map(|p| p.p.clone());
             let mut at = self.attempt(a, gamma, Objective::MaxMargin, metric.as_ref(), phase)?;
-            if !at.certified && at.status == Status::Solved {
-                // A "solved" max-margin point that the certificate rejects is
-                // numerical trouble (e.g. an unbounded optimal face, as P's
-                // filter block of an output-filter design), not evidence of
-                // infeasibility: retry this α with the regularised objective
-                // before counting it as a failure.
+            if !at.certified {
+                // A max-margin answer without a certified point (solved but
+                // rejected by the certificate, unknown, or even reported
+                // infeasible) can be numerical trouble — e.g. an unbounded
+                // optimal face, as P's filter block of an output-filter
+                // design — rather than infeasibility: retry this α with the
+                // regularised objective before counting it as a failure.
                 let retry = self.attempt(a, gamma, Objective::Gains, None, "retry")?;
                 if retry.certified {
                     at = retry;
