@@ -292,7 +292,7 @@ pub fn search(
     conditions: Conditions,
 ) -> Result<SkewResult, SolveError> {
     if !start.certifies {
-        return Err(SolveError::Dimensions(
+        return Err(SolveError::Unsupported(
             "the skew-slack search starts from a certified sound design".into(),
         ));
     }
