@@ -2,10 +2,10 @@
 //! is parsed, solved and independently certified at build time, and expands
 //! to a module of specialised, unrolled, `no_std` observer code.
 //!
-//! Pipeline: [`input`] (tokens → text + span table) → `qpv_dsl::parse` →
+//! Pipeline: `input` (tokens → text + span table) → `qpv_dsl::parse` →
 //! polytopic model → `qpv_solve::design` + `qpv_solve::check` (with a
-//! [`cache`]) → [`emit`]. Any error becomes one `compile_error!` on the
-//! offending token ([`fallback`]).
+//! `cache`) → `emit`. Any error becomes one `compile_error!` on the
+//! offending token (`fallback`). (These are the crate's private modules.)
 //!
 //! See the `qpv` crate's documentation of `qpv!` for the generated API.
 
