@@ -118,25 +118,24 @@ fn the_example_certifies_by_both_routes() {
     );
 }
 
-/// Fixed (α, γ): the tradeoff of the filter pole, one solve per design.
-/// At γ = 0.3 the largest certified α is about 0.683 (double sum), 0.677
-/// (pole 50) and 0.615 (pole 5).
+/// Fixed (α, γ) = (0.6, 0.3), one solve per design: every route certifies,
+/// and the slow filter pays in gain (measured max ‖L_l‖₂: 42 double sum,
+/// 64 pole 50, 511 pole 5): the observer must undo the filter's lag.
 #[test]
-fn a_slow_filter_costs_decay_rate() {
-    let fixed = "alpha = 0.66; gamma = 0.3;";
-    let ds = example_with(
-        "ds.qpv",
-        &format!("design {{ {fixed} output_route = double_sum; }}"),
-    );
-    let fast = example_with(
-        "fast.qpv",
-        &format!("design {{ {fixed} output_route = filter; }}"),
-    );
-    let slow = example_with(
-        "slow.qpv",
-        &format!("design {{ {fixed} output_route = filter(pole = 5); }}"),
-    );
-    for (file, route, n) in [(&ds, "double_sum", NX), (&fast, "filter", NX + NY)] {
+fn a_slow_filter_costs_gain() {
+    let fixed = "alpha = 0.6; gamma = 0.3;";
+    let mut norms = Vec::new();
+    for (name, route, kind, n) in [
+        ("ds.qpv", "output_route = double_sum;", "double_sum", NX),
+        ("fast.qpv", "output_route = filter;", "filter", NX + NY),
+        (
+            "slow.qpv",
+            "output_route = filter(pole = 5);",
+            "filter",
+            NX + NY,
+        ),
+    ] {
+        let file = example_with(name, &format!("design {{ {fixed} {route} }}"));
         let (out, d) = design_json(file.to_str().unwrap());
         assert_eq!(
             out.status.code(),
@@ -145,13 +144,20 @@ fn a_slow_filter_costs_decay_rate() {
             String::from_utf8_lossy(&out.stderr)
         );
         assert_eq!(d["certifies"], true);
-        assert_eq!(d["output_route"]["route"], route);
+        assert_eq!(d["output_route"]["route"], kind);
         assert_shapes(&d, n);
+        let max = d["gain_norms"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .fold(0.0, f64::max);
+        norms.push(max);
     }
-    let (out, d) = design_json(slow.to_str().unwrap());
-    assert_eq!(out.status.code(), Some(1), "pole 5 cannot reach α = 0.66");
-    assert_eq!(d["certifies"], false);
-    assert_eq!(d["output_route"]["route"], "filter");
+    assert!(
+        norms[2] > 5.0 * norms[0],
+        "pole 5 needs far larger gains than the double sum: {norms:?}"
+    );
 }
 
 #[test]

@@ -532,9 +532,28 @@ impl Ctx<'_, '_> {
                 done += 1;
                 let pt = at.point.expect("certified attempts carry a point");
                 let l = lo.as_ref().map_or(0.0, |p| p.alpha);
-                let gain = pt.alpha > l * (1.0 + tol);
+                let mut gain = pt.alpha > l * (1.0 + tol);
                 if pt.alpha > l {
                     lo = Some(pt);
+                }
+                if !gain && at.margin > 0.1 && done < steps {
+                    // A large max-margin t that the capacity lift cannot turn
+                    // into α (an ill-scaled metric, e.g. the unbounded filter
+                    // block of P): probe a larger α with the regularised
+                    // objective, certified like any point.
+                    let probe = (a * (1.0 + at.margin.min(1.0))).min(cap);
+                    let pr = self.attempt(probe, gamma, Objective::Gains, None, phase)?;
+                    if let Some(p) = pr.point.filter(|_| pr.certified) {
+                        let p = self
+                            .lift(&p, gamma)
+                            .filter(|u| u.alpha > p.alpha)
+                            .unwrap_or(p);
+                        let l = lo.as_ref().map_or(0.0, |p| p.alpha);
+                        gain = p.alpha > l * (1.0 + tol);
+                        if p.alpha > l {
+                            lo = Some(p);
+                        }
+                    }
                 }
                 if !gain {
                     break;
