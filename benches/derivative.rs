@@ -13,11 +13,10 @@ qpv::qpv!(include "tests/nostd/paper_sound.qpv");
 
 use paper_sound as gen;
 
-/// The polytopic data a generic implementation works from.
+/// The polytopic data a generic implementation works from (μ_l(θ) from
+/// the library's `PolytopicModel::mu`).
 struct Generic {
-    lo: Vec<f64>,
-    hi: Vec<f64>,
-    scheduling: Vec<usize>,
+    poly: qpv::dsl::PolytopicModel,
     a: Vec<DMatrix<f64>>,
     n: Vec<Vec<DMatrix<f64>>>,
     b: Vec<DMatrix<f64>>,
@@ -32,9 +31,6 @@ impl Generic {
             qpv::dsl::parse(include_str!("../tests/nostd/paper_sound.qpv")).expect("model parses");
         let poly = models[0].polytopic();
         Generic {
-            lo: poly.params.iter().map(|p| p.lo).collect(),
-            hi: poly.params.iter().map(|p| p.hi).collect(),
-            scheduling: poly.scheduling.clone(),
             a: poly.vertices.iter().map(|v| v.a.clone()).collect(),
             n: poly.vertices.iter().map(|v| v.n.clone()).collect(),
             b: poly.vertices.iter().map(|v| v.b.clone()).collect(),
@@ -44,32 +40,8 @@ impl Generic {
                 .iter()
                 .map(|l| DMatrix::from_fn(gen::NX, gen::NY, |i, j| l[i][j]))
                 .collect(),
+            poly,
         }
-    }
-
-    /// μ_l(θ): multilinear weights, first scheduling parameter most significant.
-    fn mu(&self, theta: &[f64]) -> Vec<f64> {
-        let s = self.scheduling.len();
-        let w: Vec<f64> = self
-            .scheduling
-            .iter()
-            .map(|&i| {
-                (theta[i].clamp(self.lo[i], self.hi[i]) - self.lo[i]) / (self.hi[i] - self.lo[i])
-            })
-            .collect();
-        (0..1usize << s)
-            .map(|l| {
-                (0..s)
-                    .map(|i| {
-                        if (l >> (s - 1 - i)) & 1 == 1 {
-                            w[i]
-                        } else {
-                            1.0 - w[i]
-                        }
-                    })
-                    .product()
-            })
-            .collect()
     }
 
     /// x̂' = A(θ)x̂ + N(θ,x̂)x̂ + B(θ)u + L(θ)[y − Cx̂ − M(x̂)x̂].
@@ -80,7 +52,7 @@ impl Generic {
         u: &DVector<f64>,
         theta: &[f64],
     ) -> DVector<f64> {
-        let mu = self.mu(theta);
+        let mu = self.poly.mu(theta);
         let nx = xhat.len();
         let mut a = DMatrix::zeros(nx, nx);
         let mut b = DMatrix::zeros(nx, u.len());

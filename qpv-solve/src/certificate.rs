@@ -390,7 +390,7 @@ fn check_inner(
 
     // Rate LMIs: Σ_t w_t Ξ_{l_t m_t}(i, j) ≺ 0 for every combination
     // (conditions::Combo), Ξ_{lm} = He{γ(PA_l − Γ_lC_m) + σP R_l − Γ_l S_m} + γαP.
-    let terms = Terms::new(model, &ps, gammas, lnorm, gamma);
+    let terms = Terms::new(model, xs, &ps, gammas, lnorm, gamma);
     let double = is_double_sum(model);
     let mut sr = Acc::new(fr);
     for combo in rate_combos(model) {
@@ -442,14 +442,16 @@ struct Terms<'a> {
 }
 
 impl<'a> Terms<'a> {
+    /// The pieces at the region vertices `xs` (indices i, j below refer to
+    /// `xs`): the whole region for a certificate, a single pair for one block.
     fn new(
         model: &'a PolytopicModel,
+        xs: &[DVector<f64>],
         p: &'a DMatrix<f64>,
         gammas: &'a [DMatrix<f64>],
         lnorm: &[f64],
         gamma: f64,
     ) -> Self {
-        let xs = &model.region.vertices;
         let per = |f: &dyn Fn(&qpv_dsl::Vertex, &DVector<f64>) -> DMatrix<f64>| {
             model
                 .vertices
@@ -569,8 +571,12 @@ pub fn combo_lmi(
 ) -> DMatrix<f64> {
     let set = ConditionSet::from_mode(mode);
     let lnorm = vec![0.0; gammas.len()];
-    Terms::new(model, p, gammas, &lnorm, gamma)
-        .combo(combo, sigma(set), alpha, gamma, i, j)
+    let pair = [
+        model.region.vertices[i].clone(),
+        model.region.vertices[j].clone(),
+    ];
+    Terms::new(model, &pair, p, gammas, &lnorm, gamma)
+        .combo(combo, sigma(set), alpha, gamma, 0, 1)
         .0
 }
 
@@ -597,7 +603,7 @@ pub fn alpha_capacity(
     };
     let xs = &model.region.vertices;
     let lnorm = vec![0.0; gammas.len()];
-    let terms = Terms::new(model, &ps, gammas, &lnorm, gamma);
+    let terms = Terms::new(model, xs, &ps, gammas, &lnorm, gamma);
     let mut worst = f64::INFINITY;
     for combo in rate_combos(model) {
         for i in 0..xs.len() {

@@ -425,11 +425,13 @@ pub mod reference {
     use nalgebra::{DMatrix, DVector};
     use qpv_dsl::{Param, PolytopicModel, Region, Span, StateBound, Vertex};
 
-    fn names(prefix: &str, n: usize) -> Vec<String> {
+    /// Names `prefix1` .. `prefix<n>` (states, outputs of a hand-built model).
+    pub fn names(prefix: &str, n: usize) -> Vec<String> {
         (1..=n).map(|i| format!("{prefix}{i}")).collect()
     }
 
-    fn param(name: &str, lo: f64, hi: f64) -> Param {
+    /// A parameter `name ∈ [lo, hi]` without a source position.
+    pub fn param(name: &str, lo: f64, hi: f64) -> Param {
         Param {
             name: name.to_string(),
             lo,

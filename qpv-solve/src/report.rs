@@ -260,12 +260,7 @@ impl Design {
         }
         let m = m.with_split(self.split);
         Ok(match &self.skew {
-            Some(k) => crate::skew_slack::with_skew(
-                &m,
-                &k.iter()
-                    .map(|kl| kl.iter().map(|kk| rows_to_matrix(kk)).collect())
-                    .collect::<Vec<_>>(),
-            ),
+            Some(k) => crate::skew_slack::with_skew(&m, &skew_matrices(k)),
             None => m,
         })
     }
@@ -323,6 +318,13 @@ pub fn rows_to_matrix(rows: &[Vec<f64>]) -> DMatrix<f64> {
     let r = rows.len();
     let c = rows.first().map_or(0, |x| x.len());
     DMatrix::from_fn(r, c, |i, j| rows[i].get(j).copied().unwrap_or(f64::NAN))
+}
+
+/// The `skew` key of a report (per θ-vertex, per k, rows) as matrices.
+pub fn skew_matrices(k: &[Vec<Vec<Vec<f64>>>]) -> Vec<Vec<DMatrix<f64>>> {
+    k.iter()
+        .map(|kl| kl.iter().map(|kk| rows_to_matrix(kk)).collect())
+        .collect()
 }
 
 /// (De)serialises [`Split`] as "as_written" / "symmetric" / "skew_slack".

@@ -260,6 +260,26 @@ impl Ctx<'_, '_> {
         }
     }
 
+    /// [`Ctx::attempt`] with the regularised objective ([`Objective::Gains`]),
+    /// its certified point lifted to its capacity like a max-margin point:
+    /// the fall-back of the α searches where max-margin answers are unreliable.
+    fn attempt_regularised(
+        &mut self,
+        alpha: f64,
+        gamma: f64,
+        phase: &str,
+    ) -> Result<Attempt, SolveError> {
+        let mut at = self.attempt(alpha, gamma, Objective::Gains, None, phase)?;
+        if at.certified {
+            if let Some(up) = at.point.as_ref().and_then(|p| self.lift(p, gamma)) {
+                if up.alpha > alpha {
+                    at.point = Some(up);
+                }
+            }
+        }
+        Ok(at)
+    }
+
     /// One solve at (α, γ), certified. With [`Objective::MaxMargin`] a
     /// certified point is lifted to its capacity (its α may exceed `alpha`).
     fn attempt(
@@ -391,14 +411,9 @@ impl Ctx<'_, '_> {
                 // optimal face, as P's filter block of an output-filter
                 // design — rather than infeasibility: retry this α with the
                 // regularised objective before counting it as a failure.
-                let retry = self.attempt(a, gamma, Objective::Gains, None, "retry")?;
+                let retry = self.attempt_regularised(a, gamma, "retry")?;
                 if retry.certified {
                     at = retry;
-                    if let Some(up) = at.point.as_ref().and_then(|p| self.lift(p, gamma)) {
-                        if up.alpha > a {
-                            at.point = Some(up);
-                        }
-                    }
                 }
             }
             let t = at.margin;
@@ -542,12 +557,8 @@ impl Ctx<'_, '_> {
                     // block of P): probe a larger α with the regularised
                     // objective, certified like any point.
                     let probe = (a * (1.0 + at.margin.min(1.0))).min(cap);
-                    let pr = self.attempt(probe, gamma, Objective::Gains, None, phase)?;
+                    let pr = self.attempt_regularised(probe, gamma, phase)?;
                     if let Some(p) = pr.point.filter(|_| pr.certified) {
-                        let p = self
-                            .lift(&p, gamma)
-                            .filter(|u| u.alpha > p.alpha)
-                            .unwrap_or(p);
                         let l = lo.as_ref().map_or(0.0, |p| p.alpha);
                         gain = p.alpha > l * (1.0 + tol);
                         if p.alpha > l {
@@ -705,20 +716,11 @@ fn design_skew(
         return Ok(d);
     }
     let r = crate::skew_slack::search(model, &d, SKEW_ROUNDS, settings, request.conditions)?;
-    let base = d.observer_model(model)?;
     let mut out = r.design.clone();
     if r.alpha_best() > d.alpha {
         out.skew = Some(
-            r.model
-                .vertices
-                .iter()
-                .zip(&base.vertices)
-                .map(|(a, b)| {
-                    a.n.iter()
-                        .zip(&b.n)
-                        .map(|(na, nb)| matrix_to_rows(&(na - nb)))
-                        .collect()
-                })
+            r.k.iter()
+                .map(|kl| kl.iter().map(matrix_to_rows).collect())
                 .collect(),
         );
         out.model = d.model.clone();

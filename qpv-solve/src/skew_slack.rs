@@ -60,6 +60,9 @@ pub struct SkewResult {
     pub rounds: Vec<Round>,
     /// The model with N_k + K_k of the best round (the same plant).
     pub model: PolytopicModel,
+    /// K_{k,l} of the best round (per θ-vertex l, per k): `model`'s N minus
+    /// the start design's representation.
+    pub k: Vec<Vec<DMatrix<f64>>>,
     /// The best certified design, on [`SkewResult::model`].
     pub design: Design,
 }
@@ -321,11 +324,10 @@ pub fn search(
         req.split = Split::AsWritten;
         req.conditions = conditions;
         let d = crate::design(&cur_model, &req, settings)?;
-        let k_norm = cur_model
-            .vertices
+        let k_norm = skew_of(&cur_model, &base)
             .iter()
-            .zip(&base.vertices)
-            .flat_map(|(a, b)| a.n.iter().zip(&b.n).map(|(na, nb)| (na - nb).norm()))
+            .flatten()
+            .map(|k| k.norm())
             .fold(0.0, f64::max);
         let alpha = if d.certifies { d.alpha } else { f64::NAN };
         out.push(Round {
@@ -348,7 +350,18 @@ pub fn search(
         gamma,
         alpha_start: start.alpha,
         rounds: out,
+        k: skew_of(&best.0, &base),
         model: best.0,
         design: best.1,
     })
+}
+
+/// N_{k,l} of `model` minus those of `base` (the slack added to `base`).
+fn skew_of(model: &PolytopicModel, base: &PolytopicModel) -> Vec<Vec<DMatrix<f64>>> {
+    model
+        .vertices
+        .iter()
+        .zip(&base.vertices)
+        .map(|(a, b)| a.n.iter().zip(&b.n).map(|(na, nb)| na - nb).collect())
+        .collect()
 }

@@ -5,26 +5,12 @@
 
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{
-    AlphaSpec, DesignRequest, GammaSpec, Mode, Param, PolytopicModel, Span, Split, StateBound,
-    Vertex,
+    AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound, Vertex,
 };
-use qpv_solve::conditions::reference::{box_region, paper_a, paper_model, paper_n};
+use qpv_solve::conditions::reference::{box_region, names, paper_a, paper_model, paper_n, param};
 use qpv_solve::conditions::{rows, rows_he};
 use qpv_solve::falsify::{falsify, falsify_design, StateSet};
 use qpv_solve::simulate::{simulate, Scenario, SimError};
-
-fn param(name: &str, lo: f64, hi: f64) -> Param {
-    Param {
-        name: name.to_string(),
-        lo,
-        hi,
-        span: Span::default(),
-    }
-}
-
-fn names(prefix: &str, n: usize) -> Vec<String> {
-    (1..=n).map(|i| format!("{prefix}{i}")).collect()
-}
 
 /// x' = −x (nx states), y = x, with a box region of half-width 1 and
 /// Q = 4·I, one parameter that appears nowhere (a single vertex).

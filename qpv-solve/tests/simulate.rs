@@ -2,24 +2,11 @@
 //! RK4 accuracy against closed-form solutions, and the paper's scenario.
 
 use nalgebra::{DMatrix, DVector};
-use qpv_dsl::{Param, PolytopicModel, Span, StateBound, Vertex};
-use qpv_solve::conditions::reference::{box_region, paper_a, paper_model, paper_n};
+use qpv_dsl::{PolytopicModel, StateBound, Vertex};
+use qpv_solve::conditions::reference::{box_region, names, paper_a, paper_model, paper_n, param};
 use qpv_solve::simulate::{
     observer_derivative, plant_derivative, plant_output, simulate, Scenario, Signal, SimError,
 };
-
-fn param(name: &str, lo: f64, hi: f64) -> Param {
-    Param {
-        name: name.to_string(),
-        lo,
-        hi,
-        span: Span::default(),
-    }
-}
-
-fn names(prefix: &str, n: usize) -> Vec<String> {
-    (1..=n).map(|i| format!("{prefix}{i}")).collect()
-}
 
 /// A scalar model x' = a(θ) x + b u, y = x, with θ ∈ [0, 1] and
 /// a(0) = a0, a(1) = a1.

@@ -4,7 +4,7 @@ use super::design::{parse_mode, parse_split};
 use super::input::{emit_json, load_model, read_report, CliError};
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, OutputRoute, Split, StateBound};
 use qpv_solve::output_filter::OutputRouteInfo;
-use qpv_solve::report::rows_to_matrix;
+use qpv_solve::report::{rows_to_matrix, skew_matrices};
 use std::path::Path;
 
 /// The gains file: `P` (rows), `L` (per vertex, NX rows of NY), and
@@ -118,10 +118,7 @@ pub fn run(
         );
     }
     if let Some(k) = &g.skew {
-        let k: Vec<Vec<_>> = k
-            .iter()
-            .map(|kl| kl.iter().map(|kk| rows_to_matrix(kk)).collect())
-            .collect();
+        let k = skew_matrices(k);
         let fits = k.len() == poly.nv()
             && k.iter().all(|kl| {
                 kl.len() == poly.nx()
