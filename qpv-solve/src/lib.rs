@@ -45,8 +45,10 @@
 //! println!("{}", d.to_json());
 //! ```
 
+/// The pure-Rust BLAS/LAPACK the PSD cones call (the `qpv-lapack` crate),
+/// linked only with the `pure-lapack` feature.
 #[cfg(feature = "pure-lapack")]
-pub mod lapack;
+pub use qpv_lapack as lapack;
 
 pub mod certificate;
 pub mod conditions;

@@ -3,7 +3,7 @@
 //! Clarabel's SDP code (`clarabel/sdp`) calls Fortran BLAS/LAPACK through the
 //! `blas`/`lapack` crates. Its own `sdp-*` features need a system library or a
 //! download; this workspace instead enables `["sdp", "blas-src", "lapack-src"]`
-//! (the provider crates then compile empty) and this module exports, with the
+//! (the provider crates then compile empty) and this crate exports, with the
 //! Fortran ABI (every argument by pointer, trailing underscore, no hidden
 //! string lengths read), the double-precision routines Clarabel 0.11 calls:
 //!
@@ -37,24 +37,33 @@
 //! `info = 0` (as a Fortran LAPACK typically does) instead of aborting:
 //! Clarabel `expect`s these calls to succeed.
 //!
+//! # Who links it
+//! The symbols are unmangled and global, so they are a choice of the final
+//! binary, like any BLAS/LAPACK provider: a program that also links OpenBLAS
+//! (or any other provider of `dgemm_`, ...) must not get them twice. This
+//! crate is therefore separate from the solver library: `qpv-solve` links it
+//! only with its `pure-lapack` feature (on by default for `qpv-solve`; the
+//! `qpv` facade turns it on with its own `pure-lapack` feature, which its
+//! `cli` feature implies), and the `qpv!` proc-macro links it for the solve
+//! it runs inside rustc, where it never reaches the user's binary. Switch the
+//! feature off and link a system library instead (see the README's
+//! "Dependencies and features").
+//!
 //! # Linking
 //! GNU ld pulls an archive member only if it resolves a symbol that is
 //! undefined *at that point*, and rustc lists rlibs dependents-first
-//! (`libqpv_solve.rlib` before `libclarabel.rlib`). Measured with rustc 1.95
+//! (`libqpv_lapack.rlib` before `libclarabel.rlib`). Measured with rustc 1.95
 //! and GNU ld (`-Clinker-features=-lld`): rustc puts a synthetic `symbols.o`
 //! first on the link line that references every `#[no_mangle]` symbol of each
-//! linked rlib, so the definitions here are pulled in as soon as qpv-solve is
-//! linked at all (any item used, or `use qpv_solve as _;`); a binary that
-//! calls Clarabel without using anything from qpv-solve fails with undefined
+//! linked rlib, so the definitions here are pulled in as soon as this crate is
+//! linked at all (any item used, or `use qpv_lapack as _;`); a binary that
+//! calls Clarabel without using anything from it fails with undefined
 //! references to `dgemm_` etc. (reproduced). Code that runs Clarabel should
-//! therefore call [`ensure_linked`] (cheap; `sdp::ensure_lapack` does, before
-//! every solve): it references every exported symbol, so the objects defining
-//! them are part of every link that contains the caller, whatever the linker.
-//! (`rust-lld`, rustc's default on x86_64 Linux, resolves archive members
-//! regardless of order.)
-//!
-//! The module exists only with the default `pure-lapack` feature; switch it
-//! off (`default-features = false`) when linking a system BLAS/LAPACK.
+//! therefore call [`ensure_linked`] (cheap; `qpv_solve::sdp::ensure_lapack`
+//! does, before every solve): it references every exported symbol, so the
+//! objects defining them are part of every link that contains the caller,
+//! whatever the linker. (`rust-lld`, rustc's default on x86_64 Linux,
+//! resolves archive members regardless of order.)
 
 #![allow(clippy::too_many_arguments, clippy::missing_safety_doc)]
 
