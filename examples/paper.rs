@@ -1,5 +1,6 @@
 //! The paper's example, designed and certified at build time by `qpv!`, then
-//! simulated with the generated observer and plant (spec §7 scenario).
+//! simulated with the generated observer and plant on the paper's scenario
+//! (docs/method.md, "The paper's example").
 //!
 //!     cargo run --release --example paper [-- FIGURE_DIR]
 //!

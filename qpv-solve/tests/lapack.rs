@@ -4,9 +4,11 @@
 //! alpha/beta ∈ {0, 1, other} (beta = 0 must not read C, alpha = 0 must not
 //! read A/B), workspace queries, and the exact call sequences Clarabel uses.
 //!
-//! The routines are called through their C symbol names (an `extern "C"`
-//! block, as the `blas`/`lapack` crates do), so this also checks the names
-//! and that [`qpv_solve::lapack::ensure_linked`] pulls them into the link.
+//! The routines (the `qpv-lapack` crate, which qpv-solve links and
+//! re-exports as `qpv_solve::lapack` with its default `pure-lapack` feature)
+//! are called through their C symbol names (an `extern "C"` block, as the
+//! `blas`/`lapack` crates do), so this also checks the names and that
+//! [`qpv_solve::lapack::ensure_linked`] pulls them into the link.
 #![cfg(feature = "pure-lapack")]
 #![allow(clippy::too_many_arguments, clippy::needless_range_loop)]
 
