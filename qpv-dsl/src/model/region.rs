@@ -3,7 +3,7 @@
 
 use super::build::{pos, Builder, R};
 use crate::ast::{self, Expr, Item, MatrixLit};
-use crate::diagnostic::{Diag, Span, Warning};
+use crate::diagnostic::{Diag, Warning};
 use crate::poly::fmt_num;
 use crate::region::{
     hull_from_halfspaces, hull_from_vertices, Region, RegionError, MAX_REGION_VERTICES,
@@ -18,6 +18,16 @@ impl Builder<'_> {
         context: &str,
     ) -> R<Vec<DVector<f64>>> {
         let nx = self.names.states.len();
+        if let Some(row) = lit.rows.get(MAX_REGION_VERTICES) {
+            return Err(Diag::new(
+                row.span,
+                format!(
+                    "the region lists {} rows: at most {MAX_REGION_VERTICES} {what} rows are \
+                     supported",
+                    lit.rows.len()
+                ),
+            ));
+        }
         for (r, row) in lit.rows.iter().enumerate() {
             if row.entries.len() != nx {
                 return Err(Diag::new(
@@ -87,19 +97,23 @@ impl Builder<'_> {
                 ))
             }
         };
-        let too_big = |span: Span| {
-            Diag::new(
-                span,
-                format!(
-                    "a box in {nx} dimensions has 2^{nx} vertices; at most {MAX_REGION_VERTICES} are \
-                     supported (give the region by `vertices` or `halfspaces` instead)"
+        let boxed = |radii: &[f64]| {
+            Region::from_box(radii).map_err(|e| match e {
+                RegionError::TooComplex => Diag::new(
+                    decl.span,
+                    format!(
+                        "a box in {nx} dimensions has 2^{nx} vertices; at most \
+                         {MAX_REGION_VERTICES} are supported (give the region by `vertices` or \
+                         `halfspaces` instead)"
+                    ),
                 ),
-            )
+                e => Diag::new(decl.span, e.to_string()),
+            })
         };
         let (result, lit, what) = match &decl.shape {
             ast::RegionShape::BoxScalar(e) => {
                 let r = radius(e)?;
-                return Region::from_box(&vec![r; nx]).map_err(|_| too_big(decl.span));
+                return boxed(&vec![r; nx]);
             }
             ast::RegionShape::BoxVector(v, span) => {
                 if v.len() != nx {
@@ -112,7 +126,7 @@ impl Builder<'_> {
                     ));
                 }
                 let r = v.iter().map(radius).collect::<R<Vec<f64>>>()?;
-                return Region::from_box(&r).map_err(|_| too_big(decl.span));
+                return boxed(&r);
             }
             ast::RegionShape::Vertices(lit) => {
                 let pts = self.constant_rows(lit, "vertex", ctx)?;
@@ -145,13 +159,7 @@ impl Builder<'_> {
                 }
                 Ok(region)
             }
-            Err(e) => {
-                let extra = match e {
-                    RegionError::OriginNotInterior { .. } | RegionError::Unbounded { .. } => "",
-                    _ => "",
-                };
-                Err(Diag::new(lit.span, format!("{e}{extra}")))
-            }
+            Err(e) => Err(Diag::new(lit.span, e.to_string())),
         }
     }
 }

@@ -128,7 +128,7 @@ impl Builder<'_> {
         let eig = q.clone().symmetric_eigenvalues();
         let min_eig = eig.iter().fold(f64::INFINITY, |m, x| m.min(*x));
         let max_eig = eig.iter().fold(f64::NEG_INFINITY, |m, x| m.max(*x));
-        if !(min_eig > 0.0) {
+        if min_eig.is_nan() || min_eig <= 0.0 {
             return Err(Diag::new(
                 lit.span,
                 format!(

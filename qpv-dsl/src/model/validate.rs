@@ -99,22 +99,34 @@ impl Builder<'_> {
     /// right-hand side (one per state, input or product of states), at the
     /// span of the largest term.
     pub(super) fn check_equation_magnitude(&self, p: &Poly) -> R<()> {
-        let mut groups: Vec<(&Vec<Var>, Vec<(u64, f64)>, Span, f64)> = Vec::new();
+        /// The terms of one coefficient c(θ), and its largest term's span.
+        struct Coefficient<'p> {
+            vars: &'p [Var],
+            terms: Vec<(u64, f64)>,
+            span: Span,
+            largest: f64,
+        }
+        let mut groups: Vec<Coefficient<'_>> = Vec::new();
         for (mono, term) in &p.terms {
             let size = self.magnitude_bound(std::iter::once((mono.theta, term.coef)));
-            match groups.iter_mut().find(|g| *g.0 == mono.vars) {
+            match groups.iter_mut().find(|g| g.vars == mono.vars.as_slice()) {
                 Some(g) => {
-                    g.1.push((mono.theta, term.coef));
-                    if size > g.3 {
-                        g.2 = term.span;
-                        g.3 = size;
+                    g.terms.push((mono.theta, term.coef));
+                    if size > g.largest {
+                        g.span = term.span;
+                        g.largest = size;
                     }
                 }
-                None => groups.push((&mono.vars, vec![(mono.theta, term.coef)], term.span, size)),
+                None => groups.push(Coefficient {
+                    vars: &mono.vars,
+                    terms: vec![(mono.theta, term.coef)],
+                    span: term.span,
+                    largest: size,
+                }),
             }
         }
-        for (_, terms, span, _) in groups {
-            self.check_magnitude(terms.into_iter(), span)?;
+        for g in groups {
+            self.check_magnitude(g.terms.into_iter(), g.span)?;
         }
         Ok(())
     }
