@@ -378,6 +378,8 @@ pub(crate) fn hull_from_halfspaces(
     let keep = irredundant(&b, &vertices_y, n);
     let kept: Vec<DVector<f64>> = keep.iter().map(|&i| b[i].clone()).collect();
     verify(&vertices_y, &kept, &vertices_y, n)?;
+    // the vertices also satisfy the rows that were dropped as redundant
+    verify(&vertices_y, &b, &vertices_y, n)?;
     let vertices = unscale(&vertices_y, &scales, "vertex")?;
     let dropped = (0..normals.len()).filter(|i| !keep.contains(i)).collect();
     let facets = keep.iter().map(|&i| normals[i].clone()).collect();
@@ -470,7 +472,19 @@ fn normalize(z: &mut [f64]) -> f64 {
 /// the new hyperplane; adjacency is the combinatorial test with an inverted
 /// index from rows to the rays tight on them.
 fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>, Enum> {
-    let d = n + 1;
+    let h = homogenised_rows(a, n);
+    let m = h.len();
+    let basis = initial_basis(&h, n)?;
+    let mut rays = initial_rays(&h, &basis, m.div_ceil(64))?;
+    let mut work = Workspace::new(m);
+    for k in (0..m).filter(|k| !basis.contains(k)) {
+        rays = add_row(&rays, &h, k, n + 1, &mut work)?;
+    }
+    rays_to_vertices(&rays, a, n)
+}
+
+/// The rows (−a_k, 1), normalised, and last the row of t ≥ 0.
+fn homogenised_rows(a: &[DVector<f64>], n: usize) -> Vec<Vec<f64>> {
     let mut h: Vec<Vec<f64>> = a
         .iter()
         .map(|ak| {
@@ -480,26 +494,33 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
             r
         })
         .collect();
-    let mut t_row = vec![0.0; d];
+    let mut t_row = vec![0.0; n + 1];
     t_row[n] = 1.0;
     h.push(t_row);
-    let m = h.len();
-    let words = m.div_ceil(64);
+    h
+}
 
-    // Initial basis: d linearly independent rows, greedily the most
-    // independent, starting with t ≥ 0.
+/// `v` minus its projection on the orthonormal vectors `ortho`.
+fn residual(v: &[f64], ortho: &[Vec<f64>]) -> Vec<f64> {
+    let mut r = v.to_vec();
+    for q in ortho {
+        let c = dot(q, &r);
+        for (x, y) in r.iter_mut().zip(q) {
+            *x -= c * y;
+        }
+    }
+    r
+}
+
+/// d = n + 1 linearly independent rows, greedily the most independent,
+/// starting with t ≥ 0 (the last row). If the rows have rank < d, a
+/// direction in their null space is a line of the cone: the polyhedron is
+/// unbounded along it.
+fn initial_basis(h: &[Vec<f64>], n: usize) -> Result<Vec<usize>, Enum> {
+    let d = n + 1;
+    let m = h.len();
     let mut basis: Vec<usize> = vec![m - 1];
     let mut ortho: Vec<Vec<f64>> = vec![h[m - 1].clone()];
-    let residual = |v: &[f64], ortho: &[Vec<f64>]| {
-        let mut r = v.to_vec();
-        for q in ortho {
-            let c = dot(q, &r);
-            for i in 0..r.len() {
-                r[i] -= c * q[i];
-            }
-        }
-        r
-    };
     while basis.len() < d {
         let mut best: Option<(f64, usize, Vec<f64>)> = None;
         for (i, hi) in h.iter().enumerate() {
@@ -519,7 +540,6 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
                 ortho.push(r);
             }
             _ => {
-                // rank < d: a direction in the null space is a line of the cone
                 let mut dir = vec![0.0; d];
                 let mut best_norm = 0.0;
                 for j in 0..d {
@@ -538,9 +558,16 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
             }
         }
     }
+    Ok(basis)
+}
+
+/// The extreme rays of the simplicial cone of the basis rows: the columns
+/// of the inverse of the basis matrix, each tight on all basis rows but one.
+fn initial_rays(h: &[Vec<f64>], basis: &[usize], words: usize) -> Result<Vec<Ray>, Enum> {
+    let d = basis.len();
     let b = DMatrix::from_fn(d, d, |i, j| h[basis[i]][j]);
     let binv = b.try_inverse().ok_or(Enum::TooComplex)?;
-    let mut rays: Vec<Ray> = (0..d)
+    Ok((0..d)
         .map(|i| {
             let mut z: Vec<f64> = binv.column(i).iter().copied().collect();
             normalize(&mut z);
@@ -552,110 +579,154 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
             }
             Ray { z, zero }
         })
-        .collect();
+        .collect())
+}
 
-    let mut vals: Vec<f64> = Vec::new();
-    let mut common = vec![0u64; words];
-    let mut acc: Vec<u64> = Vec::new();
-    // tight[j]: bit set over the current rays that are tight on row j
-    let mut tight: Vec<Vec<u64>> = vec![Vec::new(); m];
-    for k in (0..m).filter(|k| !basis.contains(k)) {
-        let hk = &h[k];
-        vals.clear();
-        vals.extend(rays.iter().map(|r| dot(hk, &r.z)));
-        let mut next: Vec<Ray> = Vec::with_capacity(rays.len());
-        for (i, r) in rays.iter().enumerate() {
-            if vals[i] >= -TOL {
-                let mut r = r.clone();
-                if vals[i] <= TOL {
-                    insert(&mut r.zero, k);
-                }
-                next.push(r);
-            }
+/// Buffers reused by every [`add_row`] step.
+struct Workspace {
+    /// h_kᵀz for each current ray.
+    vals: Vec<f64>,
+    /// The rows two rays are both tight on.
+    common: Vec<u64>,
+    /// The rays tight on every row of `common` seen so far.
+    acc: Vec<u64>,
+    /// tight[j]: bit set over the current rays that are tight on row j.
+    tight: Vec<Vec<u64>>,
+}
+
+impl Workspace {
+    fn new(rows: usize) -> Workspace {
+        Workspace {
+            vals: Vec::new(),
+            common: vec![0; rows.div_ceil(64)],
+            acc: Vec::new(),
+            tight: vec![Vec::new(); rows],
         }
-        let has_pos = vals.iter().any(|v| *v > TOL);
-        let has_neg = vals.iter().any(|v| *v < -TOL);
-        if has_pos && has_neg {
-            // inverted index of the zero sets, for the adjacency test
-            let rwords = rays.len().div_ceil(64);
-            for t in tight.iter_mut() {
-                t.clear();
-                t.resize(rwords, 0);
-            }
-            for (i, r) in rays.iter().enumerate() {
-                for (w, &bitsw) in r.zero.iter().enumerate() {
-                    let mut b = bitsw;
-                    while b != 0 {
-                        let j = w * 64 + b.trailing_zeros() as usize;
-                        insert(&mut tight[j], i);
-                        b &= b - 1;
-                    }
-                }
-            }
-            for p in 0..rays.len() {
-                if vals[p] <= TOL {
-                    continue;
-                }
-                for q in 0..rays.len() {
-                    if vals[q] >= -TOL {
-                        continue;
-                    }
-                    let (zp, zq) = (&rays[p].zero, &rays[q].zero);
-                    let mut count = 0u32;
-                    for w in 0..words {
-                        common[w] = zp[w] & zq[w];
-                        count += common[w].count_ones();
-                    }
-                    if (count as usize) + 2 < d {
-                        continue;
-                    }
-                    // adjacent iff no other ray is tight on every row of `common`
-                    acc.clear();
-                    acc.resize(rwords, u64::MAX);
-                    if rays.len() % 64 != 0 {
-                        acc[rwords - 1] = (1u64 << (rays.len() % 64)) - 1;
-                    }
-                    let mut adjacent = rays.len() <= 2;
-                    'rows: for (w, &cw) in common.iter().enumerate() {
-                        let mut b = cw;
-                        while b != 0 {
-                            let j = w * 64 + b.trailing_zeros() as usize;
-                            b &= b - 1;
-                            let mut left = 0u32;
-                            for (x, t) in acc.iter_mut().zip(&tight[j]) {
-                                *x &= *t;
-                                left += x.count_ones();
-                            }
-                            if left <= 2 {
-                                adjacent = true; // only p and q remain
-                                break 'rows;
-                            }
-                        }
-                    }
-                    if !adjacent {
-                        continue;
-                    }
-                    let (vp, vq) = (vals[p], vals[q]);
-                    let mut z: Vec<f64> = (0..d)
-                        .map(|i| vp * rays[q].z[i] - vq * rays[p].z[i])
-                        .collect();
-                    if normalize(&mut z) <= f64::MIN_POSITIVE {
-                        continue;
-                    }
-                    let mut zero = common.clone();
-                    insert(&mut zero, k);
-                    next.push(Ray { z, zero });
-                    if next.len() > MAX_RAYS {
-                        return Err(Enum::TooComplex);
-                    }
-                }
-            }
-        }
-        rays = next;
     }
+}
 
+/// One double-description step: the rays of the cone cut by row k (the
+/// rays on its nonnegative side, plus one new ray for each adjacent pair
+/// on opposite sides).
+fn add_row(
+    rays: &[Ray],
+    h: &[Vec<f64>],
+    k: usize,
+    d: usize,
+    work: &mut Workspace,
+) -> Result<Vec<Ray>, Enum> {
+    let hk = &h[k];
+    work.vals.clear();
+    work.vals.extend(rays.iter().map(|r| dot(hk, &r.z)));
+    let vals = &work.vals;
+    let mut next: Vec<Ray> = Vec::with_capacity(rays.len());
+    for (i, r) in rays.iter().enumerate() {
+        if vals[i] >= -TOL {
+            let mut r = r.clone();
+            if vals[i] <= TOL {
+                insert(&mut r.zero, k);
+            }
+            next.push(r);
+        }
+    }
+    let has_pos = vals.iter().any(|v| *v > TOL);
+    let has_neg = vals.iter().any(|v| *v < -TOL);
+    if !(has_pos && has_neg) {
+        return Ok(next);
+    }
+    index_tight_rows(rays, &mut work.tight);
+    for p in 0..rays.len() {
+        if work.vals[p] <= TOL {
+            continue;
+        }
+        for q in 0..rays.len() {
+            if work.vals[q] >= -TOL || !adjacent(rays, p, q, d, work) {
+                continue;
+            }
+            let (vp, vq) = (work.vals[p], work.vals[q]);
+            let mut z: Vec<f64> = (0..d)
+                .map(|i| vp * rays[q].z[i] - vq * rays[p].z[i])
+                .collect();
+            if normalize(&mut z) <= f64::MIN_POSITIVE {
+                continue;
+            }
+            let mut zero = work.common.clone();
+            insert(&mut zero, k);
+            next.push(Ray { z, zero });
+            if next.len() > MAX_RAYS {
+                return Err(Enum::TooComplex);
+            }
+        }
+    }
+    Ok(next)
+}
+
+/// The inverted index of the rays' zero sets: tight[j] = the rays tight on
+/// row j.
+fn index_tight_rows(rays: &[Ray], tight: &mut [Vec<u64>]) {
+    let rwords = rays.len().div_ceil(64);
+    for t in tight.iter_mut() {
+        t.clear();
+        t.resize(rwords, 0);
+    }
+    for (i, r) in rays.iter().enumerate() {
+        for (w, &bitsw) in r.zero.iter().enumerate() {
+            let mut b = bitsw;
+            while b != 0 {
+                let j = w * 64 + b.trailing_zeros() as usize;
+                insert(&mut tight[j], i);
+                b &= b - 1;
+            }
+        }
+    }
+}
+
+/// The combinatorial adjacency test of rays p and q: they share at least
+/// d − 2 tight rows, and no other ray is tight on all of them. Leaves the
+/// shared rows in `work.common`.
+fn adjacent(rays: &[Ray], p: usize, q: usize, d: usize, work: &mut Workspace) -> bool {
+    let (zp, zq) = (&rays[p].zero, &rays[q].zero);
+    let mut count = 0u32;
+    for (w, c) in work.common.iter_mut().enumerate() {
+        *c = zp[w] & zq[w];
+        count += c.count_ones();
+    }
+    if (count as usize) + 2 < d {
+        return false;
+    }
+    let rwords = rays.len().div_ceil(64);
+    work.acc.clear();
+    work.acc.resize(rwords, u64::MAX);
+    if rays.len() % 64 != 0 {
+        work.acc[rwords - 1] = (1u64 << (rays.len() % 64)) - 1;
+    }
+    if rays.len() <= 2 {
+        return true;
+    }
+    for (w, &cw) in work.common.iter().enumerate() {
+        let mut b = cw;
+        while b != 0 {
+            let j = w * 64 + b.trailing_zeros() as usize;
+            b &= b - 1;
+            let mut left = 0u32;
+            for (x, t) in work.acc.iter_mut().zip(&work.tight[j]) {
+                *x &= *t;
+                left += x.count_ones();
+            }
+            if left <= 2 {
+                return true; // only p and q remain
+            }
+        }
+    }
+    false
+}
+
+/// The vertices x = z_x / t of the final rays (repeats removed), or a
+/// direction of unboundedness if a ray has t = 0 (told apart from a vertex
+/// that is merely very far out).
+fn rays_to_vertices(rays: &[Ray], a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>, Enum> {
     let mut vertices: Vec<DVector<f64>> = Vec::new();
-    for r in &rays {
+    for r in rays {
         let t = r.z[n];
         let mut x = r.z[..n].to_vec();
         if t <= 1e-10 {
