@@ -14,7 +14,7 @@ pub use diagnostic::{Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
 pub use model::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute, Param,
-    Split, StateBound,
+    Split, StateBound, MAX_COEFFICIENT,
 };
 pub use region::{Region, RegionError};
 pub use vertices::{PolytopicModel, Vertex};
@@ -27,11 +27,51 @@ pub use vertices::{PolytopicModel, Vertex};
 /// `src`, its line and column, and a message that says what was expected.
 /// Non-fatal remarks are in each model's [`Model::warnings`].
 pub fn parse(src: &str) -> Result<Vec<Model>, Error> {
+    if src.len() > MAX_SOURCE_BYTES {
+        return Err(too_long(src));
+    }
     parse_diag(src).map_err(|d| d.into_error(src))
+}
+
+/// Largest model text [`parse`] accepts, in bytes (1 MiB). Real models are a
+/// few kilobytes; the bound keeps the memory a hostile or mistaken input can
+/// claim to a few hundred megabytes at most. Tools that read files can check
+/// a file's size against it before reading the file.
+pub const MAX_SOURCE_BYTES: usize = 1 << 20;
+
+/// Most `model` blocks one text may hold. Each model may carry a region of
+/// up to 4096 vertices, so this bounds the memory of a text of many small
+/// models (tens of megabytes at most).
+pub const MAX_MODELS: usize = 64;
+
+/// The error for a text longer than [`MAX_SOURCE_BYTES`], at the start of
+/// the text (with a short excerpt: the first line may be the whole text).
+fn too_long(src: &str) -> Error {
+    let first: String = src.lines().next().unwrap_or("").chars().take(80).collect();
+    Error {
+        message: format!(
+            "the model text is {} bytes long: at most {MAX_SOURCE_BYTES} bytes (1 MiB) are \
+             supported",
+            src.len()
+        ),
+        span: Span::new(0, 0),
+        line: 1,
+        column: 1,
+        excerpt: first,
+    }
 }
 
 fn parse_diag(src: &str) -> Result<Vec<Model>, diagnostic::Diag> {
     let file = syntax::parse_file(src)?;
+    if let Some(extra) = file.models.get(MAX_MODELS) {
+        return Err(diagnostic::Diag::new(
+            extra.name.span,
+            format!(
+                "the text defines {} models: at most {MAX_MODELS} are supported in one text",
+                file.models.len()
+            ),
+        ));
+    }
     let mut models: Vec<Model> = Vec::with_capacity(file.models.len());
     for m in &file.models {
         if let Some(prev) = models.iter().find(|p| p.name == m.name.name) {

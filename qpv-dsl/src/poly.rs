@@ -251,15 +251,19 @@ fn check_finite(p: &Poly, span: Span, scope: &Scope<'_>) -> Result<(), Diag> {
         ));
     }
     if p.terms.len() > MAX_TERMS {
-        return Err(Diag::new(
-            span,
-            format!(
-                "{} expands to more than {MAX_TERMS} terms",
-                quote(scope.src, span)
-            ),
-        ));
+        return Err(too_many_terms(scope.src, span));
     }
     Ok(())
+}
+
+fn too_many_terms(src: &str, span: Span) -> Diag {
+    Diag::new(
+        span,
+        format!(
+            "{} expands to more than {MAX_TERMS} terms",
+            quote(src, span)
+        ),
+    )
 }
 
 /// Product of two polynomials; `span` is the product expression.
@@ -337,6 +341,10 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
                 ta.coef * tb.coef,
                 span,
             );
+            if out.terms.len() > MAX_TERMS {
+                // stop before the product grows to |a|·|b| terms
+                return Err(too_many_terms(scope.src, span));
+            }
         }
     }
     check_finite(&out, span, scope)?;

@@ -6,9 +6,20 @@
 //! description method (Motzkin et al.; Fukuda & Prodon's combinatorial
 //! adjacency test) on the homogenised cone {(x, t) : a_kᵀ x ≤ t, t ≥ 0}.
 //! Going from vertices to facets uses polarity: with 0 strictly inside,
-//! the facets of Co{x_i} are the vertices of {a : x_iᵀ a ≤ 1}. Floating
-//! point with a relative tolerance of 1e-9; fine for the small dimensions of
-//! observer design (tested up to 6).
+//! the facets of Co{x_i} are the vertices of {a : x_iᵀ a ≤ 1}.
+//!
+//! The enumeration is scale-invariant: before it runs, every coordinate is
+//! divided by its largest magnitude in the data (a diagonal change of
+//! variables, which maps vertices to vertices and facets to facets), every
+//! homogenised row is normalised, and every test is relative (a dot product
+//! aᵀx is compared with 1 up to 1e-9 · Σ_j |a_j x_j|). A region whose
+//! coordinates differ in scale by many orders of magnitude is therefore
+//! converted exactly like its rescaled copy. The result is verified (every
+//! vertex satisfies every facet, with at least n + 1 of each), and a result
+//! that cannot be verified or represented in double precision is refused
+//! ([`RegionError::Degenerate`]) rather than returned. Tested against an
+//! exact rational enumeration up to five dimensions and against round trips
+//! up to six.
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -57,9 +68,17 @@ pub enum RegionError {
     },
     /// Nothing was given, or the dimension is zero.
     Empty,
-    /// More than [`MAX_REGION_VERTICES`] vertices or facets, or the
-    /// enumeration grew beyond its work limit.
+    /// More than [`MAX_REGION_VERTICES`] vertices or facets (given or
+    /// computed), or the enumeration grew beyond its work limit.
     TooComplex,
+    /// The conversion cannot be carried out reliably in double precision:
+    /// a coordinate of the result overflows, the region is nearly flat or
+    /// the origin nearly on its boundary (relative to the region's own
+    /// scale), or the computed polytope fails its verification.
+    Degenerate {
+        /// What went wrong, in words.
+        reason: String,
+    },
 }
 
 fn fmt_vec(v: &DVector<f64>) -> String {
@@ -96,6 +115,10 @@ impl fmt::Display for RegionError {
             RegionError::TooComplex => write!(
                 f,
                 "the region is too complex: at most {MAX_REGION_VERTICES} vertices and facets are supported"
+            ),
+            RegionError::Degenerate { reason } => write!(
+                f,
+                "the region cannot be represented reliably in double precision: {reason}"
             ),
         }
     }
@@ -135,6 +158,14 @@ impl Region {
             .collect();
         let mut facets = Vec::with_capacity(2 * n);
         for (i, r) in radii.iter().enumerate() {
+            if !(1.0 / r).is_finite() {
+                return Err(RegionError::Degenerate {
+                    reason: format!(
+                        "box radius {} is {r:e}: its facet normal 1/r overflows",
+                        i + 1
+                    ),
+                });
+            }
             for s in [1.0, -1.0] {
                 let mut a = DVector::zeros(n);
                 a[i] = s / r;
@@ -156,11 +187,10 @@ impl Region {
         hull_from_halfspaces(normals).map(|(r, _)| r)
     }
 
-    /// True if every facet inequality holds at `x` (with a relative tolerance).
+    /// True if every facet inequality holds at `x`, up to a relative
+    /// tolerance of 1e-9 · (1 + Σ_j |a_j x_j|) per facet (scale-invariant).
     pub fn contains(&self, x: &DVector<f64>) -> bool {
-        self.facets
-            .iter()
-            .all(|a| a.dot(x) <= 1.0 + TOL * (1.0 + a.norm() * x.norm()))
+        self.facets.iter().all(|a| slack(a, x) >= -tol(a, x))
     }
 
     /// The largest xᵀ W x over the vertices (e.g. W = Q⁻¹ to test P ⊂ F),
@@ -184,7 +214,117 @@ fn check_points(points: &[DVector<f64>]) -> Result<usize, RegionError> {
             return Err(RegionError::BadPoint { index });
         }
     }
+    if points.len() > MAX_REGION_VERTICES {
+        return Err(RegionError::TooComplex);
+    }
     Ok(n)
+}
+
+/// 1 − aᵀx: nonnegative when x satisfies aᵀx ≤ 1.
+fn slack(a: &DVector<f64>, x: &DVector<f64>) -> f64 {
+    1.0 - a.dot(x)
+}
+
+/// The tolerance of a test aᵀx ⋚ 1: relative to the terms of the dot
+/// product, so that it does not change under a diagonal rescaling.
+fn tol(a: &DVector<f64>, x: &DVector<f64>) -> f64 {
+    TOL * (1.0
+        + a.iter()
+            .zip(x.iter())
+            .map(|(p, q)| (p * q).abs())
+            .sum::<f64>())
+}
+
+/// The scale of each coordinate in `rows`: its largest magnitude (1 for a
+/// coordinate that is zero in every row).
+fn column_scales(rows: &[DVector<f64>], n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|j| {
+            let m = rows.iter().fold(0.0f64, |m, r| m.max(r[j].abs()));
+            if m > 0.0 {
+                m
+            } else {
+                1.0
+            }
+        })
+        .collect()
+}
+
+/// `rows` with coordinate j divided by `scales[j]`.
+fn divide(rows: &[DVector<f64>], scales: &[f64]) -> Vec<DVector<f64>> {
+    rows.iter()
+        .map(|r| DVector::from_fn(r.len(), |j, _| r[j] / scales[j]))
+        .collect()
+}
+
+/// A direction d of the scaled space mapped back (coordinate j divided by
+/// `scales[j]`) and normalised.
+fn unscale_direction(d: &DVector<f64>, scales: &[f64]) -> DVector<f64> {
+    let v = DVector::from_fn(d.len(), |j, _| d[j] / scales[j]);
+    let m = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if m > 0.0 && m.is_finite() {
+        let v = v / m;
+        let norm = v.norm();
+        v / norm
+    } else {
+        d.clone()
+    }
+}
+
+/// Vectors of the scaled space mapped back (coordinate j divided by
+/// `scales[j]`); an entry that overflows or underflows to zero from a
+/// nonzero value is an error naming `what`.
+fn unscale(
+    rows: &[DVector<f64>],
+    scales: &[f64],
+    what: &str,
+) -> Result<Vec<DVector<f64>>, RegionError> {
+    let out = divide(rows, scales);
+    for (r, o) in rows.iter().zip(&out) {
+        for (x, y) in r.iter().zip(o.iter()) {
+            if !y.is_finite() || (*y == 0.0 && x.abs() > TOL) {
+                return Err(RegionError::Degenerate {
+                    reason: format!(
+                        "a coordinate of a computed {what} is outside the range of a 64-bit float"
+                    ),
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Checks a computed region on the scaled data: at least n + 1 vertices and
+/// facets, every `points` row inside every facet.
+fn verify(
+    vertices: &[DVector<f64>],
+    facets: &[DVector<f64>],
+    points: &[DVector<f64>],
+    n: usize,
+) -> Result<(), RegionError> {
+    if vertices.len() <= n || facets.len() <= n {
+        return Err(RegionError::Degenerate {
+            reason: format!(
+                "only {} vertices and {} facets were found (a bounded region in {n} dimensions \
+                 has at least {} of each); the region is too thin relative to its size",
+                vertices.len(),
+                facets.len(),
+                n + 1
+            ),
+        });
+    }
+    for a in facets {
+        for x in points {
+            if slack(a, x) < -100.0 * tol(a, x) {
+                return Err(RegionError::Degenerate {
+                    reason: "the computed facets do not contain every vertex (the data are \
+                             too close to degenerate)"
+                        .into(),
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 /// [`Region::from_vertices`], also returning the indices of the dropped points.
@@ -192,15 +332,25 @@ pub(crate) fn hull_from_vertices(
     points: &[DVector<f64>],
 ) -> Result<(Region, Vec<usize>), RegionError> {
     let n = check_points(points)?;
-    // facets of Co{x_i} = vertices of the polar {a : x_iᵀ a ≤ 1}
-    let facets = match enumerate_vertices(points, n) {
+    let scales = column_scales(points, n);
+    let y = divide(points, &scales);
+    // facets of Co{y_i} = vertices of the polar {b : y_iᵀ b ≤ 1}
+    let facets_y = match enumerate_vertices(&y, n) {
         Ok(f) => f,
-        Err(Enum::Unbounded(direction)) => {
-            return Err(RegionError::OriginNotInterior { direction })
+        Err(Enum::Unbounded(d)) => {
+            // yᵢᵀd ≤ 0 for all i, and yᵢᵀd = xᵢᵀ(d/s)
+            return Err(RegionError::OriginNotInterior {
+                direction: unscale_direction(&d, &scales),
+            });
         }
+        Err(Enum::Degenerate(reason)) => return Err(RegionError::Degenerate { reason }),
         Err(Enum::TooComplex) => return Err(RegionError::TooComplex),
     };
-    let keep = irredundant(points, &facets, n);
+    let keep = irredundant(&y, &facets_y, n);
+    let kept: Vec<DVector<f64>> = keep.iter().map(|&i| y[i].clone()).collect();
+    verify(&kept, &facets_y, &y, n)?;
+    // bᵀy = bᵀ(x/s) = (b/s)ᵀx
+    let facets = unscale(&facets_y, &scales, "facet normal")?;
     let dropped = (0..points.len()).filter(|i| !keep.contains(i)).collect();
     let vertices = keep.iter().map(|&i| points[i].clone()).collect();
     Ok((Region { vertices, facets }, dropped))
@@ -211,19 +361,33 @@ pub(crate) fn hull_from_halfspaces(
     normals: &[DVector<f64>],
 ) -> Result<(Region, Vec<usize>), RegionError> {
     let n = check_points(normals)?;
-    let vertices = match enumerate_vertices(normals, n) {
+    let scales = column_scales(normals, n);
+    // aᵀx = (a/s)ᵀ(s·x): rows b = a/s, coordinates y = s·x
+    let b = divide(normals, &scales);
+    let vertices_y = match enumerate_vertices(&b, n) {
         Ok(v) => v,
-        Err(Enum::Unbounded(direction)) => return Err(RegionError::Unbounded { direction }),
+        Err(Enum::Unbounded(d)) => {
+            // y = s·x, so the direction in x is d/s
+            return Err(RegionError::Unbounded {
+                direction: unscale_direction(&d, &scales),
+            });
+        }
+        Err(Enum::Degenerate(reason)) => return Err(RegionError::Degenerate { reason }),
         Err(Enum::TooComplex) => return Err(RegionError::TooComplex),
     };
-    let keep = irredundant(normals, &vertices, n);
+    let keep = irredundant(&b, &vertices_y, n);
+    let kept: Vec<DVector<f64>> = keep.iter().map(|&i| b[i].clone()).collect();
+    verify(&vertices_y, &kept, &vertices_y, n)?;
+    // the vertices also satisfy the rows that were dropped as redundant
+    verify(&vertices_y, &b, &vertices_y, n)?;
+    let vertices = unscale(&vertices_y, &scales, "vertex")?;
     let dropped = (0..normals.len()).filter(|i| !keep.contains(i)).collect();
     let facets = keep.iter().map(|&i| normals[i].clone()).collect();
     Ok((Region { vertices, facets }, dropped))
 }
 
 fn tight(a: &DVector<f64>, x: &DVector<f64>) -> bool {
-    (a.dot(x) - 1.0).abs() <= TOL * (1.0 + a.norm() * x.norm())
+    slack(a, x).abs() <= tol(a, x)
 }
 
 /// Indices of the rows a_k of {x : a_kᵀx ≤ 1} that are facets, given the
@@ -264,6 +428,9 @@ enum Enum {
     Unbounded(DVector<f64>),
     /// Work limit exceeded.
     TooComplex,
+    /// A vertex so far out (relative to the scale of the rows) that it
+    /// cannot be told from a direction of unboundedness.
+    Degenerate(String),
 }
 
 /// A ray of the homogenised cone with the set of processed constraints it
@@ -305,7 +472,19 @@ fn normalize(z: &mut [f64]) -> f64 {
 /// the new hyperplane; adjacency is the combinatorial test with an inverted
 /// index from rows to the rays tight on them.
 fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>, Enum> {
-    let d = n + 1;
+    let h = homogenised_rows(a, n);
+    let m = h.len();
+    let basis = initial_basis(&h, n)?;
+    let mut rays = initial_rays(&h, &basis, m.div_ceil(64))?;
+    let mut work = Workspace::new(m);
+    for k in (0..m).filter(|k| !basis.contains(k)) {
+        rays = add_row(&rays, &h, k, n + 1, &mut work)?;
+    }
+    rays_to_vertices(&rays, a, n)
+}
+
+/// The rows (−a_k, 1), normalised, and last the row of t ≥ 0.
+fn homogenised_rows(a: &[DVector<f64>], n: usize) -> Vec<Vec<f64>> {
     let mut h: Vec<Vec<f64>> = a
         .iter()
         .map(|ak| {
@@ -315,26 +494,33 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
             r
         })
         .collect();
-    let mut t_row = vec![0.0; d];
+    let mut t_row = vec![0.0; n + 1];
     t_row[n] = 1.0;
     h.push(t_row);
-    let m = h.len();
-    let words = m.div_ceil(64);
+    h
+}
 
-    // Initial basis: d linearly independent rows, greedily the most
-    // independent, starting with t ≥ 0.
+/// `v` minus its projection on the orthonormal vectors `ortho`.
+fn residual(v: &[f64], ortho: &[Vec<f64>]) -> Vec<f64> {
+    let mut r = v.to_vec();
+    for q in ortho {
+        let c = dot(q, &r);
+        for (x, y) in r.iter_mut().zip(q) {
+            *x -= c * y;
+        }
+    }
+    r
+}
+
+/// d = n + 1 linearly independent rows, greedily the most independent,
+/// starting with t ≥ 0 (the last row). If the rows have rank < d, a
+/// direction in their null space is a line of the cone: the polyhedron is
+/// unbounded along it.
+fn initial_basis(h: &[Vec<f64>], n: usize) -> Result<Vec<usize>, Enum> {
+    let d = n + 1;
+    let m = h.len();
     let mut basis: Vec<usize> = vec![m - 1];
     let mut ortho: Vec<Vec<f64>> = vec![h[m - 1].clone()];
-    let residual = |v: &[f64], ortho: &[Vec<f64>]| {
-        let mut r = v.to_vec();
-        for q in ortho {
-            let c = dot(q, &r);
-            for i in 0..r.len() {
-                r[i] -= c * q[i];
-            }
-        }
-        r
-    };
     while basis.len() < d {
         let mut best: Option<(f64, usize, Vec<f64>)> = None;
         for (i, hi) in h.iter().enumerate() {
@@ -354,7 +540,6 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
                 ortho.push(r);
             }
             _ => {
-                // rank < d: a direction in the null space is a line of the cone
                 let mut dir = vec![0.0; d];
                 let mut best_norm = 0.0;
                 for j in 0..d {
@@ -373,9 +558,16 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
             }
         }
     }
+    Ok(basis)
+}
+
+/// The extreme rays of the simplicial cone of the basis rows: the columns
+/// of the inverse of the basis matrix, each tight on all basis rows but one.
+fn initial_rays(h: &[Vec<f64>], basis: &[usize], words: usize) -> Result<Vec<Ray>, Enum> {
+    let d = basis.len();
     let b = DMatrix::from_fn(d, d, |i, j| h[basis[i]][j]);
     let binv = b.try_inverse().ok_or(Enum::TooComplex)?;
-    let mut rays: Vec<Ray> = (0..d)
+    Ok((0..d)
         .map(|i| {
             let mut z: Vec<f64> = binv.column(i).iter().copied().collect();
             normalize(&mut z);
@@ -387,115 +579,169 @@ fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>,
             }
             Ray { z, zero }
         })
-        .collect();
+        .collect())
+}
 
-    let mut vals: Vec<f64> = Vec::new();
-    let mut common = vec![0u64; words];
-    let mut acc: Vec<u64> = Vec::new();
-    // tight[j]: bit set over the current rays that are tight on row j
-    let mut tight: Vec<Vec<u64>> = vec![Vec::new(); m];
-    for k in (0..m).filter(|k| !basis.contains(k)) {
-        let hk = &h[k];
-        vals.clear();
-        vals.extend(rays.iter().map(|r| dot(hk, &r.z)));
-        let mut next: Vec<Ray> = Vec::with_capacity(rays.len());
-        for (i, r) in rays.iter().enumerate() {
-            if vals[i] >= -TOL {
-                let mut r = r.clone();
-                if vals[i] <= TOL {
-                    insert(&mut r.zero, k);
-                }
-                next.push(r);
-            }
+/// Buffers reused by every [`add_row`] step.
+struct Workspace {
+    /// h_kᵀz for each current ray.
+    vals: Vec<f64>,
+    /// The rows two rays are both tight on.
+    common: Vec<u64>,
+    /// The rays tight on every row of `common` seen so far.
+    acc: Vec<u64>,
+    /// tight[j]: bit set over the current rays that are tight on row j.
+    tight: Vec<Vec<u64>>,
+}
+
+impl Workspace {
+    fn new(rows: usize) -> Workspace {
+        Workspace {
+            vals: Vec::new(),
+            common: vec![0; rows.div_ceil(64)],
+            acc: Vec::new(),
+            tight: vec![Vec::new(); rows],
         }
-        let has_pos = vals.iter().any(|v| *v > TOL);
-        let has_neg = vals.iter().any(|v| *v < -TOL);
-        if has_pos && has_neg {
-            // inverted index of the zero sets, for the adjacency test
-            let rwords = rays.len().div_ceil(64);
-            for t in tight.iter_mut() {
-                t.clear();
-                t.resize(rwords, 0);
-            }
-            for (i, r) in rays.iter().enumerate() {
-                for (w, &bitsw) in r.zero.iter().enumerate() {
-                    let mut b = bitsw;
-                    while b != 0 {
-                        let j = w * 64 + b.trailing_zeros() as usize;
-                        insert(&mut tight[j], i);
-                        b &= b - 1;
-                    }
-                }
-            }
-            for p in 0..rays.len() {
-                if vals[p] <= TOL {
-                    continue;
-                }
-                for q in 0..rays.len() {
-                    if vals[q] >= -TOL {
-                        continue;
-                    }
-                    let (zp, zq) = (&rays[p].zero, &rays[q].zero);
-                    let mut count = 0u32;
-                    for w in 0..words {
-                        common[w] = zp[w] & zq[w];
-                        count += common[w].count_ones();
-                    }
-                    if (count as usize) + 2 < d {
-                        continue;
-                    }
-                    // adjacent iff no other ray is tight on every row of `common`
-                    acc.clear();
-                    acc.resize(rwords, u64::MAX);
-                    if rays.len() % 64 != 0 {
-                        acc[rwords - 1] = (1u64 << (rays.len() % 64)) - 1;
-                    }
-                    let mut adjacent = rays.len() <= 2;
-                    'rows: for (w, &cw) in common.iter().enumerate() {
-                        let mut b = cw;
-                        while b != 0 {
-                            let j = w * 64 + b.trailing_zeros() as usize;
-                            b &= b - 1;
-                            let mut left = 0u32;
-                            for (x, t) in acc.iter_mut().zip(&tight[j]) {
-                                *x &= *t;
-                                left += x.count_ones();
-                            }
-                            if left <= 2 {
-                                adjacent = true; // only p and q remain
-                                break 'rows;
-                            }
-                        }
-                    }
-                    if !adjacent {
-                        continue;
-                    }
-                    let (vp, vq) = (vals[p], vals[q]);
-                    let mut z: Vec<f64> = (0..d)
-                        .map(|i| vp * rays[q].z[i] - vq * rays[p].z[i])
-                        .collect();
-                    if normalize(&mut z) <= f64::MIN_POSITIVE {
-                        continue;
-                    }
-                    let mut zero = common.clone();
-                    insert(&mut zero, k);
-                    next.push(Ray { z, zero });
-                    if next.len() > MAX_RAYS {
-                        return Err(Enum::TooComplex);
-                    }
-                }
-            }
-        }
-        rays = next;
     }
+}
 
+/// One double-description step: the rays of the cone cut by row k (the
+/// rays on its nonnegative side, plus one new ray for each adjacent pair
+/// on opposite sides).
+fn add_row(
+    rays: &[Ray],
+    h: &[Vec<f64>],
+    k: usize,
+    d: usize,
+    work: &mut Workspace,
+) -> Result<Vec<Ray>, Enum> {
+    let hk = &h[k];
+    work.vals.clear();
+    work.vals.extend(rays.iter().map(|r| dot(hk, &r.z)));
+    let vals = &work.vals;
+    let mut next: Vec<Ray> = Vec::with_capacity(rays.len());
+    for (i, r) in rays.iter().enumerate() {
+        if vals[i] >= -TOL {
+            let mut r = r.clone();
+            if vals[i] <= TOL {
+                insert(&mut r.zero, k);
+            }
+            next.push(r);
+        }
+    }
+    let has_pos = vals.iter().any(|v| *v > TOL);
+    let has_neg = vals.iter().any(|v| *v < -TOL);
+    if !(has_pos && has_neg) {
+        return Ok(next);
+    }
+    index_tight_rows(rays, &mut work.tight);
+    for p in 0..rays.len() {
+        if work.vals[p] <= TOL {
+            continue;
+        }
+        for q in 0..rays.len() {
+            if work.vals[q] >= -TOL || !adjacent(rays, p, q, d, work) {
+                continue;
+            }
+            let (vp, vq) = (work.vals[p], work.vals[q]);
+            let mut z: Vec<f64> = (0..d)
+                .map(|i| vp * rays[q].z[i] - vq * rays[p].z[i])
+                .collect();
+            if normalize(&mut z) <= f64::MIN_POSITIVE {
+                continue;
+            }
+            let mut zero = work.common.clone();
+            insert(&mut zero, k);
+            next.push(Ray { z, zero });
+            if next.len() > MAX_RAYS {
+                return Err(Enum::TooComplex);
+            }
+        }
+    }
+    Ok(next)
+}
+
+/// The inverted index of the rays' zero sets: tight[j] = the rays tight on
+/// row j.
+fn index_tight_rows(rays: &[Ray], tight: &mut [Vec<u64>]) {
+    let rwords = rays.len().div_ceil(64);
+    for t in tight.iter_mut() {
+        t.clear();
+        t.resize(rwords, 0);
+    }
+    for (i, r) in rays.iter().enumerate() {
+        for (w, &bitsw) in r.zero.iter().enumerate() {
+            let mut b = bitsw;
+            while b != 0 {
+                let j = w * 64 + b.trailing_zeros() as usize;
+                insert(&mut tight[j], i);
+                b &= b - 1;
+            }
+        }
+    }
+}
+
+/// The combinatorial adjacency test of rays p and q: they share at least
+/// d − 2 tight rows, and no other ray is tight on all of them. Leaves the
+/// shared rows in `work.common`.
+fn adjacent(rays: &[Ray], p: usize, q: usize, d: usize, work: &mut Workspace) -> bool {
+    let (zp, zq) = (&rays[p].zero, &rays[q].zero);
+    let mut count = 0u32;
+    for (w, c) in work.common.iter_mut().enumerate() {
+        *c = zp[w] & zq[w];
+        count += c.count_ones();
+    }
+    if (count as usize) + 2 < d {
+        return false;
+    }
+    let rwords = rays.len().div_ceil(64);
+    work.acc.clear();
+    work.acc.resize(rwords, u64::MAX);
+    if rays.len() % 64 != 0 {
+        work.acc[rwords - 1] = (1u64 << (rays.len() % 64)) - 1;
+    }
+    if rays.len() <= 2 {
+        return true;
+    }
+    for (w, &cw) in work.common.iter().enumerate() {
+        let mut b = cw;
+        while b != 0 {
+            let j = w * 64 + b.trailing_zeros() as usize;
+            b &= b - 1;
+            let mut left = 0u32;
+            for (x, t) in work.acc.iter_mut().zip(&work.tight[j]) {
+                *x &= *t;
+                left += x.count_ones();
+            }
+            if left <= 2 {
+                return true; // only p and q remain
+            }
+        }
+    }
+    false
+}
+
+/// The vertices x = z_x / t of the final rays (repeats removed), or a
+/// direction of unboundedness if a ray has t = 0 (told apart from a vertex
+/// that is merely very far out).
+fn rays_to_vertices(rays: &[Ray], a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>, Enum> {
     let mut vertices: Vec<DVector<f64>> = Vec::new();
-    for r in &rays {
+    for r in rays {
         let t = r.z[n];
         let mut x = r.z[..n].to_vec();
         if t <= 1e-10 {
             normalize(&mut x);
-            return Err(Enum::Unbounded(DVector::from_vec(x)));
+            // a true direction of unboundedness has a_kᵀd ≤ 0 on every row
+            if a.iter()
+                .all(|ak| dot(ak.as_slice(), &x) <= 1e-7 * ak.norm())
+            {
+                return Err(Enum::Unbounded(DVector::from_vec(x)));
+            }
+            return Err(Enum::Degenerate(
+                "a vertex lies more than 1e10 times farther out than the scale of the data \
+                 (the region is nearly unbounded, or the origin nearly on its boundary)"
+                    .into(),
+            ));
         }
         let v = DVector::from_vec(x) / t;
         if !vertices

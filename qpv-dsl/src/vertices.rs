@@ -1,5 +1,5 @@
 //! The polytopic model: matrices at the corners of the parameter box and the
-//! multilinear weights μ_l(θ) (spec §3).
+//! multilinear weights μ_l(θ).
 
 use crate::model::{DesignRequest, Param, Split, StateBound};
 use crate::region::Region;

@@ -7,6 +7,12 @@
 //! The examples are mutated mostly with their comments stripped (shorter
 //! inputs, and mutations then hit the language rather than prose); one seed
 //! keeps its comments. `QPV_FUZZ_INPUTS=<n>` runs more inputs.
+//!
+//! A second property test writes random `region vertices` and `region
+//! halfspaces` statements whose coordinates range over 1e-320..1e300 (each
+//! coordinate with its own scale): each must parse into a verified polytope
+//! (finite, every vertex inside every facet, at least n + 1 of each, the
+//! input points inside) or fail with an error positioned on the region.
 
 use qpv_dsl::{diagnostic::line_col, parse};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -23,6 +29,10 @@ const SEEDS: &[&str] = &[
        state_bound Q = [4, 0; 0, 4]; design { alpha = max; } }",
     "model v { state a, b, c; output y; region vertices [1,0,0; 0,1,0; 0,0,1; -1,-1,-1];
        der a = -a + b*c; der b = -b; der c = -c + a^2; out y = a + b*b; }",
+    "model s { state p, q; output y; A = [-1, 0; 0, -2]; C = [1, 0];
+       region halfspaces [1e-9, 0; -1e-9, 0; 0, 1e6; 0, -1e6; 1e-9, 1e6]; }",
+    "model t { state p, q; output y; A = [-1, 0; 0, -2]; C = [1, 0];
+       region vertices [1e-12, 0; -1e-12, 0; 0, 1e12; 0, -1e12]; }",
 ];
 
 const VOCAB: &[&str] = &[
@@ -104,6 +114,14 @@ const VOCAB: &[&str] = &[
     "[1, 2; 3, 4]",
     "box(0)",
     "box(-1)",
+    "1e-12",
+    "1e9",
+    "1e300",
+    "1e-300",
+    "1e-320",
+    "1e308*(1+th1)",
+    "region halfspaces [1e-9, 0; -1e-9, 0; 0, 1e9; 0, -1e9];",
+    "region vertices [1e12, 0; 0, 1e-12; -1e12, -1e-12];",
 ];
 
 struct Rng(u64);
@@ -358,4 +376,131 @@ fn seeds_parse() {
     for s in seeds() {
         parse(&s).unwrap_or_else(|e| panic!("{e}\n{s}"));
     }
+}
+
+/// A random region statement in `n` dimensions: rows with small integer
+/// mantissas and one decimal scale per coordinate, sometimes extreme.
+fn region_statement(rng: &mut Rng, n: usize) -> (String, bool) {
+    let halfspaces = rng.below(2) == 0;
+    let scales: Vec<i32> = (0..n)
+        .map(|_| match rng.below(6) {
+            0 => rng.below(40) as i32 - 320, // subnormal to tiny
+            1 => 260 + rng.below(49) as i32, // huge
+            _ => rng.below(25) as i32 - 12,  // 1e-12 .. 1e12
+        })
+        .collect();
+    let count = n + 1 + rng.below(2 * n + 4);
+    let mut rows: Vec<String> = (0..count)
+        .map(|_| {
+            (0..n)
+                .map(|j| format!("{}e{}", rng.below(19) as i64 - 9, scales[j]))
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+        .collect();
+    if rng.below(4) != 0 {
+        // usually close the region around the origin
+        for (j, k) in scales.iter().enumerate() {
+            for s in [1, -1] {
+                let row: Vec<String> = (0..n)
+                    .map(|i| {
+                        if i == j {
+                            format!("{s}e{k}")
+                        } else {
+                            "0".into()
+                        }
+                    })
+                    .collect();
+                rows.push(row.join(", "));
+            }
+        }
+    }
+    let kw = if halfspaces { "halfspaces" } else { "vertices" };
+    (format!("region {kw} [{}];", rows.join("; ")), halfspaces)
+}
+
+/// Checks one parsed region (in the scaled, scale-free sense): finite,
+/// at least n + 1 vertices and facets, every vertex inside every facet.
+fn verify_region(r: &qpv_dsl::Region, n: usize) -> Option<String> {
+    if r.vertices.len() <= n || r.facets.len() <= n {
+        return Some(format!(
+            "{} vertices and {} facets in {n} dimensions",
+            r.vertices.len(),
+            r.facets.len()
+        ));
+    }
+    for v in r.vertices.iter().chain(&r.facets) {
+        if v.iter().any(|x| !x.is_finite()) {
+            return Some(format!("non-finite entry in {v}"));
+        }
+    }
+    for a in &r.facets {
+        for v in &r.vertices {
+            let terms: f64 = a.iter().zip(v.iter()).map(|(p, q)| (p * q).abs()).sum();
+            if a.dot(v) > 1.0 + 1e-7 * (1.0 + terms) {
+                return Some(format!("vertex {v} outside facet {a}"));
+            }
+        }
+    }
+    None
+}
+
+#[test]
+fn region_statements_at_extreme_scales() {
+    let mut rng = Rng(0x0E5C_A1E5_0F00_0001);
+    let mut failures: Vec<(String, String)> = Vec::new();
+    let mut converted = 0;
+    for _ in 0..3000 {
+        let n = 1 + rng.below(4);
+        let (region, _) = region_statement(&mut rng, n);
+        let states: Vec<String> = (1..=n).map(|i| format!("x{i}")).collect();
+        let a: Vec<String> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| if i == j { "-1" } else { "0" })
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            })
+            .collect();
+        let c: Vec<&str> = (0..n).map(|j| if j == 0 { "1" } else { "0" }).collect();
+        let src = format!(
+            "model r {{ state {}; output y; A = [{}]; C = [{}];\n  {region}\n}}",
+            states.join(", "),
+            a.join("; "),
+            c.join(", ")
+        );
+        if let Some(problem) = check(&src) {
+            failures.push((problem, src));
+            continue;
+        }
+        match parse(&src) {
+            Ok(models) => {
+                converted += 1;
+                if let Some(problem) = verify_region(&models[0].region, n) {
+                    failures.push((problem, src));
+                }
+            }
+            Err(e) => {
+                // errors about the region point into the region statement
+                if e.line != 2 && !e.message.contains("overflows") {
+                    failures.push((format!("error off the region: {}", e.message), src));
+                }
+            }
+        }
+        if failures.len() >= 5 {
+            break;
+        }
+    }
+    eprintln!("{converted} of 3000 extreme-scale regions converted, the rest refused");
+    assert!(converted > 300, "only {converted} regions converted");
+    assert!(
+        failures.is_empty(),
+        "{} failing inputs, e.g.:\n{}",
+        failures.len(),
+        failures
+            .iter()
+            .take(3)
+            .map(|(p, s)| format!("--- {p}\n{s}\n"))
+            .collect::<String>()
+    );
 }

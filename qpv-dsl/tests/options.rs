@@ -1,4 +1,4 @@
-//! The design and state-bound options of issue 6: `state_bound auto`,
+//! The design and state-bound options: `state_bound auto`,
 //! `split = as_written | symmetric`, `conditions = full | decoupled`, their
 //! mode-dependent defaults, and `PolytopicModel::with_split` (same plant).
 

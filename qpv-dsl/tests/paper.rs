@@ -1,4 +1,4 @@
-//! The paper's example (spec §7) in matrix and equation form, and the
+//! The paper's example in matrix and equation form, and the
 //! exactness of the polytopic decomposition.
 
 use nalgebra::DMatrix;

@@ -1,0 +1,444 @@
+//! Design requests: the `design { ... }` blocks and the settings they
+//! choose (rate, region scaling, condition set, split, vertex conditions,
+//! output route).
+
+use super::build::{bad_value, pos, Builder, R};
+use crate::ast::{self, Expr, ExprKind, Item};
+use crate::diagnostic::{suggest, Diag, Span};
+use crate::poly::{fmt_num, quote};
+use serde::Serialize;
+
+/// Which set of LMI conditions a design uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    /// The sound conditions (S1)-(S5): the default, and the only mode that certifies.
+    #[default]
+    Sound,
+    /// The paper's printed conditions (13), (14), (26): reproduction only.
+    Paper,
+}
+
+/// The convergence rate requested by a design.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AlphaSpec {
+    /// A fixed decay rate α > 0.
+    Fixed(f64),
+    /// The largest certifiable α (bisection).
+    Max,
+}
+
+/// The region scaling γ requested by a design.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GammaSpec {
+    /// A fixed γ in (0, 1).
+    Fixed(f64),
+    /// Search γ over (0, min(1, γ_max)] maximising α.
+    Search,
+}
+
+/// How N_k (and M_k) are represented in the design LMIs.
+///
+/// Only the symmetric part of N_k moves the plant, but the matrix
+/// rows(N_k, e) in the conditions depends on the representation, so the
+/// choice changes what can be certified.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Split {
+    /// N_k and M_k exactly as written (the paper's representation; the
+    /// default in paper mode, which reproduces the printed conditions).
+    AsWritten,
+    /// N_k → (N_k + N_kᵀ)/2 and M_k → (M_k + M_kᵀ)/2: the same plant; the
+    /// default in sound mode (measured better on the paper example).
+    #[default]
+    Symmetric,
+    /// The symmetric split plus a skew-symmetric slack K_{k,l} = −K_{k,l}ᵀ
+    /// per θ-vertex, searched by alternating solves after the symmetric
+    /// design (N_k + K_k is still the same plant). Sound mode only; the
+    /// report carries K so the design can be re-checked.
+    SkewSlack,
+}
+
+impl Split {
+    /// The name used in the language, reports and the CLI.
+    pub fn name(self) -> &'static str {
+        match self {
+            Split::AsWritten => "as_written",
+            Split::Symmetric => "symmetric",
+            Split::SkewSlack => "skew_slack",
+        }
+    }
+}
+
+impl Split {
+    /// The default split of a condition set: [`Split::Symmetric`] in sound
+    /// mode, [`Split::AsWritten`] in paper mode.
+    pub fn default_for(mode: Mode) -> Split {
+        match mode {
+            Mode::Sound => Split::Symmetric,
+            Mode::Paper => Split::AsWritten,
+        }
+    }
+}
+
+/// Which family of vertex conditions (S5) is imposed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Conditions {
+    /// All p² vertex pairs (i, j) per θ-vertex.
+    #[default]
+    Full,
+    /// One slack Z_l per θ-vertex (per rate combination for the double sum):
+    /// 2p blocks per θ-vertex (sufficient for
+    /// the full family, which certification still re-checks).
+    Decoupled,
+}
+
+/// How the output map enters the design (see the output routes in docs/method.md).
+///
+/// With a constant C and M_k both routes are available and `double_sum` is
+/// exactly the paper's single sum over θ-vertices. With a θ-dependent
+/// C(θ), M_k(θ) the choice matters: the double sum keeps the observer's
+/// structure and adds vertex-pair blocks; the filter adds ny states.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum OutputRoute {
+    /// C(θ), M_k(θ) enter the rate conditions directly, with the gain
+    /// L(θ) = Σ_l μ_l L_l: Σ_l Σ_m μ_l μ_m Ξ_{lm} ≺ 0 is imposed by the
+    /// relaxation Ξ_ll ≺ 0, (2/(r−1)) Ξ_ll + Ξ_lm + Ξ_ml ≺ 0 (l ≠ m) of
+    /// Tuan et al. (2001). The default.
+    #[default]
+    DoubleSum,
+    /// Output post-filter x_y' = −a x_y + b y (per output), and the observer
+    /// of the augmented plant (x, x_y) measures ỹ = x_y: the output matrix
+    /// is constant and the θ-dependence moves into the state equation.
+    Filter(OutputFilter),
+}
+
+/// The output post-filter x_{y,k}' = −pole·x_{y,k} + gain·y_k of
+/// [`OutputRoute::Filter`] (A_y = −pole·I Hurwitz, B_y = gain·I diagonal).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct OutputFilter {
+    /// a > 0: the filter's pole is −a (rad/s).
+    pub pole: f64,
+    /// b ≠ 0: the filter's input gain (b = a gives unit DC gain).
+    pub gain: f64,
+}
+
+impl OutputFilter {
+    /// The pole used by `output_route = filter;` without options.
+    pub const DEFAULT_POLE: f64 = 50.0;
+}
+
+impl Default for OutputFilter {
+    fn default() -> Self {
+        OutputFilter {
+            pole: Self::DEFAULT_POLE,
+            gain: Self::DEFAULT_POLE,
+        }
+    }
+}
+
+/// One `design { ... }` request of a model.
+///
+/// Build one with `..Default::default()` so that new settings do not break
+/// construction sites: the default is `alpha = max; gamma = search;
+/// mode = sound; split = symmetric; conditions = full; output_route = double_sum;`.
+/// In paper mode set
+/// `split: Split::AsWritten` as well (see [`Split::default_for`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DesignRequest {
+    /// Requested decay rate.
+    pub alpha: AlphaSpec,
+    /// Requested region scaling.
+    pub gamma: GammaSpec,
+    /// Condition set.
+    pub mode: Mode,
+    /// Representation of N_k, M_k in the LMIs.
+    pub split: Split,
+    /// Full or decoupled vertex conditions.
+    pub conditions: Conditions,
+    /// How the output map enters the design (matters when C or M_k depend on θ).
+    pub output_route: OutputRoute,
+    /// The `design` block in the source, for errors about this request.
+    pub span: Span,
+}
+
+impl Default for DesignRequest {
+    fn default() -> Self {
+        DesignRequest {
+            alpha: AlphaSpec::Max,
+            gamma: GammaSpec::Search,
+            mode: Mode::Sound,
+            split: Split::default_for(Mode::Sound),
+            conditions: Conditions::Full,
+            output_route: OutputRoute::DoubleSum,
+            span: Span::default(),
+        }
+    }
+}
+
+/// The keys of a `design { ... }` block.
+const DESIGN_KEYS: [&str; 6] = [
+    "alpha",
+    "gamma",
+    "mode",
+    "split",
+    "conditions",
+    "output_route",
+];
+
+impl Builder<'_> {
+    /// Every `design { ... }` block, in source order.
+    pub(super) fn designs(&self) -> R<Vec<DesignRequest>> {
+        let mut out = Vec::new();
+        for item in &self.ast.items {
+            let Item::Design(block) = item else { continue };
+            out.push(self.design_block(block)?);
+        }
+        Ok(out)
+    }
+
+    /// One design block: each key at most once, then the split default of
+    /// its mode and the mode/split consistency.
+    fn design_block(&self, block: &ast::DesignBlock) -> R<DesignRequest> {
+        let mut req = DesignRequest {
+            span: block.span,
+            ..Default::default()
+        };
+        let mut split: Option<Split> = None;
+        let mut seen: Vec<(&str, Span)> = Vec::new();
+        for entry in &block.entries {
+            let key = entry.key.name.as_str();
+            if let Some((_, prev)) = seen.iter().find(|(k, _)| *k == key) {
+                return Err(Diag::new(
+                    entry.key.span,
+                    format!(
+                        "`{key}` is set twice in this design block (first at {})",
+                        pos(self.src, *prev)
+                    ),
+                ));
+            }
+            if let (Some((_, ospan)), false) = (&entry.options, key == "output_route") {
+                return Err(Diag::new(
+                    *ospan,
+                    format!(
+                        "`{key}` takes no options in parentheses (only `output_route = \
+                         filter(...)` does)"
+                    ),
+                ));
+            }
+            match key {
+                "alpha" => req.alpha = self.alpha_value(&entry.value)?,
+                "gamma" => req.gamma = self.gamma_value(&entry.value)?,
+                "mode" => req.mode = self.mode_value(&entry.value)?,
+                "split" => split = Some(self.split_value(&entry.value)?),
+                "conditions" => req.conditions = self.conditions_value(&entry.value)?,
+                "output_route" => req.output_route = self.output_route_value(entry)?,
+                _ => {
+                    let hint = suggest(key, DESIGN_KEYS)
+                        .map(|s| format!(" (did you mean `{s}`?)"))
+                        .unwrap_or_default();
+                    return Err(Diag::new(
+                        entry.key.span,
+                        format!(
+                            "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
+                             `split`, `conditions` or `output_route`{hint}"
+                        ),
+                    ));
+                }
+            }
+            seen.push((key, entry.key.span));
+        }
+        req.split = split.unwrap_or(Split::default_for(req.mode));
+        if req.split == Split::SkewSlack && req.mode == Mode::Paper {
+            let (_, at) = seen
+                .iter()
+                .find(|(k, _)| *k == "split")
+                .copied()
+                .unwrap_or(("", block.span));
+            return Err(Diag::new(
+                at,
+                "`split = skew_slack` needs `mode = sound`: the paper's printed conditions \
+                 are reproduced as written, with no slack",
+            ));
+        }
+        Ok(req)
+    }
+
+    /// The source text of a value, for "found `...`" in messages.
+    fn found(&self, v: &Expr) -> String {
+        quote(self.src, v.span).replace('`', "")
+    }
+
+    /// `alpha = max` or a positive constant.
+    fn alpha_value(&self, v: &Expr) -> R<AlphaSpec> {
+        const WANT: &str = "a positive number or `max`";
+        match word(v) {
+            Some("max") => Ok(AlphaSpec::Max),
+            Some(w) => Err(bad_value(v.span, "alpha", WANT, w)),
+            None => {
+                let a = self.constant(v, "the design value of alpha")?;
+                if a <= 0.0 {
+                    return Err(bad_value(v.span, "alpha", WANT, &fmt_num(a)));
+                }
+                Ok(AlphaSpec::Fixed(a))
+            }
+        }
+    }
+
+    /// `gamma = search` or a constant strictly between 0 and 1.
+    fn gamma_value(&self, v: &Expr) -> R<GammaSpec> {
+        const WANT: &str = "a number strictly between 0 and 1 or `search`";
+        match word(v) {
+            Some("search") => Ok(GammaSpec::Search),
+            Some(w) => Err(bad_value(v.span, "gamma", WANT, w)),
+            None => {
+                let g = self.constant(v, "the design value of gamma")?;
+                if !(g > 0.0 && g < 1.0) {
+                    return Err(bad_value(v.span, "gamma", WANT, &fmt_num(g)));
+                }
+                Ok(GammaSpec::Fixed(g))
+            }
+        }
+    }
+
+    /// `mode = sound | paper`.
+    fn mode_value(&self, v: &Expr) -> R<Mode> {
+        match word(v) {
+            Some("sound") => Ok(Mode::Sound),
+            Some("paper") => Ok(Mode::Paper),
+            _ => Err(bad_value(
+                v.span,
+                "mode",
+                "`sound` or `paper`",
+                &self.found(v),
+            )),
+        }
+    }
+
+    /// `split = as_written | symmetric | skew_slack`.
+    fn split_value(&self, v: &Expr) -> R<Split> {
+        match word(v) {
+            Some("as_written") => Ok(Split::AsWritten),
+            Some("symmetric") => Ok(Split::Symmetric),
+            Some("skew_slack") => Ok(Split::SkewSlack),
+            _ => Err(bad_value(
+                v.span,
+                "split",
+                "`as_written`, `symmetric` or `skew_slack`",
+                &self.found(v),
+            )),
+        }
+    }
+
+    /// `conditions = full | decoupled`.
+    fn conditions_value(&self, v: &Expr) -> R<Conditions> {
+        match word(v) {
+            Some("full") => Ok(Conditions::Full),
+            Some("decoupled") => Ok(Conditions::Decoupled),
+            _ => Err(bad_value(
+                v.span,
+                "conditions",
+                "`full` or `decoupled`",
+                &self.found(v),
+            )),
+        }
+    }
+
+    /// `output_route = double_sum | filter | filter(pole = .., gain = ..)`.
+    fn output_route_value(&self, entry: &ast::DesignEntry) -> R<OutputRoute> {
+        let v = &entry.value;
+        match word(v) {
+            Some("double_sum") => {
+                if let Some((_, ospan)) = &entry.options {
+                    return Err(Diag::new(
+                        *ospan,
+                        "`double_sum` takes no options (only `filter(pole = .., \
+                             gain = ..)` does)",
+                    ));
+                }
+                Ok(OutputRoute::DoubleSum)
+            }
+            Some("filter") => Ok(OutputRoute::Filter(
+                self.filter_options(
+                    entry
+                        .options
+                        .as_ref()
+                        .map(|(o, _)| o.as_slice())
+                        .unwrap_or(&[]),
+                )?,
+            )),
+            _ => Err(bad_value(
+                v.span,
+                "output_route",
+                "`double_sum` or `filter` (optionally `filter(pole = .., gain = ..)`)",
+                &self.found(v),
+            )),
+        }
+    }
+
+    /// `filter(pole = .., gain = ..)`: both optional; gain defaults to pole
+    /// (unit DC gain), pole to [`OutputFilter::DEFAULT_POLE`].
+    fn filter_options(&self, options: &[ast::DesignEntry]) -> R<OutputFilter> {
+        let mut pole = None;
+        let mut gain = None;
+        for entry in options {
+            let key = entry.key.name.as_str();
+            let slot = match key {
+                "pole" => &mut pole,
+                "gain" => &mut gain,
+                _ => {
+                    let hint = suggest(key, ["pole", "gain"])
+                        .map(|s| format!(" (did you mean `{s}`?)"))
+                        .unwrap_or_default();
+                    return Err(Diag::new(
+                        entry.key.span,
+                        format!(
+                            "unknown filter option `{key}`: expected `pole` (a > 0, the filter is \
+                             x_y' = -a x_y + b y) or `gain` (b ≠ 0){hint}"
+                        ),
+                    ));
+                }
+            };
+            if let Some((_, prev)) = slot {
+                return Err(Diag::new(
+                    entry.key.span,
+                    format!("`{key}` is set twice (first at {})", pos(self.src, *prev)),
+                ));
+            }
+            let v = &entry.value;
+            let value = self.constant(v, &format!("the filter option {key}"))?;
+            let ok = value.is_finite()
+                && if key == "pole" {
+                    value > 0.0
+                } else {
+                    value != 0.0
+                };
+            if !ok {
+                let want = if key == "pole" {
+                    "a positive number (the filter pole is -pole)"
+                } else {
+                    "a nonzero number"
+                };
+                return Err(bad_value(v.span, key, want, &fmt_num(value)));
+            }
+            *slot = Some((value, entry.key.span));
+        }
+        let pole = pole.map(|p| p.0).unwrap_or(OutputFilter::DEFAULT_POLE);
+        Ok(OutputFilter {
+            pole,
+            gain: gain.map(|g| g.0).unwrap_or(pole),
+        })
+    }
+}
+
+/// The bare word of a value (`max`, `paper`), if it is one.
+fn word(v: &Expr) -> Option<&str> {
+    match &v.kind {
+        ExprKind::Name(n) => Some(n.as_str()),
+        _ => None,
+    }
+}

@@ -1,0 +1,153 @@
+//! AST → validated [`Model`], one pipeline step per module: the names and
+//! dimensions a model declares (`names`), its matrices from matrix literals
+//! or equations (`matrices`), the convergence region (`region`), the state
+//! bound (`state_bound`), the design requests (`design`) and the checks
+//! that need the whole model (`validate`). The builder (`build`) runs them
+//! in that order.
+
+mod build;
+mod design;
+mod matrices;
+mod names;
+mod region;
+mod state_bound;
+mod validate;
+
+pub(crate) use build::build;
+pub use design::{
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, OutputFilter, OutputRoute, Split,
+};
+pub use names::{Param, MAX_DIM, MAX_PARAMS};
+pub use state_bound::StateBound;
+pub use validate::{MAX_COEFFICIENT, MAX_SCHEDULING};
+
+use crate::diagnostic::{Span, Warning};
+use crate::expr::PolyMatrix;
+use crate::poly::bits;
+use crate::region::Region;
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+/// One validated `model` block with symbolic θ-dependent matrices.
+///
+/// Matrices are over the declared parameters (bit i of a term mask = i-th
+/// entry of `params`). `n` has one nx × nx matrix per state and `m` one per
+/// output; row k of N(θ,x)x is xᵀ N_k(θ) x, with N_k as written (no
+/// symmetrisation).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Model {
+    /// The model's name.
+    pub name: String,
+    /// Where the model block starts (its name).
+    pub span: Span,
+    /// State names x_1..x_nx.
+    pub states: Vec<String>,
+    /// Input names u_1..u_nu (may be empty).
+    pub inputs: Vec<String>,
+    /// Output names y_1..y_ny.
+    pub outputs: Vec<String>,
+    /// Declared parameters in declaration order.
+    pub params: Vec<Param>,
+    /// A(θ), nx × nx.
+    pub a: PolyMatrix,
+    /// N_k(θ), nx matrices of nx × nx.
+    pub n: Vec<PolyMatrix>,
+    /// B(θ), nx × nu.
+    pub b: PolyMatrix,
+    /// C(θ), ny × nx.
+    pub c: PolyMatrix,
+    /// M_k(θ), ny matrices of nx × nx.
+    pub m: Vec<PolyMatrix>,
+    /// The convergence region P, in both representations.
+    pub region: Region,
+    /// The state bound F.
+    pub state_bound: StateBound,
+    /// Design requests in source order.
+    pub designs: Vec<DesignRequest>,
+    /// Non-fatal remarks found while building the model.
+    pub warnings: Vec<Warning>,
+}
+
+impl Model {
+    /// Number of states.
+    pub fn nx(&self) -> usize {
+        self.states.len()
+    }
+    /// Number of inputs.
+    pub fn nu(&self) -> usize {
+        self.inputs.len()
+    }
+    /// Number of outputs.
+    pub fn ny(&self) -> usize {
+        self.outputs.len()
+    }
+    /// Number of declared parameters.
+    pub fn ntheta(&self) -> usize {
+        self.params.len()
+    }
+}
+
+impl Model {
+    /// A(θ) at a full parameter vector (one entry per declared parameter).
+    pub fn eval_a(&self, theta: &[f64]) -> DMatrix<f64> {
+        self.a.eval(theta)
+    }
+    /// N_k(θ), k = 1..nx.
+    pub fn eval_n(&self, theta: &[f64]) -> Vec<DMatrix<f64>> {
+        self.n.iter().map(|m| m.eval(theta)).collect()
+    }
+    /// B(θ).
+    pub fn eval_b(&self, theta: &[f64]) -> DMatrix<f64> {
+        self.b.eval(theta)
+    }
+    /// C(θ).
+    pub fn eval_c(&self, theta: &[f64]) -> DMatrix<f64> {
+        self.c.eval(theta)
+    }
+    /// M_k(θ), k = 1..ny.
+    pub fn eval_m(&self, theta: &[f64]) -> Vec<DMatrix<f64>> {
+        self.m.iter().map(|m| m.eval(theta)).collect()
+    }
+    /// The right-hand side f(x, u, θ) = A(θ)x + N(θ,x)x + B(θ)u.
+    pub fn rhs(&self, x: &DVector<f64>, u: &DVector<f64>, theta: &[f64]) -> DVector<f64> {
+        let mut f = self.eval_a(theta) * x;
+        if self.nu() > 0 {
+            f += self.eval_b(theta) * u;
+        }
+        for (k, nk) in self.eval_n(theta).iter().enumerate() {
+            f[k] += (x.transpose() * nk * x)[(0, 0)];
+        }
+        f
+    }
+    /// The output h(x, θ) = C(θ) x + M(θ, x)x.
+    pub fn output(&self, x: &DVector<f64>, theta: &[f64]) -> DVector<f64> {
+        let mut y = self.eval_c(theta) * x;
+        for (k, mk) in self.eval_m(theta).iter().enumerate() {
+            y[k] += (x.transpose() * mk * x)[(0, 0)];
+        }
+        y
+    }
+    /// Indices of the parameters that appear in A, N_k, B, C or M_k (those
+    /// that generate vertices), in declaration order.
+    pub fn scheduling(&self) -> Vec<usize> {
+        bits(self.param_mask()).collect()
+    }
+
+    /// Bit mask of the parameters that appear in some matrix.
+    fn param_mask(&self) -> u64 {
+        self.a.param_mask()
+            | self.b.param_mask()
+            | self.c.param_mask()
+            | self
+                .n
+                .iter()
+                .chain(&self.m)
+                .fold(0, |m, p| m | p.param_mask())
+    }
+
+    /// Whether C or some M_k depends on θ (such a model is
+    /// designed by the double-sum relaxation or an output post-filter).
+    pub fn output_varies(&self) -> bool {
+        self.c.param_mask() != 0 || self.m.iter().any(|p| p.param_mask() != 0)
+    }
+}

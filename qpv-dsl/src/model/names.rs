@@ -1,0 +1,149 @@
+//! Declarations: the states, inputs, outputs and parameters of a model, in
+//! one namespace, with their limits.
+
+use super::build::{kind_word, pos, Builder, R};
+use super::validate::MAX_COEFFICIENT;
+use crate::ast::{self, Item};
+use crate::diagnostic::{Diag, Span};
+use crate::poly::{fmt_num, NameRef};
+use serde::Serialize;
+
+/// A bounded scheduling parameter `param NAME in [lo, hi];`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Param {
+    /// The parameter's name as declared.
+    pub name: String,
+    /// Lower bound of θ_i.
+    pub lo: f64,
+    /// Upper bound of θ_i (strictly greater than `lo`).
+    pub hi: f64,
+    /// Where it was declared.
+    pub span: Span,
+}
+
+/// Most states, inputs or outputs of a model.
+pub const MAX_DIM: usize = 64;
+/// Most declared parameters of a model (θ masks are 64-bit).
+pub const MAX_PARAMS: usize = 63;
+
+impl Builder<'_> {
+    pub(super) fn declare(&mut self) -> R<()> {
+        for item in &self.ast.items {
+            let (list, kind): (&[ast::Ident], u8) = match item {
+                Item::States(l) => (l, 0),
+                Item::Inputs(l) => (l, 1),
+                Item::Outputs(l) => (l, 2),
+                Item::Params(p) => (&p.names, 3),
+                _ => continue,
+            };
+            for id in list {
+                if let Some(prev) = self.names.lookup.get(&id.name) {
+                    let at = self.decl_spans[&id.name];
+                    return Err(Diag::new(
+                        id.span,
+                        format!(
+                            "`{}` is already declared as {} at {}: every name in a model must be unique",
+                            id.name,
+                            kind_word(*prev),
+                            pos(self.src, at)
+                        ),
+                    ));
+                }
+                let (vec, limit, what) = match kind {
+                    0 => (&mut self.names.states, MAX_DIM, "states"),
+                    1 => (&mut self.names.inputs, MAX_DIM, "inputs"),
+                    2 => (&mut self.names.outputs, MAX_DIM, "outputs"),
+                    _ => (&mut self.names.params, MAX_PARAMS, "parameters"),
+                };
+                if vec.len() >= limit {
+                    return Err(Diag::new(
+                        id.span,
+                        format!("too many {what}: at most {limit} are supported"),
+                    ));
+                }
+                let r = match kind {
+                    0 => NameRef::State(vec.len()),
+                    1 => NameRef::Input(vec.len()),
+                    2 => NameRef::Output(vec.len()),
+                    _ => NameRef::Param(vec.len()),
+                };
+                vec.push(id.name.clone());
+                self.names.lookup.insert(id.name.clone(), r);
+                self.decl_spans.insert(id.name.clone(), id.span);
+            }
+        }
+        let name = &self.ast.name;
+        if self.names.states.is_empty() {
+            return Err(Diag::new(
+                name.span,
+                format!(
+                    "model `{}` declares no states: add `state x1, x2, ...;`",
+                    name.name
+                ),
+            ));
+        }
+        if self.names.outputs.is_empty() {
+            return Err(Diag::new(
+                name.span,
+                format!(
+                    "model `{}` declares no outputs: an observer needs measurements, add `output y1, ...;`",
+                    name.name
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    pub(super) fn params(&mut self) -> R<Vec<Param>> {
+        let mut out = Vec::new();
+        for item in &self.ast.items {
+            let Item::Params(p) = item else { continue };
+            let lo = self.constant(&p.lo, "a parameter bound")?;
+            let hi = self.constant(&p.hi, "a parameter bound")?;
+            if lo == hi {
+                return Err(Diag::new(
+                    p.interval,
+                    format!(
+                        "empty parameter range [{}, {}]: the upper bound must be greater than the lower \
+                         bound (a parameter with a fixed value is a constant: write the number instead)",
+                        fmt_num(lo),
+                        fmt_num(hi)
+                    ),
+                ));
+            }
+            if lo > hi {
+                return Err(Diag::new(
+                    p.interval,
+                    format!(
+                        "reversed parameter range [{}, {}]: the lower bound comes first, write [{}, {}]",
+                        fmt_num(lo),
+                        fmt_num(hi),
+                        fmt_num(hi),
+                        fmt_num(lo)
+                    ),
+                ));
+            }
+            if !(hi - lo).is_finite() || lo.abs().max(hi.abs()) > MAX_COEFFICIENT {
+                return Err(Diag::new(
+                    p.interval,
+                    format!(
+                        "parameter range [{}, {}] is too wide: bounds up to {MAX_COEFFICIENT:e} in \
+                         magnitude are supported (rescale the parameter)",
+                        fmt_num(lo),
+                        fmt_num(hi)
+                    ),
+                ));
+            }
+            for id in &p.names {
+                self.param_reach.push(lo.abs().max(hi.abs()));
+                out.push(Param {
+                    name: id.name.clone(),
+                    lo,
+                    hi,
+                    span: id.span,
+                });
+            }
+        }
+        Ok(out)
+    }
+}
