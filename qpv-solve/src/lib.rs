@@ -9,19 +9,30 @@
 //!   printed (13), (14), (26) — from P and L_l with nalgebra eigenvalues and
 //!   reports the worst margin per family (positive = satisfied) plus the
 //!   data checks (S4) and P ⊂ F; usable on externally supplied gains.
-//! * [`state_bound`]: `state_bound auto` — computes Q (an invariant
-//!   ellipsoid containing the region inside a box h·B, maximising γ_max of
-//!   (S4), h searched) and checks it independently; [`design`] resolves it
-//!   first and reports it in [`Design::state_bound`].
-//! * [`output_filter`]: the output routes for a θ-dependent C(θ), M_k(θ):
-//!   the double-sum relaxation, or the output post-filter augmentation
-//!   (spec §3, Remark 3) with its region and state-bound extension.
-//! * [`skew_slack`]: an experiment (issue 6 §2, optional) — alternating
-//!   solves over a skew-symmetric slack K_k (N_k + K_k is the same plant)
-//!   and what it buys (bench `skew_slack`).
-//! * [`sdp`]: the LMIs assembled directly into Clarabel's standard form
+//! * [`model`]: the observer's model: the state bound (given, or computed
+//!   for `state_bound auto` by [`state_bound`]), the output route ([`output_filter`]: double sum or output
+//!   post-filter), the split of N_k and M_k, and the skew slack
+//!   ([`skew_slack`]).
+//! * [`lmi`]: the LMIs assembled directly into Clarabel's standard form
 //!   (PSD triangle cones, no modelling layer); [`conditions`]: the condition
 //!   sets and the one place where the two modes differ.
+//!
+//! # Layers
+//!
+//! The crate reads as its pipeline. A module imports only from layers
+//! above it in this list (lib.rs, the facade, re-exports from all); the
+//! certificate never imports the assembly, so its independence is a
+//! structural fact:
+//!
+//! ```text
+//! 0 vocabulary   error, settings, vocab, backend (Clarabel), linalg/, fixtures
+//! 1 model/       validation, state bound, output route, split, skew → ObserverModel
+//! 2 conditions/  the condition families as data (sets, combinations, vertex terms)
+//! 3 lmi/ | certificate/   assembly into the SDP | independent re-check (side by side)
+//! 4 search/      α bisection, γ search, retry rules, skew alternation
+//! 5 report       Design, SearchStep, SolverInfo (serde), notes and summary
+//! 6 analysis/    simulate, falsify (one reference right-hand side)
+//! ```
 //!
 //! Conventions: N_k and M_k are used as represented in the model handed in
 //! (a request's `split` may symmetrise them first); row k of rows(T, v) is vᵀT_k. Strict inequalities are
@@ -50,18 +61,46 @@
 #[cfg(feature = "pure-lapack")]
 pub use qpv_lapack as lapack;
 
+// Shared vocabulary.
+pub mod backend;
+pub mod error;
+#[doc(hidden)]
+pub mod fixtures;
+pub mod linalg;
+pub mod settings;
+pub mod vocab;
+// Model preparation.
+pub mod model;
+// Condition families, their assembly into the SDP, and the certificate.
 pub mod certificate;
 pub mod conditions;
-pub mod falsify;
-pub mod output_filter;
+pub mod lmi;
+// Search, report, analysis.
+pub mod analysis;
 pub mod report;
-pub mod sdp;
 pub mod search;
-pub mod simulate;
-pub mod skew_slack;
-pub mod state_bound;
-pub mod svec;
 
+pub use analysis::{falsify, simulate};
 pub use certificate::{check, Certificate, FamilyMargin};
+pub use error::SolveError;
+pub use linalg::svec;
+pub use model::{output_filter, state_bound};
 pub use report::{DataCheck, Design, SearchStep, SolverInfo, Status};
-pub use search::{design, design_with_progress, request, Settings, SolveError};
+pub use search::{design, design_with_progress, request};
+pub use settings::Settings;
+
+/// The skew-symmetric slack of `split = skew_slack` (the alternation, its
+/// fixed-P step and the model transformation), under its former path.
+pub mod skew_slack {
+    pub use crate::lmi::skew::{max_alpha_fixed_p, FixedP};
+    pub use crate::model::skew::with_skew;
+    pub use crate::search::skew::{search, Round, SkewResult};
+}
+
+/// The LMI assembly under its former path (see [`lmi`] and [`backend`]).
+#[doc(hidden)]
+pub mod sdp {
+    pub use crate::backend::{clarabel_settings, ensure_lapack, interpret};
+    pub use crate::linalg::svec::svec_len as tri;
+    pub use crate::lmi::*;
+}

@@ -8,55 +8,24 @@
 //! `certify_seconds`}, `seconds_total`, `search` (every step tried),
 //! `notes`, a human `summary` and `state_bound` {`source`, `Q`, `h`,
 //! `h_fixed`, `gamma_max`, `split`, `check`, `solves`, `seconds`, `notes`}
-//! (see [`crate::state_bound::StateBoundInfo`]) and `output_route` {`route`
+//! (see [`crate::model::state_bound::StateBoundInfo`]) and `output_route` {`route`
 //! ("double_sum" | "filter"), `output_varies`, `filter` {`pole`, `gain`,
 //! `bound`} or null, `states`, `combinations`} (see
-//! [`crate::output_filter::OutputRouteInfo`]; for the filter route `P` is
+//! [`crate::model::output_filter::OutputRouteInfo`]; for the filter route `P` is
 //! (nx+ny)² and each `L` has nx + ny rows). Matrices are plain `Vec<Vec<f64>>` rows;
 //! serde_json writes the shortest round-tripping decimal of every `f64`, so
 //! a reloaded design certifies exactly as the written one.
 
 use nalgebra::DMatrix;
 use qpv_dsl::{Conditions, Mode, PolytopicModel, Split};
+
+pub use crate::backend::Status;
+pub use crate::certificate::DataCheck;
+pub use crate::linalg::{matrix_to_rows, rows_to_matrix};
+#[doc(hidden)]
+pub use crate::vocab::{conditions_serde, mode_serde, split_serde};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-
-/// The outcome of one call to the SDP solver, as this crate interprets it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Status {
-    /// Clarabel reported `Solved`: a numerical point was returned. It is only
-    /// *accepted* if the independent certificate passes as well.
-    Solved,
-    /// Clarabel returned a (full-accuracy) certificate of primal
-    /// infeasibility: the LMIs with their margins have no solution.
-    Infeasible,
-    /// Anything else (AlmostSolved, AlmostPrimalInfeasible,
-    /// InsufficientProgress, MaxIterations, MaxTime, NumericalError, …):
-    /// neither a solution nor a proof of infeasibility. Never counted as
-    /// feasible, never counted as infeasible; listed in the report.
-    Unknown,
-    /// No solve was run (e.g. a search that stopped before any step).
-    NotRun,
-}
-
-impl Status {
-    /// Short lowercase name ("solved", "infeasible", "unknown", "not run").
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            Status::Solved => "solved",
-            Status::Infeasible => "infeasible",
-            Status::Unknown => "unknown",
-            Status::NotRun => "not run",
-        }
-    }
-}
-
-impl std::fmt::Display for Status {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
 
 /// Solver statistics of the solve that produced the reported point.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -113,24 +82,6 @@ pub struct SearchStep {
     pub solver_seconds: f64,
     /// What this step was for: "fixed", "bisect", "grid", "refine", "final".
     pub phase: String,
-}
-
-/// A check on the data alone (no decision variable), e.g. (S4).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DataCheck {
-    /// The checked quantity's worst value, e.g. max_k γ² a_kᵀ Q a_k for "S4".
-    pub value: f64,
-    /// The bound it must respect (1 for both S4 and region_in_F).
-    pub bound: f64,
-    /// bound − value: positive = satisfied.
-    pub margin: f64,
-    /// Whether the check holds (margin ≥ 0).
-    pub passed: bool,
-    /// Whether the design's claim depends on it (S4 in sound mode). A
-    /// failed required check makes the design infeasible.
-    pub required: bool,
-    /// What is checked, in words.
-    pub description: String,
 }
 
 /// A finished design: the certified observer (or why there is none).
@@ -194,19 +145,19 @@ pub struct Design {
     pub summary: String,
     /// The state bound the design used: its source ("given", "auto" or
     /// "none"), Q, and for a computed bound h, γ_max and its check
-    /// ([`crate::state_bound`]). Absent in reports written before it existed.
+    /// ([`crate::model::state_bound`]). Absent in reports written before it existed.
     #[serde(default)]
-    pub state_bound: Option<crate::state_bound::StateBoundInfo>,
+    pub state_bound: Option<crate::model::state_bound::StateBoundInfo>,
     /// The output route ("double_sum" or "filter" with its pole, gain and
     /// filter-state bound) and the observer's state names: for the filter
     /// route P is (nx+ny)² and each L_l has nx+ny rows (plant states, then
     /// filter states). Absent in reports written before it existed (read as
     /// double sum).
     #[serde(default)]
-    pub output_route: Option<crate::output_filter::OutputRouteInfo>,
+    pub output_route: Option<crate::model::output_filter::OutputRouteInfo>,
     /// `split = skew_slack`: the skew-symmetric slack K_{k,l} added to the
     /// symmetric N_{k,l} (per θ-vertex l, then per k = 1..n, rows), which
-    /// P and L_l were certified with ([`crate::skew_slack`]); n is the
+    /// P and L_l were certified with ([`crate::search::skew`]); n is the
     /// observer's state count. Absent otherwise (and when the slack gained
     /// nothing).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -256,11 +207,11 @@ impl Design {
             m.state_bound = qpv_dsl::StateBound::Given(q);
         }
         if let qpv_dsl::OutputRoute::Filter(f) = self.route() {
-            m = crate::output_filter::augment(&m, &f)?;
+            m = crate::model::output_filter::augment(&m, &f)?;
         }
         let m = m.with_split(self.split);
         Ok(match &self.skew {
-            Some(k) => crate::skew_slack::with_skew(&m, &skew_matrices(k)),
+            Some(k) => crate::model::skew::with_skew(&m, &skew_matrices(k)),
             None => m,
         })
     }
@@ -306,99 +257,9 @@ impl Design {
     }
 }
 
-/// A matrix as a list of rows.
-pub fn matrix_to_rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
-    (0..m.nrows())
-        .map(|i| (0..m.ncols()).map(|j| m[(i, j)]).collect())
-        .collect()
-}
-
-/// A list of rows as a matrix (rows must have equal length; 0 × 0 if empty).
-pub fn rows_to_matrix(rows: &[Vec<f64>]) -> DMatrix<f64> {
-    let r = rows.len();
-    let c = rows.first().map_or(0, |x| x.len());
-    DMatrix::from_fn(r, c, |i, j| rows[i].get(j).copied().unwrap_or(f64::NAN))
-}
-
 /// The `skew` key of a report (per θ-vertex, per k, rows) as matrices.
 pub fn skew_matrices(k: &[Vec<Vec<Vec<f64>>>]) -> Vec<Vec<DMatrix<f64>>> {
     k.iter()
         .map(|kl| kl.iter().map(|kk| rows_to_matrix(kk)).collect())
         .collect()
-}
-
-/// (De)serialises [`Split`] as "as_written" / "symmetric" / "skew_slack".
-pub mod split_serde {
-    use qpv_dsl::Split;
-    use serde::{Deserialize, Deserializer, Serializer};
-
-    /// Writes the split's name ([`Split::name`]).
-    pub fn serialize<S: Serializer>(m: &Split, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(m.name())
-    }
-
-    /// Reads "as_written", "symmetric" or "skew_slack".
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Split, D::Error> {
-        let s = String::deserialize(d)?;
-        [Split::AsWritten, Split::Symmetric, Split::SkewSlack]
-            .into_iter()
-            .find(|v| v.name() == s)
-            .ok_or_else(|| {
-                serde::de::Error::custom(format!(
-                    "unknown split {s:?}, expected \"as_written\", \"symmetric\" or \"skew_slack\""
-                ))
-            })
-    }
-}
-
-/// (De)serialises [`Conditions`] as "full" / "decoupled".
-pub mod conditions_serde {
-    use qpv_dsl::Conditions;
-    use serde::{Deserialize, Deserializer, Serializer};
-
-    /// Writes "full" or "decoupled".
-    pub fn serialize<S: Serializer>(c: &Conditions, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(match c {
-            Conditions::Full => "full",
-            Conditions::Decoupled => "decoupled",
-        })
-    }
-
-    /// Reads "full" or "decoupled".
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Conditions, D::Error> {
-        let s = String::deserialize(d)?;
-        match s.as_str() {
-            "full" => Ok(Conditions::Full),
-            "decoupled" => Ok(Conditions::Decoupled),
-            other => Err(serde::de::Error::custom(format!(
-                "unknown conditions {other:?}, expected \"full\" or \"decoupled\""
-            ))),
-        }
-    }
-}
-
-/// (De)serialises [`Mode`] as "sound" / "paper".
-pub mod mode_serde {
-    use qpv_dsl::Mode;
-    use serde::{Deserialize, Deserializer, Serializer};
-
-    /// Writes "sound" or "paper".
-    pub fn serialize<S: Serializer>(m: &Mode, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(match m {
-            Mode::Sound => "sound",
-            Mode::Paper => "paper",
-        })
-    }
-
-    /// Reads "sound" or "paper".
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Mode, D::Error> {
-        let s = String::deserialize(d)?;
-        match s.as_str() {
-            "sound" => Ok(Mode::Sound),
-            "paper" => Ok(Mode::Paper),
-            other => Err(serde::de::Error::custom(format!(
-                "unknown mode {other:?}, expected \"sound\" or \"paper\""
-            ))),
-        }
-    }
 }

@@ -1,6 +1,6 @@
-//! The output routes of a design (issue 6 §4): how a θ-dependent output map
+//! The output routes of a design: how a θ-dependent output map
 //! C(θ), M_k(θ) is handled, and the augmentation of the plant by an output
-//! post-filter (spec §3, Remark 3).
+//! post-filter (Remark 3 of the method, docs/method.md).
 //!
 //! * **Double sum** (`output_route = double_sum`, the default): the model is
 //!   designed as it is; with a θ-dependent output map the rate family is the
@@ -36,8 +36,8 @@
 //! norm at a vertex). The augmented Q is blockdiag(Q, diag(h_k²)); only its
 //! plant block enters a condition.
 
-use crate::conditions::is_double_sum;
-use crate::search::SolveError;
+use crate::error::SolveError;
+use crate::model::{is_double_sum, validate};
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{OutputFilter, OutputRoute, PolytopicModel, Region, StateBound, Vertex};
 use serde::{Deserialize, Serialize};
@@ -141,7 +141,7 @@ pub fn filter_bound(model: &PolytopicModel, q: &DMatrix<f64>, f: &OutputFilter) 
 /// `state_bound auto` first); a model without one stays without one.
 pub fn augment(model: &PolytopicModel, f: &OutputFilter) -> Result<PolytopicModel, SolveError> {
     check_filter(f)?;
-    crate::conditions::validate(model)?;
+    validate(model)?;
     let (nx, ny) = (model.nx(), model.ny());
     let nz = nx + ny;
     let (a, b) = (f.pole, f.gain);
@@ -277,7 +277,7 @@ fn combinations(model: &PolytopicModel) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::conditions::reference::paper_model;
+    use crate::fixtures::paper_model;
 
     fn varying() -> PolytopicModel {
         let mut m = paper_model();
@@ -335,7 +335,7 @@ mod tests {
     }
 
     fn paper_model_q() -> DMatrix<f64> {
-        crate::conditions::reference::paper_q()
+        crate::fixtures::paper_q()
     }
 
     #[test]

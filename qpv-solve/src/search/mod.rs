@@ -29,7 +29,7 @@
 //!
 //! Rate conditions: `conditions = full` solves all N p² blocks (S5)/(26);
 //! `conditions = decoupled` solves N·2p blocks with one slack Z_l per
-//! θ-vertex ([`crate::sdp`] documents the split), which imply the full
+//! θ-vertex ([`crate::lmi`] documents the split), which imply the full
 //! family. Either way every point is certified on the full family, and the
 //! capacity lift is the full family's, so the search itself is unchanged.
 //!
@@ -42,127 +42,23 @@
 //! once more with the default objective; if that point does not certify,
 //! the search's certified point at the same (α, γ) is reported instead.
 
-use crate::certificate::{alpha_capacity, check, data_checks, Certificate};
-use crate::conditions::{gamma_max, ConditionSet};
-use crate::report::{matrix_to_rows, DataCheck, Design, SearchStep, SolverInfo, Status};
-use crate::sdp::{Objective, Problem};
+pub mod skew;
+
+use crate::backend::Status;
+use crate::certificate::{alpha_capacity, check, data_checks, Certificate, DataCheck};
+use crate::conditions::ConditionSet;
+use crate::error::SolveError;
+use crate::linalg::matrix_to_rows;
+use crate::lmi::{Objective, Problem};
+use crate::model::gamma_max;
+use crate::report::{Design, SearchStep, SolverInfo};
+use crate::settings::Settings;
 use nalgebra::DMatrix;
 use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound,
 };
 use std::collections::BTreeMap;
 use std::time::Instant;
-
-/// Numerical settings of a design. All fields have documented defaults
-/// ([`Settings::default`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Settings {
-    /// Relative margin ε_rel for the strict (and, for safety, the non-strict)
-    /// inequalities. The LMIs are solved in scaled variables P̂ = P/s,
-    /// Γ̂ = Γ/s (s = 1/ρ² in sound mode, ρ² in paper mode, ρ = largest
-    /// vertex norm of the region), where every condition is O(1); there
-    /// P̂ ⪰ ε_rel I, the region conditions hold with ε_rel to spare, and each
-    /// rate LMI (S5)/(26) is ⪯ −ε_rel κ I with κ the Frobenius size of its
-    /// data (γ(α + max‖A_l‖) + max‖nonlinear term‖). Default 1e-5.
-    pub margin_rel: f64,
-    /// Relative tolerance of the α bisection: stop when (hi − lo) ≤ tol · lo.
-    /// Default 1e-3.
-    pub bisection_rel_tol: f64,
-    /// Number of points of the coarse γ grid (γ_hi·k/n, k = 1..n). Default 6.
-    pub gamma_grid: usize,
-    /// Golden-section evaluations in γ after the grid. Default 4.
-    pub gamma_refine: usize,
-    /// Max-margin solves per γ when ranking γ values (the first grid point,
-    /// which has no seed, gets 6). Default 2.
-    pub gamma_steps: usize,
-    /// Largest α the bisection will try. Default 1e6.
-    pub alpha_cap: f64,
-    /// Smallest α tried when looking for any feasible α (α must be > 0). Default 1e-4.
-    pub alpha_floor: f64,
-    /// Weight of the default objective ½·w·Σ_l ‖Γ̂_l‖_F² (scaled Γ̂), which
-    /// keeps the gains moderate; 0 turns the final solve into a pure
-    /// feasibility problem. Default 1.0.
-    pub gain_weight: f64,
-    /// Clarabel: maximum interior-point iterations. Default 200.
-    pub max_iter: u32,
-    /// Clarabel: time limit per solve, seconds (∞ = none). Default ∞.
-    pub time_limit: f64,
-    /// Clarabel: absolute / relative duality-gap tolerance. Default 1e-8 / 1e-8.
-    pub tol_gap_abs: f64,
-    /// See `tol_gap_abs`.
-    pub tol_gap_rel: f64,
-    /// Clarabel: feasibility tolerance. Default 1e-8.
-    pub tol_feas: f64,
-    /// Clarabel: infeasibility-certificate tolerances (abs / rel). Default 1e-8 / 1e-8.
-    pub tol_infeas_abs: f64,
-    /// See `tol_infeas_abs`.
-    pub tol_infeas_rel: f64,
-    /// Clarabel gap/feasibility tolerance of the α/γ search's max-margin
-    /// solves (never tighter than the tolerances above). Their points are
-    /// certified independently, so they need no more accuracy. Default 1e-5.
-    pub search_tol: f64,
-    /// Print Clarabel's iteration log. Default false.
-    pub verbose: bool,
-}
-
-impl Default for Settings {
-    fn default() -> Self {
-        Settings {
-            margin_rel: 1e-5,
-            bisection_rel_tol: 1e-3,
-            gamma_grid: 6,
-            gamma_refine: 4,
-            gamma_steps: 2,
-            alpha_cap: 1e6,
-            alpha_floor: 1e-4,
-            gain_weight: 1.0,
-            max_iter: 200,
-            time_limit: f64::INFINITY,
-            tol_gap_abs: 1e-8,
-            tol_gap_rel: 1e-8,
-            tol_feas: 1e-8,
-            tol_infeas_abs: 1e-8,
-            tol_infeas_rel: 1e-8,
-            search_tol: 1e-5,
-            verbose: false,
-        }
-    }
-}
-
-/// Why a design could not even be attempted.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum SolveError {
-    /// Sound mode needs the state bound F (Q) for (S4) and for the γ range.
-    #[error("model `{0}` has no state_bound Q: sound mode needs it for (S4) and the γ range")]
-    MissingStateBound(String),
-    /// The convergence region has no vertices or no facets.
-    #[error("the convergence region is empty (it needs vertices and facets)")]
-    EmptyRegion,
-    /// The model has no parameter vertex.
-    #[error("the polytopic model has no vertices")]
-    NoVertices,
-    /// A fixed γ outside (0, 1).
-    #[error("γ = {0} is not in (0, 1)")]
-    BadGamma(f64),
-    /// A fixed α that is not a positive finite number.
-    #[error("α = {0} is not a positive finite number")]
-    BadAlpha(f64),
-    /// (S4) leaves no admissible γ: γ_max = 1/max_k sqrt(a_kᵀQa_k) is not positive/finite.
-    #[error("no admissible γ: γ_max from (S4) is {0}")]
-    NoGammaRange(f64),
-    /// Inconsistent dimensions in the model data.
-    #[error("inconsistent model data: {0}")]
-    Dimensions(String),
-    /// A requested option that this version does not implement.
-    #[error("not implemented: {0}")]
-    Unsupported(String),
-    /// `state_bound auto` found no usable state bound (or cannot be applied).
-    #[error("state_bound auto: {0}")]
-    StateBound(String),
-    /// Clarabel refused the problem data (a bug here, reported as an error).
-    #[error("solver setup failed: {0}")]
-    Setup(String),
-}
 
 /// A design request with the given α, γ and mode (every other setting at
 /// its default, no source span): the one place that builds the struct, for
@@ -686,7 +582,7 @@ impl Ctx<'_, '_> {
 const SKEW_ROUNDS: usize = 8;
 
 /// `split = skew_slack`: the symmetric design, then the skew-slack
-/// alternation from it at its γ ([`crate::skew_slack::search`]); the report
+/// alternation from it at its γ ([`skew::search`]); the report
 /// carries K (`Design::skew`), and is re-checked through
 /// [`Design::recheck`] before it is returned.
 fn design_skew(
@@ -715,7 +611,7 @@ fn design_skew(
         );
         return Ok(d);
     }
-    let r = crate::skew_slack::search(model, &d, SKEW_ROUNDS, settings, request.conditions)?;
+    let r = skew::search(model, &d, SKEW_ROUNDS, settings, request.conditions)?;
     let mut out = r.design.clone();
     if r.alpha_best() > d.alpha {
         out.skew = Some(
@@ -777,15 +673,16 @@ pub fn design_with_progress(
     let t_start = Instant::now();
     let mode = request.mode;
     let set = ConditionSet::from_mode(mode);
-    crate::conditions::validate(model)?;
+    crate::model::validate(model)?;
     // `state_bound auto`: compute Q first; the design then uses it as given.
-    let (resolved, bound_info) = crate::state_bound::resolve(model, settings)?;
+    let (resolved, bound_info) = crate::model::state_bound::resolve(model, settings)?;
     // The output route: the model itself (double sum) or its augmentation
-    // by the output post-filter (issue 6 §4).
-    let (routed, route_info) = crate::output_filter::apply(&resolved, &request.output_route)?;
+    // by the output post-filter.
+    let (routed, route_info) =
+        crate::model::output_filter::apply(&resolved, &request.output_route)?;
     let model: &PolytopicModel = &routed;
     // Solve and certify with the requested representation of N_k, M_k.
-    let split_model = crate::conditions::with_split(model, request.split);
+    let split_model = crate::model::with_split(model, request.split);
     let model: &PolytopicModel = &split_model;
     let has_q = matches!(model.state_bound, StateBound::Given(_));
     if set.requires_s4() && !has_q {
@@ -996,7 +893,7 @@ pub fn design_with_progress(
     if mode == Mode::Paper {
         notes.insert(
             0,
-            "REPRODUCTION MODE: the paper's printed conditions (13), (14), (26); they do not imply convergence (spec §6). This design certifies nothing.".to_string(),
+            "REPRODUCTION MODE: the paper's printed conditions (13), (14), (26); they do not imply convergence (docs/method.md). This design certifies nothing.".to_string(),
         );
         match &s4 {
             Some(d) if !d.passed => notes.push(format!(

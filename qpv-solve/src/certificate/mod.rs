@@ -18,12 +18,31 @@
 //! in sound mode, reported as the violated assumption (15) in paper mode)
 //! and "region_in_F" max_i x_(i)ᵀQ⁻¹x_(i) ≤ 1 (reported).
 
-use crate::conditions::{is_double_sum, rate_combos, rows, rows_he, Combo, ConditionSet};
-use crate::report::DataCheck;
+use crate::conditions::{rate_combos, Combo, ConditionSet};
+use crate::linalg::rows::{rows, rows_he};
+use crate::model::{is_double_sum, validate};
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{Mode, PolytopicModel, StateBound};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+
+/// A check on the data alone (no decision variable), e.g. (S4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DataCheck {
+    /// The checked quantity's worst value, e.g. max_k γ² a_kᵀ Q a_k for "S4".
+    pub value: f64,
+    /// The bound it must respect (1 for both S4 and region_in_F).
+    pub bound: f64,
+    /// bound − value: positive = satisfied.
+    pub margin: f64,
+    /// Whether the check holds (margin ≥ 0).
+    pub passed: bool,
+    /// Whether the design's claim depends on it (S4 in sound mode). A
+    /// failed required check makes the design infeasible.
+    pub required: bool,
+    /// What is checked, in words.
+    pub description: String,
+}
 
 /// The worst margin of one condition family.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -48,7 +67,7 @@ pub struct FamilyMargin {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Certificate {
     /// Mode checked ("sound" / "paper").
-    #[serde(with = "crate::report::mode_serde")]
+    #[serde(with = "crate::vocab::mode_serde")]
     pub mode: Mode,
     /// α checked.
     pub alpha: f64,
@@ -212,7 +231,7 @@ fn input_errors(
     let nx = model.nx();
     let ny = model.ny();
     let mut errs = Vec::new();
-    if let Err(e) = crate::conditions::validate(model) {
+    if let Err(e) = validate(model) {
         errs.push(format!("model: {e}"));
         return errs;
     }

@@ -1,7 +1,7 @@
 //! Monte-Carlo falsification of a certified claim on the true nonlinear error
 //! dynamics, independent of the LMIs.
 //!
-//! The claim of a sound design (spec §5) is: for every e in E = {e : eᵀPe ≤ 1},
+//! The claim of a sound design (docs/method.md) is: for every e in E = {e : eᵀPe ≤ 1},
 //! every x in F = {x : xᵀQ⁻¹x ≤ 1} and every θ in the box,
 //! V' + αV < 0 with V = eᵀPe and V' = 2eᵀPe', where
 //!
@@ -31,8 +31,8 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+use crate::analysis::simulate::{check_gains, check_model, Frozen, SimError};
 use crate::report::Design;
-use crate::simulate::{check_gains, check_model, Frozen, SimError};
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{PolytopicModel, StateBound};
 use serde::Serialize;

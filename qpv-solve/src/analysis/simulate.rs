@@ -1,4 +1,4 @@
-//! Simulation of the plant and the observer (spec §1-§2): the reference
+//! Simulation of the plant and the observer (docs/method.md): the reference
 //! right-hand sides, ready-made scenarios and a fixed-step RK4 integrator.
 //!
 //! The plant is
@@ -494,7 +494,7 @@ pub struct Scenario {
 }
 
 impl Scenario {
-    /// The paper's scenario (spec §7): θ1(t) = 0.5 + 0.5 sin(4πt),
+    /// The paper's scenario (docs/method.md): θ1(t) = 0.5 + 0.5 sin(4πt),
     /// θ2(t) = 0.5 + 0.5 cos(πt/5 + π/6), x(0) = (−0.02, −0.02, −0.02),
     /// x̂(0) = 0, u = 0, t_end = 2, dt = 1e-3.
     ///

@@ -10,7 +10,7 @@
 //! √2-scaled upper-triangle packing Clarabel's PSD triangle cone expects.
 //!
 //! Rows, in order (every condition carries a margin, see
-//! [`crate::search::Settings::margin_rel`]):
+//! [`crate::settings::Settings::margin_rel`]):
 //! 1. (S1) P̂ − ε I ⪰ 0                                   PSD(nx)
 //! 2. sound (S2): 1 − ε − x̂ᵢᵀ P̂ x̂ᵢ ≥ 0 (x̂ = x/ρ)          Nonnegative(p)
 //!    paper (13): [1 x̂ᵢᵀ; x̂ᵢ P̂] − ε I ⪰ 0                 p × PSD(nx+1)
@@ -40,11 +40,15 @@
 //! which changes no sign of any eigenvalue; (4) is the printed LMI divided
 //! by s > 0. The objective is ½ w Σ_l ‖Γ̂_l‖_F² (or 0 for pure feasibility).
 
-use crate::conditions::{rate_combos, region_radius, Combo, ConditionSet, PairTerms, RegionForm};
-use crate::report::Status;
-use crate::search::{Settings, SolveError};
+pub mod skew;
+
+use crate::backend::{clarabel_settings, ensure_lapack, interpret, Status};
+use crate::conditions::{rate_combos, Combo, ConditionSet, PairTerms, RegionForm};
+use crate::error::SolveError;
+use crate::model::{region_radius, validate};
+use crate::settings::Settings;
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+use clarabel::solver::{DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::Conditions;
 use qpv_dsl::PolytopicModel;
@@ -178,7 +182,7 @@ pub struct Problem<'m> {
 impl<'m> Problem<'m> {
     /// Precomputes everything that does not depend on (α, γ).
     pub fn new(model: &'m PolytopicModel, set: ConditionSet) -> Result<Self, SolveError> {
-        crate::conditions::validate(model)?;
+        validate(model)?;
         let nx = model.nx();
         let rho = region_radius(model);
         let terms = PairTerms::new(model);
@@ -865,41 +869,6 @@ impl<'m> Problem<'m> {
             margin,
         })
     }
-}
-
-/// Only a full-accuracy primal-infeasibility certificate counts as infeasible.
-pub fn interpret(s: SolverStatus) -> Status {
-    match s {
-        SolverStatus::Solved => Status::Solved,
-        SolverStatus::PrimalInfeasible => Status::Infeasible,
-        SolverStatus::Unsolved => Status::NotRun,
-        _ => Status::Unknown,
-    }
-}
-
-/// Clarabel settings from ours. Chordal decomposition is off: every rate
-/// block is dense, and splitting the sparse region blocks of box regions
-/// only adds cones (measured 10 % slower per iteration on the paper example).
-pub fn clarabel_settings(s: &Settings) -> DefaultSettings<f64> {
-    DefaultSettings {
-        chordal_decomposition_enable: false,
-        max_iter: s.max_iter,
-        time_limit: s.time_limit,
-        verbose: s.verbose,
-        tol_gap_abs: s.tol_gap_abs,
-        tol_gap_rel: s.tol_gap_rel,
-        tol_feas: s.tol_feas,
-        tol_infeas_abs: s.tol_infeas_abs,
-        tol_infeas_rel: s.tol_infeas_rel,
-        ..DefaultSettings::default()
-    }
-}
-
-/// Makes sure the BLAS/LAPACK symbols Clarabel's PSD cones call are linked.
-#[inline]
-pub fn ensure_lapack() {
-    #[cfg(feature = "pure-lapack")]
-    crate::lapack::ensure_linked();
 }
 
 #[cfg(test)]

@@ -1,5 +1,5 @@
 //! `state_bound auto;`: computing the state bound F = {x : xᵀQ⁻¹x ≤ 1}
-//! (issue 6 §1) instead of taking Q from elsewhere.
+//! instead of taking Q from elsewhere.
 //!
 //! With W = Q⁻¹, F is searched as an ellipsoid that
 //!
@@ -40,10 +40,12 @@
 //! re-checked by [`check`] with nalgebra eigenvalues in model units before
 //! it is used; an h whose solution does not pass counts as infeasible.
 
-use crate::conditions::{gamma_max, rows};
-use crate::report::{matrix_to_rows, Status};
-use crate::sdp::{clarabel_settings, ensure_lapack, interpret};
-use crate::search::{Settings, SolveError};
+use crate::backend::{clarabel_settings, ensure_lapack, interpret, Status};
+use crate::error::SolveError;
+use crate::linalg::matrix_to_rows;
+use crate::linalg::rows::rows;
+use crate::model::{gamma_max, gamma_max_for};
+use crate::settings::Settings;
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
 use nalgebra::{DMatrix, DVector};
@@ -205,7 +207,7 @@ pub fn box_shape(model: &PolytopicModel) -> Vec<f64> {
 }
 
 fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
-    crate::conditions::validate(model)?;
+    crate::model::validate(model)?;
     let nx = model.nx();
     if nx > MAX_STATES {
         return Err(SolveError::StateBound(format!(
@@ -409,7 +411,7 @@ pub fn solve_at(
                 .map(|q| (&q + q.transpose()) * 0.5);
             if let Some(q) = q {
                 found = Some(AutoBound {
-                    gamma_max: crate::conditions::gamma_max_for(model, &q),
+                    gamma_max: gamma_max_for(model, &q),
                     q,
                     w,
                     h,

@@ -1,0 +1,6 @@
+//! Analysis of a finished design: simulation of plant and observer, and
+//! sampling-based falsification of the claimed decay, both on the one
+//! reference right-hand side ([`simulate::Frozen`]).
+
+pub mod falsify;
+pub mod simulate;

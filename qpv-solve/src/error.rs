@@ -1,0 +1,36 @@
+//! Why a design (or a preparation of the observer's model) could not be attempted.
+
+/// Why a design could not even be attempted.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SolveError {
+    /// Sound mode needs the state bound F (Q) for (S4) and for the γ range.
+    #[error("model `{0}` has no state_bound Q: sound mode needs it for (S4) and the γ range")]
+    MissingStateBound(String),
+    /// The convergence region has no vertices or no facets.
+    #[error("the convergence region is empty (it needs vertices and facets)")]
+    EmptyRegion,
+    /// The model has no parameter vertex.
+    #[error("the polytopic model has no vertices")]
+    NoVertices,
+    /// A fixed γ outside (0, 1).
+    #[error("γ = {0} is not in (0, 1)")]
+    BadGamma(f64),
+    /// A fixed α that is not a positive finite number.
+    #[error("α = {0} is not a positive finite number")]
+    BadAlpha(f64),
+    /// (S4) leaves no admissible γ: γ_max = 1/max_k sqrt(a_kᵀQa_k) is not positive/finite.
+    #[error("no admissible γ: γ_max from (S4) is {0}")]
+    NoGammaRange(f64),
+    /// Inconsistent dimensions in the model data.
+    #[error("inconsistent model data: {0}")]
+    Dimensions(String),
+    /// A requested option that this version does not implement.
+    #[error("not implemented: {0}")]
+    Unsupported(String),
+    /// `state_bound auto` found no usable state bound (or cannot be applied).
+    #[error("state_bound auto: {0}")]
+    StateBound(String),
+    /// Clarabel refused the problem data (a bug here, reported as an error).
+    #[error("solver setup failed: {0}")]
+    Setup(String),
+}

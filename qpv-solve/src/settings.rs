@@ -1,0 +1,77 @@
+//! The numerical settings of a design, with documented defaults.
+
+/// Numerical settings of a design. All fields have documented defaults
+/// ([`Settings::default`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    /// Relative margin ε_rel for the strict (and, for safety, the non-strict)
+    /// inequalities. The LMIs are solved in scaled variables P̂ = P/s,
+    /// Γ̂ = Γ/s (s = 1/ρ² in sound mode, ρ² in paper mode, ρ = largest
+    /// vertex norm of the region), where every condition is O(1); there
+    /// P̂ ⪰ ε_rel I, the region conditions hold with ε_rel to spare, and each
+    /// rate LMI (S5)/(26) is ⪯ −ε_rel κ I with κ the Frobenius size of its
+    /// data (γ(α + max‖A_l‖) + max‖nonlinear term‖). Default 1e-5.
+    pub margin_rel: f64,
+    /// Relative tolerance of the α bisection: stop when (hi − lo) ≤ tol · lo.
+    /// Default 1e-3.
+    pub bisection_rel_tol: f64,
+    /// Number of points of the coarse γ grid (γ_hi·k/n, k = 1..n). Default 6.
+    pub gamma_grid: usize,
+    /// Golden-section evaluations in γ after the grid. Default 4.
+    pub gamma_refine: usize,
+    /// Max-margin solves per γ when ranking γ values (the first grid point,
+    /// which has no seed, gets 6). Default 2.
+    pub gamma_steps: usize,
+    /// Largest α the bisection will try. Default 1e6.
+    pub alpha_cap: f64,
+    /// Smallest α tried when looking for any feasible α (α must be > 0). Default 1e-4.
+    pub alpha_floor: f64,
+    /// Weight of the default objective ½·w·Σ_l ‖Γ̂_l‖_F² (scaled Γ̂), which
+    /// keeps the gains moderate; 0 turns the final solve into a pure
+    /// feasibility problem. Default 1.0.
+    pub gain_weight: f64,
+    /// Clarabel: maximum interior-point iterations. Default 200.
+    pub max_iter: u32,
+    /// Clarabel: time limit per solve, seconds (∞ = none). Default ∞.
+    pub time_limit: f64,
+    /// Clarabel: absolute / relative duality-gap tolerance. Default 1e-8 / 1e-8.
+    pub tol_gap_abs: f64,
+    /// See `tol_gap_abs`.
+    pub tol_gap_rel: f64,
+    /// Clarabel: feasibility tolerance. Default 1e-8.
+    pub tol_feas: f64,
+    /// Clarabel: infeasibility-certificate tolerances (abs / rel). Default 1e-8 / 1e-8.
+    pub tol_infeas_abs: f64,
+    /// See `tol_infeas_abs`.
+    pub tol_infeas_rel: f64,
+    /// Clarabel gap/feasibility tolerance of the α/γ search's max-margin
+    /// solves (never tighter than the tolerances above). Their points are
+    /// certified independently, so they need no more accuracy. Default 1e-5.
+    pub search_tol: f64,
+    /// Print Clarabel's iteration log. Default false.
+    pub verbose: bool,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            margin_rel: 1e-5,
+            bisection_rel_tol: 1e-3,
+            gamma_grid: 6,
+            gamma_refine: 4,
+            gamma_steps: 2,
+            alpha_cap: 1e6,
+            alpha_floor: 1e-4,
+            gain_weight: 1.0,
+            max_iter: 200,
+            time_limit: f64::INFINITY,
+            tol_gap_abs: 1e-8,
+            tol_gap_rel: 1e-8,
+            tol_feas: 1e-8,
+            tol_infeas_abs: 1e-8,
+            tol_infeas_rel: 1e-8,
+            search_tol: 1e-5,
+            verbose: false,
+        }
+    }
+}
