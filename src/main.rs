@@ -1,6 +1,8 @@
 //! The `qpv` command line: design, check, inspect and simulate QPV observers
-//! from model files. Exit codes: 0 success, 1 infeasible or not certified,
-//! 2 bad input.
+//! from model files. Exit codes: 0 success (for `check`: certified), 1 not
+//! certified, 2 bad input, 3 `check --mode paper` whose reproduction
+//! conditions hold (not a certificate); `qpv --help` and docs/cli.md say
+//! more.
 
 mod cli;
 

@@ -18,8 +18,10 @@ fn design_json(extra: &[&str]) -> (serde_json::Value, String) {
     let out = qpv(&args);
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
     assert_eq!(out.status.code(), Some(0), "{stderr}");
-    let json = serde_json::from_slice(&out.stdout).expect("JSON report on stdout");
-    (json, stderr)
+    let json: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("JSON report on stdout");
+    assert_eq!(json["designs"].as_array().map(Vec::len), Some(1));
+    (json["designs"][0].clone(), stderr)
 }
 
 #[test]
@@ -85,8 +87,9 @@ fn split_skew_slack_reports_the_slack_and_check_uses_it() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let v: serde_json::Value =
+    let doc: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let v = &doc["designs"][0];
     assert_eq!(v["split"], "skew_slack");
     assert_eq!(v["skew"].as_array().map(Vec::len), Some(4));
     assert!(v["alpha"].as_f64().unwrap() > 13.0);

@@ -77,7 +77,9 @@ fn the_example_certifies_by_both_routes() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let reports = j.as_array().expect("three design blocks: an array");
+    let reports = j["designs"]
+        .as_array()
+        .expect("three design blocks: an array");
     assert_eq!(reports.len(), 3);
     for d in reports {
         assert_eq!(d["certifies"], true, "{}", d["summary"]);
@@ -136,7 +138,8 @@ fn a_slow_filter_costs_gain() {
         ),
     ] {
         let file = example_with(name, &format!("design {{ {fixed} {route} }}"));
-        let (out, d) = design_json(file.to_str().unwrap());
+        let (out, doc) = design_json(file.to_str().unwrap());
+        let d = &doc["designs"][0];
         assert_eq!(
             out.status.code(),
             Some(0),
@@ -145,7 +148,7 @@ fn a_slow_filter_costs_gain() {
         );
         assert_eq!(d["certifies"], true);
         assert_eq!(d["output_route"]["route"], kind);
-        assert_shapes(&d, n);
+        assert_shapes(d, n);
         let max = d["gain_norms"]
             .as_array()
             .unwrap()
@@ -230,13 +233,18 @@ fn route_flags_override_and_check_recertifies_a_filter_design() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let d: serde_json::Value =
+    let doc: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(report).unwrap()).unwrap();
-    assert!(d.is_object(), "one request from the flags: one report");
+    assert_eq!(
+        doc["designs"].as_array().map(Vec::len),
+        Some(1),
+        "one request from the flags: one report"
+    );
+    let d = &doc["designs"][0];
     assert_eq!(d["certifies"], true);
     assert_eq!(d["output_route"]["route"], "filter");
     assert_eq!(d["output_route"]["filter"]["pole"].as_f64(), Some(20.0));
-    assert_shapes(&d, NX + NY);
+    assert_shapes(d, NX + NY);
     let check = qpv(&["check", EXAMPLE, "--gains", report]);
     assert_eq!(
         check.status.code(),
@@ -245,7 +253,7 @@ fn route_flags_override_and_check_recertifies_a_filter_design() {
         String::from_utf8_lossy(&check.stdout)
     );
 
-    let (out, d) = design_json_args(&[
+    let (out, doc) = design_json_args(&[
         "design",
         EXAMPLE,
         "--output-route",
@@ -258,8 +266,9 @@ fn route_flags_override_and_check_recertifies_a_filter_design() {
         "-",
     ]);
     assert_eq!(out.status.code(), Some(0));
+    let d = &doc["designs"][0];
     assert_eq!(d["output_route"]["route"], "double_sum");
-    assert_shapes(&d, NX);
+    assert_shapes(d, NX);
 
     for bad in [
         &["--output-route", "kalman"][..],

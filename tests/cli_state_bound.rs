@@ -26,7 +26,7 @@ fn paper_auto_design_reports_the_bound_and_check_uses_it() {
     );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
-    let d = if json.is_array() { &json[0] } else { &json };
+    let d = &json["designs"][0];
     let sb = &d["state_bound"];
     assert_eq!(sb["source"], "auto");
     assert_eq!(sb["Q"].as_array().map(Vec::len), Some(3));
@@ -65,4 +65,31 @@ fn paper_auto_design_reports_the_bound_and_check_uses_it() {
     ]);
     assert_eq!(err.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&err.stderr).contains("state_bound.Q"));
+}
+
+/// `state_bound auto` that finds no invariant ellipsoid (an unstable plant)
+/// is an outcome of the solver, not bad input: exit 1, and the JSON report
+/// lists the request among its `failures`.
+#[test]
+fn state_bound_auto_that_finds_nothing_exits_1() {
+    let model = common::tmp("auto", "unstable.qpv");
+    std::fs::write(
+        &model,
+        "model unstable {\n    state x1, x2;\n    output y1;\n    param th in [0, 1];\n    \
+         A = [ 1 + th, 0 ; 0, 1 ];\n    C = [ 1, 0 ];\n    region box(0.1);\n    \
+         state_bound auto;\n    design { alpha = 1; gamma = 0.5; }\n}\n",
+    )
+    .unwrap();
+    let out = qpv(&["design", model.to_str().unwrap(), "--json", "-"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("no invariant ellipsoid"), "{err}");
+    assert!(err.contains("NOT CERTIFIED"), "{err}");
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["designs"], serde_json::json!([]));
+    assert_eq!(json["failures"][0]["request"], 1);
+    assert!(json["failures"][0]["reason"]
+        .as_str()
+        .unwrap()
+        .contains("no invariant ellipsoid"));
 }

@@ -1,8 +1,15 @@
 //! `qpv check`: certify externally supplied P and L_l.
+//!
+//! Exit 0 means certified: sound mode, every condition family and every
+//! required data check holds. The mode comes from `--mode` or the gains
+//! file's `mode` key and is sound otherwise, never from the model's
+//! `design` blocks; a paper-mode check whose conditions hold exits 3
+//! (a reproduction, not a certificate).
 
-use super::design::{parse_mode, parse_split};
-use super::input::{emit_json, load_model, read_report, CliError};
-use qpv_dsl::{AlphaSpec, GammaSpec, Mode, OutputRoute, Split, StateBound};
+use super::design::parse_split;
+use super::input::{emit_json, exit, load_model, print_text, read_report, CliError};
+use super::schema::CheckOutput;
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Model, OutputRoute, PolytopicModel, Split, StateBound};
 use qpv_solve::output_filter::OutputRouteInfo;
 use qpv_solve::report::{rows_to_matrix, skew_matrices};
 use std::path::Path;
@@ -40,62 +47,122 @@ struct GainsBound {
     q: Option<Vec<Vec<f64>>>,
 }
 
+/// The flags of `qpv check` (each `None` when not given).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Flags<'a> {
+    /// `--mode`.
+    pub mode: Option<&'a str>,
+    /// `--alpha`.
+    pub alpha: Option<f64>,
+    /// `--gamma`.
+    pub gamma: Option<f64>,
+}
+
 fn rectangular(rows: &[Vec<f64>]) -> bool {
     rows.iter()
         .all(|r| r.len() == rows.first().map_or(0, Vec::len))
 }
 
-/// Runs `qpv check`.
-pub fn run(
-    file: &Path,
-    gains: &Path,
-    model_name: Option<&str>,
-    mode: Option<&str>,
-    alpha: Option<f64>,
-    gamma: Option<f64>,
-    json: Option<&str>,
-) -> Result<i32, CliError> {
-    let (_, model) = load_model(file, model_name)?;
-    let g: Gains = serde_json::from_value(read_report(gains)?)
-        .map_err(|e| CliError::Input(format!("{}: {e}", gains.display())))?;
+/// Reads the gains file (any report form [`read_report`] accepts).
+fn read_gains(path: &Path) -> Result<Gains, CliError> {
+    let g: Gains = serde_json::from_value(read_report(path)?)
+        .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
     if !rectangular(&g.p) || g.l.iter().any(|l| !rectangular(l)) {
         return Err(CliError::Input(format!(
             "{}: P and every L_l must have rows of equal length",
-            gains.display()
+            path.display()
         )));
     }
-    let first = model.designs.first();
-    let mode = match mode.or(g.mode.as_deref()) {
-        Some(m) => parse_mode(m)?,
-        None => first.map_or(Mode::Sound, |d| d.mode),
+    Ok(g)
+}
+
+/// The mode to check and where it came from: `--mode`, else the gains
+/// file's `mode`, else sound.
+fn choose_mode(
+    flag: Option<&str>,
+    g: &Gains,
+    path: &Path,
+) -> Result<(Mode, &'static str), CliError> {
+    let parse = |s: &str| match s {
+        "sound" => Some(Mode::Sound),
+        "paper" => Some(Mode::Paper),
+        _ => None,
     };
-    let alpha = alpha
-        .or(g.alpha)
-        .or(first.and_then(|d| match d.alpha {
-            AlphaSpec::Fixed(a) => Some(a),
-            AlphaSpec::Max => None,
-        }))
-        .ok_or_else(|| CliError::Input("no alpha to check: pass --alpha".into()))?;
-    let gamma = gamma
-        .or(g.gamma)
-        .or(first.and_then(|d| match d.gamma {
-            GammaSpec::Fixed(g) => Some(g),
-            GammaSpec::Search => None,
-        }))
-        .ok_or_else(|| CliError::Input("no gamma to check: pass --gamma".into()))?;
-    // The same plant either way; the conditions are checked in the
-    // representation the gains were designed with (default: the mode's).
-    let split = match g.split.as_deref() {
-        Some(name) => parse_split(name)
-            .map_err(|_| CliError::Input(format!("{}: unknown split {name:?}", gains.display())))?,
-        None => Split::default_for(mode),
-    };
+    if let Some(m) = flag {
+        return parse(m)
+            .map(|m| (m, "--mode"))
+            .ok_or_else(|| CliError::Input(format!("--mode {m:?}: expected `sound` or `paper`")));
+    }
+    match g.mode.as_deref() {
+        Some(m) => parse(m).map(|m| (m, "gains file")).ok_or_else(|| {
+            CliError::Input(format!(
+                "{}: the gains file's `mode` is {m:?}: expected \"sound\" or \"paper\"",
+                path.display()
+            ))
+        }),
+        None => Ok((Mode::Sound, "default")),
+    }
+}
+
+/// A value of α or γ to check and where it came from: the flag, else the
+/// gains file, else the first of the model's `design` blocks of the checked
+/// mode that fixes it. `valid` says whether a number is acceptable and
+/// `expected` what is.
+fn choose_value(
+    name: &str,
+    flag: Option<f64>,
+    from_gains: Option<f64>,
+    from_model: Option<(f64, usize)>,
+    path: &Path,
+    (valid, expected): (fn(f64) -> bool, &str),
+) -> Result<(f64, String), CliError> {
+    if let Some(v) = flag {
+        return if valid(v) {
+            Ok((v, format!("--{name}")))
+        } else {
+            Err(CliError::Input(format!(
+                "--{name} {v}: expected {expected}"
+            )))
+        };
+    }
+    if let Some(v) = from_gains {
+        return if valid(v) {
+            Ok((v, "gains file".into()))
+        } else {
+            Err(CliError::Input(format!(
+                "{}: the gains file's `{name}` is {v}: expected {expected}",
+                path.display()
+            )))
+        };
+    }
+    from_model
+        .map(|(v, block)| (v, format!("the model's design block {block}")))
+        .ok_or_else(|| CliError::Input(format!("no {name} to check: pass --{name}")))
+}
+
+fn positive(a: f64) -> bool {
+    a.is_finite() && a > 0.0
+}
+
+fn unit_interval(g: f64) -> bool {
+    g > 0.0 && g < 1.0
+}
+
+/// The model the gains belong to, built from the plant as the design
+/// built it: the split, the state bound (an auto Q from the gains file),
+/// the output route (the filter augmentation) and the skew slack.
+fn observer_model(
+    model: &Model,
+    split: Split,
+    g: &Gains,
+    gains: &Path,
+) -> Result<PolytopicModel, CliError> {
     let mut poly = model.polytopic().with_split(split);
     if let StateBound::Auto { .. } = poly.state_bound {
         // the Q the design computed; without it (S4) cannot be checked
-        match g.state_bound.and_then(|b| b.q) {
+        match g.state_bound.as_ref().and_then(|b| b.q.as_ref()) {
             Some(q) if q.len() == model.nx() && q.iter().all(|r| r.len() == model.nx()) => {
-                poly.state_bound = StateBound::Given(rows_to_matrix(&q));
+                poly.state_bound = StateBound::Given(rows_to_matrix(q));
             }
             _ => {
                 return Err(CliError::Input(format!(
@@ -137,15 +204,84 @@ pub fn run(
         poly = qpv_solve::skew_slack::with_skew(&poly, &k);
         eprintln!("skew-symmetric slack K_k (from the gains file) added to N_k: the same plant");
     }
+    Ok(poly)
+}
+
+/// The first of the model's `design` blocks in `mode` that fixes the value
+/// `pick` reads, with its 1-based number.
+fn from_blocks(
+    model: &Model,
+    mode: Mode,
+    pick: impl Fn(&qpv_dsl::DesignRequest) -> Option<f64>,
+) -> Option<(f64, usize)> {
+    model
+        .designs
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.mode == mode)
+        .find_map(|(i, d)| pick(d).map(|v| (v, i + 1)))
+}
+
+/// Runs `qpv check`.
+pub fn run(
+    file: &Path,
+    gains: &Path,
+    model_name: Option<&str>,
+    flags: Flags,
+    json: Option<&str>,
+) -> Result<i32, CliError> {
+    let (_, model) = load_model(file, model_name)?;
+    let g = read_gains(gains)?;
+    let (mode, mode_source) = choose_mode(flags.mode, &g, gains)?;
+    let (alpha, alpha_source) = choose_value(
+        "alpha",
+        flags.alpha,
+        g.alpha,
+        from_blocks(&model, mode, |d| match d.alpha {
+            AlphaSpec::Fixed(a) => Some(a),
+            AlphaSpec::Max => None,
+        }),
+        gains,
+        (positive, "a positive finite number"),
+    )?;
+    let (gamma, gamma_source) = choose_value(
+        "gamma",
+        flags.gamma,
+        g.gamma,
+        from_blocks(&model, mode, |d| match d.gamma {
+            GammaSpec::Fixed(g) => Some(g),
+            GammaSpec::Search => None,
+        }),
+        gains,
+        (unit_interval, "a number in (0, 1)"),
+    )?;
+    // The same plant either way; the conditions are checked in the
+    // representation the gains were designed with (default: the mode's).
+    let split = match g.split.as_deref() {
+        Some(name) => parse_split(name)
+            .map_err(|_| CliError::Input(format!("{}: unknown split {name:?}", gains.display())))?,
+        None => Split::default_for(mode),
+    };
+    let poly = observer_model(&model, split, &g, gains)?;
     let p = rows_to_matrix(&g.p);
     let l: Vec<_> = g.l.iter().map(|r| rows_to_matrix(r)).collect();
     let cert = qpv_solve::check(&poly, mode, alpha, gamma, &p, &l);
+    let code = match (cert.passed, mode) {
+        (true, Mode::Sound) => exit::CERTIFIED,
+        (true, Mode::Paper) => exit::REPRODUCTION,
+        (false, _) => exit::NOT_CERTIFIED,
+    };
     let mut s = format!(
-        "check of {} against {} mode at alpha = {alpha}, gamma = {gamma}:\n",
+        "check of {} against {} mode ({}) at alpha = {alpha} ({alpha_source}), gamma = {gamma} ({gamma_source}):\n",
         gains.display(),
         match mode {
             Mode::Sound => "sound",
             Mode::Paper => "paper (reproduction: certifies nothing)",
+        },
+        match mode_source {
+            "default" => "the default; --mode paper checks a reproduction",
+            "--mode" => "from --mode",
+            _ => "from the gains file's `mode`",
         }
     );
     for e in &cert.input_errors {
@@ -171,16 +307,18 @@ pub fn run(
             c.description
         ));
     }
-    s.push_str(if cert.passed {
-        "  => all conditions hold\n"
-    } else {
-        "  => NOT certified\n"
+    s.push_str(match code {
+        exit::CERTIFIED => "  => certified: all conditions hold (sound mode)\n",
+        exit::REPRODUCTION => {
+            "  => reproduction: the paper's printed conditions hold; this is not a certificate \
+             (exit code 3; check in sound mode to certify)\n"
+        }
+        _ => "  => NOT certified\n",
     });
-    if json == Some("-") {
-        eprint!("{s}");
-    } else {
-        print!("{s}");
-    }
-    emit_json(json, &cert)?;
-    Ok(if cert.passed { 0 } else { 1 })
+    print_text(json, &s);
+    emit_json(
+        json,
+        &CheckOutput::new(&model.name, gains, mode_source, split, &cert, code),
+    )?;
+    Ok(code)
 }

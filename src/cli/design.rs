@@ -1,6 +1,7 @@
 //! `qpv design`: parse, derive, solve, certify, and report.
 
-use super::input::{emit_json, fmt_matrix, load_model, CliError};
+use super::input::{emit_json, exit, fmt_matrix, load_model, print_text, CliError};
+use super::schema::{DesignOutput, NotRun};
 use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute, Split,
 };
@@ -123,16 +124,26 @@ pub struct Flags<'a> {
     pub filter_gain: Option<f64>,
 }
 
+/// A request of `qpv design`, or why it is not run: `skip` says so when an
+/// override of the flags does not apply to it.
+struct Planned {
+    request: DesignRequest,
+    skip: Option<String>,
+}
+
 /// The requests to run: without `--mode`, `--alpha`, `--gamma`, the model's
 /// own `design` blocks (or α = max, γ = search, sound if it has none); with
 /// any of them, one request built from the flags alone, the unspecified
-/// ones taking those same defaults. `--split` and `--conditions` then
-/// override that setting in every request.
-fn requests(model: &Model, f: Flags) -> Result<Vec<DesignRequest>, CliError> {
+/// ones taking those same defaults. `--split`, `--conditions` and the
+/// output-route flags then override that setting in every request they
+/// apply to; a request one does not apply to (`--split skew_slack` on a
+/// paper-mode request) is skipped, and it is an error if that leaves
+/// nothing to run.
+fn requests(model: &Model, f: Flags) -> Result<Vec<Planned>, CliError> {
     let split = f.split.map(parse_split).transpose()?;
     let conditions = f.conditions.map(parse_conditions).transpose()?;
     let default = DesignRequest::default();
-    let mut reqs = if f.mode.is_none() && f.alpha.is_none() && f.gamma.is_none() {
+    let reqs = if f.mode.is_none() && f.alpha.is_none() && f.gamma.is_none() {
         if model.designs.is_empty() {
             vec![default]
         } else {
@@ -153,18 +164,43 @@ fn requests(model: &Model, f: Flags) -> Result<Vec<DesignRequest>, CliError> {
         vec![r]
     };
     let route = parse_route(f.output_route, f.filter_pole, f.filter_gain)?;
-    for r in &mut reqs {
-        if let Some(s) = split {
-            r.split = s;
-        }
-        if let Some(c) = conditions {
-            r.conditions = c;
-        }
-        if let Some(o) = route {
-            r.output_route = o;
-        }
+    let plan: Vec<Planned> = reqs
+        .into_iter()
+        .map(|mut r| {
+            if split == Some(Split::SkewSlack) && r.mode != Mode::Sound {
+                let skip = Some(
+                    "--split skew_slack applies to sound-mode requests only (this one is paper mode)"
+                        .to_string(),
+                );
+                return Planned { request: r, skip };
+            }
+            if let Some(s) = split {
+                r.split = s;
+            }
+            if let Some(c) = conditions {
+                r.conditions = c;
+            }
+            if let Some(o) = route {
+                r.output_route = o;
+            }
+            Planned {
+                request: r,
+                skip: None,
+            }
+        })
+        .collect();
+    if plan.iter().all(|p| p.skip.is_some()) {
+        let reason = plan.iter().find_map(|p| p.skip.as_deref()).unwrap_or("");
+        return Err(CliError::Input(format!("nothing to run: {reason}")));
     }
-    Ok(reqs)
+    Ok(plan)
+}
+
+/// Whether a design error is an outcome of the solver rather than bad
+/// input: `state_bound auto` that found no invariant ellipsoid (exit 1,
+/// like any design that is not certified).
+fn is_outcome(e: &qpv_solve::SolveError) -> bool {
+    matches!(e, qpv_solve::SolveError::StateBound(m) if m.starts_with("no invariant ellipsoid"))
 }
 
 fn describe_request(r: &DesignRequest) -> String {
@@ -342,12 +378,29 @@ pub fn run(
     json: Option<&str>,
 ) -> Result<i32, CliError> {
     let (_, model) = load_model(file, model_name)?;
-    let reqs = requests(&model, flags)?;
+    let plan = requests(&model, flags)?;
     let poly = model.polytopic();
     let settings = qpv_solve::Settings::default();
-    let to_stdout = json == Some("-");
     let mut designs = Vec::new();
-    for r in &reqs {
+    let mut skipped = Vec::new();
+    let mut failures = Vec::new();
+    for (number, Planned { request: r, skip }) in (1..).zip(&plan) {
+        let not_run = |reason: String| NotRun {
+            request: number,
+            settings: describe_request(r),
+            reason,
+        };
+        if let Some(reason) = skip {
+            print_text(
+                json,
+                &format!(
+                    "skipping design request {number} ({}): {reason}\n",
+                    describe_request(r)
+                ),
+            );
+            skipped.push(not_run(reason.clone()));
+            continue;
+        }
         let bar = indicatif::ProgressBar::new_spinner();
         bar.set_style(
             indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
@@ -372,23 +425,33 @@ pub fn run(
             bar.tick();
         });
         bar.finish_and_clear();
-        let d = result.map_err(|e| CliError::Input(format!("{}: {e}", file.display())))?;
-        let text = describe_design(&d);
-        if to_stdout {
-            eprint!("{text}");
-        } else {
-            print!("{text}");
+        match result {
+            Ok(d) => {
+                print_text(json, &describe_design(&d));
+                designs.push(d);
+            }
+            Err(e) if is_outcome(&e) => {
+                print_text(
+                    json,
+                    &format!(
+                        "model {} (design request {number}): NOT CERTIFIED: {e}\n",
+                        model.name
+                    ),
+                );
+                failures.push(not_run(e.to_string()));
+            }
+            Err(e) => return Err(CliError::Input(format!("{}: {e}", file.display()))),
         }
-        designs.push(d);
     }
-    if designs.len() == 1 {
-        emit_json(json, &designs[0])?;
-    } else {
-        emit_json(json, &designs)?;
-    }
-    Ok(if designs.iter().all(|d| d.feasible) {
-        0
-    } else {
-        1
-    })
+    emit_json(
+        json,
+        &DesignOutput::new(&model.name, &designs, &skipped, &failures),
+    )?;
+    Ok(
+        if failures.is_empty() && designs.iter().all(|d| d.feasible) {
+            exit::CERTIFIED
+        } else {
+            exit::NOT_CERTIFIED
+        },
+    )
 }

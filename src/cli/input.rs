@@ -1,9 +1,33 @@
-//! Loading model files, choosing a model, writing JSON, and the CLI's error
-//! type with its exit codes.
+//! Reading input files with a size limit, choosing a model, writing JSON,
+//! and the CLI's error type with its exit codes.
 
-use nalgebra::DMatrix;
-use qpv_dsl::{Model, PolytopicModel};
+use qpv_dsl::Model;
+use std::io::Read;
 use std::path::Path;
+
+/// The process exit codes of every command (documented in `qpv --help` and
+/// docs/cli.md).
+pub mod exit {
+    /// Certified: sound mode, every condition family and required data check holds.
+    pub const CERTIFIED: i32 = 0;
+    /// Not certified: some condition fails, the solver found no certified
+    /// point, or a step the design needs (such as `state_bound auto`) found
+    /// nothing.
+    pub const NOT_CERTIFIED: i32 = 1;
+    /// Bad input: unreadable or oversized file, syntax or validation error,
+    /// bad flag value.
+    pub const BAD_INPUT: i32 = 2;
+    /// `qpv check --mode paper`: the paper's printed conditions hold. A
+    /// reproduction, not a certificate.
+    pub const REPRODUCTION: i32 = 3;
+}
+
+/// Largest model file read (bytes): models are a few kilobytes of text.
+pub const MODEL_LIMIT: u64 = 1 << 20;
+
+/// Largest JSON file read (bytes): a report of a large design (a few
+/// hundred vertices and its whole search log) stays far below it.
+pub const JSON_LIMIT: u64 = 64 << 20;
 
 /// Everything that can stop a command, each mapped to an exit code.
 #[derive(Debug, thiserror::Error)]
@@ -21,15 +45,49 @@ impl CliError {
     /// is not an error: the commands return exit code 1 for it themselves).
     pub fn exit_code(&self) -> i32 {
         match self {
-            CliError::Input(_) | CliError::Io(_) => 2,
+            CliError::Input(_) | CliError::Io(_) => exit::BAD_INPUT,
         }
     }
 }
 
+/// `bytes` in words (`1 MiB`, `64 MiB`, `512 bytes`).
+fn size_words(bytes: u64) -> String {
+    if bytes >= 1 << 20 && bytes % (1 << 20) == 0 {
+        format!("{} MiB", bytes >> 20)
+    } else {
+        format!("{bytes} bytes")
+    }
+}
+
+/// Reads the text file `path` (`what` names it in errors), refusing more
+/// than `limit` bytes. Reads at most `limit + 1` bytes whatever the file
+/// is, so a device such as /dev/zero or a pipe cannot exhaust memory.
+pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<String, CliError> {
+    let file = std::fs::File::open(path)
+        .map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
+    let mut bytes = Vec::new();
+    file.take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
+    if bytes.len() as u64 > limit {
+        return Err(CliError::Input(format!(
+            "{}: larger than {}, the limit for {what}",
+            path.display(),
+            size_words(limit)
+        )));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        CliError::Input(format!(
+            "{}: not UTF-8 text (invalid byte at offset {})",
+            path.display(),
+            e.utf8_error().valid_up_to()
+        ))
+    })
+}
+
 /// Reads `path` and parses it, returning the text and the chosen model.
 pub fn load_model(path: &Path, name: Option<&str>) -> Result<(String, Model), CliError> {
-    let src = std::fs::read_to_string(path)
-        .map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
+    let src = read_bounded(path, MODEL_LIMIT, "model files")?;
     let models =
         qpv_dsl::parse(&src).map_err(|e| CliError::Input(format!("{}:{e}", path.display())))?;
     let model = match name {
@@ -48,16 +106,41 @@ pub fn load_model(path: &Path, name: Option<&str>) -> Result<(String, Model), Cl
     Ok((src, model))
 }
 
+/// Reads and parses the JSON file `path` (at most [`JSON_LIMIT`] bytes).
+pub fn read_json(path: &Path) -> Result<serde_json::Value, CliError> {
+    let text = read_bounded(path, JSON_LIMIT, "JSON files")?;
+    serde_json::from_str(&text).map_err(|e| CliError::Input(format!("{}: {e}", path.display())))
+}
+
+/// Reads a design report or gains file and returns the one design in it
+/// to use (see [`super::schema::pick_design`]): a report of several
+/// designs gives its first certified one (else the first feasible one, else
+/// the first), and stderr says which.
+pub fn read_report(path: &Path) -> Result<serde_json::Value, CliError> {
+    super::schema::pick_design(read_json(path)?, path)
+}
+
 /// Writes `value` as pretty JSON to `target` (`-` = stdout); does nothing for `None`.
 pub fn emit_json<T: serde::Serialize>(target: Option<&str>, value: &T) -> Result<(), CliError> {
     let Some(target) = target else { return Ok(()) };
     let text = serde_json::to_string_pretty(value).map_err(|e| CliError::Io(e.to_string()))?;
     if target == "-" {
-        println!("{text}");
-        Ok(())
+        use std::io::Write;
+        writeln!(std::io::stdout().lock(), "{text}")
+            .map_err(|e| CliError::Io(format!("cannot write to stdout: {e}")))
     } else {
         std::fs::write(target, text + "\n")
             .map_err(|e| CliError::Io(format!("cannot write {target}: {e}")))
+    }
+}
+
+/// Prints the human-readable `text` where it does not mix with JSON: on
+/// stderr when the JSON goes to stdout (`--json -`), else on stdout.
+pub fn print_text(json: Option<&str>, text: &str) {
+    if json == Some("-") {
+        eprint!("{text}");
+    } else {
+        print!("{text}");
     }
 }
 
@@ -73,109 +156,4 @@ pub fn fmt_matrix(m: &nalgebra::DMatrix<f64>, indent: &str) -> String {
         s.push_str(" ]\n");
     }
     s
-}
-
-/// A human-readable listing of the polytopic model.
-pub fn describe_vertices(p: &PolytopicModel) -> String {
-    let mut s = format!(
-        "model {}: nx = {}, ny = {}, nu = {}, {} parameter(s), {} vertices\n",
-        p.name,
-        p.nx(),
-        p.ny(),
-        p.nu(),
-        p.ntheta(),
-        p.nv()
-    );
-    let sched: Vec<&str> = p
-        .scheduling
-        .iter()
-        .map(|&i| p.params[i].name.as_str())
-        .collect();
-    s.push_str(&format!(
-        "vertex order: corners of ({}), first most significant, lo before hi\n",
-        sched.join(", ")
-    ));
-    let varies = p.output_varies();
-    for (l, v) in p.vertices.iter().enumerate() {
-        let corner: Vec<String> = p
-            .scheduling
-            .iter()
-            .map(|&i| format!("{} = {}", p.params[i].name, v.theta[i]))
-            .collect();
-        s.push_str(&format!(
-            "\nvertex {} ({}):\n  A:\n{}",
-            l + 1,
-            corner.join(", "),
-            fmt_matrix(&v.a, "    ")
-        ));
-        for (k, n) in v.n.iter().enumerate() {
-            if n.iter().any(|x| *x != 0.0) {
-                s.push_str(&format!("  N{}:\n{}", k + 1, fmt_matrix(n, "    ")));
-            }
-        }
-        if p.nu() > 0 {
-            s.push_str(&format!("  B:\n{}", fmt_matrix(&v.b, "    ")));
-        }
-        if varies {
-            push_output(&mut s, &v.c, &v.m, "  ");
-        }
-    }
-    if !varies {
-        let (c, m) = p.c0();
-        s.push('\n');
-        push_output(&mut s, c, m, "");
-    }
-    s.push_str(&format!(
-        "\nregion: {} vertices, {} facets (a_k^T x <= 1)\n",
-        p.region.vertices.len(),
-        p.region.facets.len()
-    ));
-    for (i, v) in p.region.vertices.iter().enumerate() {
-        s.push_str(&format!("  x_({}) = {:?}\n", i + 1, v.as_slice()));
-    }
-    for (k, a) in p.region.facets.iter().enumerate() {
-        s.push_str(&format!("  a_{} = {:?}\n", k + 1, a.as_slice()));
-    }
-    s
-}
-
-/// Appends C and the nonzero M_k, indented by `indent`.
-fn push_output(s: &mut String, c: &DMatrix<f64>, m: &[DMatrix<f64>], indent: &str) {
-    let inner = format!("{indent}  ");
-    s.push_str(&format!("{indent}C:\n{}", fmt_matrix(c, &inner)));
-    for (k, mk) in m.iter().enumerate() {
-        if mk.iter().any(|x| *x != 0.0) {
-            s.push_str(&format!("{indent}M{}:\n{}", k + 1, fmt_matrix(mk, &inner)));
-        }
-    }
-}
-
-/// Reads a JSON report or gains file. A `qpv design` run over several
-/// requests writes an array of reports: then the first certified one is
-/// used (else the first feasible one, else the first), and stderr says which.
-pub fn read_report(path: &Path) -> Result<serde_json::Value, CliError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
-    let value: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
-    let serde_json::Value::Array(items) = value else {
-        return Ok(value);
-    };
-    let flag =
-        |v: &serde_json::Value, key: &str| v.get(key) == Some(&serde_json::Value::Bool(true));
-    let pick = items
-        .iter()
-        .position(|v| flag(v, "certifies"))
-        .or_else(|| items.iter().position(|v| flag(v, "feasible")))
-        .unwrap_or(0);
-    let chosen = items
-        .into_iter()
-        .nth(pick)
-        .ok_or_else(|| CliError::Input(format!("{}: an empty list of reports", path.display())))?;
-    eprintln!(
-        "note: {} holds several reports; using report {} (the first certified one, else the first feasible one)",
-        path.display(),
-        pick + 1
-    );
-    Ok(chosen)
 }

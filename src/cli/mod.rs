@@ -4,16 +4,32 @@
 mod check;
 mod design;
 mod input;
+mod schema;
 mod simulate;
+mod vertices;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 pub use input::CliError;
 
+/// Exit codes of every command, shown after `qpv --help`.
+const EXIT_CODES: &str = "\
+Exit codes:
+  0  success. check: certified (sound mode, every condition holds). design:
+     every request run is feasible (certified in sound mode; a paper-mode
+     request's printed conditions hold, which certifies nothing: its report
+     says `certifies: false`)
+  1  not certified: a condition fails, no certified point was found, or
+     `state_bound auto` found no invariant ellipsoid
+  2  bad input: unreadable or oversized file, syntax or validation error, bad flag value
+  3  check --mode paper: the paper's printed conditions hold (a reproduction,
+     not a certificate)
+JSON output (--json): one schema for every command, documented in docs/schema.md.";
+
 /// qpv: certified gain-scheduled observers for quadratic parameter-varying systems.
 #[derive(Parser, Debug)]
-#[command(name = "qpv", version, about, long_about = None)]
+#[command(name = "qpv", version, about, long_about = None, after_help = EXIT_CODES)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
@@ -77,14 +93,18 @@ pub enum Command {
         /// Which model of the file.
         #[arg(long)]
         model: Option<String>,
-        /// Condition set to check: sound (default) or paper.
+        /// Condition set to check: sound or paper (default: the gains
+        /// file's `mode`, else sound; never the model's design blocks).
+        /// Paper mode certifies nothing: it exits 3 when its conditions hold.
         #[arg(long)]
         mode: Option<String>,
-        /// Decay rate to check (default: the gains file's `alpha`, else the model's design).
-        #[arg(long)]
+        /// Decay rate to check (default: the gains file's `alpha`, else the
+        /// first of the model's design blocks of the checked mode that fixes it).
+        #[arg(long, allow_negative_numbers = true)]
         alpha: Option<f64>,
-        /// Region scaling to check (default: the gains file's `gamma`, else the model's design).
-        #[arg(long)]
+        /// Region scaling to check (default: the gains file's `gamma`, else
+        /// the first of the model's design blocks of the checked mode that fixes it).
+        #[arg(long, allow_negative_numbers = true)]
         gamma: Option<f64>,
         /// Write the JSON report to this file (`-` for stdout).
         #[arg(long)]
@@ -133,16 +153,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> Result<i32, CliError> {
     match cli.command {
         Command::Vertices { file, model, json } => {
-            let (_, m) = input::load_model(&file, model.as_deref())?;
-            let poly = m.polytopic();
-            input::emit_json(json.as_deref(), &poly)?;
-            let text = input::describe_vertices(&poly);
-            if json.as_deref() == Some("-") {
-                eprint!("{text}");
-            } else {
-                print!("{text}");
-            }
-            Ok(0)
+            vertices::run(&file, model.as_deref(), json.as_deref())
         }
         Command::Design {
             file,
@@ -183,9 +194,11 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             &file,
             &gains,
             model.as_deref(),
-            mode.as_deref(),
-            alpha,
-            gamma,
+            check::Flags {
+                mode: mode.as_deref(),
+                alpha,
+                gamma,
+            },
             json.as_deref(),
         ),
         Command::Simulate {

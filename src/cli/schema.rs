@@ -1,0 +1,455 @@
+//! The one JSON schema of every command's `--json` output (docs/schema.md
+//! documents every key), and reading design reports in it and in the older
+//! unversioned forms.
+//!
+//! Every document is an object with the same envelope: `schema` (the
+//! version, [`SCHEMA`]), `command` (`design`, `check` or `vertices`) and
+//! `model` (the model's name), then the command's keys. Matrices are arrays
+//! of rows everywhere; the same thing has the same key in every command
+//! (`margins` is family → worst margin, `feasible` and `certifies` mean the
+//! same for `design` and `check`).
+
+use super::input::CliError;
+use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, OutputRoute, PolytopicModel};
+use qpv_dsl::{Region, StateBound};
+use qpv_solve::report::{matrix_to_rows, DataCheck, Design};
+use qpv_solve::Certificate;
+use serde::Serialize;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The schema version every document carries in its `schema` key.
+pub const SCHEMA: &str = "qpv/1";
+
+/// The name of a condition set in reports ("sound" or "paper").
+pub fn mode_name(m: Mode) -> &'static str {
+    match m {
+        Mode::Sound => "sound",
+        Mode::Paper => "paper",
+    }
+}
+
+fn conditions_name(c: Conditions) -> &'static str {
+    match c {
+        Conditions::Full => "full",
+        Conditions::Decoupled => "decoupled",
+    }
+}
+
+/// `qpv design --json`: one entry in `designs` per request that produced a
+/// design (the report of [`Design`], keys as qpv-solve writes them), and
+/// the requests that did not.
+#[derive(Serialize)]
+pub struct DesignOutput<'a> {
+    /// [`SCHEMA`].
+    pub schema: &'static str,
+    /// `"design"`.
+    pub command: &'static str,
+    /// The model's name.
+    pub model: &'a str,
+    /// One report per request run to the end, in request order (also for
+    /// a single request).
+    pub designs: &'a [Design],
+    /// Requests not run because a flag's override does not apply to them.
+    pub skipped: &'a [NotRun],
+    /// Requests that ended without a design (e.g. `state_bound auto` found
+    /// no invariant ellipsoid).
+    pub failures: &'a [NotRun],
+}
+
+/// A design request that produced no report, and why.
+#[derive(Serialize, Debug, Clone)]
+pub struct NotRun {
+    /// 1-based number of the request (the model's `design` block, or 1 for
+    /// the request built from the flags).
+    pub request: usize,
+    /// The request's settings in words.
+    pub settings: String,
+    /// Why it did not produce a design.
+    pub reason: String,
+}
+
+impl<'a> DesignOutput<'a> {
+    /// The envelope around `designs`.
+    pub fn new(
+        model: &'a str,
+        designs: &'a [Design],
+        skipped: &'a [NotRun],
+        failures: &'a [NotRun],
+    ) -> Self {
+        DesignOutput {
+            schema: SCHEMA,
+            command: "design",
+            model,
+            designs,
+            skipped,
+            failures,
+        }
+    }
+}
+
+/// One condition family of a `qpv check` (its worst margin is in `margins`).
+#[derive(Serialize)]
+pub struct FamilyDetail {
+    /// The worst margin (positive = satisfied), as in `margins`.
+    pub margin: f64,
+    /// Floating-point guard: the margin must exceed it to count.
+    pub guard: f64,
+    /// margin > guard.
+    pub passed: bool,
+    /// Where the worst margin occurs (e.g. "l=2 i=5 j=1", 1-based).
+    pub worst_at: String,
+    /// Number of conditions in the family.
+    pub count: usize,
+}
+
+/// `qpv check --json`.
+#[derive(Serialize)]
+pub struct CheckOutput<'a> {
+    /// [`SCHEMA`].
+    pub schema: &'static str,
+    /// `"check"`.
+    pub command: &'static str,
+    /// The model's name.
+    pub model: &'a str,
+    /// The gains file checked.
+    pub gains: String,
+    /// Condition set checked ("sound" or "paper").
+    pub mode: &'static str,
+    /// Where the mode came from: "--mode", "gains file" or "default".
+    pub mode_source: &'static str,
+    /// Decay rate α checked.
+    pub alpha: f64,
+    /// Region scaling γ checked.
+    pub gamma: f64,
+    /// Representation of N_k, M_k checked.
+    pub split: &'static str,
+    /// Every condition family and required data check holds (in paper mode:
+    /// the paper's printed conditions hold, which certifies nothing).
+    pub feasible: bool,
+    /// `feasible` in sound mode: the gains are certified. Always false in
+    /// paper mode.
+    pub certifies: bool,
+    /// The process exit code of this check.
+    pub exit_code: i32,
+    /// Family → worst margin (positive = satisfied).
+    pub margins: BTreeMap<String, f64>,
+    /// Family → its guard, pass/fail, worst place and number of conditions.
+    pub families: BTreeMap<String, FamilyDetail>,
+    /// Checks on the data alone: "S4" and "region_in_F".
+    pub data_checks: &'a BTreeMap<String, DataCheck>,
+    /// Problems with the gains themselves (dimensions, non-finite numbers).
+    pub input_errors: &'a [String],
+}
+
+impl<'a> CheckOutput<'a> {
+    /// The `qpv check` document for the certificate `cert` of `gains`.
+    pub fn new(
+        model: &'a str,
+        gains: &Path,
+        mode_source: &'static str,
+        split: qpv_dsl::Split,
+        cert: &'a Certificate,
+        exit_code: i32,
+    ) -> Self {
+        CheckOutput {
+            schema: SCHEMA,
+            command: "check",
+            model,
+            gains: gains.display().to_string(),
+            mode: mode_name(cert.mode),
+            mode_source,
+            alpha: cert.alpha,
+            gamma: cert.gamma,
+            split: split.name(),
+            feasible: cert.passed,
+            certifies: cert.passed && cert.mode == Mode::Sound,
+            exit_code,
+            margins: cert.margins(),
+            families: cert
+                .families
+                .iter()
+                .map(|f| {
+                    (
+                        f.name.clone(),
+                        FamilyDetail {
+                            margin: f.margin,
+                            guard: f.guard,
+                            passed: f.passed,
+                            worst_at: f.worst_at.clone(),
+                            count: f.count,
+                        },
+                    )
+                })
+                .collect(),
+            data_checks: &cert.data_checks,
+            input_errors: &cert.input_errors,
+        }
+    }
+}
+
+/// `qpv vertices --json`: the polytopic model with matrices as rows.
+#[derive(Serialize)]
+pub struct VerticesOutput {
+    /// [`SCHEMA`].
+    pub schema: &'static str,
+    /// `"vertices"`.
+    pub command: &'static str,
+    /// The model's name.
+    pub model: String,
+    /// State names.
+    pub states: Vec<String>,
+    /// Input names.
+    pub inputs: Vec<String>,
+    /// Output names.
+    pub outputs: Vec<String>,
+    /// Every declared parameter with its interval.
+    pub params: Vec<ParamView>,
+    /// Names of the parameters that generate vertices, most significant first.
+    pub scheduling: Vec<String>,
+    /// The θ-vertices in the documented order.
+    pub vertices: Vec<VertexView>,
+    /// Whether C or some M_k depend on θ.
+    pub output_varies: bool,
+    /// The convergence region in both representations.
+    pub region: RegionView,
+    /// The state bound F as written in the model.
+    pub state_bound: StateBoundView,
+    /// The model's `design` blocks.
+    pub requests: Vec<RequestView>,
+}
+
+/// A declared parameter θ_i ∈ [lo, hi].
+#[derive(Serialize)]
+pub struct ParamView {
+    /// Its name.
+    pub name: String,
+    /// Lower bound.
+    pub lo: f64,
+    /// Upper bound.
+    pub hi: f64,
+}
+
+/// The matrices at one θ-vertex (rows).
+#[derive(Serialize)]
+pub struct VertexView {
+    /// The full parameter vector at this corner.
+    pub theta: Vec<f64>,
+    /// A_l.
+    #[serde(rename = "A")]
+    pub a: Vec<Vec<f64>>,
+    /// N_{k,l}, k = 1..nx.
+    #[serde(rename = "N")]
+    pub n: Vec<Vec<Vec<f64>>>,
+    /// B_l (nx × nu).
+    #[serde(rename = "B")]
+    pub b: Vec<Vec<f64>>,
+    /// C_l (ny × nx).
+    #[serde(rename = "C")]
+    pub c: Vec<Vec<f64>>,
+    /// M_{k,l}, k = 1..ny.
+    #[serde(rename = "M")]
+    pub m: Vec<Vec<Vec<f64>>>,
+}
+
+/// The region: vertices x_(i) and facet normals a_k (a_kᵀx ≤ 1).
+#[derive(Serialize)]
+pub struct RegionView {
+    /// One vertex per entry.
+    pub vertices: Vec<Vec<f64>>,
+    /// One facet normal per entry.
+    pub facets: Vec<Vec<f64>>,
+}
+
+/// The model's state bound, with the keys of a design report's `state_bound`.
+#[derive(Serialize)]
+pub struct StateBoundView {
+    /// "given", "auto" or "none".
+    pub source: &'static str,
+    /// Q (rows) of a given bound.
+    #[serde(rename = "Q")]
+    pub q: Option<Vec<Vec<f64>>>,
+    /// The fixed box size of `state_bound auto(h = ...)`.
+    pub h: Option<f64>,
+}
+
+/// One `design` block, with the keys of a design report.
+#[derive(Serialize)]
+pub struct RequestView {
+    /// A number, or "max".
+    pub alpha: Value,
+    /// A number, or "search".
+    pub gamma: Value,
+    /// "sound" or "paper".
+    pub mode: &'static str,
+    /// "as_written", "symmetric" or "skew_slack".
+    pub split: &'static str,
+    /// "full" or "decoupled".
+    pub conditions: &'static str,
+    /// `route` ("double_sum" or "filter") and `filter` (`pole`, `gain`) or null.
+    pub output_route: Value,
+}
+
+fn rows_of(m: &nalgebra::DMatrix<f64>) -> Vec<Vec<f64>> {
+    matrix_to_rows(m)
+}
+
+fn region_view(r: &Region) -> RegionView {
+    RegionView {
+        vertices: r
+            .vertices
+            .iter()
+            .map(|v| v.iter().copied().collect())
+            .collect(),
+        facets: r
+            .facets
+            .iter()
+            .map(|a| a.iter().copied().collect())
+            .collect(),
+    }
+}
+
+fn request_view(r: &DesignRequest) -> RequestView {
+    RequestView {
+        alpha: match r.alpha {
+            AlphaSpec::Fixed(a) => Value::from(a),
+            AlphaSpec::Max => Value::from("max"),
+        },
+        gamma: match r.gamma {
+            GammaSpec::Fixed(g) => Value::from(g),
+            GammaSpec::Search => Value::from("search"),
+        },
+        mode: mode_name(r.mode),
+        split: r.split.name(),
+        conditions: conditions_name(r.conditions),
+        output_route: match r.output_route {
+            OutputRoute::DoubleSum => serde_json::json!({"route": "double_sum", "filter": null}),
+            OutputRoute::Filter(f) => serde_json::json!({
+                "route": "filter",
+                "filter": {"pole": f.pole, "gain": f.gain}
+            }),
+        },
+    }
+}
+
+impl VerticesOutput {
+    /// The `qpv vertices` document of `p`.
+    pub fn new(p: &PolytopicModel) -> Self {
+        VerticesOutput {
+            schema: SCHEMA,
+            command: "vertices",
+            model: p.name.clone(),
+            states: p.states.clone(),
+            inputs: p.inputs.clone(),
+            outputs: p.outputs.clone(),
+            params: p
+                .params
+                .iter()
+                .map(|q| ParamView {
+                    name: q.name.clone(),
+                    lo: q.lo,
+                    hi: q.hi,
+                })
+                .collect(),
+            scheduling: p
+                .scheduling
+                .iter()
+                .map(|&i| p.params[i].name.clone())
+                .collect(),
+            vertices: p
+                .vertices
+                .iter()
+                .map(|v| VertexView {
+                    theta: v.theta.clone(),
+                    a: rows_of(&v.a),
+                    n: v.n.iter().map(rows_of).collect(),
+                    b: rows_of(&v.b),
+                    c: rows_of(&v.c),
+                    m: v.m.iter().map(rows_of).collect(),
+                })
+                .collect(),
+            output_varies: p.nv() > 0 && p.output_varies(),
+            region: region_view(&p.region),
+            state_bound: match &p.state_bound {
+                StateBound::None => StateBoundView {
+                    source: "none",
+                    q: None,
+                    h: None,
+                },
+                StateBound::Given(q) => StateBoundView {
+                    source: "given",
+                    q: Some(rows_of(q)),
+                    h: None,
+                },
+                StateBound::Auto { h } => StateBoundView {
+                    source: "auto",
+                    q: None,
+                    h: *h,
+                },
+            },
+            requests: p.designs.iter().map(request_view).collect(),
+        }
+    }
+}
+
+/// The one design to use from a parsed report or gains file at `path`:
+///
+/// * a `qpv design --json` document (`"schema": "qpv/1"`, `designs`);
+/// * the unversioned forms older versions wrote: one report object, or an
+///   array of reports for several requests;
+/// * a plain gains object written by hand (`P`, `L`, ...).
+///
+/// Of several designs the first certified one is used (else the first
+/// feasible one, else the first), and stderr says which.
+pub fn pick_design(value: Value, path: &Path) -> Result<Value, CliError> {
+    let bad = |msg: String| CliError::Input(format!("{}: {msg}", path.display()));
+    let items = match value {
+        Value::Object(mut o) if o.contains_key("schema") => {
+            match o.get("schema") {
+                Some(Value::String(s)) if s == SCHEMA => {}
+                other => {
+                    return Err(bad(format!(
+                        "`schema` is {}: this qpv reads `{SCHEMA}` (and the older reports without \
+                         a `schema` key)",
+                        other.map_or("missing".into(), Value::to_string)
+                    )))
+                }
+            }
+            match o.get("command").and_then(Value::as_str) {
+                Some("design") => {}
+                Some(other) => {
+                    return Err(bad(format!(
+                        "a `qpv {other}` document holds no gains; give a `qpv design --json` report"
+                    )))
+                }
+                None => return Err(bad("`command` is missing".into())),
+            }
+            match o.remove("designs") {
+                Some(Value::Array(items)) => items,
+                _ => return Err(bad("`designs` must be an array of design reports".into())),
+            }
+        }
+        Value::Array(items) => items,
+        other => return Ok(other),
+    };
+    let flag = |v: &Value, key: &str| v.get(key) == Some(&Value::Bool(true));
+    let pick = items
+        .iter()
+        .position(|v| flag(v, "certifies"))
+        .or_else(|| items.iter().position(|v| flag(v, "feasible")))
+        .unwrap_or(0);
+    let several = items.len() > 1;
+    let chosen = items
+        .into_iter()
+        .nth(pick)
+        .ok_or_else(|| bad("the report holds no design".into()))?;
+    if several {
+        eprintln!(
+            "note: {} holds several reports; using report {} (the first certified one, else the first feasible one)",
+            path.display(),
+            pick + 1
+        );
+    }
+    Ok(chosen)
+}

@@ -1,0 +1,91 @@
+//! `qpv vertices`: the derived polytopic model, as text and as JSON.
+
+use super::input::{emit_json, fmt_matrix, load_model, print_text, CliError};
+use super::schema::VerticesOutput;
+use nalgebra::DMatrix;
+use qpv_dsl::PolytopicModel;
+use std::path::Path;
+
+/// Runs `qpv vertices`.
+pub fn run(file: &Path, model_name: Option<&str>, json: Option<&str>) -> Result<i32, CliError> {
+    let (_, m) = load_model(file, model_name)?;
+    let poly = m.polytopic();
+    emit_json(json, &VerticesOutput::new(&poly))?;
+    print_text(json, &describe_vertices(&poly));
+    Ok(0)
+}
+
+/// A human-readable listing of the polytopic model.
+pub fn describe_vertices(p: &PolytopicModel) -> String {
+    let mut s = format!(
+        "model {}: nx = {}, ny = {}, nu = {}, {} parameter(s), {} vertices\n",
+        p.name,
+        p.nx(),
+        p.ny(),
+        p.nu(),
+        p.ntheta(),
+        p.nv()
+    );
+    let sched: Vec<&str> = p
+        .scheduling
+        .iter()
+        .map(|&i| p.params[i].name.as_str())
+        .collect();
+    s.push_str(&format!(
+        "vertex order: corners of ({}), first most significant, lo before hi\n",
+        sched.join(", ")
+    ));
+    let varies = p.output_varies();
+    for (l, v) in p.vertices.iter().enumerate() {
+        let corner: Vec<String> = p
+            .scheduling
+            .iter()
+            .map(|&i| format!("{} = {}", p.params[i].name, v.theta[i]))
+            .collect();
+        s.push_str(&format!(
+            "\nvertex {} ({}):\n  A:\n{}",
+            l + 1,
+            corner.join(", "),
+            fmt_matrix(&v.a, "    ")
+        ));
+        for (k, n) in v.n.iter().enumerate() {
+            if n.iter().any(|x| *x != 0.0) {
+                s.push_str(&format!("  N{}:\n{}", k + 1, fmt_matrix(n, "    ")));
+            }
+        }
+        if p.nu() > 0 {
+            s.push_str(&format!("  B:\n{}", fmt_matrix(&v.b, "    ")));
+        }
+        if varies {
+            push_output(&mut s, &v.c, &v.m, "  ");
+        }
+    }
+    if !varies {
+        let (c, m) = p.c0();
+        s.push('\n');
+        push_output(&mut s, c, m, "");
+    }
+    s.push_str(&format!(
+        "\nregion: {} vertices, {} facets (a_k^T x <= 1)\n",
+        p.region.vertices.len(),
+        p.region.facets.len()
+    ));
+    for (i, v) in p.region.vertices.iter().enumerate() {
+        s.push_str(&format!("  x_({}) = {:?}\n", i + 1, v.as_slice()));
+    }
+    for (k, a) in p.region.facets.iter().enumerate() {
+        s.push_str(&format!("  a_{} = {:?}\n", k + 1, a.as_slice()));
+    }
+    s
+}
+
+/// Appends C and the nonzero M_k, indented by `indent`.
+fn push_output(s: &mut String, c: &DMatrix<f64>, m: &[DMatrix<f64>], indent: &str) {
+    let inner = format!("{indent}  ");
+    s.push_str(&format!("{indent}C:\n{}", fmt_matrix(c, &inner)));
+    for (k, mk) in m.iter().enumerate() {
+        if mk.iter().any(|x| *x != 0.0) {
+            s.push_str(&format!("{indent}M{}:\n{}", k + 1, fmt_matrix(mk, &inner)));
+        }
+    }
+}
