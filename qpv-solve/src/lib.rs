@@ -50,12 +50,14 @@ pub mod lapack;
 
 pub mod certificate;
 pub mod conditions;
+pub mod diagnosis;
 pub mod falsify;
 pub mod output_filter;
 pub mod report;
 pub mod sdp;
 pub mod search;
 pub mod simulate;
+pub mod size;
 pub mod skew_slack;
 pub mod state_bound;
 pub mod svec;
