@@ -59,7 +59,10 @@ fn a_certified_design_is_compared_with_its_envelope_and_the_csv_uses_the_models_
     ]);
     let t = text(&out);
     assert_eq!(out.status.code(), Some(0), "{t}");
-    assert!(t.contains("certified (independent re-check on this model)"), "{t}");
+    assert!(
+        t.contains("certified (independent re-check on this model)"),
+        "{t}"
+    );
     assert!(t.contains("stays inside the certified envelope"), "{t}");
     let svg = std::fs::read_to_string(dir.join("error.svg")).expect("error.svg");
     assert!(svg.contains("certified envelope"));
@@ -129,7 +132,10 @@ fn tampered_gains_are_rechecked_and_a_diverging_run_exits_1() {
         "0.5",
     ]);
     let t = text(&out);
-    assert!(t.contains("NOT certified: the independent certificate fails"), "{t}");
+    assert!(
+        t.contains("NOT certified: the independent certificate fails"),
+        "{t}"
+    );
     assert!(t.contains("simulation diverged at t ="), "{t}");
     assert_eq!(out.status.code(), Some(1), "{t}");
 }
@@ -148,14 +154,23 @@ fn leaving_the_state_bound_is_a_warning() {
         "0.2",
     ]);
     let t = text(&out);
-    assert!(t.contains("warning: the plant leaves the state bound F"), "{t}");
+    assert!(
+        t.contains("warning: the plant leaves the state bound F"),
+        "{t}"
+    );
 }
 
 #[test]
 fn inputs_and_parameters_come_from_expressions_or_a_csv() {
     let report = design(
         "vdv.json",
-        &["examples/van_de_vusse.qpv", "--alpha", "20", "--gamma", "0.5"],
+        &[
+            "examples/van_de_vusse.qpv",
+            "--alpha",
+            "20",
+            "--gamma",
+            "0.5",
+        ],
     );
     let r = report.to_str().expect("utf-8");
     let dir = tmp("inputs");
@@ -189,7 +204,10 @@ fn inputs_and_parameters_come_from_expressions_or_a_csv() {
     assert_eq!(rows.len(), 3, "t = 0, 0.05, 0.1");
     for row in &rows {
         assert!((row[5] - 35.0).abs() < 1e-12, "th = 35: {row:?}");
-        assert!((row[6] - (2.0 * row[0] + 1.0)).abs() < 1e-12, "u = 2t + 1: {row:?}");
+        assert!(
+            (row[6] - (2.0 * row[0] + 1.0)).abs() < 1e-12,
+            "u = 2t + 1: {row:?}"
+        );
     }
 
     let table = tmp("u.csv");
@@ -243,7 +261,14 @@ fn inputs_and_parameters_come_from_expressions_or_a_csv() {
 fn tiny_steps_are_streamed_or_refused_with_the_flag_to_change() {
     let report = certified_paper();
     let r = report.to_str().expect("utf-8");
-    let refused = qpv(&["simulate", "examples/paper.qpv", "--design", r, "--dt", "1e-9"]);
+    let refused = qpv(&[
+        "simulate",
+        "examples/paper.qpv",
+        "--design",
+        r,
+        "--dt",
+        "1e-9",
+    ]);
     assert_eq!(refused.status.code(), Some(2));
     let t = text(&refused);
     assert!(t.contains("increase --dt") && t.contains("--t-end"), "{t}");
@@ -315,7 +340,10 @@ fn a_certified_design_says_once_what_was_certified() {
     assert_eq!(out.status.code(), Some(0), "{t}");
     assert_eq!(t.matches("CERTIFIED:").count(), 1, "{t}");
     assert!(t.contains("every sound condition family holds"), "{t}");
-    assert!(!t.contains("failed the independent certificate and were rejected"), "{t}");
+    assert!(
+        !t.contains("failed the independent certificate and were rejected"),
+        "{t}"
+    );
 }
 
 /// A model with `nx` decoupled stable states, a box region and Q = 2nx·h²·I.

@@ -70,7 +70,11 @@ pub fn undetectable_modes(model: &PolytopicModel, re_min: f64) -> Vec<Undetectab
             seen.push(lambda);
             let m = DMatrix::from_fn(nx + ny, nx, |r, c| {
                 if r < nx {
-                    let d = if r == c { lambda } else { Complex::new(0.0, 0.0) };
+                    let d = if r == c {
+                        lambda
+                    } else {
+                        Complex::new(0.0, 0.0)
+                    };
                     Complex::new(v.a[(r, c)], 0.0) - d
                 } else {
                     Complex::new(v.c[(r - nx, c)], 0.0)
@@ -78,10 +82,11 @@ pub fn undetectable_modes(model: &PolytopicModel, re_min: f64) -> Vec<Undetectab
             });
             let svd = m.svd(false, true);
             let s = &svd.singular_values;
-            let (smin_idx, smin) = s
-                .iter()
-                .enumerate()
-                .fold((0, f64::INFINITY), |acc, (i, &x)| if x < acc.1 { (i, x) } else { acc });
+            let (smin_idx, smin) =
+                s.iter().enumerate().fold(
+                    (0, f64::INFINITY),
+                    |acc, (i, &x)| if x < acc.1 { (i, x) } else { acc },
+                );
             let scale = s.max().max(1.0);
             if smin <= PBH_REL_TOL * scale {
                 let state = svd
@@ -89,7 +94,11 @@ pub fn undetectable_modes(model: &PolytopicModel, re_min: f64) -> Vec<Undetectab
                     .as_ref()
                     .map(|vt| {
                         (0..nx)
-                            .max_by(|&a, &b| vt[(smin_idx, a)].norm().total_cmp(&vt[(smin_idx, b)].norm()))
+                            .max_by(|&a, &b| {
+                                vt[(smin_idx, a)]
+                                    .norm()
+                                    .total_cmp(&vt[(smin_idx, b)].norm())
+                            })
                             .unwrap_or(0)
                     })
                     .unwrap_or(0);
@@ -109,7 +118,12 @@ fn fmt_lambda(z: Complex<f64>) -> String {
     if z.im.abs() < 1e-12 {
         format!("{:.6}", z.re)
     } else {
-        format!("{:.6} {} {:.6}i", z.re, if z.im < 0.0 { "-" } else { "+" }, z.im.abs())
+        format!(
+            "{:.6} {} {:.6}i",
+            z.re,
+            if z.im < 0.0 { "-" } else { "+" },
+            z.im.abs()
+        )
     }
 }
 
@@ -120,7 +134,13 @@ fn vertex_label(model: &PolytopicModel, l: usize) -> String {
     let corner: Vec<String> = model
         .scheduling
         .iter()
-        .filter_map(|&i| Some(format!("{} = {}", model.params.get(i)?.name, v.theta.get(i)?)))
+        .filter_map(|&i| {
+            Some(format!(
+                "{} = {}",
+                model.params.get(i)?.name,
+                v.theta.get(i)?
+            ))
+        })
         .collect();
     if corner.is_empty() {
         format!("vertex {}", l + 1)

@@ -976,7 +976,11 @@ pub fn design_with_progress(
                 margins = p.cert.margins();
             }
         }
-        Some(crate::diagnosis::diagnose(&resolved, request, settings.alpha_floor))
+        Some(crate::diagnosis::diagnose(
+            &resolved,
+            request,
+            settings.alpha_floor,
+        ))
     };
 
     // Notes and summary.

@@ -11,42 +11,55 @@
 //! all c·p² blocks of the full family whatever was solved (one symmetric
 //! eigenvalue problem each), which bounds the time of every accepted point.
 //!
-//! The constants were measured with `qpv design --alpha 1 --gamma 0.1` on
-//! a synthetic chain model (two parameters, two outputs, the box
-//! |x_i| ≤ 0.02) for nx = 5, 6, 7, full and decoupled (maximum resident
-//! memory of the process, Clarabel 0.11, pure-Rust LAPACK):
+//! The constants were measured with `qpv design --alpha 1 --gamma 0.1`
+//! (one solve) on a synthetic chain model (two parameters, so 4 θ-vertices;
+//! two outputs; the box |x_i| ≤ 0.02) on a shared 2-core machine: maximum
+//! resident memory of the process and Clarabel's solve time.
 //!
-//! | nx | conditions | constraint nonzeros | estimate | measured RSS |
-//! |---:|---|---:|---:|---:|
-//! | see [`BYTES_PER_UNIT`] for the fit |
+//! | nx | conditions | PSD blocks | units (estimate) | measured RSS | solve |
+//! |---:|---|---:|---:|---:|---:|
+//! | 5 | decoupled | 267 | 0.49 M | 16 MB | 2.3 s, 7 iterations |
+//! | 6 | decoupled | 525 | 1.67 M | 37 MB | 40 s, 33 iterations |
+//! | 5 | full | 4 107 | 7.3 M | 134 MB | 31 s, 10 iterations |
+//! | 6 | full | 16 397 | 51 M | ≥ 858 MB | > 300 s (stopped) |
+//!
+//! That is 12–18 bytes and 0.4–0.7 µs per iteration per unit; the estimate
+//! uses [`BYTES_PER_UNIT`] = 24 and [`SECONDS_PER_UNIT`] (25 iterations of
+//! 0.6 µs). Extrapolated: nx = 7 full needs about 8 GB, nx = 10 full about
+//! 10¹² bytes, nx = 10 decoupled about 3.4 GB and half an hour per solve.
 //!
 //! [`MEMORY_BUDGET`] and [`CERTIFICATE_BUDGET`] are what a design may use;
-//! above [`SLOW_UNITS`] it is accepted with a warning that it will be slow.
+//! above [`SLOW_BYTES`], [`SLOW_CERTIFICATE`] or [`SLOW_SECONDS`] per solve
+//! it is accepted with a warning that it will be slow (a search runs tens
+//! of solves).
 
 use qpv_dsl::{Conditions, DesignRequest, Mode, OutputRoute, PolytopicModel};
 
-/// Bytes per unit of [`SizeEstimate::units`] (fitted to the measurements
-/// in the module documentation, rounded up).
-pub const BYTES_PER_UNIT: f64 = 48.0;
+/// Bytes per unit of [`SizeEstimate::units`] (the measurements in the
+/// module documentation give 12–18; rounded up).
+pub const BYTES_PER_UNIT: f64 = 24.0;
+
+/// Seconds of one solve per unit of [`SizeEstimate::units`]: 25 interior-point
+/// iterations of 0.6 µs per unit (measured, see the module documentation).
+pub const SECONDS_PER_UNIT: f64 = 1.5e-5;
 
 /// Memory a design may need before it is refused: 4 GiB.
 pub const MEMORY_BUDGET: f64 = 4.0 * 1024.0 * 1024.0 * 1024.0;
 
 /// Largest number of rate blocks the certificate may check per candidate
 /// point (each an eigenvalue problem of size nx; a search certifies tens of
-/// points): 2²².
+/// points): 2²², which a box in R^10 with 4 θ-vertices reaches.
 pub const CERTIFICATE_BUDGET: f64 = 4_194_304.0;
 
-/// Above this estimate (bytes) a design is accepted with a warning that
-/// each solve will be slow: 512 MiB.
+/// Above this estimate (bytes) a design is accepted with a warning: 512 MiB.
 pub const SLOW_BYTES: f64 = 512.0 * 1024.0 * 1024.0;
 
 /// Above this many certificate blocks a design is accepted with a warning.
 pub const SLOW_CERTIFICATE: f64 = 262_144.0;
 
-/// Kept for the documentation's vocabulary: a unit is one stored number
-/// of the estimate ([`SizeEstimate::units`]).
-pub const SLOW_UNITS: f64 = SLOW_BYTES / BYTES_PER_UNIT;
+/// Above this estimated time per solve (seconds) a design is accepted with
+/// a warning.
+pub const SLOW_SECONDS: f64 = 60.0;
 
 /// The estimated size of one design problem (all counts as f64: they can
 /// exceed any integer type for large models, which is the point).
@@ -72,6 +85,8 @@ pub struct SizeEstimate {
     pub units: f64,
     /// Estimated peak memory in bytes.
     pub bytes: f64,
+    /// Estimated time of one solve in seconds (machine dependent).
+    pub seconds_per_solve: f64,
     /// Rate blocks the independent certificate checks per point (c·p²).
     pub certificate_blocks: f64,
 }
@@ -130,6 +145,7 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
         nonzeros,
         units,
         bytes: units * BYTES_PER_UNIT,
+        seconds_per_solve: units * SECONDS_PER_UNIT,
         certificate_blocks: c * p * p,
     }
 }
@@ -166,7 +182,7 @@ pub fn guard(model: &PolytopicModel, request: &DesignRequest) -> Verdict {
     let describe = |e: &SizeEstimate| {
         format!(
             "nx = {}, {} region vertices, {} rate combinations: {:.3e} PSD blocks, {:.3e} variables, \
-             {:.3e} constraint nonzeros, about {} of solver memory; the certificate checks {:.3e} blocks",
+             {:.3e} constraint nonzeros, about {} of solver memory and {:.0} s per solve; the certificate checks {:.3e} blocks",
             e.nx,
             e.region_vertices,
             e.combinations,
@@ -174,6 +190,7 @@ pub fn guard(model: &PolytopicModel, request: &DesignRequest) -> Verdict {
             e.variables,
             e.nonzeros,
             human_bytes(e.bytes),
+            e.seconds_per_solve,
             e.certificate_blocks
         )
     };
@@ -211,9 +228,12 @@ pub fn guard(model: &PolytopicModel, request: &DesignRequest) -> Verdict {
             help.join("; ")
         ));
     }
-    if e.bytes > SLOW_BYTES || e.certificate_blocks > SLOW_CERTIFICATE {
+    if e.bytes > SLOW_BYTES
+        || e.certificate_blocks > SLOW_CERTIFICATE
+        || e.seconds_per_solve > SLOW_SECONDS
+    {
         return Verdict::Slow(format!(
-            "a large design problem ({}); each solve may take minutes{}",
+            "a large design problem ({}); a search runs tens of solves{}",
             describe(&e),
             if request.conditions == Conditions::Full {
                 "; `conditions = decoupled` is smaller"

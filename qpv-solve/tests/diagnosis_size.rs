@@ -9,7 +9,10 @@ use qpv_solve::size::{estimate, guard, Verdict, CERTIFICATE_BUDGET, MEMORY_BUDGE
 use qpv_solve::{design, request, Settings, SolveError};
 
 fn model(src: &str) -> qpv_dsl::PolytopicModel {
-    qpv_dsl::parse(src).expect("valid model").remove(0).polytopic()
+    qpv_dsl::parse(src)
+        .expect("valid model")
+        .remove(0)
+        .polytopic()
 }
 
 const UNDETECTABLE: &str = "model u {
@@ -38,7 +41,11 @@ fn the_pbh_test_names_the_vertex_and_the_state_of_an_undetectable_mode() {
     let pbh: Vec<_> = found.iter().filter(|f| f.kind == "detectability").collect();
     assert_eq!(pbh.len(), 1, "{found:?}");
     assert!(pbh[0].blocking);
-    assert!(pbh[0].message.contains("vertex 1 (th = 0)"), "{}", pbh[0].message);
+    assert!(
+        pbh[0].message.contains("vertex 1 (th = 0)"),
+        "{}",
+        pbh[0].message
+    );
     assert!(pbh[0].message.contains("state x2"), "{}", pbh[0].message);
 }
 

@@ -275,8 +275,8 @@ fn describe_verdict(d: &Design) -> String {
     match (d.feasible, d.mode) {
         (true, Mode::Sound) => format!(
             "  CERTIFIED: alpha = {:.6} at gamma = {:.6}: every sound condition family holds ({}) and the data check S4, \
-             by the independent eigenvalue check of the reported P and L_l; the search solved {solved} points, \
-             {rejected} were rejected by that check and not used\n",
+             by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), \
+             {rejected} of them rejected by that check and not used\n",
             d.alpha,
             d.gamma,
             families.join(", ")

@@ -234,7 +234,9 @@ pub fn parse_expr(text: &str) -> Result<Expr, String> {
 /// Splits `NAME=EXPR` of flag `flag` and parses the expression.
 pub fn parse_assignment(flag: &str, arg: &str) -> Result<(String, Expr), CliError> {
     let (name, expr) = arg.split_once('=').ok_or_else(|| {
-        CliError::Input(format!("{flag} {arg:?}: expected NAME=EXPR, e.g. u=sin(2*pi*t)"))
+        CliError::Input(format!(
+            "{flag} {arg:?}: expected NAME=EXPR, e.g. u=sin(2*pi*t)"
+        ))
     })?;
     let e = parse_expr(expr).map_err(|m| CliError::Input(format!("{flag} {arg:?}: {m}")))?;
     Ok((name.trim().to_string(), e))
@@ -276,7 +278,9 @@ impl Table {
             .lines()
             .enumerate()
             .filter(|(_, l)| !l.trim().is_empty());
-        let (_, header) = lines.next().ok_or("1: empty file (expected a header t,NAME,...)")?;
+        let (_, header) = lines
+            .next()
+            .ok_or("1: empty file (expected a header t,NAME,...)")?;
         let cells: Vec<String> = header.split(',').map(|c| c.trim().to_string()).collect();
         if cells.first().map(String::as_str) != Some("t") || cells.len() < 2 {
             return Err(format!(
@@ -363,11 +367,18 @@ mod tests {
     #[test]
     fn bad_expressions_say_where() {
         let m = parse_expr("2*x").unwrap_err();
-        assert!(m.contains("unknown name `x`") && m.contains("column 3"), "{m}");
+        assert!(
+            m.contains("unknown name `x`") && m.contains("column 3"),
+            "{m}"
+        );
         assert!(parse_expr("sin 2").unwrap_err().contains("expected `(`"));
         assert!(parse_expr("(1").unwrap_err().contains("expected `)`"));
-        assert!(parse_expr("1 2").unwrap_err().contains("after the expression"));
-        assert!(parse_expr(&"(".repeat(1000)).unwrap_err().contains("deeply"));
+        assert!(parse_expr("1 2")
+            .unwrap_err()
+            .contains("after the expression"));
+        assert!(parse_expr(&"(".repeat(1000))
+            .unwrap_err()
+            .contains("deeply"));
     }
 
     #[test]

@@ -249,6 +249,8 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             )))
         }
     };
+    sc.t_end = o.t_end;
+    sc.dt = o.dt;
     let given = apply_signals(&mut sc, &poly, &o)?;
     if !given.is_empty() {
         println!("signals given: {}", given.join(", "));
@@ -459,8 +461,8 @@ fn run_streamed(
             n as f64 * sc.dt
         };
         let part = shifted(sc, t0, &x, &xhat, t_end);
-        let traj = simulate(obs, gains, &part)
-            .map_err(|e| CliError::Input(format!("simulation: {e}")))?;
+        let traj =
+            simulate(obs, gains, &part).map_err(|e| CliError::Input(format!("simulation: {e}")))?;
         let first = usize::from(k0 > 0);
         for i in first..traj.len() {
             let k = k0 + i;
