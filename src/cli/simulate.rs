@@ -75,7 +75,7 @@ pub struct Options<'a> {
 struct Claim {
     /// √cond(P) and α, when the design is certified on the model as it is now.
     envelope: Option<(f64, f64)>,
-    /// Q⁻¹ of the state bound F (plant states only), when there is one.
+    /// Q⁻¹ of the observer model's state bound F, when there is one.
     q_inv: Option<DMatrix<f64>>,
     /// Facets of the region (a_kᵀ e ≤ 1): where e(0) must start.
     facets: Vec<nalgebra::DVector<f64>>,
@@ -447,7 +447,6 @@ fn run_streamed(
     found: &mut Findings,
 ) -> Result<(), CliError> {
     let nx = obs.nx();
-    let np = obs.nx().min(claim.q_inv.as_ref().map_or(0, |q| q.nrows()));
     let (mut x, mut xhat) = (sc.x0.clone(), sc.xhat0.clone());
     let mut k0 = 0usize;
     let mut next_target = 0usize;
@@ -479,14 +478,8 @@ fn run_streamed(
             }
             // The certificate's premises and claim.
             if let Some(qi) = &claim.q_inv {
-                let xs = &r.x[..np];
-                let v = qi.view((0, 0), (np, np));
-                let mut s = 0.0;
-                for a in 0..np {
-                    for b in 0..np {
-                        s += xs[a] * v[(a, b)] * xs[b];
-                    }
-                }
+                let xs = nalgebra::DVector::from_column_slice(&r.x);
+                let s = xs.dot(&(qi * &xs));
                 if s > 1.0 + 1e-9 {
                     let e = found.left_f.get_or_insert((r.t, s));
                     e.1 = e.1.max(s);
