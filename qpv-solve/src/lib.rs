@@ -77,8 +77,10 @@ pub mod conditions;
 pub mod lmi;
 // Search, report, analysis.
 pub mod analysis;
+pub mod diagnosis;
 pub mod report;
 pub mod search;
+pub mod size;
 
 pub use analysis::{falsify, simulate};
 pub use certificate::{check, Certificate, FamilyMargin};

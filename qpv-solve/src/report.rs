@@ -162,6 +162,12 @@ pub struct Design {
     /// nothing).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub skew: Option<Vec<Vec<Vec<Vec<f64>>>>>,
+    /// For a design that does not certify: cheap reasons and bounds
+    /// computed from the model and request alone ([`crate::diagnosis`]:
+    /// detectability at the θ-vertices, the (S4) bound on γ, region vertices
+    /// outside F). Absent for certified designs and older reports.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub diagnosis: Option<Vec<crate::diagnosis::Finding>>,
 }
 
 impl Design {

@@ -286,6 +286,81 @@ fn describe_state_bound(sb: &StateBoundInfo) -> String {
     s
 }
 
+/// Whether a note belongs to the search log only: for a certified design
+/// these are routine (points the certificate rejected were never used), so
+/// the text report leaves them to the JSON's `notes` and `search`.
+fn is_search_log_note(n: &str) -> bool {
+    n.contains("solved points failed the independent certificate")
+        || n.contains("ended with an unknown status")
+        || n.starts_with("the solver stopped with")
+}
+
+/// The verdict line(s) of a design: what is certified and how, once.
+fn describe_verdict(d: &Design) -> String {
+    let solved = d
+        .search
+        .iter()
+        .filter(|s| s.status == qpv_solve::Status::Solved)
+        .count();
+    let rejected = d
+        .search
+        .iter()
+        .filter(|s| s.status == qpv_solve::Status::Solved && !s.certified)
+        .count();
+    let families: Vec<&str> = d.margins.keys().map(String::as_str).collect();
+    match (d.feasible, d.mode) {
+        (true, Mode::Sound) => format!(
+            "  CERTIFIED: alpha = {:.6} at gamma = {:.6}: every sound condition family holds ({}) and the data check S4, \
+             by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), \
+             {rejected} of them rejected by that check and not used\n",
+            d.alpha,
+            d.gamma,
+            families.join(", ")
+        ),
+        (true, Mode::Paper) => format!(
+            "  the paper's printed conditions hold at alpha = {:.6}, gamma = {:.6} (reproduction: no convergence claim)\n",
+            d.alpha, d.gamma
+        ),
+        (false, _) => {
+            let tested = d.search.iter().any(|s| s.phase == "final");
+            if tested {
+                format!(
+                    "  no certified observer at the requested alpha = {}, gamma = {:.6}\n",
+                    d.alpha, d.gamma
+                )
+            } else {
+                "  no certified observer: no alpha > 0 could be certified\n".to_string()
+            }
+        }
+    }
+}
+
+/// The margins of a design that failed: per family, of its best attempt.
+fn describe_failure_margins(d: &Design) -> String {
+    let mut s = String::new();
+    if d.margins.is_empty() {
+        s.push_str("  no attempt returned a point, so there are no margins to show\n");
+        return s;
+    }
+    let at = d
+        .search
+        .iter()
+        .rev()
+        .find(|st| st.phase == "diagnose" || st.phase == "final")
+        .map(|st| format!(" (alpha = {}, gamma = {:.6})", st.alpha, st.gamma))
+        .unwrap_or_default();
+    s.push_str(&format!(
+        "  margins of the best attempt{at}, per condition family (positive = satisfied):\n"
+    ));
+    for (k, v) in &d.margins {
+        s.push_str(&format!(
+            "    {k:<12} {v:>13.4e}  {}\n",
+            if *v > 0.0 { "pass" } else { "FAIL" }
+        ));
+    }
+    s
+}
+
 /// A human-readable report of one design.
 pub fn describe_design(d: &Design) -> String {
     let mut s = String::new();
@@ -304,10 +379,7 @@ pub fn describe_design(d: &Design) -> String {
             Mode::Paper => "paper",
         }
     ));
-    s.push_str(&format!(
-        "  alpha = {:.6}, gamma = {:.6}\n",
-        d.alpha, d.gamma
-    ));
+    s.push_str(&describe_verdict(d));
     s.push_str(&format!(
         "  split = {}, conditions = {}\n",
         d.split.name(),
@@ -322,7 +394,7 @@ pub fn describe_design(d: &Design) -> String {
     if let Some(sb) = &d.state_bound {
         s.push_str(&describe_state_bound(sb));
     }
-    if !d.p.is_empty() {
+    if d.feasible && !d.p.is_empty() {
         s.push_str(&format!("  P:\n{}", fmt_matrix(&d.p_matrix(), "    ")));
         for (l, m) in d.l_matrices().iter().enumerate() {
             let norm = d.gain_norms.get(l).copied().unwrap_or(f64::NAN);
@@ -333,7 +405,7 @@ pub fn describe_design(d: &Design) -> String {
             ));
         }
     }
-    if !d.margins.is_empty() {
+    if d.feasible && !d.margins.is_empty() {
         s.push_str("  condition families (worst margin, positive = satisfied):\n");
         for (k, v) in &d.margins {
             s.push_str(&format!(
@@ -341,6 +413,9 @@ pub fn describe_design(d: &Design) -> String {
                 if *v > 0.0 { "pass" } else { "FAIL" }
             ));
         }
+    }
+    if !d.feasible {
+        s.push_str(&describe_failure_margins(d));
     }
     if !d.data_checks.is_empty() {
         s.push_str("  data checks:\n");
@@ -355,16 +430,39 @@ pub fn describe_design(d: &Design) -> String {
             ));
         }
     }
-    s.push_str(&format!(
-        "  solver: {} ({}), {} iterations, {:.3} s solve; {} solves, {:.3} s total\n",
-        d.solver.status,
-        d.solver.detail,
-        d.solver.iterations,
-        d.solver.seconds,
-        d.search.len(),
-        d.seconds_total
-    ));
-    for n in &d.notes {
+    if let Some(found) = d.diagnosis.as_ref().filter(|f| !f.is_empty()) {
+        s.push_str("  diagnosis:\n");
+        for f in found {
+            s.push_str(&format!(
+                "    {}{}\n",
+                if f.blocking { "BLOCKING: " } else { "" },
+                f.message
+            ));
+        }
+    }
+    if d.feasible {
+        s.push_str(&format!(
+            "  solves: {} in {:.3} s; the reported point: {} iterations, {:.3} s (the search log is in the JSON report)\n",
+            d.search.len(),
+            d.seconds_total,
+            d.solver.iterations,
+            d.solver.seconds
+        ));
+    } else {
+        s.push_str(&format!(
+            "  solves: {} in {:.3} s; the last one ended {} (Clarabel: {}); a solver status says whether a point \
+             was returned, not whether it certifies\n",
+            d.search.len(),
+            d.seconds_total,
+            d.solver.status,
+            d.solver.detail
+        ));
+    }
+    for n in d
+        .notes
+        .iter()
+        .filter(|n| !(d.feasible && is_search_log_note(n)))
+    {
         s.push_str(&format!("  note: {n}\n"));
     }
     s

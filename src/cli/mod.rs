@@ -5,6 +5,7 @@ mod check;
 mod design;
 mod input;
 mod schema;
+mod signal;
 mod simulate;
 mod vertices;
 
@@ -122,6 +123,11 @@ pub enum Command {
         json: Option<String>,
     },
     /// Simulate plant + observer with a design report's gains and plot it.
+    ///
+    /// Exit codes: 0 the run finished (inside the certified envelope when
+    /// the design is certified on this model); 1 it diverged, or left the
+    /// certified envelope while e(0) was in the region and x stayed in F;
+    /// 2 bad input (including more than 1e8 steps: increase --dt).
     Simulate {
         /// The model file (.qpv).
         file: PathBuf,
@@ -140,12 +146,28 @@ pub enum Command {
         /// Initial plant state, comma-separated (default: the scenario's).
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
         x0: Option<Vec<f64>>,
-        /// Ready-made scenario: `paper` (spec §7) or `default`.
+        /// Ready-made scenario: `paper` (the published example's θ(t)) or `default`.
         #[arg(long, default_value = "default")]
         scenario: String,
         /// Directory for the SVG figures and the CSV of trajectories.
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// An input as an expression of t: `NAME=EXPR` with numbers, t, pi,
+        /// + - * / ^, sin, cos, exp, sqrt (repeatable; default 0).
+        #[arg(long = "input", value_name = "NAME=EXPR")]
+        inputs: Vec<String>,
+        /// A parameter θ(t) as an expression of t, like `--input`
+        /// (repeatable; default: the scenario's).
+        #[arg(long = "param", value_name = "NAME=EXPR")]
+        params: Vec<String>,
+        /// Inputs and/or parameters from a CSV file: a header `t,NAME,...`,
+        /// rows with increasing t; linear interpolation, held at the ends.
+        #[arg(long = "input-csv", value_name = "FILE")]
+        input_csv: Option<PathBuf>,
+        /// Output interval of the CSV [s] (default: max(dt, t_end/10000));
+        /// the figures keep at most 5000 points per curve.
+        #[arg(long, value_name = "DT")]
+        every: Option<f64>,
     },
 }
 
@@ -210,6 +232,10 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             x0,
             scenario,
             plot,
+            inputs,
+            params,
+            input_csv,
+            every,
         } => simulate::run(simulate::Options {
             file: &file,
             design: &design,
@@ -219,6 +245,10 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             x0,
             scenario: &scenario,
             plot: plot.as_deref(),
+            inputs,
+            params,
+            input_csv: input_csv.as_deref(),
+            every,
         }),
     }
 }

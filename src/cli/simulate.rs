@@ -1,10 +1,47 @@
 //! `qpv simulate`: plant + observer with a design's gains; SVG figures and CSV.
+//!
+//! What the run is compared with depends on what is certified: only when
+//! the report certifies *and* the independent certificate re-checked on the
+//! model as it is now passes, the error is compared with the certified
+//! envelope ‖e(t)‖ ≤ √cond(P) ‖e(0)‖ e^{−αt/2} (drawn in `error.svg`). The
+//! certificate assumes e(0) in the region and x(t) in F = {xᵀQ⁻¹x ≤ 1}; a
+//! run that leaves F is reported as a warning.
+//!
+//! Exit codes: 0 the run finished (and stayed inside the certified envelope
+//! when there is one); 1 the simulation diverged, or it left the certified
+//! envelope although e(0) was in the region and x stayed in F; 2 bad input.
+//!
+//! The integration streams: the CSV is written row by row (every
+//! [`Options::every`] seconds of simulated time) and the figures keep at
+//! most [`PLOT_POINTS`] points per curve, so memory does not grow with the
+//! number of steps.
 
 use super::input::{load_model, read_report, CliError};
+use super::signal::{expr_signal, parse_assignment, table_signal, Table, TimeFn};
+use nalgebra::DMatrix;
 use qpv::plot::{line_chart, Series, PALETTE};
+use qpv_dsl::{PolytopicModel, StateBound};
 use qpv_solve::report::Design;
-use qpv_solve::simulate::{envelope_factor, simulate, Scenario, Trajectory};
+use qpv_solve::simulate::{envelope_factor, plant_output, simulate, Scenario, Signal};
+use std::io::Write;
 use std::path::Path;
+use std::sync::Arc;
+
+/// Largest number of RK4 steps `qpv simulate` runs (t_end / dt).
+pub const MAX_STEPS: f64 = 1e8;
+
+/// Most points kept per curve of a figure (the CSV has every output row).
+pub const PLOT_POINTS: usize = 5000;
+
+/// Default number of CSV rows when `--every` is not given: the output
+/// interval is max(dt, t_end / DEFAULT_ROWS).
+pub const DEFAULT_ROWS: f64 = 10_000.0;
+
+/// Steps integrated per call of the library integrator (bounds memory).
+const CHUNK_STEPS: usize = 20_000;
+
+/// Relative slack of the envelope comparison (RK4 and rounding errors).
+const ENVELOPE_SLACK: f64 = 1e-6;
 
 /// Options of `qpv simulate`.
 pub struct Options<'a> {
@@ -24,7 +61,142 @@ pub struct Options<'a> {
     pub scenario: &'a str,
     /// Output directory for figures and CSV.
     pub plot: Option<&'a Path>,
+    /// `--input NAME=EXPR`: inputs as expressions of t.
+    pub inputs: Vec<String>,
+    /// `--param NAME=EXPR`: parameters θ(t) as expressions of t.
+    pub params: Vec<String>,
+    /// `--input-csv FILE`: columns t, then input or parameter names.
+    pub input_csv: Option<&'a Path>,
+    /// `--every DT`: output interval of the CSV (simulated seconds).
+    pub every: Option<f64>,
 }
+
+/// What the simulation is compared with.
+struct Claim {
+    /// √cond(P) and α, when the design is certified on the model as it is now.
+    envelope: Option<(f64, f64)>,
+    /// Q⁻¹ of the observer model's state bound F, when there is one.
+    q_inv: Option<DMatrix<f64>>,
+    /// Facets of the region (a_kᵀ e ≤ 1): where e(0) must start.
+    facets: Vec<nalgebra::DVector<f64>>,
+}
+
+/// Why the design is not certified here, or `None` if it is.
+fn not_certified_reason(design: &Design, poly: &PolytopicModel) -> Option<String> {
+    if design.mode == qpv_dsl::Mode::Paper {
+        return Some("the report is a paper-mode reproduction, which certifies nothing".into());
+    }
+    if !design.certifies {
+        return Some("the report does not certify (certifies: false)".into());
+    }
+    let cert = design.recheck(poly);
+    if cert.passed {
+        return None;
+    }
+    let mut why: Vec<String> = cert.input_errors.clone();
+    why.extend(
+        cert.families
+            .iter()
+            .filter(|f| !f.passed)
+            .map(|f| format!("{} (margin {:.3e} at {})", f.name, f.margin, f.worst_at)),
+    );
+    why.extend(
+        cert.data_checks
+            .iter()
+            .filter(|(_, c)| c.required && !c.passed)
+            .map(|(k, c)| format!("{k} ({:.4} > {})", c.value, c.bound)),
+    );
+    Some(format!(
+        "the independent certificate fails on the model as it is now: {}",
+        why.join(", ")
+    ))
+}
+
+/// Applies `--param`, `--input` and `--input-csv` to the scenario's signals.
+fn apply_signals(
+    sc: &mut Scenario,
+    poly: &PolytopicModel,
+    o: &Options<'_>,
+) -> Result<Vec<String>, CliError> {
+    let mut set = |name: &str, f: TimeFn, flag: &str| -> Result<String, CliError> {
+        if let Some(i) = poly.inputs.iter().position(|n| n == name) {
+            sc.u[i] = Signal::Custom(f);
+            Ok(format!("input {name}"))
+        } else if let Some(i) = poly.params.iter().position(|p| p.name == name) {
+            sc.theta[i] = Signal::Custom(f);
+            Ok(format!("parameter {name}"))
+        } else {
+            let params: Vec<&str> = poly.params.iter().map(|p| p.name.as_str()).collect();
+            Err(CliError::Input(format!(
+                "{flag}: `{name}` is neither an input ({}) nor a parameter ({}) of model {}",
+                if poly.inputs.is_empty() {
+                    "none".to_string()
+                } else {
+                    poly.inputs.join(", ")
+                },
+                params.join(", "),
+                poly.name
+            )))
+        }
+    };
+    let mut given = Vec::new();
+    if let Some(path) = o.input_csv {
+        let table = Arc::new(Table::read(path)?);
+        for (k, name) in table.names.iter().enumerate() {
+            let flag = format!("--input-csv {}", path.display());
+            given.push(set(name, table_signal(&table, k), &flag)?);
+        }
+    }
+    for (flag, args) in [("--param", &o.params), ("--input", &o.inputs)] {
+        for a in args {
+            let (name, e) = parse_assignment(flag, a)?;
+            let what = set(&name, expr_signal(e), flag)?;
+            if flag == "--param" && what.starts_with("input") {
+                return Err(CliError::Input(format!(
+                    "--param {a:?}: `{name}` is an input; use --input"
+                )));
+            }
+            if flag == "--input" && what.starts_with("parameter") {
+                return Err(CliError::Input(format!(
+                    "--input {a:?}: `{name}` is a parameter; use --param"
+                )));
+            }
+            given.push(what);
+        }
+    }
+    Ok(given)
+}
+
+/// The recorded sample of one time instant.
+struct Row {
+    t: f64,
+    x: Vec<f64>,
+    xhat: Vec<f64>,
+    theta: Vec<f64>,
+    mu: Vec<f64>,
+    err: f64,
+}
+
+/// What a streamed run found.
+#[derive(Default)]
+struct Findings {
+    /// Rows kept for the figures (at most about [`PLOT_POINTS`]).
+    plot: Vec<Row>,
+    /// (target time, t, ‖e‖) at the summary's times.
+    table: Vec<(f64, f64)>,
+    e0: f64,
+    /// Time after which ‖e‖ < 1e-6 (updated as the run goes).
+    below_from: Option<f64>,
+    diverged_at: Option<f64>,
+    /// First time and worst ratio ‖e‖/envelope above 1.
+    envelope_exceeded: Option<(f64, f64)>,
+    /// First time and largest xᵀQ⁻¹x above 1.
+    left_f: Option<(f64, f64)>,
+    rows_written: usize,
+    t_last: f64,
+}
+
+const SUMMARY_TIMES: [f64; 9] = [0.0, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0, 5.0, 10.0];
 
 /// Runs `qpv simulate`.
 pub fn run(o: Options<'_>) -> Result<i32, CliError> {
@@ -38,9 +210,36 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             o.design.display()
         )));
     }
-    if !design.feasible {
-        eprintln!("warning: this design was NOT certified; simulating its gains anyway");
+    if !(o.t_end.is_finite() && o.t_end >= 0.0) {
+        return Err(CliError::Input(format!(
+            "--t-end {}: expected a non-negative number",
+            o.t_end
+        )));
     }
+    if !(o.dt.is_finite() && o.dt > 0.0) {
+        return Err(CliError::Input(format!(
+            "--dt {}: expected a positive number",
+            o.dt
+        )));
+    }
+    let steps_f = (o.t_end / o.dt - 1e-9).ceil().max(0.0);
+    if steps_f > MAX_STEPS {
+        return Err(CliError::Input(format!(
+            "--t-end {} with --dt {} needs {steps_f:.3e} RK4 steps; at most {MAX_STEPS:.0e} are run: \
+             increase --dt or shorten --t-end",
+            o.t_end, o.dt
+        )));
+    }
+    let steps = steps_f as usize;
+    let every = o.every.unwrap_or((o.t_end / DEFAULT_ROWS).max(o.dt));
+    if !(every.is_finite() && every > 0.0) {
+        return Err(CliError::Input(format!(
+            "--every {every}: expected a positive number of seconds"
+        )));
+    }
+    let stride = ((every / o.dt).round() as usize).max(1);
+    let plot_stride = stride.max(steps.div_ceil(PLOT_POINTS));
+
     let mut sc = match o.scenario {
         "paper" => Scenario::paper(&poly),
         "default" => Scenario::default_for(&poly),
@@ -52,7 +251,24 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     };
     sc.t_end = o.t_end;
     sc.dt = o.dt;
-    if let Some(x0) = o.x0 {
+    let given = apply_signals(&mut sc, &poly, &o)?;
+    if !given.is_empty() {
+        println!("signals given: {}", given.join(", "));
+    }
+    let unset: Vec<&str> = poly
+        .inputs
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| matches!(sc.u[*i], Signal::Constant(_)))
+        .map(|(_, n)| n.as_str())
+        .collect();
+    if !unset.is_empty() {
+        println!(
+            "inputs {} are 0 (give them with --input NAME=EXPR or --input-csv)",
+            unset.join(", ")
+        );
+    }
+    if let Some(x0) = o.x0.clone() {
         sc.x0 = x0;
     }
     // The gains belong to the design's observer model: for the filter route
@@ -71,64 +287,303 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             obs.states.join(", ")
         );
     }
-    let poly = obs;
-    let traj = simulate(&poly, &design.l_matrices(), &sc)
-        .map_err(|e| CliError::Input(format!("simulation: {e}")))?;
-    println!("{}", describe(&traj, design.alpha));
-    if let Some(dir) = o.plot {
-        write_figures(dir, &poly, &traj, &design)?;
-        println!("figures and trajectories.csv written to {}", dir.display());
+    if sc.x0.len() != obs.nx() {
+        return Err(CliError::Input(format!(
+            "--x0 has {} entries, expected {} ({})",
+            sc.x0.len(),
+            poly.nx(),
+            poly.states.join(", ")
+        )));
     }
-    Ok(0)
+
+    // What is certified, and therefore what the run is compared with.
+    let reason = not_certified_reason(&design, &poly);
+    let claim = Claim {
+        envelope: match &reason {
+            None => envelope_factor(&design.p_matrix()).map(|k| (k, design.alpha)),
+            Some(_) => None,
+        },
+        q_inv: match &obs.state_bound {
+            StateBound::Given(q) if q.nrows() == obs.nx() => q.clone().try_inverse(),
+            _ => None,
+        },
+        facets: obs.region.facets.clone(),
+    };
+    match (&reason, claim.envelope) {
+        (None, Some((k, a))) => println!(
+            "certified (independent re-check on this model): V(t) <= V(0) e^(-alpha t) with alpha = {a:.6}, \
+             gamma = {:.6}; for e(0) in the region and x(t) in F, ||e(t)|| <= {k:.4} ||e(0)|| e^(-alpha t/2)",
+            design.gamma
+        ),
+        (None, None) => println!(
+            "not certified: P of the report is not positive definite; no envelope drawn"
+        ),
+        (Some(why), _) => println!(
+            "NOT certified: {why}; simulating its gains anyway (no decay rate is claimed, no envelope drawn)"
+        ),
+    }
+    let e0: Vec<f64> = sc.x0.iter().zip(&sc.xhat0).map(|(a, b)| a - b).collect();
+    let e0_inside = claim.facets.iter().all(|a| {
+        let s: f64 = a.iter().zip(&e0).map(|(a, e)| a * e).sum();
+        s <= 1.0 + 1e-9
+    });
+    if claim.envelope.is_some() && !e0_inside {
+        println!(
+            "note: e(0) = x(0) - xhat(0) is outside the region of guaranteed convergence; \
+             the envelope is not a guarantee for this run"
+        );
+    }
+
+    let mut csv = match o.plot {
+        Some(dir) => {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| CliError::Io(format!("cannot create {}: {e}", dir.display())))?;
+            let path = dir.join("trajectories.csv");
+            let f = std::fs::File::create(&path)
+                .map_err(|e| CliError::Io(format!("cannot write {}: {e}", path.display())))?;
+            let mut w = std::io::BufWriter::new(f);
+            write_header(&mut w, &obs).map_err(|e| CliError::Io(e.to_string()))?;
+            Some(w)
+        }
+        None => None,
+    };
+
+    let gains = design.l_matrices();
+    let mut found = Findings::default();
+    run_streamed(
+        &obs,
+        &gains,
+        &sc,
+        steps,
+        &claim,
+        (stride, plot_stride),
+        &mut csv,
+        &mut found,
+    )?;
+    if let Some(w) = csv.as_mut() {
+        w.flush()
+            .map_err(|e| CliError::Io(format!("cannot write trajectories.csv: {e}")))?;
+    }
+    println!("{}", describe(&found, &claim));
+
+    if let Some(dir) = o.plot {
+        write_figures(dir, &obs, &found, &claim)?;
+        println!(
+            "figures and trajectories.csv ({} rows, every {} s) written to {}",
+            found.rows_written,
+            stride as f64 * o.dt,
+            dir.display()
+        );
+    }
+    let violated = found.envelope_exceeded.is_some() && e0_inside && found.left_f.is_none();
+    Ok(if found.diverged_at.is_some() || violated {
+        1
+    } else {
+        0
+    })
 }
 
-fn describe(traj: &Trajectory, alpha: f64) -> String {
-    let mut s = String::from("      t     ||x - xhat||\n");
-    for target in [0.0, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0, 5.0, 10.0] {
-        if let Some(i) = traj.t.iter().position(|&t| t >= target - 1e-12) {
-            s.push_str(&format!(
-                "  {:>6.3}   {:.3e}\n",
-                traj.t[i], traj.error_norm[i]
-            ));
+/// The CSV header: t, the states (model names), their estimates
+/// (`xhat1`, … in state order), parameters, inputs and outputs (model
+/// names), the vertex weights `mu1`, … and `error_norm`.
+fn write_header(w: &mut impl Write, m: &PolytopicModel) -> std::io::Result<()> {
+    let mut h: Vec<String> = vec!["t".into()];
+    h.extend(m.states.iter().cloned());
+    h.extend((1..=m.nx()).map(|i| format!("xhat{i}")));
+    h.extend(m.params.iter().map(|p| p.name.clone()));
+    h.extend(m.inputs.iter().cloned());
+    h.extend(m.outputs.iter().cloned());
+    h.extend((1..=m.nv()).map(|l| format!("mu{l}")));
+    h.push("error_norm".into());
+    writeln!(w, "{}", h.join(","))
+}
+
+fn write_row(
+    w: &mut impl Write,
+    m: &PolytopicModel,
+    sc: &Scenario,
+    r: &Row,
+) -> std::io::Result<()> {
+    let mut cells: Vec<f64> = vec![r.t];
+    cells.extend(&r.x);
+    cells.extend(&r.xhat);
+    cells.extend(&r.theta);
+    cells.extend(sc.u.iter().map(|s| s.at(r.t)));
+    let y = plant_output(m, &r.x, &r.theta).unwrap_or_else(|_| vec![f64::NAN; m.ny()]);
+    cells.extend(y);
+    cells.extend(&r.mu);
+    cells.push(r.err);
+    let text: Vec<String> = cells.iter().map(f64::to_string).collect();
+    writeln!(w, "{}", text.join(","))
+}
+
+/// The scenario shifted to start at `t0`, from (x0, x̂0), for `t_end` seconds.
+fn shifted(sc: &Scenario, t0: f64, x0: &[f64], xhat0: &[f64], t_end: f64) -> Scenario {
+    let shift = |s: &Signal| {
+        let s = s.clone();
+        Signal::custom(move |t| s.at(t + t0))
+    };
+    Scenario {
+        theta: sc.theta.iter().map(shift).collect(),
+        u: sc.u.iter().map(shift).collect(),
+        x0: x0.to_vec(),
+        xhat0: xhat0.to_vec(),
+        t_end,
+        dt: sc.dt,
+    }
+}
+
+/// Integrates in chunks of [`CHUNK_STEPS`] steps with the library's RK4,
+/// handing every step to the checks and every `stride`-th to the CSV.
+#[allow(clippy::too_many_arguments)]
+fn run_streamed(
+    obs: &PolytopicModel,
+    gains: &[DMatrix<f64>],
+    sc: &Scenario,
+    steps: usize,
+    claim: &Claim,
+    (stride, plot_stride): (usize, usize),
+    csv: &mut Option<impl Write>,
+    found: &mut Findings,
+) -> Result<(), CliError> {
+    let nx = obs.nx();
+    let (mut x, mut xhat) = (sc.x0.clone(), sc.xhat0.clone());
+    let mut k0 = 0usize;
+    let mut next_target = 0usize;
+    loop {
+        let n = (steps - k0).min(CHUNK_STEPS);
+        let t0 = k0 as f64 * sc.dt;
+        let last = k0 + n == steps;
+        let t_end = if last {
+            (sc.t_end - t0).max(0.0)
+        } else {
+            n as f64 * sc.dt
+        };
+        let part = shifted(sc, t0, &x, &xhat, t_end);
+        let traj =
+            simulate(obs, gains, &part).map_err(|e| CliError::Input(format!("simulation: {e}")))?;
+        let first = usize::from(k0 > 0);
+        for i in first..traj.len() {
+            let k = k0 + i;
+            let r = Row {
+                t: t0 + traj.t[i],
+                x: traj.x[i].clone(),
+                xhat: traj.xhat[i].clone(),
+                theta: traj.theta[i].clone(),
+                mu: traj.mu[i].clone(),
+                err: traj.error_norm[i],
+            };
+            if k == 0 {
+                found.e0 = r.err;
+            }
+            // The certificate's premises and claim.
+            if let Some(qi) = &claim.q_inv {
+                let xs = nalgebra::DVector::from_column_slice(&r.x);
+                let s = xs.dot(&(qi * &xs));
+                if s > 1.0 + 1e-9 {
+                    let e = found.left_f.get_or_insert((r.t, s));
+                    e.1 = e.1.max(s);
+                }
+            }
+            if let Some((kf, alpha)) = claim.envelope {
+                let env = kf * found.e0 * (-alpha * r.t / 2.0).exp();
+                if r.err > env * (1.0 + ENVELOPE_SLACK) + 1e-300 {
+                    let ratio = r.err / env;
+                    let e = found.envelope_exceeded.get_or_insert((r.t, ratio));
+                    e.1 = e.1.max(ratio);
+                }
+            }
+            if r.err.is_nan() || r.err >= 1e-6 {
+                found.below_from = None;
+            } else if found.below_from.is_none() {
+                found.below_from = Some(r.t);
+            }
+            while next_target < SUMMARY_TIMES.len() && r.t >= SUMMARY_TIMES[next_target] - 1e-12 {
+                found.table.push((r.t, r.err));
+                next_target += 1;
+            }
+            let end = last && i + 1 == traj.len();
+            if k % stride == 0 || end {
+                if let Some(w) = csv.as_mut() {
+                    write_row(w, obs, sc, &r)
+                        .map_err(|e| CliError::Io(format!("cannot write trajectories.csv: {e}")))?;
+                    found.rows_written += 1;
+                }
+            }
+            found.t_last = r.t;
+            if k % plot_stride == 0 || end {
+                found.plot.push(r);
+            }
+        }
+        if let Some(d) = traj.diverged_at {
+            found.diverged_at = Some(t0 + d);
+            return Ok(());
+        }
+        x = traj.x.last().cloned().unwrap_or_else(|| vec![0.0; nx]);
+        xhat = traj.xhat.last().cloned().unwrap_or_else(|| vec![0.0; nx]);
+        k0 += n;
+        if last {
+            return Ok(());
         }
     }
-    match traj.error_below(1e-6) {
-        Some(t) => s.push_str(&format!("error below 1e-6 from t = {t:.3} s on")),
-        None => s.push_str("error not below 1e-6 at the end"),
-    }
-    s.push_str(&format!(
-        " (certified decay rate alpha = {alpha:.4}: V(t) <= V(0) e^(-alpha t))"
-    ));
-    if let Some(t) = traj.diverged_at {
-        s.push_str(&format!("\nsimulation diverged at t = {t}"));
-    }
-    s
 }
 
-fn column(rows: &[Vec<f64>], t: &[f64], k: usize) -> Vec<(f64, f64)> {
-    t.iter()
-        .zip(rows)
-        .filter_map(|(&t, r)| r.get(k).map(|&v| (t, v)))
-        .collect()
+fn describe(f: &Findings, claim: &Claim) -> String {
+    let mut s = String::from("      t     ||x - xhat||\n");
+    for (t, e) in &f.table {
+        s.push_str(&format!("  {t:>6.3}   {e:.3e}\n"));
+    }
+    match (f.diverged_at, f.below_from) {
+        (Some(_), _) => {}
+        (None, Some(t)) => s.push_str(&format!("error below 1e-6 from t = {t:.3} s on\n")),
+        (None, None) => s.push_str("error not below 1e-6 at the end\n"),
+    }
+    if let Some((t, v)) = f.left_f {
+        s.push_str(&format!(
+            "warning: the plant leaves the state bound F at t = {t:.4} (x^T Q^-1 x up to {v:.4} > 1); \
+             the certificate assumes x stays in F, so it says nothing about this run\n"
+        ));
+    }
+    if claim.envelope.is_some() {
+        match f.envelope_exceeded {
+            Some((t, r)) => s.push_str(&format!(
+                "the error LEAVES the certified envelope at t = {t:.4} (up to {r:.4} times the envelope)\n"
+            )),
+            None => s.push_str("the error stays inside the certified envelope\n"),
+        }
+    }
+    if let Some(t) = f.diverged_at {
+        s.push_str(&format!("simulation diverged at t = {t}\n"));
+    }
+    s.trim_end().to_string()
 }
 
-/// Writes `x{i}.svg` (state and estimate), `mu.svg`, `error.svg` (log
-/// scale, with the guaranteed envelope) and `trajectories.csv` into `dir`.
-pub fn write_figures(
+/// Writes `x{i}.svg` (state and estimate), `mu.svg` and `error.svg` (log
+/// scale, with the certified envelope when there is one) into `dir`.
+fn write_figures(
     dir: &Path,
-    poly: &qpv_dsl::PolytopicModel,
-    traj: &Trajectory,
-    design: &Design,
+    poly: &PolytopicModel,
+    f: &Findings,
+    claim: &Claim,
 ) -> Result<(), CliError> {
-    std::fs::create_dir_all(dir)
-        .map_err(|e| CliError::Io(format!("cannot create {}: {e}", dir.display())))?;
     let io = |e: String| CliError::Io(e);
+    let col = |get: &dyn Fn(&Row) -> Option<f64>| -> Vec<(f64, f64)> {
+        f.plot
+            .iter()
+            .filter_map(|r| get(r).map(|v| (r.t, v)))
+            .collect()
+    };
     for (k, name) in poly.states.iter().enumerate() {
         let series = vec![
-            Series::new(name.clone(), column(&traj.x, &traj.t, k), PALETTE[0], false),
+            Series::new(
+                name.clone(),
+                col(&|r| r.x.get(k).copied()),
+                PALETTE[0],
+                false,
+            ),
             Series::new(
                 format!("{name} estimate"),
-                column(&traj.xhat, &traj.t, k),
+                col(&|r| r.xhat.get(k).copied()),
                 PALETTE[1],
                 true,
             ),
@@ -147,7 +602,7 @@ pub fn write_figures(
         .map(|l| {
             Series::new(
                 format!("mu{}", l + 1),
-                column(&traj.mu, &traj.t, l),
+                col(&|r| r.mu.get(l).copied()),
                 PALETTE[l % PALETTE.len()],
                 false,
             )
@@ -161,29 +616,18 @@ pub fn write_figures(
         false,
     )
     .map_err(io)?;
-    let e0 = traj.error_norm.first().copied().unwrap_or(0.0);
     let mut series = vec![Series::new(
         "||x - xhat||",
-        traj.t
-            .iter()
-            .copied()
-            .zip(traj.error_norm.iter().copied())
-            .collect(),
+        col(&|r| Some(r.err)),
         PALETTE[0],
         false,
     )];
-    // ||e(t)|| <= sqrt(cond P) ||e(0)|| e^{-alpha t / 2} (from V(t) <= V(0) e^{-alpha t}).
-    if let Some(factor) = envelope_factor(&design.p_matrix()).filter(|_| e0 > 0.0) {
-        let k = factor * e0;
+    // ||e(t)|| <= sqrt(cond P) ||e(0)|| e^{-alpha t / 2}, only when certified.
+    if let Some((k, alpha)) = claim.envelope.filter(|_| f.e0 > 0.0) {
+        let k = k * f.e0;
         series.push(Series::new(
-            format!(
-                "guaranteed envelope sqrt(cond P)||e0|| e^(-{:.2} t/2)",
-                design.alpha
-            ),
-            traj.t
-                .iter()
-                .map(|&t| (t, k * (-design.alpha * t / 2.0).exp()))
-                .collect(),
+            format!("certified envelope sqrt(cond P)||e0|| e^(-{alpha:.2} t/2)"),
+            col(&|r| Some(k * (-alpha * r.t / 2.0).exp())),
             PALETTE[1],
             true,
         ));
@@ -195,11 +639,5 @@ pub fn write_figures(
         &series,
         true,
     )
-    .map_err(io)?;
-    let mut csv = Vec::new();
-    traj.write_csv(&mut csv)
-        .map_err(|e| CliError::Io(e.to_string()))?;
-    std::fs::write(dir.join("trajectories.csv"), csv)
-        .map_err(|e| CliError::Io(format!("cannot write trajectories.csv: {e}")))?;
-    Ok(())
+    .map_err(io)
 }

@@ -674,6 +674,12 @@ pub fn design_with_progress(
     let mode = request.mode;
     let set = ConditionSet::from_mode(mode);
     crate::model::validate(model)?;
+    // Size guard (crate::size): refuse before anything is assembled or solved.
+    let size_note = match crate::size::guard(model, request) {
+        crate::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
+        crate::size::Verdict::Slow(m) => Some(m),
+        crate::size::Verdict::Fits => None,
+    };
     // `state_bound auto`: compute Q first; the design then uses it as given.
     let (resolved, bound_info) = crate::model::state_bound::resolve(model, settings)?;
     // The output route: the model itself (double sum) or its augmentation
@@ -724,6 +730,7 @@ pub fn design_with_progress(
 
     // The search.
     let mut notes: Vec<String> = Vec::new();
+    notes.extend(size_note); // size guard: the "slow" warning
     if bound_info.source == "auto" {
         notes.push(format!(
             "state bound computed (state_bound auto): h = {:.6}, γ_max = {:.6}, in {} solves, {:.3} s",
@@ -850,7 +857,24 @@ pub fn design_with_progress(
         Some(p) => p.cert.data_checks.clone(),
         None => data_checks(model, mode, gamma_r),
     };
-    let margins = shown.as_ref().map(|p| p.cert.margins()).unwrap_or_default();
+    let mut margins = shown.as_ref().map(|p| p.cert.margins()).unwrap_or_default();
+    // Failure diagnosis (crate::diagnosis): without any point, the margins
+    // of one attempt at the smallest α, then the cheap model tests.
+    let diagnosis = if feasible {
+        None
+    } else {
+        if margins.is_empty() {
+            let (a, obj) = (settings.alpha_floor, Objective::MaxMargin);
+            if let Some(p) = ctx.attempt(a, gamma_r, obj, None, "diagnose")?.point {
+                margins = p.cert.margins();
+            }
+        }
+        Some(crate::diagnosis::diagnose(
+            &resolved,
+            request,
+            settings.alpha_floor,
+        ))
+    };
 
     // Notes and summary.
     let unknown = ctx
@@ -1000,5 +1024,6 @@ pub fn design_with_progress(
         state_bound: Some(bound_info),
         output_route: Some(route_info),
         skew: None,
+        diagnosis,
     })
 }

@@ -1,0 +1,246 @@
+//! The size of a design problem, estimated before anything is assembled,
+//! and the budget a design must fit in.
+//!
+//! A box region in R^nx has p = 2^nx vertices and the full rate family has
+//! c·p² blocks (c rate combinations: one per θ-vertex, or r² for the double
+//! sum), so the problem grows by 4× (full) or 2× (decoupled) per state.
+//! Clarabel's memory is dominated by the constraint matrix, the KKT matrix
+//! and its factor (each about the constraint nonzeros plus one dense
+//! t×t block per PSD cone of t = d(d+1)/2 rows) and by the dense work of
+//! each PSD cone (a few d×d matrices). The independent certificate checks
+//! all c·p² blocks of the full family whatever was solved (one symmetric
+//! eigenvalue problem each), which bounds the time of every accepted point.
+//!
+//! The constants were measured with `qpv design --alpha 1 --gamma 0.1`
+//! (one solve) on a synthetic chain model (two parameters, so 4 θ-vertices;
+//! two outputs; the box |x_i| ≤ 0.02) on a shared 2-core machine: maximum
+//! resident memory of the process and Clarabel's solve time.
+//!
+//! | nx | conditions | PSD blocks | units (estimate) | measured RSS | solve |
+//! |---:|---|---:|---:|---:|---:|
+//! | 5 | decoupled | 267 | 0.49 M | 16 MB | 2.3 s, 7 iterations |
+//! | 6 | decoupled | 525 | 1.67 M | 37 MB | 40 s, 33 iterations |
+//! | 5 | full | 4 107 | 7.3 M | 134 MB | 31 s, 10 iterations |
+//! | 6 | full | 16 397 | 51 M | ≥ 858 MB | > 300 s (stopped) |
+//!
+//! That is 12–18 bytes and 0.4–0.7 µs per iteration per unit; the estimate
+//! uses [`BYTES_PER_UNIT`] = 24 and [`SECONDS_PER_UNIT`] (25 iterations of
+//! 0.6 µs). Extrapolated: nx = 7 full needs about 8 GB, nx = 10 full about
+//! 10¹² bytes, nx = 10 decoupled about 3.4 GB and half an hour per solve.
+//!
+//! [`MEMORY_BUDGET`] and [`CERTIFICATE_BUDGET`] are what a design may use;
+//! above [`SLOW_BYTES`], [`SLOW_CERTIFICATE`] or [`SLOW_SECONDS`] per solve
+//! it is accepted with a warning that it will be slow (a search runs tens
+//! of solves).
+
+use qpv_dsl::{Conditions, DesignRequest, Mode, OutputRoute, PolytopicModel};
+
+/// Bytes per unit of [`SizeEstimate::units`] (the measurements in the
+/// module documentation give 12–18; rounded up).
+pub const BYTES_PER_UNIT: f64 = 24.0;
+
+/// Seconds of one solve per unit of [`SizeEstimate::units`]: 25 interior-point
+/// iterations of 0.6 µs per unit (measured, see the module documentation).
+pub const SECONDS_PER_UNIT: f64 = 1.5e-5;
+
+/// Memory a design may need before it is refused: 4 GiB.
+pub const MEMORY_BUDGET: f64 = 4.0 * 1024.0 * 1024.0 * 1024.0;
+
+/// Largest number of rate blocks the certificate may check per candidate
+/// point (each an eigenvalue problem of size nx; a search certifies tens of
+/// points): 2²², which a box in R^10 with 4 θ-vertices reaches.
+pub const CERTIFICATE_BUDGET: f64 = 4_194_304.0;
+
+/// Above this estimate (bytes) a design is accepted with a warning: 512 MiB.
+pub const SLOW_BYTES: f64 = 512.0 * 1024.0 * 1024.0;
+
+/// Above this many certificate blocks a design is accepted with a warning.
+pub const SLOW_CERTIFICATE: f64 = 262_144.0;
+
+/// Above this estimated time per solve (seconds) a design is accepted with
+/// a warning.
+pub const SLOW_SECONDS: f64 = 60.0;
+
+/// The estimated size of one design problem (all counts as f64: they can
+/// exceed any integer type for large models, which is the point).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SizeEstimate {
+    /// States of the observer model (plant + output filter states).
+    pub nx: usize,
+    /// Region vertices p.
+    pub region_vertices: usize,
+    /// Rate combinations c.
+    pub combinations: usize,
+    /// PSD blocks of size nx solved (rate blocks plus (S1)).
+    pub psd_blocks: f64,
+    /// PSD blocks of size nx + 1 solved (region facets, and vertices in paper mode).
+    pub psd_blocks_plus: f64,
+    /// Decision variables.
+    pub variables: f64,
+    /// Constraint rows (cone dimension).
+    pub rows: f64,
+    /// Nonzeros of the constraint matrix.
+    pub nonzeros: f64,
+    /// Stored numbers: constraint matrix, KKT matrix and factor, dense PSD work.
+    pub units: f64,
+    /// Estimated peak memory in bytes.
+    pub bytes: f64,
+    /// Estimated time of one solve in seconds (machine dependent).
+    pub seconds_per_solve: f64,
+    /// Rate blocks the independent certificate checks per point (c·p²).
+    pub certificate_blocks: f64,
+}
+
+/// t = d(d+1)/2.
+fn tri(d: f64) -> f64 {
+    d * (d + 1.0) / 2.0
+}
+
+/// Estimates the size of the design problem `request` poses on `model`
+/// (the plant as written; the output route and conditions of the request
+/// are taken into account).
+pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate {
+    let ny = model.ny() as f64;
+    let filter = matches!(request.output_route, OutputRoute::Filter(_)) && model.output_varies();
+    let nx_u = model.nx() + if filter { model.ny() } else { 0 };
+    let nx = nx_u as f64;
+    let nv = model.nv().max(1) as f64;
+    let double = model.nv() > 1 && model.output_varies() && !filter;
+    let c = if double { nv * nv } else { nv };
+    let terms = if double { 3.0 } else { 1.0 };
+    let p = model.region.vertices.len() as f64;
+    let q = model.region.facets.len() as f64;
+    let t = tri(nx);
+    let t1 = tri(nx + 1.0);
+    let rate_blocks = match request.conditions {
+        Conditions::Full => c * p * p,
+        Conditions::Decoupled => c * 2.0 * p,
+    };
+    let slack = match request.conditions {
+        Conditions::Full => 0.0,
+        Conditions::Decoupled => c * t,
+    };
+    let variables = t + nv * nx * ny + slack + 1.0;
+    let vertex_psd = if request.mode == Mode::Paper { p } else { 0.0 };
+    let psd_blocks = rate_blocks + 1.0;
+    let psd_blocks_plus = q + vertex_psd;
+    let rows = psd_blocks * t + psd_blocks_plus * t1 + if vertex_psd > 0.0 { 0.0 } else { p } + 1.0;
+    // Each rate row depends on P̂ (t), the Γ̂ of its terms, its slack and the margin.
+    let per_rate_row = t + terms * nx * ny + 2.0;
+    let nonzeros = rate_blocks * t * per_rate_row + psd_blocks_plus * t1 * (t + nx) + p * t + t;
+    // KKT: A, the dense t×t scaling block of every PSD cone, the dense
+    // variable block; the factor about as much again; cone work ~12 d².
+    let cone_dense = psd_blocks * tri(t) + psd_blocks_plus * tri(t1);
+    let kkt = nonzeros + cone_dense + tri(variables);
+    let cone_work = 12.0 * (psd_blocks * nx * nx + psd_blocks_plus * (nx + 1.0) * (nx + 1.0));
+    let units = nonzeros + 2.0 * kkt + cone_work + rows;
+    SizeEstimate {
+        nx: nx_u,
+        region_vertices: model.region.vertices.len(),
+        combinations: c as usize,
+        psd_blocks,
+        psd_blocks_plus,
+        variables,
+        rows,
+        nonzeros,
+        units,
+        bytes: units * BYTES_PER_UNIT,
+        seconds_per_solve: units * SECONDS_PER_UNIT,
+        certificate_blocks: c * p * p,
+    }
+}
+
+/// What the guard decided.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Verdict {
+    /// Fits comfortably.
+    Fits,
+    /// Fits the budget but will be slow: the warning text.
+    Slow(String),
+    /// Does not fit: the refusal text (what would fit, which option helps).
+    TooLarge(String),
+}
+
+fn human_bytes(b: f64) -> String {
+    const UNITS: [&str; 6] = ["B", "KiB", "MiB", "GiB", "TiB", "PiB"];
+    let mut v = b;
+    let mut i = 0;
+    while v >= 1024.0 && i + 1 < UNITS.len() {
+        v /= 1024.0;
+        i += 1;
+    }
+    if i == UNITS.len() - 1 && v >= 1024.0 {
+        return format!("{b:.1e} B");
+    }
+    format!("{v:.1} {}", UNITS[i])
+}
+
+/// Checks `request` on `model` against [`MEMORY_BUDGET`] and
+/// [`CERTIFICATE_BUDGET`].
+pub fn guard(model: &PolytopicModel, request: &DesignRequest) -> Verdict {
+    let e = estimate(model, request);
+    let describe = |e: &SizeEstimate| {
+        format!(
+            "nx = {}, {} region vertices, {} rate combinations: {:.3e} PSD blocks, {:.3e} variables, \
+             {:.3e} constraint nonzeros, about {} of solver memory and {:.0} s per solve; the certificate checks {:.3e} blocks",
+            e.nx,
+            e.region_vertices,
+            e.combinations,
+            e.psd_blocks + e.psd_blocks_plus,
+            e.variables,
+            e.nonzeros,
+            human_bytes(e.bytes),
+            e.seconds_per_solve,
+            e.certificate_blocks
+        )
+    };
+    let too_big = e.bytes > MEMORY_BUDGET || e.certificate_blocks > CERTIFICATE_BUDGET;
+    if too_big {
+        let mut help = Vec::new();
+        if request.conditions == Conditions::Full {
+            let mut d = request.clone();
+            d.conditions = Conditions::Decoupled;
+            let ed = estimate(model, &d);
+            if ed.bytes <= MEMORY_BUDGET && ed.certificate_blocks <= CERTIFICATE_BUDGET {
+                help.push(format!(
+                    "`conditions = decoupled` (--conditions decoupled) would need about {}",
+                    human_bytes(ed.bytes)
+                ));
+            } else if ed.bytes <= MEMORY_BUDGET {
+                help.push(format!(
+                    "`conditions = decoupled` would fit the solver ({}) but the certificate would still check {:.3e} blocks",
+                    human_bytes(ed.bytes),
+                    ed.certificate_blocks
+                ));
+            }
+        }
+        help.push(
+            "a region with fewer vertices (a box in R^n has 2^n; a simplex or a diamond `region vertices [...]` has far fewer) \
+             or fewer states"
+                .to_string(),
+        );
+        return Verdict::TooLarge(format!(
+            "the design problem is too large: {}; the budget is {} of memory and {:.3e} certificate blocks. \
+             What would help: {}",
+            describe(&e),
+            human_bytes(MEMORY_BUDGET),
+            CERTIFICATE_BUDGET,
+            help.join("; ")
+        ));
+    }
+    if e.bytes > SLOW_BYTES
+        || e.certificate_blocks > SLOW_CERTIFICATE
+        || e.seconds_per_solve > SLOW_SECONDS
+    {
+        return Verdict::Slow(format!(
+            "a large design problem ({}); a search runs tens of solves{}",
+            describe(&e),
+            if request.conditions == Conditions::Full {
+                "; `conditions = decoupled` is smaller"
+            } else {
+                ""
+            }
+        ));
+    }
+    Verdict::Fits
+}

@@ -1,0 +1,136 @@
+//! The failure diagnosis (detectability at the θ-vertices, the (S4) bound,
+//! region vertices outside F) and the size guard that refuses a design too
+//! large to solve before anything is assembled.
+
+use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode};
+use qpv_solve::conditions::reference::{paper_model, synthetic_model};
+use qpv_solve::diagnosis::{diagnose, undetectable_modes};
+use qpv_solve::size::{estimate, guard, Verdict, CERTIFICATE_BUDGET, MEMORY_BUDGET};
+use qpv_solve::{design, request, Settings, SolveError};
+
+fn model(src: &str) -> qpv_dsl::PolytopicModel {
+    qpv_dsl::parse(src)
+        .expect("valid model")
+        .remove(0)
+        .polytopic()
+}
+
+const UNDETECTABLE: &str = "model u {
+    state x1, x2;  output y;  param th in [0, 1];
+    der x1 = -(1 + th)*x1 + 0.5*x1*x2;
+    der x2 = (0.5 - th)*x2;
+    out y = x1;
+    region box(0.1);
+    state_bound Q = [0.04, 0; 0, 0.04];
+}";
+
+#[test]
+fn the_pbh_test_names_the_vertex_and_the_state_of_an_undetectable_mode() {
+    let m = model(UNDETECTABLE);
+    // x2' = (0.5 − θ) x2 is unseen: λ = 0.5 at θ = 0, λ = −0.5 at θ = 1.
+    let unstable = undetectable_modes(&m, 0.0);
+    assert_eq!(unstable.len(), 1, "{unstable:?}");
+    assert_eq!(unstable[0].vertex, 0);
+    assert_eq!(unstable[0].state, 1);
+    assert!((unstable[0].lambda.re - 0.5).abs() < 1e-12);
+    // With α = 2, modes down to −1 matter: both vertices.
+    assert_eq!(undetectable_modes(&m, -1.0).len(), 2);
+
+    let req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+    let found = diagnose(&m, &req, 1e-4);
+    let pbh: Vec<_> = found.iter().filter(|f| f.kind == "detectability").collect();
+    assert_eq!(pbh.len(), 1, "{found:?}");
+    assert!(pbh[0].blocking);
+    assert!(
+        pbh[0].message.contains("vertex 1 (th = 0)"),
+        "{}",
+        pbh[0].message
+    );
+    assert!(pbh[0].message.contains("state x2"), "{}", pbh[0].message);
+}
+
+#[test]
+fn a_detectable_model_has_no_pbh_finding_and_gets_the_s4_bound() {
+    let m = paper_model();
+    let req = request(AlphaSpec::Fixed(10.0), GammaSpec::Fixed(0.4), Mode::Sound);
+    let found = diagnose(&m, &req, 1e-4);
+    assert!(found.iter().all(|f| f.kind != "detectability"), "{found:?}");
+    let s4 = found.iter().find(|f| f.kind == "S4").expect("S4 finding");
+    // γ = 0.4 is above the paper's γ_max ≈ 0.189: blocking.
+    assert!(s4.blocking, "{}", s4.message);
+    assert!(s4.message.contains("gamma_max"), "{}", s4.message);
+}
+
+#[test]
+fn a_region_outside_the_state_bound_is_reported_with_the_factor_to_shrink_it() {
+    let m = model(
+        "model big {
+            state x1, x2;  output y;  param th in [0, 1];
+            der x1 = -x1 + x2;  der x2 = -(1 + th)*x2;  out y = x1;
+            region box(1);
+            state_bound Q = [0.5, 0; 0, 0.5];
+        }",
+    );
+    let req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+    let found = diagnose(&m, &req, 1e-4);
+    let f = found
+        .iter()
+        .find(|f| f.kind == "region_in_F")
+        .expect("region finding");
+    // Vertex (±1, ±1): xᵀQ⁻¹x = 4, shrink by 1/2.
+    assert!(f.message.contains("= 4.0000"), "{}", f.message);
+    assert!(f.message.contains("factor 0.5000"), "{}", f.message);
+}
+
+#[test]
+fn a_failed_design_carries_margins_and_its_diagnosis() {
+    let m = model(UNDETECTABLE);
+    let req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+    let d = design(&m, &req, &Settings::default()).expect("design runs");
+    assert!(!d.feasible && !d.certifies);
+    assert!(d.margins.contains_key("S5"), "{:?}", d.margins);
+    assert!(d.margins["S5"] <= 0.0);
+    let diag = d.diagnosis.as_ref().expect("diagnosis");
+    assert!(diag.iter().any(|f| f.kind == "detectability" && f.blocking));
+    // It survives the JSON round trip; certified reports have none.
+    let back = qpv_solve::Design::from_json(&d.to_json()).expect("json");
+    assert_eq!(back.diagnosis, d.diagnosis);
+}
+
+#[test]
+fn the_size_estimate_grows_with_the_region_and_decoupled_is_smaller() {
+    let mut last = 0.0;
+    for nx in 3..=8 {
+        let m = synthetic_model(nx);
+        let full = estimate(&m, &request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound));
+        let mut r = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+        r.conditions = Conditions::Decoupled;
+        let dec = estimate(&m, &r);
+        assert_eq!(full.region_vertices, 1 << nx);
+        assert_eq!(full.certificate_blocks, 4.0 * (1u64 << (2 * nx)) as f64);
+        assert_eq!(dec.certificate_blocks, full.certificate_blocks);
+        assert!(dec.bytes < full.bytes, "nx = {nx}");
+        assert!(full.bytes > last, "nx = {nx}");
+        last = full.bytes;
+    }
+}
+
+#[test]
+fn a_ten_state_box_is_refused_before_solving_and_three_states_fit() {
+    let big = synthetic_model(10);
+    let req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+    match guard(&big, &req) {
+        Verdict::TooLarge(m) => {
+            assert!(m.contains("1024 region vertices"), "{m}");
+            assert!(m.contains("region with fewer vertices"), "{m}");
+        }
+        v => panic!("nx = 10 full must be refused: {v:?}"),
+    }
+    let e = estimate(&big, &req);
+    assert!(e.bytes > MEMORY_BUDGET || e.certificate_blocks > CERTIFICATE_BUDGET);
+    match design(&big, &req, &Settings::default()) {
+        Err(SolveError::TooLarge(m)) => assert!(m.contains("too large"), "{m}"),
+        other => panic!("expected TooLarge, got {other:?}"),
+    }
+    assert_eq!(guard(&synthetic_model(3), &req), Verdict::Fits);
+}

@@ -1,0 +1,405 @@
+//! `qpv simulate` says only what is certified, compares the run with the
+//! certified envelope only then, exits 1 when a run diverges, takes inputs
+//! and parameters as expressions of t or a CSV, streams its CSV with the
+//! model's names; `qpv design` explains a failure (no α, margins, a
+//! diagnosis) and refuses a problem too large to solve.
+
+mod common;
+
+use common::qpv;
+use std::path::PathBuf;
+
+fn tmp(name: &str) -> PathBuf {
+    common::tmp("simulate", name)
+}
+
+fn text(out: &std::process::Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+/// Designs `args` into the report `name` and returns its path.
+fn design(name: &str, args: &[&str]) -> PathBuf {
+    let report = tmp(name);
+    let r = report.to_str().expect("utf-8 path");
+    let mut all = vec!["design"];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--json", r]);
+    let out = qpv(&all);
+    assert!(report.exists(), "no report: {}", text(&out));
+    report
+}
+
+/// The paper example's sound design at a fixed point (certified).
+fn certified_paper() -> PathBuf {
+    design(
+        "paper_sound.json",
+        &["examples/paper.qpv", "--alpha", "10", "--gamma", "0.1889"],
+    )
+}
+
+#[test]
+fn a_certified_design_is_compared_with_its_envelope_and_the_csv_uses_the_models_names() {
+    let report = certified_paper();
+    let dir = tmp("certified");
+    let out = qpv(&[
+        "simulate",
+        "examples/paper.qpv",
+        "--design",
+        report.to_str().expect("utf-8"),
+        "--scenario",
+        "paper",
+        "--every",
+        "0.01",
+        "--plot",
+        dir.to_str().expect("utf-8"),
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(
+        t.contains("certified (independent re-check on this model)"),
+        "{t}"
+    );
+    assert!(t.contains("stays inside the certified envelope"), "{t}");
+    let svg = std::fs::read_to_string(dir.join("error.svg")).expect("error.svg");
+    assert!(svg.contains("certified envelope"));
+    let csv = std::fs::read_to_string(dir.join("trajectories.csv")).expect("csv");
+    let header = csv.lines().next().expect("header");
+    assert_eq!(
+        header,
+        "t,x1,x2,x3,xhat1,xhat2,xhat3,th1,th2,y1,y2,mu1,mu2,mu3,mu4,error_norm"
+    );
+    assert_eq!(csv.lines().count(), 202, "header + 201 rows every 0.01 s");
+}
+
+#[test]
+fn a_report_that_does_not_certify_claims_no_decay_rate_and_draws_no_envelope() {
+    let report = design(
+        "paper_mode.json",
+        &[
+            "examples/paper.qpv",
+            "--mode",
+            "paper",
+            "--alpha",
+            "10",
+            "--gamma",
+            "0.4",
+        ],
+    );
+    let dir = tmp("paper_mode");
+    let out = qpv(&[
+        "simulate",
+        "examples/paper.qpv",
+        "--design",
+        report.to_str().expect("utf-8"),
+        "--plot",
+        dir.to_str().expect("utf-8"),
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(t.contains("NOT certified"), "{t}");
+    assert!(!t.contains("certified decay rate"), "{t}");
+    assert!(!t.contains("certified (independent"), "{t}");
+    let svg = std::fs::read_to_string(dir.join("error.svg")).expect("error.svg");
+    assert!(!svg.contains("envelope"));
+}
+
+#[test]
+fn tampered_gains_are_rechecked_and_a_diverging_run_exits_1() {
+    let report = certified_paper();
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    assert_eq!(j["certifies"], true);
+    // Gains scaled by −1e4: the report still says `certifies: true`.
+    for l in j["L"].as_array_mut().expect("L") {
+        for row in l.as_array_mut().expect("rows") {
+            for v in row.as_array_mut().expect("row") {
+                *v = serde_json::json!(v.as_f64().expect("number") * -1e4);
+            }
+        }
+    }
+    let bad = tmp("tampered.json");
+    std::fs::write(&bad, j.to_string()).expect("write");
+    let out = qpv(&[
+        "simulate",
+        "examples/paper.qpv",
+        "--design",
+        bad.to_str().expect("utf-8"),
+        "--t-end",
+        "0.5",
+    ]);
+    let t = text(&out);
+    assert!(
+        t.contains("NOT certified: the independent certificate fails"),
+        "{t}"
+    );
+    assert!(t.contains("simulation diverged at t ="), "{t}");
+    assert_eq!(out.status.code(), Some(1), "{t}");
+}
+
+#[test]
+fn leaving_the_state_bound_is_a_warning() {
+    let report = certified_paper();
+    let out = qpv(&[
+        "simulate",
+        "examples/paper.qpv",
+        "--design",
+        report.to_str().expect("utf-8"),
+        "--x0",
+        "0.15,0,0",
+        "--t-end",
+        "0.2",
+    ]);
+    let t = text(&out);
+    assert!(
+        t.contains("warning: the plant leaves the state bound F"),
+        "{t}"
+    );
+}
+
+#[test]
+fn inputs_and_parameters_come_from_expressions_or_a_csv() {
+    let report = design(
+        "vdv.json",
+        &[
+            "examples/van_de_vusse.qpv",
+            "--alpha",
+            "20",
+            "--gamma",
+            "0.5",
+        ],
+    );
+    let r = report.to_str().expect("utf-8");
+    let dir = tmp("inputs");
+    let d = dir.to_str().expect("utf-8");
+    let out = qpv(&[
+        "simulate",
+        "examples/van_de_vusse.qpv",
+        "--design",
+        r,
+        "--t-end",
+        "0.1",
+        "--every",
+        "0.05",
+        "--input",
+        "u=2*t + 1",
+        "--param",
+        "th=35",
+        "--plot",
+        d,
+    ]);
+    assert!(out.status.code() != Some(2), "{}", text(&out));
+    let csv = std::fs::read_to_string(dir.join("trajectories.csv")).expect("csv");
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    assert_eq!(&header[..6], &["t", "x1", "x2", "xhat1", "xhat2", "th"]);
+    assert_eq!(header[6], "u");
+    assert_eq!(header[7], "cb");
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|c| c.parse().expect("number")).collect())
+        .collect();
+    assert_eq!(rows.len(), 3, "t = 0, 0.05, 0.1");
+    for row in &rows {
+        assert!((row[5] - 35.0).abs() < 1e-12, "th = 35: {row:?}");
+        assert!(
+            (row[6] - (2.0 * row[0] + 1.0)).abs() < 1e-12,
+            "u = 2t + 1: {row:?}"
+        );
+    }
+
+    let table = tmp("u.csv");
+    std::fs::write(&table, "t,u\n0,0\n0.1,4\n").expect("write");
+    let dir2 = tmp("inputs_csv");
+    let out = qpv(&[
+        "simulate",
+        "examples/van_de_vusse.qpv",
+        "--design",
+        r,
+        "--t-end",
+        "0.1",
+        "--every",
+        "0.05",
+        "--input-csv",
+        table.to_str().expect("utf-8"),
+        "--plot",
+        dir2.to_str().expect("utf-8"),
+    ]);
+    assert!(out.status.code() != Some(2), "{}", text(&out));
+    let csv = std::fs::read_to_string(dir2.join("trajectories.csv")).expect("csv");
+    let mid: Vec<f64> = csv
+        .lines()
+        .nth(2)
+        .expect("row at t = 0.05")
+        .split(',')
+        .map(|c| c.parse().expect("number"))
+        .collect();
+    assert!((mid[6] - 2.0).abs() < 1e-9, "linear interpolation: {mid:?}");
+
+    for (flag, arg, want) in [
+        ("--input", "v=1", "`v` is neither an input"),
+        ("--input", "u=2*x", "unknown name `x`"),
+        ("--input", "u", "expected NAME=EXPR"),
+        ("--param", "u=1", "`u` is an input"),
+    ] {
+        let out = qpv(&[
+            "simulate",
+            "examples/van_de_vusse.qpv",
+            "--design",
+            r,
+            flag,
+            arg,
+        ]);
+        assert_eq!(out.status.code(), Some(2), "{flag} {arg}: {}", text(&out));
+        assert!(text(&out).contains(want), "{flag} {arg}: {}", text(&out));
+    }
+}
+
+#[test]
+fn tiny_steps_are_streamed_or_refused_with_the_flag_to_change() {
+    let report = certified_paper();
+    let r = report.to_str().expect("utf-8");
+    let refused = qpv(&[
+        "simulate",
+        "examples/paper.qpv",
+        "--design",
+        r,
+        "--dt",
+        "1e-9",
+    ]);
+    assert_eq!(refused.status.code(), Some(2));
+    let t = text(&refused);
+    assert!(t.contains("increase --dt") && t.contains("--t-end"), "{t}");
+
+    // 1e5 steps: the CSV keeps its default of at most 10 001 rows.
+    let dir = tmp("tiny_dt");
+    let out = qpv(&[
+        "simulate",
+        "examples/paper.qpv",
+        "--design",
+        r,
+        "--dt",
+        "1e-7",
+        "--t-end",
+        "0.01",
+        "--plot",
+        dir.to_str().expect("utf-8"),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let csv = std::fs::read_to_string(dir.join("trajectories.csv")).expect("csv");
+    let rows = csv.lines().count() - 1;
+    assert!((10_000..=10_001).contains(&rows), "{rows} rows");
+    let last: f64 = csv
+        .lines()
+        .last()
+        .and_then(|l| l.split(',').next())
+        .and_then(|t| t.parse().ok())
+        .expect("last time");
+    assert!((last - 0.01).abs() < 1e-12, "ends at t_end: {last}");
+}
+
+#[test]
+fn an_undetectable_plant_fails_with_margins_and_a_diagnosis_but_no_alpha() {
+    let out = qpv(&["design", "tests/fixtures/undetectable.qpv"]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{t}");
+    assert!(t.contains("NOT CERTIFIED"), "{t}");
+    assert!(!t.contains("alpha = 0.0001"), "{t}");
+    assert!(!t.contains("CERTIFIED:"), "{t}");
+    assert!(t.contains("margins of the best attempt"), "{t}");
+    assert!(t.contains("S5"), "{t}");
+    assert!(t.contains("BLOCKING: not detectable at vertex 1"), "{t}");
+    assert!(t.contains("mainly state x2"), "{t}");
+
+    let json = qpv(&["design", "tests/fixtures/undetectable.qpv", "--json", "-"]);
+    let j: serde_json::Value =
+        serde_json::from_str(&String::from_utf8_lossy(&json.stdout)).expect("json");
+    assert_eq!(j["certifies"], false);
+    let kinds: Vec<&str> = j["diagnosis"]
+        .as_array()
+        .expect("diagnosis")
+        .iter()
+        .filter_map(|f| f["kind"].as_str())
+        .collect();
+    assert!(kinds.contains(&"detectability"), "{kinds:?}");
+}
+
+#[test]
+fn a_certified_design_says_once_what_was_certified() {
+    let out = qpv(&[
+        "design",
+        "examples/paper.qpv",
+        "--alpha",
+        "10",
+        "--gamma",
+        "0.1889",
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert_eq!(t.matches("CERTIFIED:").count(), 1, "{t}");
+    assert!(t.contains("every sound condition family holds"), "{t}");
+    assert!(
+        !t.contains("failed the independent certificate and were rejected"),
+        "{t}"
+    );
+}
+
+/// A model with `nx` decoupled stable states, a box region and Q = 2nx·h²·I.
+fn chain_model(nx: usize) -> PathBuf {
+    let states: Vec<String> = (1..=nx).map(|i| format!("x{i}")).collect();
+    let mut src = format!(
+        "model chain{nx} {{\n  state {};\n  output y;\n  param th in [0, 1];\n",
+        states.join(", ")
+    );
+    for (i, s) in states.iter().enumerate() {
+        let next = &states[(i + 1) % nx];
+        src.push_str(&format!("  der {s} = -(2 + th)*{s} + 0.5*{next};\n"));
+    }
+    src.push_str("  out y = x1;\n  region box(0.1);\n  state_bound Q = [");
+    let q = 2.0 * nx as f64 * 0.01;
+    let rows: Vec<String> = (0..nx)
+        .map(|r| {
+            (0..nx)
+                .map(|c| if r == c { format!("{q}") } else { "0".into() })
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+        .collect();
+    src.push_str(&rows.join("; "));
+    src.push_str("];\n}\n");
+    let path = tmp(&format!("chain{nx}.qpv"));
+    std::fs::write(&path, src).expect("write model");
+    path
+}
+
+#[test]
+fn a_problem_too_large_to_solve_is_refused_before_solving() {
+    let big = chain_model(10);
+    let out = qpv(&[
+        "design",
+        big.to_str().expect("utf-8"),
+        "--conditions",
+        "full",
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("too large"), "{t}");
+    assert!(t.contains("1024 region vertices"), "{t}");
+    assert!(t.contains("budget"), "{t}");
+    assert!(t.contains("region with fewer vertices"), "{t}");
+
+    let small = chain_model(3);
+    let out = qpv(&[
+        "design",
+        small.to_str().expect("utf-8"),
+        "--alpha",
+        "1",
+        "--gamma",
+        "0.1",
+    ]);
+    let t = text(&out);
+    assert!(!t.contains("too large"), "{t}");
+    assert_ne!(out.status.code(), Some(2), "{t}");
+}
