@@ -211,6 +211,15 @@ pub struct Design {
     /// nothing).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub skew: Option<Vec<Vec<Vec<Vec<f64>>>>>,
+    /// The certified noise bound σ of V' + αV ≤ σ(|w|² + |v|²) and what it
+    /// guarantees ([`crate::noise::NoiseBound`]); only on certified
+    /// sound-mode designs whose noise check passed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<crate::noise::NoiseBound>,
+    /// The largest safe Euler step and the RK4 step estimate
+    /// ([`crate::sampling::Sampling`]); only on certified sound-mode designs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sampling: Option<crate::sampling::Sampling>,
 }
 
 impl Design {

@@ -771,9 +771,23 @@ pub fn design_with_progress(
     settings: &Settings,
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
-    if request.split == Split::SkewSlack {
-        return design_skew(model, request, settings, progress);
-    }
+    let mut d = if request.split == Split::SkewSlack {
+        design_skew(model, request, settings, progress)?
+    } else {
+        design_rate(model, request, settings, progress)?
+    };
+    // The noise bound and the sampling figures of a certified design.
+    crate::noise::attach(model, &mut d);
+    Ok(d)
+}
+
+/// [`design_with_progress`] without the noise and sampling figures.
+fn design_rate(
+    model: &PolytopicModel,
+    request: &DesignRequest,
+    settings: &Settings,
+    progress: &mut dyn FnMut(&SearchStep),
+) -> Result<Design, SolveError> {
     let t_start = Instant::now();
     let mode = request.mode;
     let set = ConditionSet::from_mode(mode);
@@ -1103,5 +1117,7 @@ pub fn design_with_progress(
         state_bound: Some(bound_info),
         output_route: Some(route_info),
         skew: None,
+        noise: None,
+        sampling: None,
     })
 }
