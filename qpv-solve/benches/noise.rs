@@ -55,8 +55,14 @@ fn main() {
         "  ordinary design (includes σ and the Euler step) {:>9.2} ms",
         1e3 * t_design
     );
-    println!("  σ of a given design (Schur + block check)     {:>9.2} ms", 1e3 * t_sigma);
-    println!("  largest Euler step + RK4 estimate             {:>9.2} ms", 1e3 * t_step);
+    println!(
+        "  σ of a given design (Schur + block check)     {:>9.2} ms",
+        1e3 * t_sigma
+    );
+    println!(
+        "  largest Euler step + RK4 estimate             {:>9.2} ms",
+        1e3 * t_step
+    );
     println!(
         "  noise-optimal design, fixed γ (σ = {:.1})      {:>9.2} ms",
         opt.noise.as_ref().map_or(f64::NAN, |n| n.sigma),

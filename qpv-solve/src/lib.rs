@@ -19,6 +19,11 @@
 //! * [`skew_slack`]: an experiment (issue 6 §2, optional) — alternating
 //!   solves over a skew-symmetric slack K_k (N_k + K_k is the same plant)
 //!   and what it buys (bench `skew_slack`).
+//! * [`noise`]: the certified noise bound σ of V' + αV ≤ σ(|w|² + |v|²)
+//!   (reported on every certified sound design as `noise`), the
+//!   noise-optimal design ([`noise::design_noise`]) and the rate–noise
+//!   trade-off ([`noise::tradeoff`]); [`sampling`]: the largest Euler step
+//!   that keeps V contracting and an RK4 step estimate (`sampling`).
 //! * [`sdp`]: the LMIs assembled directly into Clarabel's standard form
 //!   (PSD triangle cones, no modelling layer); [`conditions`]: the condition
 //!   sets and the one place where the two modes differ.

@@ -136,7 +136,8 @@ impl NoiseChannels {
     /// on output k enters the filter state k through the filter gain b (a
     /// process disturbance of the augmented plant, x_{y,k}' = −a x_{y,k} +
     /// b (y_k + v_k)), and the filter states themselves are measured exactly.
-    /// `plant_nx` is the plant's state count, `gain` the filter gain b.
+    /// `plant_nx` is the plant's state count, `gain` the filter gain b;
+    /// `self` must have passed [`NoiseChannels::validate`] on the plant.
     pub fn through_filter(&self, plant_nx: usize, ny: usize, nv: usize, gain: f64) -> Self {
         let outs = self.noisy_outputs(ny);
         let nw = self.n_w();
@@ -346,7 +347,9 @@ pub fn check_noise(
         return fail("P or the gains do not fit the model".into());
     }
     if !(sigma.is_finite() && sigma > 0.0 && alpha.is_finite() && gamma > 0.0 && gamma < 1.0) {
-        return fail(format!("σ = {sigma}, α = {alpha}, γ = {gamma} out of range"));
+        return fail(format!(
+            "σ = {sigma}, α = {alpha}, γ = {gamma} out of range"
+        ));
     }
     let nx = model.nx();
     let double = crate::conditions::is_double_sum(model);
@@ -466,9 +469,7 @@ pub fn attach(plant: &PolytopicModel, design: &mut Design) {
     };
     let channels = channels_on_observer(plant, design, &NoiseChannels::all_outputs());
     let (p, l) = (design.p_matrix(), design.l_matrices());
-    if design.noise.is_none() {
-        design.noise = noise_bound(&obs, &channels, design.alpha, design.gamma, &p, &l);
-    }
+    design.noise = noise_bound(&obs, &channels, design.alpha, design.gamma, &p, &l);
     design.sampling = crate::sampling::sampling(&obs, design.alpha, design.gamma, &p, &l);
 }
 
@@ -809,7 +810,11 @@ impl NoiseCtx<'_, '_> {
             return Ok(None);
         };
         let kb = grid.iter().position(|&g| g == b.gamma).unwrap_or(0);
-        let mut a = if kb == 0 { grid[0] * 0.25 } else { grid[kb - 1] };
+        let mut a = if kb == 0 {
+            grid[0] * 0.25
+        } else {
+            grid[kb - 1]
+        };
         let mut c = if kb + 1 < grid.len() {
             grid[kb + 1]
         } else {
@@ -904,12 +909,10 @@ pub fn design_noise_with_progress(
     let (routed, route_info) = crate::output_filter::apply(&resolved, &request.output_route)?;
     let split_model = with_split(&routed, request.split);
     let obs: &PolytopicModel = &split_model;
+    channels.validate(model)?;
     let ch = match &route_info.filter {
         Some(f) => channels.through_filter(model.nx(), model.ny(), model.nv(), f.gain),
-        None => {
-            channels.validate(model)?;
-            channels.clone()
-        }
+        None => channels.clone(),
     };
     ch.validate(obs)?;
     let gmax = crate::conditions::gamma_max(obs)
@@ -1198,6 +1201,9 @@ pub fn falsify_noise(
     let model = design
         .observer_model(plant)
         .map_err(|e| SimError::Model(e.to_string()))?;
+    channels
+        .validate(plant)
+        .map_err(|e| SimError::Argument(e.to_string()))?;
     let ch = channels_on_observer(plant, design, channels);
     ch.validate(&model)
         .map_err(|e| SimError::Argument(e.to_string()))?;
@@ -1219,7 +1225,9 @@ pub fn falsify_noise(
         })
         .collect();
     let qpv_dsl::StateBound::Given(q) = &model.state_bound else {
-        return Err(SimError::Model("the design's model has no state bound Q".into()));
+        return Err(SimError::Model(
+            "the design's model has no state bound Q".into(),
+        ));
     };
     let rq = factor("state bound Q", q, nx)?;
     let x_vertices: Vec<DVector<f64>> = model

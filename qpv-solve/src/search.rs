@@ -706,7 +706,7 @@ fn design_skew(
         split: Split::Symmetric,
         ..request.clone()
     };
-    let mut d = design_with_progress(model, &sym, settings, progress)?;
+    let mut d = design_rate(model, &sym, settings, progress)?;
     d.split = Split::SkewSlack;
     if !d.certifies {
         d.notes.push(

@@ -14,7 +14,11 @@ use qpv_solve::{design, request, Design, Settings};
 const GAMMA: f64 = 0.18898;
 
 fn noise_design(alpha: f64) -> Design {
-    let req = request(AlphaSpec::Fixed(alpha), GammaSpec::Fixed(GAMMA), Mode::Sound);
+    let req = request(
+        AlphaSpec::Fixed(alpha),
+        GammaSpec::Fixed(GAMMA),
+        Mode::Sound,
+    );
     assert_eq!(req.split, Split::Symmetric);
     design_noise(
         &paper_model(),
@@ -95,7 +99,10 @@ fn noise_optimal_design_alpha_5_matches_reference() {
         "ν_max = √(α/σ)"
     );
     assert_eq!(nb.per_state.len(), 3);
-    assert!(nb.per_state.iter().all(|&b| b > 0.0 && b <= nb.error_bound * 1.000001));
+    assert!(nb
+        .per_state
+        .iter()
+        .all(|&b| b > 0.0 && b <= nb.error_bound * 1.000001));
     assert!(max_gain(&d) < 20.0, "max ‖L‖ = {}", max_gain(&d));
     recheck(&d);
     // The report round-trips with its noise key.
@@ -138,7 +145,12 @@ fn ordinary_designs_carry_a_checked_noise_bound_and_sampling() {
     assert!(nb.check.passed);
     // The gain-regularised design is not noise-optimal: its σ is no smaller.
     let opt = noise_design(5.0).noise.unwrap();
-    assert!(nb.sigma >= opt.sigma * 0.999, "{} vs {}", nb.sigma, opt.sigma);
+    assert!(
+        nb.sigma >= opt.sigma * 0.999,
+        "{} vs {}",
+        nb.sigma,
+        opt.sigma
+    );
     // The same number from the public function.
     let again = noise_bound(
         &sym_model(),
@@ -244,7 +256,10 @@ fn largest_euler_step_is_tight_and_the_euler_observer_converges_below_it() {
     let v = tr.lyapunov(&p).unwrap();
     for (k, vk) in v.iter().enumerate() {
         let bound = v[0] * (1.0 - sc.dt * s.beta).powi(k as i32);
-        assert!(*vk <= bound * (1.0 + 1e-9) + 1e-300, "step {k}: {vk} > {bound}");
+        assert!(
+            *vk <= bound * (1.0 + 1e-9) + 1e-300,
+            "step {k}: {vk} > {bound}"
+        );
     }
     // The RK4 figure is an estimate above the Euler step (RK4's stability
     // region is larger).
@@ -278,4 +293,29 @@ fn tradeoff_sweep_and_knee() {
         .points
         .windows(2)
         .all(|w| w[1].sigma.unwrap() > w[0].sigma.unwrap()));
+}
+
+#[test]
+fn gamma_search_never_does_worse_than_the_top_of_the_range() {
+    // The γ grid contains γ_hi = γ_max(1 − 1e-6), so the searched σ is at
+    // most the σ there, and the result certifies like any noise design.
+    let req = request(AlphaSpec::Fixed(5.0), GammaSpec::Search, Mode::Sound);
+    let d = design_noise(
+        &paper_model(),
+        &req,
+        &NoiseChannels::all_outputs(),
+        &Settings::default(),
+    )
+    .unwrap();
+    assert!(d.certifies, "{}", d.summary);
+    let top = noise_design(5.0).noise.unwrap().sigma;
+    let got = d.noise.clone().unwrap().sigma;
+    eprintln!(
+        "γ search: σ = {got} at γ = {} ({} solves)",
+        d.gamma,
+        d.search.len()
+    );
+    assert!(got <= top * 1.001, "{got} vs {top} at γ = {GAMMA}");
+    assert!(d.search.iter().all(|s| s.phase.starts_with("noise")));
+    recheck(&d);
 }
