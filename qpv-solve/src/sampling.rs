@@ -91,6 +91,17 @@ pub fn euler_margin(
     beta: f64,
     h: f64,
 ) -> (f64, bool, String) {
+    euler_scan(p, fs, beta, h, false)
+}
+
+/// [`euler_margin`], stopping at the first failing block if `stop`.
+fn euler_scan(
+    p: &DMatrix<f64>,
+    fs: &[(String, DMatrix<f64>)],
+    beta: f64,
+    h: f64,
+    stop: bool,
+) -> (f64, bool, String) {
     let n = p.nrows();
     let eye = DMatrix::<f64>::identity(n, n);
     let mut worst = f64::INFINITY;
@@ -123,6 +134,9 @@ pub fn euler_margin(
             };
             at = label.clone();
         }
+        if stop && !ok {
+            break;
+        }
     }
     (worst, ok, at)
 }
@@ -150,7 +164,7 @@ fn bisect_euler(p: &DMatrix<f64>, fs: &[(String, DMatrix<f64>)], beta: f64) -> O
     if !(fmax.is_finite() && fmax > 0.0) {
         return None;
     }
-    let ok = |h: f64| euler_margin(p, fs, beta, h).1;
+    let ok = |h: f64| euler_scan(p, fs, beta, h, true).1;
     // A tight bracket from the Schur complement, confirmed by the block
     // checks; the doubling bracket below if it is not confirmed.
     if let Some(hc) = schur_step(p, fs, beta) {
