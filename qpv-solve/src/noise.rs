@@ -208,8 +208,7 @@ struct BlockParts {
 fn block_parts(
     model: &PolytopicModel,
     channels: &NoiseChannels,
-    alpha: f64,
-    gamma: f64,
+    (alpha, gamma): (f64, f64),
     p: &DMatrix<f64>,
     gammas: &[DMatrix<f64>],
     combo: &Combo,
@@ -260,7 +259,7 @@ pub fn sigma_min_for(
     for combo in rate_combos(model) {
         for i in 0..np {
             for j in 0..np {
-                let b = block_parts(model, channels, alpha, gamma, p, gammas, &combo, (i, j));
+                let b = block_parts(model, channels, (alpha, gamma), p, gammas, &combo, (i, j));
                 let neg = -&b.s;
                 let ch = neg.cholesky()?;
                 let y = ch.l().solve_lower_triangular(&b.g)?;
@@ -357,7 +356,7 @@ pub fn check_noise(
     for combo in rate_combos(model) {
         for i in 0..np {
             for j in 0..np {
-                let b = block_parts(model, channels, alpha, gamma, p, gammas, &combo, (i, j));
+                let b = block_parts(model, channels, (alpha, gamma), p, gammas, &combo, (i, j));
                 let k = b.g.ncols();
                 let n = nx + k;
                 let mut m = DMatrix::zeros(n, n);
@@ -422,7 +421,7 @@ fn bound_from(
     let ps = (p + p.transpose()) * 0.5;
     let lmin = ps.clone().symmetric_eigenvalues().min();
     let pinv = ps.cholesky()?.inverse();
-    if !(lmin > 0.0) {
+    if lmin.is_nan() || lmin <= 0.0 {
         return None;
     }
     Some(NoiseBound {
@@ -583,9 +582,9 @@ fn solve_noise_sdp(
                     }
                 }
                 // Γ̂_l variables: top-left −He{D H_l}, noise columns −γ w_l D E.
-                for l in 0..model.nv() {
+                for (l, &wl_l) in wl.iter().enumerate() {
                     let h = hs.iter().find(|(g, _)| *g == l).map(|(_, h)| h);
-                    if h.is_none() && wl[l] == 0.0 {
+                    if h.is_none() && wl_l == 0.0 {
                         continue;
                     }
                     for gr in 0..nx {
@@ -599,7 +598,7 @@ fn solve_noise_sdp(
                                 coef.view_mut((0, 0), (nx, nx)).copy_from(&he);
                             }
                             if let Some(pos) = outs.iter().position(|&o| o == gc) {
-                                let v = -gamma * wl[l];
+                                let v = -gamma * wl_l;
                                 coef[(gr, nx + nw + pos)] = v;
                                 coef[(nx + nw + pos, gr)] = v;
                             }
@@ -1165,8 +1164,23 @@ pub struct NoiseFalsification {
     pub counterexamples: usize,
     /// The largest r = (V' + αV − σ(|w|² + |v|²))/V found.
     pub worst_ratio: f64,
-    /// (e, x, θ, v then w) at the worst point.
-    pub worst: Option<(Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>)>,
+    /// The point with the largest ratio.
+    pub worst: Option<NoiseSample>,
+}
+
+/// One evaluated point of [`falsify_noise`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NoiseSample {
+    /// The estimation error e (eᵀPe ≤ 1).
+    pub e: Vec<f64>,
+    /// The plant state x.
+    pub x: Vec<f64>,
+    /// The parameter vector θ.
+    pub theta: Vec<f64>,
+    /// The noise on the noisy outputs, then the disturbance w.
+    pub noise: Vec<f64>,
+    /// r at this point.
+    pub ratio: f64,
 }
 
 impl NoiseFalsification {
@@ -1312,12 +1326,13 @@ pub fn falsify_noise(
         }
         if key > out.worst_ratio {
             out.worst_ratio = key;
-            out.worst = Some((
-                e.iter().copied().collect(),
-                x.iter().copied().collect(),
-                theta.clone(),
-                vw,
-            ));
+            out.worst = Some(NoiseSample {
+                e: e.iter().copied().collect(),
+                x: x.iter().copied().collect(),
+                theta: theta.clone(),
+                noise: vw,
+                ratio: r,
+            });
         }
     }
     Ok(out)

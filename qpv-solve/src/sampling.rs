@@ -239,7 +239,7 @@ fn rk4_gain(z: Complex<f64>) -> f64 {
 /// 1e-6) for one eigenvalue λ; 0 if Re λ ≥ 0.
 fn rk4_step_for(lambda: Complex<f64>) -> f64 {
     let mag = lambda.norm();
-    if !(lambda.re < 0.0) || mag == 0.0 {
+    if lambda.re.is_nan() || lambda.re >= 0.0 || mag == 0.0 {
         return 0.0;
     }
     // The RK4 region lies inside |z| < 3: scan for the first exit, then bisect.
