@@ -69,9 +69,10 @@ fn main() {
         1e3 * t_opt
     );
     println!(
-        "  noise-optimal design, γ searched ({} SDPs, σ = {:.1} at γ = {:.4}) {:>9.2} ms",
+        "  noise-optimal design, γ searched ({} SDPs, σ = {:.1}, ‖e(∞)‖/ν ≤ {:.3} at γ = {:.4}) {:>9.2} ms",
         sg.search.len(),
         sg.noise.as_ref().map_or(f64::NAN, |n| n.sigma),
+        sg.noise.as_ref().map_or(f64::NAN, |n| n.error_bound),
         sg.gamma,
         1e3 * t_search
     );
