@@ -12,7 +12,11 @@
 //! ("double_sum" | "filter"), `output_varies`, `filter` {`pole`, `gain`,
 //! `bound`} or null, `states`, `combinations`} (see
 //! [`crate::output_filter::OutputRouteInfo`]; for the filter route `P` is
-//! (nx+ny)² and each `L` has nx + ny rows). Matrices are plain `Vec<Vec<f64>>` rows;
+//! (nx+ny)² and each `L` has nx + ny rows); on a certified sound-mode
+//! design also `noise` {`sigma`, `max_amplitude`, `error_bound`,
+//! `per_state`, `noisy_outputs`, `disturbances`, `check`} (see
+//! [`crate::noise::NoiseBound`]) and `sampling` {`max_step_euler`, `beta`,
+//! `step_estimate_rk4`} (see [`crate::sampling::Sampling`]). Matrices are plain `Vec<Vec<f64>>` rows;
 //! serde_json writes the shortest round-tripping decimal of every `f64`, so
 //! a reloaded design certifies exactly as the written one.
 
