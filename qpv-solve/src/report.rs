@@ -12,7 +12,12 @@
 //! ("double_sum" | "filter"), `output_varies`, `filter` {`pole`, `gain`,
 //! `bound`} or null, `states`, `combinations`} (see
 //! [`crate::model::output_filter::OutputRouteInfo`]; for the filter route `P` is
-//! (nx+ny)² and each `L` has nx + ny rows). Matrices are plain `Vec<Vec<f64>>` rows;
+//! (nx+ny)² and each `L` has nx + ny rows).
+//! On a certified sound-mode design the report also carries `noise`
+//! ({`sigma`, `max_amplitude`, `error_bound`, `per_state`, `noisy_outputs`,
+//! `disturbances`, `check`}, see [`crate::noise::NoiseBound`]) and
+//! `sampling` ({`max_step_euler`, `beta`, `step_estimate_rk4`}, see
+//! [`crate::sampling::Sampling`]). Matrices are plain `Vec<Vec<f64>>` rows;
 //! serde_json writes the shortest round-tripping decimal of every `f64`, so
 //! a reloaded design certifies exactly as the written one.
 
@@ -168,6 +173,15 @@ pub struct Design {
     /// outside F). Absent for certified designs and older reports.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub diagnosis: Option<Vec<crate::diagnosis::Finding>>,
+    /// The certified noise bound σ of V' + αV ≤ σ(|w|² + |v|²) and what it
+    /// guarantees ([`crate::noise::NoiseBound`]); only on certified
+    /// sound-mode designs whose noise check passed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<crate::noise::NoiseBound>,
+    /// The largest safe Euler step and the RK4 step estimate
+    /// ([`crate::sampling::Sampling`]); only on certified sound-mode designs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sampling: Option<crate::sampling::Sampling>,
 }
 
 impl Design {

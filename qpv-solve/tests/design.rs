@@ -338,10 +338,19 @@ fn json_keys_are_exactly_the_documented_ones() {
         "summary",
         "state_bound",
         "output_route",
+        "noise",
+        "sampling",
     ] {
         assert!(obj.contains_key(key), "missing key {key}");
     }
-    assert_eq!(obj.len(), 21);
+    // 21 keys, plus `noise` and `sampling` on a certified sound design.
+    assert_eq!(obj.len(), 23);
+    for key in ["sigma", "max_amplitude", "error_bound", "per_state"] {
+        assert!(v["noise"].get(key).is_some(), "noise.{key}");
+    }
+    for key in ["max_step_euler", "beta", "step_estimate_rk4"] {
+        assert!(v["sampling"].get(key).is_some(), "sampling.{key}");
+    }
     assert_eq!(v["output_route"]["route"], "double_sum");
     assert_eq!(v["output_route"]["output_varies"], false);
     assert_eq!(v["output_route"]["combinations"], 4);

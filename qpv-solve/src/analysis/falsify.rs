@@ -91,7 +91,7 @@ impl Falsification {
 
 /// splitmix64: a tiny, good-enough generator for sampling (not cryptographic).
 #[derive(Debug, Clone)]
-struct Rng(u64);
+pub(crate) struct Rng(pub(crate) u64);
 
 impl Rng {
     fn next_u64(&mut self) -> u64 {
@@ -103,7 +103,7 @@ impl Rng {
     }
 
     /// Uniform in [0, 1).
-    fn uniform(&mut self) -> f64 {
+    pub(crate) fn uniform(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
     }
 
@@ -121,7 +121,7 @@ impl Rng {
 
     /// A point in the unit ball of dimension z.len(): uniform inside, or
     /// uniform on the sphere if `boundary`.
-    fn ball(&mut self, z: &mut [f64], boundary: bool) {
+    pub(crate) fn ball(&mut self, z: &mut [f64], boundary: bool) {
         loop {
             for v in z.iter_mut() {
                 *v = self.normal();
@@ -147,7 +147,7 @@ impl Rng {
 
 /// The Cholesky factor: returns R with S = R Rᵀ (R lower
 /// triangular), or an error if S is not symmetric positive definite.
-fn factor(what: &str, s: &DMatrix<f64>, n: usize) -> Result<DMatrix<f64>, SimError> {
+pub(crate) fn factor(what: &str, s: &DMatrix<f64>, n: usize) -> Result<DMatrix<f64>, SimError> {
     if s.shape() != (n, n) {
         return Err(SimError::Shape {
             what: what.to_string(),
@@ -236,7 +236,7 @@ const LOCAL_MIN_V: f64 = 1e-6;
 
 /// A random e: a region vertex scaled into E (1/8), on the boundary of E
 /// (1/4) or uniform inside it (5/8).
-fn draw_e(
+pub(crate) fn draw_e(
     rng: &mut Rng,
     z: &mut DVector<f64>,
     e_vertices: &[DVector<f64>],
@@ -254,7 +254,7 @@ fn draw_e(
 /// A random x: in F = {x = R_q z, |z| ≤ 1} like e (with region vertices
 /// scaled onto ∂F), or, without a state bound (`rq` = None), a vertex of P/γ
 /// (1/4) or a random convex combination of them.
-fn draw_x(
+pub(crate) fn draw_x(
     rng: &mut Rng,
     z: &mut DVector<f64>,
     rq: Option<&DMatrix<f64>>,
@@ -292,7 +292,7 @@ fn draw_x(
 }
 
 /// A random θ: uniform in the box (3/4) or a random corner (1/4).
-fn draw_theta(rng: &mut Rng, model: &PolytopicModel, theta: &mut [f64]) {
+pub(crate) fn draw_theta(rng: &mut Rng, model: &PolytopicModel, theta: &mut [f64]) {
     let corner = rng.uniform() < 0.25;
     for (t, prm) in theta.iter_mut().zip(&model.params) {
         let s = if corner {

@@ -602,7 +602,7 @@ fn design_skew(
         split: Split::Symmetric,
         ..request.clone()
     };
-    let mut d = design_with_progress(model, &sym, settings, progress)?;
+    let mut d = design_rate(model, &sym, settings, progress)?;
     d.split = Split::SkewSlack;
     if !d.certifies {
         d.notes.push(
@@ -667,9 +667,23 @@ pub fn design_with_progress(
     settings: &Settings,
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
-    if request.split == Split::SkewSlack {
-        return design_skew(model, request, settings, progress);
-    }
+    let mut d = if request.split == Split::SkewSlack {
+        design_skew(model, request, settings, progress)?
+    } else {
+        design_rate(model, request, settings, progress)?
+    };
+    // The noise bound and the sampling figures of a certified design.
+    crate::noise::attach(model, &mut d);
+    Ok(d)
+}
+
+/// [`design_with_progress`] without the noise and sampling figures.
+fn design_rate(
+    model: &PolytopicModel,
+    request: &DesignRequest,
+    settings: &Settings,
+    progress: &mut dyn FnMut(&SearchStep),
+) -> Result<Design, SolveError> {
     let t_start = Instant::now();
     let mode = request.mode;
     let set = ConditionSet::from_mode(mode);
@@ -1025,5 +1039,7 @@ pub fn design_with_progress(
         output_route: Some(route_info),
         skew: None,
         diagnosis,
+        noise: None,
+        sampling: None,
     })
 }
