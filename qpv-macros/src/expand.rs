@@ -2,12 +2,15 @@
 //! for each design request: cache or solve → independent certificate → emit.
 //!
 //! The first error stops everything and becomes one `compile_error!` on the
-//! offending tokens (see [`crate::fallback`]).
+//! offending tokens (see [`crate::fallback`]). An expansion that took long
+//! in a macro built without optimisation also carries one warning (see
+//! [`crate::slow_solve`]).
 
 use crate::cache;
 use crate::emit::{self, CertifiedDesign, EmitModel};
 use crate::fallback::{self, Failure};
 use crate::input::{Input, Source};
+use crate::slow_solve;
 use proc_macro2::TokenStream;
 use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute,
@@ -23,6 +26,7 @@ pub fn expand(tokens: TokenStream) -> TokenStream {
         Ok(i) => i,
         Err(e) => return fallback::emit(&Failure::at(e.span, e.message), TokenStream::new()),
     };
+    let start = std::time::Instant::now();
     let mut out = TokenStream::new();
     if let Source::File { absolute, .. } = &input.source {
         // Makes cargo rebuild the calling crate when the model file changes.
@@ -35,6 +39,8 @@ pub fn expand(tokens: TokenStream) -> TokenStream {
         Ok(tokens) => out.extend(tokens),
         Err((failure, stub)) => out.extend(fallback::emit(&failure, stub)),
     }
+    // Parsing and emitting take milliseconds: a long expansion is solving.
+    out.extend(slow_solve::warning_if_slow(start.elapsed()));
     out
 }
 
@@ -172,9 +178,9 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                     "model `{}` has only paper-mode designs: they reproduce the published \
                      conditions, which certify nothing, and qpv! only generates observers \
                      from certified gains; add a sound design such as \
-                     `design {{ alpha = max; gamma = search; }}`{}",
+                     `design {{ alpha = max; gamma = search; }}` ({})",
                     model.name,
-                    best_hint(&poly)
+                    best_sound_design(&poly)
                 ),
             ),
             no_stub(),
@@ -505,23 +511,33 @@ fn recheck_bound(
     Some((model, Some(bound)))
 }
 
-/// The best certified sound design of a model, for error messages: a full
-/// α = max / γ = search run.
-fn best_certified(poly: &PolytopicModel) -> Option<(f64, f64)> {
-    // alpha = max; gamma = search; mode = sound, default split and conditions
+/// The best certified sound design of a model, in words, for error
+/// messages: a full α = max / γ = search run (default split and
+/// conditions), or why there is none.
+fn best_sound_design(poly: &PolytopicModel) -> String {
     let req = DesignRequest::default();
-    let d = qpv_solve::design(poly, &req, &settings()).ok()?;
-    (d.feasible && d.certifies).then_some((d.alpha, d.gamma))
+    match qpv_solve::design(poly, &req, &settings()) {
+        Ok(d) if d.feasible && d.certifies => format!(
+            "the best certified sound design of this model is alpha = {}, gamma = {}",
+            sig(d.alpha),
+            sig(d.gamma)
+        ),
+        Ok(_) => "no sound design of this model could be certified".into(),
+        Err(e) => format!("a sound design of this model cannot be attempted: {e}"),
+    }
 }
 
-fn best_hint(poly: &PolytopicModel) -> String {
-    match best_certified(poly) {
-        Some((a, g)) => format!(
-            " (the best certified sound design of this model is alpha = {}, gamma = {})",
-            sig(a),
+/// For a request that fails a required data check (a property of the model
+/// and the request alone, which no solver point can change): what the data
+/// admit, instead of a search for the best design.
+fn data_hint(requested_gamma: f64, poly: &PolytopicModel) -> String {
+    match qpv_solve::conditions::gamma_max(poly) {
+        Some(g) if g.is_finite() && g > 0.0 && requested_gamma > g => format!(
+            "; this fails on the model's data alone: with this state bound, (S4) admits \
+             gamma up to {} only",
             sig(g)
         ),
-        None => " (no sound design of this model could be certified)".into(),
+        _ => "; this fails on the model's data alone, whatever the solver finds".into(),
     }
 }
 
@@ -559,7 +575,9 @@ fn not_certified(request: &str, d: &Design, poly: &PolytopicModel) -> String {
     } else {
         format!("failing: {}", failing.join("; "))
     };
-    // Best certified point inside this request's own search, else a full search.
+    // Best certified point inside this request's own search; else what the
+    // data admit if a data check failed; else a full search.
+    let data_failed = d.data_checks.values().any(|c| c.required && !c.passed);
     let own = d
         .search
         .iter()
@@ -575,10 +593,8 @@ fn not_certified(request: &str, d: &Design, poly: &PolytopicModel) -> String {
             sig(a),
             sig(g)
         ),
-        None => best_hint(poly)
-            .replacen(" (", "; ", 1)
-            .trim_end_matches(')')
-            .to_string(),
+        None if data_failed => data_hint(d.gamma, poly),
+        None => format!("; {}", best_sound_design(poly)),
     };
     let verdict = match d.mode {
         Mode::Sound => "is not certified",
@@ -705,6 +721,56 @@ mod tests {
             "the route is part of the key"
         );
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The paper's example with its sound design (the nostd crate's model).
+    fn paper() -> PolytopicModel {
+        let models = qpv_dsl::parse(include_str!("../../tests/nostd/paper_sound.qpv"))
+            .expect("the paper model parses");
+        models[0].polytopic()
+    }
+
+    #[test]
+    fn the_best_sound_design_hint_reports_the_full_search() {
+        // Moved from the UI test of a paper-mode-only model, whose message
+        // now names the reason no sound design can be attempted instead.
+        let poly = paper();
+        let hint = best_sound_design(&poly);
+        let d = qpv_solve::design(&poly, &DesignRequest::default(), &settings())
+            .expect("the paper model designs");
+        assert!(d.feasible && d.certifies, "{}", d.summary);
+        assert_eq!(
+            hint,
+            format!(
+                "the best certified sound design of this model is alpha = {}, gamma = {}",
+                sig(d.alpha),
+                sig(d.gamma)
+            )
+        );
+        // The symmetric split's optimum lies beyond α = 12, at γ ≤ γ_max.
+        let gmax = qpv_solve::conditions::gamma_max(&poly).expect("Q is given");
+        assert!(d.alpha > 12.0 && d.gamma <= gmax, "{} {}", d.alpha, d.gamma);
+        let mut no_q = poly.clone();
+        no_q.state_bound = StateBound::None;
+        assert!(best_sound_design(&no_q)
+            .starts_with("a sound design of this model cannot be attempted: "));
+    }
+
+    #[test]
+    fn a_request_failing_on_the_data_names_the_limit_without_a_search() {
+        let poly = paper();
+        let mut req = poly.designs[0].clone();
+        req.gamma = GammaSpec::Fixed(0.4);
+        let d = qpv_solve::design(&poly, &req, &settings()).expect("design runs");
+        assert!(!d.feasible && !d.certifies);
+        let text = not_certified(&describe(&req), &d, &poly);
+        assert!(text.contains("margin -3.48"), "{text}");
+        let gmax = sig(qpv_solve::conditions::gamma_max(&poly).expect("Q is given"));
+        assert!(
+            text.contains(&format!("(S4) admits gamma up to {gmax} only")),
+            "{text}"
+        );
+        assert!(!text.contains("best certified"), "no search: {text}");
     }
 
     #[test]

@@ -14,6 +14,7 @@ mod emit;
 mod expand;
 mod fallback;
 mod input;
+mod slow_solve;
 
 use proc_macro::TokenStream;
 
@@ -46,7 +47,7 @@ use proc_macro::TokenStream;
 ///
 /// # Output routes
 ///
-/// `output_route = double_sum` (the default): the observer is spec eq. (9),
+/// `output_route = double_sum` (the default): the observer is
 /// x̂' = A(θ)x̂ + N(θ,x̂)x̂ + B(θ)u + L(θ)[y − C(θ)x̂ − M(θ,x̂)x̂]; its state
 /// is x̂ (`NZ = NS = NX`).
 ///
@@ -92,14 +93,20 @@ use proc_macro::TokenStream;
 /// Every error is one `compile_error!` on the offending token: syntax and
 /// validation errors on the token the parser points at (for `include`, on
 /// the string literal, with `file:line:column` in the message); a design
-/// that is not certified on its `design` block, with the request, the best
-/// certified (α, γ) and the failing condition family with its margin. No
-/// uncertified gain is ever baked.
+/// that is not certified on its `design` block, with the request, the
+/// failing condition family with its margin and the best certified (α, γ)
+/// (or, for a request that fails on the data alone, such as a γ above what
+/// (S4) admits, that limit instead of a search). No uncertified gain is
+/// ever baked.
 ///
 /// # Build time
 ///
-/// The SDP solve runs inside rustc: set `[profile.dev.build-override]
-/// opt-level = 3` (the qpv workspace does). Solved designs are cached (see
+/// The SDP solve runs inside rustc, in the proc-macro and its dependencies
+/// as built for the host: set `[profile.dev.build-override] opt-level = 3`
+/// and `[profile.release.build-override] opt-level = 3` (the qpv workspace
+/// does); unoptimised, an expansion is about 15 times slower, and one that
+/// takes longer than a second says so in a compile-time warning (a
+/// deprecation note naming these settings). Solved designs are cached (see
 /// the `cache` module: `$QPV_CACHE_DIR`, else `$CARGO_TARGET_DIR/qpv-cache`,
 /// else `target/qpv-cache` of the workspace; `QPV_CACHE=off` disables it);
 /// a cache hit is re-certified before use. `QPV_DUMP_DIR=dir` writes the

@@ -1,6 +1,8 @@
 // The paper's example in sound mode at the paper's gamma = 0.4: (S4) fails
 // for the paper's Q (gamma_max = 0.18898), so no gain may be baked. The error
-// is on the design block.
+// is on the design block. The failure is structural (the data alone decide
+// it), so the message names the limit and runs no search: its numbers
+// depend on Q and gamma only.
 qpv::qpv! {
     model paper {
         state  x1, x2, x3;

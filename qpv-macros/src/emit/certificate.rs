@@ -1,0 +1,106 @@
+//! The certificate that travels with the generated code: the `Margin` and
+//! `Certificate` types of the model module (with `Display`) and each
+//! design's `CERTIFICATE` constant.
+
+use super::tokens::lit;
+use super::CertifiedDesign;
+use proc_macro2::{Literal, TokenStream};
+use quote::quote;
+
+/// The model-level types `Margin` and `Certificate` and the latter's
+/// `Display` (the same for every model).
+pub(super) fn types() -> TokenStream {
+    quote! {
+        /// The worst margin of one family of design conditions (positive = satisfied).
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Margin {
+            /// The condition family: `S1`, `S2`, `S3`, `S5` (sound) or `S1`, `13`, `14`, `26` (paper).
+            pub family: &'static str,
+            /// Its worst margin, recomputed independently of the solver.
+            pub margin: f64,
+        }
+
+        /// The proof that travels with the code: what was requested, what was
+        /// certified, and by how much every condition family holds.
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Certificate {
+            /// The model's name.
+            pub model: &'static str,
+            /// The design request as written.
+            pub request: &'static str,
+            /// The condition set: `sound`, or `paper` (reproduction only).
+            pub mode: &'static str,
+            /// The output route: `double_sum` or `filter` (output post-filter).
+            pub route: &'static str,
+            /// True if the conditions prove V' ≤ −αV on the certified set
+            /// (sound mode); false for a paper-mode reproduction.
+            pub certifies: bool,
+            /// Certified decay rate α of V = eᵀPe.
+            pub alpha: f64,
+            /// Certified region scaling γ.
+            pub gamma: f64,
+            /// Worst margin per condition family, all positive (recomputed by
+            /// the macro from the baked P and L_l).
+            pub margins: &'static [Margin],
+            /// The solver's final status for the accepted solve.
+            pub solver_status: &'static str,
+            /// Interior-point iterations of the accepted solve.
+            pub iterations: u32,
+        }
+
+        impl ::core::fmt::Display for Certificate {
+            fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
+                ::core::writeln!(
+                    f,
+                    "model {}: {} ({} mode) alpha = {}, gamma = {}",
+                    self.model,
+                    if self.certifies { "certified" } else { "reproduction, certifies nothing" },
+                    self.mode,
+                    self.alpha,
+                    self.gamma
+                )?;
+                ::core::writeln!(f, "  request: {}", self.request)?;
+                ::core::writeln!(f, "  output route: {}", self.route)?;
+                for m in self.margins {
+                    ::core::writeln!(f, "  {:<24} margin {:.3e}", m.family, m.margin)?;
+                }
+                ::core::write!(
+                    f,
+                    "  solver: {} after {} iterations",
+                    self.solver_status, self.iterations
+                )
+            }
+        }
+    }
+}
+
+/// The `CERTIFICATE` constant of one design of model `model_name` with the
+/// output route `route` (its `ALPHA` and `GAMMA` are the design module's).
+pub(super) fn constant(model_name: &str, route: &str, d: &CertifiedDesign) -> TokenStream {
+    let fam: Vec<TokenStream> = d
+        .margins
+        .iter()
+        .map(|(f, v)| {
+            let v = lit(*v);
+            quote!(super::Margin { family: #f, margin: #v })
+        })
+        .collect();
+    let (request, mode, status) = (&d.request, &d.mode, &d.status);
+    let iterations = Literal::u32_unsuffixed(d.iterations);
+    let certifies = d.certifies;
+    quote! {
+        /// The independent certificate of this design.
+        pub const CERTIFICATE: Certificate = Certificate {
+            model: #model_name,
+            request: #request,
+            mode: #mode,
+            route: #route,
+            certifies: #certifies,
+            alpha: ALPHA,
+            gamma: GAMMA,
+            margins: &[#(#fam),*],
+            solver_status: #status,
+            iterations: #iterations,
+        };
+    }
+}

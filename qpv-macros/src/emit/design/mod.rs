@@ -1,0 +1,194 @@
+//! One `pub mod design<i>` per design request: its certified constants
+//! (`ALPHA`, `GAMMA`, `P`, `L`, `CERTIFICATE`), the gain schedule and the
+//! observer; or, for a paper-mode reproduction, only its record.
+
+mod docs;
+mod gain;
+mod observer;
+
+use super::certificate;
+use super::coefficients::Coeffs;
+use super::equations::Equation;
+use super::tokens::{lit, matrix_lit, num, usize_lit};
+use super::{CertifiedDesign, EmitModel};
+use proc_macro2::TokenStream;
+use qpv_dsl::OutputFilter;
+use quote::{format_ident, quote};
+
+/// The sizes of one design and of its observer.
+#[derive(Clone, Copy)]
+struct Shape {
+    /// Plant states.
+    nx: usize,
+    /// Measured outputs.
+    ny: usize,
+    /// Known inputs.
+    nu: usize,
+    /// Vertices of the parameter box.
+    nv: usize,
+    /// The design's state: the plant's (double sum), or the plant's and
+    /// one filter state per output (filter route).
+    nz: usize,
+    /// The observer's state: the design's, plus the filtered measurement
+    /// x_y for the filter route.
+    ns: usize,
+    /// The output post-filter of a filter-route design.
+    filter: Option<OutputFilter>,
+}
+
+impl Shape {
+    fn of(em: &EmitModel<'_>, d: &CertifiedDesign) -> Self {
+        let m = em.model;
+        let (nx, ny) = (m.nx(), m.ny());
+        let filter = d.filter;
+        Shape {
+            nx,
+            ny,
+            nu: m.nu(),
+            nv: 1usize << em.scheduling.len(),
+            nz: if filter.is_some() { nx + ny } else { nx },
+            ns: if filter.is_some() { nx + 2 * ny } else { nx },
+            filter,
+        }
+    }
+
+    /// The output route's name, as `ROUTE` spells it.
+    fn route(&self) -> &'static str {
+        if self.filter.is_some() {
+            "filter"
+        } else {
+            "double_sum"
+        }
+    }
+}
+
+/// Emits `pub mod design<index>`: the certified constants, `gain` and
+/// `Observer`; for a design that certifies nothing (paper mode) only its
+/// record. θ-dependent coefficients are interned into `coeffs`.
+pub(super) fn emit_design(
+    em: &EmitModel<'_>,
+    d: &CertifiedDesign,
+    index: usize,
+    state_eqs: &[Equation],
+    out_eqs: &[Equation],
+    coeffs: &mut Coeffs,
+) -> TokenStream {
+    let shape = Shape::of(em, d);
+    let certificate = certificate::constant(&em.model.name, shape.route(), d);
+    if !d.certifies {
+        return paper_record(&em.model.name, d, index, shape, &certificate);
+    }
+    let modname = format_ident!("design{}", index);
+    let doc = docs::design(&em.model.name, d, index, shape.filter);
+    let constants = certified_constants(d, shape, &certificate);
+    let gain = gain::items(d, shape);
+    let observer = observer::items(&em.model.name, index, d, shape, state_eqs, out_eqs, coeffs);
+    quote! {
+        #[doc = #doc]
+        pub mod #modname {
+            use super::{Certificate, Coeffs, NTHETA, NU, NV, NX, NY};
+
+            #constants
+            #gain
+            #observer
+        }
+    }
+}
+
+/// The record of a paper-mode design: `CERTIFIES = false`, the route, α and
+/// γ at which the printed conditions hold, and the certificate; no gain.
+fn paper_record(
+    model_name: &str,
+    d: &CertifiedDesign,
+    index: usize,
+    shape: Shape,
+    certificate: &TokenStream,
+) -> TokenStream {
+    let modname = format_ident!("design{}", index);
+    let (alpha, gamma, route) = (lit(d.alpha), lit(d.gamma), shape.route());
+    let doc = format!(
+        " Design {index} of model `{model_name}` ({}): a reproduction of the \
+         paper's printed conditions, which hold at alpha = {}, gamma = {} but certify \
+         nothing (spec §6). No gain and no observer are generated for it.",
+        d.request,
+        num(d.alpha),
+        num(d.gamma)
+    );
+    quote! {
+        #[doc = #doc]
+        pub mod #modname {
+            use super::Certificate;
+            /// False: this design proves nothing about convergence.
+            pub const CERTIFIES: bool = false;
+            /// The output route of the request (`"double_sum"` or `"filter"`).
+            pub const ROUTE: &str = #route;
+            /// α at which the printed conditions hold.
+            pub const ALPHA: f64 = #alpha;
+            /// γ at which the printed conditions hold.
+            pub const GAMMA: f64 = #gamma;
+            #certificate
+        }
+    }
+}
+
+/// The constants of a certified design: route, sizes, filter, α, γ, P,
+/// the vertex gains L_l, `CERTIFIES` and the certificate.
+fn certified_constants(
+    d: &CertifiedDesign,
+    shape: Shape,
+    certificate: &TokenStream,
+) -> TokenStream {
+    let Shape { ny, nv, nz, ns, .. } = shape;
+    let route = shape.route();
+    let (alpha, gamma) = (lit(d.alpha), lit(d.gamma));
+    let p = matrix_lit(nz, nz, &d.p);
+    let l_vertices: Vec<TokenStream> = (0..nv)
+        .map(|l| match d.l.get(l) {
+            Some(lv) => matrix_lit(nz, ny, lv),
+            None => matrix_lit(nz, ny, &[]),
+        })
+        .collect();
+    let (nz_l, ns_l) = (usize_lit(nz), usize_lit(ns));
+    let nz_doc = docs::nz(shape.filter);
+    let ns_doc = docs::ns(shape.filter);
+    let filter_consts = match shape.filter {
+        Some(f) => {
+            let (a, b) = (lit(f.pole), lit(f.gain));
+            quote! {
+                /// The output filter's pole a: x_y' = −a x_y + b y.
+                pub const FILTER_POLE: f64 = #a;
+                /// The output filter's input gain b: x_y' = −a x_y + b y.
+                pub const FILTER_GAIN: f64 = #b;
+            }
+        }
+        None => quote!(),
+    };
+    quote! {
+        /// The output route of this design: `"double_sum"` or `"filter"`.
+        pub const ROUTE: &str = #route;
+        #[doc = #nz_doc]
+        pub const NZ: usize = #nz_l;
+        #[doc = #ns_doc]
+        pub const NS: usize = #ns_l;
+        #filter_consts
+        /// Certified decay rate: V = eᵀPe satisfies V' ≤ −α V.
+        pub const ALPHA: f64 = #alpha;
+        /// Certified region scaling γ.
+        pub const GAMMA: f64 = #gamma;
+        /// The Lyapunov matrix P (symmetric positive definite), NZ × NZ.
+        pub const P: [[f64; NZ]; NZ] = #p;
+        /// The vertex gains L_l, NZ × NY each; L(θ) = Σ_l μ_l(θ) L_l.
+        pub const L: [[[f64; NY]; NZ]; NV] = [#(#l_vertices),*];
+        /// True: the conditions prove V' ≤ −αV on the certified set.
+        pub const CERTIFIES: bool = true;
+        #certificate
+    }
+}
+
+/// Entry `[k][o]` of the vertex gain L_l (0 if missing).
+fn gain_entry(d: &CertifiedDesign, ny: usize, l: usize, k: usize, o: usize) -> f64 {
+    d.l.get(l)
+        .and_then(|lv| lv.get(k * ny + o))
+        .copied()
+        .unwrap_or(0.0)
+}

@@ -1,0 +1,312 @@
+//! The certified observer of a design: its right-hand side `rhs` (the plant
+//! equations plus the gain times the output residual, and for the filter
+//! route the filter rows), the per-evaluation `schedule`, and the
+//! `Observer` type with its constructors and Euler / RK4 steppers.
+
+use super::{docs, gain_entry, Shape};
+use crate::emit::coefficients::Coeffs;
+use crate::emit::equations::{product_lets, render_equation, Equation};
+use crate::emit::tokens::{destructure, destructure_names, uses, usize_lit, Sum};
+use crate::emit::CertifiedDesign;
+use proc_macro2::{Ident, Span, TokenStream};
+use quote::{format_ident, quote};
+
+/// `rhs`, `schedule`, `Observer` and its methods for design `index` of
+/// model `model_name`.
+pub(super) fn items(
+    model_name: &str,
+    index: usize,
+    d: &CertifiedDesign,
+    shape: Shape,
+    state_eqs: &[Equation],
+    out_eqs: &[Equation],
+    coeffs: &mut Coeffs,
+) -> TokenStream {
+    let body = derivative_body(d, shape, state_eqs, out_eqs, coeffs);
+    let rhs = rhs_fn(shape, &body);
+    let observer = observer_type(model_name, index, shape);
+    quote! {
+        #rhs
+
+        /// The θ-dependent data of one evaluation, and whether θ was clamped.
+        #[inline(always)]
+        fn schedule(theta: &[f64; NTHETA]) -> (Coeffs, [[f64; NY]; NZ], bool) {
+            let (t, clamped) = super::clamp_theta(theta);
+            (super::coeffs(&t), gains(&super::mu_clamped(&t)), clamped)
+        }
+
+        #observer
+    }
+}
+
+/// The observer state's names: x̂ (x<i>), then for the filter route the
+/// filter estimate x̂_y (zh<k>) and the filtered measurement x_y (zm<k>).
+fn state_names(shape: Shape) -> Vec<String> {
+    let mut names: Vec<String> = (0..shape.nx).map(|i| format!("x{i}")).collect();
+    if shape.filter.is_some() {
+        names.extend((0..shape.ny).map(|k| format!("zh{k}")));
+        names.extend((0..shape.ny).map(|k| format!("zm{k}")));
+    }
+    names
+}
+
+/// The residual the gain multiplies, `let r<o> = ...;` per output:
+/// y − C(θ)x̂ − M(θ,x̂)x̂ (double sum), x_y − x̂_y (filter).
+fn residuals(shape: Shape, out_eqs: &[Equation], coeffs: &mut Coeffs) -> Vec<TokenStream> {
+    (0..shape.ny)
+        .map(|o| {
+            let r = format_ident!("r{}", o);
+            let mut s = Sum::default();
+            match (shape.filter, out_eqs.get(o)) {
+                (Some(_), _) => {
+                    let (zm, zh) = (format_ident!("zm{}", o), format_ident!("zh{}", o));
+                    s.push(1.0, Some(quote!(#zm)));
+                    s.push(-1.0, Some(quote!(#zh)));
+                }
+                (None, eq) => {
+                    let y = format_ident!("y{}", o);
+                    s.push(1.0, Some(quote!(#y)));
+                    if let Some(eq) = eq {
+                        render_equation(eq, coeffs, &mut s, -1.0);
+                    }
+                }
+            }
+            let e = s.render();
+            quote!(let #r = #e;)
+        })
+        .collect()
+}
+
+/// The body of `rhs`: state products, residuals, then one expression per
+/// observer state (plant rows with the gain injection; for the filter
+/// route the x̂_y and x_y rows).
+fn derivative_body(
+    d: &CertifiedDesign,
+    shape: Shape,
+    state_eqs: &[Equation],
+    out_eqs: &[Equation],
+    coeffs: &mut Coeffs,
+) -> TokenStream {
+    let Shape { nx, ny, nv, .. } = shape;
+    let resid = residuals(shape, out_eqs, coeffs);
+    // Σ_o g_ko r_o added to row k of the design state.
+    let inject = |s: &mut Sum, k: usize| {
+        for o in 0..ny {
+            let r = format_ident!("r{}", o);
+            if (0..nv).all(|l| gain_entry(d, ny, l, k, o) == 0.0) {
+                continue;
+            }
+            if nv == 1 {
+                s.push(gain_entry(d, ny, 0, k, o), Some(quote!(#r)));
+            } else {
+                let g = format_ident!("g{}_{}", k, o);
+                s.push(1.0, Some(quote!(#g * #r)));
+            }
+        }
+    };
+    let mut rows: Vec<TokenStream> = state_eqs
+        .iter()
+        .enumerate()
+        .map(|(k, eq)| {
+            let mut s = Sum::default();
+            render_equation(eq, coeffs, &mut s, 1.0);
+            inject(&mut s, k);
+            s.render()
+        })
+        .collect();
+    if let Some(f) = shape.filter {
+        // x̂_y' = −a x̂_y + b (C(θ)x̂ + M(θ,x̂)x̂) + L_y(θ)(x_y − x̂_y)
+        for (k, eq) in out_eqs.iter().enumerate() {
+            let zh = format_ident!("zh{}", k);
+            let mut s = Sum::default();
+            s.push(-f.pole, Some(quote!(#zh)));
+            render_equation(eq, coeffs, &mut s, f.gain);
+            inject(&mut s, nx + k);
+            rows.push(s.render());
+        }
+        // x_y' = −a x_y + b y: the observer filters the measurement itself.
+        for k in 0..ny {
+            let (zm, y) = (format_ident!("zm{}", k), format_ident!("y{}", k));
+            let mut s = Sum::default();
+            s.push(-f.pole, Some(quote!(#zm)));
+            s.push(f.gain, Some(quote!(#y)));
+            rows.push(s.render());
+        }
+    }
+    let all: Vec<&Equation> = state_eqs.iter().chain(out_eqs.iter()).collect();
+    let products = product_lets(&all);
+    quote! { #products #(#resid)* [#(#rows),*] }
+}
+
+/// `fn rhs(c, g, s, y, u)` around `body`, binding only the state, output,
+/// input and gain entries the body uses.
+fn rhs_fn(shape: Shape, body: &TokenStream) -> TokenStream {
+    let Shape { ny, nu, nv, nz, .. } = shape;
+    let (s, y, u, g) = (
+        format_ident!("s"),
+        format_ident!("y"),
+        format_ident!("u"),
+        format_ident!("g"),
+    );
+    let bind_s = destructure_names(&s, &state_names(shape), body);
+    let bind_y = destructure(&y, "y", ny, body);
+    let bind_u = destructure(&u, "u", nu, body);
+    let g_pats: Vec<TokenStream> = (0..nz)
+        .map(|k| {
+            let ps = (0..ny).map(|o| {
+                let name = format!("g{k}_{o}");
+                if nv > 1 && uses(body, &name) {
+                    let id = Ident::new(&name, Span::call_site());
+                    quote!(#id)
+                } else {
+                    quote!(_)
+                }
+            });
+            quote!([#(#ps),*])
+        })
+        .collect();
+    let bind_g = quote!(let [#(#g_pats),*] = *#g;);
+    let bind_c = if uses(body, "c") {
+        quote!()
+    } else {
+        quote!(let _ = c;)
+    };
+    quote! {
+        #[inline(always)]
+        fn rhs(
+            c: &Coeffs,
+            g: &[[f64; NY]; NZ],
+            s: &[f64; NS],
+            y: &[f64; NY],
+            u: &[f64; NU],
+        ) -> [f64; NS] {
+            #bind_c
+            #bind_g
+            #bind_s
+            #bind_y
+            #bind_u
+            #body
+        }
+    }
+}
+
+/// The `Observer` struct, its `Default`, constructors, accessors,
+/// `derivative` and the steppers.
+fn observer_type(model_name: &str, index: usize, shape: Shape) -> TokenStream {
+    let Shape { nx, ns, .. } = shape;
+    let xs: Vec<Ident> = (0..ns).map(|i| format_ident!("s{}", i)).collect();
+    // estimate(): the first NX entries; with_state(x0): x0 then zeros.
+    let est: Vec<&Ident> = xs.iter().take(nx).collect();
+    let est_pat = if ns > nx {
+        quote!(let [#(#est,)* ..] = self.state;)
+    } else {
+        quote!(let [#(#est),*] = self.state;)
+    };
+    let init_zeros: Vec<TokenStream> = (nx..ns).map(|_| quote!(0.0)).collect();
+    let obs_doc = docs::observer(model_name, index, shape.filter);
+    let ns_doc = docs::ns(shape.filter);
+    let from_state_doc = docs::from_state(shape.filter);
+    let steppers = steppers(&xs);
+    quote! {
+        #[doc = #obs_doc]
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Observer {
+            state: [f64; NS],
+            clamped: u64,
+        }
+
+        impl ::core::default::Default for Observer {
+            fn default() -> Self {
+                Self::new()
+            }
+        }
+
+        impl Observer {
+            #[doc = #ns_doc]
+            pub const NS: usize = NS;
+
+            /// An observer with x̂(0) = 0 (and, for the filter route, x̂_y = x_y = 0).
+            pub const fn new() -> Self {
+                Observer { state: [0.0; NS], clamped: 0 }
+            }
+
+            /// An observer with x̂(0) = `x0` (and, for the filter route, x̂_y = x_y = 0).
+            pub fn with_state(x0: &[f64; NX]) -> Self {
+                let [#(#est),*] = *x0;
+                Observer { state: [#(#est,)* #(#init_zeros),*], clamped: 0 }
+            }
+
+            #[doc = #from_state_doc]
+            pub fn from_state(state: &[f64; NS]) -> Self {
+                Observer { state: *state, clamped: 0 }
+            }
+
+            /// The current estimate x̂ of the plant's state.
+            #[inline]
+            pub fn estimate(&self) -> [f64; NX] {
+                #est_pat
+                [#(#est),*]
+            }
+
+            /// The whole observer state ([`NS`] entries; see [`Observer`]).
+            #[inline]
+            pub fn state(&self) -> [f64; NS] {
+                self.state
+            }
+
+            /// How many steps had θ outside Θ (or NaN) and clamped it.
+            #[inline]
+            pub fn clamped(&self) -> u64 {
+                self.clamped
+            }
+
+            /// The derivative of the whole observer state ([`NS`] entries) at
+            /// the current state, θ clamped into Θ.
+            #[inline]
+            pub fn derivative(&self, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) -> [f64; NS] {
+                let (c, g, _) = schedule(theta);
+                rhs(&c, &g, &self.state, y, u)
+            }
+
+            #steppers
+        }
+    }
+}
+
+/// `step_euler` and `step_rk4` over the whole observer state (named `xs`),
+/// unrolled.
+fn steppers(xs: &[Ident]) -> TokenStream {
+    let stage = |prefix: &str| -> Vec<Ident> {
+        (0..xs.len())
+            .map(|i| format_ident!("{}{}", prefix, i))
+            .collect()
+    };
+    let (k1, k2, k3, k4) = (stage("a"), stage("b"), stage("c"), stage("d"));
+    quote! {
+        /// One explicit Euler step of length `dt` with y, u, θ held.
+        #[inline]
+        pub fn step_euler(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
+            let (c, g, clamped) = schedule(theta);
+            self.clamped = self.clamped.saturating_add(clamped as u64);
+            let [#(#k1),*] = rhs(&c, &g, &self.state, y, u);
+            let [#(#xs),*] = self.state;
+            self.state = [#(#xs + dt * #k1),*];
+        }
+
+        /// One classical Runge–Kutta 4 step of length `dt` with y, u, θ held
+        /// over the step.
+        #[inline]
+        pub fn step_rk4(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
+            let (c, g, clamped) = schedule(theta);
+            self.clamped = self.clamped.saturating_add(clamped as u64);
+            let h2 = 0.5 * dt;
+            let h6 = dt / 6.0;
+            let [#(#xs),*] = self.state;
+            let [#(#k1),*] = rhs(&c, &g, &self.state, y, u);
+            let [#(#k2),*] = rhs(&c, &g, &[#(#xs + h2 * #k1),*], y, u);
+            let [#(#k3),*] = rhs(&c, &g, &[#(#xs + h2 * #k2),*], y, u);
+            let [#(#k4),*] = rhs(&c, &g, &[#(#xs + dt * #k3),*], y, u);
+            self.state = [#(#xs + h6 * (#k1 + 2.0 * #k2 + 2.0 * #k3 + #k4)),*];
+        }
+    }
+}

@@ -1,0 +1,419 @@
+//! Code generation: one module per model with the certified constants, the
+//! scheduling weights μ(θ), the gain L(θ), an unrolled `Observer` and the
+//! plant equations.
+//!
+//! The emitter is fed by [`EmitModel`] (the symbolic model plus certified
+//! numbers) and knows nothing of the solver. Generated code is fully
+//! unrolled and constant-folded: zero coefficients are dropped, factors ±1
+//! disappear, θ-dependent coefficients, θ monomials, μ products and state
+//! products x̂_i x̂_j are each computed once. It uses `::core` paths only,
+//! never allocates, never indexes (arrays are destructured) and cannot panic.
+
+//!
+//! One submodule per part of the generated code: [`tokens`] (literals,
+//! folded sums, destructuring), [`equations`] (the plant's rows as
+//! monomial → θ-polynomial maps), [`coefficients`] (the interned
+//! θ-dependent coefficients), [`weights`] (`clamp_theta`, `mu`),
+//! [`certificate`] (the proof's types and constants), [`plant`] (the
+//! `plant` module) and [`design`] (one module per design: constants, gain
+//! schedule, observer derivative and steppers).
+
+mod certificate;
+mod coefficients;
+mod design;
+mod equations;
+mod plant;
+mod tokens;
+mod weights;
+
+use coefficients::Coeffs;
+use equations::equations;
+use plant::Plant;
+use proc_macro2::{Ident, Span, TokenStream};
+use qpv_dsl::{Model, OutputFilter};
+use quote::{format_ident, quote};
+use tokens::{lit, num, usize_lit};
+
+/// Everything the emitter needs for one model.
+pub struct EmitModel<'a> {
+    /// The validated symbolic model (plant equations, names, bounds).
+    pub model: &'a Model,
+    /// Indices into `model.params` of the parameters that generate vertices,
+    /// first most significant (the vertex order of `PolytopicModel`).
+    pub scheduling: Vec<usize>,
+    /// The designs, in source order; at least one has `certifies` (the
+    /// caller checks), and the first such is re-exported at the model level.
+    pub designs: Vec<CertifiedDesign>,
+}
+
+/// The numbers of one certified design.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CertifiedDesign {
+    /// The request as the user wrote it, in words (`alpha = 10, gamma = 0.18, mode = sound`).
+    pub request: String,
+    /// `"sound"` or `"paper"`.
+    pub mode: String,
+    /// True for a certified sound-mode design: an `Observer` is generated.
+    /// False for a paper-mode reproduction: only its record is generated
+    /// (the printed conditions hold, but they certify nothing), no gain.
+    pub certifies: bool,
+    /// Certified decay rate α.
+    pub alpha: f64,
+    /// Certified region scaling γ.
+    pub gamma: f64,
+    /// The Lyapunov matrix P, nz × nz row-major (nz = nx, or nx + ny for a filter design).
+    pub p: Vec<f64>,
+    /// The vertex gains L_l, each nz × ny row-major, one per vertex.
+    pub l: Vec<Vec<f64>>,
+    /// Worst margin per condition family (positive = satisfied).
+    pub margins: Vec<(String, f64)>,
+    /// The solver's final status.
+    pub status: String,
+    /// Solver iterations of the accepted solve.
+    pub iterations: u32,
+    /// The output post-filter of a filter-route design (`output_route =
+    /// filter`): then P is (nx+ny)² and each L_l is (nx+ny) × ny, the
+    /// design being for the plant augmented by the filter. `None`: the
+    /// double-sum route, P is nx × nx, L_l is nx × ny.
+    pub filter: Option<OutputFilter>,
+}
+
+/// A float literal; negative values become `-` followed by the magnitude.
+/// Callers guarantee finiteness (checked before emission).
+
+/// Emits the module for one model.
+pub fn emit(em: &EmitModel<'_>) -> TokenStream {
+    let m = em.model;
+    let name = Ident::new(&m.name, Span::call_site());
+    let (state_eqs, out_eqs) = equations(m);
+    let mut coeffs = Coeffs::default();
+    // The plant, then the designs, intern the θ-dependent coefficients; the
+    // `Coeffs` struct built after them covers all of them.
+    let plant = Plant::render(&state_eqs, &out_eqs, &mut coeffs);
+    let primary_index = em.designs.iter().position(|d| d.certifies).unwrap_or(0) + 1;
+    let primary = format_ident!("design{}", primary_index);
+    let primary_filter = match em.designs.get(primary_index - 1).and_then(|d| d.filter) {
+        Some(_) => quote!(pub use self::#primary::{FILTER_GAIN, FILTER_POLE};),
+        None => quote!(),
+    };
+    let designs: Vec<TokenStream> = em
+        .designs
+        .iter()
+        .enumerate()
+        .map(|(i, d)| design::emit_design(em, d, i + 1, &state_eqs, &out_eqs, &mut coeffs))
+        .collect();
+
+    let constants = model_constants(m, em.scheduling.len());
+    let certificate_types = certificate::types();
+    let weights = weights::items(m, &em.scheduling);
+    let coefficients = coeffs.items(m.ntheta());
+    let plant = plant.module(m.nx(), m.nu());
+    let mod_doc = module_doc(em, primary_index);
+    quote! {
+        #[doc = #mod_doc]
+        #[allow(
+            non_snake_case,
+            clippy::approx_constant,
+            clippy::excessive_precision,
+            clippy::unreadable_literal,
+            clippy::too_many_arguments,
+            clippy::let_and_return,
+            clippy::just_underscores_and_digits,
+            clippy::neg_multiply,
+            clippy::double_neg
+        )]
+        pub mod #name {
+            #constants
+
+            #certificate_types
+
+            #weights
+
+            #coefficients
+
+            pub use self::#primary::{gain, Observer, ALPHA, CERTIFICATE, CERTIFIES, GAMMA, L, NS, NZ, P, ROUTE};
+            #primary_filter
+
+            #(#designs)*
+
+            #plant
+        }
+    }
+}
+
+/// The model's sizes and parameter bounds: `NX`, `NY`, `NU`, `NTHETA`,
+/// `NV` (for `ns` scheduling parameters), `THETA_MIN`, `THETA_MAX`.
+fn model_constants(m: &Model, ns: usize) -> TokenStream {
+    let (nx_l, ny_l, nu_l, nth_l, nv_l) = (
+        usize_lit(m.nx()),
+        usize_lit(m.ny()),
+        usize_lit(m.nu()),
+        usize_lit(m.ntheta()),
+        usize_lit(1usize << ns),
+    );
+    let lo: Vec<TokenStream> = m.params.iter().map(|p| lit(p.lo)).collect();
+    let hi: Vec<TokenStream> = m.params.iter().map(|p| lit(p.hi)).collect();
+    quote! {
+        /// Number of states.
+        pub const NX: usize = #nx_l;
+        /// Number of measured outputs.
+        pub const NY: usize = #ny_l;
+        /// Number of known inputs (0 for a model without inputs).
+        pub const NU: usize = #nu_l;
+        /// Number of declared parameters (length of θ).
+        pub const NTHETA: usize = #nth_l;
+        /// Number of vertices of the parameter box (gain-scheduling weights).
+        pub const NV: usize = #nv_l;
+        /// Lower bounds of θ, in declaration order.
+        pub const THETA_MIN: [f64; NTHETA] = [#(#lo),*];
+        /// Upper bounds of θ, in declaration order.
+        pub const THETA_MAX: [f64; NTHETA] = [#(#hi),*];
+    }
+}
+
+/// The module's documentation: names, parameters, vertices, the designs
+/// (which one is re-exported), θ clamping and NaN handling, and the model
+/// compiler's warnings.
+fn module_doc(em: &EmitModel<'_>, primary_index: usize) -> String {
+    let m = em.model;
+    let nv = 1usize << em.scheduling.len();
+    let state_list = m.states.join(", ");
+    let output_list = m.outputs.join(", ");
+    let input_list = if m.inputs.is_empty() {
+        "none".to_string()
+    } else {
+        m.inputs.join(", ")
+    };
+    let param_list: Vec<String> = m
+        .params
+        .iter()
+        .map(|p| format!("{} ∈ [{}, {}]", p.name, num(p.lo), num(p.hi)))
+        .collect();
+    let param_list = if param_list.is_empty() {
+        "none".to_string()
+    } else {
+        param_list.join(", ")
+    };
+    let sched_list: Vec<&str> = em
+        .scheduling
+        .iter()
+        .filter_map(|&i| m.params.get(i).map(|p| p.name.as_str()))
+        .collect();
+    let mut mod_doc: String = format!(
+        " Generated by `qpv!` for model `{}`: states {state_list}; outputs {output_list}; \
+         inputs {input_list}; parameters {param_list}.\n\n \
+         The θ vector has one entry per declared parameter, in declaration order. \
+         The gain is scheduled over {nv} vertices (the corners of the box of {}), first \
+         parameter most significant, lo before hi.\n\n \
+         Designs: {} (`design{primary_index}`, the first certified one, is re-exported here; \
+         a paper-mode design only records that the paper's printed conditions hold — they \
+         certify nothing, so it gets no gain and no observer).\n\n \
+         θ outside its bounds: the observer, `mu` and `gain` clamp θ into Θ (a NaN \
+         component is replaced by its lower bound) and `Observer` counts the steps \
+         where that happened ([`Observer::clamped`]); the design is only certified inside Θ. \
+         The `plant` functions evaluate the equations at θ as given. NaN in x, y or u \
+         propagates into the result (never a panic).",
+        m.name,
+        if sched_list.is_empty() {
+            "no parameter".to_string()
+        } else {
+            sched_list.join(", ")
+        },
+        em.designs
+            .iter()
+            .enumerate()
+            .map(|(i, d)| format!("`design{}` ({}: {})", i + 1, d.mode, d.request))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    for w in &m.warnings {
+        mod_doc.push_str("\n\n Note from the model compiler: ");
+        mod_doc.push_str(&w.message);
+    }
+    mod_doc
+}
+
+mod tests {
+    use super::tokens::Sum;
+    use super::*;
+
+    const MODEL: &str = "model t {
+        state x1, x2; input u1; output y1;
+        param a in [-1, 3]; param b in [0, 1];
+        A = [-1 - a, 0; 1, -2*a*b];
+        N1 = [0, 1; 0, 0]; N2 = 0;
+        B = [0; 1];
+        C = [1, 0]; M1 = 0;
+        region box(1);
+        state_bound Q = [0.1, 0; 0, 0.1];
+        design { alpha = 1; gamma = 0.5; }
+    }";
+
+    fn generated() -> String {
+        generated_with(None)
+    }
+
+    fn generated_with(filter: Option<OutputFilter>) -> String {
+        let nz = if filter.is_some() { 3 } else { 2 };
+        let models = qpv_dsl::parse(MODEL).expect("test model parses");
+        let model = &models[0];
+        let design = CertifiedDesign {
+            request: "alpha = 1; gamma = 0.5; mode = sound".into(),
+            mode: "sound".into(),
+            certifies: true,
+            alpha: 1.0,
+            gamma: 0.5,
+            p: (0..nz * nz)
+                .map(|i| if i % (nz + 1) == 0 { 1.0 } else { 0.0 })
+                .collect(),
+            l: (0..4)
+                .map(|l| {
+                    let mut v = vec![0.0; nz];
+                    v[0] = f64::from(l);
+                    v
+                })
+                .collect(),
+            margins: vec![("S1".into(), 0.5)],
+            status: "Solved".into(),
+            iterations: 7,
+            filter,
+        };
+        emit(&EmitModel {
+            model,
+            scheduling: vec![0, 1],
+            designs: vec![design],
+        })
+        .to_string()
+    }
+
+    #[test]
+    fn output_is_a_valid_rust_file() {
+        let code = generated();
+        assert!(syn::parse_str::<syn::File>(&code).is_ok(), "{code}");
+    }
+
+    #[test]
+    fn filter_route_output_is_valid_and_documents_the_filter() {
+        let code = generated_with(Some(OutputFilter {
+            pole: 40.0,
+            gain: 20.0,
+        }));
+        assert!(syn::parse_str::<syn::File>(&code).is_ok(), "{code}");
+        assert!(
+            code.contains("pub const ROUTE : & str = \"filter\""),
+            "{code}"
+        );
+        assert!(code.contains("pub const FILTER_POLE : f64 = 40.0"));
+        assert!(code.contains("pub const FILTER_GAIN : f64 = 20.0"));
+        assert!(code.contains("pub const NZ : usize = 3"));
+        assert!(code.contains("pub const NS : usize = 4"));
+        // the filter rows: x̂_y' = −a x̂_y + b·h(x̂) + …, x_y' = −a x_y + b y
+        assert!(code.contains("- 40.0 * zh0 + 20.0 * x0"), "{code}");
+        assert!(code.contains("- 40.0 * zm0 + 20.0 * y0"), "{code}");
+        // the residual is the filter-state error
+        assert!(code.contains("let r0 = zm0 - zh0"), "{code}");
+        let code: TokenStream = code.parse().expect("tokens");
+        assert!(!indexes(code), "arrays are destructured, never indexed");
+    }
+
+    /// Every identifier of a token stream (string literals and docs skipped).
+    fn idents(ts: TokenStream, out: &mut Vec<String>) {
+        for tt in ts {
+            match tt {
+                proc_macro2::TokenTree::Ident(i) => out.push(i.to_string()),
+                proc_macro2::TokenTree::Group(g) => idents(g.stream(), out),
+                _ => {}
+            }
+        }
+    }
+
+    #[test]
+    fn no_loops_no_heap_no_std_no_panics() {
+        let code: TokenStream = generated().parse().expect("tokens");
+        let mut ids = Vec::new();
+        idents(code, &mut ids);
+        for word in [
+            "while",
+            "loop",
+            "unwrap",
+            "expect",
+            "panic",
+            "unreachable",
+            "Vec",
+            "Box",
+            "std",
+            "alloc",
+            "unsafe",
+        ] {
+            assert!(
+                !ids.iter().any(|i| i == word),
+                "generated code uses `{word}`"
+            );
+        }
+        // the only `for … in` loop prints the certificate's margins (Display)
+        assert_eq!(ids.iter().filter(|i| *i == "in").count(), 1);
+        assert!(
+            !indexes(generated().parse().expect("tokens")),
+            "arrays are destructured, never indexed"
+        );
+    }
+
+    /// True if some `[...]` follows a name or a call, i.e. an index expression.
+    fn indexes(ts: TokenStream) -> bool {
+        let tts: Vec<proc_macro2::TokenTree> = ts.into_iter().collect();
+        tts.iter().enumerate().any(|(i, tt)| match tt {
+            proc_macro2::TokenTree::Group(g) => {
+                let indexed = g.delimiter() == proc_macro2::Delimiter::Bracket
+                    && match i.checked_sub(1).and_then(|j| tts.get(j)) {
+                        Some(proc_macro2::TokenTree::Ident(id)) => {
+                            // `let [..]`, `mut`, and the lifetime in `&'static [..]`
+                            id != "let" && id != "mut" && id != "static"
+                        }
+                        Some(proc_macro2::TokenTree::Group(p)) => {
+                            p.delimiter() == proc_macro2::Delimiter::Parenthesis
+                        }
+                        _ => false,
+                    };
+                indexed || indexes(g.stream())
+            }
+            _ => false,
+        })
+    }
+
+    #[test]
+    fn constants_are_folded() {
+        let code = generated();
+        assert!(!code.contains("0.0 * "), "zero terms are dropped");
+        assert!(!code.contains("1.0 * "), "unit factors are dropped");
+        // the θ product a·b is computed once and reused
+        assert_eq!(code.matches("let t0_1 = t0 * t1").count(), 1);
+        // L_l[1][0] = 0 at every vertex: no gain term in the second equation
+        assert!(code.contains("g0_0 * r0"));
+        assert!(!code.contains("g1_0 * r0"));
+        // the state product is computed once
+        assert_eq!(
+            code.matches("let x0x1 = x0 * x1").count(),
+            2,
+            "observer + plant"
+        );
+    }
+
+    #[test]
+    fn float_literals_round_trip() {
+        for v in [0.1, -2.5e-300, 1.0 / 3.0, 123456.789, -0.0] {
+            let t = lit(v).to_string().replace(' ', "");
+            assert_eq!(t.parse::<f64>().ok(), Some(v), "{t}");
+        }
+    }
+
+    #[test]
+    fn sums_fold_signs_and_units() {
+        let mut s = Sum::default();
+        s.push(-1.0, Some(quote!(x)));
+        s.push(0.0, Some(quote!(y)));
+        s.push(1.0, Some(quote!(z)));
+        s.push(-2.5, None);
+        assert_eq!(s.render().to_string(), "- x + z - 2.5");
+        assert_eq!(Sum::default().render().to_string(), "0.0");
+    }
+}

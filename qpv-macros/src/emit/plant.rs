@@ -1,0 +1,83 @@
+//! The generated `plant` module: the model's own equations
+//! x' = A(θ)x + N(θ,x)x + B(θ)u and y = C(θ)x + M(θ,x)x, for simulation and
+//! tests.
+
+use super::coefficients::Coeffs;
+use super::equations::{product_lets, render_alone, Equation};
+use super::tokens::{destructure, uses};
+use proc_macro2::TokenStream;
+use quote::{format_ident, quote};
+
+/// The rendered bodies of the plant's derivative and output.
+pub(super) struct Plant {
+    derivative: TokenStream,
+    output: TokenStream,
+}
+
+impl Plant {
+    /// Renders the state and output equations (interning their θ-dependent
+    /// coefficients into `coeffs`).
+    pub(super) fn render(
+        state_eqs: &[Equation],
+        out_eqs: &[Equation],
+        coeffs: &mut Coeffs,
+    ) -> Self {
+        let f: Vec<TokenStream> = state_eqs
+            .iter()
+            .map(|eq| render_alone(eq, coeffs))
+            .collect();
+        let h: Vec<TokenStream> = out_eqs.iter().map(|eq| render_alone(eq, coeffs)).collect();
+        let state_products = product_lets(&state_eqs.iter().collect::<Vec<_>>());
+        let output_products = product_lets(&out_eqs.iter().collect::<Vec<_>>());
+        Plant {
+            derivative: quote! { #state_products [#(#f),*] },
+            output: quote! { #output_products [#(#h),*] },
+        }
+    }
+
+    /// `pub mod plant { derivative, output }` for a model with `nx` states
+    /// and `nu` inputs.
+    pub(super) fn module(&self, nx: usize, nu: usize) -> TokenStream {
+        let (x, u) = (format_ident!("x"), format_ident!("u"));
+        let (f_body, h_body) = (&self.derivative, &self.output);
+        let f_x = destructure(&x, "x", nx, f_body);
+        let f_u = destructure(&u, "u", nu, f_body);
+        let h_x = destructure(&x, "x", nx, h_body);
+        let f_c = coeffs_binding(f_body);
+        let h_c = coeffs_binding(h_body);
+        quote! {
+            /// The plant equations x' = A(θ)x + N(θ,x)x + B(θ)u, y = C(θ)x + M(θ,x)x,
+            /// for simulation and tests (θ used as given, not clamped).
+            pub mod plant {
+                use super::{NTHETA, NU, NX, NY};
+
+                /// x' = A(θ)x + N(θ,x)x + B(θ)u.
+                #[inline]
+                pub fn derivative(x: &[f64; NX], u: &[f64; NU], theta: &[f64; NTHETA]) -> [f64; NX] {
+                    #f_c
+                    #f_x
+                    #f_u
+                    #f_body
+                }
+
+                /// y = C(θ)x + M(θ,x)x.
+                #[inline]
+                pub fn output(x: &[f64; NX], theta: &[f64; NTHETA]) -> [f64; NY] {
+                    #h_c
+                    #h_x
+                    #h_body
+                }
+            }
+        }
+    }
+}
+
+/// `let c = super::coeffs(theta);` if the body uses θ-dependent
+/// coefficients, else a use of `theta` that silences the unused warning.
+fn coeffs_binding(body: &TokenStream) -> TokenStream {
+    if uses(body, "c") {
+        quote!(let c = super::coeffs(theta);)
+    } else {
+        quote!(let _ = theta;)
+    }
+}
