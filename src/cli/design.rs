@@ -347,7 +347,7 @@ fn describe_failure_margins(d: &Design) -> String {
         .iter()
         .rev()
         .find(|st| st.phase == "diagnose" || st.phase == "final")
-        .map(|st| format!(" (alpha = {}, gamma = {:.6})", st.alpha, st.gamma))
+        .map(|st| format!(" (tried at alpha {}, gamma {:.6})", st.alpha, st.gamma))
         .unwrap_or_default();
     s.push_str(&format!(
         "  margins of the best attempt{at}, per condition family (positive = satisfied):\n"
