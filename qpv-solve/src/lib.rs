@@ -92,7 +92,8 @@ pub use settings::Settings;
 pub mod skew_slack {
     pub use crate::lmi::skew::{max_alpha_fixed_p, FixedP};
     pub use crate::model::skew::with_skew;
-    pub use crate::search::skew::{search, Round, SkewResult};
+    pub use crate::search::skew::{Round, SkewResult};
+    pub use crate::search::skew_search as search;
 }
 
 /// The LMI assembly under its former path (see [`lmi`] and [`backend`]).

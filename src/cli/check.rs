@@ -3,8 +3,10 @@
 use super::design::{parse_mode, parse_split};
 use super::input::{emit_json, load_model, read_report, CliError};
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, OutputRoute, Split, StateBound};
+use qpv_solve::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 use qpv_solve::output_filter::OutputRouteInfo;
 use qpv_solve::report::{rows_to_matrix, skew_matrices};
+use qpv_solve::{Certificate, SolveError};
 use std::path::Path;
 
 /// The gains file: `P` (rows), `L` (per vertex, NX rows of NY), and
@@ -33,11 +35,14 @@ struct Gains {
     skew: Option<Vec<Vec<Vec<Vec<f64>>>>>,
 }
 
-/// The part of a design report's `state_bound` entry `qpv check` uses.
+/// The part of a design report's `state_bound` entry `qpv check` uses: Q,
+/// and the box size and split its invariance was checked with.
 #[derive(serde::Deserialize)]
 struct GainsBound {
     #[serde(rename = "Q")]
     q: Option<Vec<Vec<f64>>>,
+    h: Option<f64>,
+    split: Option<String>,
 }
 
 fn rectangular(rows: &[Vec<f64>]) -> bool {
@@ -90,56 +95,70 @@ pub fn run(
             .map_err(|_| CliError::Input(format!("{}: unknown split {name:?}", gains.display())))?,
         None => Split::default_for(mode),
     };
-    let mut poly = model.polytopic().with_split(split);
-    if let StateBound::Auto { .. } = poly.state_bound {
-        // the Q the design computed; without it (S4) cannot be checked
-        match g.state_bound.and_then(|b| b.q) {
-            Some(q) if q.len() == model.nx() && q.iter().all(|r| r.len() == model.nx()) => {
-                poly.state_bound = StateBound::Given(rows_to_matrix(&q));
-            }
-            _ => {
-                return Err(CliError::Input(format!(
-                    "{}: the model has `state_bound auto`, so the gains file must carry the \
-                     design's state bound (`state_bound.Q`, {n}×{n}; a `qpv design --json` report does)",
-                    gains.display(),
-                    n = model.nx()
-                )))
-            }
-        }
+    let plant = model.polytopic();
+    let n = model.nx();
+    // A `state_bound auto` Q from the gains file is a claim: the builder
+    // verifies it against the model as it is now.
+    let claim = match g.state_bound.as_ref() {
+        Some(GainsBound {
+            q: Some(q),
+            h,
+            split,
+        }) if q.len() == n && q.iter().all(|r| r.len() == n) => Some(ClaimedBound {
+            q: rows_to_matrix(q),
+            h: *h,
+            split: split.as_deref().and_then(|s| parse_split(s).ok()),
+        }),
+        _ => None,
+    };
+    if matches!(plant.state_bound, StateBound::Auto { .. }) && claim.is_none() {
+        return Err(CliError::Input(format!(
+            "{}: the model has `state_bound auto`, so the gains file must carry the \
+             design's state bound (`state_bound.Q`, {n}×{n}; a `qpv design --json` report does)",
+            gains.display()
+        )));
     }
-    if let Some(OutputRoute::Filter(f)) = g.output_route.as_ref().map(|r| r.output_route()) {
-        poly = qpv_solve::output_filter::augment(&poly, &f)
-            .map_err(|e| CliError::Input(format!("{}: output filter: {e}", gains.display())))?;
-        eprintln!(
-            "output filter route (pole {}, gain {}): checking against the augmented plant ({})",
-            f.pole,
-            f.gain,
-            poly.states.join(", ")
-        );
-    }
-    if let Some(k) = &g.skew {
-        let k = skew_matrices(k);
-        let fits = k.len() == poly.nv()
-            && k.iter().all(|kl| {
-                kl.len() == poly.nx()
-                    && kl.iter().all(|kk| {
-                        kk.shape() == (poly.nx(), poly.nx())
-                            && (kk + kk.transpose()).amax() <= 1e-12 * (1.0 + kk.amax())
-                    })
-            });
-        if !fits {
-            return Err(CliError::Input(format!(
-                "{}: `skew` must hold one skew-symmetric {n}×{n} matrix per state and θ-vertex",
-                gains.display(),
-                n = poly.nx()
-            )));
-        }
-        poly = qpv_solve::skew_slack::with_skew(&poly, &k);
-        eprintln!("skew-symmetric slack K_k (from the gains file) added to N_k: the same plant");
-    }
+    let route = g
+        .output_route
+        .as_ref()
+        .map(|r| r.output_route())
+        .unwrap_or_default();
+    let skew = g.skew.as_ref().map(|k| skew_matrices(k));
+    let options = ObserverOptions {
+        output_route: &route,
+        split,
+        skew: skew.as_deref(),
+    };
+    let defaults = qpv_solve::Settings::default();
+    let bound = match &claim {
+        Some(c) => StateBoundClaim::Claimed(c),
+        None => StateBoundClaim::Compute(&defaults),
+    };
     let p = rows_to_matrix(&g.p);
     let l: Vec<_> = g.l.iter().map(|r| rows_to_matrix(r)).collect();
-    let cert = qpv_solve::check(&poly, mode, alpha, gamma, &p, &l);
+    let cert = match ObserverModel::prepare(&plant, &options, bound) {
+        Ok(observer) => {
+            if let OutputRoute::Filter(f) = &route {
+                eprintln!(
+                    "output filter route (pole {}, gain {}): checking against the augmented plant ({})",
+                    f.pole,
+                    f.gain,
+                    observer.model.states.join(", ")
+                );
+            }
+            if skew.is_some() {
+                eprintln!(
+                    "skew-symmetric slack K_k (from the gains file) added to N_k: the same plant"
+                );
+            }
+            qpv_solve::check(&observer.model, mode, alpha, gamma, &p, &l)
+        }
+        // A refused state bound: the gains are not certified (exit 1).
+        Err(e @ SolveError::StateBound(_)) => {
+            Certificate::refused(mode, alpha, gamma, format!("state bound: {e}"))
+        }
+        Err(e) => return Err(CliError::Input(format!("{}: {e}", gains.display()))),
+    };
     let mut s = format!(
         "check of {} against {} mode at alpha = {alpha}, gamma = {gamma}:\n",
         gains.display(),
