@@ -44,9 +44,9 @@ inline_model! {
 
 // The paper's example designed with `split = skew_slack`: the baked P and
 // L_l are certified on N_k + K_k (the same plant); the generated code does
-// not depend on the representation. A fixed α = 13.05, beyond the symmetric
-// split's optimum, is one design at expansion; `alpha = max` for this
-// request (above 13) is asserted by qpv-solve's skew_slack tests.
+// not depend on the representation. The skew alternation starts from the
+// symmetric split's certified optimum, so this request needs `alpha = max`
+// (a fixed α above the symmetric optimum has no certified start).
 inline_model! {
     SKEW_TEXT,
     model paper_skew {
@@ -63,7 +63,7 @@ inline_model! {
         M2 = [0, 0, 1; 0, 0, 0; 0, 0, 0];
         region box(0.02);
         state_bound Q = [0.0112, 0.0017, 0.0006; 0.0017, 0.0025, -0.0022; 0.0006, -0.0022, 0.0061];
-        design { alpha = 13.05; gamma = 0.1889; split = skew_slack; }
+        design { alpha = max; gamma = 0.1889; split = skew_slack; }
     }
 }
 

@@ -16,6 +16,7 @@ use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute,
     PolytopicModel, Split, StateBound,
 };
+use qpv_solve::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 use qpv_solve::report::{matrix_to_rows, rows_to_matrix};
 use qpv_solve::{Design, Settings};
 use quote::quote;
@@ -269,42 +270,42 @@ fn one_design(
     // `state_bound auto`: Q from the cache if it passes the independent
     // state-bound check again, else computed; the design and the macro's own
     // certificate then use it as given.
+    let options = ObserverOptions::for_request(req);
     let reused = cached
         .as_ref()
         .and_then(|e| e.bound.as_ref())
-        .and_then(|b| recheck_bound(poly, (b.h, b.symmetric, &b.q)));
-    let (resolved, bound) = match reused {
+        .and_then(|b| recheck_bound(poly, &options, b));
+    // The observer's model (the one builder): the state bound, then the
+    // output route (the plant, or the plant augmented by the output filter),
+    // then the representation of N_k, M_k the design uses (the plant, hence
+    // the generated code, is the same).
+    let (observer, bound) = match reused {
         Some(found) => found,
         None => {
-            let (m, info) = qpv_solve::state_bound::resolve(poly, &settings)
-                .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?;
-            let bound = match (&poly.state_bound, &m.state_bound, info.h) {
+            let observer =
+                ObserverModel::prepare(poly, &options, StateBoundClaim::Compute(&settings))
+                    .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?;
+            let bound = match (
+                &poly.state_bound,
+                &observer.plant.state_bound,
+                observer.state_bound.h,
+            ) {
                 (StateBound::Auto { .. }, StateBound::Given(q), Some(h)) => Some(cache::Bound {
                     h,
-                    symmetric: info.split.as_deref() == Some("symmetric"),
+                    symmetric: observer.state_bound.split.as_deref() == Some("symmetric"),
                     q: matrix_to_rows(q).concat(),
                 }),
                 _ => None,
             };
-            (m, bound)
+            (observer, bound)
         }
     };
-    let poly = &resolved;
-    // The conditions are checked on the model the observer is designed for
-    // (the plant, or the plant augmented by the output filter), with the
-    // representation of N_k, M_k the design used (the plant, hence the
-    // generated code, is the same).
-    let routed = match &filter {
-        Some(f) => qpv_solve::output_filter::augment(poly, f)
-            .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?,
-        None => poly.clone(),
-    };
-    let split_model = routed.with_split(req.split);
+    let poly = &observer.plant;
     // `split = skew_slack`: the slack K_{k,l} (flattened: per vertex, per k,
     // row-major nz × nz) the numbers were certified with, added to N_k.
     let with_skew = |k: &[f64]| -> Option<qpv_dsl::PolytopicModel> {
         if k.is_empty() {
-            return Some(split_model.clone());
+            return Some(observer.model.clone());
         }
         if k.len() != nv * nz * nz * nz {
             return None;
@@ -317,7 +318,7 @@ fn one_design(
                     .collect()
             })
             .collect();
-        Some(qpv_solve::skew_slack::with_skew(&split_model, &mats))
+        observer.with_skew(&mats).ok()
     };
 
     // A cache hit is re-certified, never trusted blindly.
@@ -481,34 +482,28 @@ fn timing(model: &str, request: &str, origin: &str, start: std::time::Instant) {
 }
 
 /// A cached `state_bound auto` result (box size `h`, split of the invariance
-/// check, Q row-major) re-checked with qpv-solve's independent state-bound
-/// check on W = Q⁻¹: the model with that Q given, or `None` (then Q is
-/// computed again).
+/// check, Q row-major) as a claim for the builder of the observer's model,
+/// which verifies it against the model as it is now: the observer's model
+/// with that Q, or `None` (then Q is computed again).
 fn recheck_bound(
     poly: &PolytopicModel,
-    (h, symmetric, q): (f64, bool, &[f64]),
-) -> Option<(PolytopicModel, Option<cache::Bound>)> {
-    if !matches!(poly.state_bound, StateBound::Auto { .. }) || q.len() != poly.nx() * poly.nx() {
+    options: &ObserverOptions<'_>,
+    b: &cache::Bound,
+) -> Option<(ObserverModel, Option<cache::Bound>)> {
+    if !matches!(poly.state_bound, StateBound::Auto { .. }) || b.q.len() != poly.nx() * poly.nx() {
         return None;
     }
-    let q_m = rows_to_matrix(&rows(q, poly.nx()));
-    let w = q_m.clone().try_inverse()?;
-    let split = if symmetric {
-        Split::Symmetric
-    } else {
-        Split::AsWritten
+    let claim = ClaimedBound {
+        q: rows_to_matrix(&rows(&b.q, poly.nx())),
+        h: Some(b.h),
+        split: Some(if b.symmetric {
+            Split::Symmetric
+        } else {
+            Split::AsWritten
+        }),
     };
-    if !qpv_solve::state_bound::check(&poly.with_split(split), &w, h).passed {
-        return None;
-    }
-    let mut model = poly.clone();
-    model.state_bound = StateBound::Given(q_m);
-    let bound = cache::Bound {
-        h,
-        symmetric,
-        q: q.to_vec(),
-    };
-    Some((model, Some(bound)))
+    let observer = ObserverModel::prepare(poly, options, StateBoundClaim::Claimed(&claim)).ok()?;
+    Some((observer, Some(b.clone())))
 }
 
 /// The best certified sound design of a model, in words, for error
@@ -669,10 +664,14 @@ mod tests {
         let entry = cache::load(&dir, &key).expect("cached");
         let b = entry.bound.expect("the computed Q is cached");
         assert!(b.h > 0.0 && b.q.len() == 4);
-        let fresh = recheck_bound(&poly, (b.h, b.symmetric, &b.q));
+        let options = ObserverOptions::for_request(req);
+        let fresh = recheck_bound(&poly, &options, &b);
         assert!(fresh.is_some(), "the cached Q re-checks");
-        let huge = [1e6, 0.0, 0.0, 1e6];
-        let rejected = recheck_bound(&poly, (b.h, b.symmetric, &huge));
+        let huge = cache::Bound {
+            q: vec![1e6, 0.0, 0.0, 1e6],
+            ..b.clone()
+        };
+        let rejected = recheck_bound(&poly, &options, &huge);
         assert!(rejected.is_none(), "a Q whose F leaves the box fails");
         let second = one_design(model, &poly, req, Some(&dir)).expect("certified");
         assert_eq!(second.origin, "cache hit, re-certified");

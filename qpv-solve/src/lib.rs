@@ -83,8 +83,8 @@ pub mod lmi;
 // Search, report, analysis.
 pub mod analysis;
 pub mod diagnosis;
-pub mod report;
 pub mod noise;
+pub mod report;
 pub mod sampling;
 pub mod search;
 pub mod size;
@@ -103,7 +103,8 @@ pub use settings::Settings;
 pub mod skew_slack {
     pub use crate::lmi::skew::{max_alpha_fixed_p, FixedP};
     pub use crate::model::skew::with_skew;
-    pub use crate::search::skew::{search, Round, SkewResult};
+    pub use crate::search::skew::{Round, SkewResult};
+    pub use crate::search::skew_search as search;
 }
 
 /// The LMI assembly under its former path (see [`lmi`] and [`backend`]).

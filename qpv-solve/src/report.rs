@@ -21,8 +21,12 @@
 //! serde_json writes the shortest round-tripping decimal of every `f64`, so
 //! a reloaded design certifies exactly as the written one.
 
+use crate::certificate::Certificate;
+use crate::error::SolveError;
+use crate::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
+use crate::settings::Settings;
 use nalgebra::DMatrix;
-use qpv_dsl::{Conditions, Mode, PolytopicModel, Split};
+use qpv_dsl::{Conditions, Mode, PolytopicModel, Split, StateBound};
 
 pub use crate::backend::Status;
 pub use crate::certificate::DataCheck;
@@ -212,59 +216,72 @@ impl Design {
             .unwrap_or_default()
     }
 
-    /// The model this design's P and L_l belong to, built from the plant
-    /// `model`: a `state_bound auto` replaced by the Q this design computed,
-    /// then the design's output route (the filter augmentation, if any),
-    /// then its split (and skew slack). Check, simulate and falsify the
-    /// gains against it.
-    pub fn observer_model(
-        &self,
-        model: &PolytopicModel,
-    ) -> Result<PolytopicModel, crate::SolveError> {
-        let mut m = model.clone();
-        if let (qpv_dsl::StateBound::Auto { .. }, Some(q)) = (&m.state_bound, self.state_bound_q())
-        {
-            m.state_bound = qpv_dsl::StateBound::Given(q);
-        }
-        if let qpv_dsl::OutputRoute::Filter(f) = self.route() {
-            m = crate::model::output_filter::augment(&m, &f)?;
-        }
-        let m = m.with_split(self.split);
-        Ok(match &self.skew {
-            Some(k) => crate::model::skew::with_skew(&m, &skew_matrices(k)),
-            None => m,
+    /// The state bound this design claims for a `state_bound auto` model:
+    /// its Q, box size h and the split of its invariance check.
+    pub fn state_bound_claim(&self) -> Option<ClaimedBound> {
+        let info = self.state_bound.as_ref()?;
+        Some(ClaimedBound {
+            q: rows_to_matrix(info.q.as_ref()?),
+            h: info.h,
+            split: info.split.as_deref().and_then(|s| {
+                [Split::AsWritten, Split::Symmetric]
+                    .into_iter()
+                    .find(|v| v.name() == s)
+            }),
         })
     }
 
-    /// The independent certificate of this design's P and L_l against
-    /// `model` (through [`Design::observer_model`]: the design's Q, output
-    /// route and split applied), at its α and γ. A model the route cannot
-    /// be applied to gives a failed certificate with the reason.
-    pub fn recheck(&self, model: &PolytopicModel) -> crate::Certificate {
-        let m = match self.observer_model(model) {
-            Ok(m) => m,
-            Err(e) => {
-                let mut c = crate::check(
-                    model,
-                    self.mode,
-                    self.alpha,
-                    self.gamma,
-                    &DMatrix::zeros(0, 0),
-                    &[],
-                );
-                c.passed = false;
-                c.input_errors.push(format!("output route: {e}"));
-                return c;
-            }
+    /// The model this design's P and L_l belong to, built from the plant
+    /// `model` by [`ObserverModel::prepare`]: for `state_bound auto` the Q
+    /// this design claims, verified against `model` as it is now (a stale or
+    /// tampered Q is an error saying what failed), then the design's output
+    /// route, split and skew slack. Check, simulate and falsify the gains
+    /// against it.
+    pub fn observer_model(&self, model: &PolytopicModel) -> Result<PolytopicModel, SolveError> {
+        let route = self.route();
+        let skew = self.skew.as_ref().map(|k| skew_matrices(k));
+        let options = ObserverOptions {
+            output_route: &route,
+            split: self.split,
+            skew: skew.as_deref(),
         };
-        crate::check(
-            &m,
-            self.mode,
-            self.alpha,
-            self.gamma,
-            &self.p_matrix(),
-            &self.l_matrices(),
-        )
+        let claim = self.state_bound_claim();
+        let defaults = Settings::default();
+        let bound = match (&model.state_bound, &claim) {
+            (_, Some(c)) => StateBoundClaim::Claimed(c),
+            (StateBound::Auto { .. }, None) => {
+                return Err(SolveError::StateBound(
+                    "the model has `state_bound auto` and the report carries no Q".into(),
+                ))
+            }
+            // a given Q or none: the model's own, nothing is computed
+            (_, None) => StateBoundClaim::Compute(&defaults),
+        };
+        Ok(ObserverModel::prepare(model, &options, bound)?.model)
+    }
+
+    /// The independent certificate of this design's P and L_l against
+    /// `model` (through [`Design::observer_model`]: the design's verified Q,
+    /// output route and split applied), at its α and γ. A model the design
+    /// cannot be applied to (a refused Q, a route that does not fit) gives a
+    /// failed certificate with the reason.
+    pub fn recheck(&self, model: &PolytopicModel) -> Certificate {
+        match self.observer_model(model) {
+            Ok(m) => crate::check(
+                &m,
+                self.mode,
+                self.alpha,
+                self.gamma,
+                &self.p_matrix(),
+                &self.l_matrices(),
+            ),
+            Err(e) => Certificate::refused(
+                self.mode,
+                self.alpha,
+                self.gamma,
+                format!("observer's model: {e}"),
+            ),
+        }
     }
 
     /// JSON text (pretty-printed).

@@ -10,8 +10,10 @@ use super::design::parse_split;
 use super::input::{emit_json, exit, load_model, print_text, read_report, CliError};
 use super::schema::CheckOutput;
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Model, OutputRoute, PolytopicModel, Split, StateBound};
+use qpv_solve::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 use qpv_solve::output_filter::OutputRouteInfo;
 use qpv_solve::report::{rows_to_matrix, skew_matrices};
+use qpv_solve::{Certificate, SolveError};
 use std::path::Path;
 
 /// The gains file: `P` (rows), `L` (per vertex, NX rows of NY), and
@@ -45,6 +47,8 @@ struct Gains {
 struct GainsBound {
     #[serde(rename = "Q")]
     q: Option<Vec<Vec<f64>>>,
+    h: Option<f64>,
+    split: Option<String>,
 }
 
 /// The flags of `qpv check` (each `None` when not given).
@@ -148,63 +152,75 @@ fn unit_interval(g: f64) -> bool {
     g > 0.0 && g < 1.0
 }
 
-/// The model the gains belong to, built from the plant as the design
-/// built it: the split, the state bound (an auto Q from the gains file),
-/// the output route (the filter augmentation) and the skew slack.
+/// The model the gains belong to, built by the same builder the design
+/// uses ([`ObserverModel::prepare`]): the split, the state bound, the output
+/// route (the filter augmentation) and the skew slack. An auto state
+/// bound's Q from the gains file is a claim the builder verifies against the
+/// model as it is now; a refused claim is `Ok(Err(reason))`: the gains are
+/// then not certified (exit 1), which is not an input error.
 fn observer_model(
     model: &Model,
     split: Split,
     g: &Gains,
     gains: &Path,
-) -> Result<PolytopicModel, CliError> {
-    let mut poly = model.polytopic().with_split(split);
-    if let StateBound::Auto { .. } = poly.state_bound {
-        // the Q the design computed; without it (S4) cannot be checked
-        match g.state_bound.as_ref().and_then(|b| b.q.as_ref()) {
-            Some(q) if q.len() == model.nx() && q.iter().all(|r| r.len() == model.nx()) => {
-                poly.state_bound = StateBound::Given(rows_to_matrix(q));
+) -> Result<Result<PolytopicModel, String>, CliError> {
+    let plant = model.polytopic();
+    let n = model.nx();
+    let claim = match g.state_bound.as_ref() {
+        Some(GainsBound {
+            q: Some(q),
+            h,
+            split,
+        }) if q.len() == n && q.iter().all(|r| r.len() == n) => Some(ClaimedBound {
+            q: rows_to_matrix(q),
+            h: *h,
+            split: split.as_deref().and_then(|s| parse_split(s).ok()),
+        }),
+        _ => None,
+    };
+    if matches!(plant.state_bound, StateBound::Auto { .. }) && claim.is_none() {
+        return Err(CliError::Input(format!(
+            "{}: the model has `state_bound auto`, so the gains file must carry the \
+             design's state bound (`state_bound.Q`, {n}×{n}; a `qpv design --json` report does)",
+            gains.display()
+        )));
+    }
+    let route = g
+        .output_route
+        .as_ref()
+        .map(|r| r.output_route())
+        .unwrap_or_default();
+    let skew = g.skew.as_ref().map(|k| skew_matrices(k));
+    let options = ObserverOptions {
+        output_route: &route,
+        split,
+        skew: skew.as_deref(),
+    };
+    let defaults = qpv_solve::Settings::default();
+    let bound = match &claim {
+        Some(c) => StateBoundClaim::Claimed(c),
+        None => StateBoundClaim::Compute(&defaults),
+    };
+    match ObserverModel::prepare(&plant, &options, bound) {
+        Ok(observer) => {
+            if let OutputRoute::Filter(f) = &route {
+                eprintln!(
+                    "output filter route (pole {}, gain {}): checking against the augmented plant ({})",
+                    f.pole,
+                    f.gain,
+                    observer.model.states.join(", ")
+                );
             }
-            _ => {
-                return Err(CliError::Input(format!(
-                    "{}: the model has `state_bound auto`, so the gains file must carry the \
-                     design's state bound (`state_bound.Q`, {n}×{n}; a `qpv design --json` report does)",
-                    gains.display(),
-                    n = model.nx()
-                )))
+            if skew.is_some() {
+                eprintln!(
+                    "skew-symmetric slack K_k (from the gains file) added to N_k: the same plant"
+                );
             }
+            Ok(Ok(observer.model))
         }
+        Err(e @ SolveError::StateBound(_)) => Ok(Err(format!("state bound: {e}"))),
+        Err(e) => Err(CliError::Input(format!("{}: {e}", gains.display()))),
     }
-    if let Some(OutputRoute::Filter(f)) = g.output_route.as_ref().map(|r| r.output_route()) {
-        poly = qpv_solve::output_filter::augment(&poly, &f)
-            .map_err(|e| CliError::Input(format!("{}: output filter: {e}", gains.display())))?;
-        eprintln!(
-            "output filter route (pole {}, gain {}): checking against the augmented plant ({})",
-            f.pole,
-            f.gain,
-            poly.states.join(", ")
-        );
-    }
-    if let Some(k) = &g.skew {
-        let k = skew_matrices(k);
-        let fits = k.len() == poly.nv()
-            && k.iter().all(|kl| {
-                kl.len() == poly.nx()
-                    && kl.iter().all(|kk| {
-                        kk.shape() == (poly.nx(), poly.nx())
-                            && (kk + kk.transpose()).amax() <= 1e-12 * (1.0 + kk.amax())
-                    })
-            });
-        if !fits {
-            return Err(CliError::Input(format!(
-                "{}: `skew` must hold one skew-symmetric {n}×{n} matrix per state and θ-vertex",
-                gains.display(),
-                n = poly.nx()
-            )));
-        }
-        poly = qpv_solve::skew_slack::with_skew(&poly, &k);
-        eprintln!("skew-symmetric slack K_k (from the gains file) added to N_k: the same plant");
-    }
-    Ok(poly)
 }
 
 /// The first of the model's `design` blocks in `mode` that fixes the value
@@ -262,10 +278,12 @@ pub fn run(
             .map_err(|_| CliError::Input(format!("{}: unknown split {name:?}", gains.display())))?,
         None => Split::default_for(mode),
     };
-    let poly = observer_model(&model, split, &g, gains)?;
     let p = rows_to_matrix(&g.p);
     let l: Vec<_> = g.l.iter().map(|r| rows_to_matrix(r)).collect();
-    let cert = qpv_solve::check(&poly, mode, alpha, gamma, &p, &l);
+    let cert = match observer_model(&model, split, &g, gains)? {
+        Ok(poly) => qpv_solve::check(&poly, mode, alpha, gamma, &p, &l),
+        Err(reason) => Certificate::refused(mode, alpha, gamma, reason),
+    };
     let code = match (cert.passed, mode) {
         (true, Mode::Sound) => exit::CERTIFIED,
         (true, Mode::Paper) => exit::REPRODUCTION,

@@ -78,9 +78,6 @@ pub struct CertifiedDesign {
     pub filter: Option<OutputFilter>,
 }
 
-/// A float literal; negative values become `-` followed by the magnitude.
-/// Callers guarantee finiteness (checked before emission).
-
 /// Emits the module for one model.
 pub fn emit(em: &EmitModel<'_>) -> TokenStream {
     let m = em.model;
@@ -233,6 +230,7 @@ fn module_doc(em: &EmitModel<'_>, primary_index: usize) -> String {
     mod_doc
 }
 
+#[cfg(test)]
 mod tests {
     use super::tokens::Sum;
     use super::*;

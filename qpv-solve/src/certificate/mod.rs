@@ -97,6 +97,20 @@ impl Certificate {
         self.families.iter().find(|f| f.name == name)
     }
 
+    /// A failed certificate for gains that could not be checked at all:
+    /// `reason` (e.g. a refused state bound) is its input error.
+    pub fn refused(mode: Mode, alpha: f64, gamma: f64, reason: String) -> Certificate {
+        Certificate {
+            mode,
+            alpha,
+            gamma,
+            families: Vec::new(),
+            data_checks: BTreeMap::new(),
+            passed: false,
+            input_errors: vec![reason],
+        }
+    }
+
     /// Whether every condition family passed (ignoring data checks).
     pub fn families_passed(&self) -> bool {
         self.input_errors.is_empty() && self.families.iter().all(|f| f.passed)

@@ -50,7 +50,7 @@ use crate::conditions::ConditionSet;
 use crate::error::SolveError;
 use crate::linalg::matrix_to_rows;
 use crate::lmi::{Objective, Problem};
-use crate::model::gamma_max;
+use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim};
 use crate::report::{Design, SearchStep, SolverInfo};
 use crate::settings::Settings;
 use nalgebra::DMatrix;
@@ -582,7 +582,7 @@ impl Ctx<'_, '_> {
 const SKEW_ROUNDS: usize = 8;
 
 /// `split = skew_slack`: the symmetric design, then the skew-slack
-/// alternation from it at its γ ([`skew::search`]); the report
+/// alternation from it at its γ ([`skew_search`]); the report
 /// carries K (`Design::skew`), and is re-checked through
 /// [`Design::recheck`] before it is returned.
 fn design_skew(
@@ -602,7 +602,7 @@ fn design_skew(
         split: Split::Symmetric,
         ..request.clone()
     };
-    let mut d = design_rate(model, &sym, settings, progress)?;
+    let mut d = design_plain(model, &sym, settings, progress)?;
     d.split = Split::SkewSlack;
     if !d.certifies {
         d.notes.push(
@@ -611,7 +611,7 @@ fn design_skew(
         );
         return Ok(d);
     }
-    let r = skew::search(model, &d, SKEW_ROUNDS, settings, request.conditions)?;
+    let r = skew_search(model, &d, SKEW_ROUNDS, settings, request.conditions)?;
     let mut out = r.design.clone();
     if r.alpha_best() > d.alpha {
         out.skew = Some(
@@ -670,15 +670,30 @@ pub fn design_with_progress(
     let mut d = if request.split == Split::SkewSlack {
         design_skew(model, request, settings, progress)?
     } else {
-        design_rate(model, request, settings, progress)?
+        design_plain(model, request, settings, progress)?
     };
     // The noise bound and the sampling figures of a certified design.
     crate::noise::attach(model, &mut d);
     Ok(d)
 }
 
-/// [`design_with_progress`] without the noise and sampling figures.
-fn design_rate(
+/// The skew-slack alternation ([`skew::alternate`]) from `start`, with the
+/// ordinary α search as its step 2.
+pub fn skew_search(
+    model: &PolytopicModel,
+    start: &Design,
+    rounds: usize,
+    settings: &Settings,
+    conditions: Conditions,
+) -> Result<skew::SkewResult, SolveError> {
+    skew::alternate(model, start, rounds, settings, conditions, &mut |m, r| {
+        design_plain(m, r, settings, &mut |_| {})
+    })
+}
+
+/// [`design_with_progress`] for every split but `skew_slack`, without the
+/// noise and sampling figures.
+fn design_plain(
     model: &PolytopicModel,
     request: &DesignRequest,
     settings: &Settings,
@@ -694,16 +709,16 @@ fn design_rate(
         crate::size::Verdict::Slow(m) => Some(m),
         crate::size::Verdict::Fits => None,
     };
-    // `state_bound auto`: compute Q first; the design then uses it as given.
-    let (resolved, bound_info) = crate::model::state_bound::resolve(model, settings)?;
-    // The output route: the model itself (double sum) or its augmentation
-    // by the output post-filter.
-    let (routed, route_info) =
-        crate::model::output_filter::apply(&resolved, &request.output_route)?;
-    let model: &PolytopicModel = &routed;
-    // Solve and certify with the requested representation of N_k, M_k.
-    let split_model = crate::model::with_split(model, request.split);
-    let model: &PolytopicModel = &split_model;
+    // The observer's model: `state_bound auto` computed (then used as
+    // given), the output route (the model itself or its augmentation by the
+    // output post-filter), the requested representation of N_k, M_k.
+    let prepared = ObserverModel::prepare(
+        model,
+        &ObserverOptions::for_request(request),
+        StateBoundClaim::Compute(settings),
+    )?;
+    let (bound_info, route_info) = (prepared.state_bound, prepared.output_route);
+    let model: &PolytopicModel = &prepared.model;
     let has_q = matches!(model.state_bound, StateBound::Given(_));
     if set.requires_s4() && !has_q {
         return Err(SolveError::MissingStateBound(model.name.clone()));
@@ -884,7 +899,7 @@ fn design_rate(
             }
         }
         Some(crate::diagnosis::diagnose(
-            &resolved,
+            model,
             request,
             settings.alpha_floor,
         ))

@@ -10,7 +10,7 @@
 //!     He{ P(γA_l + R_{l,i,j} − rows(K_l, x_(i))) − Γ_l H_{i,j} } + γαP ≺ 0,
 //! ```
 //!
-//! bilinear in (P, K). [`search`] alternates two convex steps from a
+//! bilinear in (P, K). [`alternate`] alternates two convex steps from a
 //! certified design at a fixed γ:
 //!
 //! 1. P fixed: the rate LMIs are linear in (Γ_l, K_l, α) jointly (α
@@ -24,7 +24,7 @@
 //! certificate is a certificate for the plant. Sound mode; step 1 imposes
 //! the full rate family (every combination of [`crate::conditions::Combo`]
 //! at every region-vertex pair), step 2 the request's conditions. Used by
-//! `split = skew_slack` ([`crate::design`]) and the bench `skew_slack`.
+//! `split = skew_slack` (the design driver) and the bench `skew_slack`.
 
 use crate::certificate::check;
 use crate::error::SolveError;
@@ -33,7 +33,7 @@ use crate::model::skew::with_skew;
 use crate::report::Design;
 use crate::settings::Settings;
 use nalgebra::DMatrix;
-use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel, Split};
+use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split};
 
 /// One round of the alternation.
 #[derive(Debug, Clone, PartialEq)]
@@ -47,7 +47,7 @@ pub struct Round {
     pub k_norm: f64,
 }
 
-/// Result of [`search`].
+/// Result of [`alternate`].
 #[derive(Debug, Clone)]
 pub struct SkewResult {
     /// γ of the whole alternation.
@@ -72,16 +72,23 @@ impl SkewResult {
     }
 }
 
+/// The α search of step 2: the largest certified α of a model for a
+/// request (α = max at a fixed γ, as written).
+pub type AlphaSearch<'a> =
+    dyn FnMut(&PolytopicModel, &DesignRequest) -> Result<Design, SolveError> + 'a;
+
 /// Alternates step 1 and step 2 (module doc) for at most `rounds` rounds,
 /// starting from `start` (a certified sound design of `model`; its state
 /// bound, output route and split are applied first), at its γ; step 2
-/// solves `conditions`. Stops when a round gains less than 0.1 %.
-pub fn search(
+/// solves `conditions` with `alpha_search`. Stops when a round gains less
+/// than 0.1 %.
+pub fn alternate(
     model: &PolytopicModel,
     start: &Design,
     rounds: usize,
     settings: &Settings,
     conditions: Conditions,
+    alpha_search: &mut AlphaSearch<'_>,
 ) -> Result<SkewResult, SolveError> {
     if !start.certifies {
         return Err(SolveError::Unsupported(
@@ -109,10 +116,15 @@ pub fn search(
             }
         }
         // Step 2: K fixed, P re-optimised (as written: keeps K).
-        let mut req = crate::request(AlphaSpec::Max, GammaSpec::Fixed(gamma), Mode::Sound);
-        req.split = Split::AsWritten;
-        req.conditions = conditions;
-        let d = crate::design(&cur_model, &req, settings)?;
+        let req = DesignRequest {
+            alpha: AlphaSpec::Max,
+            gamma: GammaSpec::Fixed(gamma),
+            mode: Mode::Sound,
+            split: Split::AsWritten,
+            conditions,
+            ..Default::default()
+        };
+        let d = alpha_search(&cur_model, &req)?;
         let k_norm = skew_of(&cur_model, &base)
             .iter()
             .flatten()

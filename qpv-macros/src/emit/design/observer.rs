@@ -6,7 +6,7 @@
 use super::{docs, gain_entry, Shape};
 use crate::emit::coefficients::Coeffs;
 use crate::emit::equations::{product_lets, render_equation, Equation};
-use crate::emit::tokens::{destructure, destructure_names, uses, usize_lit, Sum};
+use crate::emit::tokens::{destructure, destructure_names, uses, Sum};
 use crate::emit::CertifiedDesign;
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::{format_ident, quote};
