@@ -93,3 +93,61 @@ fn state_bound_auto_that_finds_nothing_exits_1() {
         .unwrap()
         .contains("no invariant ellipsoid"));
 }
+
+/// A report whose `state_bound auto` Q was tampered with (shrunk 100×: the
+/// region no longer inside F) is not certified by `qpv check`: exit 1 and
+/// the reason; the untouched report still exits 0.
+#[test]
+fn check_refuses_a_tampered_state_bound() {
+    let report = common::tmp("auto_tamper", "report.json");
+    let out = qpv(&[
+        "design",
+        "examples/paper_auto.qpv",
+        "--alpha",
+        "5",
+        "--gamma",
+        "0.15",
+        "--json",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&report).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let d = &mut json["designs"][0];
+    let ok = qpv(&[
+        "check",
+        "examples/paper_auto.qpv",
+        "--gains",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        ok.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&ok.stdout)
+    );
+    for row in d["state_bound"]["Q"].as_array_mut().unwrap() {
+        for v in row.as_array_mut().unwrap() {
+            *v = serde_json::json!(v.as_f64().unwrap() * 0.01);
+        }
+    }
+    let tampered = common::tmp("auto_tamper", "tampered.json");
+    std::fs::write(&tampered, serde_json::to_string(&json).unwrap()).unwrap();
+    let bad = qpv(&[
+        "check",
+        "examples/paper_auto.qpv",
+        "--gains",
+        tampered.to_str().unwrap(),
+    ]);
+    assert_eq!(bad.status.code(), Some(1));
+    let text = String::from_utf8_lossy(&bad.stdout);
+    assert!(
+        text.contains("region is not inside F") && text.contains("NOT certified"),
+        "{text}"
+    );
+}
