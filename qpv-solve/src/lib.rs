@@ -14,13 +14,13 @@
 //!   post-filter), the split of N_k and M_k, and the skew slack
 //!   ([`skew_slack`]).
 //! * [`lmi`]: the LMIs assembled directly into Clarabel's standard form
+//!   (PSD triangle cones, no modelling layer); [`conditions`]: the condition
+//!   sets and the one place where the two modes differ.
 //! * [`noise`]: the certified noise bound σ of V' + αV ≤ σ(|w|² + |v|²)
 //!   (reported on every certified sound design as `noise`), the
 //!   noise-optimal design ([`noise::design_noise`]) and the rate–noise
 //!   trade-off ([`noise::tradeoff`]); [`sampling`]: the largest Euler step
 //!   that keeps V contracting and an RK4 step estimate (`sampling`).
-//!   (PSD triangle cones, no modelling layer); [`conditions`]: the condition
-//!   sets and the one place where the two modes differ.
 //!
 //! # Layers
 //!
