@@ -112,9 +112,10 @@ fn tampered_gains_are_rechecked_and_a_diverging_run_exits_1() {
     let report = certified_paper();
     let mut j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
-    assert_eq!(j["certifies"], true);
+    let d = &mut j["designs"][0];
+    assert_eq!(d["certifies"], true);
     // Gains scaled by −1e4: the report still says `certifies: true`.
-    for l in j["L"].as_array_mut().expect("L") {
+    for l in d["L"].as_array_mut().expect("L") {
         for row in l.as_array_mut().expect("rows") {
             for v in row.as_array_mut().expect("row") {
                 *v = serde_json::json!(v.as_f64().expect("number") * -1e4);
@@ -316,8 +317,9 @@ fn an_undetectable_plant_fails_with_margins_and_a_diagnosis_but_no_alpha() {
     let json = qpv(&["design", "tests/fixtures/undetectable.qpv", "--json", "-"]);
     let j: serde_json::Value =
         serde_json::from_str(&String::from_utf8_lossy(&json.stdout)).expect("json");
-    assert_eq!(j["certifies"], false);
-    let kinds: Vec<&str> = j["diagnosis"]
+    let failed = &j["designs"][0];
+    assert_eq!(failed["certifies"], false);
+    let kinds: Vec<&str> = failed["diagnosis"]
         .as_array()
         .expect("diagnosis")
         .iter()
