@@ -1,5 +1,5 @@
 //! `qpv design --conditions full|decoupled --split as_written|symmetric`
-//! (issue 6 §2, §3): the flags reach the design and its report.
+//! (docs/method.md §7, §8): the flags reach the design and its report.
 
 mod common;
 use common::qpv;

@@ -1,4 +1,4 @@
-//! `state_bound auto` through the command line (issue 6 §1): `qpv design`
+//! `state_bound auto` through the command line: `qpv design`
 //! computes and reports Q, and `qpv check` re-checks the report with it.
 
 mod common;

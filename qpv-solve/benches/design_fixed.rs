@@ -31,7 +31,7 @@ fn main() {
         ("paper α=10 γ=0.4", Mode::Paper, 10.0, 0.4),
         ("sound α=10 γ=0.4 (infeas.)", Mode::Sound, 10.0, 0.4),
     ] {
-        // N_k as printed (spec §7).
+        // N_k as printed (the paper's example).
         let mut req = request(AlphaSpec::Fixed(alpha), GammaSpec::Fixed(gamma), mode);
         req.split = Split::AsWritten;
         let (mut tot, mut sol, mut asm, mut cer) = (vec![], vec![], vec![], vec![]);

@@ -3,7 +3,7 @@
 //! sound design per condition set, with wall time and peak memory (VmHWM):
 //!
 //! * `full`: all N p² = 4^(nx+1) rate LMIs of nx × nx;
-//! * `decoupled` (issue 6 §3): N·2p rate LMIs and one slack Z_l per
+//! * `decoupled` (docs/method.md §8): N·2p rate LMIs and one slack Z_l per
 //!   θ-vertex; the certificate still checks all N p² blocks (its time is
 //!   the `cert s` column).
 //!

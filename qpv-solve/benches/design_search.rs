@@ -1,7 +1,7 @@
 //! Bench (2): the full α/γ search of the paper example (goal < 1 s in
 //! release), and the α bisections at the published γ values; N_k as printed
-//! (spec §7), plus the sound search with the symmetric split, and (issue 6
-//! §4) the paper plant with a θ-dependent output map (C_22 = 1 + θ1,
+//! (the paper's example), plus the sound search with the symmetric split,
+//! and the paper plant with a θ-dependent output map (C_22 = 1 + θ1,
 //! M_1[2,3] = 0.5 θ2) designed by the double sum and by the output filter.
 //!
 //! `cargo bench -p qpv-solve --bench design_search [-- REPEATS]`

@@ -1,5 +1,5 @@
 //! Timing of the simulator and the falsifier on the paper's example
-//! (spec §7). Run with `cargo bench -p qpv-solve --bench sim`; prints numbers.
+//! (docs/method.md §14). Run with `cargo bench -p qpv-solve --bench sim`; prints numbers.
 
 use nalgebra::DMatrix;
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode};
@@ -73,7 +73,7 @@ fn main() {
         cpu_fals.map_or(String::new(), |c| format!(", {:.2} M samples/s CPU", samples as f64 / c / 1e6))
     );
 
-    // the certified sound design of spec §7 (α = 10, γ = 0.1889)
+    // the certified sound design of the paper's example (α = 10, γ = 0.1889)
     let request = DesignRequest {
         alpha: AlphaSpec::Fixed(10.0),
         gamma: GammaSpec::Fixed(0.1889),

@@ -1,4 +1,4 @@
-//! What a skew-symmetric slack K_k buys (issue 6 §2, optional): alternating
+//! What a skew-symmetric slack K_k buys (docs/method.md §7): alternating
 //! solves from the certified sound design of the paper example, at its γ,
 //! for both splits of N_k; every α printed is certified by the independent
 //! check on the model with N_k + K_k (the same plant).

@@ -1,4 +1,4 @@
-//! Issue 6 §3: decoupled vertex conditions. One slack Z_l per θ-vertex
+//! Decoupled vertex conditions. One slack Z_l per θ-vertex
 //! replaces the N p² rate blocks of (S5) by N·2p blocks
 //! (F0_l + G_l(x_i) + Z_l ≺ 0 for every e-vertex x_i, H_l(x_j) ⪯ Z_l for
 //! every x-vertex x_j); the design is always certified on the full family.

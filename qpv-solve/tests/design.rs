@@ -1,6 +1,6 @@
 //! Spec §7 acceptance: the paper's example designed in both modes.
 //!
-//! Reference results (spec §7): paper mode feasible at α = 10, γ = 0.4 with
+//! Reference results (docs/method.md §14): paper mode feasible at α = 10, γ = 0.4 with
 //! (15)/(S4) violated (γ² a_kᵀQa_k = 4.48); sound mode rejected at γ = 0.4
 //! ((S4) fails and the LMIs are infeasible); γ_max = 0.18898; sound mode
 //! certified at α = 10, γ = 0.1889.
@@ -15,7 +15,7 @@ use qpv_solve::{
     check, design, design_with_progress, Design, SearchStep, Settings, SolveError, Status,
 };
 
-/// N_k, M_k exactly as printed (spec §7's statements are about this split).
+/// N_k, M_k exactly as printed (the reference results are about this split).
 fn req(alpha: AlphaSpec, gamma: GammaSpec, mode: Mode) -> DesignRequest {
     let mut r = qpv_solve::request(alpha, gamma, mode);
     r.split = Split::AsWritten;
@@ -401,7 +401,7 @@ fn parsed_paper_example_matches_hand_built_model() {
 
 #[test]
 fn symmetric_split_certifies_a_faster_rate() {
-    // Issue 6 §2 reference: α_max 11.27 with the paper's Q and the
+    // Reference: α_max 11.27 with the paper's Q and the
     // symmetric split (10.60 as written). Same plant, different LMIs.
     let model = paper_model();
     let r = qpv_solve::request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);

@@ -1,4 +1,4 @@
-//! Issue 6 §4: a θ-dependent output map C(θ), M_k(θ), designed by the
+//! A θ-dependent output map C(θ), M_k(θ), designed by the
 //! double-sum relaxation and by the output post-filter, certified,
 //! falsified and simulated.
 

@@ -50,7 +50,7 @@ fn plant_derivative_matches_hand_computed_paper_values() {
     let x = [0.01, -0.02, 0.005];
     let theta = [0.3, 0.7];
     let dx = plant_derivative(&model, &x, &[], &theta).unwrap();
-    // computed by hand (outside this code) from the formulas of spec §7
+    // computed by hand (outside this code) from the paper's scenario formulas (docs/method.md §14)
     assert_close(&dx, &[-0.22631, 0.03416, -0.03498], 1e-14);
 
     // and against A(θ), N_k(θ) evaluated directly (no vertex interpolation)

@@ -1,4 +1,4 @@
-//! Issue 6 §2 (optional): the skew-symmetric slack K_k. The alternation
+//! The skew-symmetric slack K_k. The alternation
 //! keeps the plant, raises the certified α on the paper example, and its
 //! result survives the independent certificate and falsification.
 

@@ -1,4 +1,4 @@
-//! `state_bound auto` (issue 6 §1): the computed F contains the region, lies
+//! `state_bound auto`: the computed F contains the region, lies
 //! in its box, passes the independent check, improves γ_max over the
 //! paper's Q, and trajectories started at the region's vertices stay in F.
 
@@ -267,7 +267,7 @@ fn too_large_models_are_refused() {
     }
 }
 
-/// Issue 6's goal on the paper example: `state_bound auto` with the
+/// The goal on the paper example: `state_bound auto` with the
 /// symmetric split (the sound-mode default) certifies α ≥ 11.3, and the
 /// falsifier (the true error dynamics, x sampled in the computed F) finds
 /// no counterexample.

@@ -109,7 +109,7 @@ fn paper_record(
     let doc = format!(
         " Design {index} of model `{model_name}` ({}): a reproduction of the \
          paper's printed conditions, which hold at alpha = {}, gamma = {} but certify \
-         nothing (spec §6). No gain and no observer are generated for it.",
+         nothing (docs/method.md §6). No gain and no observer are generated for it.",
         d.request,
         num(d.alpha),
         num(d.gamma)
