@@ -25,6 +25,7 @@ use crate::certificate::Certificate;
 use crate::error::SolveError;
 use crate::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 use crate::settings::Settings;
+use crate::vocab::Phase;
 use nalgebra::DMatrix;
 use qpv_dsl::{Conditions, Mode, PolytopicModel, Split, StateBound};
 
@@ -89,8 +90,9 @@ pub struct SearchStep {
     pub seconds: f64,
     /// Clarabel's own solve time within this step, seconds.
     pub solver_seconds: f64,
-    /// What this step was for: "fixed", "bisect", "grid", "refine", "final".
-    pub phase: String,
+    /// What this step was for (serialised as its name: "bisect", "grid",
+    /// "refine", "final", ...).
+    pub phase: Phase,
 }
 
 /// A finished design: the certified observer (or why there is none).
