@@ -211,14 +211,14 @@ fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
     crate::model::validate(model)?;
     let nx = model.nx();
     if nx > MAX_STATES {
-        return Err(SolveError::StateBound(format!(
+        return Err(SolveError::StateBoundInput(format!(
             "state_bound auto supports at most {MAX_STATES} states (the enclosing box has 2^nx \
              vertices); the model has {nx}: give Q instead"
         )));
     }
     let blocks = model.nv().saturating_mul(1usize << nx);
     if blocks > MAX_BLOCKS {
-        return Err(SolveError::StateBound(format!(
+        return Err(SolveError::StateBoundInput(format!(
             "the invariance conditions would have {blocks} blocks (2^{nx} box vertices × {} \
              θ-vertices); at most {MAX_BLOCKS} are supported: give Q instead",
             model.nv()
@@ -663,7 +663,7 @@ pub fn compute(
     match h {
         Some(h) => {
             if !(h > rmax && h.is_finite()) {
-                return Err(SolveError::StateBound(format!(
+                return Err(SolveError::StateBoundInput(format!(
                     "h = {h} must exceed the region's largest |x_j| = {rmax}"
                 )));
             }
