@@ -195,7 +195,7 @@ pub fn diagnose(model: &PolytopicModel, request: &DesignRequest, alpha_floor: f6
     }
     if let StateBound::Given(q) = &model.state_bound {
         if q.shape() == (model.nx(), model.nx()) && !model.region.facets.is_empty() {
-            let gmax = crate::conditions::gamma_max_for(model, q);
+            let gmax = crate::model::gamma_max_for(model, q);
             let (blocking, extra) = match request.gamma {
                 GammaSpec::Fixed(g) if g > gmax => (
                     true,

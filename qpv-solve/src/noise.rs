@@ -162,40 +162,9 @@ impl NoiseChannels {
     }
 }
 
-/// The independent check of the noise block LMI at every combination and
-/// region-vertex pair (positive margin = satisfied).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct NoiseCheck {
-    /// −λ_max of the worst block.
-    pub margin: f64,
-    /// The floating-point guard the margin must exceed.
-    pub guard: f64,
-    /// margin > guard at every block.
-    pub passed: bool,
-    /// Where the worst margin occurs (1-based, like the rate family).
-    pub worst_at: String,
-    /// Number of blocks checked.
-    pub count: usize,
-}
-
-/// The certified noise bound of a design (the report's `noise` key).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct NoiseBound {
-    /// σ of V' + αV ≤ σ(|w|² + |v|²), checked by [`check_noise`].
-    pub sigma: f64,
-    /// ν_max = √(α/σ): up to this noise amplitude E stays invariant.
-    pub max_amplitude: f64,
-    /// ‖e(∞)‖ per unit noise amplitude: √(σ/(α λ_min(P))).
-    pub error_bound: f64,
-    /// |e_k(∞)| per unit noise amplitude, per state: √(σ (P⁻¹)_kk / α).
-    pub per_state: Vec<f64>,
-    /// Names of the outputs with measurement noise.
-    pub noisy_outputs: Vec<String>,
-    /// Number of process-disturbance inputs.
-    pub disturbances: usize,
-    /// The independent check of the block LMI at `sigma`.
-    pub check: NoiseCheck,
-}
+/// The noise bound's report types live with the report (the report carries
+/// them); they are re-exported here, where they are computed.
+pub use crate::report::{NoiseBound, NoiseCheck};
 
 /// The pieces of one block: the rate matrix S (≺ 0 required), the coupling
 /// G = Σ_t w_t [γ P B_w,l_t, −γ Γ_l_t E] and the weight W = Σ_t w_t (the
