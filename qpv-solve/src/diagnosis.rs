@@ -15,6 +15,7 @@
 //! [`diagnose`] is a pure function; `design` attaches its findings to a
 //! report that does not certify ([`crate::Design::diagnosis`]).
 
+use crate::vocab::Family;
 use nalgebra::{Complex, DMatrix};
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, PolytopicModel, StateBound};
 use serde::{Deserialize, Serialize};
@@ -194,7 +195,7 @@ pub fn diagnose(model: &PolytopicModel, request: &DesignRequest, alpha_floor: f6
     }
     if let StateBound::Given(q) = &model.state_bound {
         if q.shape() == (model.nx(), model.nx()) && !model.region.facets.is_empty() {
-            let gmax = crate::conditions::gamma_max_for(model, q);
+            let gmax = crate::model::gamma_max_for(model, q);
             let (blocking, extra) = match request.gamma {
                 GammaSpec::Fixed(g) if g > gmax => (
                     true,
@@ -203,7 +204,7 @@ pub fn diagnose(model: &PolytopicModel, request: &DesignRequest, alpha_floor: f6
                 _ => (false, String::new()),
             };
             out.push(Finding {
-                kind: "S4".into(),
+                kind: Family::S4.name().into(),
                 blocking,
                 message: format!(
                     "(S4) bounds gamma <= gamma_max = 1/max_k sqrt(a_k^T Q a_k) = {gmax:.6} for this Q and region{extra}"
@@ -219,7 +220,7 @@ pub fn diagnose(model: &PolytopicModel, request: &DesignRequest, alpha_floor: f6
                     .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
                 if worst.1 > 1.0 + 1e-9 {
                     out.push(Finding {
-                        kind: "region_in_F".into(),
+                        kind: Family::RegionInF.name().into(),
                         blocking: false,
                         message: format!(
                             "region too large for this Q: vertex {} of the region has x^T Q^-1 x = {:.4} > 1 \

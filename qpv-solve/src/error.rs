@@ -27,9 +27,16 @@ pub enum SolveError {
     /// A requested option that this version does not implement.
     #[error("not implemented: {0}")]
     Unsupported(String),
-    /// `state_bound auto` found no usable state bound (or cannot be applied).
+    /// `state_bound auto` ran and found no usable state bound (no invariant
+    /// ellipsoid in any box tried), or a claimed Q does not hold for the
+    /// model: an outcome about the plant, not a mistake in the input.
     #[error("state_bound auto: {0}")]
     StateBound(String),
+    /// `state_bound auto` cannot be attempted on this input (too many
+    /// states or invariance blocks, a box size h that does not enclose the
+    /// region): nothing was solved; giving Q or changing the model helps.
+    #[error("state_bound auto: {0}")]
+    StateBoundInput(String),
     /// Clarabel refused the problem data (a bug here, reported as an error).
     #[error("solver setup failed: {0}")]
     Setup(String),

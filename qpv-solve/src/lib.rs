@@ -31,12 +31,15 @@
 //!
 //! ```text
 //! 0 vocabulary   error, settings, vocab, backend (Clarabel), linalg/, fixtures
-//! 1 model/       validation, state bound, output route, split, skew → ObserverModel
+//! 1 model/       validation, state bound, output route, split, skew → ObserverModel;
+//!                size (the size guard), diagnosis (why a model cannot be certified)
 //! 2 conditions/  the condition families as data (sets, combinations, vertex terms)
-//! 3 lmi/ | certificate/   assembly into the SDP | independent re-check (side by side)
-//! 4 search/      α bisection, γ search, retry rules, skew alternation
-//! 5 report       Design, SearchStep, SolverInfo (serde), notes and summary
-//! 6 analysis/    simulate, falsify (one reference right-hand side)
+//! 3 lmi/ | certificate/   assembly into the SDP | independent re-check (side by side);
+//!                sampling (the Euler-step certificate of a design)
+//! 4 report       Design, SearchStep, SolverInfo, NoiseBound (serde), notes and summary
+//! 5 search/      α bisection, γ search, retry rules, skew alternation;
+//!                noise (the noise bound, its check, the noise-optimal search)
+//! 6 analysis/    simulate, falsify, euler (one reference right-hand side)
 //! ```
 //!
 //! Conventions: N_k and M_k are used as represented in the model handed in

@@ -45,6 +45,7 @@ use crate::certificate::{check, combo_lmi, Certificate};
 use crate::conditions::{rate_combos, with_split, Combo, ConditionSet};
 use crate::report::{matrix_to_rows, Design, SearchStep, SolverInfo, Status};
 use crate::sdp::{clarabel_settings, ensure_lapack, interpret, tri, Objective, Problem};
+use crate::vocab::{BoundSource, Phase};
 use crate::{Settings, SolveError};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
@@ -161,40 +162,9 @@ impl NoiseChannels {
     }
 }
 
-/// The independent check of the noise block LMI at every combination and
-/// region-vertex pair (positive margin = satisfied).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct NoiseCheck {
-    /// −λ_max of the worst block.
-    pub margin: f64,
-    /// The floating-point guard the margin must exceed.
-    pub guard: f64,
-    /// margin > guard at every block.
-    pub passed: bool,
-    /// Where the worst margin occurs (1-based, like the rate family).
-    pub worst_at: String,
-    /// Number of blocks checked.
-    pub count: usize,
-}
-
-/// The certified noise bound of a design (the report's `noise` key).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct NoiseBound {
-    /// σ of V' + αV ≤ σ(|w|² + |v|²), checked by [`check_noise`].
-    pub sigma: f64,
-    /// ν_max = √(α/σ): up to this noise amplitude E stays invariant.
-    pub max_amplitude: f64,
-    /// ‖e(∞)‖ per unit noise amplitude: √(σ/(α λ_min(P))).
-    pub error_bound: f64,
-    /// |e_k(∞)| per unit noise amplitude, per state: √(σ (P⁻¹)_kk / α).
-    pub per_state: Vec<f64>,
-    /// Names of the outputs with measurement noise.
-    pub noisy_outputs: Vec<String>,
-    /// Number of process-disturbance inputs.
-    pub disturbances: usize,
-    /// The independent check of the block LMI at `sigma`.
-    pub check: NoiseCheck,
-}
+/// The noise bound's report types live with the report (the report carries
+/// them); they are re-exported here, where they are computed.
+pub use crate::report::{NoiseBound, NoiseCheck};
 
 /// The pieces of one block: the rate matrix S (≺ 0 required), the coupling
 /// G = Σ_t w_t [γ P B_w,l_t, −γ Γ_l_t E] and the weight W = Σ_t w_t (the
@@ -692,7 +662,7 @@ struct NoiseCtx<'a, 'm> {
 impl NoiseCtx<'_, '_> {
     /// Solves at γ and certifies (S1)–(S5) and the noise block LMI; the
     /// certified point, if any.
-    fn at(&mut self, gamma: f64, phase: &str) -> Result<Option<NoisePoint>, SolveError> {
+    fn at(&mut self, gamma: f64, phase: Phase) -> Result<Option<NoisePoint>, SolveError> {
         let t0 = Instant::now();
         let res = solve_noise_sdp(
             &self.prob,
@@ -774,7 +744,7 @@ impl NoiseCtx<'_, '_> {
             iterations: res.iterations,
             seconds: t0.elapsed().as_secs_f64(),
             solver_seconds: res.solve_seconds,
-            phase: phase.to_string(),
+            phase,
         };
         (self.progress)(&step);
         self.steps.push(step);
@@ -806,7 +776,7 @@ impl NoiseCtx<'_, '_> {
             }
         };
         for &g in grid.iter().rev() {
-            let pt = self.at(g, "noise-grid")?;
+            let pt = self.at(g, Phase::NoiseGrid)?;
             let s = keep(&mut best, pt);
             memo.push((g, s));
         }
@@ -828,9 +798,9 @@ impl NoiseCtx<'_, '_> {
         if c > a && refine >= 2 {
             let mut x1 = c - phi * (c - a);
             let mut x2 = a + phi * (c - a);
-            let pt = self.at(x1, "noise-refine")?;
+            let pt = self.at(x1, Phase::NoiseRefine)?;
             let mut f1 = keep(&mut best, pt);
-            let pt = self.at(x2, "noise-refine")?;
+            let pt = self.at(x2, Phase::NoiseRefine)?;
             let mut f2 = keep(&mut best, pt);
             for _ in 2..refine {
                 if f1 <= f2 {
@@ -838,14 +808,14 @@ impl NoiseCtx<'_, '_> {
                     x2 = x1;
                     f2 = f1;
                     x1 = c - phi * (c - a);
-                    let pt = self.at(x1, "noise-refine")?;
+                    let pt = self.at(x1, Phase::NoiseRefine)?;
                     f1 = keep(&mut best, pt);
                 } else {
                     a = x1;
                     x1 = x2;
                     f1 = f2;
                     x2 = a + phi * (c - a);
-                    let pt = self.at(x2, "noise-refine")?;
+                    let pt = self.at(x2, Phase::NoiseRefine)?;
                     f2 = keep(&mut best, pt);
                 }
             }
@@ -939,7 +909,7 @@ pub fn design_noise_with_progress(
         last_status: Status::NotRun,
     };
     let best = match request.gamma {
-        GammaSpec::Fixed(g) => ctx.at(g, "noise")?,
+        GammaSpec::Fixed(g) => ctx.at(g, Phase::Noise)?,
         GammaSpec::Search => ctx.search(gamma_hi, settings.gamma_refine.max(2))?,
     };
     let gamma_req = match request.gamma {
@@ -966,7 +936,7 @@ pub fn design_noise_with_progress(
     if request.conditions == qpv_dsl::Conditions::Decoupled {
         notes.push("conditions = decoupled is not used by noise = min: its SDP solves the full family of vertex pairs".into());
     }
-    if bound_info.source == "auto" {
+    if bound_info.source == BoundSource::Auto {
         notes.push(format!(
             "state bound computed (state_bound auto): h = {:.6}, γ_max = {:.6}",
             bound_info.h.unwrap_or(f64::NAN),

@@ -15,7 +15,7 @@
 //! (nx+ny)² and each `L` has nx + ny rows).
 //! On a certified sound-mode design the report also carries `noise`
 //! ({`sigma`, `max_amplitude`, `error_bound`, `per_state`, `noisy_outputs`,
-//! `disturbances`, `check`}, see [`crate::noise::NoiseBound`]) and
+//! `disturbances`, `check`}, see [`NoiseBound`]) and
 //! `sampling` ({`max_step_euler`, `beta`, `step_estimate_rk4`}, see
 //! [`crate::sampling::Sampling`]). Matrices are plain `Vec<Vec<f64>>` rows;
 //! serde_json writes the shortest round-tripping decimal of every `f64`, so
@@ -25,6 +25,7 @@ use crate::certificate::Certificate;
 use crate::error::SolveError;
 use crate::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 use crate::settings::Settings;
+use crate::vocab::Phase;
 use nalgebra::DMatrix;
 use qpv_dsl::{Conditions, Mode, PolytopicModel, Split, StateBound};
 
@@ -89,8 +90,9 @@ pub struct SearchStep {
     pub seconds: f64,
     /// Clarabel's own solve time within this step, seconds.
     pub solver_seconds: f64,
-    /// What this step was for: "fixed", "bisect", "grid", "refine", "final".
-    pub phase: String,
+    /// What this step was for (serialised as its name: "bisect", "grid",
+    /// "refine", "final", ...).
+    pub phase: Phase,
 }
 
 /// A finished design: the certified observer (or why there is none).
@@ -178,10 +180,10 @@ pub struct Design {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub diagnosis: Option<Vec<crate::diagnosis::Finding>>,
     /// The certified noise bound σ of V' + αV ≤ σ(|w|² + |v|²) and what it
-    /// guarantees ([`crate::noise::NoiseBound`]); only on certified
+    /// guarantees ([`NoiseBound`]); only on certified
     /// sound-mode designs whose noise check passed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub noise: Option<crate::noise::NoiseBound>,
+    pub noise: Option<NoiseBound>,
     /// The largest safe Euler step and the RK4 step estimate
     /// ([`crate::sampling::Sampling`]); only on certified sound-mode designs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -299,4 +301,39 @@ pub fn skew_matrices(k: &[Vec<Vec<Vec<f64>>>]) -> Vec<Vec<DMatrix<f64>>> {
     k.iter()
         .map(|kl| kl.iter().map(|kk| rows_to_matrix(kk)).collect())
         .collect()
+}
+
+/// The independent check of the noise block LMI at every combination and
+/// region-vertex pair (positive margin = satisfied).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NoiseCheck {
+    /// −λ_max of the worst block.
+    pub margin: f64,
+    /// The floating-point guard the margin must exceed.
+    pub guard: f64,
+    /// margin > guard at every block.
+    pub passed: bool,
+    /// Where the worst margin occurs (1-based, like the rate family).
+    pub worst_at: String,
+    /// Number of blocks checked.
+    pub count: usize,
+}
+
+/// The certified noise bound of a design (the report's `noise` key).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NoiseBound {
+    /// σ of V' + αV ≤ σ(|w|² + |v|²), checked by [`crate::noise::check_noise`].
+    pub sigma: f64,
+    /// ν_max = √(α/σ): up to this noise amplitude E stays invariant.
+    pub max_amplitude: f64,
+    /// ‖e(∞)‖ per unit noise amplitude: √(σ/(α λ_min(P))).
+    pub error_bound: f64,
+    /// |e_k(∞)| per unit noise amplitude, per state: √(σ (P⁻¹)_kk / α).
+    pub per_state: Vec<f64>,
+    /// Names of the outputs with measurement noise.
+    pub noisy_outputs: Vec<String>,
+    /// Number of process-disturbance inputs.
+    pub disturbances: usize,
+    /// The independent check of the block LMI at `sigma`.
+    pub check: NoiseCheck,
 }

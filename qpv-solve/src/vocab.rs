@@ -1,5 +1,185 @@
 //! Shared vocabulary: the names under which the DSL's choices (mode, split,
-//! conditions) appear in reports, in one place.
+//! conditions), the condition families, the search phases and the state
+//! bound's source appear in reports, each in one table.
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::fmt;
+
+/// Declares a fieldless enum whose variants each have one name: `name()`,
+/// `ALL`, `from_name`, `Display`, comparison with `&str`, and serde through
+/// the same names (so reports keep their strings).
+macro_rules! named_enum {
+    (
+        $(#[$meta:meta])*
+        $vis:vis enum $ty:ident ($what:literal) {
+            $( $(#[$vmeta:meta])* $var:ident = $name:literal, )+
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        $vis enum $ty {
+            $( $(#[$vmeta])* $var, )+
+        }
+
+        impl $ty {
+            /// Every variant, in table order.
+            pub const ALL: &'static [$ty] = &[$($ty::$var),+];
+
+            /// The name used in reports, messages and the CLI.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $( $ty::$var => $name, )+
+                }
+            }
+
+            /// The variant with this name, if any.
+            pub fn from_name(name: &str) -> Option<$ty> {
+                Self::ALL.iter().copied().find(|v| v.name() == name)
+            }
+
+            /// The name as a string slice (the same as [`Self::name`]).
+            pub fn as_str(&self) -> &'static str {
+                self.name()
+            }
+        }
+
+        impl fmt::Display for $ty {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.pad(self.name())
+            }
+        }
+
+        impl AsRef<str> for $ty {
+            fn as_ref(&self) -> &str {
+                self.name()
+            }
+        }
+
+        impl PartialEq<str> for $ty {
+            fn eq(&self, other: &str) -> bool {
+                self.name() == other
+            }
+        }
+
+        impl PartialEq<&str> for $ty {
+            fn eq(&self, other: &&str) -> bool {
+                self.name() == *other
+            }
+        }
+
+        impl Serialize for $ty {
+            fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                s.serialize_str(self.name())
+            }
+        }
+
+        impl<'de> Deserialize<'de> for $ty {
+            fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                let s = String::deserialize(d)?;
+                $ty::from_name(&s).ok_or_else(|| {
+                    let names: Vec<String> =
+                        Self::ALL.iter().map(|v| format!("{:?}", v.name())).collect();
+                    serde::de::Error::custom(format!(
+                        "unknown {} {s:?}, expected one of {}",
+                        $what,
+                        names.join(", ")
+                    ))
+                })
+            }
+        }
+    };
+}
+
+/// A point of the design space: the decay rate α and the region scaling
+/// γ, named so that the two cannot be swapped by position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    /// The decay rate α > 0 of V = eᵀPe.
+    pub alpha: f64,
+    /// The region scaling γ in (0, 1).
+    pub gamma: f64,
+}
+
+impl Candidate {
+    /// The candidate (α, γ).
+    pub fn new(alpha: f64, gamma: f64) -> Candidate {
+        Candidate { alpha, gamma }
+    }
+}
+
+named_enum! {
+    /// A condition family or data check of the certificate and the LMIs:
+    /// the sound conditions (S1)-(S5) and the paper's printed (13), (14),
+    /// (26) (which share (S1), P ≻ 0, with the sound set).
+    pub enum Family ("condition family") {
+        /// P ≻ 0.
+        S1 = "S1",
+        /// Region vertices inside the ellipsoid (sound).
+        S2 = "S2",
+        /// Region facets: the ellipsoid inside the region (sound).
+        S3 = "S3",
+        /// Data check: the state bound F lies in P/γ.
+        S4 = "S4",
+        /// The rate conditions (sound).
+        S5 = "S5",
+        /// The paper's printed vertex condition.
+        Paper13 = "13",
+        /// The paper's printed facet condition.
+        Paper14 = "14",
+        /// The paper's printed rate conditions.
+        Paper26 = "26",
+        /// Data check: the certified ellipsoid lies in the state bound F.
+        RegionInF = "region_in_F",
+    }
+}
+
+named_enum! {
+    /// What one solve of a search was for (a report's `search[].phase`).
+    pub enum Phase ("search phase") {
+        /// A fixed (α, γ) request.
+        Fixed = "fixed",
+        /// A bisection on α at one γ.
+        Bisect = "bisect",
+        /// The coarse γ grid.
+        Grid = "grid",
+        /// The γ refinement around the best grid point.
+        Refine = "refine",
+        /// The fine α bisection at the chosen γ.
+        FinalBisect = "final-bisect",
+        /// The gain-objective solve of the returned design.
+        Final = "final",
+        /// The regularised retry of a solve without a usable point.
+        Retry = "retry",
+        /// The solves that explain a failed request.
+        Diagnose = "diagnose",
+        /// The noise-optimal solve at a fixed γ.
+        Noise = "noise",
+        /// The γ grid of the noise-optimal design.
+        NoiseGrid = "noise-grid",
+        /// The γ refinement of the noise-optimal design.
+        NoiseRefine = "noise-refine",
+    }
+}
+
+impl Phase {
+    /// Whether this is a solve of the noise-optimal design.
+    pub fn is_noise(self) -> bool {
+        matches!(self, Phase::Noise | Phase::NoiseGrid | Phase::NoiseRefine)
+    }
+}
+
+named_enum! {
+    /// Where a design's state bound Q came from (a report's
+    /// `state_bound.source`).
+    pub enum BoundSource ("state bound source") {
+        /// Q from the model (`state_bound = ...`).
+        Given = "given",
+        /// Computed for `state_bound auto`.
+        Auto = "auto",
+        /// No state bound.
+        None = "none",
+    }
+}
 
 /// (De)serialises [`Split`] as "as_written" / "symmetric" / "skew_slack".
 pub mod split_serde {
@@ -14,7 +194,7 @@ pub mod split_serde {
     /// Reads "as_written", "symmetric" or "skew_slack".
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Split, D::Error> {
         let s = String::deserialize(d)?;
-        [Split::AsWritten, Split::Symmetric, Split::SkewSlack]
+        Split::ALL
             .into_iter()
             .find(|v| v.name() == s)
             .ok_or_else(|| {
@@ -32,22 +212,20 @@ pub mod conditions_serde {
 
     /// Writes "full" or "decoupled".
     pub fn serialize<S: Serializer>(c: &Conditions, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(match c {
-            Conditions::Full => "full",
-            Conditions::Decoupled => "decoupled",
-        })
+        s.serialize_str(c.name())
     }
 
     /// Reads "full" or "decoupled".
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Conditions, D::Error> {
         let s = String::deserialize(d)?;
-        match s.as_str() {
-            "full" => Ok(Conditions::Full),
-            "decoupled" => Ok(Conditions::Decoupled),
-            other => Err(serde::de::Error::custom(format!(
-                "unknown conditions {other:?}, expected \"full\" or \"decoupled\""
-            ))),
-        }
+        Conditions::ALL
+            .into_iter()
+            .find(|v| v.name() == s)
+            .ok_or_else(|| {
+                serde::de::Error::custom(format!(
+                    "unknown conditions {s:?}, expected \"full\" or \"decoupled\""
+                ))
+            })
     }
 }
 
@@ -58,21 +236,44 @@ pub mod mode_serde {
 
     /// Writes "sound" or "paper".
     pub fn serialize<S: Serializer>(m: &Mode, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(match m {
-            Mode::Sound => "sound",
-            Mode::Paper => "paper",
-        })
+        s.serialize_str(m.name())
     }
 
     /// Reads "sound" or "paper".
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Mode, D::Error> {
         let s = String::deserialize(d)?;
-        match s.as_str() {
-            "sound" => Ok(Mode::Sound),
-            "paper" => Ok(Mode::Paper),
-            other => Err(serde::de::Error::custom(format!(
-                "unknown mode {other:?}, expected \"sound\" or \"paper\""
-            ))),
+        Mode::ALL
+            .into_iter()
+            .find(|v| v.name() == s)
+            .ok_or_else(|| {
+                serde::de::Error::custom(format!(
+                    "unknown mode {s:?}, expected \"sound\" or \"paper\""
+                ))
+            })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_name_round_trips_through_serde() {
+        for f in Family::ALL {
+            let json = serde_json::to_string(f).unwrap();
+            assert_eq!(json, format!("\"{}\"", f.name()));
+            assert_eq!(serde_json::from_str::<Family>(&json).unwrap(), *f);
         }
+        for p in Phase::ALL {
+            let json = serde_json::to_string(p).unwrap();
+            assert_eq!(json, format!("\"{p}\""));
+            assert_eq!(serde_json::from_str::<Phase>(&json).unwrap(), *p);
+        }
+        for b in BoundSource::ALL {
+            assert_eq!(BoundSource::from_name(b.name()), Some(*b));
+        }
+        assert!(serde_json::from_str::<Phase>("\"polish\"").is_err());
+        assert_eq!(Phase::FinalBisect, "final-bisect");
+        assert_eq!(Family::Paper26.to_string(), "26");
     }
 }

@@ -8,11 +8,14 @@
 //!
 //! ```text
 //! 0 vocabulary   error, settings, vocab, backend, linalg, fixtures, lapack
-//! 1 model        the observer's model: state bound, output route, split, skew
+//! 1 model        the observer's model: state bound, output route, split, skew;
+//!                size (the size guard) and diagnosis (why a model fails)
 //! 2 conditions   the condition families as data
-//! 3 lmi | certificate   assembly into the SDP | independent re-check
+//! 3 lmi | certificate   assembly into the SDP | independent re-check;
+//!                sampling (the Euler step certificate beside it)
 //! 4 report       Design and its parts (serde), filled in by the search
-//! 5 search       α bisection, γ search, retry rules, skew alternation
+//! 5 search       α bisection, γ search, retry rules, skew alternation;
+//!                noise (its bound, check and noise-optimal search)
 //! 6 analysis     simulate, falsify
 //! ```
 
@@ -28,14 +31,16 @@ const LAYERS: &[(&str, usize)] = &[
     ("linalg", 0),
     ("fixtures", 0),
     ("lapack", 0),
-    ("noise", 1),
     ("model", 1),
+    ("size", 1),
+    ("diagnosis", 1),
     ("conditions", 2),
     ("lmi", 3),
     ("certificate", 3),
-    ("diagnosis", 4),
+    ("sampling", 3),
     ("report", 4),
     ("search", 5),
+    ("noise", 5),
     ("analysis", 6),
 ];
 

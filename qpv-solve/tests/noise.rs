@@ -5,9 +5,10 @@
 
 use nalgebra::DMatrix;
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
+use qpv_solve::analysis::euler::simulate_euler;
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::noise::{check_noise, design_noise, noise_bound, tradeoff, NoiseChannels};
-use qpv_solve::sampling::{euler_margin, simulate_euler, vertex_dynamics};
+use qpv_solve::sampling::{euler_margin, vertex_dynamics};
 use qpv_solve::simulate::Scenario;
 use qpv_solve::{design, request, Design, Settings};
 
@@ -323,6 +324,6 @@ fn gamma_search_never_does_worse_than_the_top_of_the_range() {
         got.error_bound <= top * 1.001,
         "{got:?} vs {top} at γ = {GAMMA}"
     );
-    assert!(d.search.iter().all(|s| s.phase.starts_with("noise")));
+    assert!(d.search.iter().all(|s| s.phase.name().starts_with("noise")));
     recheck(&d);
 }

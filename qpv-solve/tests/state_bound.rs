@@ -81,9 +81,9 @@ fn fixed_h_is_respected_and_smaller_boxes_cost_gamma() {
         }
         other => panic!("expected no bound at h = 0.03, got {other:?}"),
     }
-    // h must exceed the region
-    assert!(matches!(at(0.01), Err(SolveError::StateBound(_))));
-    assert!(matches!(at(f64::NAN), Err(SolveError::StateBound(_))));
+    // h must exceed the region: bad input, not an outcome of a solve
+    assert!(matches!(at(0.01), Err(SolveError::StateBoundInput(_))));
+    assert!(matches!(at(f64::NAN), Err(SolveError::StateBoundInput(_))));
 }
 
 #[test]
@@ -262,7 +262,7 @@ fn too_large_models_are_refused() {
     let mut m = qpv_solve::conditions::reference::synthetic_model(13);
     m.state_bound = StateBound::Auto { h: None };
     match resolve(&m, &Settings::default()) {
-        Err(SolveError::StateBound(msg)) => assert!(msg.contains("at most"), "{msg}"),
+        Err(SolveError::StateBoundInput(msg)) => assert!(msg.contains("at most"), "{msg}"),
         other => panic!("expected a refusal, got {:?}", other.map(|(_, i)| i)),
     }
 }

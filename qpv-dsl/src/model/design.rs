@@ -19,6 +19,21 @@ pub enum Mode {
     Paper,
 }
 
+impl Mode {
+    /// Every mode, in the order the language lists them.
+    pub const ALL: [Mode; 2] = [Mode::Sound, Mode::Paper];
+
+    /// The name used in the language, reports and the CLI ("sound" or
+    /// "paper"); the one table of mode names, which serde's lowercase
+    /// renaming matches.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Sound => "sound",
+            Mode::Paper => "paper",
+        }
+    }
+}
+
 /// The convergence rate requested by a design.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -62,6 +77,9 @@ pub enum Split {
 }
 
 impl Split {
+    /// Every split, in the order the language lists them.
+    pub const ALL: [Split; 3] = [Split::AsWritten, Split::Symmetric, Split::SkewSlack];
+
     /// The name used in the language, reports and the CLI.
     pub fn name(self) -> &'static str {
         match self {
@@ -94,6 +112,20 @@ pub enum Conditions {
     /// 2p blocks per θ-vertex (sufficient for
     /// the full family, which certification still re-checks).
     Decoupled,
+}
+
+impl Conditions {
+    /// Both vertex-condition families, in the order the language lists them.
+    pub const ALL: [Conditions; 2] = [Conditions::Full, Conditions::Decoupled];
+
+    /// The name used in the language, reports and the CLI ("full" or
+    /// "decoupled"), matching serde's lowercase renaming.
+    pub fn name(self) -> &'static str {
+        match self {
+            Conditions::Full => "full",
+            Conditions::Decoupled => "decoupled",
+        }
+    }
 }
 
 /// How the output map enters the design (see the output routes in docs/method.md).
@@ -307,10 +339,10 @@ impl Builder<'_> {
 
     /// `mode = sound | paper`.
     fn mode_value(&self, v: &Expr) -> R<Mode> {
-        match word(v) {
-            Some("sound") => Ok(Mode::Sound),
-            Some("paper") => Ok(Mode::Paper),
-            _ => Err(bad_value(
+        let w = word(v);
+        match Mode::ALL.into_iter().find(|x| Some(x.name()) == w) {
+            Some(x) => Ok(x),
+            None => Err(bad_value(
                 v.span,
                 "mode",
                 "`sound` or `paper`",
@@ -321,11 +353,10 @@ impl Builder<'_> {
 
     /// `split = as_written | symmetric | skew_slack`.
     fn split_value(&self, v: &Expr) -> R<Split> {
-        match word(v) {
-            Some("as_written") => Ok(Split::AsWritten),
-            Some("symmetric") => Ok(Split::Symmetric),
-            Some("skew_slack") => Ok(Split::SkewSlack),
-            _ => Err(bad_value(
+        let w = word(v);
+        match Split::ALL.into_iter().find(|x| Some(x.name()) == w) {
+            Some(x) => Ok(x),
+            None => Err(bad_value(
                 v.span,
                 "split",
                 "`as_written`, `symmetric` or `skew_slack`",
@@ -336,10 +367,10 @@ impl Builder<'_> {
 
     /// `conditions = full | decoupled`.
     fn conditions_value(&self, v: &Expr) -> R<Conditions> {
-        match word(v) {
-            Some("full") => Ok(Conditions::Full),
-            Some("decoupled") => Ok(Conditions::Decoupled),
-            _ => Err(bad_value(
+        let w = word(v);
+        match Conditions::ALL.into_iter().find(|x| Some(x.name()) == w) {
+            Some(x) => Ok(x),
+            None => Err(bad_value(
                 v.span,
                 "conditions",
                 "`full` or `decoupled`",

@@ -2,5 +2,6 @@
 //! sampling-based falsification of the claimed decay, both on the one
 //! reference right-hand side ([`simulate::Frozen`]).
 
+pub mod euler;
 pub mod falsify;
 pub mod simulate;

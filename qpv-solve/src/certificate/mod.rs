@@ -21,6 +21,7 @@
 use crate::conditions::{rate_combos, Combo, ConditionSet};
 use crate::linalg::rows::{rows, rows_he};
 use crate::model::{is_double_sum, validate};
+use crate::vocab::Family;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{Mode, PolytopicModel, StateBound};
 use serde::{Deserialize, Serialize};
@@ -93,7 +94,8 @@ impl Certificate {
     }
 
     /// The family with this key.
-    pub fn family(&self, name: &str) -> Option<&FamilyMargin> {
+    pub fn family(&self, name: impl AsRef<str>) -> Option<&FamilyMargin> {
+        let name = name.as_ref();
         self.families.iter().find(|f| f.name == name)
     }
 
@@ -129,7 +131,7 @@ fn finite(v: f64) -> f64 {
 }
 
 struct Acc {
-    name: &'static str,
+    name: Family,
     margin: f64,
     guard: f64,
     passed: bool,
@@ -138,7 +140,7 @@ struct Acc {
 }
 
 impl Acc {
-    fn new(name: &'static str) -> Self {
+    fn new(name: Family) -> Self {
         Acc {
             name,
             margin: f64::INFINITY,
@@ -163,7 +165,7 @@ impl Acc {
     }
     fn finish(self) -> FamilyMargin {
         FamilyMargin {
-            name: self.name.to_string(),
+            name: self.name.name().to_string(),
             margin: if self.count == 0 {
                 0.0
             } else {
@@ -299,7 +301,7 @@ pub fn data_checks(model: &PolytopicModel, mode: Mode, gamma: f64) -> BTreeMap<S
         }
     };
     out.insert(
-        "S4".to_string(),
+        Family::S4.name().to_string(),
         DataCheck {
             value: finite(s4),
             bound: 1.0,
@@ -319,7 +321,7 @@ pub fn data_checks(model: &PolytopicModel, mode: Mode, gamma: f64) -> BTreeMap<S
         None => f64::INFINITY,
     };
     out.insert(
-        "region_in_F".to_string(),
+        Family::RegionInF.name().to_string(),
         DataCheck {
             value: finite(inf),
             bound: 1.0,
@@ -441,7 +443,7 @@ fn check_inner(
     let families = vec![s1.finish(), sv.finish(), sf.finish(), sr.finish()];
     let passed = families.iter().all(|f| f.passed)
         && data.values().filter(|d| d.required).all(|d| d.passed)
-        && (!set.requires_s4() || data.contains_key("S4"));
+        && (!set.requires_s4() || data.contains_key(Family::S4.name()));
     Certificate {
         mode,
         alpha,

@@ -28,6 +28,7 @@
 //! the model (no symmetrisation): row k of rows(T, v) is vᵀ T_k and row k of
 //! rowsHe(T, v) is vᵀ (T_k + T_kᵀ).
 
+use crate::vocab::Family;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{Mode, PolytopicModel};
 
@@ -78,10 +79,15 @@ impl ConditionSet {
     }
 
     /// Family keys in report order: (P ≻ 0, vertex family, facet family, rate family).
-    pub fn families(self) -> [&'static str; 4] {
+    pub fn families(self) -> [Family; 4] {
         match self {
-            ConditionSet::Sound => ["S1", "S2", "S3", "S5"],
-            ConditionSet::Paper => ["S1", "13", "14", "26"],
+            ConditionSet::Sound => [Family::S1, Family::S2, Family::S3, Family::S5],
+            ConditionSet::Paper => [
+                Family::S1,
+                Family::Paper13,
+                Family::Paper14,
+                Family::Paper26,
+            ],
         }
     }
 

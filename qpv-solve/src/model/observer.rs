@@ -19,6 +19,7 @@ use crate::model::skew::with_skew;
 use crate::model::state_bound::{self, BoundCheck, StateBoundInfo};
 use crate::model::{gamma_max_for, validate};
 use crate::settings::Settings;
+use crate::vocab::BoundSource;
 use nalgebra::DMatrix;
 use qpv_dsl::{DesignRequest, OutputRoute, PolytopicModel, Split, StateBound};
 
@@ -271,7 +272,7 @@ fn verify_claim(
     let mut out = plant.clone();
     out.state_bound = StateBound::Given(q.clone());
     let info = StateBoundInfo {
-        source: "auto".into(),
+        source: BoundSource::Auto,
         q: Some(crate::linalg::matrix_to_rows(q)),
         h: Some(h),
         h_fixed: false,

@@ -203,7 +203,7 @@ pub fn augment(model: &PolytopicModel, f: &OutputFilter) -> Result<PolytopicMode
         }
         StateBound::None => StateBound::None,
         StateBound::Auto { .. } => {
-            return Err(SolveError::StateBound(
+            return Err(SolveError::StateBoundInput(
                 "the output filter needs the plant's state bound resolved first".into(),
             ))
         }

@@ -46,6 +46,7 @@ use crate::linalg::matrix_to_rows;
 use crate::linalg::rows::rows;
 use crate::model::{gamma_max, gamma_max_for};
 use crate::settings::Settings;
+use crate::vocab::BoundSource;
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
 use nalgebra::{DMatrix, DVector};
@@ -151,7 +152,7 @@ pub struct AutoBound {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StateBoundInfo {
     /// "given" (Q from the model), "auto" (computed here) or "none".
-    pub source: String,
+    pub source: BoundSource,
     /// Q as used by the design (rows), if any.
     #[serde(rename = "Q")]
     pub q: Option<Vec<Vec<f64>>>,
@@ -210,14 +211,14 @@ fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
     crate::model::validate(model)?;
     let nx = model.nx();
     if nx > MAX_STATES {
-        return Err(SolveError::StateBound(format!(
+        return Err(SolveError::StateBoundInput(format!(
             "state_bound auto supports at most {MAX_STATES} states (the enclosing box has 2^nx \
              vertices); the model has {nx}: give Q instead"
         )));
     }
     let blocks = model.nv().saturating_mul(1usize << nx);
     if blocks > MAX_BLOCKS {
-        return Err(SolveError::StateBound(format!(
+        return Err(SolveError::StateBoundInput(format!(
             "the invariance conditions would have {blocks} blocks (2^{nx} box vertices × {} \
              θ-vertices); at most {MAX_BLOCKS} are supported: give Q instead",
             model.nv()
@@ -662,7 +663,7 @@ pub fn compute(
     match h {
         Some(h) => {
             if !(h > rmax && h.is_finite()) {
-                return Err(SolveError::StateBound(format!(
+                return Err(SolveError::StateBoundInput(format!(
                     "h = {h} must exceed the region's largest |x_j| = {rmax}"
                 )));
             }
@@ -758,7 +759,7 @@ pub fn resolve(
     settings: &Settings,
 ) -> Result<(PolytopicModel, StateBoundInfo), SolveError> {
     let mut info = StateBoundInfo {
-        source: "none".into(),
+        source: BoundSource::None,
         q: None,
         h: None,
         h_fixed: false,
@@ -773,7 +774,7 @@ pub fn resolve(
     match &model.state_bound {
         StateBound::None => Ok((model.clone(), info)),
         StateBound::Given(q) => {
-            info.source = "given".into();
+            info.source = BoundSource::Given;
             info.q = Some(matrix_to_rows(q));
             info.gamma_max = gamma_max(model);
             Ok((model.clone(), info))
@@ -815,7 +816,7 @@ pub fn resolve(
             };
             let mut out = model.clone();
             out.state_bound = StateBound::Given(b.q.clone());
-            info.source = "auto".into();
+            info.source = BoundSource::Auto;
             info.q = Some(matrix_to_rows(&b.q));
             info.h = Some(b.h);
             info.h_fixed = h.is_some();

@@ -53,6 +53,7 @@ use crate::lmi::{Objective, Problem};
 use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim};
 use crate::report::{Design, SearchStep, SolverInfo};
 use crate::settings::Settings;
+use crate::vocab::{BoundSource, Candidate, Family, Phase};
 use nalgebra::DMatrix;
 use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound,
@@ -161,11 +162,11 @@ impl Ctx<'_, '_> {
     /// the fall-back of the α searches where max-margin answers are unreliable.
     fn attempt_regularised(
         &mut self,
-        alpha: f64,
-        gamma: f64,
-        phase: &str,
+        cand: Candidate,
+        phase: Phase,
     ) -> Result<Attempt, SolveError> {
-        let mut at = self.attempt(alpha, gamma, Objective::Gains, None, phase)?;
+        let Candidate { alpha, gamma } = cand;
+        let mut at = self.attempt(cand, Objective::Gains, None, phase)?;
         if at.certified {
             if let Some(up) = at.point.as_ref().and_then(|p| self.lift(p, gamma)) {
                 if up.alpha > alpha {
@@ -180,12 +181,12 @@ impl Ctx<'_, '_> {
     /// certified point is lifted to its capacity (its α may exceed `alpha`).
     fn attempt(
         &mut self,
-        alpha: f64,
-        gamma: f64,
+        cand: Candidate,
         objective: Objective,
         metric: Option<&DMatrix<f64>>,
-        phase: &str,
+        phase: Phase,
     ) -> Result<Attempt, SolveError> {
+        let Candidate { alpha, gamma } = cand;
         let t0 = Instant::now();
         let res = self
             .prob
@@ -247,7 +248,7 @@ impl Ctx<'_, '_> {
             iterations: res.iterations,
             seconds: t0.elapsed().as_secs_f64(),
             solver_seconds: res.solve_seconds,
-            phase: phase.to_string(),
+            phase,
         };
         (self.progress)(&step);
         self.steps.push(step);
@@ -278,7 +279,7 @@ impl Ctx<'_, '_> {
         gamma: f64,
         seed: Option<&Point>,
         tol: f64,
-        phase: &str,
+        phase: Phase,
     ) -> Result<Option<Point>, SolveError> {
         let cap = self.settings.alpha_cap;
         let floor = self.settings.alpha_floor;
@@ -299,7 +300,12 @@ impl Ctx<'_, '_> {
         let mut fails_in_row = 0i32;
         loop {
             let metric = lo.as_ref().or(seed).map(|p| p.p.clone());
-            let mut at = self.attempt(a, gamma, Objective::MaxMargin, metric.as_ref(), phase)?;
+            let mut at = self.attempt(
+                Candidate::new(a, gamma),
+                Objective::MaxMargin,
+                metric.as_ref(),
+                phase,
+            )?;
             if !at.certified {
                 // A max-margin answer without a certified point (solved but
                 // rejected by the certificate, unknown, or even reported
@@ -307,7 +313,7 @@ impl Ctx<'_, '_> {
                 // optimal face, as P's filter block of an output-filter
                 // design — rather than infeasibility: retry this α with the
                 // regularised objective before counting it as a failure.
-                let retry = self.attempt_regularised(a, gamma, "retry")?;
+                let retry = self.attempt_regularised(Candidate::new(a, gamma), Phase::Retry)?;
                 if retry.certified {
                     at = retry;
                 }
@@ -397,7 +403,7 @@ impl Ctx<'_, '_> {
         found: &[Point],
         steps: usize,
         tol: f64,
-        phase: &str,
+        phase: Phase,
     ) -> Result<Option<Point>, SolveError> {
         let floor = self.settings.alpha_floor;
         let cap = self.settings.alpha_cap;
@@ -438,7 +444,12 @@ impl Ctx<'_, '_> {
         let mut misses = 0;
         while done < steps {
             let metric = lo.as_ref().or(seed).map(|p| p.p.clone());
-            let at = self.attempt(a, gamma, Objective::MaxMargin, metric.as_ref(), phase)?;
+            let at = self.attempt(
+                Candidate::new(a, gamma),
+                Objective::MaxMargin,
+                metric.as_ref(),
+                phase,
+            )?;
             if at.certified {
                 done += 1;
                 let pt = at.point.expect("certified attempts carry a point");
@@ -453,7 +464,7 @@ impl Ctx<'_, '_> {
                     // block of P): probe a larger α with the regularised
                     // objective, certified like any point.
                     let probe = (a * (1.0 + at.margin.min(1.0))).min(cap);
-                    let pr = self.attempt_regularised(probe, gamma, phase)?;
+                    let pr = self.attempt_regularised(Candidate::new(probe, gamma), phase)?;
                     if let Some(p) = pr.point.filter(|_| pr.certified) {
                         let l = lo.as_ref().map_or(0.0, |p| p.alpha);
                         gain = p.alpha > l * (1.0 + tol);
@@ -501,7 +512,7 @@ impl Ctx<'_, '_> {
             // The first point has no seed: give it more steps, so that it is
             // ranked fairly and seeds the others well.
             let st = if found.is_empty() { 6 } else { steps };
-            let v = match self.alpha_estimate(g, &found, st, coarse, "grid")? {
+            let v = match self.alpha_estimate(g, &found, st, coarse, Phase::Grid)? {
                 Some(pt) => {
                     let v = pt.alpha;
                     if best.as_ref().map_or(true, |b| v > b.alpha) {
@@ -531,7 +542,7 @@ impl Ctx<'_, '_> {
                 if let Some(&(_, v)) = memo.iter().find(|(x, _)| (*x - g).abs() <= 1e-12 * g) {
                     return Ok(v);
                 }
-                let v = match ctx.alpha_estimate(g, &found, steps, coarse, "refine")? {
+                let v = match ctx.alpha_estimate(g, &found, steps, coarse, Phase::Refine)? {
                     Some(pt) => {
                         let v = pt.alpha;
                         if best.as_ref().map_or(true, |b| v > b.alpha) {
@@ -570,7 +581,7 @@ impl Ctx<'_, '_> {
         let Some(b) = best.clone() else {
             return Ok(None);
         };
-        let fine = self.alpha_max(b.gamma, Some(&b), tol, "final-bisect")?;
+        let fine = self.alpha_max(b.gamma, Some(&b), tol, Phase::FinalBisect)?;
         Ok(match fine {
             Some(p) if p.alpha >= b.alpha => Some(p),
             _ => Some(b),
@@ -760,7 +771,7 @@ fn design_plain(
     // The search.
     let mut notes: Vec<String> = Vec::new();
     notes.extend(size_note); // size guard: the "slow" warning
-    if bound_info.source == "auto" {
+    if bound_info.source == BoundSource::Auto {
         notes.push(format!(
             "state bound computed (state_bound auto): h = {:.6}, γ_max = {:.6}, in {} solves, {:.3} s",
             bound_info.h.unwrap_or(f64::NAN),
@@ -805,7 +816,7 @@ fn design_plain(
     ) {
         (AlphaSpec::Fixed(a), GammaSpec::Fixed(g)) => (Some(a), g, None),
         (AlphaSpec::Max, GammaSpec::Fixed(g)) => {
-            let pt = ctx.alpha_max(g, None, settings.bisection_rel_tol, "bisect")?;
+            let pt = ctx.alpha_max(g, None, settings.bisection_rel_tol, Phase::Bisect)?;
             (pt.as_ref().map(|p| p.alpha), g, pt)
         }
         (alpha, GammaSpec::Search) => {
@@ -836,7 +847,12 @@ fn design_plain(
     let mut final_status = Status::NotRun;
     let mut final_solver = SolverInfo::default();
     if let Some(a) = alpha_t {
-        let at = ctx.attempt(a, gamma_t, Objective::Gains, None, "final")?;
+        let at = ctx.attempt(
+            Candidate::new(a, gamma_t),
+            Objective::Gains,
+            None,
+            Phase::Final,
+        )?;
         final_status = at.status;
         final_solver = at.solver.clone();
         if at.certified {
@@ -894,7 +910,10 @@ fn design_plain(
     } else {
         if margins.is_empty() {
             let (a, obj) = (settings.alpha_floor, Objective::MaxMargin);
-            if let Some(p) = ctx.attempt(a, gamma_r, obj, None, "diagnose")?.point {
+            if let Some(p) = ctx
+                .attempt(Candidate::new(a, gamma_r), obj, None, Phase::Diagnose)?
+                .point
+            {
                 margins = p.cert.margins();
             }
         }
@@ -942,7 +961,7 @@ fn design_plain(
             "{uncert} solved points failed the independent certificate and were rejected"
         ));
     }
-    let s4 = dchecks.get("S4").cloned();
+    let s4 = dchecks.get(Family::S4.name()).cloned();
     if mode == Mode::Paper {
         notes.insert(
             0,
@@ -966,7 +985,7 @@ fn design_plain(
             ));
         }
     }
-    if let Some(d) = dchecks.get("region_in_F") {
+    if let Some(d) = dchecks.get(Family::RegionInF.name()) {
         if !d.passed {
             notes.push(format!(
                 "region_in_F fails: max_i x_(i)ᵀ Q⁻¹ x_(i) = {:.4} > 1 (the region is not inside the state bound F)",
