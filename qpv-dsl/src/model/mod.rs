@@ -15,7 +15,8 @@ mod validate;
 
 pub(crate) use build::build;
 pub use design::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, OutputFilter, OutputRoute, Split,
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, NoiseObjective, OutputFilter,
+    OutputRoute, Split,
 };
 pub use names::{Param, MAX_DIM, MAX_PARAMS};
 pub use state_bound::StateBound;
