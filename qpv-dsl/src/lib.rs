@@ -17,7 +17,7 @@ pub use model::{
     OutputRoute, Param, Split, StateBound, MAX_COEFFICIENT,
 };
 pub use region::{Region, RegionError};
-pub use vertices::{PolytopicModel, Vertex};
+pub use vertices::{NoiseDecl, PolytopicModel, Vertex};
 
 /// Parses and validates a model text: one or more `model NAME { ... }`
 /// blocks. Every check of the language happens here, so

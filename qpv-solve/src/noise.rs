@@ -77,8 +77,10 @@ impl NoiseChannels {
     /// `noise` declaration (every output without one), and its process
     /// disturbances B_w,l, if any.
     pub fn from_model(model: &PolytopicModel) -> Self {
-        let _ = model;
-        NoiseChannels::all_outputs()
+        NoiseChannels {
+            outputs: model.noise.outputs.clone(),
+            b_w: (!model.noise.disturbances.is_empty()).then(|| model.noise.b_w.clone()),
+        }
     }
 
     /// The noisy output indices for a model with `ny` outputs.
