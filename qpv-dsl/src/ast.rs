@@ -55,6 +55,10 @@ pub enum Item {
     StateBound(BoundDecl, Span),
     /// `design { key = value; ... }`
     Design(DesignBlock),
+    /// `noise y1, y2;`: the outputs measured with noise, and the statement's span.
+    Noise(Vec<Ident>, Span),
+    /// `disturbance w1, w2;`
+    Disturbances(Vec<Ident>),
 }
 
 /// The right-hand side of a `state_bound` statement.

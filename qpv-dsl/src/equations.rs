@@ -25,6 +25,8 @@ pub(crate) struct Dynamics {
     pub a: PolyMatrix,
     pub n: Vec<PolyMatrix>,
     pub b: PolyMatrix,
+    /// B_w(θ), nx × n_w: the process disturbances' terms.
+    pub b_w: PolyMatrix,
 }
 
 /// C(θ), M_k(θ) extracted from the `out` equations.
@@ -74,12 +76,14 @@ pub(crate) fn dynamics(
     let mut a = PolyMatrix::zeros(nx, nx);
     let mut n = vec![PolyMatrix::zeros(nx, nx); nx];
     let mut b = PolyMatrix::zeros(nx, nu);
+    let mut b_w = PolyMatrix::zeros(nx, names.disturbances.len());
     for (k, eq) in eqs.iter().enumerate() {
         let label = format!("der {}", names.states[k]);
         for (mono, term) in &eq.terms {
             match mono.vars.as_slice() {
                 [Var::State(i)] => a.get_mut(k, *i).add_term(mono.theta, term.coef),
                 [Var::Input(j)] => b.get_mut(k, *j).add_term(mono.theta, term.coef),
+                [Var::Disturbance(j)] => b_w.get_mut(k, *j).add_term(mono.theta, term.coef),
                 [Var::State(i), Var::State(j)] => {
                     let (r, c) = place(split, *i, *j);
                     n[k].get_mut(r, c).add_term(mono.theta, term.coef)
@@ -97,7 +101,7 @@ pub(crate) fn dynamics(
             }
         }
     }
-    Ok(Dynamics { a, n, b })
+    Ok(Dynamics { a, n, b, b_w })
 }
 
 /// Builds C, M_k from one polynomial per output (in output order).
@@ -131,6 +135,17 @@ pub(crate) fn outputs(
                              observer y − D u instead",
                         names.inputs[*u]
                     ),
+                    ))
+                }
+                [Var::Disturbance(w)] => {
+                    return Err(Diag::new(
+                        term.span,
+                        format!(
+                            "`{label}` depends on the disturbance `{}`: disturbances enter the \
+                             state equations only (`der`); noise on a measurement is declared \
+                             with `noise {};`",
+                            names.disturbances[*w], names.outputs[k]
+                        ),
                     ))
                 }
                 [] => return Err(constant_term(src, names, &label, mono, term.span)),

@@ -13,11 +13,11 @@ pub mod vertices;
 pub use diagnostic::{Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
 pub use model::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute, Param,
-    Split, StateBound, MAX_COEFFICIENT,
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, NoiseObjective, OutputFilter,
+    OutputRoute, Param, Split, StateBound, MAX_COEFFICIENT,
 };
 pub use region::{Region, RegionError};
-pub use vertices::{PolytopicModel, Vertex};
+pub use vertices::{NoiseDecl, PolytopicModel, Vertex};
 
 /// Parses and validates a model text: one or more `model NAME { ... }`
 /// blocks. Every check of the language happens here, so

@@ -22,6 +22,8 @@ pub(crate) enum Var {
     State(usize),
     /// The j-th input.
     Input(usize),
+    /// The j-th process disturbance.
+    Disturbance(usize),
 }
 
 /// The non-numeric part of a term: parameters (bit mask) and variables in
@@ -52,6 +54,7 @@ pub(crate) enum NameRef {
     Input(usize),
     Output(usize),
     Param(usize),
+    Disturbance(usize),
 }
 
 /// The declared names of one model.
@@ -61,6 +64,7 @@ pub(crate) struct Names {
     pub inputs: Vec<String>,
     pub outputs: Vec<String>,
     pub params: Vec<String>,
+    pub disturbances: Vec<String>,
     pub lookup: HashMap<String, NameRef>,
 }
 
@@ -69,6 +73,7 @@ impl Names {
         match v {
             Var::State(i) => &self.states[i],
             Var::Input(i) => &self.inputs[i],
+            Var::Disturbance(i) => &self.disturbances[i],
         }
     }
 
@@ -294,6 +299,32 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
                     ),
                 ));
             }
+            let disturbance = vars.iter().find(|v| matches!(v, Var::Disturbance(_)));
+            if let (Some(&w), true) = (disturbance, vars.len() > 1) {
+                let other = vars.iter().find(|v| **v != w).copied().unwrap_or(w);
+                let what = match other {
+                    _ if other == w => {
+                        format!("disturbance `{}` multiplied by itself", names.var(w))
+                    }
+                    Var::State(_) => format!(
+                        "disturbance `{}` multiplied by state `{}`",
+                        names.var(w),
+                        names.var(other)
+                    ),
+                    _ => format!(
+                        "disturbance `{}` multiplied by `{}`",
+                        names.var(w),
+                        names.var(other)
+                    ),
+                };
+                return Err(Diag::new(
+                    span,
+                    format!(
+                        "{} has {what}: disturbances may only enter linearly, as B_w(θ)w",
+                        quote(scope.src, span)
+                    ),
+                ));
+            }
             let input = vars.iter().find(|v| matches!(v, Var::Input(_)));
             if let (Some(&u), true) = (input, vars.len() > 1) {
                 let other = vars.iter().find(|v| **v != u).copied().unwrap_or(u);
@@ -306,7 +337,7 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
                         names.var(u),
                         names.var(other)
                     ),
-                    Var::State(_) => format!(
+                    Var::State(_) | Var::Disturbance(_) => format!(
                         "input `{}` multiplied by state `{}`",
                         names.var(u),
                         names.var(other)
@@ -437,7 +468,9 @@ fn name(n: &str, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> {
             let expected = match scope.allowed {
                 Allowed::Constant => "a number is expected here".to_string(),
                 Allowed::Coefficient => "expected a declared parameter or a number".to_string(),
-                Allowed::Equation => "expected a declared state, input or parameter".to_string(),
+                Allowed::Equation => {
+                    "expected a declared state, input, disturbance or parameter".to_string()
+                }
             };
             let candidates = names.lookup.iter().filter(|(_, r)| match (scope.allowed, r) {
                 (Allowed::Constant, _) | (_, NameRef::Output(_)) => false,
@@ -468,9 +501,10 @@ fn name(n: &str, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> {
                 span,
             ))
         }
-        Some(r @ (NameRef::State(_) | NameRef::Input(_))) => {
+        Some(r @ (NameRef::State(_) | NameRef::Input(_) | NameRef::Disturbance(_))) => {
             let (kind, var) = match r {
                 NameRef::State(i) => ("state", Var::State(i)),
+                NameRef::Disturbance(i) => ("disturbance", Var::Disturbance(i)),
                 NameRef::Input(i) | NameRef::Output(i) | NameRef::Param(i) => ("input", Var::Input(i)),
             };
             match scope.allowed {

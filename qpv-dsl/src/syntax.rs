@@ -195,6 +195,8 @@ fn parse_statement(pair: Pair<'_, Rule>) -> Result<Item> {
             Ok(Item::StateBound(bound, span))
         }
         Rule::design_block => Ok(Item::Design(parse_design_block(pair)?)),
+        Rule::noise_decl => Ok(Item::Noise(parse_decl(pair)?, span)),
+        Rule::disturbance_decl => Ok(Item::Disturbances(parse_decl(pair)?)),
         _ => Err(internal(span, "unexpected statement")),
     }
 }
@@ -489,6 +491,10 @@ fn want(rule: Rule) -> Option<Want> {
         | Rule::kw_region
         | Rule::kw_state_bound
         | Rule::kw_design
+        | Rule::kw_noise
+        | Rule::kw_disturbance
+        | Rule::noise_decl
+        | Rule::disturbance_decl
         | Rule::matrix_name
         | Rule::state_decl
         | Rule::input_decl
@@ -543,10 +549,11 @@ fn want_text(w: Want) -> &'static str {
         Want::Model => "a model `model NAME { ... }`",
         Want::Statement => {
             "a statement (`state`, `input`, `output`, `param`, `der`, `out`, `region`, \
-             `state_bound`, `design` or a matrix such as `A = [...]`)"
+             `state_bound`, `design`, `noise`, `disturbance` or a matrix such as `A = [...]`)"
         }
         Want::DesignKey => {
-            "a design setting (`alpha`, `gamma`, `mode`, `split`, `conditions` or `output_route`)"
+            "a design setting (`alpha`, `gamma`, `mode`, `split`, `conditions`, `output_route` \
+             or `noise`)"
         }
         Want::BoundOption => "a state bound option (`h = ...`)",
         Want::ValueOption => "an option `name = value` (e.g. `pole = 40`)",
@@ -595,6 +602,8 @@ const STATEMENT_KEYWORDS: &[&str] = &[
     "region",
     "state_bound",
     "design",
+    "noise",
+    "disturbance",
 ];
 
 fn is_ident_start(c: char) -> bool {
@@ -719,8 +728,8 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
                     Some((_, k)) => format!("unknown statement `{w}`: did you mean `{k}`?"),
                     None => format!(
                         "unknown statement `{w}`: a statement starts with `state`, `input`, `output`, \
-                         `param`, `der`, `out`, `region`, `state_bound` or `design`, or is a matrix \
-                         definition such as `A = [...];`"
+                         `param`, `der`, `out`, `region`, `state_bound`, `design`, `noise` or \
+                         `disturbance`, or is a matrix definition such as `A = [...];`"
                     ),
                 };
                 return Diag::new(wspan, msg);
@@ -757,7 +766,7 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
 /// True for names that can denote a matrix: A, B, C, N<k>, M<k> (with or
 /// without `_` before k).
 pub(crate) fn is_matrix_name_shape(w: &str) -> bool {
-    matches!(w, "A" | "B" | "C")
+    matches!(w, "A" | "B" | "B_w" | "C")
         || ((w.starts_with('N') || w.starts_with('M'))
             && w.len() > 1
             && w[1..]

@@ -53,6 +53,22 @@ pub struct PolytopicModel {
     pub state_bound: StateBound,
     /// Design requests.
     pub designs: Vec<DesignRequest>,
+    /// Where measurement noise and process disturbances enter.
+    pub noise: NoiseDecl,
+}
+
+/// The noise channels a model declares: which outputs are measured with
+/// noise (y_meas = y + v) and the process disturbances w with their matrix
+/// B_w,l at every vertex (x' = ... + B_w(θ)w). The default is noise on every
+/// output and no disturbance.
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct NoiseDecl {
+    /// Indices of the noisy outputs; `None`: every output.
+    pub outputs: Option<Vec<usize>>,
+    /// Disturbance names (empty: none).
+    pub disturbances: Vec<String>,
+    /// B_w,l per vertex (nx × n_w each), in vertex order; empty without disturbances.
+    pub b_w: Vec<DMatrix<f64>>,
 }
 
 impl PolytopicModel {
@@ -215,6 +231,7 @@ impl crate::model::Model {
         let scheduling = self.scheduling();
         let s = scheduling.len();
         let base: Vec<f64> = self.params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
+        let mut b_w = Vec::with_capacity(1usize << s);
         let vertices = (0..1usize << s)
             .map(|l| {
                 let mut theta = base.clone();
@@ -226,6 +243,7 @@ impl crate::model::Model {
                         p.lo
                     };
                 }
+                b_w.push(self.b_w.eval(&theta));
                 Vertex {
                     a: self.eval_a(&theta),
                     n: self.eval_n(&theta),
@@ -247,6 +265,15 @@ impl crate::model::Model {
             region: self.region.clone(),
             state_bound: self.state_bound.clone(),
             designs: self.designs.clone(),
+            noise: NoiseDecl {
+                outputs: self.noise_outputs.clone(),
+                disturbances: self.disturbances.clone(),
+                b_w: if self.disturbances.is_empty() {
+                    Vec::new()
+                } else {
+                    b_w
+                },
+            },
         }
     }
 }

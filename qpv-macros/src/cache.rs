@@ -115,6 +115,8 @@ pub fn key(model: &PolytopicModel, request: &DesignRequest, settings: &str) -> S
     }
     // Debug prints every f64 exactly (shortest round-trip form).
     let _ = writeln!(s, "Q {:?}", model.state_bound);
+    // The noise channels change the noise-optimal design and the baked figures.
+    let _ = writeln!(s, "noise {:?}", model.noise);
     let request = DesignRequest {
         span: Default::default(),
         ..request.clone()

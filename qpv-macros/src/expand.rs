@@ -7,16 +7,17 @@
 //! [`crate::slow_solve`]).
 
 use crate::cache;
-use crate::emit::{self, CertifiedDesign, EmitModel};
+use crate::emit::{self, CertifiedDesign, EmitModel, Figures};
 use crate::fallback::{self, Failure};
 use crate::input::{Input, Source};
 use crate::slow_solve;
 use proc_macro2::TokenStream;
 use qpv_dsl::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute,
-    PolytopicModel, Split, StateBound,
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, NoiseObjective, OutputFilter,
+    OutputRoute, PolytopicModel, Split, StateBound,
 };
 use qpv_solve::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
+use qpv_solve::noise::NoiseChannels;
 use qpv_solve::report::{matrix_to_rows, rows_to_matrix};
 use qpv_solve::{Design, Settings};
 use quote::quote;
@@ -117,7 +118,88 @@ pub fn describe(req: &DesignRequest) -> String {
             f.pole, f.gain
         ));
     }
+    if req.noise == NoiseObjective::Min {
+        text.push_str("; noise = min");
+    }
     text
+}
+
+/// The noise bound and sampling figures of the numbers about to be baked,
+/// computed on the model the certificate checked (`checked`: the observer's
+/// model, augmented by the output filter for the filter route) with the
+/// plant's declared noise channels. Each figure is present only if its own
+/// check passed.
+fn figures(
+    plant: &PolytopicModel,
+    checked: &PolytopicModel,
+    filter: Option<OutputFilter>,
+    alpha: f64,
+    gamma: f64,
+    p: &nalgebra::DMatrix<f64>,
+    ls: &[nalgebra::DMatrix<f64>],
+) -> Figures {
+    let channels = NoiseChannels::from_model(plant);
+    let channels = match filter {
+        Some(f) => channels.through_filter(plant.nx(), plant.ny(), plant.nv(), f.gain),
+        None => channels,
+    };
+    let noise = qpv_solve::noise::noise_bound(checked, &channels, alpha, gamma, p, ls)
+        .filter(|b| b.check.passed);
+    let sampling = qpv_solve::sampling::sampling(checked, alpha, gamma, p, ls);
+    Figures {
+        sigma: noise.as_ref().map(|b| b.sigma),
+        error_bound: noise.as_ref().map(|b| b.error_bound),
+        max_amplitude: noise.as_ref().map(|b| b.max_amplitude),
+        euler: sampling
+            .as_ref()
+            .filter(|s| s.max_step_euler > 0.0)
+            .map(|s| (s.max_step_euler, s.beta)),
+        rk4: sampling
+            .as_ref()
+            .map(|s| s.step_estimate_rk4)
+            .filter(|h| *h > 0.0),
+    }
+}
+
+/// For a `noise = min` request that was not certified: the best certified
+/// point of the rate–noise trade-off found at lower rates (the same γ
+/// request, α halved up to three times), or why there is none.
+fn best_tradeoff_point(poly: &PolytopicModel, req: &DesignRequest) -> String {
+    let AlphaSpec::Fixed(alpha) = req.alpha else {
+        return String::new();
+    };
+    let channels = NoiseChannels::from_model(poly);
+    let mut last_err = None;
+    for k in 1..=3 {
+        let a = alpha / f64::from(1u32 << k);
+        let r = DesignRequest {
+            alpha: AlphaSpec::Fixed(a),
+            ..req.clone()
+        };
+        match qpv_solve::noise::design_noise(poly, &r, &channels, &settings()) {
+            Ok(d) if d.feasible && d.certifies => {
+                if let Some(nb) = d.noise.as_ref() {
+                    return format!(
+                        "; the best certified trade-off point found is alpha = {}, gamma = {} \
+                         (sigma = {}, error bound {} per unit noise)",
+                        sig(d.alpha),
+                        sig(d.gamma),
+                        sig(nb.sigma),
+                        sig(nb.error_bound)
+                    );
+                }
+            }
+            Ok(_) => {}
+            Err(e) => last_err = Some(e.to_string()),
+        }
+    }
+    match last_err {
+        Some(e) => format!("; no noise-optimal design could be attempted at lower rates: {e}"),
+        None => format!(
+            "; no noise-optimal design was certified down to alpha = {} either",
+            sig(alpha / 8.0)
+        ),
+    }
 }
 
 fn mode_name(m: Mode) -> &'static str {
@@ -205,6 +287,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 status: String::new(),
                 iterations: 0,
                 filter,
+                figures: Figures::default(),
             }
         };
         emit::emit(&EmitModel {
@@ -357,6 +440,7 @@ fn one_design(
                             .iter()
                             .map(|f| (f.name.clone(), f.margin))
                             .collect(),
+                        figures: figures(poly, &cm, filter, e.alpha, e.gamma, &p, &ls),
                         status: e.status,
                         iterations: e.iterations,
                         filter,
@@ -373,7 +457,12 @@ fn one_design(
         Mode::Paper => design.feasible,
     };
     if !accepted {
-        return Err(not_certified(&request, &design, poly));
+        let mut msg = not_certified(&request, &design, poly);
+        if req.noise == NoiseObjective::Min && !design.search.iter().any(|s| s.certified) {
+            let hint = best_tradeoff_point(poly, req);
+            msg = msg.replace("; no gain was baked", &format!("{hint}; no gain was baked"));
+        }
+        return Err(msg);
     }
     let p = design.p_matrix();
     let ls = design.l_matrices();
@@ -455,6 +544,15 @@ fn one_design(
             .iter()
             .map(|f| (f.name.clone(), f.margin))
             .collect(),
+        figures: figures(
+            poly,
+            &checked_model,
+            filter,
+            entry.alpha,
+            entry.gamma,
+            &p,
+            &ls,
+        ),
         status: entry.status,
         iterations: entry.iterations,
         filter,

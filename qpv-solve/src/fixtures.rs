@@ -118,6 +118,7 @@ pub fn paper_model() -> PolytopicModel {
         region: box_region(3, 0.02),
         state_bound: StateBound::Given(paper_q()),
         designs: vec![],
+        noise: Default::default(),
     }
 }
 
@@ -185,5 +186,6 @@ pub fn synthetic_model(nx: usize) -> PolytopicModel {
         region: box_region(nx, h),
         state_bound: StateBound::Given(DMatrix::identity(nx, nx) * (1.5 * h * h * nx as f64)),
         designs: vec![],
+        noise: Default::default(),
     }
 }

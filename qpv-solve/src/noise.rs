@@ -74,6 +74,16 @@ impl NoiseChannels {
         NoiseChannels::default()
     }
 
+    /// The channels a model declares: noise on the outputs named by its
+    /// `noise` declaration (every output without one), and its process
+    /// disturbances B_w,l, if any.
+    pub fn from_model(model: &PolytopicModel) -> Self {
+        NoiseChannels {
+            outputs: model.noise.outputs.clone(),
+            b_w: (!model.noise.disturbances.is_empty()).then(|| model.noise.b_w.clone()),
+        }
+    }
+
     /// The noisy output indices for a model with `ny` outputs.
     pub fn noisy_outputs(&self, ny: usize) -> Vec<usize> {
         match &self.outputs {
@@ -425,7 +435,8 @@ fn channels_on_observer(
     }
 }
 
-/// Adds the noise bound (noise on every output, no disturbance) and the
+/// Adds the noise bound (on the model's channels,
+/// [`NoiseChannels::from_model`]) and the
 /// sampling figures ([`crate::sampling`]) to a certified sound-mode design,
 /// computed on its observer model; leaves other designs untouched. Nothing
 /// is added that its check did not pass.
@@ -436,7 +447,7 @@ pub fn attach(plant: &PolytopicModel, design: &mut Design) {
     let Ok(obs) = design.observer_model(plant) else {
         return;
     };
-    let channels = channels_on_observer(plant, design, &NoiseChannels::all_outputs());
+    let channels = channels_on_observer(plant, design, &NoiseChannels::from_model(plant));
     let (p, l) = (design.p_matrix(), design.l_matrices());
     design.noise = noise_bound(&obs, &channels, design.alpha, design.gamma, &p, &l);
     design.sampling = crate::sampling::sampling(&obs, design.alpha, design.gamma, &p, &l);

@@ -35,6 +35,7 @@ fn stable_linear(nx: usize) -> PolytopicModel {
         region: box_region(nx, 1.0),
         state_bound: StateBound::Given(DMatrix::identity(nx, nx) * 4.0),
         designs: vec![],
+        noise: Default::default(),
     }
 }
 

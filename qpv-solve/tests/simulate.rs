@@ -30,6 +30,7 @@ fn scalar_model(a0: f64, a1: f64, b: f64, nu: usize) -> PolytopicModel {
         region: box_region(1, 1.0),
         state_bound: StateBound::None,
         designs: vec![],
+        noise: Default::default(),
     }
 }
 

@@ -17,6 +17,7 @@ pub(super) fn kind_word(r: NameRef) -> &'static str {
         NameRef::Input(_) => "an input",
         NameRef::Output(_) => "an output",
         NameRef::Param(_) => "a parameter",
+        NameRef::Disturbance(_) => "a disturbance",
     }
 }
 
@@ -55,7 +56,8 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
     };
     b.declare()?;
     let params = b.params()?;
-    let (a, n, bm) = b.dynamics()?;
+    let (a, n, bm, b_w) = b.dynamics()?;
+    let noise_outputs = b.noise_outputs()?;
     let (c, m) = b.outputs()?;
     let region = b.region()?;
     let state_bound = b.state_bound(&region)?;
@@ -70,6 +72,9 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         a,
         n,
         b: bm,
+        disturbances: b.names.disturbances.clone(),
+        b_w,
+        noise_outputs,
         c,
         m,
         region,

@@ -54,6 +54,24 @@ pub enum GammaSpec {
     Search,
 }
 
+/// What a design does about measurement noise and process disturbances.
+///
+/// Every certified sound design reports its noise bound σ (the `noise` key
+/// of the report); `min` makes σ the design objective instead of the
+/// certification margin.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum NoiseObjective {
+    /// The ordinary design (largest margin at the requested rate); its σ is
+    /// reported, not optimised. The default.
+    #[default]
+    Free,
+    /// Minimise σ in V' + αV ≤ σ(|v|² + |w|²) at the requested fixed α
+    /// (and over γ too with `gamma = search`): the smallest certified
+    /// error bound per unit noise at that rate.
+    Min,
+}
+
 /// How N_k (and M_k) are represented in the design LMIs.
 ///
 /// Only the symmetric part of N_k moves the plant, but the matrix
@@ -177,7 +195,8 @@ impl Default for OutputFilter {
 ///
 /// Build one with `..Default::default()` so that new settings do not break
 /// construction sites: the default is `alpha = max; gamma = search;
-/// mode = sound; split = symmetric; conditions = full; output_route = double_sum;`.
+/// mode = sound; split = symmetric; conditions = full; output_route = double_sum;
+/// noise = free;`.
 /// In paper mode set
 /// `split: Split::AsWritten` as well (see [`Split::default_for`]).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -194,6 +213,8 @@ pub struct DesignRequest {
     pub conditions: Conditions,
     /// How the output map enters the design (matters when C or M_k depend on θ).
     pub output_route: OutputRoute,
+    /// Whether the design minimises the noise bound σ (`noise = min`).
+    pub noise: NoiseObjective,
     /// The `design` block in the source, for errors about this request.
     pub span: Span,
 }
@@ -207,19 +228,21 @@ impl Default for DesignRequest {
             split: Split::default_for(Mode::Sound),
             conditions: Conditions::Full,
             output_route: OutputRoute::DoubleSum,
+            noise: NoiseObjective::Free,
             span: Span::default(),
         }
     }
 }
 
 /// The keys of a `design { ... }` block.
-const DESIGN_KEYS: [&str; 6] = [
+const DESIGN_KEYS: [&str; 7] = [
     "alpha",
     "gamma",
     "mode",
     "split",
     "conditions",
     "output_route",
+    "noise",
 ];
 
 impl Builder<'_> {
@@ -269,6 +292,7 @@ impl Builder<'_> {
                 "split" => split = Some(self.split_value(&entry.value)?),
                 "conditions" => req.conditions = self.conditions_value(&entry.value)?,
                 "output_route" => req.output_route = self.output_route_value(entry)?,
+                "noise" => req.noise = self.noise_value(&entry.value)?,
                 _ => {
                     let hint = suggest(key, DESIGN_KEYS)
                         .map(|s| format!(" (did you mean `{s}`?)"))
@@ -277,7 +301,7 @@ impl Builder<'_> {
                         entry.key.span,
                         format!(
                             "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
-                             `split`, `conditions` or `output_route`{hint}"
+                             `split`, `conditions`, `output_route` or `noise`{hint}"
                         ),
                     ));
                 }
@@ -297,7 +321,49 @@ impl Builder<'_> {
                  are reproduced as written, with no slack",
             ));
         }
+        if req.noise == NoiseObjective::Min {
+            let at = |key: &str| {
+                seen.iter()
+                    .find(|(k, _)| *k == key)
+                    .map_or(block.span, |(_, s)| *s)
+            };
+            if req.alpha == AlphaSpec::Max {
+                return Err(Diag::new(
+                    at("noise"),
+                    "`noise = min` needs a fixed `alpha` (e.g. `alpha = 5;`): `alpha = max` is \
+                     the fastest certified design, not a noise trade-off; pick a rate below it",
+                ));
+            }
+            if req.mode == Mode::Paper {
+                return Err(Diag::new(
+                    at("mode"),
+                    "`noise = min` needs `mode = sound`: the paper's printed conditions certify \
+                     nothing, so they give no noise bound",
+                ));
+            }
+            if req.split == Split::SkewSlack {
+                return Err(Diag::new(
+                    at("split"),
+                    "`noise = min` does not search the skew slack: use `split = symmetric` or \
+                     `split = as_written`",
+                ));
+            }
+        }
         Ok(req)
+    }
+
+    /// `noise = free | min`.
+    fn noise_value(&self, v: &Expr) -> R<NoiseObjective> {
+        match word(v) {
+            Some("free") => Ok(NoiseObjective::Free),
+            Some("min") => Ok(NoiseObjective::Min),
+            _ => Err(bad_value(
+                v.span,
+                "noise",
+                "`free` (the default) or `min`",
+                &self.found(v),
+            )),
+        }
     }
 
     /// The source text of a value, for "found `...`" in messages.

@@ -14,6 +14,8 @@ use crate::poly::{eval, Allowed, NameRef, Poly, Scope};
 enum MatName {
     A,
     B,
+    /// B_w: the process disturbances' matrix.
+    Bw,
     C,
     N(usize),
     M(usize),
@@ -24,6 +26,7 @@ impl MatName {
         match self {
             MatName::A => "A".into(),
             MatName::B => "B".into(),
+            MatName::Bw => "B_w".into(),
             MatName::C => "C".into(),
             MatName::N(k) => format!("N{}", k + 1),
             MatName::M(k) => format!("M{}", k + 1),
@@ -37,7 +40,7 @@ impl<'a> Builder<'a> {
         let ny = self.names.outputs.len();
         let w = id.name.as_str();
         let unknown = || {
-            let mut list = String::from("A, B, C");
+            let mut list = String::from("A, B, B_w, C");
             list.push_str(&if nx == 1 {
                 ", N1".to_string()
             } else {
@@ -63,6 +66,7 @@ impl<'a> Builder<'a> {
         match w {
             "A" => return Ok(MatName::A),
             "B" => return Ok(MatName::B),
+            "B_w" => return Ok(MatName::Bw),
             "C" => return Ok(MatName::C),
             _ => {}
         }
@@ -106,6 +110,12 @@ impl<'a> Builder<'a> {
                 self.names.inputs.len(),
                 "one per state",
                 "one per input",
+            ),
+            MatName::Bw => (
+                nx,
+                self.names.disturbances.len(),
+                "one per state",
+                "one per disturbance",
             ),
             MatName::C => (
                 self.names.outputs.len(),
@@ -309,14 +319,15 @@ impl<'a> Builder<'a> {
         Ok(())
     }
 
-    pub(super) fn dynamics(&mut self) -> R<(PolyMatrix, Vec<PolyMatrix>, PolyMatrix)> {
+    /// A, N_k, B and B_w, from the matrix form or the `der` equations.
+    pub(super) fn dynamics(&mut self) -> R<(PolyMatrix, Vec<PolyMatrix>, PolyMatrix, PolyMatrix)> {
         let defs = self.matrix_defs()?;
         let ders = self.equations(true)?;
         let nx = self.names.states.len();
         let nu = self.names.inputs.len();
         let dyn_defs: Vec<&(MatName, &ast::MatrixDef)> = defs
             .iter()
-            .filter(|(m, _)| matches!(m, MatName::A | MatName::B | MatName::N(_)))
+            .filter(|(m, _)| matches!(m, MatName::A | MatName::B | MatName::Bw | MatName::N(_)))
             .collect();
         if !ders.is_empty() {
             if let Some((m, def)) = dyn_defs.first() {
@@ -339,7 +350,18 @@ impl<'a> Builder<'a> {
                 self.check_equation_magnitude(&polys[*i])?;
             }
             let d = equations::dynamics(self.src, &self.names, &polys, TermSplit::AsWritten)?;
-            return Ok((d.a, d.n, d.b));
+            for (j, w) in self.names.disturbances.iter().enumerate() {
+                if (0..nx).all(|i| d.b_w.get(i, j).is_zero()) {
+                    return Err(Diag::new(
+                        self.decl_spans[w],
+                        format!(
+                            "disturbance `{w}` enters no equation: add a term such as `+ {w}` \
+                             or `+ 0.5*{w}` to a `der` equation, or remove it"
+                        ),
+                    ));
+                }
+            }
+            return Ok((d.a, d.n, d.b, d.b_w));
         }
         // matrix form
         let get = |m: MatName| defs.iter().find(|(n, _)| *n == m).map(|(_, d)| *d);
@@ -373,8 +395,32 @@ impl<'a> Builder<'a> {
                     ))
                 }
             };
+        let nw = self.names.disturbances.len();
+        let b_w = match (get(MatName::Bw), nw) {
+            (Some(def), 0) => {
+                return Err(Diag::new(
+                    def.name.span,
+                    "B_w is given but the model declares no disturbances: add \
+                     `disturbance w1, ...;` or remove B_w",
+                ))
+            }
+            (Some(def), _) => self.matrix_value(def, MatName::Bw)?.0,
+            (None, 0) => PolyMatrix::zeros(nx, 0),
+            (None, _) => {
+                let first = &self.names.disturbances[0];
+                return Err(Diag::new(
+                    self.decl_spans[first],
+                    format!(
+                        "model `{}` declares disturbances ({}) but gives no `B_w = [...];` \
+                         ({nx}×{nw}, one column per disturbance)",
+                        self.ast.name.name,
+                        self.names.disturbances.join(", ")
+                    ),
+                ));
+            }
+        };
         let n = self.all_or_none(&defs, true)?;
-        Ok((a, n, b))
+        Ok((a, n, b, b_w))
     }
 
     /// N_1..N_nx (or M_1..M_ny): all given, or none (then zero).

@@ -15,7 +15,8 @@ mod validate;
 
 pub(crate) use build::build;
 pub use design::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, OutputFilter, OutputRoute, Split,
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, NoiseObjective, OutputFilter,
+    OutputRoute, Split,
 };
 pub use names::{Param, MAX_DIM, MAX_PARAMS};
 pub use state_bound::StateBound;
@@ -54,6 +55,13 @@ pub struct Model {
     pub n: Vec<PolyMatrix>,
     /// B(θ), nx × nu.
     pub b: PolyMatrix,
+    /// Process disturbance names w_1..w_nw (may be empty).
+    pub disturbances: Vec<String>,
+    /// B_w(θ), nx × nw: x' = ... + B_w(θ)w.
+    pub b_w: PolyMatrix,
+    /// The outputs measured with noise (`noise y1, y2;`), as indices into
+    /// `outputs`; `None`: every output (y_meas = y + v).
+    pub noise_outputs: Option<Vec<usize>>,
     /// C(θ), ny × nx.
     pub c: PolyMatrix,
     /// M_k(θ), ny matrices of nx × nx.
@@ -127,7 +135,7 @@ impl Model {
         }
         y
     }
-    /// Indices of the parameters that appear in A, N_k, B, C or M_k (those
+    /// Indices of the parameters that appear in A, N_k, B, B_w, C or M_k (those
     /// that generate vertices), in declaration order.
     pub fn scheduling(&self) -> Vec<usize> {
         bits(self.param_mask()).collect()
@@ -137,6 +145,7 @@ impl Model {
     fn param_mask(&self) -> u64 {
         self.a.param_mask()
             | self.b.param_mask()
+            | self.b_w.param_mask()
             | self.c.param_mask()
             | self
                 .n

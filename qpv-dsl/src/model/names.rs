@@ -34,6 +34,7 @@ impl Builder<'_> {
                 Item::Inputs(l) => (l, 1),
                 Item::Outputs(l) => (l, 2),
                 Item::Params(p) => (&p.names, 3),
+                Item::Disturbances(l) => (l, 4),
                 _ => continue,
             };
             for id in list {
@@ -53,6 +54,7 @@ impl Builder<'_> {
                     0 => (&mut self.names.states, MAX_DIM, "states"),
                     1 => (&mut self.names.inputs, MAX_DIM, "inputs"),
                     2 => (&mut self.names.outputs, MAX_DIM, "outputs"),
+                    4 => (&mut self.names.disturbances, MAX_DIM, "disturbances"),
                     _ => (&mut self.names.params, MAX_PARAMS, "parameters"),
                 };
                 if vec.len() >= limit {
@@ -65,6 +67,7 @@ impl Builder<'_> {
                     0 => NameRef::State(vec.len()),
                     1 => NameRef::Input(vec.len()),
                     2 => NameRef::Output(vec.len()),
+                    4 => NameRef::Disturbance(vec.len()),
                     _ => NameRef::Param(vec.len()),
                 };
                 vec.push(id.name.clone());
@@ -92,6 +95,70 @@ impl Builder<'_> {
             ));
         }
         Ok(())
+    }
+
+    /// The `noise y1, y2;` declaration: the indices of the outputs measured
+    /// with noise, or `None` (every output) without one. At most one
+    /// declaration; every name an output, each once.
+    pub(super) fn noise_outputs(&self) -> R<Option<Vec<usize>>> {
+        let mut decl: Option<Span> = None;
+        let mut out = Vec::new();
+        for item in &self.ast.items {
+            let Item::Noise(list, span) = item else {
+                continue;
+            };
+            if let Some(prev) = decl {
+                return Err(Diag::new(
+                    *span,
+                    format!(
+                        "`noise` is declared twice (first at {}): list every noisy output in \
+                         one declaration",
+                        pos(self.src, prev)
+                    ),
+                ));
+            }
+            decl = Some(*span);
+            for id in list {
+                let i = match self.names.lookup.get(&id.name) {
+                    Some(NameRef::Output(i)) => *i,
+                    Some(r) => {
+                        return Err(Diag::new(
+                            id.span,
+                            format!(
+                                "`noise {}`: `{}` is {}, not an output: measurement noise is \
+                                 declared on outputs (process noise is a `disturbance`)",
+                                id.name,
+                                id.name,
+                                kind_word(*r)
+                            ),
+                        ))
+                    }
+                    None => {
+                        let hint = crate::diagnostic::suggest(
+                            &id.name,
+                            self.names.outputs.iter().map(|s| s.as_str()),
+                        )
+                        .map(|s| format!(" (did you mean `{s}`?)"))
+                        .unwrap_or_default();
+                        return Err(Diag::new(
+                            id.span,
+                            format!(
+                                "`noise {}`: `{}` is not a declared output{hint}",
+                                id.name, id.name
+                            ),
+                        ));
+                    }
+                };
+                if out.contains(&i) {
+                    return Err(Diag::new(
+                        id.span,
+                        format!("`{}` is listed twice in the `noise` declaration", id.name),
+                    ));
+                }
+                out.push(i);
+            }
+        }
+        Ok(decl.map(|_| out))
     }
 
     pub(super) fn params(&mut self) -> R<Vec<Param>> {

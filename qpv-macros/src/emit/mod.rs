@@ -76,6 +76,26 @@ pub struct CertifiedDesign {
     /// design being for the plant augmented by the filter. `None`: the
     /// double-sum route, P is nx × nx, L_l is nx × ny.
     pub filter: Option<OutputFilter>,
+    /// The noise and sampling figures computed on the baked numbers; `None`
+    /// where nothing could be certified (then the generated constants say
+    /// "no bound": an infinite σ and zero steps).
+    pub figures: Figures,
+}
+
+/// The noise bound and the sampling figures of a certified design, each
+/// present only if its own check passed on the baked P and L_l.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Figures {
+    /// σ in V' + αV ≤ σ(|v|² + |w|²) on the model's noise channels.
+    pub sigma: Option<f64>,
+    /// ‖e(∞)‖ per unit noise amplitude, √(σ/(α λ_min(P))).
+    pub error_bound: Option<f64>,
+    /// ν_max = √(α/σ): the noise amplitude up to which the certified set stays invariant.
+    pub max_amplitude: Option<f64>,
+    /// The largest certified explicit Euler step, and its contraction rate β.
+    pub euler: Option<(f64, f64)>,
+    /// The RK4 step estimate (frozen vertex dynamics; not a proof).
+    pub rk4: Option<f64>,
 }
 
 /// Emits the module for one model.
@@ -128,7 +148,11 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
 
             #coefficients
 
-            pub use self::#primary::{gain, Observer, ALPHA, CERTIFICATE, CERTIFIES, GAMMA, L, NS, NZ, P, ROUTE};
+            pub use self::#primary::{
+                gain, Observer, ALPHA, CERTIFICATE, CERTIFIES, ERROR_BOUND_PER_NOISE, EULER_BETA, GAMMA, L,
+                MAX_NOISE_AMPLITUDE, MAX_STEP_EULER, NOISE_SIGMA, NS, NZ, P, ROUTE,
+                STEP_ESTIMATE_RK4,
+            };
             #primary_filter
 
             #(#designs)*
@@ -274,6 +298,7 @@ mod tests {
             margins: vec![("S1".into(), 0.5)],
             status: "Solved".into(),
             iterations: 7,
+            figures: Figures::default(),
             filter,
         };
         emit(&EmitModel {

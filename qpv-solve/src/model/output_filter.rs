@@ -222,6 +222,7 @@ pub fn augment(model: &PolytopicModel, f: &OutputFilter) -> Result<PolytopicMode
         region,
         state_bound,
         designs: model.designs.clone(),
+        noise: Default::default(),
     })
 }
 

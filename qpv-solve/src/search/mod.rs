@@ -671,13 +671,21 @@ fn design_skew(
     Ok(d)
 }
 
-/// As [`design`], calling `progress` after every solve.
+/// As [`design`], calling `progress` after every solve. A request with
+/// `noise = min` is the noise-optimal design of [`crate::noise::design_noise`]
+/// on the model's declared channels.
 pub fn design_with_progress(
     model: &PolytopicModel,
     request: &DesignRequest,
     settings: &Settings,
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
+    if request.noise == qpv_dsl::NoiseObjective::Min {
+        let channels = crate::noise::NoiseChannels::from_model(model);
+        return crate::noise::design_noise_with_progress(
+            model, request, &channels, settings, progress,
+        );
+    }
     let mut d = if request.split == Split::SkewSlack {
         design_skew(model, request, settings, progress)?
     } else {

@@ -149,6 +149,7 @@ fn certified_constants(
         })
         .collect();
     let (nz_l, ns_l) = (usize_lit(nz), usize_lit(ns));
+    let noise_consts = noise_constants(d);
     let nz_doc = docs::nz(shape.filter);
     let ns_doc = docs::ns(shape.filter);
     let filter_consts = match shape.filter {
@@ -181,7 +182,58 @@ fn certified_constants(
         pub const L: [[[f64; NY]; NZ]; NV] = [#(#l_vertices),*];
         /// True: the conditions prove V' ≤ −αV on the certified set.
         pub const CERTIFIES: bool = true;
+        #noise_consts
         #certificate
+    }
+}
+
+/// A figure as a literal, or `none` (e.g. `f64::INFINITY` for "no bound").
+fn figure(v: Option<f64>, none: TokenStream) -> TokenStream {
+    match v {
+        Some(x) if x.is_finite() => lit(x),
+        _ => none,
+    }
+}
+
+/// The noise and sampling constants of a certified design, with what each
+/// guarantees and under which assumption.
+fn noise_constants(d: &CertifiedDesign) -> TokenStream {
+    let f = &d.figures;
+    let inf = quote!(::core::f64::INFINITY);
+    let sigma = figure(f.sigma, inf.clone());
+    let bound = figure(f.error_bound, inf);
+    let amp = figure(f.max_amplitude, quote!(0.0));
+    let euler = figure(f.euler.map(|e| e.0), quote!(0.0));
+    let beta = figure(f.euler.map(|e| e.1), quote!(0.0));
+    let rk4 = figure(f.rk4, quote!(0.0));
+    quote! {
+        /// Certified noise gain σ: V' + αV ≤ σ(|v|² + |w|²) for the model's
+        /// measurement noise v (y_meas = y + v on the declared noisy outputs)
+        /// and process disturbances w, on the certified set. Infinite if no
+        /// bound could be certified.
+        pub const NOISE_SIGMA: f64 = #sigma;
+        /// Certified ultimate error bound per unit noise amplitude:
+        /// with |v|, |w| ≤ ν (ν ≤ MAX_NOISE_AMPLITUDE), lim sup ‖e(t)‖ ≤
+        /// ERROR_BOUND_PER_NOISE · ν, i.e. √(σ/(α λ_min(P))). Infinite if no
+        /// bound could be certified.
+        pub const ERROR_BOUND_PER_NOISE: f64 = #bound;
+        /// ν_max = √(α/σ): up to this noise amplitude the certified set
+        /// {eᵀPe ≤ 1} stays invariant, so the bounds above apply. Zero if
+        /// no bound could be certified.
+        pub const MAX_NOISE_AMPLITUDE: f64 = #amp;
+        /// The certified largest explicit Euler step h: for every step
+        /// dt ≤ h, V = eᵀPe contracts by at least (1 − dt·EULER_BETA) per
+        /// step at every vertex of the certified family, when the plant and
+        /// the observer are discretised by the same Euler step (the
+        /// continuous plant sampled by `step_euler` is covered by
+        /// simulation, not by this proof). Zero if no step could be proven.
+        pub const MAX_STEP_EULER: f64 = #euler;
+        /// β of the Euler contraction behind MAX_STEP_EULER (α/2).
+        pub const EULER_BETA: f64 = #beta;
+        /// An estimate, not a proof: the largest RK4 step for which every
+        /// frozen vertex error dynamics stays stable (the RK4 stability
+        /// polynomial on its eigenvalues). Zero if none could be estimated.
+        pub const STEP_ESTIMATE_RK4: f64 = #rk4;
     }
 }
 

@@ -284,6 +284,11 @@ fn steppers(xs: &[Ident]) -> TokenStream {
     let (k1, k2, k3, k4) = (stage("a"), stage("b"), stage("c"), stage("d"));
     quote! {
         /// One explicit Euler step of length `dt` with y, u, θ held.
+        ///
+        /// For `dt ≤ MAX_STEP_EULER` the design proves that V = eᵀPe
+        /// contracts by at least (1 − dt·EULER_BETA) per step on the
+        /// certified set, assuming the plant is discretised by the same
+        /// Euler step (a continuous plant is covered by simulation only).
         #[inline]
         pub fn step_euler(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
             let (c, g, clamped) = schedule(theta);
@@ -295,6 +300,11 @@ fn steppers(xs: &[Ident]) -> TokenStream {
 
         /// One classical Runge–Kutta 4 step of length `dt` with y, u, θ held
         /// over the step.
+        ///
+        /// `STEP_ESTIMATE_RK4` estimates the largest stable step (every
+        /// frozen vertex error dynamics stable under RK4); it is an
+        /// estimate, not a certificate: prefer `step_euler` below
+        /// `MAX_STEP_EULER` where a proof is needed.
         #[inline]
         pub fn step_rk4(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
             let (c, g, clamped) = schedule(theta);
