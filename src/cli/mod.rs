@@ -4,6 +4,7 @@
 mod check;
 mod design;
 mod input;
+mod noisy;
 mod schema;
 mod signal;
 mod simulate;
@@ -197,6 +198,15 @@ pub enum Command {
         /// the figures keep at most 5000 points per curve.
         #[arg(long, value_name = "DT")]
         every: Option<f64>,
+        /// Bounded measurement noise: |v(t)| = NU on the report's noisy
+        /// outputs (every output by default), a random direction held over
+        /// each step. With a certified noise bound and NU <= nu_max the
+        /// error is checked against the certified bound.
+        #[arg(long, value_name = "NU")]
+        noise: Option<f64>,
+        /// Seed of the noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
     },
 }
 
@@ -282,6 +292,8 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             params,
             input_csv,
             every,
+            noise,
+            seed,
         } => simulate::run(simulate::Options {
             file: &file,
             design: &design,
@@ -295,6 +307,8 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             params,
             input_csv: input_csv.as_deref(),
             every,
+            noise,
+            seed,
         }),
     }
 }
