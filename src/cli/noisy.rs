@@ -164,8 +164,14 @@ pub struct NoiseBoundCurve {
 impl NoiseBoundCurve {
     /// The curve for P, e(0), α, σ and ν; `None` if P is not positive definite.
     pub fn new(p: &DMatrix<f64>, e0: &[f64], alpha: f64, sigma: f64, nu: f64) -> Option<Self> {
+        if p.is_empty() || !p.is_square() || e0.len() != p.nrows() {
+            return None;
+        }
+        if !p.iter().all(|v| v.is_finite()) {
+            return None;
+        }
         let lambda_min = p.clone().symmetric_eigenvalues().min();
-        if !(lambda_min > 0.0) || e0.len() != p.nrows() {
+        if lambda_min.is_nan() || lambda_min <= 0.0 {
             return None;
         }
         let e = nalgebra::DVector::from_column_slice(e0);
