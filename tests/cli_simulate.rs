@@ -110,8 +110,10 @@ fn a_report_that_does_not_certify_claims_no_decay_rate_and_draws_no_envelope() {
 #[test]
 fn tampered_gains_are_rechecked_and_a_diverging_run_exits_1() {
     let report = certified_paper();
-    let mut j: serde_json::Value =
+    let envelope: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    // The report's one design (a single design object is a report too).
+    let mut j = envelope["designs"][0].clone();
     assert_eq!(j["certifies"], true);
     // Gains scaled by −1e4: the report still says `certifies: true`.
     for l in j["L"].as_array_mut().expect("L") {
@@ -314,8 +316,9 @@ fn an_undetectable_plant_fails_with_margins_and_a_diagnosis_but_no_alpha() {
     assert!(t.contains("mainly state x2"), "{t}");
 
     let json = qpv(&["design", "tests/fixtures/undetectable.qpv", "--json", "-"]);
-    let j: serde_json::Value =
+    let envelope: serde_json::Value =
         serde_json::from_str(&String::from_utf8_lossy(&json.stdout)).expect("json");
+    let j = &envelope["designs"][0];
     assert_eq!(j["certifies"], false);
     let kinds: Vec<&str> = j["diagnosis"]
         .as_array()
