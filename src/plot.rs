@@ -1,5 +1,5 @@
-//! SVG line charts (plotters) for simulated trajectories: one function that
-//! draws named series against time, linear or logarithmic in y.
+//! SVG charts (plotters): line charts of simulated trajectories against
+//! time, linear or logarithmic in y, and the rate–noise trade-off figure.
 
 use plotters::prelude::*;
 use std::path::Path;
@@ -144,6 +144,118 @@ pub fn line_chart(
             .build_cartesian_2d(t0..t1, y0..y1)
             .map_err(|e| err(&e))?);
     }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// One panel of [`tradeoff_chart`]: a curve against α, its knee point.
+fn tradeoff_panel(
+    area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+    y_label: &str,
+    points: &[(f64, f64)],
+    knee: Option<(f64, f64)>,
+    color: RGBColor,
+    err: &dyn Fn(&dyn std::fmt::Display) -> String,
+) -> Result<(), String> {
+    let pts: Vec<(f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|&(a, v)| a.is_finite() && v.is_finite() && v > 0.0)
+        .collect();
+    if pts.is_empty() {
+        return Err(err(&"nothing to plot"));
+    }
+    let (a0, a1) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), p| (l.min(p.0), h.max(p.0)));
+    let (y0, y1) = pts
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), p| (l.min(p.1), h.max(p.1)));
+    let (a0, a1) = if a1 > a0 {
+        (a0 - 0.03 * (a1 - a0), a1 + 0.03 * (a1 - a0))
+    } else {
+        (a0 - 1.0, a0 + 1.0)
+    };
+    let (y0, y1) = if y1 > y0 {
+        (y0 / 1.5, y1 * 1.5)
+    } else {
+        (y0 / 10.0, y0 * 10.0)
+    };
+    let mut chart = ChartBuilder::on(area)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(a0..a1, (y0..y1).log_scale())
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("decay rate alpha [1/s]")
+        .y_desc(y_label)
+        .y_label_formatter(&|v: &f64| format!("{v:.1e}"))
+        .draw()
+        .map_err(|e| err(&e))?;
+    let style = color.stroke_width(2);
+    chart
+        .draw_series(LineSeries::new(pts.clone(), style))
+        .map_err(|e| err(&e))?
+        .label(y_label.to_string())
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+    chart
+        .draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))
+        .map_err(|e| err(&e))?;
+    if let Some(k) = knee.filter(|k| k.1.is_finite() && k.1 > 0.0) {
+        let red = RGBColor(214, 39, 40);
+        chart
+            .draw_series(std::iter::once(Circle::new(k, 7, red.stroke_width(2))))
+            .map_err(|e| err(&e))?
+            .label(format!("knee (alpha = {:.3})", k.0))
+            .legend(move |(x, y)| Circle::new((x + 9, y), 5, red.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// The rate–noise trade-off figure: two panels against α (logarithmic y),
+/// the certified error bound per unit noise amplitude above and the largest
+/// gain max ‖L_l‖₂ below, each with the knee circled. `points` are
+/// (α, error bound, max gain) of the certified points.
+pub fn tradeoff_chart(
+    path: &Path,
+    title: &str,
+    points: &[(f64, f64, f64)],
+    knee: Option<(f64, f64, f64)>,
+) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let root = SVGBackend::new(path, (900, 760)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root
+        .titled(title, ("sans-serif", 22))
+        .map_err(|e| err(&e))?;
+    let (upper, lower) = root.split_vertically(370);
+    let eb: Vec<(f64, f64)> = points.iter().map(|p| (p.0, p.1)).collect();
+    let gain: Vec<(f64, f64)> = points.iter().map(|p| (p.0, p.2)).collect();
+    tradeoff_panel(
+        &upper,
+        "certified ||e(inf)|| per unit noise",
+        &eb,
+        knee.map(|k| (k.0, k.1)),
+        PALETTE[0],
+        &err,
+    )?;
+    tradeoff_panel(
+        &lower,
+        "max ||L_l||_2",
+        &gain,
+        knee.map(|k| (k.0, k.2)),
+        PALETTE[2],
+        &err,
+    )?;
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }

@@ -5,6 +5,7 @@ use super::schema::{DesignOutput, NotRun};
 use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute, Split,
 };
+use qpv_solve::noise::NoiseChannels;
 use qpv_solve::output_filter::OutputRouteInfo;
 use qpv_solve::report::Design;
 use qpv_solve::state_bound::StateBoundInfo;
@@ -33,7 +34,8 @@ fn parse_alpha(s: &str) -> Result<AlphaSpec, CliError> {
     }
 }
 
-fn parse_gamma(s: &str) -> Result<GammaSpec, CliError> {
+/// Parses `--gamma`.
+pub(super) fn parse_gamma(s: &str) -> Result<GammaSpec, CliError> {
     if s == "search" {
         return Ok(GammaSpec::Search);
     }
@@ -122,6 +124,19 @@ pub struct Flags<'a> {
     pub filter_pole: Option<f64>,
     /// `--filter-gain`.
     pub filter_gain: Option<f64>,
+    /// `--noise` (`min` or `free`).
+    pub noise: Option<&'a str>,
+}
+
+/// Parses `--noise`: whether the design minimises the certified noise gain.
+pub(super) fn parse_noise(s: Option<&str>) -> Result<bool, CliError> {
+    match s {
+        None | Some("free") => Ok(false),
+        Some("min") => Ok(true),
+        Some(other) => Err(CliError::Input(format!(
+            "--noise {other:?}: expected `min` or `free`"
+        ))),
+    }
 }
 
 /// A request of `qpv design`, or why it is not run: `skip` says so when an
@@ -164,9 +179,17 @@ fn requests(model: &Model, f: Flags) -> Result<Vec<Planned>, CliError> {
         vec![r]
     };
     let route = parse_route(f.output_route, f.filter_pole, f.filter_gain)?;
+    let noise_min = parse_noise(f.noise)?;
     let plan: Vec<Planned> = reqs
         .into_iter()
         .map(|mut r| {
+            if noise_min && r.mode != Mode::Sound {
+                let skip = Some(
+                    "--noise min applies to sound-mode requests only (this one is paper mode)"
+                        .to_string(),
+                );
+                return Planned { request: r, skip };
+            }
             if split == Some(Split::SkewSlack) && r.mode != Mode::Sound {
                 let skip = Some(
                     "--split skew_slack applies to sound-mode requests only (this one is paper mode)"
@@ -189,6 +212,27 @@ fn requests(model: &Model, f: Flags) -> Result<Vec<Planned>, CliError> {
             }
         })
         .collect();
+    if noise_min {
+        if let Some(p) = plan
+            .iter()
+            .find(|p| p.skip.is_none() && p.request.alpha == AlphaSpec::Max)
+        {
+            return Err(CliError::Input(format!(
+                "--noise min needs a fixed alpha ({}): alpha = max is the fastest design, not a \
+                 noise trade-off; give --alpha below the maximum, or sweep with `qpv tradeoff`",
+                describe_request(&p.request)
+            )));
+        }
+        if let Some(p) = plan
+            .iter()
+            .find(|p| p.skip.is_none() && p.request.split == Split::SkewSlack)
+        {
+            return Err(CliError::Input(format!(
+                "--noise min with split = skew_slack ({}): use --split symmetric or as_written",
+                describe_request(&p.request)
+            )));
+        }
+    }
     if plan.iter().all(|p| p.skip.is_some()) {
         let reason = plan.iter().find_map(|p| p.skip.as_deref()).unwrap_or("");
         return Err(CliError::Input(format!("nothing to run: {reason}")));
@@ -361,6 +405,53 @@ fn describe_failure_margins(d: &Design) -> String {
     s
 }
 
+/// The noise and sampling lines of a certified sound design (nothing for
+/// any other design: an uncertified design carries no bound).
+pub(super) fn describe_noise(d: &Design) -> String {
+    let mut s = String::new();
+    if !(d.certifies && d.mode == Mode::Sound) {
+        return s;
+    }
+    if let Some(nb) = &d.noise {
+        s.push_str(&format!(
+            "  noise (certified, V' + alpha V <= sigma (|v|^2 + |w|^2) on the region; noisy outputs: {}{}):\n",
+            if nb.noisy_outputs.is_empty() {
+                "none".to_string()
+            } else {
+                nb.noisy_outputs.join(", ")
+            },
+            if nb.disturbances > 0 {
+                format!("; {} disturbance input(s)", nb.disturbances)
+            } else {
+                String::new()
+            }
+        ));
+        s.push_str(&format!("    sigma                 {:.6e}\n", nb.sigma));
+        s.push_str(&format!(
+            "    ||e(inf)|| per unit noise amplitude <= {:.4}\n",
+            nb.error_bound
+        ));
+        s.push_str(&format!(
+            "    nu_max (largest noise amplitude keeping the region invariant) = {:.4e}\n",
+            nb.max_amplitude
+        ));
+        let per: Vec<String> = nb.per_state.iter().map(|v| format!("{v:.4}")).collect();
+        s.push_str(&format!(
+            "    per-state |e_k(inf)| per unit noise <= [{}]\n",
+            per.join(", ")
+        ));
+    }
+    if let Some(sp) = &d.sampling {
+        s.push_str(&format!(
+            "  sampling: largest Euler step h = {:.4e} (certified: V contracts by (1 - h beta) per step, beta = {:.4}, \
+             plant and observer discretised by the same Euler step); RK4 step estimate {:.4e} (an estimate, \
+             frozen vertex dynamics, not a proof)\n",
+            sp.max_step_euler, sp.beta, sp.step_estimate_rk4
+        ));
+    }
+    s
+}
+
 /// A human-readable report of one design.
 pub fn describe_design(d: &Design) -> String {
     let mut s = String::new();
@@ -417,6 +508,7 @@ pub fn describe_design(d: &Design) -> String {
     if !d.feasible {
         s.push_str(&describe_failure_margins(d));
     }
+    s.push_str(&describe_noise(d));
     if !d.data_checks.is_empty() {
         s.push_str("  data checks:\n");
         for (k, c) in &d.data_checks {
@@ -477,6 +569,7 @@ pub fn run(
 ) -> Result<i32, CliError> {
     let (_, model) = load_model(file, model_name)?;
     let plan = requests(&model, flags)?;
+    let noise_min = parse_noise(flags.noise)?;
     let poly = model.polytopic();
     let settings = qpv_solve::Settings::default();
     let mut designs = Vec::new();
@@ -510,7 +603,7 @@ pub fn run(
             describe_request(r)
         ));
         let mut n = 0usize;
-        let result = qpv_solve::design_with_progress(&poly, r, &settings, &mut |step| {
+        let mut progress = |step: &qpv_solve::SearchStep| {
             n += 1;
             bar.set_message(format!(
                 "solve {n}: {} gamma = {:.4}, alpha = {:.4}: {}{}",
@@ -521,7 +614,18 @@ pub fn run(
                 if step.certified { ", certified" } else { "" }
             ));
             bar.tick();
-        });
+        };
+        let result = if noise_min {
+            qpv_solve::noise::design_noise_with_progress(
+                &poly,
+                r,
+                &NoiseChannels::default(),
+                &settings,
+                &mut progress,
+            )
+        } else {
+            qpv_solve::design_with_progress(&poly, r, &settings, &mut progress)
+        };
         bar.finish_and_clear();
         match result {
             Ok(d) => {

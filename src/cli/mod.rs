@@ -4,9 +4,11 @@
 mod check;
 mod design;
 mod input;
+mod noisy;
 mod schema;
 mod signal;
 mod simulate;
+mod tradeoff;
 mod vertices;
 
 use clap::{Parser, Subcommand};
@@ -80,9 +82,37 @@ pub enum Command {
         /// default: the pole, unit DC gain).
         #[arg(long = "filter-gain", allow_negative_numbers = true)]
         filter_gain: Option<f64>,
+        /// Design objective for sensor noise: `min` minimises the certified
+        /// noise gain σ at the requested (fixed) alpha and gamma (sound
+        /// mode); `free` (default) is the ordinary design. Every certified
+        /// sound design reports its noise bound either way.
+        #[arg(long)]
+        noise: Option<String>,
         /// Write the JSON report to this file (`-` for stdout).
         #[arg(long)]
         json: Option<String>,
+    },
+    /// Sweep the decay rate from small to its maximum with noise-optimal
+    /// designs: the certified error bound per unit noise and the largest
+    /// gain at each alpha, and the knee of the trade-off.
+    Tradeoff {
+        /// The model file (.qpv).
+        file: PathBuf,
+        /// Which model of the file.
+        #[arg(long)]
+        model: Option<String>,
+        /// Number of alpha values in the sweep (at least 2).
+        #[arg(long, default_value_t = 8)]
+        points: usize,
+        /// Region scaling: a number in (0,1) or `search` (default: search).
+        #[arg(long)]
+        gamma: Option<String>,
+        /// Write the table as JSON to this file (`-` for stdout).
+        #[arg(long)]
+        json: Option<String>,
+        /// Directory for the SVG figure (tradeoff.svg).
+        #[arg(long)]
+        plot: Option<PathBuf>,
     },
     /// Certify gains that came from anywhere (a paper, another tool).
     Check {
@@ -168,6 +198,15 @@ pub enum Command {
         /// the figures keep at most 5000 points per curve.
         #[arg(long, value_name = "DT")]
         every: Option<f64>,
+        /// Bounded measurement noise: |v(t)| = NU on the report's noisy
+        /// outputs (every output by default), a random direction held over
+        /// each step. With a certified noise bound and NU <= nu_max the
+        /// error is checked against the certified bound.
+        #[arg(long, value_name = "NU")]
+        noise: Option<f64>,
+        /// Seed of the noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
     },
 }
 
@@ -188,6 +227,7 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             output_route,
             filter_pole,
             filter_gain,
+            noise,
             json,
         } => design::run(
             &file,
@@ -201,9 +241,25 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
                 output_route: output_route.as_deref(),
                 filter_pole,
                 filter_gain,
+                noise: noise.as_deref(),
             },
             json.as_deref(),
         ),
+        Command::Tradeoff {
+            file,
+            model,
+            points,
+            gamma,
+            json,
+            plot,
+        } => tradeoff::run(tradeoff::Options {
+            file: &file,
+            model: model.as_deref(),
+            points,
+            gamma: gamma.as_deref(),
+            json: json.as_deref(),
+            plot: plot.as_deref(),
+        }),
         Command::Check {
             file,
             gains,
@@ -236,6 +292,8 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             params,
             input_csv,
             every,
+            noise,
+            seed,
         } => simulate::run(simulate::Options {
             file: &file,
             design: &design,
@@ -249,6 +307,8 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             params,
             input_csv: input_csv.as_deref(),
             every,
+            noise,
+            seed,
         }),
     }
 }

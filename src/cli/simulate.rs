@@ -17,6 +17,7 @@
 //! number of steps.
 
 use super::input::{load_model, read_report, CliError};
+use super::noisy::{simulate_noisy, NoiseBoundCurve, NoiseGen};
 use super::signal::{expr_signal, parse_assignment, table_signal, Table, TimeFn};
 use nalgebra::DMatrix;
 use qpv::plot::{line_chart, Series, PALETTE};
@@ -42,6 +43,10 @@ const CHUNK_STEPS: usize = 20_000;
 
 /// Relative slack of the envelope comparison (RK4 and rounding errors).
 const ENVELOPE_SLACK: f64 = 1e-6;
+
+/// Relative slack of the noise-bound comparison (RK4 error of a run whose
+/// input jumps at every step).
+const NOISE_SLACK: f64 = 1e-4;
 
 /// Options of `qpv simulate`.
 pub struct Options<'a> {
@@ -69,6 +74,10 @@ pub struct Options<'a> {
     pub input_csv: Option<&'a Path>,
     /// `--every DT`: output interval of the CSV (simulated seconds).
     pub every: Option<f64>,
+    /// `--noise NU`: amplitude of the measurement noise (none if `None`).
+    pub noise: Option<f64>,
+    /// `--seed S`: seed of the noise.
+    pub seed: u64,
 }
 
 /// What the simulation is compared with.
@@ -79,6 +88,9 @@ struct Claim {
     q_inv: Option<DMatrix<f64>>,
     /// Facets of the region (a_kᵀ e ≤ 1): where e(0) must start.
     facets: Vec<nalgebra::DVector<f64>>,
+    /// The certified bound on ‖e(t)‖ under noise, when the design certifies,
+    /// carries a noise bound and ν ≤ ν_max.
+    noise_bound: Option<NoiseBoundCurve>,
 }
 
 /// Why the design is not certified here, or `None` if it is.
@@ -192,6 +204,8 @@ struct Findings {
     envelope_exceeded: Option<(f64, f64)>,
     /// First time and largest xᵀQ⁻¹x above 1.
     left_f: Option<(f64, f64)>,
+    /// First time and worst ratio ‖e‖/(certified noise bound) above 1.
+    noise_exceeded: Option<(f64, f64)>,
     rows_written: usize,
     t_last: f64,
 }
@@ -298,11 +312,75 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
 
     // What is certified, and therefore what the run is compared with.
     let reason = not_certified_reason(&design, &poly);
+    if let Some(nu) = o.noise {
+        if !(nu.is_finite() && nu >= 0.0) {
+            return Err(CliError::Input(format!(
+                "--noise {nu}: expected a non-negative amplitude"
+            )));
+        }
+    }
+    let mut noise_gen = o.noise.map(|nu| {
+        // The report's noisy outputs, by name on the observer model; every
+        // output when the report names none that the model has.
+        let named: Vec<usize> = design
+            .noise
+            .as_ref()
+            .map(|n| {
+                n.noisy_outputs
+                    .iter()
+                    .filter_map(|name| obs.outputs.iter().position(|o| o == name))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let outputs = if named.is_empty() {
+            (0..obs.ny()).collect()
+        } else {
+            named
+        };
+        NoiseGen::new(o.seed, nu, outputs)
+    });
+    let e0: Vec<f64> = sc.x0.iter().zip(&sc.xhat0).map(|(a, b)| a - b).collect();
+    let noise_bound = match (o.noise, &reason, &design.noise) {
+        (Some(nu), None, Some(nb)) if nu <= nb.max_amplitude => {
+            NoiseBoundCurve::new(&design.p_matrix(), &e0, design.alpha, nb.sigma, nu)
+        }
+        _ => None,
+    };
+    if let (Some(nu), Some(g)) = (o.noise, &noise_gen) {
+        let names: Vec<&str> = g.outputs.iter().map(|&i| obs.outputs[i].as_str()).collect();
+        println!(
+            "measurement noise: |v(t)| = {nu} on {} (random direction, seed {}, held over each step)",
+            names.join(", "),
+            o.seed
+        );
+        match (&reason, &design.noise) {
+            (None, Some(nb)) if noise_bound.is_some() => println!(
+                "certified under noise (nu = {nu} <= nu_max = {:.4e}): ||e(t)|| <= sqrt(V(t)/lambda_min(P)), \
+                 V(t) <= e^(-alpha t) V(0) + (sigma nu^2/alpha)(1 - e^(-alpha t)), sigma = {:.4e}; \
+                 ultimate bound {:.4e}",
+                nb.max_amplitude,
+                nb.sigma,
+                noise_bound.map_or(f64::NAN, |b| b.ultimate())
+            ),
+            (None, Some(nb)) => println!(
+                "no bound is certified at this noise level: nu = {nu} > nu_max = {:.4e} (the region is not \
+                 certified invariant); no claim is made and no bound is drawn",
+                nb.max_amplitude
+            ),
+            (None, None) => println!(
+                "the report carries no noise bound: no bound is certified with noise; no claim is made"
+            ),
+            (Some(_), _) => {}
+        }
+    }
     let claim = Claim {
         envelope: match &reason {
-            None => envelope_factor(&design.p_matrix()).map(|k| (k, design.alpha)),
-            Some(_) => None,
+            None if o.noise.is_none() => {
+                envelope_factor(&design.p_matrix()).map(|k| (k, design.alpha))
+            }
+            _ => None,
         },
+        noise_bound,
         q_inv: match &obs.state_bound {
             StateBound::Given(q) if q.nrows() == obs.nx() => q.clone().try_inverse(),
             _ => None,
@@ -310,6 +388,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         facets: obs.region.facets.clone(),
     };
     match (&reason, claim.envelope) {
+        (None, None) if o.noise.is_some() => {}
         (None, Some((k, a))) => println!(
             "certified (independent re-check on this model): V(t) <= V(0) e^(-alpha t) with alpha = {a:.6}, \
              gamma = {:.6}; for e(0) in the region and x(t) in F, ||e(t)|| <= {k:.4} ||e(0)|| e^(-alpha t/2)",
@@ -322,12 +401,11 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             "NOT certified: {why}; simulating its gains anyway (no decay rate is claimed, no envelope drawn)"
         ),
     }
-    let e0: Vec<f64> = sc.x0.iter().zip(&sc.xhat0).map(|(a, b)| a - b).collect();
     let e0_inside = claim.facets.iter().all(|a| {
         let s: f64 = a.iter().zip(&e0).map(|(a, e)| a * e).sum();
         s <= 1.0 + 1e-9
     });
-    if claim.envelope.is_some() && !e0_inside {
+    if (claim.envelope.is_some() || claim.noise_bound.is_some()) && !e0_inside {
         println!(
             "note: e(0) = x(0) - xhat(0) is outside the region of guaranteed convergence; \
              the envelope is not a guarantee for this run"
@@ -359,6 +437,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         (stride, plot_stride),
         &mut csv,
         &mut found,
+        noise_gen.as_mut(),
     )?;
     if let Some(w) = csv.as_mut() {
         w.flush()
@@ -375,7 +454,9 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             dir.display()
         );
     }
-    let violated = found.envelope_exceeded.is_some() && e0_inside && found.left_f.is_none();
+    let violated = (found.envelope_exceeded.is_some() || found.noise_exceeded.is_some())
+        && e0_inside
+        && found.left_f.is_none();
     Ok(if found.diverged_at.is_some() || violated {
         1
     } else {
@@ -445,6 +526,7 @@ fn run_streamed(
     (stride, plot_stride): (usize, usize),
     csv: &mut Option<impl Write>,
     found: &mut Findings,
+    mut noise: Option<&mut NoiseGen>,
 ) -> Result<(), CliError> {
     let nx = obs.nx();
     let (mut x, mut xhat) = (sc.x0.clone(), sc.xhat0.clone());
@@ -460,8 +542,11 @@ fn run_streamed(
             n as f64 * sc.dt
         };
         let part = shifted(sc, t0, &x, &xhat, t_end);
-        let traj =
-            simulate(obs, gains, &part).map_err(|e| CliError::Input(format!("simulation: {e}")))?;
+        let traj = match noise.as_deref_mut() {
+            Some(g) => simulate_noisy(obs, gains, &part, n, g),
+            None => simulate(obs, gains, &part).map_err(|e| e.to_string()),
+        }
+        .map_err(|e| CliError::Input(format!("simulation: {e}")))?;
         let first = usize::from(k0 > 0);
         for i in first..traj.len() {
             let k = k0 + i;
@@ -490,6 +575,14 @@ fn run_streamed(
                 if r.err > env * (1.0 + ENVELOPE_SLACK) + 1e-300 {
                     let ratio = r.err / env;
                     let e = found.envelope_exceeded.get_or_insert((r.t, ratio));
+                    e.1 = e.1.max(ratio);
+                }
+            }
+            if let Some(b) = &claim.noise_bound {
+                let bound = b.at(r.t);
+                if r.err > bound * (1.0 + NOISE_SLACK) + 1e-300 {
+                    let ratio = r.err / bound;
+                    let e = found.noise_exceeded.get_or_insert((r.t, ratio));
                     e.1 = e.1.max(ratio);
                 }
             }
@@ -550,6 +643,14 @@ fn describe(f: &Findings, claim: &Claim) -> String {
                 "the error LEAVES the certified envelope at t = {t:.4} (up to {r:.4} times the envelope)\n"
             )),
             None => s.push_str("the error stays inside the certified envelope\n"),
+        }
+    }
+    if claim.noise_bound.is_some() {
+        match f.noise_exceeded {
+            Some((t, r)) => s.push_str(&format!(
+                "the error LEAVES the certified noise bound at t = {t:.4} (up to {r:.4} times the bound)\n"
+            )),
+            None => s.push_str("the error stays inside the certified noise bound\n"),
         }
     }
     if let Some(t) = f.diverged_at {
@@ -629,6 +730,17 @@ fn write_figures(
             format!("certified envelope sqrt(cond P)||e0|| e^(-{alpha:.2} t/2)"),
             col(&|r| Some(k * (-alpha * r.t / 2.0).exp())),
             PALETTE[1],
+            true,
+        ));
+    }
+    if let Some(b) = claim.noise_bound {
+        series.push(Series::new(
+            format!(
+                "certified noise bound sqrt(V(t)/lambda_min(P)) (ultimate {:.2e})",
+                b.ultimate()
+            ),
+            col(&|r| Some(b.at(r.t))),
+            PALETTE[2],
             true,
         ));
     }

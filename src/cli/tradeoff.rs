@@ -1,0 +1,297 @@
+//! `qpv tradeoff`: the rate–noise trade-off of a model. The fastest
+//! certified design (α = max) fixes the range; noise-optimal designs at α
+//! from 5 % to 99 % of it give, per α, the certified error bound per unit
+//! noise amplitude and the largest gain; the knee is the fastest point
+//! whose error bound is within twice the sweep's smallest.
+
+use super::design::parse_gamma;
+use super::input::{emit_json, exit, load_model, print_text, CliError};
+use super::schema::SCHEMA;
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec};
+use qpv_solve::noise::{default_alphas, knee_of, tradeoff, NoiseChannels, TradeoffPoint};
+use qpv_solve::report::Design;
+use serde::Serialize;
+use std::path::Path;
+
+/// How many times the knee design's largest gain a design's gain may reach
+/// before the report says its gains are far above what the knee needs.
+const GAIN_EXCESS: f64 = 10.0;
+
+/// The options of `qpv tradeoff`.
+pub struct Options<'a> {
+    /// The model file.
+    pub file: &'a Path,
+    /// `--model`.
+    pub model: Option<&'a str>,
+    /// `--points`: number of α values.
+    pub points: usize,
+    /// `--gamma` (default: search).
+    pub gamma: Option<&'a str>,
+    /// `--json`.
+    pub json: Option<&'a str>,
+    /// `--plot`: directory of the SVG.
+    pub plot: Option<&'a Path>,
+}
+
+/// One row of the JSON table.
+#[derive(Serialize)]
+struct PointView {
+    alpha: f64,
+    gamma: f64,
+    certified: bool,
+    sigma: Option<f64>,
+    error_bound: Option<f64>,
+    max_amplitude: Option<f64>,
+    max_gain: Option<f64>,
+    knee: bool,
+    seconds: f64,
+}
+
+/// The fastest certified design, as the table reports it.
+#[derive(Serialize)]
+struct FastestView {
+    alpha: f64,
+    gamma: f64,
+    max_gain: f64,
+    sigma: Option<f64>,
+    error_bound: Option<f64>,
+    max_amplitude: Option<f64>,
+    /// Its largest gain over the knee design's (None without a knee).
+    gain_over_knee: Option<f64>,
+}
+
+/// `qpv tradeoff --json`.
+#[derive(Serialize)]
+struct TradeoffOutput<'a> {
+    schema: &'static str,
+    command: &'static str,
+    model: &'a str,
+    /// The γ request: a number or "search".
+    gamma_request: String,
+    /// The α = max design that fixed the sweep's range.
+    alpha_max: FastestView,
+    points: Vec<PointView>,
+    /// Index into `points` of the knee (null if no point certified).
+    knee: Option<usize>,
+    seconds_total: f64,
+}
+
+fn max_gain(d: &Design) -> f64 {
+    d.gain_norms.iter().copied().fold(0.0, f64::max)
+}
+
+fn opt(v: Option<f64>, prec: usize) -> String {
+    v.map_or("-".to_string(), |x| format!("{x:.prec$e}"))
+}
+
+/// The table of a sweep, one line per point, the knee marked.
+fn table(points: &[TradeoffPoint], knee: Option<usize>) -> String {
+    let mut s = format!(
+        "  {:>10} {:>9} {:>12} {:>12} {:>11} {:>11}\n",
+        "alpha", "gamma", "sigma", "error_bound", "nu_max", "max_gain"
+    );
+    for (k, p) in points.iter().enumerate() {
+        s.push_str(&format!(
+            "  {:>10.4} {:>9.5} {:>12} {:>12} {:>11} {:>11}{}\n",
+            p.alpha,
+            p.gamma,
+            opt(p.sigma, 4),
+            p.error_bound.map_or("-".into(), |e| format!("{e:.4}")),
+            opt(p.max_amplitude, 3),
+            p.max_gain.map_or("-".into(), |g| format!("{g:.4}")),
+            if !p.certified {
+                "  not certified"
+            } else if Some(k) == knee {
+                "  <- knee"
+            } else {
+                ""
+            }
+        ));
+    }
+    s
+}
+
+/// Runs `qpv tradeoff`.
+pub fn run(o: Options) -> Result<i32, CliError> {
+    if o.points < 2 {
+        return Err(CliError::Input(format!(
+            "--points {}: expected at least 2",
+            o.points
+        )));
+    }
+    if o.points > 200 {
+        return Err(CliError::Input(format!(
+            "--points {}: at most 200 (each point is a full design)",
+            o.points
+        )));
+    }
+    let gamma = o
+        .gamma
+        .map(parse_gamma)
+        .transpose()?
+        .unwrap_or(GammaSpec::Search);
+    let (_, model) = load_model(o.file, o.model)?;
+    let poly = model.polytopic();
+    let settings = qpv_solve::Settings::default();
+    let t0 = std::time::Instant::now();
+    let base = DesignRequest {
+        gamma,
+        ..DesignRequest::default()
+    };
+    let bad = |e: qpv_solve::SolveError| CliError::Input(format!("{}: {e}", o.file.display()));
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    bar.set_message(format!(
+        "{}: the fastest certified design (alpha = max)",
+        model.name
+    ));
+    let fastest = qpv_solve::design(
+        &poly,
+        &DesignRequest {
+            alpha: AlphaSpec::Max,
+            ..base.clone()
+        },
+        &settings,
+    )
+    .map_err(bad)?;
+    if !fastest.certifies {
+        bar.finish_and_clear();
+        print_text(
+            o.json,
+            &format!(
+                "model {}: NOT CERTIFIED: no certified alpha > 0 (alpha = max), so there is no trade-off to sweep\n",
+                model.name
+            ),
+        );
+        return Ok(exit::NOT_CERTIFIED);
+    }
+    let alphas = default_alphas(fastest.alpha, o.points);
+    let channels = NoiseChannels::default();
+    let mut points = Vec::with_capacity(alphas.len());
+    for (k, &a) in alphas.iter().enumerate() {
+        bar.set_message(format!(
+            "{}: noise-optimal design {}/{} at alpha = {a:.4}",
+            model.name,
+            k + 1,
+            alphas.len()
+        ));
+        bar.tick();
+        let one = tradeoff(&poly, &base, &channels, &[a], &settings).map_err(bad)?;
+        points.extend(one.points);
+    }
+    bar.finish_and_clear();
+    let knee = knee_of(&points);
+    let knee_gain = knee.and_then(|k| points[k].max_gain);
+    let fast_gain = max_gain(&fastest);
+    let over = knee_gain.filter(|g| *g > 0.0).map(|g| fast_gain / g);
+    let mut s = format!(
+        "model {}: rate-noise trade-off ({} noise-optimal designs, gamma {}; noise on every output)\n",
+        model.name,
+        points.len(),
+        match gamma {
+            GammaSpec::Fixed(g) => format!("= {g}"),
+            GammaSpec::Search => "searched per point".into(),
+        }
+    );
+    s.push_str(&format!(
+        "  fastest certified design: alpha = {:.6}, gamma = {:.6}, max ||L_l||_2 = {:.4}{}\n",
+        fastest.alpha,
+        fastest.gamma,
+        fast_gain,
+        fastest.noise.as_ref().map_or(String::new(), |n| format!(
+            ", ||e(inf)|| per unit noise <= {:.4}",
+            n.error_bound
+        ))
+    ));
+    if let Some(r) = over.filter(|r| *r > GAIN_EXCESS) {
+        s.push_str(&format!(
+            "  the alpha = max design's gains are far above what the knee needs: ||L|| is {r:.0}x the knee design's\n"
+        ));
+    }
+    s.push_str(&table(&points, knee));
+    match knee {
+        Some(k) => s.push_str(&format!(
+            "  knee: alpha = {:.4} (the fastest point whose certified error bound is within 2x the smallest of the sweep)\n",
+            points[k].alpha
+        )),
+        None => s.push_str("  no point of the sweep certified: no knee\n"),
+    }
+    if let Some(dir) = o.plot {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| CliError::Io(format!("{}: {e}", dir.display())))?;
+        let path = dir.join("tradeoff.svg");
+        let pts: Vec<(f64, f64, f64)> = points
+            .iter()
+            .filter_map(|p| Some((p.alpha, p.error_bound?, p.max_gain?)))
+            .collect();
+        let kp = knee.and_then(|k| {
+            let p = &points[k];
+            Some((p.alpha, p.error_bound?, p.max_gain?))
+        });
+        if pts.is_empty() {
+            s.push_str("  no certified point: no figure written\n");
+        } else {
+            qpv::plot::tradeoff_chart(
+                &path,
+                &format!(
+                    "{}: certified noise bound and gain against the decay rate",
+                    model.name
+                ),
+                &pts,
+                kp,
+            )
+            .map_err(CliError::Io)?;
+            s.push_str(&format!("  figure: {}\n", path.display()));
+        }
+    }
+    let seconds_total = t0.elapsed().as_secs_f64();
+    s.push_str(&format!(
+        "  {} designs in {seconds_total:.2} s\n",
+        points.len() + 1
+    ));
+    print_text(o.json, &s);
+    let out = TradeoffOutput {
+        schema: SCHEMA,
+        command: "tradeoff",
+        model: &model.name,
+        gamma_request: match gamma {
+            GammaSpec::Fixed(g) => g.to_string(),
+            GammaSpec::Search => "search".into(),
+        },
+        alpha_max: FastestView {
+            alpha: fastest.alpha,
+            gamma: fastest.gamma,
+            max_gain: fast_gain,
+            sigma: fastest.noise.as_ref().map(|n| n.sigma),
+            error_bound: fastest.noise.as_ref().map(|n| n.error_bound),
+            max_amplitude: fastest.noise.as_ref().map(|n| n.max_amplitude),
+            gain_over_knee: over,
+        },
+        points: points
+            .iter()
+            .enumerate()
+            .map(|(k, p)| PointView {
+                alpha: p.alpha,
+                gamma: p.gamma,
+                certified: p.certified,
+                sigma: p.sigma,
+                error_bound: p.error_bound,
+                max_amplitude: p.max_amplitude,
+                max_gain: p.max_gain,
+                knee: Some(k) == knee,
+                seconds: p.seconds,
+            })
+            .collect(),
+        knee,
+        seconds_total,
+    };
+    emit_json(o.json, &out)?;
+    Ok(if knee.is_some() {
+        exit::CERTIFIED
+    } else {
+        exit::NOT_CERTIFIED
+    })
+}

@@ -1,0 +1,255 @@
+//! The noise features of the command line: `qpv design --noise min` on the
+//! paper example against the reference noise gain, its refusal of
+//! α = max, `qpv simulate --noise` inside the certified noise bound below
+//! ν_max and without a claim above it, and `qpv tradeoff`'s table and
+//! figure.
+
+mod common;
+
+use common::qpv;
+use serde_json::Value;
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+fn tmp(name: &str) -> PathBuf {
+    common::tmp("noise", name)
+}
+
+fn text(out: &std::process::Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+/// Reference of the method page for the paper example (sound mode,
+/// symmetric split, γ = 0.18898, noise on both outputs, α = 5): σ_min = 590,
+/// error bound 1.27 per unit noise, ν_max = 0.092.
+const SIGMA_REF: f64 = 590.0;
+const ERROR_BOUND_REF: f64 = 1.27;
+const NU_MAX_REF: f64 = 0.092;
+
+/// The noise-optimal paper design at α = 5, γ = 0.18898 (designed once),
+/// its report path and its `designs[0]`.
+fn paper_noise_min() -> &'static (PathBuf, Value) {
+    static D: OnceLock<(PathBuf, Value)> = OnceLock::new();
+    D.get_or_init(|| {
+        let report = tmp("paper_noise_min.json");
+        let out = qpv(&[
+            "design",
+            "examples/paper.qpv",
+            "--alpha",
+            "5",
+            "--gamma",
+            "0.18898",
+            "--noise",
+            "min",
+            "--json",
+            report.to_str().expect("utf-8"),
+        ]);
+        assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+        let v: Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+        (report, v["designs"][0].clone())
+    })
+}
+
+fn num(v: &Value, key: &str) -> f64 {
+    v[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{key} missing in {v}"))
+}
+
+#[test]
+fn noise_min_on_the_paper_example_matches_the_reference_noise_gain() {
+    let out = qpv(&[
+        "design",
+        "examples/paper.qpv",
+        "--alpha",
+        "5",
+        "--gamma",
+        "0.18898",
+        "--noise",
+        "min",
+        "--json",
+        "-",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let v: Value = serde_json::from_slice(&out.stdout).expect("json on stdout");
+    assert_eq!(v["schema"], "qpv/1");
+    let d = &v["designs"][0];
+    assert_eq!(d["certifies"], true);
+    let noise = &d["noise"];
+    let sigma = num(noise, "sigma");
+    assert!(
+        (0.99 * SIGMA_REF..=1.05 * SIGMA_REF).contains(&sigma),
+        "sigma = {sigma}"
+    );
+    let eb = num(noise, "error_bound");
+    assert!(
+        (0.99 * ERROR_BOUND_REF..=1.03 * ERROR_BOUND_REF).contains(&eb),
+        "error_bound = {eb}"
+    );
+    let nu = num(noise, "max_amplitude");
+    assert!(
+        (0.97 * NU_MAX_REF..=1.01 * NU_MAX_REF).contains(&nu),
+        "max_amplitude = {nu}"
+    );
+    assert_eq!(noise["check"]["passed"], true);
+    assert!(num(&d["sampling"], "max_step_euler") > 0.0);
+}
+
+#[test]
+fn the_text_report_prints_the_noise_and_sampling_figures() {
+    let (report, d) = paper_noise_min();
+    assert!(report.exists());
+    let out = qpv(&[
+        "design",
+        "examples/paper.qpv",
+        "--alpha",
+        "5",
+        "--gamma",
+        "0.18898",
+        "--noise",
+        "min",
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(t.contains("sigma"), "{t}");
+    assert!(t.contains("per unit noise amplitude"), "{t}");
+    assert!(t.contains("nu_max"), "{t}");
+    assert!(t.contains("per-state"), "{t}");
+    assert!(t.contains("largest Euler step"), "{t}");
+    assert!(t.contains("RK4 step estimate"), "{t}");
+    assert!(t.contains("an estimate"), "{t}");
+    assert!(d["noise"]["per_state"]
+        .as_array()
+        .is_some_and(|a| a.len() == 3));
+}
+
+#[test]
+fn noise_min_refuses_alpha_max_and_bad_values() {
+    let out = qpv(&[
+        "design",
+        "examples/paper.qpv",
+        "--alpha",
+        "max",
+        "--noise",
+        "min",
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("--noise min needs a fixed alpha"), "{t}");
+    assert!(!t.contains("panicked"), "{t}");
+    let out = qpv(&["design", "examples/paper.qpv", "--noise", "lots"]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("expected `min` or `free`"), "{t}");
+}
+
+fn simulate_with_noise(nu: f64, dir: &str) -> std::process::Output {
+    let (report, _) = paper_noise_min();
+    let dir = tmp(dir);
+    qpv(&[
+        "simulate",
+        "examples/paper.qpv",
+        "--design",
+        report.to_str().expect("utf-8"),
+        "--scenario",
+        "paper",
+        "--noise",
+        &nu.to_string(),
+        "--seed",
+        "7",
+        "--plot",
+        dir.to_str().expect("utf-8"),
+    ])
+}
+
+#[test]
+fn a_run_at_half_the_largest_noise_stays_inside_the_certified_bound() {
+    let (_, d) = paper_noise_min();
+    let nu_max = num(&d["noise"], "max_amplitude");
+    let out = simulate_with_noise(0.5 * nu_max, "half");
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(t.contains("certified under noise"), "{t}");
+    assert!(
+        t.contains("the error stays inside the certified noise bound"),
+        "{t}"
+    );
+    let svg = std::fs::read_to_string(tmp("half").join("error.svg")).expect("error.svg");
+    assert!(svg.contains("certified noise bound"));
+}
+
+#[test]
+fn a_run_at_twice_the_largest_noise_makes_no_claim() {
+    let (_, d) = paper_noise_min();
+    let nu_max = num(&d["noise"], "max_amplitude");
+    let out = simulate_with_noise(2.0 * nu_max, "twice");
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(
+        t.contains("no bound is certified at this noise level"),
+        "{t}"
+    );
+    assert!(!t.contains("certified noise bound"), "{t}");
+    assert!(!t.contains("certified envelope"), "{t}");
+    let svg = std::fs::read_to_string(tmp("twice").join("error.svg")).expect("error.svg");
+    assert!(!svg.contains("certified"));
+}
+
+#[test]
+fn tradeoff_writes_the_table_and_the_figure() {
+    let json = tmp("tradeoff.json");
+    let dir = tmp("tradeoff");
+    let out = qpv(&[
+        "tradeoff",
+        "examples/paper.qpv",
+        "--gamma",
+        "0.18898",
+        "--points",
+        "3",
+        "--json",
+        json.to_str().expect("utf-8"),
+        "--plot",
+        dir.to_str().expect("utf-8"),
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    let v: Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("json")).expect("json");
+    assert_eq!(v["schema"], "qpv/1");
+    assert_eq!(v["command"], "tradeoff");
+    assert_eq!(v["model"], "paper_example");
+    let points = v["points"].as_array().expect("points");
+    assert_eq!(points.len(), 3);
+    let alpha_max = num(&v["alpha_max"], "alpha");
+    for p in points {
+        for key in ["alpha", "gamma", "sigma", "error_bound", "max_gain"] {
+            assert!(p[key].is_number(), "{key} in {p}");
+        }
+        assert!(num(p, "alpha") < alpha_max);
+    }
+    let alphas: Vec<f64> = points.iter().map(|p| num(p, "alpha")).collect();
+    assert!(alphas.windows(2).all(|w| w[0] < w[1]), "{alphas:?}");
+    let knee = v["knee"].as_u64().expect("a knee") as usize;
+    assert_eq!(points[knee]["knee"], true);
+    assert_eq!(
+        points.iter().filter(|p| p["knee"] == true).count(),
+        1,
+        "{points:?}"
+    );
+    assert!(t.contains("<- knee"), "{t}");
+    let svg = std::fs::read_to_string(dir.join("tradeoff.svg")).expect("tradeoff.svg");
+    assert!(svg.contains("knee"));
+}
+
+#[test]
+fn tradeoff_rejects_too_few_points() {
+    let out = qpv(&["tradeoff", "examples/paper.qpv", "--points", "1"]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("--points 1"), "{t}");
+}
