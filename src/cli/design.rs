@@ -619,7 +619,7 @@ pub fn run(
             qpv_solve::noise::design_noise_with_progress(
                 &poly,
                 r,
-                &NoiseChannels::default(),
+                &NoiseChannels::from_model(&poly),
                 &settings,
                 &mut progress,
             )

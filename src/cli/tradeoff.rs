@@ -169,7 +169,7 @@ pub fn run(o: Options) -> Result<i32, CliError> {
         return Ok(exit::NOT_CERTIFIED);
     }
     let alphas = default_alphas(fastest.alpha, o.points);
-    let channels = NoiseChannels::default();
+    let channels = NoiseChannels::from_model(&poly);
     let mut points = Vec::with_capacity(alphas.len());
     for (k, &a) in alphas.iter().enumerate() {
         bar.set_message(format!(
