@@ -64,6 +64,8 @@ fn is_token(rule: Rule) -> bool {
             | Rule::kw_halfspaces
             | Rule::kw_state_bound
             | Rule::kw_design
+            | Rule::kw_noise
+            | Rule::kw_disturbance
             | Rule::q_name
             | Rule::kw_auto
             | Rule::EOI
