@@ -57,9 +57,9 @@ fn noise_min_design_bakes_sigma_near_the_reference() {
     let amp = (paper_noise::ALPHA / sigma).sqrt();
     assert!((paper_noise::MAX_NOISE_AMPLITUDE - amp).abs() <= 1e-9 * amp);
     assert!(paper_noise::ERROR_BOUND_PER_NOISE.is_finite());
-    assert!(paper_noise::ERROR_BOUND_PER_NOISE > 0.0);
-    assert!(paper_noise::MAX_STEP_EULER > 0.0);
-    assert!(paper_noise::STEP_ESTIMATE_RK4 > 0.0);
+    const _: () = assert!(paper_noise::ERROR_BOUND_PER_NOISE > 0.0);
+    const _: () = assert!(paper_noise::MAX_STEP_EULER > 0.0);
+    const _: () = assert!(paper_noise::STEP_ESTIMATE_RK4 > 0.0);
     assert_eq!(paper_noise::EULER_BETA, paper_noise::ALPHA / 2.0);
 }
 
