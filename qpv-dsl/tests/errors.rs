@@ -89,6 +89,7 @@ fn cases() -> Vec<(
         ("h inside the region", r("region box(1);", "region box(1); state_bound auto(h = 0.5);"), 7, 41, "0.5", "`h` = 0.5 is too small: F must contain the region"),
         ("h twice", r("region box(1);", "region box(1); state_bound auto(h = 2, h = 3);"), 7, 44, "h", "`h` is set twice (first at 7:37)"),
         ("state in h", r("region box(1);", "region box(1); state_bound auto(h = x1);"), 7, 41, "x1", "state `x1` cannot appear in the state bound option h"),
+        ("state_bound auto with disturbances", r("region box(1);", "region box(1); disturbance w; B_w = [1; 0]; state_bound auto;"), 7, 49, "", "`state_bound auto` computes an invariant ellipsoid of the undisturbed plant"),
         ("auto without parentheses", r("region box(1);", "region box(1); state_bound auto h = 2;"), 7, 37, "h", "expected `(` or `;`, found `h`"),
         ("empty auto options", r("region box(1);", "region box(1); state_bound auto();"), 7, 37, ")", "expected a state bound option (`h = ...`), found `)`"),
         ("auto and Q", r("region box(1);", "region box(1); state_bound auto; state_bound Q = [2, 0; 0, 2];"), 7, 38, "state_bound Q = [2, 0; 0, 2];", "the state bound is given twice (first at 7:20)"),

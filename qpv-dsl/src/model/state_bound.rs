@@ -54,6 +54,18 @@ impl Builder<'_> {
         };
         let lit = match bound {
             ast::BoundDecl::Given(lit) => lit,
+            ast::BoundDecl::Auto(_) if !self.names.disturbances.is_empty() => {
+                // The computed F is invariant for the undisturbed plant only;
+                // the certificate assumes x stays in F, so a disturbed plant
+                // needs a bound the user vouches for.
+                return Err(Diag::new(
+                    span,
+                    "`state_bound auto` computes an invariant ellipsoid of the undisturbed \
+                     plant, but this model declares process disturbances, which can drive x out \
+                     of it; give a Q that contains the disturbed trajectory \
+                     (`state_bound Q = [..];`)",
+                ));
+            }
             ast::BoundDecl::Auto(options) => return self.auto_bound(options, region),
         };
         let nx = self.names.states.len();
