@@ -2,8 +2,10 @@
 //! [`Status`], the solver settings derived from [`Settings`], and the
 //! BLAS/LAPACK symbols its PSD cones need.
 
+use crate::error::SolveError;
 use crate::settings::Settings;
-use clarabel::solver::{DefaultSettings, SolverStatus};
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
 use serde::{Deserialize, Serialize};
 
 /// The outcome of one call to the SDP solver, as this crate interprets it.
@@ -69,6 +71,76 @@ pub fn clarabel_settings(s: &Settings) -> DefaultSettings<f64> {
         tol_infeas_rel: s.tol_infeas_rel,
         ..DefaultSettings::default()
     }
+}
+
+/// One SDP in Clarabel's standard form: minimise ½xᵀPx + qᵀx subject to
+/// Ax + s = b, s in `cones` (rows of `A` in the order of the cones).
+#[derive(Debug, Clone)]
+pub struct Sdp {
+    /// Quadratic cost (upper triangle).
+    pub p: CscMatrix<f64>,
+    /// Linear cost.
+    pub q: Vec<f64>,
+    /// Constraint matrix.
+    pub a: CscMatrix<f64>,
+    /// Constraint right-hand side.
+    pub b: Vec<f64>,
+    /// Cones, in row order.
+    pub cones: Vec<SupportedConeT<f64>>,
+}
+
+/// What one solver call returned, read by the one rule of this crate.
+#[derive(Debug, Clone)]
+pub struct SdpRun {
+    /// The interpreted status (only a full-accuracy infeasibility
+    /// certificate is [`Status::Infeasible`]).
+    pub status: Status,
+    /// Clarabel's own status, for reports (`AlmostSolved`, `MaxIterations`…).
+    pub detail: String,
+    /// Interior-point iterations.
+    pub iterations: u32,
+    /// Clarabel's solve time in seconds.
+    pub solve_seconds: f64,
+    /// The primal point, when the status can carry one (see [`has_point`])
+    /// and every entry is finite. It is a *candidate*: nothing is feasible
+    /// until the independent certificate says so.
+    pub x: Option<Vec<f64>>,
+}
+
+/// The statuses whose primal point is worth handing to the certificate:
+/// solved, almost solved, or stopped early (insufficient progress, iteration
+/// or time limit) at an interior point. Infeasibility certificates, numerical
+/// errors and unsolved problems carry none.
+pub fn has_point(s: SolverStatus) -> bool {
+    matches!(
+        s,
+        SolverStatus::Solved
+            | SolverStatus::AlmostSolved
+            | SolverStatus::InsufficientProgress
+            | SolverStatus::MaxIterations
+            | SolverStatus::MaxTime
+    )
+}
+
+/// Runs Clarabel once on `sdp`: the only place in the crate that calls the
+/// solver, so every caller reads its answer by the same rule.
+/// The problem data are dropped once the solver holds its own copy, so the
+/// peak memory is one copy, not two.
+pub fn run_sdp(sdp: Sdp, settings: DefaultSettings<f64>) -> Result<SdpRun, SolveError> {
+    ensure_lapack();
+    let mut solver = DefaultSolver::new(&sdp.p, &sdp.q, &sdp.a, &sdp.b, &sdp.cones, settings)
+        .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
+    drop(sdp);
+    solver.solve();
+    let sol = &solver.solution;
+    let point = has_point(sol.status) && sol.x.iter().all(|v| v.is_finite());
+    Ok(SdpRun {
+        status: interpret(sol.status),
+        detail: format!("{:?}", sol.status),
+        iterations: sol.iterations,
+        solve_seconds: sol.solve_time,
+        x: point.then(|| sol.x.clone()),
+    })
 }
 
 /// Makes sure the BLAS/LAPACK symbols Clarabel's PSD cones call are linked.

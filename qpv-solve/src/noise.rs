@@ -41,20 +41,21 @@
 //! The method page docs/method.md states the model; this module is its
 //! solver side.
 
+use crate::backend::{clarabel_settings, run_sdp, Sdp, Status};
 use crate::certificate::{check, combo_lmi, Certificate};
 use crate::conditions::{rate_combos, with_split, Combo, ConditionSet};
-use crate::report::{matrix_to_rows, Design, SearchStep, SolverInfo, Status};
-use crate::sdp::{clarabel_settings, ensure_lapack, interpret, tri, Objective, Problem};
+use crate::linalg::csc::Columns;
+use crate::linalg::svec::svec_index;
+use crate::lmi::{tri, Objective, Problem};
+use crate::report::{matrix_to_rows, Design, SearchStep, SolverInfo};
 use crate::vocab::{BoundSource, Phase};
 use crate::{Settings, SolveError};
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+use clarabel::solver::SupportedConeT;
 use nalgebra::DMatrix;
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Split};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
-
-const SQRT2: f64 = std::f64::consts::SQRT_2;
 
 /// Where noise and disturbances enter: which outputs are measured with
 /// noise (all by default) and, optionally, a process-disturbance matrix
@@ -474,7 +475,6 @@ fn solve_noise_sdp(
     gamma: f64,
     settings: &Settings,
 ) -> Result<NoiseSolve, SolveError> {
-    ensure_lapack();
     let t0 = Instant::now();
     let nx = model.nx();
     let ny = model.ny();
@@ -495,11 +495,11 @@ fn solve_noise_sdp(
     let svar = nv_prob;
     let n = nv_prob + 1;
     // Columns of the region part.
-    let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
-    for (c, col) in cols.iter_mut().enumerate().take(base.a.n) {
+    let mut cols = Columns::new(n);
+    for c in 0..base.a.n {
         for k in base.a.colptr[c]..base.a.colptr[c + 1] {
             if base.a.rowval[k] < cut {
-                col.push((base.a.rowval[k], base.a.nzval[k]));
+                cols.push(base.a.rowval[k], c, base.a.nzval[k]);
             }
         }
     }
@@ -512,18 +512,9 @@ fn solve_noise_sdp(
     let tb = tri(nb);
     let eps = settings.margin_rel * prob.rate_scale(alpha, gamma);
     let np = model.region.vertices.len();
-    let tri_idx = |r: usize, c: usize| c * (c + 1) / 2 + r;
     let mut coef = DMatrix::<f64>::zeros(nb, nb);
-    let push = |cols: &mut Vec<Vec<(usize, f64)>>, row0: usize, v: usize, m: &DMatrix<f64>| {
-        for c in 0..nb {
-            for r in 0..=c {
-                let x = m[(r, c)];
-                if x != 0.0 {
-                    let sc = if r == c { 1.0 } else { SQRT2 };
-                    cols[v].push((row0 + tri_idx(r, c), sc * x));
-                }
-            }
-        }
+    let push = |cols: &mut Columns, row0: usize, v: usize, m: &DMatrix<f64>| {
+        cols.push_svec(row0, v, m, 1.0)
     };
     for (c, combo) in prob.combos().iter().enumerate() {
         // B_w of the combination, and the weight of each Γ̂_l in −γΓ̂E.
@@ -542,7 +533,7 @@ fn solve_noise_sdp(
                 let row0 = b.len();
                 b.resize(row0 + tb, 0.0);
                 for d in 0..nb {
-                    b[row0 + tri_idx(d, d)] = -eps;
+                    b[row0 + svec_index(d, d)] = -eps;
                 }
                 // P̂ variables: top-left He{E K}, top-right γ E B_w.
                 for pc in 0..nx {
@@ -559,7 +550,7 @@ fn solve_noise_sdp(
                             coef.view_mut((0, nx), (nx, nw)).copy_from(&eb);
                             coef.view_mut((nx, 0), (nw, nx)).copy_from(&eb.transpose());
                         }
-                        push(&mut cols, row0, tri_idx(pr, pc), &coef);
+                        push(&mut cols, row0, svec_index(pr, pc), &coef);
                     }
                 }
                 // Γ̂_l variables: top-left −He{D H_l}, noise columns −γ w_l D E.
@@ -598,42 +589,23 @@ fn solve_noise_sdp(
             }
         }
     }
-    // Assemble CSC (rows increase within every column by construction).
-    let m = b.len();
-    let mut colptr = Vec::with_capacity(n + 1);
-    let mut rowval = Vec::new();
-    let mut nzval = Vec::new();
-    colptr.push(0);
-    for col in &cols {
-        for &(r, v) in col {
-            rowval.push(r);
-            nzval.push(v);
-        }
-        colptr.push(rowval.len());
-    }
-    let a = CscMatrix::new(m, n, colptr, rowval, nzval);
-    let pmat = CscMatrix::zeros((n, n));
     let mut q = vec![0.0; n];
     q[svar] = 1.0;
+    let sdp = Sdp {
+        p: CscMatrix::zeros((n, n)),
+        q,
+        a: cols.into_csc(b.len()),
+        b,
+        cones,
+    };
     let assembly_seconds = t0.elapsed().as_secs_f64();
-    let mut solver = DefaultSolver::new(&pmat, &q, &a, &b, &cones, clarabel_settings(settings))
-        .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
-    solver.solve();
-    let sol = &solver.solution;
-    let has_point = matches!(
-        sol.status,
-        SolverStatus::Solved
-            | SolverStatus::AlmostSolved
-            | SolverStatus::InsufficientProgress
-            | SolverStatus::MaxIterations
-            | SolverStatus::MaxTime
-    ) && sol.x.iter().all(|v| v.is_finite());
-    let point = has_point.then(|| prob.unpack(&sol.x[..nv_prob]));
+    let run = run_sdp(sdp, clarabel_settings(settings))?;
+    let point = run.x.as_ref().map(|x| prob.unpack(&x[..nv_prob]));
     Ok(NoiseSolve {
-        status: interpret(sol.status),
-        detail: format!("{:?}", sol.status),
-        iterations: sol.iterations,
-        solve_seconds: sol.solve_time,
+        status: run.status,
+        detail: run.detail,
+        iterations: run.iterations,
+        solve_seconds: run.solve_seconds,
         assembly_seconds,
         point,
     })

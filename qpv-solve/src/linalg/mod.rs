@@ -1,6 +1,7 @@
 //! Small linear-algebra helpers shared by every layer: the svec packing of
 //! symmetric matrices, rows / rowsHe, and matrices as lists of rows.
 
+pub mod csc;
 pub mod rows;
 pub mod svec;
 

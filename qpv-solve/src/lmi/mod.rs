@@ -42,67 +42,31 @@
 
 pub mod skew;
 
-use crate::backend::{clarabel_settings, ensure_lapack, interpret, Status};
+use crate::backend::{clarabel_settings, ensure_lapack, run_sdp, Sdp, Status};
 use crate::conditions::{rate_combos, Combo, ConditionSet, PairTerms, RegionForm};
 use crate::error::SolveError;
+use crate::linalg::csc::Columns;
+use crate::linalg::svec::{svec_index, svec_len, SQRT2};
 use crate::model::{region_radius, validate};
 use crate::settings::Settings;
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+use clarabel::solver::SupportedConeT;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::Conditions;
 use qpv_dsl::PolytopicModel;
 use std::time::Instant;
 
-const SQRT2: f64 = std::f64::consts::SQRT_2;
-
 /// Number of entries of the upper triangle of an n × n matrix.
 #[inline]
 pub fn tri(n: usize) -> usize {
-    n * (n + 1) / 2
+    svec_len(n)
 }
 
 /// Position of (r, c), r ≤ c, in the upper triangle packed column by column.
 #[inline]
 fn tri_idx(r: usize, c: usize) -> usize {
     debug_assert!(r <= c);
-    c * (c + 1) / 2 + r
-}
-
-/// Column-wise builder of a sparse CSC matrix whose rows arrive in
-/// increasing order within every column.
-struct Columns {
-    cols: Vec<Vec<(usize, f64)>>,
-}
-
-impl Columns {
-    fn new(n: usize) -> Self {
-        Columns {
-            cols: vec![Vec::new(); n],
-        }
-    }
-    #[inline]
-    fn push(&mut self, row: usize, col: usize, v: f64) {
-        if v != 0.0 {
-            self.cols[col].push((row, v));
-        }
-    }
-    fn into_csc(self, m: usize) -> CscMatrix<f64> {
-        let n = self.cols.len();
-        let nnz: usize = self.cols.iter().map(|c| c.len()).sum();
-        let mut colptr = Vec::with_capacity(n + 1);
-        let mut rowval = Vec::with_capacity(nnz);
-        let mut nzval = Vec::with_capacity(nnz);
-        colptr.push(0);
-        for col in self.cols {
-            for (r, v) in col {
-                rowval.push(r);
-                nzval.push(v);
-            }
-            colptr.push(rowval.len());
-        }
-        CscMatrix::new(m, n, colptr, rowval, nzval)
-    }
+    svec_index(r, c)
 }
 
 /// What the solve optimises.
@@ -123,19 +87,8 @@ pub enum Objective {
     MaxMargin,
 }
 
-/// One assembled problem in Clarabel's standard form.
-pub struct Assembled {
-    /// Quadratic objective (upper triangle).
-    pub p: CscMatrix<f64>,
-    /// Linear objective.
-    pub q: Vec<f64>,
-    /// Constraint matrix.
-    pub a: CscMatrix<f64>,
-    /// Constraint right-hand side.
-    pub b: Vec<f64>,
-    /// Cones, in row order.
-    pub cones: Vec<SupportedConeT<f64>>,
-}
+/// One assembled problem in Clarabel's standard form (the backend's [`Sdp`]).
+pub type Assembled = Sdp;
 
 /// The raw result of one solve, unscaled to the model's units.
 #[derive(Debug, Clone)]
@@ -833,36 +786,23 @@ impl<'m> Problem<'m> {
             cs.tol_gap_rel = cs.tol_gap_rel.max(settings.search_tol);
             cs.tol_feas = cs.tol_feas.max(settings.search_tol);
         }
-        let mut solver = DefaultSolver::new(&prob.p, &prob.q, &prob.a, &prob.b, &prob.cones, cs)
-            .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
-        drop(prob);
-        solver.solve();
-        let sol = &solver.solution;
-        let status = interpret(sol.status);
-        let has_point = matches!(
-            sol.status,
-            SolverStatus::Solved
-                | SolverStatus::AlmostSolved
-                | SolverStatus::InsufficientProgress
-                | SolverStatus::MaxIterations
-                | SolverStatus::MaxTime
-        ) && sol.x.iter().all(|v| v.is_finite());
-        let (p, gammas) = if has_point {
-            let (p, g) = self.unpack(&sol.x);
-            (Some(p), g)
-        } else {
-            (None, Vec::new())
+        let run = run_sdp(prob, cs)?;
+        let (p, gammas) = match &run.x {
+            Some(x) => {
+                let (p, g) = self.unpack(x);
+                (Some(p), g)
+            }
+            None => (None, Vec::new()),
         };
-        let margin = if objective == Objective::MaxMargin && has_point {
-            sol.x[self.n_vars()]
-        } else {
-            f64::NAN
+        let margin = match &run.x {
+            Some(x) if objective == Objective::MaxMargin => x[self.n_vars()],
+            _ => f64::NAN,
         };
         Ok(SolveResult {
-            status,
-            detail: format!("{:?}", sol.status),
-            iterations: sol.iterations,
-            solve_seconds: sol.solve_time,
+            status: run.status,
+            detail: run.detail,
+            iterations: run.iterations,
+            solve_seconds: run.solve_seconds,
             assembly_seconds,
             p,
             gammas,

@@ -1,14 +1,15 @@
 //! Step 1 of the skew-slack alternation: with P fixed, the largest α over
 //! the gains Γ_l and the skew slack K_{k,l} jointly (one SDP).
 
-use crate::backend::{clarabel_settings, ensure_lapack, interpret, Status};
+use crate::backend::{clarabel_settings, run_sdp, Sdp, Status};
 use crate::conditions::rate_combos;
 use crate::error::SolveError;
+use crate::linalg::csc::Columns;
 use crate::linalg::rows::{rows, rows_he};
 use crate::linalg::svec::svec_into;
 use crate::settings::Settings;
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSolver, IPSolver, SupportedConeT};
+use clarabel::solver::SupportedConeT;
 use nalgebra::DMatrix;
 use qpv_dsl::PolytopicModel;
 
@@ -27,7 +28,6 @@ pub fn max_alpha_fixed_p(
     gamma: f64,
     settings: &Settings,
 ) -> Result<Option<FixedP>, SolveError> {
-    ensure_lapack();
     let (nx, ny, nv) = (model.nx(), model.ny(), model.nv());
     // The LMIs are homogeneous in (P, Γ): work with P̂ = P/λ_max(P).
     let lmax = p.clone().symmetric_eigenvalues().max();
@@ -48,20 +48,13 @@ pub fn max_alpha_fixed_p(
         + 1.0;
     let eps = settings.margin_rel * kappa;
     // Column-wise sparse A, b, cones: one PSD(nx) block per (combination, i, j).
-    let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
+    let mut cols = Columns::new(n);
     let mut b: Vec<f64> = Vec::new();
     let mut cones = Vec::new();
     let he = |x: &DMatrix<f64>| x + x.transpose();
-    let mut buf = vec![0.0; t];
-    let mut push =
-        |cols: &mut Vec<Vec<(usize, f64)>>, row0: usize, var: usize, mat: &DMatrix<f64>| {
-            svec_into(mat, &mut buf);
-            for (r, v) in buf.iter().enumerate() {
-                if *v != 0.0 {
-                    cols[var].push((row0 + r, *v));
-                }
-            }
-        };
+    let push = |cols: &mut Columns, row0: usize, var: usize, mat: &DMatrix<f64>| {
+        cols.push_svec(row0, var, &((mat + mat.transpose()) * 0.5), 1.0)
+    };
     // −He{P̂ rows(E_ab^k, x)} for the skew basis E_ab − E_ba (a < b) of K_k,
     // per region vertex: the K columns of every block at that e-vertex.
     let k_basis: Vec<Vec<DMatrix<f64>>> = xs
@@ -143,20 +136,9 @@ pub fn max_alpha_fixed_p(
     // α ≤ cap keeps the problem bounded.
     let row = b.len();
     b.push(settings.alpha_cap);
-    cols[avar].push((row, 1.0));
+    cols.push(row, avar, 1.0);
     cones.push(SupportedConeT::NonnegativeConeT(1));
-    let mrows = b.len();
-    let mut colptr = vec![0];
-    let mut rowval = Vec::new();
-    let mut nzval = Vec::new();
-    for col in &cols {
-        for &(r, v) in col {
-            rowval.push(r);
-            nzval.push(v);
-        }
-        colptr.push(rowval.len());
-    }
-    let a = CscMatrix::new(mrows, n, colptr, rowval, nzval);
+    let a = cols.into_csc(b.len());
     // Objective: −α + ½ w (‖Γ̂‖² + ‖K‖²) with a tiny w: it only keeps the
     // problem bounded in directions α does not care about (a weight like
     // the design's gain regularisation costs α here: measured 10.6 → 4.9).
@@ -170,14 +152,19 @@ pub fn max_alpha_fixed_p(
     );
     let mut q = vec![0.0; n];
     q[avar] = -1.0;
-    let mut solver = DefaultSolver::new(&pdiag, &q, &a, &b, &cones, clarabel_settings(settings))
-        .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
-    solver.solve();
-    let sol = &solver.solution;
-    if interpret(sol.status) != Status::Solved || !sol.x.iter().all(|v| v.is_finite()) {
-        return Ok(None);
-    }
-    let x = &sol.x;
+    let sdp = Sdp {
+        p: pdiag,
+        q,
+        a,
+        b,
+        cones,
+    };
+    let run = run_sdp(sdp, clarabel_settings(settings))?;
+    // Only a solved α is used here (the caller certifies it).
+    let x = match run.x {
+        Some(x) if run.status == Status::Solved => x,
+        _ => return Ok(None),
+    };
     let pinv = match p.clone().cholesky() {
         Some(ch) => ch.inverse(),
         None => return Ok(None),

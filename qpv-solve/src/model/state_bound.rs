@@ -40,15 +40,17 @@
 //! re-checked by [`check`] with nalgebra eigenvalues in model units before
 //! it is used; an h whose solution does not pass counts as infeasible.
 
-use crate::backend::{clarabel_settings, ensure_lapack, interpret, Status};
+use crate::backend::{clarabel_settings, run_sdp, Sdp, SdpRun, Status};
 use crate::error::SolveError;
+use crate::linalg::csc::Columns;
 use crate::linalg::matrix_to_rows;
 use crate::linalg::rows::rows;
+use crate::linalg::svec::{svec_index, svec_scale};
 use crate::model::{gamma_max, gamma_max_for};
 use crate::settings::Settings;
 use crate::vocab::BoundSource;
 use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+use clarabel::solver::SupportedConeT;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{PolytopicModel, Split, StateBound};
 use serde::{Deserialize, Serialize};
@@ -60,8 +62,6 @@ pub const MAX_STATES: usize = 12;
 /// Most invariance blocks (box vertices × θ-vertices) per solve (about a
 /// minute per solve at this size on one core).
 pub const MAX_BLOCKS: usize = 16_384;
-
-const SQRT2: f64 = std::f64::consts::SQRT_2;
 
 /// How the box size h is searched when the model does not fix it.
 #[derive(Debug, Clone, PartialEq)]
@@ -307,32 +307,6 @@ pub fn check(model: &PolytopicModel, w: &DMatrix<f64>, h: f64) -> BoundCheck {
     }
 }
 
-/// Column-wise sparse builder (rows pushed in increasing order per column).
-struct Cols(Vec<Vec<(usize, f64)>>);
-
-impl Cols {
-    fn push(&mut self, row: usize, col: usize, v: f64) {
-        if v != 0.0 {
-            self.0[col].push((row, v));
-        }
-    }
-    fn into_csc(self, m: usize) -> CscMatrix<f64> {
-        let n = self.0.len();
-        let mut colptr = Vec::with_capacity(n + 1);
-        let mut rowval = Vec::new();
-        let mut nzval = Vec::new();
-        colptr.push(0);
-        for col in self.0 {
-            for (r, v) in col {
-                rowval.push(r);
-                nzval.push(v);
-            }
-            colptr.push(rowval.len());
-        }
-        CscMatrix::new(m, n, colptr, rowval, nzval)
-    }
-}
-
 /// Index of Ŵ_rc (r ≤ c) among the variables.
 #[inline]
 fn wvar(r: usize, c: usize) -> usize {
@@ -342,7 +316,7 @@ fn wvar(r: usize, c: usize) -> usize {
 
 /// The SDP at one box size, in box coordinates z = D⁻¹x.
 struct Lmi {
-    cols: Cols,
+    cols: Columns,
     b: Vec<f64>,
     cones: Vec<SupportedConeT<f64>>,
 }
@@ -361,8 +335,8 @@ impl Lmi {
         let mut entries: Vec<Vec<(usize, f64)>> = vec![Vec::new(); nvars];
         for c in 0..n {
             for r in 0..=c {
-                let row = base + c * (c + 1) / 2 + r;
-                let scale = if r == c { 1.0 } else { SQRT2 };
+                let row = base + svec_index(r, c);
+                let scale = svec_scale(r, c);
                 self.b.push(scale * f0[(r, c)]);
                 for (k, coef) in lin(r, c) {
                     entries[k].push((row, -scale * coef));
@@ -398,9 +372,9 @@ pub fn solve_at(
     let t0 = Instant::now();
     let nx = model.nx();
     let half: Vec<f64> = box_shape(model).iter().map(|b| b * h).collect();
-    let (status, x) = solve_lmi(model, &half, settings, Kind::Full)?;
+    let run = solve_lmi(model, &half, settings, Kind::Full)?;
     let mut found = None;
-    if let Some(x) = x {
+    if let Some(x) = &run.x {
         // W = D⁻¹ Ŵ D⁻¹
         let w = DMatrix::from_fn(nx, nx, |r, c| x[wvar(r, c)] / (half[r] * half[c]));
         let chk = check(model, &w, h);
@@ -428,8 +402,8 @@ pub fn solve_at(
     }
     let step = BoundStep {
         h,
-        status: interpret(status),
-        detail: format!("{status:?}"),
+        status: run.status,
+        detail: run.detail,
         gamma_max: found.as_ref().map(|b| b.gamma_max),
         seconds: t0.elapsed().as_secs_f64(),
     };
@@ -441,10 +415,10 @@ pub fn solve_at(
 /// solver estimate, used only as a stopping rule (never as a claim).
 fn geometric_bound(model: &PolytopicModel, settings: &Settings) -> Result<Option<f64>, SolveError> {
     let r = region_reach(model);
-    let (status, x) = solve_lmi(model, &r, settings, Kind::Geometric)?;
+    let run = solve_lmi(model, &r, settings, Kind::Geometric)?;
     let nw = model.nx() * (model.nx() + 1) / 2;
-    Ok(match (status, x) {
-        (SolverStatus::Solved, Some(x)) if x[nw] > 0.0 => Some(1.0 / x[nw].sqrt()),
+    Ok(match (run.status, run.x) {
+        (Status::Solved, Some(x)) if x[nw] > 0.0 => Some(1.0 / x[nw].sqrt()),
         _ => None,
     })
 }
@@ -454,10 +428,10 @@ fn geometric_bound(model: &PolytopicModel, settings: &Settings) -> Result<Option
 /// estimate, used only to place the grid.
 fn smallest_box(model: &PolytopicModel, settings: &Settings) -> Result<Option<f64>, SolveError> {
     let shape = box_shape(model);
-    let (status, x) = solve_lmi(model, &shape, settings, Kind::MinBox)?;
+    let run = solve_lmi(model, &shape, settings, Kind::MinBox)?;
     let nw = model.nx() * (model.nx() + 1) / 2;
-    Ok(match (status, x) {
-        (SolverStatus::Solved, Some(x)) if x[nw] > 0.0 => Some(x[nw].sqrt()),
+    Ok(match (run.status, run.x) {
+        (Status::Solved, Some(x)) if x[nw] > 0.0 => Some(x[nw].sqrt()),
         _ => None,
     })
 }
@@ -481,7 +455,7 @@ fn solve_lmi(
     half: &[f64],
     settings: &Settings,
     kind: Kind,
-) -> Result<(SolverStatus, Option<Vec<f64>>), SolveError> {
+) -> Result<SdpRun, SolveError> {
     let nx = model.nx();
     let eps = settings.margin_rel;
     let nw = nx * (nx + 1) / 2;
@@ -511,7 +485,7 @@ fn solve_lmi(
     let kappa = 1.0 + k_hat.iter().map(|k| k.norm()).fold(0.0, f64::max);
 
     let mut lmi = Lmi {
-        cols: Cols(vec![Vec::new(); nvars]),
+        cols: Columns::new(nvars),
         b: Vec::new(),
         cones: Vec::new(),
     };
@@ -608,25 +582,16 @@ fn solve_lmi(
         );
     }
     let m = lmi.b.len();
-    let a = lmi.cols.into_csc(m);
-    let p = CscMatrix::zeros((nvars, nvars));
-    let mut q = vec![0.0; nvars];
-    q[tvar] = 1.0;
-
-    ensure_lapack();
-    let mut solver =
-        DefaultSolver::new(&p, &q, &a, &lmi.b, &lmi.cones, clarabel_settings(settings))
-            .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
-    solver.solve();
-    let sol = &solver.solution;
-    let has_point = !matches!(
-        sol.status,
-        SolverStatus::PrimalInfeasible
-            | SolverStatus::DualInfeasible
-            | SolverStatus::Unsolved
-            | SolverStatus::NumericalError
-    ) && sol.x.iter().all(|v| v.is_finite());
-    Ok((sol.status, has_point.then(|| sol.x.clone())))
+    let sdp = Sdp {
+        p: CscMatrix::zeros((nvars, nvars)),
+        q: (0..nvars)
+            .map(|v| if v == tvar { 1.0 } else { 0.0 })
+            .collect(),
+        a: lmi.cols.into_csc(m),
+        b: lmi.b,
+        cones: lmi.cones,
+    };
+    run_sdp(sdp, clarabel_settings(settings))
 }
 
 /// Computes the state bound of `model` (N_k as represented in `model`):

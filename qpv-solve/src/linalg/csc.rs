@@ -1,0 +1,97 @@
+//! The one sparse builder of the SDPs: Clarabel's constraint matrix `A`
+//! assembled column by column, with row blocks packed as `svec` (see
+//! [`super::svec`]).
+
+use super::svec::{svec_index, svec_scale};
+use clarabel::algebra::CscMatrix;
+use nalgebra::DMatrix;
+
+/// Column-wise builder of a sparse CSC matrix. Within every column, rows must
+/// arrive in increasing order (every assembly here fills one row block after
+/// the other, so they do); zeros are not stored.
+#[derive(Debug, Clone)]
+pub struct Columns {
+    cols: Vec<Vec<(usize, f64)>>,
+}
+
+impl Columns {
+    /// An empty builder for `n` columns (the SDP's variables).
+    pub fn new(n: usize) -> Self {
+        Columns {
+            cols: vec![Vec::new(); n],
+        }
+    }
+
+    /// Number of columns.
+    pub fn n(&self) -> usize {
+        self.cols.len()
+    }
+
+    /// Entry (`row`, `col`) = `v`; zeros are skipped.
+    #[inline]
+    pub fn push(&mut self, row: usize, col: usize, v: f64) {
+        if v != 0.0 {
+            self.cols[col].push((row, v));
+        }
+    }
+
+    /// Column `col` of a PSD row block starting at `row0`: the `svec`
+    /// packing of the symmetric matrix `m` (upper triangle, column by
+    /// column, off-diagonal entries ×√2), times `sign`.
+    pub fn push_svec(&mut self, row0: usize, col: usize, m: &DMatrix<f64>, sign: f64) {
+        let n = m.nrows();
+        for c in 0..n {
+            for r in 0..=c {
+                self.push(
+                    row0 + svec_index(r, c),
+                    col,
+                    sign * svec_scale(r, c) * m[(r, c)],
+                );
+            }
+        }
+    }
+
+    /// The CSC matrix with `m` rows.
+    pub fn into_csc(self, m: usize) -> CscMatrix<f64> {
+        let n = self.cols.len();
+        let nnz: usize = self.cols.iter().map(|c| c.len()).sum();
+        let mut colptr = Vec::with_capacity(n + 1);
+        let mut rowval = Vec::with_capacity(nnz);
+        let mut nzval = Vec::with_capacity(nnz);
+        colptr.push(0);
+        for col in self.cols {
+            for (r, v) in col {
+                rowval.push(r);
+                nzval.push(v);
+            }
+            colptr.push(rowval.len());
+        }
+        CscMatrix::new(m, n, colptr, rowval, nzval)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn svec_block_is_packed_upper_triangle_with_sqrt2() {
+        let m = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 3.0]);
+        let mut cols = Columns::new(2);
+        cols.push_svec(0, 1, &m, -1.0);
+        let a = cols.into_csc(3);
+        assert_eq!(a.colptr, vec![0, 0, 3]);
+        assert_eq!(a.rowval, vec![0, 1, 2]);
+        let s2 = std::f64::consts::SQRT_2;
+        assert_eq!(a.nzval, vec![-1.0, -2.0 * s2, -3.0]);
+    }
+
+    #[test]
+    fn zeros_are_not_stored() {
+        let mut cols = Columns::new(1);
+        cols.push(0, 0, 0.0);
+        cols.push(1, 0, 4.0);
+        let a = cols.into_csc(2);
+        assert_eq!((a.rowval, a.nzval), (vec![1], vec![4.0]));
+    }
+}
