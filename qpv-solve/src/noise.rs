@@ -43,10 +43,13 @@
 
 use crate::backend::{clarabel_settings, run_sdp, Sdp, Status};
 use crate::certificate::{check, combo_lmi, Certificate};
-use crate::conditions::{rate_combos, with_split, Combo, ConditionSet};
+use crate::conditions::{rate_combos, Combo, ConditionSet};
 use crate::linalg::csc::Columns;
 use crate::linalg::svec::svec_index;
 use crate::lmi::{tri, Objective, Problem};
+use crate::model::output_filter::OutputRouteInfo;
+use crate::model::state_bound::StateBoundInfo;
+use crate::model::{ObserverModel, ObserverOptions, StateBoundClaim};
 use crate::report::{matrix_to_rows, Design, SearchStep, SolverInfo};
 use crate::vocab::{BoundSource, Phase};
 use crate::{Settings, SolveError};
@@ -476,49 +479,24 @@ fn solve_noise_sdp(
     settings: &Settings,
 ) -> Result<NoiseSolve, SolveError> {
     let t0 = Instant::now();
-    let nx = model.nx();
-    let ny = model.ny();
-    let base = prob.assemble(alpha, gamma, settings, Objective::Feasibility);
-    let n_rate = prob.n_rate_blocks();
-    let t = tri(nx);
-    let cut = base.b.len() - n_rate * t;
-    let n_cones = base.cones.len() - n_rate;
-    if base.cones[n_cones..]
-        .iter()
-        .any(|c| !matches!(c, SupportedConeT::PSDTriangleConeT(k) if *k == nx))
-    {
-        return Err(SolveError::Setup(
-            "unexpected cone layout of the rate family".into(),
-        ));
-    }
     let nv_prob = prob.n_vars();
     let svar = nv_prob;
     let n = nv_prob + 1;
-    // Columns of the region part.
-    let mut cols = Columns::new(n);
-    for c in 0..base.a.n {
-        for k in base.a.colptr[c]..base.a.colptr[c + 1] {
-            if base.a.rowval[k] < cut {
-                cols.push(base.a.rowval[k], c, base.a.nzval[k]);
-            }
-        }
-    }
-    let mut b: Vec<f64> = base.b[..cut].to_vec();
-    let mut cones: Vec<SupportedConeT<f64>> = base.cones[..n_cones].to_vec();
-    let outs = channels.noisy_outputs(ny);
-    let nw = channels.n_w();
-    let k = nw + outs.len();
-    let nb = nx + k;
-    let tb = tri(nb);
-    let eps = settings.margin_rel * prob.rate_scale(alpha, gamma);
-    let np = model.region.vertices.len();
-    let mut coef = DMatrix::<f64>::zeros(nb, nb);
-    let push = |cols: &mut Columns, row0: usize, v: usize, m: &DMatrix<f64>| {
-        cols.push_svec(row0, v, m, 1.0)
+    let (mut cols, mut b, mut cones) = without_rate_blocks(prob, model, alpha, gamma, settings, n)?;
+    let outs = channels.noisy_outputs(model.ny());
+    let block = NoiseBlock {
+        nx: model.nx(),
+        ny: model.ny(),
+        nw: channels.n_w(),
+        outs: &outs,
+        svar,
+        gamma,
+        eps: settings.margin_rel * prob.rate_scale(alpha, gamma),
     };
+    let np = model.region.vertices.len();
     for (c, combo) in prob.combos().iter().enumerate() {
         // B_w of the combination, and the weight of each Γ̂_l in −γΓ̂E.
-        let mut bw = DMatrix::zeros(nx, nw);
+        let mut bw = DMatrix::zeros(block.nx, block.nw);
         let mut wl = vec![0.0; model.nv()];
         for &(l, _, w) in &combo.terms {
             if let Some(bb) = &channels.b_w {
@@ -526,66 +504,11 @@ fn solve_noise_sdp(
             }
             wl[l] += w;
         }
-        let wsum = combo.weight();
         for i in 0..np {
             for j in 0..np {
                 let (kk, hs) = prob.rate_kh(alpha, gamma, c, i, j);
-                let row0 = b.len();
-                b.resize(row0 + tb, 0.0);
-                for d in 0..nb {
-                    b[row0 + svec_index(d, d)] = -eps;
-                }
-                // P̂ variables: top-left He{E K}, top-right γ E B_w.
-                for pc in 0..nx {
-                    for pr in 0..=pc {
-                        coef.fill(0.0);
-                        let mut e = DMatrix::<f64>::zeros(nx, nx);
-                        e[(pr, pc)] = 1.0;
-                        e[(pc, pr)] = 1.0;
-                        let ek = &e * &kk;
-                        let he = &ek + ek.transpose();
-                        coef.view_mut((0, 0), (nx, nx)).copy_from(&he);
-                        if nw > 0 {
-                            let eb = &e * &bw * gamma;
-                            coef.view_mut((0, nx), (nx, nw)).copy_from(&eb);
-                            coef.view_mut((nx, 0), (nw, nx)).copy_from(&eb.transpose());
-                        }
-                        push(&mut cols, row0, svec_index(pr, pc), &coef);
-                    }
-                }
-                // Γ̂_l variables: top-left −He{D H_l}, noise columns −γ w_l D E.
-                for (l, &wl_l) in wl.iter().enumerate() {
-                    let h = hs.iter().find(|(g, _)| *g == l).map(|(_, h)| h);
-                    if h.is_none() && wl_l == 0.0 {
-                        continue;
-                    }
-                    for gr in 0..nx {
-                        for gc in 0..ny {
-                            coef.fill(0.0);
-                            if let Some(h) = h {
-                                let mut d = DMatrix::<f64>::zeros(nx, ny);
-                                d[(gr, gc)] = 1.0;
-                                let dh = &d * h;
-                                let he = -(&dh + dh.transpose());
-                                coef.view_mut((0, 0), (nx, nx)).copy_from(&he);
-                            }
-                            if let Some(pos) = outs.iter().position(|&o| o == gc) {
-                                let v = -gamma * wl_l;
-                                coef[(gr, nx + nw + pos)] = v;
-                                coef[(nx + nw + pos, gr)] = v;
-                            }
-                            let var = nx * (nx + 1) / 2 + l * nx * ny + gr * ny + gc;
-                            push(&mut cols, row0, var, &coef);
-                        }
-                    }
-                }
-                // σ̂: bottom-right −γ W σ̂ I.
-                coef.fill(0.0);
-                for d in nx..nb {
-                    coef[(d, d)] = -gamma * wsum;
-                }
-                push(&mut cols, row0, svar, &coef);
-                cones.push(SupportedConeT::PSDTriangleConeT(nb));
+                block.push(&mut cols, &mut b, &kk, &hs, &bw, &wl, combo.weight());
+                cones.push(SupportedConeT::PSDTriangleConeT(block.size()));
             }
         }
     }
@@ -609,6 +532,136 @@ fn solve_noise_sdp(
         assembly_seconds,
         point,
     })
+}
+
+/// An SDP under construction: its constraint columns, right-hand side and cones.
+type SdpParts = (Columns, Vec<f64>, Vec<SupportedConeT<f64>>);
+
+/// The design SDP at (α, γ) without its rate blocks (they are replaced by
+/// the noise blocks), as columns for `n` variables, right-hand side and cones.
+fn without_rate_blocks(
+    prob: &Problem,
+    model: &PolytopicModel,
+    alpha: f64,
+    gamma: f64,
+    settings: &Settings,
+    n: usize,
+) -> Result<SdpParts, SolveError> {
+    let nx = model.nx();
+    let base = prob.assemble(alpha, gamma, settings, Objective::Feasibility);
+    let n_rate = prob.n_rate_blocks();
+    let cut = base.b.len() - n_rate * tri(nx);
+    let n_cones = base.cones.len() - n_rate;
+    if base.cones[n_cones..]
+        .iter()
+        .any(|c| !matches!(c, SupportedConeT::PSDTriangleConeT(k) if *k == nx))
+    {
+        return Err(SolveError::Setup(
+            "unexpected cone layout of the rate family".into(),
+        ));
+    }
+    let mut cols = Columns::new(n);
+    for c in 0..base.a.n {
+        for k in base.a.colptr[c]..base.a.colptr[c + 1] {
+            if base.a.rowval[k] < cut {
+                cols.push(base.a.rowval[k], c, base.a.nzval[k]);
+            }
+        }
+    }
+    Ok((cols, base.b[..cut].to_vec(), base.cones[..n_cones].to_vec()))
+}
+
+/// One noise block of the SDP, in the variables (P̂, Γ̂_l, σ̂): the rate
+/// block He{P̂K − Γ̂H} bordered by the disturbance columns γP̂B_w and the
+/// noise columns −γΓ̂E, with −γσ̂I in the bottom-right corner, ⪯ −εI.
+struct NoiseBlock<'a> {
+    nx: usize,
+    ny: usize,
+    nw: usize,
+    outs: &'a [usize],
+    svar: usize,
+    gamma: f64,
+    eps: f64,
+}
+
+impl NoiseBlock<'_> {
+    /// Side of the block: states, disturbances, noisy outputs.
+    fn size(&self) -> usize {
+        self.nx + self.nw + self.outs.len()
+    }
+
+    /// Appends the block of one (combination, region-vertex pair): `kk` and
+    /// `hs` from [`Problem::rate_kh`], the combination's B_w, the weight of
+    /// each Γ̂_l, and the combination's total weight.
+    #[allow(clippy::too_many_arguments)]
+    fn push(
+        &self,
+        cols: &mut Columns,
+        b: &mut Vec<f64>,
+        kk: &DMatrix<f64>,
+        hs: &[(usize, DMatrix<f64>)],
+        bw: &DMatrix<f64>,
+        wl: &[f64],
+        wsum: f64,
+    ) {
+        let (nx, ny, nw, nb, gamma) = (self.nx, self.ny, self.nw, self.size(), self.gamma);
+        let row0 = b.len();
+        b.resize(row0 + tri(nb), 0.0);
+        for d in 0..nb {
+            b[row0 + svec_index(d, d)] = -self.eps;
+        }
+        let mut coef = DMatrix::<f64>::zeros(nb, nb);
+        // P̂ variables: top-left He{E K}, top-right γ E B_w.
+        for pc in 0..nx {
+            for pr in 0..=pc {
+                coef.fill(0.0);
+                let mut e = DMatrix::<f64>::zeros(nx, nx);
+                e[(pr, pc)] = 1.0;
+                e[(pc, pr)] = 1.0;
+                let ek = &e * kk;
+                let he = &ek + ek.transpose();
+                coef.view_mut((0, 0), (nx, nx)).copy_from(&he);
+                if nw > 0 {
+                    let eb = &e * bw * gamma;
+                    coef.view_mut((0, nx), (nx, nw)).copy_from(&eb);
+                    coef.view_mut((nx, 0), (nw, nx)).copy_from(&eb.transpose());
+                }
+                cols.push_svec(row0, svec_index(pr, pc), &coef, 1.0);
+            }
+        }
+        // Γ̂_l variables: top-left −He{D H_l}, noise columns −γ w_l D E.
+        for (l, &wl_l) in wl.iter().enumerate() {
+            let h = hs.iter().find(|(g, _)| *g == l).map(|(_, h)| h);
+            if h.is_none() && wl_l == 0.0 {
+                continue;
+            }
+            for gr in 0..nx {
+                for gc in 0..ny {
+                    coef.fill(0.0);
+                    if let Some(h) = h {
+                        let mut d = DMatrix::<f64>::zeros(nx, ny);
+                        d[(gr, gc)] = 1.0;
+                        let dh = &d * h;
+                        let he = -(&dh + dh.transpose());
+                        coef.view_mut((0, 0), (nx, nx)).copy_from(&he);
+                    }
+                    if let Some(pos) = self.outs.iter().position(|&o| o == gc) {
+                        let v = -gamma * wl_l;
+                        coef[(gr, nx + nw + pos)] = v;
+                        coef[(nx + nw + pos, gr)] = v;
+                    }
+                    let var = tri(nx) + l * nx * ny + gr * ny + gc;
+                    cols.push_svec(row0, var, &coef, 1.0);
+                }
+            }
+        }
+        // σ̂: bottom-right −γ W σ̂ I.
+        coef.fill(0.0);
+        for d in nx..nb {
+            coef[(d, d)] = -gamma * wsum;
+        }
+        cols.push_svec(row0, self.svar, &coef, 1.0);
+    }
 }
 
 /// L_l = P⁻¹ Γ_l (Cholesky of the symmetric part); None if P is not
@@ -828,15 +881,10 @@ pub fn design_noise(
     design_noise_with_progress(model, request, channels, settings, &mut |_| {})
 }
 
-/// As [`design_noise`], calling `progress` after every solve.
-pub fn design_noise_with_progress(
-    model: &PolytopicModel,
-    request: &DesignRequest,
-    channels: &NoiseChannels,
-    settings: &Settings,
-    progress: &mut dyn FnMut(&SearchStep),
-) -> Result<Design, SolveError> {
-    let t_start = Instant::now();
+/// The fixed α of a `noise = min` request, after checking that the request
+/// is one the noise SDP can answer (sound mode, no skew slack, fixed α, γ in
+/// (0, 1) if fixed).
+fn noise_request_alpha(request: &DesignRequest) -> Result<f64, SolveError> {
     if request.mode != Mode::Sound {
         return Err(SolveError::Unsupported(
             "noise = min needs mode = sound (the paper's printed conditions certify nothing)"
@@ -862,43 +910,20 @@ pub fn design_noise_with_progress(
             return Err(SolveError::BadGamma(g));
         }
     }
-    crate::conditions::validate(model)?;
-    let (resolved, bound_info) = crate::state_bound::resolve(model, settings)?;
-    let (routed, route_info) = crate::output_filter::apply(&resolved, &request.output_route)?;
-    let split_model = with_split(&routed, request.split);
-    let obs: &PolytopicModel = &split_model;
-    channels.validate(model)?;
-    let ch = match &route_info.filter {
-        Some(f) => channels.through_filter(model.nx(), model.ny(), model.nv(), f.gain),
-        None => channels.clone(),
-    };
-    ch.validate(obs)?;
-    let gmax = crate::conditions::gamma_max(obs)
-        .ok_or_else(|| SolveError::MissingStateBound(obs.name.clone()))?;
-    if !(gmax.is_finite() && gmax > 0.0) && matches!(request.gamma, GammaSpec::Search) {
-        return Err(SolveError::NoGammaRange(gmax));
-    }
-    let gamma_hi = gmax.min(1.0) * (1.0 - 1e-6);
-    let prob = Problem::new(obs, ConditionSet::Sound)?;
-    let mut ctx = NoiseCtx {
-        model: obs,
-        channels: &ch,
-        alpha,
-        settings,
-        prob,
-        steps: Vec::new(),
-        progress,
-        last_uncertified: None,
-        last_status: Status::NotRun,
-    };
-    let best = match request.gamma {
-        GammaSpec::Fixed(g) => ctx.at(g, Phase::Noise)?,
-        GammaSpec::Search => ctx.search(gamma_hi, settings.gamma_refine.max(2))?,
-    };
-    let gamma_req = match request.gamma {
-        GammaSpec::Fixed(g) => g,
-        GammaSpec::Search => gamma_hi,
-    };
+    Ok(alpha)
+}
+
+/// The notes of a `noise = min` report: what was minimised, on which
+/// channels, and what of the request the noise SDP does not use.
+fn noise_notes(
+    request: &DesignRequest,
+    alpha: f64,
+    declared: &NoiseChannels,
+    ch: &NoiseChannels,
+    obs: &PolytopicModel,
+    route_info: &OutputRouteInfo,
+    bound_info: &StateBoundInfo,
+) -> Vec<String> {
     let mut notes = vec![format!(
         "noise = min: σ of V' + αV ≤ σ(|w|² + |v|²) minimised at α = {alpha}{}; noise on {}{}",
         match request.gamma {
@@ -910,8 +935,8 @@ pub fn design_noise_with_progress(
         } else {
             format!("{} output(s)", ch.noisy_outputs(obs.ny()).len())
         },
-        if channels.n_w() > 0 {
-            format!(", {} disturbance input(s)", channels.n_w())
+        if declared.n_w() > 0 {
+            format!(", {} disturbance input(s)", declared.n_w())
         } else {
             String::new()
         }
@@ -926,10 +951,21 @@ pub fn design_noise_with_progress(
             bound_info.gamma_max.unwrap_or(f64::NAN)
         ));
     }
+    notes
+}
+
+/// The report of a `noise = min` design: the certified point (`feasible`),
+/// else the last uncertified one for diagnosis, else the data checks only.
+fn noise_report(
+    ctx: &mut NoiseCtx<'_, '_>,
+    split: Split,
+    gamma_req: f64,
+    best: Option<NoisePoint>,
+    notes: Vec<String>,
+) -> Design {
+    let (obs, alpha, status) = (ctx.model, ctx.alpha, ctx.last_status);
     let feasible = best.is_some();
-    let status = ctx.last_status;
     let shown = best.or(ctx.last_uncertified.take());
-    let steps = std::mem::take(&mut ctx.steps);
     let (p_rows, g_rows, l_rows, norms, margins, dchecks, solver, gamma_r, noise) = match &shown {
         Some(pt) => (
             matrix_to_rows(&pt.p),
@@ -980,7 +1016,7 @@ pub fn design_noise_with_progress(
     let mut d = Design {
         model: obs.name.clone(),
         mode: Mode::Sound,
-        split: request.split,
+        split,
         conditions: qpv_dsl::Conditions::Full,
         feasible,
         certifies: feasible,
@@ -994,11 +1030,11 @@ pub fn design_noise_with_progress(
         data_checks: dchecks,
         solver,
         seconds_total: 0.0,
-        search: steps,
+        search: std::mem::take(&mut ctx.steps),
         notes,
         summary,
-        state_bound: Some(bound_info),
-        output_route: Some(route_info),
+        state_bound: None,
+        output_route: None,
         skew: None,
         diagnosis: None,
         noise,
@@ -1008,6 +1044,62 @@ pub fn design_noise_with_progress(
         let (p, l) = (d.p_matrix(), d.l_matrices());
         d.sampling = crate::sampling::sampling(obs, alpha, d.gamma, &p, &l);
     }
+    d
+}
+
+/// As [`design_noise`], calling `progress` after every solve.
+pub fn design_noise_with_progress(
+    model: &PolytopicModel,
+    request: &DesignRequest,
+    channels: &NoiseChannels,
+    settings: &Settings,
+    progress: &mut dyn FnMut(&SearchStep),
+) -> Result<Design, SolveError> {
+    let t_start = Instant::now();
+    let alpha = noise_request_alpha(request)?;
+    let prepared = ObserverModel::prepare(
+        model,
+        &ObserverOptions::for_request(request),
+        StateBoundClaim::Compute(settings),
+    )?;
+    let (bound_info, route_info) = (prepared.state_bound, prepared.output_route);
+    let obs: &PolytopicModel = &prepared.model;
+    channels.validate(model)?;
+    let ch = match &route_info.filter {
+        Some(f) => channels.through_filter(model.nx(), model.ny(), model.nv(), f.gain),
+        None => channels.clone(),
+    };
+    ch.validate(obs)?;
+    let gmax = crate::conditions::gamma_max(obs)
+        .ok_or_else(|| SolveError::MissingStateBound(obs.name.clone()))?;
+    if !(gmax.is_finite() && gmax > 0.0) && matches!(request.gamma, GammaSpec::Search) {
+        return Err(SolveError::NoGammaRange(gmax));
+    }
+    let gamma_hi = gmax.min(1.0) * (1.0 - 1e-6);
+    let prob = Problem::new(obs, ConditionSet::Sound)?;
+    let mut ctx = NoiseCtx {
+        model: obs,
+        channels: &ch,
+        alpha,
+        settings,
+        prob,
+        steps: Vec::new(),
+        progress,
+        last_uncertified: None,
+        last_status: Status::NotRun,
+    };
+    let best = match request.gamma {
+        GammaSpec::Fixed(g) => ctx.at(g, Phase::Noise)?,
+        GammaSpec::Search => ctx.search(gamma_hi, settings.gamma_refine.max(2))?,
+    };
+    let gamma_req = match request.gamma {
+        GammaSpec::Fixed(g) => g,
+        GammaSpec::Search => gamma_hi,
+    };
+    let notes = noise_notes(request, alpha, channels, &ch, obs, &route_info, &bound_info);
+    let mut d = noise_report(&mut ctx, request.split, gamma_req, best, notes);
+    d.state_bound = Some(bound_info);
+    d.output_route = Some(route_info);
     d.seconds_total = t_start.elapsed().as_secs_f64();
     Ok(d)
 }
