@@ -1,8 +1,18 @@
 //! End-to-end tests of the `qpv` command line: exit codes, JSON report keys,
 //! stdout discipline with `--json -`, positioned errors, figures.
+//!
+//! The root of the `cli` test binary: the other command-line test files are
+//! its modules (one link instead of six), sharing the helpers of
+//! tests/common.
 
+mod cli_decoupled;
+mod cli_noise;
+mod cli_output_route;
+mod cli_simulate;
+mod cli_state_bound;
 mod common;
-use common::qpv;
+
+use common::{json_stdout, qpv};
 use std::path::PathBuf;
 use std::process::Output;
 
@@ -16,15 +26,6 @@ fn assert_envelope(doc: &serde_json::Value, command: &str) {
     assert_eq!(doc["schema"], "qpv/1", "{doc}");
     assert_eq!(doc["command"], command);
     assert!(doc["model"].is_string(), "the model's name: {doc}");
-}
-
-fn json_stdout(out: &Output) -> serde_json::Value {
-    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
-        panic!(
-            "stdout is not exactly one JSON document ({e}):\n{}",
-            String::from_utf8_lossy(&out.stdout)
-        )
-    })
 }
 
 #[test]

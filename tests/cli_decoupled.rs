@@ -1,7 +1,7 @@
 //! `qpv design --conditions full|decoupled --split as_written|symmetric`
 //! (docs/method.md §7, §8): the flags reach the design and its report.
 
-mod common;
+use crate::common;
 use common::qpv;
 
 fn design_json(extra: &[&str]) -> (serde_json::Value, String) {

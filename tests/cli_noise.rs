@@ -4,23 +4,15 @@
 //! ν_max and without a claim above it, and `qpv tradeoff`'s table and
 //! figure.
 
-mod common;
+use crate::common;
 
-use common::qpv;
+use common::{num, qpv, text};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
 fn tmp(name: &str) -> PathBuf {
     common::tmp("noise", name)
-}
-
-fn text(out: &std::process::Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
 }
 
 /// Reference of the method page for the paper example (sound mode,
@@ -53,12 +45,6 @@ fn paper_noise_min() -> &'static (PathBuf, Value) {
             serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
         (report, v["designs"][0].clone())
     })
-}
-
-fn num(v: &Value, key: &str) -> f64 {
-    v[key]
-        .as_f64()
-        .unwrap_or_else(|| panic!("{key} missing in {v}"))
 }
 
 #[test]

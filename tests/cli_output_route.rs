@@ -4,7 +4,7 @@
 //! post-filter, the JSON report's `output_route`, and bad `output_route`
 //! values.
 
-mod common;
+use crate::common;
 use common::qpv;
 use std::path::PathBuf;
 use std::process::Output;

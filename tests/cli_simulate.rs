@@ -4,21 +4,13 @@
 //! model's names; `qpv design` explains a failure (no α, margins, a
 //! diagnosis) and refuses a problem too large to solve.
 
-mod common;
+use crate::common;
 
-use common::qpv;
+use common::{qpv, text};
 use std::path::PathBuf;
 
 fn tmp(name: &str) -> PathBuf {
     common::tmp("simulate", name)
-}
-
-fn text(out: &std::process::Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
 }
 
 /// Designs `args` into the report `name` and returns its path.

@@ -1,7 +1,7 @@
 //! `state_bound auto` through the command line: `qpv design`
 //! computes and reports Q, and `qpv check` re-checks the report with it.
 
-mod common;
+use crate::common;
 use common::qpv;
 
 #[test]

@@ -2,6 +2,10 @@
 //! eq. (9) in qpv-solve (`simulate::observer_derivative`), on random inputs:
 //! every component must agree to 1e-12 relative. Also checks μ, the gain,
 //! the plant, θ clamping, NaN handling and the integrators.
+//!
+//! The root of the `generated` test binary; `generated_noise` is a module of
+//! it (one link instead of two) and uses `inline_model!` and the helpers
+//! below.
 
 use nalgebra::DMatrix;
 use qpv::dsl::PolytopicModel;
@@ -17,6 +21,8 @@ macro_rules! inline_model {
         const $text: &str = stringify!($($t)*);
     };
 }
+
+mod generated_noise;
 
 // Inputs, bounds other than [0, 1], a product θ_a θ_b, an unused parameter
 // (no vertex), an output nonlinearity, two designs.
@@ -85,22 +91,8 @@ fn skew_slack_design_is_baked_and_keeps_its_certified_decay() {
     let got = paper_skew::Observer::with_state(&xh).derivative(&y, &[], &th);
     assert!(rel_err(&got, &want) <= 1e-12);
     // V(t) ≤ V(0) e^{−αt} along the paper scenario with the baked P.
-    use std::f64::consts::PI;
-    let theta = |t: f64| {
-        [
-            0.5 + 0.5 * (4.0 * PI * t).sin(),
-            0.5 + 0.5 * (PI * t / 5.0 + PI / 6.0).cos(),
-        ]
-    };
-    let v = |e: &[f64; 3]| -> f64 {
-        (0..3)
-            .map(|i| {
-                (0..3)
-                    .map(|j| e[i] * paper_skew::P[i][j] * e[j])
-                    .sum::<f64>()
-            })
-            .sum()
-    };
+    let theta = paper_theta;
+    let v = |e: &[f64; 3]| quad_form(&paper_skew::P, e);
     let dt = 1e-4;
     let mut x = [-0.02; 3];
     let mut obs = paper_skew::Observer::new();
@@ -199,6 +191,24 @@ impl Rng {
     }
 }
 
+/// θ(t) of the paper's scenario: θ1 = 0.5 + 0.5 sin(4πt),
+/// θ2 = 0.5 + 0.5 cos(πt/5 + π/6).
+fn paper_theta(t: f64) -> [f64; 2] {
+    use std::f64::consts::PI;
+    [
+        0.5 + 0.5 * (4.0 * PI * t).sin(),
+        0.5 + 0.5 * (PI * t / 5.0 + PI / 6.0).cos(),
+    ]
+}
+
+/// eᵀ P e for a baked P (row-major array).
+fn quad_form<const N: usize>(p: &[[f64; N]; N], e: &[f64; N]) -> f64 {
+    (0..N)
+        .map(|i| (0..N).map(|j| e[i] * p[i][j] * e[j]).sum::<f64>())
+        .sum()
+}
+
+/// The polytopic form of the first model in `text`.
 fn polytopic(text: &str) -> PolytopicModel {
     let models = qpv::dsl::parse(text).expect("the test model parses");
     models[0].polytopic()
@@ -412,23 +422,14 @@ fn integrators_are_euler_and_rk4_of_derivative() {
 
 /// V(e) = eᵀ P e with the baked P.
 fn lyapunov(e: &[f64; 3]) -> f64 {
-    let p = paper_sound::P;
-    (0..3)
-        .map(|i| (0..3).map(|j| e[i] * p[i][j] * e[j]).sum::<f64>())
-        .sum()
+    quad_form(&paper_sound::P, e)
 }
 
 #[test]
 fn observer_keeps_its_certified_decay_on_the_paper_scenario() {
     // The paper's scenario: θ1 = 0.5 + 0.5 sin(4πt), θ2 = 0.5 + 0.5 cos(πt/5 + π/6), x(0) = −0.02.
     // e(0) = x(0) is a vertex of the region, so V(t) ≤ V(0) e^{−αt} is certified.
-    use std::f64::consts::PI;
-    let theta = |t: f64| {
-        [
-            0.5 + 0.5 * (4.0 * PI * t).sin(),
-            0.5 + 0.5 * (PI * t / 5.0 + PI / 6.0).cos(),
-        ]
-    };
+    let theta = paper_theta;
     let dt = 1e-4;
     let mut x = [-0.02; 3];
     let mut obs = paper_sound::Observer::new();
@@ -583,19 +584,8 @@ fn theta_dependent_output_filter_route_matches_reference() {
 fn filter_route_observer_converges_on_the_paper_scenario() {
     // The paper's scenario on the plant with C(θ), M_1(θ); e_z(0) = (x(0), 0) is
     // a vertex of the augmented region, so V_z(t) ≤ V_z(0) e^{−αt} is certified.
-    use std::f64::consts::PI;
-    let theta = |t: f64| {
-        [
-            0.5 + 0.5 * (4.0 * PI * t).sin(),
-            0.5 + 0.5 * (PI * t / 5.0 + PI / 6.0).cos(),
-        ]
-    };
-    let v = |e: &[f64; 5]| -> f64 {
-        let p = theta_filt::P;
-        (0..5)
-            .map(|i| (0..5).map(|j| e[i] * p[i][j] * e[j]).sum::<f64>())
-            .sum()
-    };
+    let theta = paper_theta;
+    let v = |e: &[f64; 5]| quad_form(&theta_filt::P, e);
     let dt = 1e-4;
     let mut x = [-0.02; 3];
     let mut obs = theta_filt::Observer::new();
@@ -634,4 +624,31 @@ fn filter_route_observer_converges_on_the_paper_scenario() {
     );
     assert!(e_end < 1e-4 * e0, "error {e0:e} → {e_end:e}");
     assert_eq!(obs.clamped(), 0);
+}
+
+/// The package's test binaries are declared in Cargo.toml (`autotests =
+/// false`): `cli` (tests/cli.rs and its `cli_*` modules) and `generated`
+/// (this file and its modules). A test file that is neither and not a module
+/// of one would silently not run: refuse it.
+#[test]
+fn every_test_file_is_a_module_of_a_declared_binary() {
+    let roots = ["cli.rs", "generated.rs"];
+    let declared = [include_str!("cli.rs"), include_str!("generated.rs")];
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    let mut missing = Vec::new();
+    for entry in std::fs::read_dir(&dir).expect("the tests directory") {
+        let name = entry.expect("a directory entry").file_name();
+        let name = name.to_string_lossy().into_owned();
+        if !name.ends_with(".rs") || roots.contains(&name.as_str()) {
+            continue;
+        }
+        let line = format!("mod {};", name.trim_end_matches(".rs"));
+        if !declared.iter().any(|root| root.lines().any(|l| l == line)) {
+            missing.push(name);
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "tests/{missing:?} belong to no test binary: add `mod NAME;` to tests/cli.rs or tests/generated.rs"
+    );
 }

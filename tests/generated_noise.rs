@@ -3,20 +3,14 @@
 //! value of the paper example, and the certified Euler step shown both
 //! sufficient (the observer converges at 0.8 of it) and not vacuous (the
 //! Euler contraction check fails a little above it).
+//!
+//! A module of the `generated` test binary: `inline_model!`, the scenario
+//! and the helpers come from tests/generated.rs.
 
+use super::{gains, paper_theta, polytopic, quad_form};
 use nalgebra::DMatrix;
-use qpv::dsl::PolytopicModel;
 use qpv::solve::model::{ObserverModel, ObserverOptions, StateBoundClaim};
 use qpv::solve::sampling;
-
-/// Expands a model with `qpv!` (inline tokens) and keeps its text for the
-/// reference side, so both see exactly the same model.
-macro_rules! inline_model {
-    ($text:ident, $($t:tt)*) => {
-        qpv::qpv! { $($t)* }
-        const $text: &str = stringify!($($t)*);
-    };
-}
 
 // The paper's example, σ minimised at α = 5, γ = 0.18898 (sound mode,
 // symmetric split: the defaults), noise on both outputs.
@@ -65,10 +59,7 @@ fn noise_min_design_bakes_sigma_near_the_reference() {
 
 /// V(e) = eᵀ P e with the baked P.
 fn lyapunov(e: &[f64; 3]) -> f64 {
-    let p = paper_noise::P;
-    (0..3)
-        .map(|i| (0..3).map(|j| e[i] * p[i][j] * e[j]).sum::<f64>())
-        .sum()
+    quad_form(&paper_noise::P, e)
 }
 
 #[test]
@@ -77,13 +68,7 @@ fn euler_observer_converges_at_0_8_of_the_certified_step() {
     // x(0) = −0.02 (a vertex of the region), x̂(0) = 0. Plant and observer
     // are discretised by the same Euler step, the setting MAX_STEP_EULER
     // covers: V_k ≤ (1 − h β)^k V_0.
-    use std::f64::consts::PI;
-    let theta = |t: f64| {
-        [
-            0.5 + 0.5 * (4.0 * PI * t).sin(),
-            0.5 + 0.5 * (PI * t / 5.0 + PI / 6.0).cos(),
-        ]
-    };
+    let theta = paper_theta;
     let h = 0.8 * paper_noise::MAX_STEP_EULER;
     let steps = (5.0 / h).ceil() as usize;
     let mut x = [-0.02; 3];
@@ -122,8 +107,7 @@ fn the_certified_euler_step_is_not_vacuous() {
     // The model the design was certified on (sound mode's symmetric split),
     // the baked gains: the Euler contraction check holds at the step and
     // fails at 1.05 times it.
-    let models = qpv::dsl::parse(PAPER_NOISE_TEXT).expect("the test model parses");
-    let plant: PolytopicModel = models[0].polytopic();
+    let plant = polytopic(PAPER_NOISE_TEXT);
     let req = &plant.designs[0];
     let observer = ObserverModel::prepare(
         &plant,
@@ -132,10 +116,7 @@ fn the_certified_euler_step_is_not_vacuous() {
     )
     .expect("the observer model builds");
     let p = DMatrix::from_fn(3, 3, |i, j| paper_noise::P[i][j]);
-    let l: Vec<DMatrix<f64>> = paper_noise::L
-        .iter()
-        .map(|m| DMatrix::from_fn(3, 2, |i, j| m[i][j]))
-        .collect();
+    let l = gains(&paper_noise::L);
     let fs = sampling::vertex_dynamics(&observer.model, paper_noise::GAMMA, &l);
     let beta = paper_noise::EULER_BETA;
     let h = paper_noise::MAX_STEP_EULER;

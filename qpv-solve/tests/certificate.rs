@@ -8,6 +8,7 @@ use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel};
 use qpv_solve::certificate::{alpha_capacity, rate_lmi};
 use qpv_solve::conditions::reference::{paper_model, synthetic_model};
 use qpv_solve::{check, design, Design, Settings};
+use std::sync::OnceLock;
 
 fn fixed(alpha: f64, gamma: f64, mode: Mode) -> DesignRequest {
     let mut r = qpv_solve::request(AlphaSpec::Fixed(alpha), GammaSpec::Fixed(gamma), mode);
@@ -15,15 +16,20 @@ fn fixed(alpha: f64, gamma: f64, mode: Mode) -> DesignRequest {
     r
 }
 
-fn sound_design(model: &PolytopicModel) -> Design {
-    let d = design(
-        model,
-        &fixed(10.0, 0.1889, Mode::Sound),
-        &Settings::default(),
-    )
-    .unwrap();
-    assert!(d.feasible, "{}", d.summary);
-    d
+/// The paper model's certified sound design at α = 10, γ = 0.1889, solved
+/// once for all the tests of this file.
+fn sound_design() -> &'static Design {
+    static D: OnceLock<Design> = OnceLock::new();
+    D.get_or_init(|| {
+        let d = design(
+            &paper_model(),
+            &fixed(10.0, 0.1889, Mode::Sound),
+            &Settings::default(),
+        )
+        .unwrap();
+        assert!(d.feasible, "{}", d.summary);
+        d
+    })
 }
 
 /// Row k of the quadratic term: xᵀ T_k x.
@@ -53,7 +59,7 @@ fn error_rate(
 fn sound_rate_lmi_is_the_true_lyapunov_derivative() {
     // For e = x_(i)/γ, x = x_(j)/γ:  eᵀ(S5 − γαP)e = γ · 2 eᵀ P e'.
     let model = paper_model();
-    let d = sound_design(&model);
+    let d = sound_design();
     let (alpha, gamma) = (d.alpha, d.gamma);
     let p = d.p_matrix();
     let ls = d.l_matrices();
@@ -81,7 +87,7 @@ fn sound_rate_lmi_is_the_true_lyapunov_derivative() {
 fn paper_rate_lmi_has_the_opposite_nonlinear_sign() {
     // (26) flips the sign of the P-term: S5 + (26) = 2·(the linear part).
     let model = paper_model();
-    let d = sound_design(&model);
+    let d = sound_design();
     let p = d.p_matrix();
     let g = &p * &d.l_matrices()[2];
     let (a, gm) = (d.alpha, d.gamma);
@@ -99,7 +105,7 @@ fn paper_rate_lmi_has_the_opposite_nonlinear_sign() {
 #[test]
 fn checker_rejects_broken_inputs() {
     let model = paper_model();
-    let d = sound_design(&model);
+    let d = sound_design();
     let p = d.p_matrix();
     let ls = d.l_matrices();
     let ok = check(&model, Mode::Sound, d.alpha, d.gamma, &p, &ls);
@@ -153,7 +159,7 @@ fn checker_rejects_broken_inputs() {
 #[test]
 fn capacity_is_the_exact_alpha_boundary() {
     let model = paper_model();
-    let d = sound_design(&model);
+    let d = sound_design();
     let p = d.p_matrix();
     let ls = d.l_matrices();
     let gs: Vec<DMatrix<f64>> = ls.iter().map(|l| &p * l).collect();

@@ -11,6 +11,7 @@ use qpv_solve::noise::{check_noise, design_noise, noise_bound, tradeoff, NoiseCh
 use qpv_solve::sampling::{euler_margin, vertex_dynamics};
 use qpv_solve::simulate::Scenario;
 use qpv_solve::{design, request, Design, Settings};
+use std::sync::OnceLock;
 
 const GAMMA: f64 = 0.18898;
 
@@ -28,6 +29,12 @@ fn noise_design(alpha: f64) -> Design {
         &Settings::default(),
     )
     .unwrap()
+}
+
+/// The noise-optimal design at α = 5, solved once for the tests that use it.
+fn noise_design_5() -> &'static Design {
+    static D: OnceLock<Design> = OnceLock::new();
+    D.get_or_init(|| noise_design(5.0))
 }
 
 fn max_gain(d: &Design) -> f64 {
@@ -73,7 +80,7 @@ fn recheck(d: &Design) {
 
 #[test]
 fn noise_optimal_design_alpha_5_matches_reference() {
-    let d = noise_design(5.0);
+    let d = noise_design_5();
     assert!(d.feasible && d.certifies, "{}", d.summary);
     let nb = d.noise.clone().unwrap();
     eprintln!(
@@ -145,7 +152,7 @@ fn ordinary_designs_carry_a_checked_noise_bound_and_sampling() {
     let nb = d.noise.clone().expect("noise bound of a certified design");
     assert!(nb.check.passed);
     // The gain-regularised design is not noise-optimal: its σ is no smaller.
-    let opt = noise_design(5.0).noise.unwrap();
+    let opt = noise_design_5().noise.clone().unwrap();
     assert!(
         nb.sigma >= opt.sigma * 0.999,
         "{} vs {}",
@@ -214,7 +221,7 @@ fn noisy_outputs_subset_and_disturbance_channels() {
 
 #[test]
 fn noise_claim_not_falsified_on_the_true_error_dynamics() {
-    let d = noise_design(5.0);
+    let d = noise_design_5();
     let nb = d.noise.clone().unwrap();
     let report = qpv_solve::noise::falsify_noise(
         &paper_model(),
@@ -232,7 +239,7 @@ fn noise_claim_not_falsified_on_the_true_error_dynamics() {
 
 #[test]
 fn largest_euler_step_is_tight_and_the_euler_observer_converges_below_it() {
-    let d = noise_design(5.0);
+    let d = noise_design_5();
     let s = d.sampling.clone().unwrap();
     eprintln!("{s:?}");
     let m = sym_model();
@@ -311,7 +318,7 @@ fn gamma_search_never_does_worse_than_the_top_of_the_range() {
     )
     .unwrap();
     assert!(d.certifies, "{}", d.summary);
-    let top = noise_design(5.0).noise.unwrap().error_bound;
+    let top = noise_design_5().noise.clone().unwrap().error_bound;
     let got = d.noise.clone().unwrap();
     eprintln!(
         "γ search: σ = {}, bound = {} at γ = {} ({} solves)",

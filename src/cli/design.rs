@@ -240,11 +240,12 @@ fn requests(model: &Model, f: Flags) -> Result<Vec<Planned>, CliError> {
     Ok(plan)
 }
 
-/// Whether a design error is an outcome of the solver rather than bad
-/// input: `state_bound auto` that found no invariant ellipsoid (exit 1,
-/// like any design that is not certified).
+/// Whether a design error is an outcome about the plant rather than bad
+/// input: a `state_bound auto` that found no usable state bound (exit 1,
+/// like any design that is not certified). `SolveError::StateBound` is
+/// exactly that class; refused inputs are `StateBoundInput`.
 fn is_outcome(e: &qpv_solve::SolveError) -> bool {
-    matches!(e, qpv_solve::SolveError::StateBound(m) if m.starts_with("no invariant ellipsoid"))
+    matches!(e, qpv_solve::SolveError::StateBound(_))
 }
 
 fn describe_request(r: &DesignRequest) -> String {

@@ -10,7 +10,7 @@
 //! same for `design` and `check`).
 
 use super::input::CliError;
-use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, OutputRoute, PolytopicModel};
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, OutputRoute, PolytopicModel};
 use qpv_dsl::{Region, StateBound};
 use qpv_solve::report::{matrix_to_rows, DataCheck, Design};
 use qpv_solve::Certificate;
@@ -21,21 +21,6 @@ use std::path::Path;
 
 /// The schema version every document carries in its `schema` key.
 pub const SCHEMA: &str = "qpv/1";
-
-/// The name of a condition set in reports ("sound" or "paper").
-pub fn mode_name(m: Mode) -> &'static str {
-    match m {
-        Mode::Sound => "sound",
-        Mode::Paper => "paper",
-    }
-}
-
-fn conditions_name(c: Conditions) -> &'static str {
-    match c {
-        Conditions::Full => "full",
-        Conditions::Decoupled => "decoupled",
-    }
-}
 
 /// `qpv design --json`: one entry in `designs` per request that produced a
 /// design (the report of [`Design`], keys as qpv-solve writes them), and
@@ -158,7 +143,7 @@ impl<'a> CheckOutput<'a> {
             command: "check",
             model,
             gains: gains.display().to_string(),
-            mode: mode_name(cert.mode),
+            mode: cert.mode.name(),
             mode_source,
             alpha: cert.alpha,
             gamma: cert.gamma,
@@ -320,9 +305,9 @@ fn request_view(r: &DesignRequest) -> RequestView {
             GammaSpec::Fixed(g) => Value::from(g),
             GammaSpec::Search => Value::from("search"),
         },
-        mode: mode_name(r.mode),
+        mode: r.mode.name(),
         split: r.split.name(),
-        conditions: conditions_name(r.conditions),
+        conditions: r.conditions.name(),
         output_route: match r.output_route {
             OutputRoute::DoubleSum => serde_json::json!({"route": "double_sum", "filter": null}),
             OutputRoute::Filter(f) => serde_json::json!({

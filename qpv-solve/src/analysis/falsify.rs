@@ -308,6 +308,163 @@ pub(crate) fn draw_theta(rng: &mut Rng, model: &PolytopicModel, theta: &mut [f64
     }
 }
 
+/// Where [`falsify`] samples: E = {eᵀPe ≤ 1}, the set x is drawn from (F,
+/// or P/γ without a state bound), the points both start from, and the
+/// local search's moves inside them.
+struct SampleSets<'a> {
+    /// The model sampled.
+    model: &'a PolytopicModel,
+    /// The Lyapunov matrix P.
+    p: &'a DMatrix<f64>,
+    /// R_pᵀ with P = R_p R_pᵀ: e = R_p⁻ᵀ z maps the unit ball onto E.
+    rp_t: DMatrix<f64>,
+    /// The region's vertices scaled into E (unchanged if already inside).
+    e_vertices: Vec<DVector<f64>>,
+    /// Which set x is drawn from.
+    state_set: StateSet,
+    /// R_q with Q = R_q R_qᵀ (with a state bound): x = R_q z maps the unit
+    /// ball onto F.
+    rq: Option<DMatrix<f64>>,
+    /// The region's vertices scaled onto the boundary of F, or divided by γ.
+    x_vertices: Vec<DVector<f64>>,
+    /// The facets of P/γ (γ a_kᵀ x ≤ 1), to keep local moves inside it.
+    x_facets: Vec<DVector<f64>>,
+    /// The largest norm of `x_vertices`: the scale of a local move in P/γ.
+    x_radius: f64,
+}
+
+impl<'a> SampleSets<'a> {
+    /// The sets of `model` for the Lyapunov matrix `p` (`gamma` is used only
+    /// without a state bound); errors for a P or Q that is not positive
+    /// definite, `state_bound auto`, or nowhere to sample x.
+    fn new(model: &'a PolytopicModel, p: &'a DMatrix<f64>, gamma: f64) -> Result<Self, SimError> {
+        let nx = model.nx();
+        let rp_t = factor("P", p, nx)?.transpose();
+        let region: Vec<DVector<f64>> = model
+            .region
+            .vertices
+            .iter()
+            .filter(|v| v.len() == nx && v.iter().all(|c| c.is_finite()))
+            .cloned()
+            .collect();
+        let e_vertices: Vec<DVector<f64>> = region
+            .iter()
+            .filter_map(|v| {
+                let vpv = v.dot(&(p * v));
+                (vpv > 0.0).then(|| v * (1.0 / vpv.sqrt()).min(1.0))
+            })
+            .collect();
+        let (state_set, rq, x_vertices) = match &model.state_bound {
+            StateBound::Given(q) => {
+                let rq = factor("state bound Q", q, nx)?;
+                let onto_boundary: Vec<DVector<f64>> = region
+                    .iter()
+                    .filter_map(|v| {
+                        let r = rq.solve_lower_triangular(v)?.norm();
+                        (r > 0.0).then(|| v / r)
+                    })
+                    .collect();
+                (StateSet::StateBound, Some(rq), onto_boundary)
+            }
+            StateBound::Auto { .. } => {
+                return Err(SimError::Model(
+                    "the state bound is `auto`: compute Q first (a design reports it; \
+                     `qpv_solve::state_bound::resolve` gives the model with Q)"
+                        .to_string(),
+                ));
+            }
+            StateBound::None => {
+                if !(gamma.is_finite() && gamma > 0.0) {
+                    return Err(SimError::Argument(format!(
+                        "gamma = {gamma}: must be > 0 when the model has no state bound"
+                    )));
+                }
+                if region.is_empty() {
+                    return Err(SimError::Model(
+                        "no state bound and no region vertices: nowhere to sample x".to_string(),
+                    ));
+                }
+                let scaled = region.iter().map(|v| v / gamma).collect();
+                (StateSet::ScaledRegion, None, scaled)
+            }
+        };
+        let x_facets: Vec<DVector<f64>> = model
+            .region
+            .facets
+            .iter()
+            .filter(|a| a.len() == nx && a.iter().all(|c| c.is_finite()))
+            .map(|a| a * gamma)
+            .collect();
+        let x_radius = x_vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        Ok(SampleSets {
+            model,
+            p,
+            rp_t,
+            e_vertices,
+            state_set,
+            rq,
+            x_vertices,
+            x_facets,
+            x_radius,
+        })
+    }
+
+    /// e = R_p⁻ᵀ z.
+    fn to_e(&self, z: &DVector<f64>) -> Option<DVector<f64>> {
+        self.rp_t.solve_upper_triangular(z)
+    }
+
+    /// One step of the local search: a random move of size `step` from the
+    /// worst point `w` so far, projected back into E, the x set and the
+    /// parameter box (θ is written into `theta`).
+    fn local_move(
+        &self,
+        rng: &mut Rng,
+        z: &mut DVector<f64>,
+        w: &Sample,
+        step: f64,
+        theta: &mut [f64],
+    ) -> (DVector<f64>, DVector<f64>) {
+        let nx = z.len();
+        let mut e = DVector::from_row_slice(&w.e);
+        rng.ball(z.as_mut_slice(), false);
+        e += self.to_e(z).unwrap_or_else(|| DVector::zeros(nx)) * step;
+        let v = e.dot(&(self.p * &e));
+        if v > 1.0 {
+            e /= v.sqrt();
+        } else if v < LOCAL_MIN_V {
+            // f(x) − f(x̂) loses digits as e → 0 (rounding error about
+            // ε‖x‖/‖e‖): do not let the search chase that noise
+            e = DVector::from_row_slice(&w.e);
+        }
+        let mut x = DVector::from_row_slice(&w.x);
+        rng.ball(z.as_mut_slice(), false);
+        match &self.rq {
+            Some(rq) => {
+                x += rq * &*z * step;
+                if let Some(r) = rq.solve_lower_triangular(&x).map(|y| y.norm()) {
+                    if r > 1.0 {
+                        x /= r;
+                    }
+                }
+            }
+            None if !self.x_facets.is_empty() => {
+                x += &*z * (step * self.x_radius);
+                let m = self.x_facets.iter().map(|a| a.dot(&x)).fold(0.0, f64::max);
+                if m > 1.0 {
+                    x /= m;
+                }
+            }
+            None => {}
+        }
+        for ((t, prm), t0) in theta.iter_mut().zip(&self.model.params).zip(&w.theta) {
+            let s = (t0 - prm.lo) / (prm.hi - prm.lo) + step * rng.normal();
+            *t = prm.lo + s.clamp(0.0, 1.0) * (prm.hi - prm.lo);
+        }
+        (e, x)
+    }
+}
+
 /// Samples the claim "V' + αV < 0 for e ∈ E, x ∈ F, θ ∈ Θ" on the true
 /// nonlinear error dynamics and reports the worst ratio r = (V' + αV)/V.
 ///
@@ -346,62 +503,7 @@ pub fn falsify(
             what: "alpha".to_string(),
         });
     }
-    // e = R_p⁻ᵀ z maps the unit ball onto E when P = R_p R_pᵀ
-    let rp = factor("P", p, nx)?;
-    let rp_t = rp.transpose();
-    let to_e = |z: &DVector<f64>| rp_t.solve_upper_triangular(z);
-    let region: Vec<DVector<f64>> = model
-        .region
-        .vertices
-        .iter()
-        .filter(|v| v.len() == nx && v.iter().all(|c| c.is_finite()))
-        .cloned()
-        .collect();
-    // region vertices scaled into E (unchanged if already inside)
-    let e_vertices: Vec<DVector<f64>> = region
-        .iter()
-        .filter_map(|v| {
-            let vpv = v.dot(&(p * v));
-            (vpv > 0.0).then(|| v * (1.0 / vpv.sqrt()).min(1.0))
-        })
-        .collect();
-
-    // x = R_q z maps the unit ball onto F when Q = R_q R_qᵀ
-    let (state_set, rq, x_vertices) = match &model.state_bound {
-        StateBound::Given(q) => {
-            let rq = factor("state bound Q", q, nx)?;
-            let onto_boundary: Vec<DVector<f64>> = region
-                .iter()
-                .filter_map(|v| {
-                    let r = rq.solve_lower_triangular(v)?.norm();
-                    (r > 0.0).then(|| v / r)
-                })
-                .collect();
-            (StateSet::StateBound, Some(rq), onto_boundary)
-        }
-        StateBound::Auto { .. } => {
-            return Err(SimError::Model(
-                "the state bound is `auto`: compute Q first (a design reports it; \
-                 `qpv_solve::state_bound::resolve` gives the model with Q)"
-                    .to_string(),
-            ));
-        }
-        StateBound::None => {
-            if !(gamma.is_finite() && gamma > 0.0) {
-                return Err(SimError::Argument(format!(
-                    "gamma = {gamma}: must be > 0 when the model has no state bound"
-                )));
-            }
-            if region.is_empty() {
-                return Err(SimError::Model(
-                    "no state bound and no region vertices: nowhere to sample x".to_string(),
-                ));
-            }
-            let scaled = region.iter().map(|v| v / gamma).collect();
-            (StateSet::ScaledRegion, None, scaled)
-        }
-    };
-
+    let sets = SampleSets::new(model, p, gamma)?;
     let mut ratio = Ratio {
         model,
         gains,
@@ -421,23 +523,13 @@ pub fn falsify(
     let mut out = Falsification {
         alpha,
         seed,
-        state_set,
+        state_set: sets.state_set,
         samples: 0,
         skipped: 0,
         counterexamples: 0,
         worst_ratio: f64::NEG_INFINITY,
         worst: None,
     };
-
-    // facets of P/γ (γ a_kᵀ x ≤ 1), to keep local moves inside it
-    let x_facets: Vec<DVector<f64>> = model
-        .region
-        .facets
-        .iter()
-        .filter(|a| a.len() == nx && a.iter().all(|c| c.is_finite()))
-        .map(|a| a * gamma)
-        .collect();
-    let x_radius = x_vertices.iter().map(|v| v.norm()).fold(0.0, f64::max);
     let local_start = samples - samples / 10;
     let mut step = 0.1;
 
@@ -447,52 +539,13 @@ pub fn falsify(
             _ => None,
         };
         let (e, x) = if let Some(w) = &local {
-            // local search around the worst point so far, kept inside the sets
-            let mut e = DVector::from_row_slice(&w.e);
-            rng.ball(z.as_mut_slice(), false);
-            e += to_e(&z).unwrap_or_else(|| DVector::zeros(nx)) * step;
-            let v = e.dot(&(p * &e));
-            if v > 1.0 {
-                e /= v.sqrt();
-            } else if v < LOCAL_MIN_V {
-                // f(x) − f(x̂) loses digits as e → 0 (rounding error about
-                // ε‖x‖/‖e‖): do not let the search chase that noise
-                e = DVector::from_row_slice(&w.e);
-            }
-            let mut x = DVector::from_row_slice(&w.x);
-            rng.ball(z.as_mut_slice(), false);
-            match &rq {
-                Some(rq) => {
-                    x += rq * &z * step;
-                    if let Some(r) = rq.solve_lower_triangular(&x).map(|y| y.norm()) {
-                        if r > 1.0 {
-                            x /= r;
-                        }
-                    }
-                }
-                None if !x_facets.is_empty() => {
-                    x += &z * (step * x_radius);
-                    let m = x_facets.iter().map(|a| a.dot(&x)).fold(0.0, f64::max);
-                    if m > 1.0 {
-                        x /= m;
-                    }
-                }
-                None => {}
-            }
-            for ((t, prm), t0) in theta.iter_mut().zip(&model.params).zip(&w.theta) {
-                let s = (t0 - prm.lo) / (prm.hi - prm.lo) + step * rng.normal();
-                *t = prm.lo + s.clamp(0.0, 1.0) * (prm.hi - prm.lo);
-            }
-            (e, x)
+            sets.local_move(&mut rng, &mut z, w, step, &mut theta)
         } else {
-            (
-                draw_e(&mut rng, &mut z, &e_vertices, &to_e),
-                draw_x(&mut rng, &mut z, rq.as_ref(), &x_vertices),
-            )
-        };
-        if local.is_none() {
+            let e = draw_e(&mut rng, &mut z, &sets.e_vertices, &|z| sets.to_e(z));
+            let x = draw_x(&mut rng, &mut z, sets.rq.as_ref(), &sets.x_vertices);
             draw_theta(&mut rng, model, &mut theta);
-        }
+            (e, x)
+        };
 
         let Some(r) = ratio.eval(e.as_slice(), x.as_slice(), &theta) else {
             out.skipped += 1;

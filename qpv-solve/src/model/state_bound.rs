@@ -447,106 +447,84 @@ enum Kind {
     MinBox,
 }
 
-/// Builds and solves the SDP in box coordinates z = D⁻¹x, D = diag(half):
-/// returns Clarabel's status and its point (if finite), for the blocks of
-/// `kind`.
-fn solve_lmi(
-    model: &PolytopicModel,
-    half: &[f64],
-    settings: &Settings,
-    kind: Kind,
-) -> Result<SdpRun, SolveError> {
-    let nx = model.nx();
-    let eps = settings.margin_rel;
-    let nw = nx * (nx + 1) / 2;
-    let tvar = nw;
-    let nvars = nw + 1;
-    // box coordinates
-    let zs: Vec<DVector<f64>> = model
-        .region
-        .vertices
-        .iter()
-        .map(|x| DVector::from_fn(nx, |j, _| x[j] / half[j]))
-        .collect();
-    let a_hat: Vec<DVector<f64>> = model
-        .region
-        .facets
-        .iter()
-        .map(|a| DVector::from_fn(nx, |j, _| a[j] * half[j]))
-        .collect();
-    let k_hat: Vec<DMatrix<f64>> = if kind == Kind::Full {
-        invariance_matrices(model, half)
-    } else {
-        Vec::new()
-    }
-    .into_iter()
-    .map(|k| DMatrix::from_fn(nx, nx, |r, c| k[(r, c)] * half[c] / half[r]))
-    .collect();
-    let kappa = 1.0 + k_hat.iter().map(|k| k.norm()).fold(0.0, f64::max);
+/// The data of the SDP in box coordinates z = D⁻¹x, D = diag(half).
+struct BoxData {
+    /// The region's vertices zᵢ.
+    zs: Vec<DVector<f64>>,
+    /// The region's facets âₖ.
+    a_hat: Vec<DVector<f64>>,
+    /// The invariance matrices K̂ (for [`Kind::Full`] only; else empty).
+    k_hat: Vec<DMatrix<f64>>,
+}
 
-    let mut lmi = Lmi {
-        cols: Columns::new(nvars),
-        b: Vec::new(),
-        cones: Vec::new(),
-    };
-    let w_entry = |r: usize, c: usize| vec![(wvar(r, c), 1.0)];
-    // Ŵ − ε I ⪰ 0
-    lmi.psd(&(-DMatrix::identity(nx, nx) * eps), w_entry, nvars);
-    // region: 1 − ε − zᵢᵀŴzᵢ ≥ 0
-    for z in &zs {
-        let row = lmi.b.len();
-        lmi.b.push(1.0 - eps);
-        for c in 0..nx {
-            for r in 0..=c {
-                let coef = if r == c {
-                    z[r] * z[r]
-                } else {
-                    2.0 * z[r] * z[c]
-                };
-                lmi.cols.push(row, wvar(r, c), coef);
+impl BoxData {
+    fn new(model: &PolytopicModel, half: &[f64], kind: Kind) -> Self {
+        let nx = model.nx();
+        let zs = model
+            .region
+            .vertices
+            .iter()
+            .map(|x| DVector::from_fn(nx, |j, _| x[j] / half[j]))
+            .collect();
+        let a_hat = model
+            .region
+            .facets
+            .iter()
+            .map(|a| DVector::from_fn(nx, |j, _| a[j] * half[j]))
+            .collect();
+        let k_hat = if kind == Kind::Full {
+            invariance_matrices(model, half)
+        } else {
+            Vec::new()
+        }
+        .into_iter()
+        .map(|k| DMatrix::from_fn(nx, nx, |r, c| k[(r, c)] * half[c] / half[r]))
+        .collect();
+        BoxData { zs, a_hat, k_hat }
+    }
+}
+
+impl Lmi {
+    /// Region: 1 − ε − zᵢᵀŴzᵢ ≥ 0 for every vertex zᵢ.
+    fn region(&mut self, zs: &[DVector<f64>], eps: f64) {
+        let nx = zs.first().map_or(0, |z| z.len());
+        for z in zs {
+            let row = self.b.len();
+            self.b.push(1.0 - eps);
+            for c in 0..nx {
+                for r in 0..=c {
+                    let coef = if r == c {
+                        z[r] * z[r]
+                    } else {
+                        2.0 * z[r] * z[c]
+                    };
+                    self.cols.push(row, wvar(r, c), coef);
+                }
             }
         }
+        self.cones.push(SupportedConeT::NonnegativeConeT(zs.len()));
     }
-    lmi.cones.push(SupportedConeT::NonnegativeConeT(zs.len()));
-    // in the box: [1 e_jᵀ; e_j Ŵ] − ε I ⪰ 0
-    let shifted = |r: usize, c: usize| {
-        if r == 0 {
-            vec![]
-        } else {
-            vec![(wvar(r - 1, c - 1), 1.0)]
-        }
-    };
-    for j in (0..nx).filter(|_| kind == Kind::Full) {
-        let mut f0 = -DMatrix::identity(nx + 1, nx + 1) * eps;
-        f0[(0, 0)] += 1.0;
-        f0[(0, j + 1)] = 1.0;
-        f0[(j + 1, 0)] = 1.0;
-        lmi.psd(&f0, shifted, nvars);
-    }
-    // smallest box: [t e_jᵀ; e_j Ŵ] ⪰ 0, i.e. Q̂_jj ≤ t
-    for j in (0..nx).filter(|_| kind == Kind::MinBox) {
-        let mut f0 = DMatrix::zeros(nx + 1, nx + 1);
-        f0[(0, j + 1)] = 1.0;
-        f0[(j + 1, 0)] = 1.0;
-        lmi.psd(
-            &f0,
-            |r, c| {
-                if r == 0 && c == 0 {
-                    vec![(tvar, 1.0)]
-                } else if r == 0 {
-                    vec![]
-                } else {
-                    vec![(wvar(r - 1, c - 1), 1.0)]
-                }
+
+    /// A block [s vᵀ; v Ŵ] + F0 ⪰ 0 bordered by Ŵ: `corner` is the variable
+    /// s (t), or `None` when the corner is a constant held in `f0`.
+    fn bordered(&mut self, f0: &DMatrix<f64>, corner: Option<usize>, nvars: usize) {
+        self.psd(
+            f0,
+            |r, c| match (r, c, corner) {
+                (0, 0, Some(t)) => vec![(t, 1.0)],
+                (0, _, _) => vec![],
+                _ => vec![(wvar(r - 1, c - 1), 1.0)],
             },
             nvars,
         );
     }
-    // invariance: −He{Ŵ K̂} − ε κ I ⪰ 0; entry (r, c) of He{ŴK̂} is
-    // Σ_m Ŵ_rm K̂_mc + Σ_m Ŵ_cm K̂_mr
-    for k in &k_hat {
-        let f0 = -DMatrix::identity(nx, nx) * (eps * kappa);
-        lmi.psd(
+
+    /// Invariance: −He{Ŵ K̂} − ε κ I ⪰ 0; entry (r, c) of He{ŴK̂} is
+    /// Σ_m Ŵ_rm K̂_mc + Σ_m Ŵ_cm K̂_mr.
+    fn invariance(&mut self, k: &DMatrix<f64>, eps_kappa: f64, nvars: usize) {
+        let nx = k.nrows();
+        let f0 = -DMatrix::identity(nx, nx) * eps_kappa;
+        self.psd(
             &f0,
             |r, c| {
                 let mut v = Vec::with_capacity(2 * nx);
@@ -560,38 +538,83 @@ fn solve_lmi(
             nvars,
         );
     }
+
+    /// Minimises the variable `tvar` subject to the blocks (one solver call,
+    /// read by the crate's one rule, see [`run_sdp`]).
+    fn minimise(
+        self,
+        nvars: usize,
+        tvar: usize,
+        settings: &Settings,
+    ) -> Result<SdpRun, SolveError> {
+        let m = self.b.len();
+        let sdp = Sdp {
+            p: CscMatrix::zeros((nvars, nvars)),
+            q: (0..nvars)
+                .map(|v| if v == tvar { 1.0 } else { 0.0 })
+                .collect(),
+            a: self.cols.into_csc(m),
+            b: self.b,
+            cones: self.cones,
+        };
+        run_sdp(sdp, clarabel_settings(settings))
+    }
+}
+
+/// Builds and solves the SDP in box coordinates z = D⁻¹x, D = diag(half):
+/// returns the solver's answer (status and point, if any) for the blocks of
+/// `kind`.
+fn solve_lmi(
+    model: &PolytopicModel,
+    half: &[f64],
+    settings: &Settings,
+    kind: Kind,
+) -> Result<SdpRun, SolveError> {
+    let nx = model.nx();
+    let eps = settings.margin_rel;
+    let nw = nx * (nx + 1) / 2;
+    let tvar = nw;
+    let nvars = nw + 1;
+    let data = BoxData::new(model, half, kind);
+    let kappa = 1.0 + data.k_hat.iter().map(|k| k.norm()).fold(0.0, f64::max);
+
+    let mut lmi = Lmi {
+        cols: Columns::new(nvars),
+        b: Vec::new(),
+        cones: Vec::new(),
+    };
+    // Ŵ − ε I ⪰ 0
+    let w_entry = |r: usize, c: usize| vec![(wvar(r, c), 1.0)];
+    lmi.psd(&(-DMatrix::identity(nx, nx) * eps), w_entry, nvars);
+    lmi.region(&data.zs, eps);
+    // in the box: [1 e_jᵀ; e_j Ŵ] − ε I ⪰ 0
+    for j in (0..nx).filter(|_| kind == Kind::Full) {
+        let mut f0 = -DMatrix::identity(nx + 1, nx + 1) * eps;
+        f0[(0, 0)] += 1.0;
+        f0[(0, j + 1)] = 1.0;
+        f0[(j + 1, 0)] = 1.0;
+        lmi.bordered(&f0, None, nvars);
+    }
+    // smallest box: [t e_jᵀ; e_j Ŵ] ⪰ 0, i.e. Q̂_jj ≤ t
+    for j in (0..nx).filter(|_| kind == Kind::MinBox) {
+        let mut f0 = DMatrix::zeros(nx + 1, nx + 1);
+        f0[(0, j + 1)] = 1.0;
+        f0[(j + 1, 0)] = 1.0;
+        lmi.bordered(&f0, Some(tvar), nvars);
+    }
+    for k in &data.k_hat {
+        lmi.invariance(k, eps * kappa, nvars);
+    }
     // objective epigraph: [t âₖᵀ; âₖ Ŵ] ⪰ 0
-    for a in a_hat.iter().filter(|_| kind != Kind::MinBox) {
+    for a in data.a_hat.iter().filter(|_| kind != Kind::MinBox) {
         let mut f0 = DMatrix::zeros(nx + 1, nx + 1);
         for j in 0..nx {
             f0[(0, j + 1)] = a[j];
             f0[(j + 1, 0)] = a[j];
         }
-        lmi.psd(
-            &f0,
-            |r, c| {
-                if r == 0 && c == 0 {
-                    vec![(tvar, 1.0)]
-                } else if r == 0 {
-                    vec![]
-                } else {
-                    vec![(wvar(r - 1, c - 1), 1.0)]
-                }
-            },
-            nvars,
-        );
+        lmi.bordered(&f0, Some(tvar), nvars);
     }
-    let m = lmi.b.len();
-    let sdp = Sdp {
-        p: CscMatrix::zeros((nvars, nvars)),
-        q: (0..nvars)
-            .map(|v| if v == tvar { 1.0 } else { 0.0 })
-            .collect(),
-        a: lmi.cols.into_csc(m),
-        b: lmi.b,
-        cones: lmi.cones,
-    };
-    run_sdp(sdp, clarabel_settings(settings))
+    lmi.minimise(nvars, tvar, settings)
 }
 
 /// Computes the state bound of `model` (N_k as represented in `model`):

@@ -1,4 +1,4 @@
 // `include` takes one string literal.
-qpv::qpv!(include models / paper);
+qpv_macros::qpv!(include models / paper);
 
 fn main() {}

@@ -1,5 +1,5 @@
 // `th2` is used in A but only `th1` is declared.
-qpv::qpv! {
+qpv_macros::qpv! {
     model m {
         state x1, x2;
         output y1;

@@ -1,5 +1,5 @@
 // C needs 2 columns (two states); its second row has 3.
-qpv::qpv! {
+qpv_macros::qpv! {
     model m {
         state x1, x2;
         output y1, y2;

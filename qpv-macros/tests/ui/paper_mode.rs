@@ -4,7 +4,7 @@
 // sound design can be attempted, so the message names that reason instead
 // of running a search for the best sound design (which the macro's unit
 // tests check on the paper's model with its Q).
-qpv::qpv! {
+qpv_macros::qpv! {
     model paper {
         state  x1, x2, x3;
         output y1, y2;

@@ -3,7 +3,7 @@
 // is on the design block. The failure is structural (the data alone decide
 // it), so the message names the limit and runs no search: its numbers
 // depend on Q and gamma only.
-qpv::qpv! {
+qpv_macros::qpv! {
     model paper {
         state  x1, x2, x3;
         output y1, y2;

@@ -1,5 +1,5 @@
 // A missing comma between two state names: the error is on `x2`.
-qpv::qpv! {
+qpv_macros::qpv! {
     model m {
         state x1 x2;
         output y1;

@@ -1,8 +1,12 @@
 //! Compile-fail tests of `qpv!`: one case per class of user mistake, each
 //! `.stderr` showing that the error lands on the offending token.
 //!
-//! Regenerate the expected output with `TRYBUILD=overwrite cargo test --test ui`
-//! and review the diff.
+//! The cases call `qpv_macros::qpv!` (what `qpv::qpv!` re-exports) so that
+//! trybuild's separate build needs only this crate and its dependencies,
+//! not the facade's command-line and plotting crates.
+//!
+//! Regenerate the expected output with
+//! `TRYBUILD=overwrite cargo test -p qpv-macros --test ui` and review the diff.
 
 #[test]
 fn ui() {

@@ -1,5 +1,5 @@
 // `output_route` takes `double_sum` or `filter(...)`: the error points at the value.
-qpv::qpv! {
+qpv_macros::qpv! {
     model m {
         state x1, x2;
         output y1;

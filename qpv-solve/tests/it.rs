@@ -1,0 +1,45 @@
+//! The integration tests of qpv-solve, one module per file.
+//!
+//! Every file next to this one is a module of this single test binary, so
+//! the crate's tests link once instead of once per file (`autotests =
+//! false` in Cargo.toml). A new test file must be added to the list below;
+//! `every_test_file_is_a_module` fails if one is missing.
+//!
+//! Run one file's tests with `cargo test -p qpv-solve --test it FILE::`.
+
+mod certificate;
+mod clarabel_psd;
+mod decoupled;
+mod design;
+mod diagnosis_size;
+mod falsify;
+mod lapack;
+mod layers;
+mod noise;
+mod observer_model;
+mod output_route;
+mod simulate;
+mod skew_slack;
+mod state_bound;
+
+/// Test files that are not listed above would silently not run: refuse them.
+#[test]
+fn every_test_file_is_a_module() {
+    let root = include_str!("it.rs");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    let mut missing = Vec::new();
+    for entry in std::fs::read_dir(&dir).expect("the tests directory") {
+        let name = entry.expect("a directory entry").file_name();
+        let name = name.to_string_lossy();
+        if name.ends_with(".rs") && name != "it.rs" {
+            let line = format!("mod {};", name.trim_end_matches(".rs"));
+            if !root.lines().any(|l| l == line) {
+                missing.push(name.into_owned());
+            }
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "tests/{missing:?} not declared as modules in tests/it.rs"
+    );
+}
