@@ -212,18 +212,79 @@ struct Findings {
 
 const SUMMARY_TIMES: [f64; 9] = [0.0, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0, 5.0, 10.0];
 
-/// Runs `qpv simulate`.
-pub fn run(o: Options<'_>) -> Result<i32, CliError> {
-    let (_, model) = load_model(o.file, o.model)?;
-    let poly = model.polytopic();
-    let design: Design = serde_json::from_value(read_report(o.design)?)
-        .map_err(|e| CliError::Input(format!("{}: {e}", o.design.display())))?;
-    if design.l.is_empty() {
-        return Err(CliError::Input(format!(
-            "{}: the design has no gains (it was not solved)",
-            o.design.display()
-        )));
+/// What the run is compared with: the certified envelope (no noise) or the
+/// certified noise bound, the state bound F and the region's facets; and
+/// whether e(0) lies in the region (outside it, nothing is guaranteed).
+/// Prints the claim.
+fn claim_of(
+    design: &Design,
+    obs: &PolytopicModel,
+    reason: &Option<String>,
+    e0: &[f64],
+    noise_bound: Option<NoiseBoundCurve>,
+    noisy: bool,
+) -> (Claim, bool) {
+    let claim = Claim {
+        envelope: match reason {
+            None if !noisy => envelope_factor(&design.p_matrix()).map(|k| (k, design.alpha)),
+            _ => None,
+        },
+        noise_bound,
+        q_inv: match &obs.state_bound {
+            StateBound::Given(q) if q.nrows() == obs.nx() => q.clone().try_inverse(),
+            _ => None,
+        },
+        facets: obs.region.facets.clone(),
+    };
+    match (reason, claim.envelope) {
+        (None, None) if noisy => {}
+        (None, Some((k, a))) => println!(
+            "certified (independent re-check on this model): V(t) <= V(0) e^(-alpha t) with alpha = {a:.6}, \
+             gamma = {:.6}; for e(0) in the region and x(t) in F, ||e(t)|| <= {k:.4} ||e(0)|| e^(-alpha t/2)",
+            design.gamma
+        ),
+        (None, None) => println!(
+            "not certified: P of the report is not positive definite; no envelope drawn"
+        ),
+        (Some(why), _) => println!(
+            "NOT certified: {why}; simulating its gains anyway (no decay rate is claimed, no envelope drawn)"
+        ),
     }
+    let e0_inside = claim.facets.iter().all(|a| {
+        let s: f64 = a.iter().zip(e0).map(|(a, e)| a * e).sum();
+        s <= 1.0 + 1e-9
+    });
+    if (claim.envelope.is_some() || claim.noise_bound.is_some()) && !e0_inside {
+        println!(
+            "note: e(0) = x(0) - xhat(0) is outside the region of guaranteed convergence; \
+             the envelope is not a guarantee for this run"
+        );
+    }
+
+    (claim, e0_inside)
+}
+
+/// The CSV writer of `--plot DIR` (DIR/trajectories.csv, header written).
+fn open_csv(
+    dir: Option<&Path>,
+    obs: &PolytopicModel,
+) -> Result<Option<std::io::BufWriter<std::fs::File>>, CliError> {
+    let Some(dir) = dir else {
+        return Ok(None);
+    };
+    std::fs::create_dir_all(dir)
+        .map_err(|e| CliError::Io(format!("cannot create {}: {e}", dir.display())))?;
+    let path = dir.join("trajectories.csv");
+    let f = std::fs::File::create(&path)
+        .map_err(|e| CliError::Io(format!("cannot write {}: {e}", path.display())))?;
+    let mut w = std::io::BufWriter::new(f);
+    write_header(&mut w, obs).map_err(|e| CliError::Io(e.to_string()))?;
+    Ok(Some(w))
+}
+
+/// The RK4 step count, the CSV row stride and the plot stride of a run,
+/// after checking `--t-end`, `--dt` and `--every`.
+fn step_counts(o: &Options<'_>) -> Result<(usize, usize, usize), CliError> {
     if !(o.t_end.is_finite() && o.t_end >= 0.0) {
         return Err(CliError::Input(format!(
             "--t-end {}: expected a non-negative number",
@@ -253,10 +314,15 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     }
     let stride = ((every / o.dt).round() as usize).max(1);
     let plot_stride = stride.max(steps.div_ceil(PLOT_POINTS));
+    Ok((steps, stride, plot_stride))
+}
 
+/// The scenario of `--scenario`, with the run's horizon and step, the
+/// signals and initial state given on the command line.
+fn scenario(o: &Options<'_>, poly: &PolytopicModel) -> Result<Scenario, CliError> {
     let mut sc = match o.scenario {
-        "paper" => Scenario::paper(&poly),
-        "default" => Scenario::default_for(&poly),
+        "paper" => Scenario::paper(poly),
+        "default" => Scenario::default_for(poly),
         other => {
             return Err(CliError::Input(format!(
                 "--scenario {other:?}: expected `paper` or `default`"
@@ -265,7 +331,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     };
     sc.t_end = o.t_end;
     sc.dt = o.dt;
-    let given = apply_signals(&mut sc, &poly, &o)?;
+    let given = apply_signals(&mut sc, poly, o)?;
     if !given.is_empty() {
         println!("signals given: {}", given.join(", "));
     }
@@ -285,6 +351,97 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     if let Some(x0) = o.x0.clone() {
         sc.x0 = x0;
     }
+    Ok(sc)
+}
+
+/// The measurement-noise generator of `--noise` (on the report's noisy
+/// outputs) and, when the design is certified for that amplitude, the
+/// certified bound to compare the run with; prints what is claimed.
+fn noise_setup(
+    o: &Options<'_>,
+    design: &Design,
+    obs: &PolytopicModel,
+    reason: &Option<String>,
+    e0: &[f64],
+) -> Result<(Option<NoiseGen>, Option<NoiseBoundCurve>), CliError> {
+    if let Some(nu) = o.noise {
+        if !(nu.is_finite() && nu >= 0.0) {
+            return Err(CliError::Input(format!(
+                "--noise {nu}: expected a non-negative amplitude"
+            )));
+        }
+    }
+    let noise_gen = o.noise.map(|nu| {
+        // The report's noisy outputs, by name on the observer model; every
+        // output when the report names none that the model has.
+        let named: Vec<usize> = design
+            .noise
+            .as_ref()
+            .map(|n| {
+                n.noisy_outputs
+                    .iter()
+                    .filter_map(|name| obs.outputs.iter().position(|o| o == name))
+                    .collect()
+            })
+            .unwrap_or_default();
+        let outputs = if named.is_empty() {
+            (0..obs.ny()).collect()
+        } else {
+            named
+        };
+        NoiseGen::new(o.seed, nu, outputs)
+    });
+    let noise_bound = match (o.noise, reason, &design.noise) {
+        (Some(nu), None, Some(nb)) if nu <= nb.max_amplitude => {
+            NoiseBoundCurve::new(&design.p_matrix(), e0, design.alpha, nb.sigma, nu)
+        }
+        _ => None,
+    };
+    if let (Some(nu), Some(g)) = (o.noise, &noise_gen) {
+        let names: Vec<&str> = g.outputs.iter().map(|&i| obs.outputs[i].as_str()).collect();
+        println!(
+            "measurement noise: |v(t)| = {nu} on {} (random direction, seed {}, held over each step)",
+            names.join(", "),
+            o.seed
+        );
+        match (reason, &design.noise) {
+            (None, Some(nb)) if noise_bound.is_some() => println!(
+                "certified under noise (nu = {nu} <= nu_max = {:.4e}): ||e(t)|| <= sqrt(V(t)/lambda_min(P)), \
+                 V(t) <= e^(-alpha t) V(0) + (sigma nu^2/alpha)(1 - e^(-alpha t)), sigma = {:.4e}; \
+                 ultimate bound {:.4e}",
+                nb.max_amplitude,
+                nb.sigma,
+                noise_bound.map_or(f64::NAN, |b| b.ultimate())
+            ),
+            (None, Some(nb)) => println!(
+                "no bound is certified at this noise level: nu = {nu} > nu_max = {:.4e} (the region is not \
+                 certified invariant); no claim is made and no bound is drawn",
+                nb.max_amplitude
+            ),
+            (None, None) => println!(
+                "the report carries no noise bound: no bound is certified with noise; no claim is made"
+            ),
+            (Some(_), _) => {}
+        }
+    }
+    Ok((noise_gen, noise_bound))
+}
+
+/// Runs `qpv simulate`.
+pub fn run(o: Options<'_>) -> Result<i32, CliError> {
+    let (_, model) = load_model(o.file, o.model)?;
+    let poly = model.polytopic();
+    let design: Design = serde_json::from_value(read_report(o.design)?)
+        .map_err(|e| CliError::Input(format!("{}: {e}", o.design.display())))?;
+    if design.l.is_empty() {
+        return Err(CliError::Input(format!(
+            "{}: the design has no gains (it was not solved)",
+            o.design.display()
+        )));
+    }
+    let (steps, stride, plot_stride) = step_counts(&o)?;
+
+    let mut sc = scenario(&o, &poly)?;
     // The gains belong to the design's observer model: for the filter route
     // the plant augmented by the output filter, whose states start at 0
     // (and the observer's filter estimate exactly there).
@@ -312,119 +469,11 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
 
     // What is certified, and therefore what the run is compared with.
     let reason = not_certified_reason(&design, &poly);
-    if let Some(nu) = o.noise {
-        if !(nu.is_finite() && nu >= 0.0) {
-            return Err(CliError::Input(format!(
-                "--noise {nu}: expected a non-negative amplitude"
-            )));
-        }
-    }
-    let mut noise_gen = o.noise.map(|nu| {
-        // The report's noisy outputs, by name on the observer model; every
-        // output when the report names none that the model has.
-        let named: Vec<usize> = design
-            .noise
-            .as_ref()
-            .map(|n| {
-                n.noisy_outputs
-                    .iter()
-                    .filter_map(|name| obs.outputs.iter().position(|o| o == name))
-                    .collect()
-            })
-            .unwrap_or_default();
-        let outputs = if named.is_empty() {
-            (0..obs.ny()).collect()
-        } else {
-            named
-        };
-        NoiseGen::new(o.seed, nu, outputs)
-    });
     let e0: Vec<f64> = sc.x0.iter().zip(&sc.xhat0).map(|(a, b)| a - b).collect();
-    let noise_bound = match (o.noise, &reason, &design.noise) {
-        (Some(nu), None, Some(nb)) if nu <= nb.max_amplitude => {
-            NoiseBoundCurve::new(&design.p_matrix(), &e0, design.alpha, nb.sigma, nu)
-        }
-        _ => None,
-    };
-    if let (Some(nu), Some(g)) = (o.noise, &noise_gen) {
-        let names: Vec<&str> = g.outputs.iter().map(|&i| obs.outputs[i].as_str()).collect();
-        println!(
-            "measurement noise: |v(t)| = {nu} on {} (random direction, seed {}, held over each step)",
-            names.join(", "),
-            o.seed
-        );
-        match (&reason, &design.noise) {
-            (None, Some(nb)) if noise_bound.is_some() => println!(
-                "certified under noise (nu = {nu} <= nu_max = {:.4e}): ||e(t)|| <= sqrt(V(t)/lambda_min(P)), \
-                 V(t) <= e^(-alpha t) V(0) + (sigma nu^2/alpha)(1 - e^(-alpha t)), sigma = {:.4e}; \
-                 ultimate bound {:.4e}",
-                nb.max_amplitude,
-                nb.sigma,
-                noise_bound.map_or(f64::NAN, |b| b.ultimate())
-            ),
-            (None, Some(nb)) => println!(
-                "no bound is certified at this noise level: nu = {nu} > nu_max = {:.4e} (the region is not \
-                 certified invariant); no claim is made and no bound is drawn",
-                nb.max_amplitude
-            ),
-            (None, None) => println!(
-                "the report carries no noise bound: no bound is certified with noise; no claim is made"
-            ),
-            (Some(_), _) => {}
-        }
-    }
-    let claim = Claim {
-        envelope: match &reason {
-            None if o.noise.is_none() => {
-                envelope_factor(&design.p_matrix()).map(|k| (k, design.alpha))
-            }
-            _ => None,
-        },
-        noise_bound,
-        q_inv: match &obs.state_bound {
-            StateBound::Given(q) if q.nrows() == obs.nx() => q.clone().try_inverse(),
-            _ => None,
-        },
-        facets: obs.region.facets.clone(),
-    };
-    match (&reason, claim.envelope) {
-        (None, None) if o.noise.is_some() => {}
-        (None, Some((k, a))) => println!(
-            "certified (independent re-check on this model): V(t) <= V(0) e^(-alpha t) with alpha = {a:.6}, \
-             gamma = {:.6}; for e(0) in the region and x(t) in F, ||e(t)|| <= {k:.4} ||e(0)|| e^(-alpha t/2)",
-            design.gamma
-        ),
-        (None, None) => println!(
-            "not certified: P of the report is not positive definite; no envelope drawn"
-        ),
-        (Some(why), _) => println!(
-            "NOT certified: {why}; simulating its gains anyway (no decay rate is claimed, no envelope drawn)"
-        ),
-    }
-    let e0_inside = claim.facets.iter().all(|a| {
-        let s: f64 = a.iter().zip(&e0).map(|(a, e)| a * e).sum();
-        s <= 1.0 + 1e-9
-    });
-    if (claim.envelope.is_some() || claim.noise_bound.is_some()) && !e0_inside {
-        println!(
-            "note: e(0) = x(0) - xhat(0) is outside the region of guaranteed convergence; \
-             the envelope is not a guarantee for this run"
-        );
-    }
+    let (mut noise_gen, noise_bound) = noise_setup(&o, &design, &obs, &reason, &e0)?;
+    let (claim, e0_inside) = claim_of(&design, &obs, &reason, &e0, noise_bound, o.noise.is_some());
 
-    let mut csv = match o.plot {
-        Some(dir) => {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| CliError::Io(format!("cannot create {}: {e}", dir.display())))?;
-            let path = dir.join("trajectories.csv");
-            let f = std::fs::File::create(&path)
-                .map_err(|e| CliError::Io(format!("cannot write {}: {e}", path.display())))?;
-            let mut w = std::io::BufWriter::new(f);
-            write_header(&mut w, &obs).map_err(|e| CliError::Io(e.to_string()))?;
-            Some(w)
-        }
-        None => None,
-    };
+    let mut csv = open_csv(o.plot, &obs)?;
 
     let gains = design.l_matrices();
     let mut found = Findings::default();

@@ -111,6 +111,88 @@ fn table(points: &[TradeoffPoint], knee: Option<usize>) -> String {
     s
 }
 
+/// Writes DIR/tradeoff.svg (error bound and gain against α, the knee
+/// marked) and returns the report line that says so.
+fn write_figure(
+    dir: &std::path::Path,
+    name: &str,
+    points: &[TradeoffPoint],
+    knee: Option<usize>,
+) -> Result<String, CliError> {
+    std::fs::create_dir_all(dir).map_err(|e| CliError::Io(format!("{}: {e}", dir.display())))?;
+    let path = dir.join("tradeoff.svg");
+    let pts: Vec<(f64, f64, f64)> = points
+        .iter()
+        .filter_map(|p| Some((p.alpha, p.error_bound?, p.max_gain?)))
+        .collect();
+    let kp = knee.and_then(|k| {
+        let p = &points[k];
+        Some((p.alpha, p.error_bound?, p.max_gain?))
+    });
+    if pts.is_empty() {
+        Ok("  no certified point: no figure written\n".into())
+    } else {
+        qpv::plot::tradeoff_chart(
+            &path,
+            &format!(
+                "{}: certified noise bound and gain against the decay rate",
+                name
+            ),
+            &pts,
+            kp,
+        )
+        .map_err(CliError::Io)?;
+        Ok(format!("  figure: {}\n", path.display()))
+    }
+}
+
+/// The `--json` document of a sweep.
+fn json_view<'a>(
+    name: &'a str,
+    gamma: GammaSpec,
+    fastest: &Design,
+    over: Option<f64>,
+    points: &[TradeoffPoint],
+    knee: Option<usize>,
+    seconds_total: f64,
+) -> TradeoffOutput<'a> {
+    TradeoffOutput {
+        schema: SCHEMA,
+        command: "tradeoff",
+        model: name,
+        gamma_request: match gamma {
+            GammaSpec::Fixed(g) => g.to_string(),
+            GammaSpec::Search => "search".into(),
+        },
+        alpha_max: FastestView {
+            alpha: fastest.alpha,
+            gamma: fastest.gamma,
+            max_gain: max_gain(fastest),
+            sigma: fastest.noise.as_ref().map(|n| n.sigma),
+            error_bound: fastest.noise.as_ref().map(|n| n.error_bound),
+            max_amplitude: fastest.noise.as_ref().map(|n| n.max_amplitude),
+            gain_over_knee: over,
+        },
+        points: points
+            .iter()
+            .enumerate()
+            .map(|(k, p)| PointView {
+                alpha: p.alpha,
+                gamma: p.gamma,
+                certified: p.certified,
+                sigma: p.sigma,
+                error_bound: p.error_bound,
+                max_amplitude: p.max_amplitude,
+                max_gain: p.max_gain,
+                knee: Some(k) == knee,
+                seconds: p.seconds,
+            })
+            .collect(),
+        knee,
+        seconds_total,
+    }
+}
+
 /// Runs `qpv tradeoff`.
 pub fn run(o: Options) -> Result<i32, CliError> {
     if o.points < 2 {
@@ -220,32 +302,7 @@ pub fn run(o: Options) -> Result<i32, CliError> {
         None => s.push_str("  no point of the sweep certified: no knee\n"),
     }
     if let Some(dir) = o.plot {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| CliError::Io(format!("{}: {e}", dir.display())))?;
-        let path = dir.join("tradeoff.svg");
-        let pts: Vec<(f64, f64, f64)> = points
-            .iter()
-            .filter_map(|p| Some((p.alpha, p.error_bound?, p.max_gain?)))
-            .collect();
-        let kp = knee.and_then(|k| {
-            let p = &points[k];
-            Some((p.alpha, p.error_bound?, p.max_gain?))
-        });
-        if pts.is_empty() {
-            s.push_str("  no certified point: no figure written\n");
-        } else {
-            qpv::plot::tradeoff_chart(
-                &path,
-                &format!(
-                    "{}: certified noise bound and gain against the decay rate",
-                    model.name
-                ),
-                &pts,
-                kp,
-            )
-            .map_err(CliError::Io)?;
-            s.push_str(&format!("  figure: {}\n", path.display()));
-        }
+        s.push_str(&write_figure(dir, &model.name, &points, knee)?);
     }
     let seconds_total = t0.elapsed().as_secs_f64();
     s.push_str(&format!(
@@ -253,41 +310,15 @@ pub fn run(o: Options) -> Result<i32, CliError> {
         points.len() + 1
     ));
     print_text(o.json, &s);
-    let out = TradeoffOutput {
-        schema: SCHEMA,
-        command: "tradeoff",
-        model: &model.name,
-        gamma_request: match gamma {
-            GammaSpec::Fixed(g) => g.to_string(),
-            GammaSpec::Search => "search".into(),
-        },
-        alpha_max: FastestView {
-            alpha: fastest.alpha,
-            gamma: fastest.gamma,
-            max_gain: fast_gain,
-            sigma: fastest.noise.as_ref().map(|n| n.sigma),
-            error_bound: fastest.noise.as_ref().map(|n| n.error_bound),
-            max_amplitude: fastest.noise.as_ref().map(|n| n.max_amplitude),
-            gain_over_knee: over,
-        },
-        points: points
-            .iter()
-            .enumerate()
-            .map(|(k, p)| PointView {
-                alpha: p.alpha,
-                gamma: p.gamma,
-                certified: p.certified,
-                sigma: p.sigma,
-                error_bound: p.error_bound,
-                max_amplitude: p.max_amplitude,
-                max_gain: p.max_gain,
-                knee: Some(k) == knee,
-                seconds: p.seconds,
-            })
-            .collect(),
+    let out = json_view(
+        &model.name,
+        gamma,
+        &fastest,
+        over,
+        &points,
         knee,
         seconds_total,
-    };
+    );
     emit_json(o.json, &out)?;
     Ok(if knee.is_some() {
         exit::CERTIFIED
