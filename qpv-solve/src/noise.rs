@@ -1031,6 +1031,7 @@ pub fn design_noise_with_progress(
         diagnosis: None,
         noise,
         sampling: None,
+        gamma_search: None,
     };
     if d.certifies {
         let (p, l) = (d.p_matrix(), d.l_matrices());
