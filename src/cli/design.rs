@@ -550,10 +550,13 @@ pub fn describe_design(d: &Design) -> String {
             d.solver.detail
         ));
     }
+    if let Some(g) = &d.gamma_search {
+        s.push_str(&format!("  {}\n", g.statement()));
+    }
     for n in d
         .notes
         .iter()
-        .filter(|n| !(d.feasible && is_search_log_note(n)))
+        .filter(|n| !(d.feasible && is_search_log_note(n)) && !n.starts_with("γ search: "))
     {
         s.push_str(&format!("  note: {n}\n"));
     }

@@ -27,6 +27,13 @@ use crate::vocab::Phase;
 /// Most extra grid steps below γ_hi / span when α still grows there.
 pub const MAX_EXTENSION: usize = 6;
 
+/// A refinement may take up to this many times its planned evaluations...
+const EXTRA_REFINE: usize = 3;
+/// ... while the last `GAIN_WINDOW` evaluations ...
+const GAIN_WINDOW: usize = 2;
+/// ... raised the best by more than this (relative).
+const REFINE_GAIN: f64 = 0.005;
+
 /// The range and effort of one γ search.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GammaPlan {
@@ -188,8 +195,11 @@ pub fn maximise<E>(
 
 /// Golden-section steps in ln γ from the bracket lo ≤ mid ≤ hi (mid the
 /// best so far, value `f_mid`): each evaluation probes the larger side of
-/// mid at the golden ratio and shrinks the bracket. Returns the best
-/// (γ, α) seen.
+/// mid at the golden ratio and shrinks the bracket. At least `evals`
+/// evaluations, and up to [`EXTRA_REFINE`] times as many while the last
+/// [`GAIN_WINDOW`] raised the best by more than [`REFINE_GAIN`] (sharp
+/// peaks, as where α_max(γ) ∝ 1/γ ends abruptly at small γ). Returns the
+/// best (γ, α) seen.
 fn golden<E>(
     lo: f64,
     mid: f64,
@@ -201,9 +211,17 @@ fn golden<E>(
     const W: f64 = 0.381_966_011_250_105_1; // 2 − φ
     let (mut a, mut b, mut c) = (lo.ln(), mid.ln(), hi.ln());
     let mut fb = f_mid;
-    for _ in 0..evals {
+    let mut history = vec![fb];
+    for n in 0..evals * EXTRA_REFINE {
         if c - a < 1e-6 {
             break;
+        }
+        if n >= evals {
+            let k = history.len();
+            let old = history[k.saturating_sub(GAIN_WINDOW + 1)];
+            if fb <= old * (1.0 + REFINE_GAIN) {
+                break;
+            }
         }
         let right = c - b >= b - a;
         let x = if right {
@@ -226,6 +244,7 @@ fn golden<E>(
         } else {
             a = x;
         }
+        history.push(fb);
     }
     Ok((b.exp(), fb))
 }

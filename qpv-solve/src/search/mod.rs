@@ -404,7 +404,9 @@ impl Ctx<'_, '_> {
 
     /// The largest certified α at `gamma` to relative tolerance `tol`
     /// ([`Ctx::alpha_max`]), seeded by the point of `found` whose capacity
-    /// at `gamma` is largest (nearest γ below, nearest above, best overall).
+    /// at `gamma` is largest (an eigenvalue computation per point, no
+    /// solve: near the small-γ end of some plants the solver's α search
+    /// from scratch fails where a neighbour's P still certifies far up).
     fn alpha_seeded(
         &mut self,
         gamma: f64,
@@ -412,17 +414,8 @@ impl Ctx<'_, '_> {
         tol: f64,
         phase: Phase,
     ) -> Result<Option<Point>, SolveError> {
-        let below = found
-            .iter()
-            .filter(|p| p.gamma <= gamma)
-            .max_by(|a, b| a.gamma.total_cmp(&b.gamma));
-        let above = found
-            .iter()
-            .filter(|p| p.gamma > gamma)
-            .min_by(|a, b| a.gamma.total_cmp(&b.gamma));
-        let best = found.iter().max_by(|a, b| a.alpha.total_cmp(&b.alpha));
         let mut seed: Option<(&Point, f64)> = None;
-        for cand in [below, above, best].into_iter().flatten() {
+        for cand in found {
             if let Some(up) = self.lift(cand, gamma) {
                 if seed.map_or(true, |(_, a)| up.alpha > a) {
                     seed = Some((cand, up.alpha));
