@@ -556,7 +556,8 @@ pub fn describe_design(d: &Design) -> String {
     for n in d
         .notes
         .iter()
-        .filter(|n| !(d.feasible && is_search_log_note(n)) && !n.starts_with("γ search: "))
+        // the γ search's statement has its own line above
+        .filter(|n| !(n.starts_with("γ search: ") || (d.feasible && is_search_log_note(n))))
     {
         s.push_str(&format!("  note: {n}\n"));
     }

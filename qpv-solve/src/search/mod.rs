@@ -29,7 +29,7 @@
 //!   and no point is discarded on an estimate; the result is the best
 //!   *certified* (α, γ) found, not a proof of global optimality in γ, and
 //!   the report states what was searched (range, points, local maxima).
-
+//!
 //! Rate conditions: `conditions = full` solves all N p² blocks (S5)/(26);
 //! `conditions = decoupled` solves N·2p blocks with one slack Z_l per
 //! θ-vertex ([`crate::lmi`] documents the split), which imply the full
