@@ -97,8 +97,8 @@ pub use certificate::{check, Certificate, FamilyMargin};
 pub use error::SolveError;
 pub use linalg::svec;
 pub use model::{output_filter, state_bound};
-pub use report::{DataCheck, Design, SearchStep, SolverInfo, Status};
-pub use search::{design, design_with_progress, request};
+pub use report::{DataCheck, Design, GammaSearchInfo, LocalMax, SearchStep, SolverInfo, Status};
+pub use search::{alpha_profile, design, design_with_progress, request, ProfilePoint};
 pub use settings::Settings;
 
 /// The skew-symmetric slack of `split = skew_slack` (the alternation, its

@@ -1039,6 +1039,7 @@ fn noise_report(
         diagnosis: None,
         noise,
         sampling: None,
+        gamma_search: None,
     };
     if d.certifies {
         let (p, l) = (d.p_matrix(), d.l_matrices());

@@ -17,7 +17,10 @@
 //! ({`sigma`, `max_amplitude`, `error_bound`, `per_state`, `noisy_outputs`,
 //! `disturbances`, `check`}, see [`NoiseBound`]) and
 //! `sampling` ({`max_step_euler`, `beta`, `step_estimate_rk4`}, see
-//! [`crate::sampling::Sampling`]). Matrices are plain `Vec<Vec<f64>>` rows;
+//! [`crate::sampling::Sampling`]). A γ search adds `gamma_search`
+//! ({`gamma_lo`, `gamma_hi`, `grid_points`, `points`, `solves`,
+//! `local_maxima` [{`gamma`, `alpha`, `refined`}]}, see
+//! [`GammaSearchInfo`]). Matrices are plain `Vec<Vec<f64>>` rows;
 //! serde_json writes the shortest round-tripping decimal of every `f64`, so
 //! a reloaded design certifies exactly as the written one.
 
@@ -188,6 +191,75 @@ pub struct Design {
     /// ([`crate::sampling::Sampling`]); only on certified sound-mode designs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sampling: Option<crate::sampling::Sampling>,
+    /// What a γ search searched ([`GammaSearchInfo`]: the range, the points,
+    /// the local maxima of α(γ)); only when γ = search.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gamma_search: Option<GammaSearchInfo>,
+}
+
+/// A local maximum of α(γ) over the γ search's grid: where it is, its
+/// (coarse) α, and whether it was refined (it was within reach of the best).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LocalMax {
+    /// γ of the maximum (after refinement, if refined).
+    pub gamma: f64,
+    /// The largest certified α there, to the search's coarse tolerance.
+    pub alpha: f64,
+    /// Whether golden-section steps refined it.
+    pub refined: bool,
+}
+
+/// What a γ search searched (the report's `gamma_search` key), so that a
+/// reader can judge the "best" it reports: α_max(γ) need not be unimodal.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GammaSearchInfo {
+    /// Lowest γ of the logarithmic grid (below γ_hi / span if the grid was
+    /// extended downwards).
+    pub gamma_lo: f64,
+    /// Highest γ searched (γ_hi).
+    pub gamma_hi: f64,
+    /// Grid points (including downward extensions).
+    pub grid_points: usize,
+    /// γ values evaluated in all (grid and refinement), each to the
+    /// coarse tolerance.
+    pub points: usize,
+    /// Solves the search made (grid, refinement and the final α search at
+    /// the best γ; not the final regularised solve).
+    pub solves: usize,
+    /// The local maxima of α(γ) over the grid, best first.
+    pub local_maxima: Vec<LocalMax>,
+}
+
+impl GammaSearchInfo {
+    /// One sentence: "best over γ ∈ [a, b], n grid points (m evaluated, s
+    /// solves); local maxima at γ = .. (α = ..), ...".
+    pub fn statement(&self) -> String {
+        let maxima: Vec<String> = self
+            .local_maxima
+            .iter()
+            .map(|m| {
+                format!(
+                    "γ = {:.5} (α ≈ {:.4}{})",
+                    m.gamma,
+                    m.alpha,
+                    if m.refined { "" } else { ", not refined" }
+                )
+            })
+            .collect();
+        format!(
+            "γ search: best over γ ∈ [{:.4e}, {:.6}], {} log-spaced grid points ({} γ values evaluated, {} solves); local maxima at {}",
+            self.gamma_lo,
+            self.gamma_hi,
+            self.grid_points,
+            self.points,
+            self.solves,
+            if maxima.is_empty() {
+                "none (nothing certified)".to_string()
+            } else {
+                maxima.join(", ")
+            }
+        )
+    }
 }
 
 impl Design {

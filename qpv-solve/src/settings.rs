@@ -15,13 +15,20 @@ pub struct Settings {
     /// Relative tolerance of the α bisection: stop when (hi − lo) ≤ tol · lo.
     /// Default 1e-3.
     pub bisection_rel_tol: f64,
-    /// Number of points of the coarse γ grid (γ_hi·k/n, k = 1..n). Default 6.
+    /// Number of points of the γ search's logarithmic grid over
+    /// [γ_hi / `gamma_span`, γ_hi]. Default 13 (four per decade).
     pub gamma_grid: usize,
-    /// Golden-section evaluations in γ after the grid. Default 4.
+    /// Ratio of the top to the bottom of the γ grid: α_max(γ) can peak far
+    /// below γ_hi (on plants with strong nonlinear terms the best γ was
+    /// found near γ_max / 20), and the grid is extended further down when
+    /// its lowest point is still the best. Default 1000.
+    pub gamma_span: f64,
+    /// Golden-section evaluations in ln γ per refined local maximum of the
+    /// γ grid (and in the noise search's γ refinement). Default 4.
     pub gamma_refine: usize,
-    /// Max-margin solves per γ when ranking γ values (the first grid point,
-    /// which has no seed, gets 6). Default 2.
-    pub gamma_steps: usize,
+    /// Local maxima of the γ grid with α ≥ `gamma_reach` · best are
+    /// refined; lower ones are reported only. Default 0.5.
+    pub gamma_reach: f64,
     /// Largest α the bisection will try. Default 1e6.
     pub alpha_cap: f64,
     /// Smallest α tried when looking for any feasible α (α must be > 0). Default 1e-4.
@@ -57,9 +64,10 @@ impl Default for Settings {
         Settings {
             margin_rel: 1e-5,
             bisection_rel_tol: 1e-3,
-            gamma_grid: 6,
+            gamma_grid: 13,
+            gamma_span: 1000.0,
             gamma_refine: 4,
-            gamma_steps: 2,
+            gamma_reach: 0.5,
             alpha_cap: 1e6,
             alpha_floor: 1e-4,
             gain_weight: 1.0,

@@ -191,6 +191,34 @@ fn sound_mode_gamma_search_optimum() {
     assert_eq!(steps, d.search, "progress saw every step");
     assert!(steps.iter().any(|s| s.phase == "grid"));
     assert!(recheck_json(&model, &d).passed);
+    // The report states what was searched, consistently with the search log.
+    let g = d
+        .gamma_search
+        .as_ref()
+        .expect("a γ search states what it searched");
+    assert!(g.gamma_lo <= d.gamma && d.gamma <= g.gamma_hi, "{g:?}");
+    assert!(
+        g.gamma_hi / g.gamma_lo >= 999.0,
+        "the grid reaches γ_hi/1000: {g:?}"
+    );
+    assert!(g.grid_points >= Settings::default().gamma_grid && g.points >= g.grid_points);
+    let searched = d.search.iter().filter(|s| s.phase != "final").count();
+    assert_eq!(
+        g.solves, searched,
+        "every solve but the final one is the search's"
+    );
+    assert!(!g.local_maxima.is_empty() && g.local_maxima[0].refined);
+    assert!(g
+        .local_maxima
+        .iter()
+        .all(|m| m.alpha <= d.alpha * (1.0 + 1e-12)));
+    assert!(
+        (g.local_maxima[0].gamma - d.gamma).abs() <= 1e-12,
+        "the best local maximum is the reported γ"
+    );
+    assert!(d.notes.contains(&g.statement()), "{:?}", d.notes);
+    let v: serde_json::Value = serde_json::from_str(&d.to_json()).unwrap();
+    assert_eq!(v["gamma_search"]["grid_points"], g.grid_points);
     println!(
         "sound optimum α = {:.5}, γ = {:.5} in {} solves, {:.3} s",
         d.alpha,

@@ -551,10 +551,14 @@ pub fn describe_design(d: &Design) -> String {
             d.solver.detail
         ));
     }
+    if let Some(g) = &d.gamma_search {
+        s.push_str(&format!("  {}\n", g.statement()));
+    }
     for n in d
         .notes
         .iter()
-        .filter(|n| !(d.feasible && is_search_log_note(n)))
+        // the γ search's statement has its own line above
+        .filter(|n| !(n.starts_with("γ search: ") || (d.feasible && is_search_log_note(n))))
     {
         s.push_str(&format!("  note: {n}\n"));
     }

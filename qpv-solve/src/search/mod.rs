@@ -17,15 +17,18 @@
 //!   [lo, hi] otherwise. Typically 5–10 solves instead of ~20 for plain
 //!   bisection.
 //! * γ = search over (0, γ_hi], γ_hi = min(1, γ_max)·(1 − 1e-6) in sound
-//!   mode (γ_max from (S4)), 1 − 1e-6 in paper mode: a coarse grid
-//!   γ_hi·k/n ([`Settings::gamma_grid`]) visited top down, each point
-//!   ranked by a short certified estimate of α_max (a few max-margin solves
-//!   seeded by the best point so far, [`Settings::gamma_steps`]), then
-//!   golden-section refinement between the neighbours of the best grid
-//!   point ([`Settings::gamma_refine`] evaluations), then α_max to the full
-//!   tolerance at the best γ. The result is the best *certified* (α, γ)
-//!   found; α_max(γ) is not assumed unimodal, so it is a search, not a proof
-//!   of global optimality in γ.
+//!   mode (γ_max from (S4)), 1 − 1e-6 in paper mode ([`gamma`]): a
+//!   logarithmic grid of [`Settings::gamma_grid`] points over
+//!   [γ_hi / [`Settings::gamma_span`], γ_hi], visited top down, every point
+//!   valued by α_max to a coarse tolerance (10·tol), seeded by the
+//!   neighbouring points found; the grid extends downwards while its lowest
+//!   point is still the best; every local maximum of the grid values within
+//!   reach of the best ([`Settings::gamma_reach`]) is refined by
+//!   golden-section steps in ln γ ([`Settings::gamma_refine`]); then α_max
+//!   to the full tolerance at the best γ. α_max(γ) is not assumed unimodal
+//!   and no point is discarded on an estimate; the result is the best
+//!   *certified* (α, γ) found, not a proof of global optimality in γ, and
+//!   the report states what was searched (range, points, local maxima).
 //!
 //! Rate conditions: `conditions = full` solves all N p² blocks (S5)/(26);
 //! `conditions = decoupled` solves N·2p blocks with one slack Z_l per
@@ -42,23 +45,23 @@
 //! once more with the default objective; if that point does not certify,
 //! the search's certified point at the same (α, γ) is reported instead.
 
+mod driver;
+pub mod gamma;
 pub mod skew;
 
+use driver::design_plain;
+pub use driver::{alpha_profile, ProfilePoint};
+
 use crate::backend::Status;
-use crate::certificate::{alpha_capacity, check, data_checks, Certificate, DataCheck};
-use crate::conditions::ConditionSet;
+use crate::certificate::{alpha_capacity, check, Certificate};
 use crate::error::SolveError;
 use crate::linalg::matrix_to_rows;
 use crate::lmi::{Objective, Problem};
-use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim};
-use crate::report::{Design, SearchStep, SolverInfo};
+use crate::report::{Design, GammaSearchInfo, SearchStep, SolverInfo};
 use crate::settings::Settings;
-use crate::vocab::{BoundSource, Candidate, Family, Phase};
+use crate::vocab::{Candidate, Phase};
 use nalgebra::DMatrix;
-use qpv_dsl::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound,
-};
-use std::collections::BTreeMap;
+use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split};
 use std::time::Instant;
 
 /// A design request with the given α, γ and mode (every other setting at
@@ -126,6 +129,12 @@ struct Ctx<'a, 'm> {
     prob: Problem<'m>,
     steps: Vec<SearchStep>,
     progress: &'a mut dyn FnMut(&SearchStep),
+    /// In the γ search's coarse α searches: a max-margin problem that the
+    /// solver solves with a negative optimal margin is a failure without
+    /// the regularised retry (the retry is for numerical trouble, which a
+    /// solved negative optimum is not); the final α search at the best γ
+    /// keeps the retry.
+    lean: bool,
 }
 
 impl Ctx<'_, '_> {
@@ -306,7 +315,8 @@ impl Ctx<'_, '_> {
                 metric.as_ref(),
                 phase,
             )?;
-            if !at.certified {
+            let clear_no = self.lean && at.status == Status::Solved && at.margin < 0.0;
+            if !at.certified && !clear_no {
                 // A max-margin answer without a certified point (solved but
                 // rejected by the certificate, unknown, or even reported
                 // infeasible) can be numerical trouble — e.g. an unbounded
@@ -392,200 +402,78 @@ impl Ctx<'_, '_> {
         Ok(lo)
     }
 
-    /// A certified lower estimate of α_max(γ) from at most `steps`
-    /// max-margin solves (Dinkelbach steps), starting from the best capacity
-    /// at this γ of the points found so far (nearest γ below and above, and
-    /// the best overall); stops early when a step gains less than `tol`.
-    /// Used to rank γ.
-    fn alpha_estimate(
+    /// The largest certified α at `gamma` to relative tolerance `tol`
+    /// ([`Ctx::alpha_max`]), seeded by the point of `found` whose capacity
+    /// at `gamma` is largest (an eigenvalue computation per point, no
+    /// solve: near the small-γ end of some plants the solver's α search
+    /// from scratch fails where a neighbour's P still certifies far up).
+    fn alpha_seeded(
         &mut self,
         gamma: f64,
         found: &[Point],
-        steps: usize,
         tol: f64,
         phase: Phase,
     ) -> Result<Option<Point>, SolveError> {
-        let floor = self.settings.alpha_floor;
-        let cap = self.settings.alpha_cap;
-        // Candidate seeds: nearest γ below, nearest above, best overall.
-        let below = found
-            .iter()
-            .filter(|p| p.gamma <= gamma)
-            .max_by(|a, b| a.gamma.total_cmp(&b.gamma));
-        let above = found
-            .iter()
-            .filter(|p| p.gamma > gamma)
-            .min_by(|a, b| a.gamma.total_cmp(&b.gamma));
-        let best = found.iter().max_by(|a, b| a.alpha.total_cmp(&b.alpha));
-        let nearest = match (below, above) {
-            (Some(b), Some(a)) => Some(if gamma - b.gamma <= a.gamma - gamma {
-                b
-            } else {
-                a
-            }),
-            (b, a) => b.or(a),
-        };
-        let mut lo: Option<Point> = None;
-        for cand in [below, above, best].into_iter().flatten() {
-            if let Some(pt) = self.lift(cand, gamma) {
-                if lo.as_ref().map_or(true, |l| pt.alpha > l.alpha) {
-                    lo = Some(pt);
+        let mut seed: Option<(&Point, f64)> = None;
+        for cand in found {
+            if let Some(up) = self.lift(cand, gamma) {
+                if seed.map_or(true, |(_, a)| up.alpha > a) {
+                    seed = Some((cand, up.alpha));
                 }
             }
         }
-        let seed = nearest;
-        let mut a = match (&lo, seed) {
-            (Some(p), _) => p.alpha,
-            // No seed certifies here: α_max is likely lower than the nearest.
-            (None, Some(sp)) => (0.6 * sp.alpha).clamp(floor, cap),
-            (None, None) => floor,
-        };
-        let mut done = 0;
-        let mut misses = 0;
-        while done < steps {
-            let metric = lo.as_ref().or(seed).map(|p| p.p.clone());
-            let at = self.attempt(
-                Candidate::new(a, gamma),
-                Objective::MaxMargin,
-                metric.as_ref(),
-                phase,
-            )?;
-            if at.certified {
-                done += 1;
-                let pt = at.point.expect("certified attempts carry a point");
-                let l = lo.as_ref().map_or(0.0, |p| p.alpha);
-                let mut gain = pt.alpha > l * (1.0 + tol);
-                if pt.alpha > l {
-                    lo = Some(pt);
-                }
-                if !gain && at.margin > 0.1 && done < steps {
-                    // A large max-margin t that the capacity lift cannot turn
-                    // into α (an ill-scaled metric, e.g. the unbounded filter
-                    // block of P): probe a larger α with the regularised
-                    // objective, certified like any point.
-                    let probe = (a * (1.0 + at.margin.min(1.0))).min(cap);
-                    let pr = self.attempt_regularised(Candidate::new(probe, gamma), phase)?;
-                    if let Some(p) = pr.point.filter(|_| pr.certified) {
-                        let l = lo.as_ref().map_or(0.0, |p| p.alpha);
-                        gain = p.alpha > l * (1.0 + tol);
-                        if p.alpha > l {
-                            lo = Some(p);
-                        }
-                    }
-                }
-                if !gain {
-                    break;
-                }
-                a = lo.as_ref().map_or(a, |p| p.alpha);
-            } else {
-                if at.status == Status::Infeasible || lo.is_some() || a <= floor {
-                    break;
-                }
-                misses += 1;
-                if misses > 6 {
-                    break;
-                }
-                a = if a > 16.0 * floor {
-                    (a / 8.0).max(floor)
-                } else {
-                    floor
-                };
-            }
-        }
-        Ok(lo)
+        // Without a seed that certifies here, start from the smallest α:
+        // its max-margin point's capacity is a good first bound, and if it
+        // fails nothing certifies at this γ (feasibility is monotone in α).
+        self.alpha_max(gamma, seed.map(|(p, _)| p), tol, phase)
     }
 
-    /// γ search maximising α: a coarse grid (top down, each point a short
-    /// [`Ctx::alpha_estimate`] seeded by the best point so far),
-    /// golden-section refinement around the best grid point (same
-    /// estimates), then α_max to the full tolerance at the best γ.
-    fn gamma_search(&mut self, gamma_hi: f64) -> Result<Option<Point>, SolveError> {
+    /// γ search maximising α ([`gamma::maximise`]: a logarithmic grid,
+    /// downward extension, golden-section refinement of every local maximum
+    /// within reach), each γ valued by [`Ctx::alpha_seeded`] to a coarse
+    /// tolerance; then α_max to the full tolerance at the best γ. Returns
+    /// the best certified point and the statement of what was searched.
+    fn gamma_search(
+        &mut self,
+        gamma_hi: f64,
+    ) -> Result<(Option<Point>, GammaSearchInfo), SolveError> {
         let tol = self.settings.bisection_rel_tol;
         let coarse = (10.0 * tol).min(0.05);
-        let steps = self.settings.gamma_steps.max(1);
-        let n = self.settings.gamma_grid.max(2);
-        let grid: Vec<f64> = (1..=n).map(|k| gamma_hi * k as f64 / n as f64).collect();
-        let mut memo: Vec<(f64, f64)> = Vec::new();
-        let mut best: Option<Point> = None;
+        let plan = gamma::GammaPlan::from_settings(gamma_hi, self.settings);
+        let solves_before = self.steps.len();
         let mut found: Vec<Point> = Vec::new();
-        for &g in grid.iter().rev() {
-            // The first point has no seed: give it more steps, so that it is
-            // ranked fairly and seeds the others well.
-            let st = if found.is_empty() { 6 } else { steps };
-            let v = match self.alpha_estimate(g, &found, st, coarse, Phase::Grid)? {
+        self.lean = true;
+        let out = gamma::maximise(&plan, &mut |g, phase| {
+            Ok(match self.alpha_seeded(g, &found, coarse, phase)? {
                 Some(pt) => {
-                    let v = pt.alpha;
-                    if best.as_ref().map_or(true, |b| v > b.alpha) {
-                        best = Some(pt.clone());
-                    }
+                    let a = pt.alpha;
                     found.push(pt);
-                    v
+                    a
                 }
                 None => 0.0,
-            };
-            memo.push((g, v));
-        }
-        let Some(b) = best.as_ref() else {
-            return Ok(None);
-        };
-        // Refine between the neighbours of the best grid point.
-        let kb = grid.iter().position(|&g| g == b.gamma).unwrap_or(0);
-        let mut a = if kb == 0 {
-            grid[0] * 0.25
-        } else {
-            grid[kb - 1]
-        };
-        let mut c = if kb + 1 < n { grid[kb + 1] } else { gamma_hi };
-        let phi = (5f64.sqrt() - 1.0) / 2.0;
-        let mut eval =
-            |ctx: &mut Self, g: f64, best: &mut Option<Point>| -> Result<f64, SolveError> {
-                if let Some(&(_, v)) = memo.iter().find(|(x, _)| (*x - g).abs() <= 1e-12 * g) {
-                    return Ok(v);
-                }
-                let v = match ctx.alpha_estimate(g, &found, steps, coarse, Phase::Refine)? {
-                    Some(pt) => {
-                        let v = pt.alpha;
-                        if best.as_ref().map_or(true, |b| v > b.alpha) {
-                            *best = Some(pt.clone());
-                        }
-                        found.push(pt);
-                        v
-                    }
-                    None => 0.0,
-                };
-                memo.push((g, v));
-                Ok(v)
-            };
-        if c > a && self.settings.gamma_refine > 0 {
-            let mut x1 = c - phi * (c - a);
-            let mut x2 = a + phi * (c - a);
-            let mut f1 = eval(self, x1, &mut best)?;
-            let mut f2 = eval(self, x2, &mut best)?;
-            for _ in 2..self.settings.gamma_refine {
-                if f1 >= f2 {
-                    c = x2;
-                    x2 = x1;
-                    f2 = f1;
-                    x1 = c - phi * (c - a);
-                    f1 = eval(self, x1, &mut best)?;
-                } else {
-                    a = x1;
-                    x1 = x2;
-                    f1 = f2;
-                    x2 = a + phi * (c - a);
-                    f2 = eval(self, x2, &mut best)?;
-                }
+            })
+        });
+        self.lean = false;
+        let out = out?;
+        let mut info = out.info;
+        let best = found
+            .iter()
+            .filter(|p| p.gamma == out.gamma)
+            .max_by(|a, b| a.alpha.total_cmp(&b.alpha))
+            .cloned();
+        let result = match best {
+            None => None,
+            Some(b) => {
+                // Full precision at the best γ.
+                let fine = self.alpha_max(b.gamma, Some(&b), tol, Phase::FinalBisect)?;
+                Some(match fine {
+                    Some(p) if p.alpha >= b.alpha => p,
+                    _ => b,
+                })
             }
-        }
-        // Full precision at the best γ.
-        let Some(b) = best.clone() else {
-            return Ok(None);
         };
-        let fine = self.alpha_max(b.gamma, Some(&b), tol, Phase::FinalBisect)?;
-        Ok(match fine {
-            Some(p) if p.alpha >= b.alpha => Some(p),
-            _ => Some(b),
-        })
+        info.solves = self.steps.len() - solves_before;
+        Ok((result, info))
     }
 }
 
@@ -707,381 +595,5 @@ pub fn skew_search(
 ) -> Result<skew::SkewResult, SolveError> {
     skew::alternate(model, start, rounds, settings, conditions, &mut |m, r| {
         design_plain(m, r, settings, &mut |_| {})
-    })
-}
-
-/// [`design_with_progress`] for every split but `skew_slack`, without the
-/// noise and sampling figures.
-fn design_plain(
-    model: &PolytopicModel,
-    request: &DesignRequest,
-    settings: &Settings,
-    progress: &mut dyn FnMut(&SearchStep),
-) -> Result<Design, SolveError> {
-    let t_start = Instant::now();
-    let mode = request.mode;
-    let set = ConditionSet::from_mode(mode);
-    crate::model::validate(model)?;
-    // Size guard (crate::size): refuse before anything is assembled or solved.
-    let size_note = match crate::size::guard(model, request) {
-        crate::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
-        crate::size::Verdict::Slow(m) => Some(m),
-        crate::size::Verdict::Fits => None,
-    };
-    // The observer's model: `state_bound auto` computed (then used as
-    // given), the output route (the model itself or its augmentation by the
-    // output post-filter), the requested representation of N_k, M_k.
-    let prepared = ObserverModel::prepare(
-        model,
-        &ObserverOptions::for_request(request),
-        StateBoundClaim::Compute(settings),
-    )?;
-    let (bound_info, route_info) = (prepared.state_bound, prepared.output_route);
-    let model: &PolytopicModel = &prepared.model;
-    let has_q = matches!(model.state_bound, StateBound::Given(_));
-    if set.requires_s4() && !has_q {
-        return Err(SolveError::MissingStateBound(model.name.clone()));
-    }
-    if let AlphaSpec::Fixed(a) = request.alpha {
-        if !(a.is_finite() && a > 0.0) {
-            return Err(SolveError::BadAlpha(a));
-        }
-    }
-    if let GammaSpec::Fixed(g) = request.gamma {
-        if !(g.is_finite() && g > 0.0 && g < 1.0) {
-            return Err(SolveError::BadGamma(g));
-        }
-    }
-    let gmax = gamma_max(model);
-    let gamma_hi = match set {
-        ConditionSet::Sound => {
-            let gm = gmax.unwrap_or(f64::NAN);
-            let usable = gm.is_finite() && gm > 0.0;
-            if !usable && matches!(request.gamma, GammaSpec::Search) {
-                return Err(SolveError::NoGammaRange(gm));
-            }
-            gm.min(1.0) * (1.0 - 1e-6)
-        }
-        ConditionSet::Paper => 1.0 - 1e-6,
-    };
-    // Full: all N p² rate blocks; decoupled: N·2p blocks with a slack Z_l per
-    // θ-vertex (sufficient). The certificate checks the full family either way.
-    let prob = Problem::new(model, set)?.with_conditions(request.conditions);
-    let mut ctx = Ctx {
-        model,
-        mode,
-        settings,
-        prob,
-        steps: Vec::new(),
-        progress,
-    };
-
-    // The search.
-    let mut notes: Vec<String> = Vec::new();
-    notes.extend(size_note); // size guard: the "slow" warning
-    if bound_info.source == BoundSource::Auto {
-        notes.push(format!(
-            "state bound computed (state_bound auto): h = {:.6}, γ_max = {:.6}, in {} solves, {:.3} s",
-            bound_info.h.unwrap_or(f64::NAN),
-            bound_info.gamma_max.unwrap_or(f64::NAN),
-            bound_info.solves,
-            bound_info.seconds
-        ));
-        notes.extend(bound_info.notes.iter().cloned());
-    }
-    if let Some(f) = &route_info.filter {
-        let bound: Vec<String> = f.bound.iter().map(|h| format!("{h:.4e}")).collect();
-        notes.push(format!(
-            "output post-filter x_y' = −{} x_y + {} y on every output: designed for the augmented plant ({} states: {}), measurement ỹ = x_y; region extended as (x_(i), 0) for the errors (the observer starts its filter estimate at the filter state) and P × R^ny for E and F, exact since no condition reads the filter coordinates; filter-state bound |x_y| ≤ [{}]",
-            f.pole,
-            f.gain,
-            route_info.states.len(),
-            route_info.states.join(", "),
-            bound.join(", ")
-        ));
-    } else if route_info.output_varies {
-        notes.push(format!(
-            "C or M_k depend on θ: double-sum relaxation, {} rate combinations per vertex pair (Ξ_ll ≺ 0, (2/(r−1))Ξ_ll + Ξ_lm + Ξ_ml ≺ 0)",
-            route_info.combinations
-        ));
-    }
-    if request.split == Split::Symmetric {
-        notes.push(
-            "N_k and M_k symmetrised ((T + Tᵀ)/2, the same plant); re-check with this split".into(),
-        );
-    }
-    if request.conditions == Conditions::Decoupled {
-        notes.push(format!(
-            "conditions = decoupled: solved with {} rate blocks (one slack Z per rate combination, sufficient) instead of {}; the certificate checks the full family of {} blocks",
-            ctx.prob.n_rate_blocks(),
-            ctx.prob.n_full_rate_blocks(),
-            ctx.prob.n_full_rate_blocks()
-        ));
-    }
-    let (alpha_t, gamma_t, searched): (Option<f64>, f64, Option<Point>) = match (
-        request.alpha,
-        request.gamma,
-    ) {
-        (AlphaSpec::Fixed(a), GammaSpec::Fixed(g)) => (Some(a), g, None),
-        (AlphaSpec::Max, GammaSpec::Fixed(g)) => {
-            let pt = ctx.alpha_max(g, None, settings.bisection_rel_tol, Phase::Bisect)?;
-            (pt.as_ref().map(|p| p.alpha), g, pt)
-        }
-        (alpha, GammaSpec::Search) => {
-            let pt = ctx.gamma_search(gamma_hi)?;
-            let g = pt.as_ref().map(|p| p.gamma).unwrap_or(gamma_hi);
-            match alpha {
-                AlphaSpec::Max => (pt.as_ref().map(|p| p.alpha), g, pt),
-                AlphaSpec::Fixed(a) => {
-                    if let Some(p) = &pt {
-                        if p.alpha < a {
-                            notes.push(format!(
-                                "the requested α = {a} exceeds the best certified α = {:.6} (at γ = {:.6})",
-                                p.alpha, p.gamma
-                            ));
-                        }
-                    }
-                    // Keep the searched point only if it covers α.
-                    let keep = pt.filter(|p| p.alpha >= a);
-                    (Some(a), g, keep)
-                }
-            }
-        }
-    };
-
-    // The final solve, with the gain regularisation.
-    let mut chosen: Option<Point> = None;
-    let mut last: Option<Point> = None;
-    let mut final_status = Status::NotRun;
-    let mut final_solver = SolverInfo::default();
-    if let Some(a) = alpha_t {
-        let at = ctx.attempt(
-            Candidate::new(a, gamma_t),
-            Objective::Gains,
-            None,
-            Phase::Final,
-        )?;
-        final_status = at.status;
-        final_solver = at.solver.clone();
-        if at.certified {
-            chosen = at.point;
-        } else {
-            last = at.point;
-            if let Some(mut sp) = searched.filter(|p| p.alpha >= a && p.gamma == gamma_t) {
-                // Re-certify the search's point at exactly the reported α.
-                sp.cert = check(model, mode, a, gamma_t, &sp.p, &sp.l);
-                if sp.cert.passed {
-                    sp.alpha = a;
-                    notes.push(format!(
-                        "the regularised final solve did not certify ({}); the search's certified point at the same (α, γ) is reported (its gains are not regularised)",
-                        at.status
-                    ));
-                    final_solver = sp.solver.clone();
-                    chosen = Some(sp);
-                }
-            }
-        }
-    } else if let Some(s) = ctx.steps.last() {
-        final_status = s.status;
-        final_solver = SolverInfo {
-            status: s.status,
-            detail: s.detail.clone(),
-            iterations: s.iterations,
-            seconds: s.solver_seconds,
-            ..SolverInfo::default()
-        };
-    }
-
-    let feasible = chosen.is_some();
-    let shown = chosen.or(last);
-    let alpha_r = shown
-        .as_ref()
-        .map(|p| p.alpha)
-        .or(alpha_t)
-        .unwrap_or_else(|| {
-            ctx.steps
-                .iter()
-                .map(|s| s.alpha)
-                .fold(f64::INFINITY, f64::min)
-                .min(settings.alpha_floor)
-        });
-    let gamma_r = shown.as_ref().map(|p| p.gamma).unwrap_or(gamma_t);
-    let dchecks: BTreeMap<String, DataCheck> = match &shown {
-        Some(p) => p.cert.data_checks.clone(),
-        None => data_checks(model, mode, gamma_r),
-    };
-    let mut margins = shown.as_ref().map(|p| p.cert.margins()).unwrap_or_default();
-    // Failure diagnosis (crate::diagnosis): without any point, the margins
-    // of one attempt at the smallest α, then the cheap model tests.
-    let diagnosis = if feasible {
-        None
-    } else {
-        if margins.is_empty() {
-            let (a, obj) = (settings.alpha_floor, Objective::MaxMargin);
-            if let Some(p) = ctx
-                .attempt(Candidate::new(a, gamma_r), obj, None, Phase::Diagnose)?
-                .point
-            {
-                margins = p.cert.margins();
-            }
-        }
-        Some(crate::diagnosis::diagnose(
-            model,
-            request,
-            settings.alpha_floor,
-        ))
-    };
-
-    // Notes and summary.
-    let unknown = ctx
-        .steps
-        .iter()
-        .filter(|s| s.status == Status::Unknown)
-        .count();
-    if unknown > 0 {
-        let mut kinds: Vec<String> = ctx
-            .steps
-            .iter()
-            .filter(|s| s.status == Status::Unknown)
-            .map(|s| s.detail.clone())
-            .collect();
-        kinds.sort();
-        kinds.dedup();
-        notes.push(format!(
-            "{unknown} of {} solves ended with an unknown status ({}): neither feasible nor infeasible, counted as not certified",
-            ctx.steps.len(),
-            kinds.join(", ")
-        ));
-    }
-    if feasible && final_solver.status != Status::Solved {
-        notes.push(format!(
-            "the solver stopped with {} but its point passes the independent certificate",
-            final_solver.detail
-        ));
-    }
-    let uncert = ctx
-        .steps
-        .iter()
-        .filter(|s| s.status == Status::Solved && !s.certified)
-        .count();
-    if uncert > 0 {
-        notes.push(format!(
-            "{uncert} solved points failed the independent certificate and were rejected"
-        ));
-    }
-    let s4 = dchecks.get(Family::S4.name()).cloned();
-    if mode == Mode::Paper {
-        notes.insert(
-            0,
-            "REPRODUCTION MODE: the paper's printed conditions (13), (14), (26); they do not imply convergence (docs/method.md). This design certifies nothing.".to_string(),
-        );
-        match &s4 {
-            Some(d) if !d.passed => notes.push(format!(
-                "violated assumption (15)/(S4): max_k γ² a_kᵀ Q a_k = {:.4} > 1 at γ = {}",
-                d.value, gamma_r
-            )),
-            Some(_) => {}
-            None => notes.push("(15)/(S4) not checked: the model has no state bound Q".into()),
-        }
-    } else if let Some(d) = &s4 {
-        if !d.passed {
-            notes.push(format!(
-                "(S4) fails: max_k γ² a_kᵀ Q a_k = {:.4} > 1 at γ = {} (γ_max = {:.5})",
-                d.value,
-                gamma_r,
-                gmax.unwrap_or(f64::NAN)
-            ));
-        }
-    }
-    if let Some(d) = dchecks.get(Family::RegionInF.name()) {
-        if !d.passed {
-            notes.push(format!(
-                "region_in_F fails: max_i x_(i)ᵀ Q⁻¹ x_(i) = {:.4} > 1 (the region is not inside the state bound F)",
-                d.value
-            ));
-        }
-    }
-    let failed: Vec<String> = shown
-        .as_ref()
-        .map(|p| {
-            p.cert
-                .families
-                .iter()
-                .filter(|f| !f.passed)
-                .map(|f| format!("{} ({:.3e} at {})", f.name, f.margin, f.worst_at))
-                .collect()
-        })
-        .unwrap_or_default();
-
-    let (p_rows, g_rows, l_rows, norms) = match &shown {
-        Some(pt) => (
-            matrix_to_rows(&pt.p),
-            pt.gammas.iter().map(matrix_to_rows).collect(),
-            pt.l.iter().map(matrix_to_rows).collect(),
-            pt.l.iter()
-                .map(|l| l.clone().singular_values().max())
-                .collect::<Vec<f64>>(),
-        ),
-        None => (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
-    };
-    let certifies = feasible && mode == Mode::Sound;
-    let summary = {
-        let head = match (mode, feasible) {
-            (Mode::Sound, true) => format!(
-                "CERTIFIED (sound conditions S1-S5): V' ≤ −αV with α = {alpha_r:.6}, γ = {gamma_r:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {:.4}.",
-                norms.iter().copied().fold(0.0, f64::max)
-            ),
-            (Mode::Sound, false) => format!(
-                "NOT CERTIFIED (sound conditions) at α = {alpha_r:.6}, γ = {gamma_r:.6}: solver {}{}.",
-                final_status,
-                if failed.is_empty() { String::new() } else { format!("; failed: {}", failed.join(", ")) }
-            ),
-            (Mode::Paper, true) => format!(
-                "PAPER MODE (certifies nothing): the printed conditions (13), (14), (26) hold at α = {alpha_r:.6}, γ = {gamma_r:.6}; max ‖L_l‖₂ = {:.4}.",
-                norms.iter().copied().fold(0.0, f64::max)
-            ),
-            (Mode::Paper, false) => format!(
-                "PAPER MODE (certifies nothing): the printed conditions are not satisfied at α = {alpha_r:.6}, γ = {gamma_r:.6}: solver {}{}.",
-                final_status,
-                if failed.is_empty() { String::new() } else { format!("; failed: {}", failed.join(", ")) }
-            ),
-        };
-        let mut s = head;
-        for n in &notes {
-            s.push(' ');
-            s.push_str(n);
-            if !n.ends_with('.') {
-                s.push('.');
-            }
-        }
-        s
-    };
-
-    Ok(Design {
-        model: model.name.clone(),
-        mode,
-        split: request.split,
-        conditions: request.conditions,
-        feasible,
-        certifies,
-        alpha: alpha_r,
-        gamma: gamma_r,
-        p: p_rows,
-        gamma_l: g_rows,
-        l: l_rows,
-        gain_norms: norms,
-        margins,
-        data_checks: dchecks,
-        solver: final_solver,
-        seconds_total: t_start.elapsed().as_secs_f64(),
-        search: ctx.steps,
-        notes,
-        summary,
-        state_bound: Some(bound_info),
-        output_route: Some(route_info),
-        skew: None,
-        diagnosis,
-        noise: None,
-        sampling: None,
     })
 }

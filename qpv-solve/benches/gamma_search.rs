@@ -1,0 +1,180 @@
+//! Bench: the γ search against a dense logarithmic γ grid, per plant.
+//!
+//! For every example plant (and the elastic arm with `--heavy`): the α of
+//! `alpha = max; gamma = search` ([`qpv_solve::design`]), the best α of a
+//! dense grid of α_max(γ) over [γ_hi · 1e-4, γ_hi]
+//! ([`qpv_solve::alpha_profile`], each point to the full bisection
+//! tolerance, seeded by its neighbour), their relative gap, the solves and
+//! CPU seconds of each, and the search's α with `conditions = decoupled`
+//! (which the full search must never fall below).
+//!
+//! `cargo bench -p qpv-solve --bench gamma_search [-- [POINTS] [--heavy] [--steps] [NAME...]]`
+//! (POINTS: dense grid size, default 200; `--steps`: print the search's
+//! solves and the dense profile; NAME: only plants whose name contains it).
+
+use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel};
+use qpv_solve::{alpha_profile, design, request, Design, Settings};
+use std::time::Instant;
+
+/// User + system CPU seconds of this process (less sensitive to other load
+/// on the machine than wall time).
+fn cpu_seconds() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let f: Vec<&str> = s
+        .rsplit(')')
+        .next()
+        .unwrap_or("")
+        .split_whitespace()
+        .collect();
+    let tick = |i: usize| {
+        f.get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
+    (tick(11) + tick(12)) / 100.0
+}
+
+fn parse(name: &str, src: &str) -> (String, PolytopicModel) {
+    let models = qpv_dsl::parse(src).unwrap_or_else(|e| panic!("{name}: {e}"));
+    (name.to_string(), models[0].polytopic())
+}
+
+fn search(model: &PolytopicModel, conditions: Conditions, s: &Settings) -> (Design, f64, f64) {
+    let mut req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+    req.conditions = conditions;
+    let (t0, c0) = (Instant::now(), cpu_seconds());
+    let d = design(model, &req, s).expect("design");
+    (d, t0.elapsed().as_secs_f64(), cpu_seconds() - c0)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let points: usize = args.iter().find_map(|a| a.parse().ok()).unwrap_or(200);
+    let heavy = args.iter().any(|a| a == "--heavy");
+    let steps = args.iter().any(|a| a == "--steps");
+    let only: Vec<&String> = args
+        .iter()
+        .filter(|a| !a.starts_with("--") && a.parse::<usize>().is_err())
+        .collect();
+    let mut plants = vec![
+        parse("paper", include_str!("../../examples/paper.qpv")),
+        parse(
+            "paper_equations",
+            include_str!("../../examples/paper_equations.qpv"),
+        ),
+        parse("paper_auto", include_str!("../../examples/paper_auto.qpv")),
+        parse("lorenz", include_str!("../../examples/lorenz.qpv")),
+        parse(
+            "lotka_volterra",
+            include_str!("../../examples/lotka_volterra.qpv"),
+        ),
+        parse(
+            "van_de_vusse",
+            include_str!("../../examples/van_de_vusse.qpv"),
+        ),
+        parse(
+            "varying_output",
+            include_str!("../../examples/varying_output.qpv"),
+        ),
+    ];
+    if heavy {
+        plants.push(parse(
+            "elastic_arm",
+            include_str!("../../examples/elastic_arm.qpv"),
+        ));
+    }
+    let settings = Settings::default();
+    println!(
+        "bench gamma_search: search vs a dense log grid of {points} points over [γ_hi·1e-4, γ_hi] (sound, default split); cpu seconds"
+    );
+    println!(
+        "{:<16} {:>10} {:>9} {:>10} {:>9} {:>8} {:>7} {:>8} {:>7} {:>8} {:>10} {:>6}  local maxima",
+        "plant",
+        "dense α",
+        "dense γ",
+        "search α",
+        "search γ",
+        "gap %",
+        "solves",
+        "cpu s",
+        "dense n",
+        "dense s",
+        "decoupl α",
+        "full≥d"
+    );
+    for (name, model) in plants
+        .iter()
+        .filter(|(n, _)| only.is_empty() || only.iter().any(|o| n.contains(o.as_str())))
+    {
+        let (d, _, cpu) = search(model, Conditions::Full, &settings);
+        let info = d
+            .gamma_search
+            .clone()
+            .expect("a γ search reports what it searched");
+        if steps {
+            for s in &d.search {
+                println!(
+                    "  {:<12} γ {:.5e} α {:>12.5} {:<9} certified {} → {:.5}",
+                    s.phase.name(),
+                    s.gamma,
+                    s.alpha,
+                    s.detail,
+                    s.certified,
+                    s.alpha_certified
+                );
+            }
+            println!("  {}", info.statement());
+        }
+        let hi = info.gamma_hi;
+        let lo = hi * 1e-4;
+        let grid: Vec<f64> = (0..points)
+            .map(|k| (lo.ln() + (hi.ln() - lo.ln()) * k as f64 / (points - 1) as f64).exp())
+            .rev()
+            .collect();
+        let c0 = cpu_seconds();
+        let req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+        let prof = alpha_profile(model, &req, &grid, &settings).expect("profile");
+        let dense_cpu = cpu_seconds() - c0;
+        if steps {
+            for p in &prof {
+                println!(
+                    "  dense γ {:.5e} α {:.5} ({} solves)",
+                    p.gamma, p.alpha, p.solves
+                );
+            }
+        }
+        let best = prof.iter().copied().fold((0.0, 0.0), |b, p| {
+            if p.alpha > b.0 {
+                (p.alpha, p.gamma)
+            } else {
+                b
+            }
+        });
+        let dense_solves: usize = prof.iter().map(|p| p.solves).sum();
+        let (dd, _, _) = search(model, Conditions::Decoupled, &settings);
+        let alpha = if d.certifies { d.alpha } else { 0.0 };
+        let alpha_d = if dd.certifies { dd.alpha } else { 0.0 };
+        let gap = 100.0 * (best.0 - alpha) / best.0.max(1e-300);
+        let maxima: Vec<String> = info
+            .local_maxima
+            .iter()
+            .map(|m| format!("{:.4}@{:.4e}", m.alpha, m.gamma))
+            .collect();
+        println!(
+            "{:<16} {:>10.4} {:>9.5} {:>10.4} {:>9.5} {:>8.3} {:>7} {:>8.2} {:>7} {:>8.2} {:>10.4} {:>6}  {}",
+            name,
+            best.0,
+            best.1,
+            alpha,
+            d.gamma,
+            gap,
+            d.search.len(),
+            cpu,
+            dense_solves,
+            dense_cpu,
+            alpha_d,
+            alpha >= alpha_d,
+            maxima.join(" ")
+        );
+    }
+}

@@ -1,0 +1,600 @@
+//! The design driver of every split but `skew_slack`: preparation, the
+//! requested α/γ search, the final regularised solve, the notes and the
+//! summary, each a function of its own.
+
+use super::{Ctx, Point};
+use crate::backend::Status;
+use crate::certificate::{check, data_checks, DataCheck};
+use crate::conditions::ConditionSet;
+use crate::error::SolveError;
+use crate::linalg::matrix_to_rows;
+use crate::lmi::{Objective, Problem};
+use crate::model::output_filter::OutputRouteInfo;
+use crate::model::state_bound::StateBoundInfo;
+use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim};
+use crate::report::{Design, GammaSearchInfo, SearchStep, SolverInfo};
+use crate::settings::Settings;
+use crate::vocab::{BoundSource, Candidate, Family, Phase};
+use qpv_dsl::{
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound,
+};
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+/// A request checked and its observer's model built, before any solve.
+pub(super) struct Setup {
+    /// The model the conditions are solved and certified on.
+    pub model: PolytopicModel,
+    /// The state bound used, for the report.
+    pub bound_info: StateBoundInfo,
+    /// The output route used, for the report.
+    pub route_info: OutputRouteInfo,
+    /// The size guard's "slow" warning, if any.
+    pub size_note: Option<String>,
+    /// γ_max from (S4), if the model has a state bound.
+    pub gmax: Option<f64>,
+    /// The top of the γ search's range.
+    pub gamma_hi: f64,
+}
+
+impl Setup {
+    /// Validates the model and the request, applies the size guard, and
+    /// builds the observer's model: `state_bound auto` computed (then used
+    /// as given), the output route (the model itself or its augmentation by
+    /// the output post-filter), the requested representation of N_k, M_k.
+    pub fn new(
+        model: &PolytopicModel,
+        request: &DesignRequest,
+        settings: &Settings,
+    ) -> Result<Setup, SolveError> {
+        let set = ConditionSet::from_mode(request.mode);
+        crate::model::validate(model)?;
+        // Refuse before anything is assembled or solved.
+        let size_note = match crate::size::guard(model, request) {
+            crate::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
+            crate::size::Verdict::Slow(m) => Some(m),
+            crate::size::Verdict::Fits => None,
+        };
+        let prepared = ObserverModel::prepare(
+            model,
+            &ObserverOptions::for_request(request),
+            StateBoundClaim::Compute(settings),
+        )?;
+        let model = prepared.model;
+        let has_q = matches!(model.state_bound, StateBound::Given(_));
+        if set.requires_s4() && !has_q {
+            return Err(SolveError::MissingStateBound(model.name.clone()));
+        }
+        if let AlphaSpec::Fixed(a) = request.alpha {
+            if !(a.is_finite() && a > 0.0) {
+                return Err(SolveError::BadAlpha(a));
+            }
+        }
+        if let GammaSpec::Fixed(g) = request.gamma {
+            if !(g.is_finite() && g > 0.0 && g < 1.0) {
+                return Err(SolveError::BadGamma(g));
+            }
+        }
+        let gmax = gamma_max(&model);
+        let gamma_hi = match set {
+            ConditionSet::Sound => {
+                let gm = gmax.unwrap_or(f64::NAN);
+                let usable = gm.is_finite() && gm > 0.0;
+                if !usable && matches!(request.gamma, GammaSpec::Search) {
+                    return Err(SolveError::NoGammaRange(gm));
+                }
+                gm.min(1.0) * (1.0 - 1e-6)
+            }
+            ConditionSet::Paper => 1.0 - 1e-6,
+        };
+        Ok(Setup {
+            model,
+            bound_info: prepared.state_bound,
+            route_info: prepared.output_route,
+            size_note,
+            gmax,
+            gamma_hi,
+        })
+    }
+
+    /// The problem of the request's conditions. Full: all N p² rate blocks;
+    /// decoupled: N·2p blocks with a slack Z_l per θ-vertex (sufficient).
+    /// The certificate checks the full family either way.
+    pub fn problem(&self, request: &DesignRequest) -> Result<Problem<'_>, SolveError> {
+        Ok(
+            Problem::new(&self.model, ConditionSet::from_mode(request.mode))?
+                .with_conditions(request.conditions),
+        )
+    }
+
+    /// The notes that follow from the setup alone: the size warning, the
+    /// computed state bound, the output route, the split, the conditions.
+    fn notes(&self, request: &DesignRequest, prob: &Problem<'_>) -> Vec<String> {
+        let (bound_info, route_info) = (&self.bound_info, &self.route_info);
+        let mut notes: Vec<String> = Vec::new();
+        notes.extend(self.size_note.clone());
+        if bound_info.source == BoundSource::Auto {
+            notes.push(format!(
+                "state bound computed (state_bound auto): h = {:.6}, γ_max = {:.6}, in {} solves, {:.3} s",
+                bound_info.h.unwrap_or(f64::NAN),
+                bound_info.gamma_max.unwrap_or(f64::NAN),
+                bound_info.solves,
+                bound_info.seconds
+            ));
+            notes.extend(bound_info.notes.iter().cloned());
+        }
+        if let Some(f) = &route_info.filter {
+            let bound: Vec<String> = f.bound.iter().map(|h| format!("{h:.4e}")).collect();
+            notes.push(format!(
+                "output post-filter x_y' = −{} x_y + {} y on every output: designed for the augmented plant ({} states: {}), measurement ỹ = x_y; region extended as (x_(i), 0) for the errors (the observer starts its filter estimate at the filter state) and P × R^ny for E and F, exact since no condition reads the filter coordinates; filter-state bound |x_y| ≤ [{}]",
+                f.pole,
+                f.gain,
+                route_info.states.len(),
+                route_info.states.join(", "),
+                bound.join(", ")
+            ));
+        } else if route_info.output_varies {
+            notes.push(format!(
+                "C or M_k depend on θ: double-sum relaxation, {} rate combinations per vertex pair (Ξ_ll ≺ 0, (2/(r−1))Ξ_ll + Ξ_lm + Ξ_ml ≺ 0)",
+                route_info.combinations
+            ));
+        }
+        if request.split == Split::Symmetric {
+            notes.push(
+                "N_k and M_k symmetrised ((T + Tᵀ)/2, the same plant); re-check with this split"
+                    .into(),
+            );
+        }
+        if request.conditions == Conditions::Decoupled {
+            notes.push(format!(
+                "conditions = decoupled: solved with {} rate blocks (one slack Z per rate combination, sufficient) instead of {}; the certificate checks the full family of {} blocks",
+                prob.n_rate_blocks(),
+                prob.n_full_rate_blocks(),
+                prob.n_full_rate_blocks()
+            ));
+        }
+        notes
+    }
+}
+
+/// What the request's α/γ search settled on, before the final solve.
+struct Target {
+    /// The α of the final solve (None: nothing to solve, no α certified).
+    alpha: Option<f64>,
+    /// The γ of the final solve.
+    gamma: f64,
+    /// The search's certified point, kept if it covers `alpha` at `gamma`.
+    searched: Option<Point>,
+    /// What a γ search searched.
+    gamma_search: Option<GammaSearchInfo>,
+}
+
+/// The outcome of the final solve.
+struct Final {
+    /// The certified point reported.
+    chosen: Option<Point>,
+    /// The final solve's point when it did not certify.
+    last: Option<Point>,
+    status: Status,
+    solver: SolverInfo,
+}
+
+impl Ctx<'_, '_> {
+    /// Runs the α/γ search the request asks for: none (fixed α and γ), α =
+    /// max at a fixed γ, or the γ search (with α = max, or a fixed α that the
+    /// best point must cover).
+    fn target(
+        &mut self,
+        request: &DesignRequest,
+        gamma_hi: f64,
+        notes: &mut Vec<String>,
+    ) -> Result<Target, SolveError> {
+        let tol = self.settings.bisection_rel_tol;
+        Ok(match (request.alpha, request.gamma) {
+            (AlphaSpec::Fixed(a), GammaSpec::Fixed(g)) => Target {
+                alpha: Some(a),
+                gamma: g,
+                searched: None,
+                gamma_search: None,
+            },
+            (AlphaSpec::Max, GammaSpec::Fixed(g)) => {
+                let pt = self.alpha_max(g, None, tol, Phase::Bisect)?;
+                Target {
+                    alpha: pt.as_ref().map(|p| p.alpha),
+                    gamma: g,
+                    searched: pt,
+                    gamma_search: None,
+                }
+            }
+            (alpha, GammaSpec::Search) => {
+                let (pt, info) = self.gamma_search(gamma_hi)?;
+                notes.push(info.statement());
+                let g = pt.as_ref().map(|p| p.gamma).unwrap_or(gamma_hi);
+                let (alpha, searched) = match alpha {
+                    AlphaSpec::Max => (pt.as_ref().map(|p| p.alpha), pt),
+                    AlphaSpec::Fixed(a) => {
+                        if let Some(p) = pt.as_ref().filter(|p| p.alpha < a) {
+                            notes.push(format!(
+                                "the requested α = {a} exceeds the best certified α = {:.6} (at γ = {:.6})",
+                                p.alpha, p.gamma
+                            ));
+                        }
+                        // Keep the searched point only if it covers α.
+                        (Some(a), pt.filter(|p| p.alpha >= a))
+                    }
+                };
+                Target {
+                    alpha,
+                    gamma: g,
+                    searched,
+                    gamma_search: Some(info),
+                }
+            }
+        })
+    }
+
+    /// The final solve at the target, with the gain regularisation; if it
+    /// does not certify, the search's certified point at the same (α, γ)
+    /// (re-certified at exactly that α) is reported instead, with a note.
+    fn final_solve(&mut self, t: Target, notes: &mut Vec<String>) -> Result<Final, SolveError> {
+        let Some(a) = t.alpha else {
+            let (status, solver) = match self.steps.last() {
+                Some(s) => (
+                    s.status,
+                    SolverInfo {
+                        status: s.status,
+                        detail: s.detail.clone(),
+                        iterations: s.iterations,
+                        seconds: s.solver_seconds,
+                        ..SolverInfo::default()
+                    },
+                ),
+                None => (Status::NotRun, SolverInfo::default()),
+            };
+            return Ok(Final {
+                chosen: None,
+                last: None,
+                status,
+                solver,
+            });
+        };
+        let at = self.attempt(
+            Candidate::new(a, t.gamma),
+            Objective::Gains,
+            None,
+            Phase::Final,
+        )?;
+        let mut out = Final {
+            chosen: None,
+            last: None,
+            status: at.status,
+            solver: at.solver.clone(),
+        };
+        if at.certified {
+            out.chosen = at.point;
+            return Ok(out);
+        }
+        out.last = at.point;
+        if let Some(mut sp) = t.searched.filter(|p| p.alpha >= a && p.gamma == t.gamma) {
+            sp.cert = check(self.model, self.mode, a, t.gamma, &sp.p, &sp.l);
+            if sp.cert.passed {
+                sp.alpha = a;
+                notes.push(format!(
+                    "the regularised final solve did not certify ({}); the search's certified point at the same (α, γ) is reported (its gains are not regularised)",
+                    at.status
+                ));
+                out.solver = sp.solver.clone();
+                out.chosen = Some(sp);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Notes on the solves: unknown statuses, a certified point from an
+    /// unsolved status, points the certificate rejected.
+    fn solve_notes(&self, feasible: bool, final_solver: &SolverInfo, notes: &mut Vec<String>) {
+        let unknown: Vec<&SearchStep> = self
+            .steps
+            .iter()
+            .filter(|s| s.status == Status::Unknown)
+            .collect();
+        if !unknown.is_empty() {
+            let mut kinds: Vec<String> = unknown.iter().map(|s| s.detail.clone()).collect();
+            kinds.sort();
+            kinds.dedup();
+            notes.push(format!(
+                "{} of {} solves ended with an unknown status ({}): neither feasible nor infeasible, counted as not certified",
+                unknown.len(),
+                self.steps.len(),
+                kinds.join(", ")
+            ));
+        }
+        if feasible && final_solver.status != Status::Solved {
+            notes.push(format!(
+                "the solver stopped with {} but its point passes the independent certificate",
+                final_solver.detail
+            ));
+        }
+        let uncert = self
+            .steps
+            .iter()
+            .filter(|s| s.status == Status::Solved && !s.certified)
+            .count();
+        if uncert > 0 {
+            notes.push(format!(
+                "{uncert} solved points failed the independent certificate and were rejected"
+            ));
+        }
+    }
+}
+
+/// Notes on the data checks: the paper-mode disclaimer and (15)/(S4), or a
+/// failed (S4) in sound mode, and a region outside F.
+fn data_notes(
+    mode: Mode,
+    dchecks: &BTreeMap<String, DataCheck>,
+    gamma: f64,
+    gmax: Option<f64>,
+    notes: &mut Vec<String>,
+) {
+    let s4 = dchecks.get(Family::S4.name());
+    if mode == Mode::Paper {
+        notes.insert(
+            0,
+            "REPRODUCTION MODE: the paper's printed conditions (13), (14), (26); they do not imply convergence (docs/method.md). This design certifies nothing.".to_string(),
+        );
+        match s4 {
+            Some(d) if !d.passed => notes.push(format!(
+                "violated assumption (15)/(S4): max_k γ² a_kᵀ Q a_k = {:.4} > 1 at γ = {}",
+                d.value, gamma
+            )),
+            Some(_) => {}
+            None => notes.push("(15)/(S4) not checked: the model has no state bound Q".into()),
+        }
+    } else if let Some(d) = s4.filter(|d| !d.passed) {
+        notes.push(format!(
+            "(S4) fails: max_k γ² a_kᵀ Q a_k = {:.4} > 1 at γ = {} (γ_max = {:.5})",
+            d.value,
+            gamma,
+            gmax.unwrap_or(f64::NAN)
+        ));
+    }
+    if let Some(d) = dchecks.get(Family::RegionInF.name()).filter(|d| !d.passed) {
+        notes.push(format!(
+            "region_in_F fails: max_i x_(i)ᵀ Q⁻¹ x_(i) = {:.4} > 1 (the region is not inside the state bound F)",
+            d.value
+        ));
+    }
+}
+
+/// The human summary: the verdict line, then every note.
+fn summary(
+    mode: Mode,
+    feasible: bool,
+    (alpha, gamma): (f64, f64),
+    final_status: Status,
+    failed: &[String],
+    norms: &[f64],
+    notes: &[String],
+) -> String {
+    let max_norm = norms.iter().copied().fold(0.0, f64::max);
+    let failed = if failed.is_empty() {
+        String::new()
+    } else {
+        format!("; failed: {}", failed.join(", "))
+    };
+    let mut s = match (mode, feasible) {
+        (Mode::Sound, true) => format!(
+            "CERTIFIED (sound conditions S1-S5): V' ≤ −αV with α = {alpha:.6}, γ = {gamma:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {max_norm:.4}."
+        ),
+        (Mode::Sound, false) => format!(
+            "NOT CERTIFIED (sound conditions) at α = {alpha:.6}, γ = {gamma:.6}: solver {final_status}{failed}."
+        ),
+        (Mode::Paper, true) => format!(
+            "PAPER MODE (certifies nothing): the printed conditions (13), (14), (26) hold at α = {alpha:.6}, γ = {gamma:.6}; max ‖L_l‖₂ = {max_norm:.4}."
+        ),
+        (Mode::Paper, false) => format!(
+            "PAPER MODE (certifies nothing): the printed conditions are not satisfied at α = {alpha:.6}, γ = {gamma:.6}: solver {final_status}{failed}."
+        ),
+    };
+    for n in notes {
+        s.push(' ');
+        s.push_str(n);
+        if !n.ends_with('.') {
+            s.push('.');
+        }
+    }
+    s
+}
+
+/// [`super::design_with_progress`] for every split but `skew_slack`,
+/// without the noise and sampling figures.
+pub(super) fn design_plain(
+    model: &PolytopicModel,
+    request: &DesignRequest,
+    settings: &Settings,
+    progress: &mut dyn FnMut(&SearchStep),
+) -> Result<Design, SolveError> {
+    let t_start = Instant::now();
+    let mode = request.mode;
+    let setup = Setup::new(model, request, settings)?;
+    let model: &PolytopicModel = &setup.model;
+    let prob = setup.problem(request)?;
+    let mut notes = setup.notes(request, &prob);
+    let mut ctx = Ctx {
+        model,
+        mode,
+        settings,
+        prob,
+        steps: Vec::new(),
+        progress,
+        lean: false,
+    };
+    let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
+    let (alpha_t, gamma_t) = (target.alpha, target.gamma);
+    let gamma_search = target.gamma_search.clone();
+    let fin = ctx.final_solve(target, &mut notes)?;
+
+    let feasible = fin.chosen.is_some();
+    let shown = fin.chosen.or(fin.last);
+    let alpha_r = shown
+        .as_ref()
+        .map(|p| p.alpha)
+        .or(alpha_t)
+        .unwrap_or_else(|| {
+            ctx.steps
+                .iter()
+                .map(|s| s.alpha)
+                .fold(f64::INFINITY, f64::min)
+                .min(settings.alpha_floor)
+        });
+    let gamma_r = shown.as_ref().map(|p| p.gamma).unwrap_or(gamma_t);
+    let dchecks: BTreeMap<String, DataCheck> = match &shown {
+        Some(p) => p.cert.data_checks.clone(),
+        None => data_checks(model, mode, gamma_r),
+    };
+    let mut margins = shown.as_ref().map(|p| p.cert.margins()).unwrap_or_default();
+    // Failure diagnosis (crate::diagnosis): without any point, the margins
+    // of one attempt at the smallest α, then the cheap model tests.
+    let diagnosis = if feasible {
+        None
+    } else {
+        if margins.is_empty() {
+            let (a, obj) = (settings.alpha_floor, Objective::MaxMargin);
+            if let Some(p) = ctx
+                .attempt(Candidate::new(a, gamma_r), obj, None, Phase::Diagnose)?
+                .point
+            {
+                margins = p.cert.margins();
+            }
+        }
+        Some(crate::diagnosis::diagnose(
+            model,
+            request,
+            settings.alpha_floor,
+        ))
+    };
+    ctx.solve_notes(feasible, &fin.solver, &mut notes);
+    data_notes(mode, &dchecks, gamma_r, setup.gmax, &mut notes);
+    let failed: Vec<String> = shown
+        .as_ref()
+        .map(|p| {
+            p.cert
+                .families
+                .iter()
+                .filter(|f| !f.passed)
+                .map(|f| format!("{} ({:.3e} at {})", f.name, f.margin, f.worst_at))
+                .collect()
+        })
+        .unwrap_or_default();
+    let (p_rows, g_rows, l_rows, norms) = match &shown {
+        Some(pt) => (
+            matrix_to_rows(&pt.p),
+            pt.gammas.iter().map(matrix_to_rows).collect(),
+            pt.l.iter().map(matrix_to_rows).collect(),
+            pt.l.iter()
+                .map(|l| l.clone().singular_values().max())
+                .collect::<Vec<f64>>(),
+        ),
+        None => (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
+    };
+    let summary = summary(
+        mode,
+        feasible,
+        (alpha_r, gamma_r),
+        fin.status,
+        &failed,
+        &norms,
+        &notes,
+    );
+    Ok(Design {
+        model: model.name.clone(),
+        mode,
+        split: request.split,
+        conditions: request.conditions,
+        feasible,
+        certifies: feasible && mode == Mode::Sound,
+        alpha: alpha_r,
+        gamma: gamma_r,
+        p: p_rows,
+        gamma_l: g_rows,
+        l: l_rows,
+        gain_norms: norms,
+        margins,
+        data_checks: dchecks,
+        solver: fin.solver,
+        seconds_total: t_start.elapsed().as_secs_f64(),
+        search: ctx.steps,
+        notes,
+        summary,
+        state_bound: Some(setup.bound_info.clone()),
+        output_route: Some(setup.route_info.clone()),
+        skew: None,
+        diagnosis,
+        noise: None,
+        sampling: None,
+        gamma_search,
+    })
+}
+
+/// One point of [`alpha_profile`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProfilePoint {
+    /// The region scaling γ.
+    pub gamma: f64,
+    /// The largest certified α at γ, to the full bisection tolerance (0 if
+    /// no α > 0 certifies there).
+    pub alpha: f64,
+    /// Solves spent at this γ.
+    pub solves: usize,
+}
+
+/// α_max(γ) at every γ of `gammas`, in the order given, each to the full
+/// bisection tolerance and seeded by the certified point of the previous
+/// γ (which only speeds the bisection up: every value is bracketed by a
+/// certified α and a failed one). The request's α and γ are ignored; its
+/// mode, split, conditions and output route are used. A dense profile to
+/// check a γ search against, or to plot α(γ).
+pub fn alpha_profile(
+    model: &PolytopicModel,
+    request: &DesignRequest,
+    gammas: &[f64],
+    settings: &Settings,
+) -> Result<Vec<ProfilePoint>, SolveError> {
+    let req = DesignRequest {
+        alpha: AlphaSpec::Max,
+        gamma: GammaSpec::Search,
+        ..request.clone()
+    };
+    let setup = Setup::new(model, &req, settings)?;
+    let mut quiet = |_: &SearchStep| {};
+    let mut ctx = Ctx {
+        model: &setup.model,
+        mode: req.mode,
+        settings,
+        prob: setup.problem(&req)?,
+        steps: Vec::new(),
+        progress: &mut quiet,
+        lean: false,
+    };
+    let mut prev: Option<Point> = None;
+    let mut out = Vec::with_capacity(gammas.len());
+    for &g in gammas {
+        if !(g.is_finite() && g > 0.0 && g < 1.0) {
+            return Err(SolveError::BadGamma(g));
+        }
+        let n0 = ctx.steps.len();
+        // The previous point seeds only if it certifies here.
+        let seed = prev.as_ref().filter(|p| ctx.lift(p, g).is_some());
+        let pt = ctx.alpha_max(g, seed, settings.bisection_rel_tol, Phase::Bisect)?;
+        out.push(ProfilePoint {
+            gamma: g,
+            alpha: pt.as_ref().map_or(0.0, |p| p.alpha),
+            solves: ctx.steps.len() - n0,
+        });
+        if pt.is_some() {
+            prev = pt;
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,330 @@
+//! The γ search's strategy, apart from the solver: which γ to evaluate,
+//! in which order, and which local maxima to refine.
+//!
+//! α_max(γ) need not be unimodal (docs/method.md, the search section), so
+//! the search does not trust one bracket:
+//!
+//! 1. a logarithmic grid of [`GammaPlan::grid`] points over
+//!    [γ_hi / span, γ_hi], visited from the top; every point gets an
+//!    *exact* value (the α search to a coarse relative tolerance, so a point
+//!    is never ranked, kept or discarded on an estimate);
+//! 2. if the lowest grid point is the best, the grid is extended downwards
+//!    (a grid step at a time, at most [`MAX_EXTENSION`] steps) while α still
+//!    grows;
+//! 3. every local maximum of the grid values that is within reach of the
+//!    best (α ≥ reach · best) is refined by golden-section steps in ln γ
+//!    inside the bracket of its two grid neighbours; local maxima out of
+//!    reach are recorded, not refined.
+//!
+//! The caller then solves the best γ to the full tolerance. [`maximise`]
+//! only sees a function γ ↦ α (0 when nothing certifies), so it is tested
+//! on functions with known maxima.
+
+use crate::report::{GammaSearchInfo, LocalMax};
+use crate::settings::Settings;
+use crate::vocab::Phase;
+
+/// Most extra grid steps below γ_hi / span when α still grows there.
+pub const MAX_EXTENSION: usize = 6;
+
+/// A refinement may take up to this many times its planned evaluations...
+const EXTRA_REFINE: usize = 3;
+/// ... while the last `GAIN_WINDOW` evaluations ...
+const GAIN_WINDOW: usize = 2;
+/// ... raised the best by more than this (relative).
+const REFINE_GAIN: f64 = 0.005;
+
+/// The range and effort of one γ search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GammaPlan {
+    /// Lowest grid point.
+    pub lo: f64,
+    /// Highest grid point (γ_hi).
+    pub hi: f64,
+    /// Number of grid points (at least 2).
+    pub points: usize,
+    /// Golden-section evaluations per refined local maximum.
+    pub refine: usize,
+    /// Local maxima with α ≥ reach · best are refined.
+    pub reach: f64,
+}
+
+impl GammaPlan {
+    /// The plan of [`Settings`] ([`Settings::gamma_grid`],
+    /// [`Settings::gamma_span`], [`Settings::gamma_refine`],
+    /// [`Settings::gamma_reach`]) below `hi`.
+    pub fn from_settings(hi: f64, settings: &Settings) -> GammaPlan {
+        GammaPlan {
+            lo: hi / settings.gamma_span.max(1.0),
+            hi,
+            points: settings.gamma_grid.max(2),
+            refine: settings.gamma_refine,
+            reach: settings.gamma_reach.clamp(0.0, 1.0),
+        }
+    }
+
+    /// The grid, ascending: `points` values log-spaced from `lo` to `hi`.
+    pub fn grid(&self) -> Vec<f64> {
+        let n = self.points.max(2);
+        let (a, b) = (self.lo.ln(), self.hi.ln());
+        (0..n)
+            .map(|k| {
+                if k + 1 == n {
+                    self.hi
+                } else {
+                    (a + (b - a) * k as f64 / (n - 1) as f64).exp()
+                }
+            })
+            .collect()
+    }
+}
+
+/// What [`maximise`] found: the best γ and its α (both 0 when nothing
+/// certified anywhere), and the statement of what was searched.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GammaOutcome {
+    /// The γ of the best value.
+    pub gamma: f64,
+    /// The best value (α at `gamma`, to the evaluation's tolerance).
+    pub alpha: f64,
+    /// The searched range, point counts and local maxima.
+    pub info: GammaSearchInfo,
+}
+
+/// Evaluated points (γ, α), kept sorted by γ.
+struct Samples(Vec<(f64, f64)>);
+
+impl Samples {
+    fn insert(&mut self, g: f64, a: f64) {
+        let k = self.0.partition_point(|&(x, _)| x < g);
+        self.0.insert(k, (g, a));
+    }
+    fn get(&self, g: f64) -> Option<f64> {
+        self.0
+            .iter()
+            .find(|(x, _)| (x - g).abs() <= 1e-12 * g)
+            .map(|&(_, a)| a)
+    }
+    fn best(&self) -> (f64, f64) {
+        self.0
+            .iter()
+            .copied()
+            .fold((0.0, 0.0), |b, p| if p.1 > b.1 { p } else { b })
+    }
+}
+
+/// Maximises γ ↦ `eval(γ, phase)` over the plan (module doc). `eval`
+/// returns the largest certified α at γ (0 if none); each γ is evaluated
+/// at most once.
+pub fn maximise<E>(
+    plan: &GammaPlan,
+    eval: &mut dyn FnMut(f64, Phase) -> Result<f64, E>,
+) -> Result<GammaOutcome, E> {
+    let mut samples = Samples(Vec::new());
+    let mut value = |g: f64, phase: Phase, s: &mut Samples| -> Result<f64, E> {
+        if let Some(a) = s.get(g) {
+            return Ok(a);
+        }
+        let a = eval(g, phase)?;
+        s.insert(g, a);
+        Ok(a)
+    };
+    let mut grid = plan.grid();
+    for &g in grid.iter().rev() {
+        value(g, Phase::Grid, &mut samples)?;
+    }
+    // Extend downwards while the lowest point is the best and still rising.
+    let step = (grid[1] / grid[0]).max(1.0 + 1e-9);
+    for _ in 0..MAX_EXTENSION {
+        let (bg, ba) = samples.best();
+        if ba <= 0.0 || bg > grid[0] {
+            break;
+        }
+        let g = grid[0] / step;
+        let a = value(g, Phase::Grid, &mut samples)?;
+        grid.insert(0, g);
+        if a <= ba {
+            break;
+        }
+    }
+    let vals: Vec<f64> = grid
+        .iter()
+        .map(|&g| samples.get(g).unwrap_or(0.0))
+        .collect();
+    let best_grid = vals.iter().copied().fold(0.0, f64::max);
+    // Local maxima of the grid values, best first.
+    let mut peaks: Vec<usize> = (0..grid.len())
+        .filter(|&k| {
+            vals[k] > 0.0
+                && (k == 0 || vals[k] >= vals[k - 1])
+                && (k + 1 == grid.len() || vals[k] > vals[k + 1])
+        })
+        .collect();
+    peaks.sort_by(|&a, &b| vals[b].total_cmp(&vals[a]));
+    let mut local = Vec::new();
+    for &k in &peaks {
+        let refined = vals[k] >= plan.reach * best_grid && plan.refine > 0;
+        let (mut g, mut a) = (grid[k], vals[k]);
+        if refined {
+            let lo = grid[k.saturating_sub(1)];
+            let hi = grid[(k + 1).min(grid.len() - 1)];
+            (g, a) = golden(lo, grid[k], hi, vals[k], plan.refine, &mut |x| {
+                value(x, Phase::Refine, &mut samples)
+            })?;
+        }
+        local.push(LocalMax {
+            gamma: g,
+            alpha: a,
+            refined,
+        });
+    }
+    let (gamma, alpha) = samples.best();
+    Ok(GammaOutcome {
+        gamma,
+        alpha,
+        info: GammaSearchInfo {
+            gamma_lo: grid[0],
+            gamma_hi: plan.hi,
+            grid_points: grid.len(),
+            points: samples.0.len(),
+            solves: 0,
+            local_maxima: local,
+        },
+    })
+}
+
+/// Golden-section steps in ln γ from the bracket lo ≤ mid ≤ hi (mid the
+/// best so far, value `f_mid`): each evaluation probes the larger side of
+/// mid at the golden ratio and shrinks the bracket. At least `evals`
+/// evaluations, and up to [`EXTRA_REFINE`] times as many while the last
+/// [`GAIN_WINDOW`] raised the best by more than [`REFINE_GAIN`] (sharp
+/// peaks, as where α_max(γ) ∝ 1/γ ends abruptly at small γ). Returns the
+/// best (γ, α) seen.
+fn golden<E>(
+    lo: f64,
+    mid: f64,
+    hi: f64,
+    f_mid: f64,
+    evals: usize,
+    f: &mut dyn FnMut(f64) -> Result<f64, E>,
+) -> Result<(f64, f64), E> {
+    const W: f64 = 0.381_966_011_250_105_1; // 2 − φ
+    let (mut a, mut b, mut c) = (lo.ln(), mid.ln(), hi.ln());
+    let mut fb = f_mid;
+    let mut history = vec![fb];
+    for n in 0..evals * EXTRA_REFINE {
+        if c - a < 1e-6 {
+            break;
+        }
+        if n >= evals {
+            let k = history.len();
+            let old = history[k.saturating_sub(GAIN_WINDOW + 1)];
+            if fb <= old * (1.0 + REFINE_GAIN) {
+                break;
+            }
+        }
+        let right = c - b >= b - a;
+        let x = if right {
+            b + W * (c - b)
+        } else {
+            b - W * (b - a)
+        };
+        let fx = f(x.exp())?;
+        if fx > fb {
+            // x is the new middle; b bounds it on one side.
+            if right {
+                a = b;
+            } else {
+                c = b;
+            }
+            b = x;
+            fb = fx;
+        } else if right {
+            c = x;
+        } else {
+            a = x;
+        }
+        history.push(fb);
+    }
+    Ok((b.exp(), fb))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan() -> GammaPlan {
+        GammaPlan::from_settings(0.5, &Settings::default())
+    }
+
+    fn run(f: impl Fn(f64) -> f64) -> (GammaOutcome, usize) {
+        let mut calls = 0;
+        let out = maximise::<()>(&plan(), &mut |g, _| {
+            calls += 1;
+            Ok(f(g))
+        })
+        .unwrap();
+        (out, calls)
+    }
+
+    /// A bump of height h at γ = c, width w in ln γ.
+    fn bump(g: f64, c: f64, w: f64, h: f64) -> f64 {
+        let u = (g.ln() - c.ln()) / w;
+        h / (1.0 + u * u)
+    }
+
+    #[test]
+    fn grid_is_logarithmic_from_hi_over_span_to_hi() {
+        let p = plan();
+        let g = p.grid();
+        assert_eq!(g.len(), p.points);
+        assert!((g[0] - 0.5 / Settings::default().gamma_span).abs() < 1e-12);
+        assert_eq!(*g.last().unwrap(), 0.5);
+        let r = g[1] / g[0];
+        for w in g.windows(2) {
+            assert!((w[1] / w[0] - r).abs() < 1e-9 * r);
+        }
+    }
+
+    #[test]
+    fn finds_the_narrow_global_peak_below_a_wide_local_one() {
+        // A wide peak of 42.6 at γ = 0.03 and a narrower, higher one of
+        // 74.2 at γ = 0.0017 (between grid points), like the plants where
+        // a top-down grid and one bracket settled on the wrong one.
+        let f = |g: f64| bump(g, 0.03, 1.0, 42.6).max(bump(g, 0.0017, 0.5, 74.2));
+        let (out, calls) = run(f);
+        assert!(out.alpha >= 0.99 * 74.2, "α = {}", out.alpha);
+        assert!((out.gamma / 0.0017).ln().abs() < 0.1, "γ = {}", out.gamma);
+        assert_eq!(out.info.local_maxima.len(), 2);
+        assert!(out.info.local_maxima[0].alpha > out.info.local_maxima[1].alpha);
+        assert!(out.info.local_maxima.iter().all(|m| m.refined));
+        assert_eq!(out.info.points, calls, "each γ evaluated once");
+    }
+
+    #[test]
+    fn extends_the_grid_downwards_while_alpha_grows() {
+        let lo = plan().lo;
+        let f = |g: f64| bump(g, lo / 3.0, 1.5, 10.0);
+        let (out, _) = run(f);
+        assert!(out.info.gamma_lo < lo);
+        assert!(out.alpha > 0.99 * 10.0, "α = {}", out.alpha);
+    }
+
+    #[test]
+    fn local_maxima_out_of_reach_are_recorded_not_refined() {
+        let f = |g: f64| bump(g, 0.2, 0.4, 50.0).max(bump(g, 0.002, 0.4, 5.0));
+        let (out, _) = run(f);
+        assert_eq!(out.info.local_maxima.len(), 2);
+        assert!(out.info.local_maxima[0].refined);
+        assert!(!out.info.local_maxima[1].refined);
+        assert!(out.alpha > 0.99 * 50.0);
+    }
+
+    #[test]
+    fn nothing_certified_gives_zero() {
+        let (out, calls) = run(|_| 0.0);
+        assert_eq!(out.alpha, 0.0);
+        assert!(out.info.local_maxima.is_empty());
+        assert_eq!(calls, plan().points);
+    }
+}
