@@ -88,7 +88,7 @@ fn noise_optimal_design_alpha_5_matches_reference() {
         nb.sigma,
         nb.error_bound,
         nb.max_amplitude,
-        max_gain(&d),
+        max_gain(d),
         d.seconds_total
     );
     assert!(
@@ -111,8 +111,8 @@ fn noise_optimal_design_alpha_5_matches_reference() {
         .per_state
         .iter()
         .all(|&b| b > 0.0 && b <= nb.error_bound * 1.000001));
-    assert!(max_gain(&d) < 20.0, "max ‖L‖ = {}", max_gain(&d));
-    recheck(&d);
+    assert!(max_gain(d) < 20.0, "max ‖L‖ = {}", max_gain(d));
+    recheck(d);
     // The report round-trips with its noise key.
     let back = Design::from_json(&d.to_json()).unwrap();
     assert_eq!(back.noise, d.noise);
@@ -225,7 +225,7 @@ fn noise_claim_not_falsified_on_the_true_error_dynamics() {
     let nb = d.noise.clone().unwrap();
     let report = qpv_solve::noise::falsify_noise(
         &paper_model(),
-        &d,
+        d,
         &NoiseChannels::all_outputs(),
         100_000,
         11,
