@@ -14,6 +14,10 @@ fn ui() {
     // unoptimised: the slow-solve warning would make the expected output
     // depend on the machine's speed.
     std::env::set_var("QPV_SLOW_SOLVE_WARNING", "off");
+    // trybuild's cargo builds the whole dependency tree again in its own
+    // target directory; without debug info that build is markedly cheaper
+    // (the cases only need the compiler's messages).
+    std::env::set_var("CARGO_PROFILE_DEV_DEBUG", "false");
     let t = trybuild::TestCases::new();
     t.compile_fail("tests/ui/*.rs");
 }
