@@ -788,7 +788,7 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
         word_before(src, pos),
     ) {
         if wspan.end == pos || src[wspan.end..pos].trim().is_empty() {
-            return unknown_function(src, wspan, w);
+            return unknown_function(wspan, w);
         }
     }
     if wants.contains(&Want::Operator)
@@ -810,8 +810,7 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
 }
 
 /// `name(` where no function of that name exists.
-fn unknown_function(src: &str, span: Span, w: &str) -> Diag {
-    let _ = src;
+fn unknown_function(span: Span, w: &str) -> Diag {
     let names: Vec<&str> = crate::sched::Func::ALL.iter().map(|f| f.name()).collect();
     let hint = crate::diagnostic::suggest(w, names.iter().copied())
         .map(|s| format!(" (did you mean `{s}`?)"))

@@ -117,9 +117,7 @@ impl PolytopicModel {
             w.push((t - p.lo) / (p.hi - p.lo));
         }
         if !self.derived.is_empty() {
-            for phi in self.phi(theta) {
-                w.push(phi);
-            }
+            w.extend(self.phi(theta));
             let ns = self.scheduling.len();
             for (j, d) in self.derived.iter().enumerate() {
                 w[ns + j] = (w[ns + j] - d.lo) / (d.hi - d.lo);
