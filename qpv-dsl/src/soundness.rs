@@ -190,3 +190,16 @@ fn multi_affine_models_have_no_derived_variables() {
     let model = &crate::parse(src).expect("valid")[0];
     assert!(model.derived.is_empty());
 }
+
+#[test]
+fn examples_with_scheduling_functions_are_exact_and_enclosed() {
+    for src in [
+        include_str!("../../examples/spacecraft.qpv"),
+        include_str!("../../examples/manipulator.qpv"),
+        include_str!("../../examples/arrhenius_reactor.qpv"),
+    ] {
+        let worst = check(src, 300);
+        assert!(worst < 1e-10, "largest deviation {worst:e}");
+        ranges_contain_samples(src);
+    }
+}

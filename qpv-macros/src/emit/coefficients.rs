@@ -83,7 +83,7 @@ impl Coeffs {
         if phis.iter().any(|n| uses(&body, n)) {
             let values = format_ident!("phi_values");
             let phi_bind = super::tokens::destructure_names(&values, &phis, &body);
-            bind.extend(quote!(let phi_values = phi(theta); #phi_bind));
+            bind.extend(quote!(let phi_values = &phi(theta); #phi_bind));
         }
         quote! {
             /// θ-dependent coefficients of the equations, each computed once.
