@@ -740,10 +740,6 @@ fn scheduling_function_examples_are_certified_and_converge() {
             converges_with_theta_sweeping!(spacecraft, 1.0),
         ),
         (
-            "manipulator",
-            converges_with_theta_sweeping!(manipulator, 1.0),
-        ),
-        (
             "arrhenius_reactor",
             converges_with_theta_sweeping!(arrhenius_reactor, 1.0),
         ),

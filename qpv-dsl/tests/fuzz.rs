@@ -313,7 +313,7 @@ fn check(src: &str) -> Option<String> {
                 let a = p.a_at(&theta);
                 let a_model = m.eval_a(&theta);
                 let scale = p.vertices.iter().map(|v| v.a.amax()).fold(1.0, f64::max);
-                if (a - &a_model).amax() > 1e-9 * scale {
+                if (&a - &a_model).amax() > 1e-9 * scale {
                     return Some(format!(
                         "vertex decomposition differs from the model: {a} vs {a_model}"
                     ));
