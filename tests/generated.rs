@@ -652,3 +652,115 @@ fn every_test_file_is_a_module_of_a_declared_binary() {
         "tests/{missing:?} belong to no test binary: add `mod NAME;` to tests/cli.rs or tests/generated.rs"
     );
 }
+
+// ---------------------------------------------------------------------------
+// Scheduling functions: the example plants written from their natural
+// equations (rational and transcendental in the measured parameters). The
+// generated `phi` and `mu` must agree with the model compiler's evaluation,
+// the generated plant must be the user's plant (the embedding evaluated at
+// the exact φ(θ)), and the observer must converge with θ sweeping Θ.
+
+qpv::qpv!(include "examples/spacecraft.qpv");
+qpv::qpv!(include "examples/arrhenius_reactor.qpv");
+
+/// Checks φ, μ and the plant of one generated module against the model text.
+macro_rules! check_scheduling_functions {
+    ($m:ident, $file:literal) => {{
+        let models = qpv::dsl::parse(include_str!($file)).expect("the example parses");
+        let model = &models[0];
+        let poly = model.polytopic();
+        assert!(!poly.derived.is_empty());
+        assert_eq!($m::NPHI, poly.derived.len());
+        assert_eq!($m::NV, poly.nv());
+        let mut rng = Rng(11);
+        for _ in 0..300 {
+            let theta: [f64; $m::NTHETA] =
+                core::array::from_fn(|i| rng.uniform($m::THETA_MIN[i], $m::THETA_MAX[i]));
+            let phi = $m::phi(&theta);
+            let phi_ref = poly.phi(&theta);
+            assert!(rel_err(&phi, &phi_ref) <= 1e-12, "{phi:?} vs {phi_ref:?}");
+            let mu = $m::mu(&theta);
+            let mu_ref = poly.mu(&theta);
+            let diff = mu
+                .iter()
+                .zip(&mu_ref)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(diff <= 1e-12, "μ differs by {diff:e}");
+            let x: [f64; $m::NX] = core::array::from_fn(|_| rng.uniform(-0.05, 0.05));
+            let u: [f64; $m::NU] = core::array::from_fn(|_| rng.uniform(-0.1, 0.1));
+            let f = $m::plant::derivative(&x, &u, &theta);
+            let f_ref = model.rhs(
+                &nalgebra::DVector::from_column_slice(&x),
+                &nalgebra::DVector::from_column_slice(&u),
+                &theta,
+            );
+            assert!(rel_err(&f, f_ref.as_slice()) <= 1e-12, "{f:?} vs {f_ref}");
+        }
+    }};
+}
+
+/// Runs the generated observer against its generated plant with every θ_i
+/// sweeping its whole range, from x(0) = a region vertex scaled by `scale`,
+/// and returns ‖e(T)‖∞ / ‖e(0)‖∞ with T = 14/α (V decays by e^(−αT)).
+macro_rules! converges_with_theta_sweeping {
+    ($m:ident, $scale:expr) => {{
+        use std::f64::consts::PI;
+        let t_end = 14.0 / $m::ALPHA;
+        let theta = |t: f64| -> [f64; $m::NTHETA] {
+            core::array::from_fn(|i| {
+                let (lo, hi) = ($m::THETA_MIN[i], $m::THETA_MAX[i]);
+                0.5 * (lo + hi) + 0.5 * (hi - lo) * (2.0 * PI * (3.0 + i as f64) * t / t_end).sin()
+            })
+        };
+        let steps = 20_000usize;
+        let dt = t_end / steps as f64;
+        let models = qpv::dsl::parse(include_str!(concat!(
+            "../examples/",
+            stringify!($m),
+            ".qpv"
+        )))
+        .expect("the example parses");
+        let v = &models[0].region.vertices[0];
+        let mut x: [f64; $m::NX] = core::array::from_fn(|i| $scale * v[i]);
+        let mut obs = $m::Observer::new();
+        let e0 = x.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        let u = [0.0; $m::NU];
+        for n in 0..steps {
+            let t = n as f64 * dt;
+            let th = theta(t);
+            let y = $m::plant::output(&x, &th);
+            obs.step_rk4(dt, &y, &u, &th);
+            x = rk4_step(|x, t| $m::plant::derivative(x, &u, &theta(t)), &x, t, dt);
+        }
+        let xh = obs.estimate();
+        let e = (0..$m::NX)
+            .map(|i| (x[i] - xh[i]).abs())
+            .fold(0.0, f64::max);
+        assert_eq!(obs.clamped(), 0);
+        e / e0
+    }};
+}
+
+#[test]
+fn generated_phi_mu_and_plant_match_the_model_compiler() {
+    check_scheduling_functions!(spacecraft, "../examples/spacecraft.qpv");
+    check_scheduling_functions!(arrhenius_reactor, "../examples/arrhenius_reactor.qpv");
+}
+
+#[test]
+fn scheduling_function_examples_are_certified_and_converge() {
+    assert!(spacecraft::CERTIFIES && arrhenius_reactor::CERTIFIES);
+    for (name, ratio) in [
+        (
+            "spacecraft",
+            converges_with_theta_sweeping!(spacecraft, 1.0),
+        ),
+        (
+            "arrhenius_reactor",
+            converges_with_theta_sweeping!(arrhenius_reactor, 1.0),
+        ),
+    ] {
+        assert!(ratio < 1e-2, "{name}: ‖e(T)‖/‖e(0)‖ = {ratio:e}");
+    }
+}

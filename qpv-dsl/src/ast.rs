@@ -59,6 +59,10 @@ pub enum Item {
     Noise(Vec<Ident>, Span),
     /// `disturbance w1, w2;`
     Disturbances(Vec<Ident>),
+    /// `let NAME = EXPR;`: a named scheduling function of the parameters.
+    Let(Ident, Expr, Span),
+    /// `const NAME = EXPR;`: a named number.
+    Const(Ident, Expr, Span),
 }
 
 /// The right-hand side of a `state_bound` statement.
@@ -204,4 +208,6 @@ pub enum ExprKind {
     Product(Vec<(bool, Expr)>),
     /// `base ^ n` with a whole-number exponent.
     Pow(Box<Expr>, u32),
+    /// `f(arg)`: a function of the parameters, with the span of its name.
+    Call(crate::sched::Func, Span, Box<Expr>),
 }

@@ -7,6 +7,9 @@ pub mod expr;
 pub mod model;
 mod poly;
 pub mod region;
+pub mod sched;
+#[cfg(test)]
+mod soundness;
 mod syntax;
 pub mod vertices;
 
@@ -17,6 +20,7 @@ pub use model::{
     OutputRoute, Param, Split, StateBound, MAX_COEFFICIENT,
 };
 pub use region::{Region, RegionError};
+pub use sched::{Derived, Func, RangeInfo, SchedExpr};
 pub use vertices::{NoiseDecl, PolytopicModel, Vertex};
 
 /// Parses and validates a model text: one or more `model NAME { ... }`

@@ -10,6 +10,8 @@
 use crate::ast::{Expr, ExprKind};
 use crate::diagnostic::{suggest, Diag, Span};
 use crate::expr::ThetaPoly;
+use crate::sched::{range, Func, RangeInfo, SchedExpr};
+use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap};
 
 /// Most terms one expression may expand to.
@@ -55,6 +57,45 @@ pub(crate) enum NameRef {
     Output(usize),
     Param(usize),
     Disturbance(usize),
+    /// A `let` scheduling function.
+    Let(usize),
+    /// A `const` number.
+    Const(usize),
+}
+
+/// The value of a `let` once defined.
+#[derive(Clone, Debug)]
+pub(crate) enum LetValue {
+    /// A polynomial in the parameters: the name stands for it.
+    Inline(Poly),
+    /// A scheduling function: one derived variable (its bit in a mask).
+    Atom(usize),
+}
+
+/// A derived scheduling variable in the making (see `crate::sched`).
+#[derive(Clone, Debug)]
+pub(crate) struct Atom {
+    /// Identifies the function (equal keys: the same φ).
+    pub key: String,
+    pub expr: SchedExpr,
+    pub text: String,
+    /// The `let` name, if it has one.
+    pub name: Option<String>,
+    /// Where it first appears.
+    pub span: Span,
+    pub lo: f64,
+    pub hi: f64,
+    pub info: RangeInfo,
+}
+
+/// The derived scheduling variables of one model: atom `j` is bit
+/// `np + j` of a term mask, after the `np` declared parameters.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Atoms {
+    pub np: usize,
+    /// Bounds of the declared parameters.
+    pub boxes: Vec<(f64, f64)>,
+    pub list: Vec<Atom>,
 }
 
 /// The declared names of one model.
@@ -66,6 +107,13 @@ pub(crate) struct Names {
     pub params: Vec<String>,
     pub disturbances: Vec<String>,
     pub lookup: HashMap<String, NameRef>,
+    /// `const` names and values (`None` until evaluated, in source order).
+    pub consts: Vec<(String, Option<f64>)>,
+    /// `let` names and values (`None` until evaluated, in source order) with
+    /// their definitions as scheduling functions.
+    pub lets: Vec<(String, Option<(LetValue, SchedExpr)>)>,
+    /// The derived scheduling variables created so far.
+    pub atoms: RefCell<Atoms>,
 }
 
 impl Names {
@@ -83,10 +131,11 @@ impl Names {
         let mut parts: Vec<String> = theta_counts
             .iter()
             .map(|&(i, k)| {
+                let name = self.var_name(i);
                 if k == 1 {
-                    self.params[i].clone()
+                    name
                 } else {
-                    format!("{}^{k}", self.params[i])
+                    format!("{name}^{k}")
                 }
             })
             .collect();
@@ -105,6 +154,108 @@ impl Names {
         } else {
             parts.join("*")
         }
+    }
+
+    /// The name of bit `i` of a mask: a parameter, or a derived variable
+    /// shown as its function.
+    pub fn var_name(&self, i: usize) -> String {
+        match self.params.get(i) {
+            Some(p) => p.clone(),
+            None => {
+                let atoms = self.atoms.borrow();
+                match atoms.list.get(i - atoms.np) {
+                    Some(a) => a.name.clone().unwrap_or_else(|| format!("({})", a.text)),
+                    None => format!("phi{i}"),
+                }
+            }
+        }
+    }
+
+    /// The scheduling function of bit `i` of a mask.
+    fn var_expr(&self, i: usize) -> SchedExpr {
+        let atoms = self.atoms.borrow();
+        if i < atoms.np {
+            SchedExpr::Param(i)
+        } else {
+            atoms.list[i - atoms.np].expr.clone()
+        }
+    }
+
+    /// The bit of the derived variable `expr` (first written at `span`),
+    /// created if new: its range is computed here, so a function undefined
+    /// somewhere on Θ is an error at its first use.
+    pub fn atom(
+        &self,
+        expr: SchedExpr,
+        name: Option<&str>,
+        span: Span,
+        src: &str,
+    ) -> Result<usize, Diag> {
+        let key = expr.key(&self.params);
+        let mut atoms = self.atoms.borrow_mut();
+        if let Some(j) = atoms.list.iter().position(|a| a.key == key) {
+            if let (Some(n), None) = (name, &atoms.list[j].name) {
+                atoms.list[j].name = Some(n.to_string());
+            }
+            return Ok(atoms.np + j);
+        }
+        let text = expr.text(&self.params);
+        if atoms.np + atoms.list.len() >= 64 {
+            return Err(Diag::new(
+                span,
+                format!(
+                    "{} needs one more derived scheduling variable, but the model already has {} \
+                     parameters and {}: at most 64 in all are supported",
+                    quote(src, span),
+                    atoms.np,
+                    atoms.list.len()
+                ),
+            ));
+        }
+        let (lo, hi, info) = range(&expr, &atoms.boxes, &self.params).map_err(|e| {
+            Diag::new(
+                span,
+                format!(
+                    "`{text}` is not defined on the whole parameter box: {}. Every function of \
+                     the parameters must be defined and finite for every θ in the declared ranges \
+                     (narrow the range of the parameter, or rewrite the expression)",
+                    e.message
+                ),
+            )
+        })?;
+        atoms.list.push(Atom {
+            key,
+            expr,
+            text,
+            name: name.map(str::to_string),
+            span,
+            lo,
+            hi,
+            info,
+        });
+        Ok(atoms.np + atoms.list.len() - 1)
+    }
+
+    /// `a ∪ b` as a multi-affine mask: a variable in both becomes the
+    /// derived variable of its square (θ·θ = φ with φ = θ²), repeatedly.
+    fn combine(&self, a: u64, b: u64, span: Span, src: &str) -> Result<u64, Diag> {
+        let mut m = a;
+        for i in bits(b) {
+            m = self.insert(m, i, span, src)?;
+        }
+        Ok(m)
+    }
+
+    fn insert(&self, m: u64, i: usize, span: Span, src: &str) -> Result<u64, Diag> {
+        if m & (1 << i) == 0 {
+            return Ok(m | (1 << i));
+        }
+        let sq = match self.var_expr(i) {
+            SchedExpr::Pow(e, k) => SchedExpr::Pow(e, 2 * k),
+            e => SchedExpr::Pow(Box::new(e), 2),
+        };
+        let j = self.atom(sq, None, span, src)?;
+        self.insert(m & !(1 << i), j, span, src)
     }
 
     /// The text of a monomial, e.g. `th1*x1*x2`.
@@ -279,26 +430,7 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
         for (mb, tb) in &b.terms {
             let mut vars = ma.vars.clone();
             vars.extend_from_slice(&mb.vars);
-            if ma.theta & mb.theta != 0 {
-                let mut counts: Vec<(usize, u32)> = bits(ma.theta | mb.theta)
-                    .map(|i| (i, 1 + u32::from(ma.theta & mb.theta & (1 << i) != 0)))
-                    .collect();
-                counts.sort();
-                let twice = bits(ma.theta & mb.theta).next().unwrap_or(0);
-                return Err(Diag::new(
-                    span,
-                    format!(
-                        "{} is not multi-affine in the parameters: it contains the term {} \
-                         (parameter `{}` twice). Every matrix entry must be affine in each \
-                         parameter separately (th1*th2 is fine, th1*th1 is not) for the vertex \
-                         matrices to be exact; if you need this term, declare a new bounded \
-                         parameter for it",
-                        quote(scope.src, span),
-                        names.term_text(&counts, &vars),
-                        names.params[twice]
-                    ),
-                ));
-            }
+            let theta = names.combine(ma.theta, mb.theta, span, scope.src)?;
             let disturbance = vars.iter().find(|v| matches!(v, Var::Disturbance(_)));
             if let (Some(&w), true) = (disturbance, vars.len() > 1) {
                 let other = vars.iter().find(|v| **v != w).copied().unwrap_or(w);
@@ -352,7 +484,7 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
                 ));
             }
             if vars.len() > 2 {
-                let counts: Vec<(usize, u32)> = bits(ma.theta | mb.theta).map(|i| (i, 1)).collect();
+                let counts: Vec<(usize, u32)> = bits(theta).map(|i| (i, 1)).collect();
                 return Err(Diag::new(
                     span,
                     format!(
@@ -364,14 +496,7 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
                     ),
                 ));
             }
-            out.add_term(
-                Mono {
-                    theta: ma.theta | mb.theta,
-                    vars,
-                },
-                ta.coef * tb.coef,
-                span,
-            );
+            out.add_term(Mono { theta, vars }, ta.coef * tb.coef, span);
             if out.terms.len() > MAX_TERMS {
                 // stop before the product grows to |a|·|b| terms
                 return Err(too_many_terms(scope.src, span));
@@ -405,8 +530,19 @@ pub(crate) fn eval(e: &Expr, scope: &Scope<'_>) -> Result<Poly, Diag> {
                     prev => {
                         let prev = prev.unwrap_or_else(|| Poly::constant(1.0, span));
                         if *divide {
-                            let c = divisor(&v, f.span, scope)?;
-                            prev.scale(1.0 / c)
+                            match divisor(&v, f, scope)? {
+                                Divisor::Number(c) => prev.scale(1.0 / c),
+                                Divisor::Atom(bit) => {
+                                    let inv = Poly::single(
+                                        Mono {
+                                            theta: 1 << bit,
+                                            vars: vec![],
+                                        },
+                                        f.span,
+                                    );
+                                    mul(&prev, &inv, span, scope)?
+                                }
+                            }
                         } else {
                             mul(&prev, &v, span, scope)?
                         }
@@ -418,6 +554,7 @@ pub(crate) fn eval(e: &Expr, scope: &Scope<'_>) -> Result<Poly, Diag> {
             }
             acc.unwrap_or_default()
         }
+        ExprKind::Call(func, fspan, arg) => call(*func, *fspan, arg, e, scope)?,
         ExprKind::Pow(base, n) => {
             let b = eval(base, scope)?;
             let mut acc = Poly::constant(1.0, e.span);
@@ -431,7 +568,38 @@ pub(crate) fn eval(e: &Expr, scope: &Scope<'_>) -> Result<Poly, Diag> {
     Ok(p)
 }
 
-fn divisor(v: &Poly, span: Span, scope: &Scope<'_>) -> Result<f64, Diag> {
+/// What a product divides by: a number, or a derived variable 1/d(θ).
+enum Divisor {
+    Number(f64),
+    Atom(usize),
+}
+
+/// The first state, input or disturbance of a polynomial, if any.
+fn first_var(p: &Poly) -> Option<Var> {
+    p.terms.keys().find_map(|m| m.vars.first().copied())
+}
+
+/// Why a construct with a state (input, disturbance) inside is outside the
+/// system class: the error for `what` (a denominator, a function) at `span`.
+fn outside_class(v: Var, what: &str, span: Span, scope: &Scope<'_>, hint: &str) -> Diag {
+    let (kind, name) = match v {
+        Var::State(i) => ("state", &scope.names.states[i]),
+        Var::Input(i) => ("input", &scope.names.inputs[i]),
+        Var::Disturbance(i) => ("disturbance", &scope.names.disturbances[i]),
+    };
+    Diag::new(
+        span,
+        format!(
+            "{} has the {kind} `{name}` {what}: the QPV class allows states only polynomially \
+             (x' = A(θ)x + N(θ,x)x + B(θ)u, at most quadratic in the states, inputs and \
+             disturbances linear), so this model is outside it{hint}",
+            quote(scope.src, span)
+        ),
+    )
+}
+
+fn divisor(v: &Poly, f: &Expr, scope: &Scope<'_>) -> Result<Divisor, Diag> {
+    let span = f.span;
     if let Some(c) = v.as_constant() {
         if c == 0.0 {
             return Err(Diag::new(
@@ -439,25 +607,114 @@ fn divisor(v: &Poly, span: Span, scope: &Scope<'_>) -> Result<f64, Diag> {
                 format!("division by zero: {} is 0", quote(scope.src, span)),
             ));
         }
-        return Ok(c);
+        return Ok(Divisor::Number(c));
     }
-    let (m, _) = v
-        .terms
-        .iter()
-        .find(|(m, _)| m.theta != 0 || !m.vars.is_empty())
-        .ok_or_else(|| Diag::new(span, "internal error: divisor"))?;
-    let what = if let Some(i) = bits(m.theta).next() {
-        format!("the parameter `{}`", scope.names.params[i])
-    } else {
-        format!("`{}`", scope.names.mono_text(m))
-    };
-    Err(Diag::new(
-        span,
-        format!(
-            "division by {what}: only division by constant numbers is allowed \
-             (the result would not be multi-affine in the parameters)"
-        ),
+    if let Some(var) = first_var(v) {
+        return Err(outside_class(
+            var,
+            "in a denominator",
+            span,
+            scope,
+            " (a rational function of the state, such as Monod kinetics s/(K + s), cannot be \
+             written with A, N and B; only functions of the parameters may divide)",
+        ));
+    }
+    let d = sched_expr(f, scope)?;
+    let inv = SchedExpr::Product(vec![(false, SchedExpr::Num(1.0)), (true, d)]);
+    Ok(Divisor::Atom(scope.names.atom(inv, None, span, scope.src)?))
+}
+
+/// `f(arg)`: a number for a constant argument, else one derived variable.
+fn call(f: Func, fspan: Span, arg: &Expr, whole: &Expr, scope: &Scope<'_>) -> Result<Poly, Diag> {
+    let a = eval(arg, scope)?;
+    if let Some(var) = first_var(&a) {
+        let hint = match var {
+            Var::State(i) => {
+                let x = &scope.names.states[i];
+                format!(
+                    ". If `{x}` is measured, schedule on the measurement instead: declare it as a \
+                     parameter (`param {x}_m in [lo, hi];`) and write `{}({x}_m)`",
+                    f.name()
+                )
+            }
+            _ => String::new(),
+        };
+        return Err(outside_class(
+            var,
+            &format!("inside the function `{}`", f.name()),
+            whole.span,
+            scope,
+            &hint,
+        ));
+    }
+    if let Some(c) = a.as_constant() {
+        let v = f.apply(c);
+        if !v.is_finite() {
+            return Err(Diag::new(
+                fspan,
+                format!(
+                    "{} is not defined: its value is {v}",
+                    quote(scope.src, whole.span)
+                ),
+            ));
+        }
+        return Ok(Poly::constant(v, whole.span));
+    }
+    if scope.allowed == Allowed::Constant {
+        return Err(Diag::new(
+            whole.span,
+            format!("a constant number is expected in {}", scope.context),
+        ));
+    }
+    let e = SchedExpr::Call(f, Box::new(sched_expr(arg, scope)?));
+    let bit = scope.names.atom(e, None, whole.span, scope.src)?;
+    Ok(Poly::single(
+        Mono {
+            theta: 1 << bit,
+            vars: vec![],
+        },
+        whole.span,
     ))
+}
+
+/// The scheduling function an expression of the parameters denotes (its
+/// states, inputs and outputs are refused before this is called).
+pub(crate) fn sched_expr(e: &Expr, scope: &Scope<'_>) -> Result<SchedExpr, Diag> {
+    let list = |items: &[(bool, Expr)]| -> Result<Vec<(bool, SchedExpr)>, Diag> {
+        items
+            .iter()
+            .map(|(flag, x)| Ok((*flag, sched_expr(x, scope)?)))
+            .collect()
+    };
+    Ok(match &e.kind {
+        ExprKind::Number(v) => SchedExpr::Num(*v),
+        ExprKind::Name(n) => match scope.names.lookup.get(n).copied() {
+            Some(NameRef::Param(i)) => SchedExpr::Param(i),
+            Some(NameRef::Const(k)) => SchedExpr::Num(scope.names.consts[k].1.unwrap_or(f64::NAN)),
+            Some(NameRef::Let(k)) => match &scope.names.lets[k].1 {
+                Some((_, def)) => SchedExpr::Named(n.clone(), Box::new(def.clone())),
+                None => return Err(used_before(n, e.span)),
+            },
+            _ => {
+                return Err(Diag::new(
+                    e.span,
+                    format!("`{n}` cannot appear in a function of the parameters"),
+                ))
+            }
+        },
+        ExprKind::Neg(x) => SchedExpr::Neg(Box::new(sched_expr(x, scope)?)),
+        ExprKind::Sum(t) => SchedExpr::Sum(list(t)?),
+        ExprKind::Product(f) => SchedExpr::Product(list(f)?),
+        ExprKind::Pow(x, n) => SchedExpr::Pow(Box::new(sched_expr(x, scope)?), *n),
+        ExprKind::Call(f, _, x) => SchedExpr::Call(*f, Box::new(sched_expr(x, scope)?)),
+    })
+}
+
+fn used_before(n: &str, span: Span) -> Diag {
+    Diag::new(
+        span,
+        format!("`{n}` is used before its definition: define it earlier in the model"),
+    )
 }
 
 fn name(n: &str, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> {
@@ -474,13 +731,42 @@ fn name(n: &str, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> {
             };
             let candidates = names.lookup.iter().filter(|(_, r)| match (scope.allowed, r) {
                 (Allowed::Constant, _) | (_, NameRef::Output(_)) => false,
-                (Allowed::Coefficient, r) => matches!(r, NameRef::Param(_)),
+                (Allowed::Coefficient, r) => {
+                    matches!(r, NameRef::Param(_) | NameRef::Let(_) | NameRef::Const(_))
+                }
                 (Allowed::Equation, _) => true,
             });
             let hint = suggest(n, candidates.map(|(k, _)| k.as_str()))
                 .map(|s| format!(" (did you mean `{s}`?)"))
                 .unwrap_or_default();
             Err(Diag::new(span, format!("unknown name `{n}` in {ctx}: {expected}{hint}")))
+        }
+        Some(NameRef::Const(k)) => match names.consts[k].1 {
+            Some(v) => Ok(Poly::constant(v, span)),
+            None => Err(used_before(n, span)),
+        },
+        Some(NameRef::Let(k)) => {
+            if scope.allowed == Allowed::Constant {
+                return Err(Diag::new(
+                    span,
+                    format!("`{n}` is a function of the parameters and cannot appear in {ctx}: a constant number is expected"),
+                ));
+            }
+            match &names.lets[k].1 {
+                Some((LetValue::Inline(p), _)) => {
+                    let mut p = p.clone();
+                    p.terms.values_mut().for_each(|t| t.span = span);
+                    Ok(p)
+                }
+                Some((LetValue::Atom(bit), _)) => Ok(Poly::single(
+                    Mono {
+                        theta: 1 << bit,
+                        vars: vec![],
+                    },
+                    span,
+                )),
+                None => Err(used_before(n, span)),
+            }
         }
         Some(NameRef::Output(_)) => Err(Diag::new(
             span,
@@ -505,7 +791,11 @@ fn name(n: &str, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> {
             let (kind, var) = match r {
                 NameRef::State(i) => ("state", Var::State(i)),
                 NameRef::Disturbance(i) => ("disturbance", Var::Disturbance(i)),
-                NameRef::Input(i) | NameRef::Output(i) | NameRef::Param(i) => ("input", Var::Input(i)),
+                NameRef::Input(i)
+                | NameRef::Output(i)
+                | NameRef::Param(i)
+                | NameRef::Let(i)
+                | NameRef::Const(i) => ("input", Var::Input(i)),
             };
             match scope.allowed {
                 Allowed::Equation => Ok(Poly::single(

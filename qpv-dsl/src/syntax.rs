@@ -68,6 +68,8 @@ fn is_token(rule: Rule) -> bool {
             | Rule::kw_disturbance
             | Rule::q_name
             | Rule::kw_auto
+            | Rule::kw_let
+            | Rule::kw_const
             | Rule::EOI
     )
 }
@@ -199,6 +201,17 @@ fn parse_statement(pair: Pair<'_, Rule>) -> Result<Item> {
         Rule::design_block => Ok(Item::Design(parse_design_block(pair)?)),
         Rule::noise_decl => Ok(Item::Noise(parse_decl(pair)?, span)),
         Rule::disturbance_decl => Ok(Item::Disturbances(parse_decl(pair)?)),
+        Rule::let_decl | Rule::const_decl => {
+            let is_let = pair.as_rule() == Rule::let_decl;
+            let mut it = children(pair);
+            let name = parse_ident(next(&mut it, span, "definition name")?);
+            let value = parse_expr(next(&mut it, span, "definition value")?)?;
+            Ok(if is_let {
+                Item::Let(name, value, span)
+            } else {
+                Item::Const(name, value, span)
+            })
+        }
         _ => Err(internal(span, "unexpected statement")),
     }
 }
@@ -435,6 +448,19 @@ fn parse_primary(pair: Pair<'_, Rule>) -> Result<Expr> {
             kind: ExprKind::Name(pair.as_str().to_string()),
             span,
         }),
+        Rule::call => {
+            let mut it = children(pair);
+            let fname = next(&mut it, span, "function name")?;
+            let fspan = span_of(&fname);
+            let arg = parse_expr(next(&mut it, span, "function argument")?)?;
+            let Some(f) = crate::sched::Func::from_name(fname.as_str()) else {
+                return Err(internal(fspan, "unknown function"));
+            };
+            Ok(Expr {
+                kind: ExprKind::Call(f, fspan, Box::new(arg)),
+                span,
+            })
+        }
         Rule::paren => {
             let inner = parse_expr(next(&mut children(pair), span, "parenthesised expression")?)?;
             Ok(Expr {
@@ -495,6 +521,10 @@ fn want(rule: Rule) -> Option<Want> {
         | Rule::kw_design
         | Rule::kw_noise
         | Rule::kw_disturbance
+        | Rule::kw_let
+        | Rule::kw_const
+        | Rule::let_decl
+        | Rule::const_decl
         | Rule::noise_decl
         | Rule::disturbance_decl
         | Rule::matrix_name
@@ -513,6 +543,8 @@ fn want(rule: Rule) -> Option<Want> {
         Rule::option_key | Rule::value_option => ValueOption,
         Rule::ident | Rule::name_list => Name,
         Rule::number
+        | Rule::call
+        | Rule::func_name
         | Rule::paren
         | Rule::expr
         | Rule::power
@@ -550,8 +582,9 @@ fn want_text(w: Want) -> &'static str {
     match w {
         Want::Model => "a model `model NAME { ... }`",
         Want::Statement => {
-            "a statement (`state`, `input`, `output`, `param`, `der`, `out`, `region`, \
-             `state_bound`, `design`, `noise`, `disturbance` or a matrix such as `A = [...]`)"
+            "a statement (`state`, `input`, `output`, `param`, `let`, `const`, `der`, `out`, \
+             `region`, `state_bound`, `design`, `noise`, `disturbance` or a matrix such as \
+             `A = [...]`)"
         }
         Want::DesignKey => {
             "a design setting (`alpha`, `gamma`, `mode`, `split`, `conditions`, `output_route` \
@@ -606,6 +639,8 @@ const STATEMENT_KEYWORDS: &[&str] = &[
     "design",
     "noise",
     "disturbance",
+    "let",
+    "const",
 ];
 
 fn is_ident_start(c: char) -> bool {
@@ -730,8 +765,8 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
                     Some((_, k)) => format!("unknown statement `{w}`: did you mean `{k}`?"),
                     None => format!(
                         "unknown statement `{w}`: a statement starts with `state`, `input`, `output`, \
-                         `param`, `der`, `out`, `region`, `state_bound`, `design`, `noise` or \
-                         `disturbance`, or is a matrix definition such as `A = [...];`"
+                         `param`, `let`, `const`, `der`, `out`, `region`, `state_bound`, `design`, \
+                         `noise` or `disturbance`, or is a matrix definition such as `A = [...];`"
                     ),
                 };
                 return Diag::new(wspan, msg);
@@ -747,6 +782,15 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
     };
 
     let prev = src[..pos].chars().last();
+    if let (true, "(", Some((wspan, w))) = (
+        wants.contains(&Want::Operator),
+        found_text,
+        word_before(src, pos),
+    ) {
+        if wspan.end == pos || src[wspan.end..pos].trim().is_empty() {
+            return unknown_function(wspan, w);
+        }
+    }
     if wants.contains(&Want::Operator)
         && found_text.starts_with(is_ident_start)
         && prev.is_some_and(|c| c.is_ascii_digit() || c == '.')
@@ -763,6 +807,23 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
         }
     }
     Diag::new(span, msg)
+}
+
+/// `name(` where no function of that name exists.
+fn unknown_function(span: Span, w: &str) -> Diag {
+    let names: Vec<&str> = crate::sched::Func::ALL.iter().map(|f| f.name()).collect();
+    let hint = crate::diagnostic::suggest(w, names.iter().copied())
+        .map(|s| format!(" (did you mean `{s}`?)"))
+        .unwrap_or_default();
+    let list: Vec<String> = names.iter().map(|n| format!("`{n}`")).collect();
+    let list: Vec<&str> = list.iter().map(|s| s.as_str()).collect();
+    Diag::new(
+        span,
+        format!(
+            "unknown function `{w}`{hint}: the functions are {}; to multiply, write `{w}*(...)`",
+            join_or(&list)
+        ),
+    )
 }
 
 /// True for names that can denote a matrix: A, B, C, N<k>, M<k> (with or

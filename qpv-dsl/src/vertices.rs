@@ -30,7 +30,10 @@ pub struct Vertex {
 ///
 /// Vertex order: corners of the box of the *scheduling* parameters (those that
 /// appear in some matrix), first declared parameter most significant, lo
-/// before hi; so μ_1 = Π (hi_i − θ_i)/(hi_i − lo_i).
+/// before hi; so μ_1 = Π (hi_i − θ_i)/(hi_i − lo_i). A model with derived
+/// scheduling variables φ_j(θ) (`derived`) has the corners of the box of
+/// (θ, φ) instead, the φ_j after the parameters (less significant); μ then
+/// evaluates φ(θ) itself, so callers still pass θ only.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PolytopicModel {
     /// The model's name.
@@ -55,6 +58,10 @@ pub struct PolytopicModel {
     pub designs: Vec<DesignRequest>,
     /// Where measurement noise and process disturbances enter.
     pub noise: NoiseDecl,
+    /// The derived scheduling variables φ_j(θ) with their ranges (empty for
+    /// a model whose entries are multi-affine in θ); each doubles the
+    /// vertices.
+    pub derived: Vec<crate::sched::Derived>,
 }
 
 /// The noise channels a model declares: which outputs are measured with
@@ -97,7 +104,7 @@ impl PolytopicModel {
     /// declared parameter). Each scheduling θ_i is clamped into [lo_i, hi_i]
     /// first, so the weights are always ≥ 0 and sum to 1.
     pub fn mu(&self, theta: &[f64]) -> Vec<f64> {
-        let s = self.scheduling.len();
+        let s = self.scheduling.len() + self.derived.len();
         let mut w = Vec::with_capacity(s);
         for &pi in &self.scheduling {
             let p = &self.params[pi];
@@ -108,6 +115,13 @@ impl PolytopicModel {
                 t.clamp(p.lo, p.hi)
             };
             w.push((t - p.lo) / (p.hi - p.lo));
+        }
+        if !self.derived.is_empty() {
+            w.extend(self.phi(theta));
+            let ns = self.scheduling.len();
+            for (j, d) in self.derived.iter().enumerate() {
+                w[ns + j] = (w[ns + j] - d.lo) / (d.hi - d.lo);
+            }
         }
         (0..1usize << s)
             .map(|l| {
@@ -121,6 +135,37 @@ impl PolytopicModel {
                         }
                     })
                     .product()
+            })
+            .collect()
+    }
+
+    /// The derived scheduling variables φ_j(θ) for a full parameter vector,
+    /// with every parameter clamped into its range first (NaN to its lower
+    /// bound) and each φ_j clamped into its range (which contains it up to
+    /// rounding), as [`Self::mu`] uses them.
+    pub fn phi(&self, theta: &[f64]) -> Vec<f64> {
+        let clamped: Vec<f64> = self
+            .params
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let t = theta.get(i).copied().unwrap_or(p.lo);
+                if t.is_nan() {
+                    p.lo
+                } else {
+                    t.clamp(p.lo, p.hi)
+                }
+            })
+            .collect();
+        self.derived
+            .iter()
+            .map(|d| {
+                let v = d.expr.eval(&clamped);
+                if v.is_nan() {
+                    d.lo
+                } else {
+                    v.clamp(d.lo, d.hi)
+                }
             })
             .collect()
     }
@@ -214,10 +259,17 @@ impl PolytopicModel {
     /// The parameter vector of corner `l` restricted to the scheduling
     /// parameters, as `(name, value)` pairs (for reports).
     pub fn corner(&self, l: usize) -> Vec<(&str, f64)> {
-        self.scheduling
+        let nd = self.derived.len();
+        let mut out: Vec<(&str, f64)> = self
+            .scheduling
             .iter()
             .map(|&i| (self.params[i].name.as_str(), self.vertices[l].theta[i]))
-            .collect()
+            .collect();
+        for (j, d) in self.derived.iter().enumerate() {
+            let hi = (l >> (nd - 1 - j)) & 1 == 1;
+            out.push((d.name.as_str(), if hi { d.hi } else { d.lo }));
+        }
+        out
     }
 }
 
@@ -229,27 +281,39 @@ impl crate::model::Model {
     /// interpolation Σ_l μ_l(θ) A_l reproduces A(θ) on the whole box.
     pub fn polytopic(&self) -> PolytopicModel {
         let scheduling = self.scheduling();
+        let np = self.ntheta();
         let s = scheduling.len();
+        let nd = self.derived.len();
         let base: Vec<f64> = self.params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
-        let mut b_w = Vec::with_capacity(1usize << s);
-        let vertices = (0..1usize << s)
+        let mut b_w = Vec::with_capacity(1usize << (s + nd));
+        let vertices = (0..1usize << (s + nd))
             .map(|l| {
                 let mut theta = base.clone();
                 for (i, &pi) in scheduling.iter().enumerate() {
                     let p = &self.params[pi];
-                    theta[pi] = if (l >> (s - 1 - i)) & 1 == 1 {
+                    theta[pi] = if (l >> (s + nd - 1 - i)) & 1 == 1 {
                         p.hi
                     } else {
                         p.lo
                     };
                 }
-                b_w.push(self.b_w.eval(&theta));
+                // the corner of the (θ, φ) box: φ_j at an end of its range
+                let mut ext = theta.clone();
+                for (j, d) in self.derived.iter().enumerate() {
+                    ext.push(if (l >> (nd - 1 - j)) & 1 == 1 {
+                        d.hi
+                    } else {
+                        d.lo
+                    });
+                }
+                debug_assert_eq!(ext.len(), np + nd);
+                b_w.push(self.b_w.eval(&ext));
                 Vertex {
-                    a: self.eval_a(&theta),
-                    n: self.eval_n(&theta),
-                    b: self.eval_b(&theta),
-                    c: self.eval_c(&theta),
-                    m: self.eval_m(&theta),
+                    a: self.a.eval(&ext),
+                    n: self.n.iter().map(|m| m.eval(&ext)).collect(),
+                    b: self.b.eval(&ext),
+                    c: self.c.eval(&ext),
+                    m: self.m.iter().map(|m| m.eval(&ext)).collect(),
                     theta,
                 }
             })
@@ -274,6 +338,7 @@ impl crate::model::Model {
                     b_w
                 },
             },
+            derived: self.derived.clone(),
         }
     }
 }

@@ -23,6 +23,9 @@ const SEEDS: &[&str] = &[
     include_str!("../../examples/lotka_volterra.qpv"),
     include_str!("../../examples/lorenz.qpv"),
     include_str!("../../examples/van_de_vusse.qpv"),
+    include_str!("../../examples/spacecraft.qpv"),
+    include_str!("../../examples/manipulator.qpv"),
+    include_str!("../../examples/arrhenius_reactor.qpv"),
     "model m { state x1, x2; input u; output y; param th in [-1, 2];
        A = [-1, th; 0, -2]; B = [1; th]; C = [1, 0]; N1 = 0; N2 = [0, 1; 1, 0]; M1 = 0;
        region halfspaces [1, 0; -1, 0; 0, 1; 0, -1; 1, 1];
@@ -128,6 +131,33 @@ const VOCAB: &[&str] = &[
     "1e308*(1+th1)",
     "region halfspaces [1e-9, 0; -1e-9, 0; 0, 1e9; 0, -1e9];",
     "region vertices [1e12, 0; 0, 1e-12; -1e12, -1e-12];",
+    "let",
+    "const",
+    "sin",
+    "cos",
+    "sqrt",
+    "exp",
+    "ln",
+    "tan",
+    "tanh",
+    "atan",
+    "abs",
+    "sinn",
+    "sin(th1)",
+    "cos(th2)^2",
+    "1/th1",
+    "1/(2 + th1)",
+    "th2/(th1 - th1)",
+    "let s = cos(th1);",
+    "let k = exp(-3/(1 + th2));",
+    "const g = 9.81;",
+    "sqrt(th1 - 5)",
+    "ln(th1)",
+    "tan(th1*10)",
+    "exp(1000*th1)",
+    "x1/(1 + x2)",
+    "sin(x1)",
+    "x1*x1*x1",
 ];
 
 struct Rng(u64);
@@ -280,7 +310,14 @@ fn check(src: &str) -> Option<String> {
                 if (mu.iter().sum::<f64>() - 1.0).abs() > 1e-9 {
                     return Some("weights do not sum to 1".to_string());
                 }
-                let _ = p.a_at(&theta);
+                let a = p.a_at(&theta);
+                let a_model = m.eval_a(&theta);
+                let scale = p.vertices.iter().map(|v| v.a.amax()).fold(1.0, f64::max);
+                if (&a - &a_model).amax() > 1e-9 * scale {
+                    return Some(format!(
+                        "vertex decomposition differs from the model: {a} vs {a_model}"
+                    ));
+                }
                 for w in &m.warnings {
                     if w.span.end > src.len() || w.span.start > w.span.end {
                         return Some(format!("warning span out of range: {w:?}"));

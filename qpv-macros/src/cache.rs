@@ -95,6 +95,9 @@ pub fn key(model: &PolytopicModel, request: &DesignRequest, settings: &str) -> S
         let _ = writeln!(s, "param {:?} {:?}", p.lo, p.hi);
     }
     let _ = writeln!(s, "scheduling {:?}", model.scheduling);
+    for d in &model.derived {
+        let _ = writeln!(s, "derived {:?} {:?} {:?}", d.text, d.lo, d.hi);
+    }
     for v in &model.vertices {
         push_nums(&mut s, "theta", &v.theta);
         push_nums(&mut s, "A", v.a.iter());

@@ -119,6 +119,7 @@ pub fn paper_model() -> PolytopicModel {
         state_bound: StateBound::Given(paper_q()),
         designs: vec![],
         noise: Default::default(),
+        derived: Vec::new(),
     }
 }
 
@@ -187,5 +188,6 @@ pub fn synthetic_model(nx: usize) -> PolytopicModel {
         state_bound: StateBound::Given(DMatrix::identity(nx, nx) * (1.5 * h * h * nx as f64)),
         designs: vec![],
         noise: Default::default(),
+        derived: Vec::new(),
     }
 }

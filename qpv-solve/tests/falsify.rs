@@ -36,6 +36,7 @@ fn stable_linear(nx: usize) -> PolytopicModel {
         state_bound: StateBound::Given(DMatrix::identity(nx, nx) * 4.0),
         designs: vec![],
         noise: Default::default(),
+        derived: Vec::new(),
     }
 }
 

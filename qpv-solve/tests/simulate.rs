@@ -31,6 +31,7 @@ fn scalar_model(a0: f64, a1: f64, b: f64, nu: usize) -> PolytopicModel {
         state_bound: StateBound::None,
         designs: vec![],
         noise: Default::default(),
+        derived: Vec::new(),
     }
 }
 

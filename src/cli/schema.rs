@@ -193,6 +193,11 @@ pub struct VerticesOutput {
     pub params: Vec<ParamView>,
     /// Names of the parameters that generate vertices, most significant first.
     pub scheduling: Vec<String>,
+    /// The derived scheduling variables φ_j(θ) (non-multi-affine functions
+    /// of the parameters), after the parameters in the vertex order.
+    pub derived: Vec<DerivedView>,
+    /// How many vertices there are and where they come from.
+    pub vertex_count: VertexCountView,
     /// The θ-vertices in the documented order.
     pub vertices: Vec<VertexView>,
     /// Whether C or some M_k depend on θ.
@@ -203,6 +208,38 @@ pub struct VerticesOutput {
     pub state_bound: StateBoundView,
     /// The model's `design` blocks.
     pub requests: Vec<RequestView>,
+}
+
+/// A derived scheduling variable φ_j(θ) and its range.
+#[derive(Serialize)]
+pub struct DerivedView {
+    /// Its name (`let` name, or `phi1`, ...).
+    pub name: String,
+    /// The function of the parameters.
+    pub expression: String,
+    /// The matrix entries that use it (`A[1,2]`, `N1[2,3]`, ...).
+    pub used_in: Vec<String>,
+    /// Lower end of its range (contains φ_j(θ) for every θ ∈ Θ).
+    pub lo: f64,
+    /// Upper end of its range.
+    pub hi: f64,
+    /// How the range was obtained, in words.
+    pub range_method: String,
+    /// The smallest and largest values sampled on Θ while computing it.
+    pub sampled: [f64; 2],
+}
+
+/// The vertex count: 2^(parameters + derived variables).
+#[derive(Serialize)]
+pub struct VertexCountView {
+    /// The number of vertices.
+    pub total: usize,
+    /// Scheduling parameters (each doubles the count).
+    pub parameters: usize,
+    /// Derived scheduling variables (each doubles the count).
+    pub derived: usize,
+    /// A warning when the count exceeds 64, naming the derived variables.
+    pub warning: Option<String>,
 }
 
 /// A declared parameter θ_i ∈ [lo, hi].
@@ -342,6 +379,25 @@ impl VerticesOutput {
                 .iter()
                 .map(|&i| p.params[i].name.clone())
                 .collect(),
+            derived: p
+                .derived
+                .iter()
+                .map(|d| DerivedView {
+                    name: d.name.clone(),
+                    expression: d.text.clone(),
+                    used_in: d.used_in.clone(),
+                    lo: d.lo,
+                    hi: d.hi,
+                    range_method: d.range.method.clone(),
+                    sampled: [d.range.sampled_lo, d.range.sampled_hi],
+                })
+                .collect(),
+            vertex_count: VertexCountView {
+                total: p.nv(),
+                parameters: p.scheduling.len(),
+                derived: p.derived.len(),
+                warning: super::vertices::count_warning(p),
+            },
             vertices: p
                 .vertices
                 .iter()

@@ -30,17 +30,44 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         .scheduling
         .iter()
         .map(|&i| p.params[i].name.as_str())
+        .chain(p.derived.iter().map(|d| d.name.as_str()))
         .collect();
     s.push_str(&format!(
         "vertex order: corners of ({}), first most significant, lo before hi\n",
         sched.join(", ")
     ));
+    if !p.derived.is_empty() {
+        s.push_str(&format!(
+            "vertices: 2^{} = {} ({} parameter(s) and {} derived scheduling variable(s))\n",
+            p.scheduling.len() + p.derived.len(),
+            p.nv(),
+            p.scheduling.len(),
+            p.derived.len()
+        ));
+        s.push_str("derived scheduling variables (functions of the parameters that are not multi-affine):\n");
+        for d in &p.derived {
+            s.push_str(&format!(
+                "  {} = {}\n    range [{}, {}] (sampled on Θ: [{}, {}])\n    obtained by {}\n    used in {}\n",
+                d.name,
+                d.text,
+                d.lo,
+                d.hi,
+                d.range.sampled_lo,
+                d.range.sampled_hi,
+                d.range.method,
+                d.used_in.join(", ")
+            ));
+        }
+    }
+    if let Some(w) = count_warning(p) {
+        s.push_str(&format!("warning: {w}\n"));
+    }
     let varies = p.output_varies();
     for (l, v) in p.vertices.iter().enumerate() {
         let corner: Vec<String> = p
-            .scheduling
+            .corner(l)
             .iter()
-            .map(|&i| format!("{} = {}", p.params[i].name, v.theta[i]))
+            .map(|(n, x)| format!("{n} = {x}"))
             .collect();
         s.push_str(&format!(
             "\nvertex {} ({}):\n  A:\n{}",
@@ -77,6 +104,43 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         s.push_str(&format!("  a_{} = {:?}\n", k + 1, a.as_slice()));
     }
     s
+}
+
+/// Vertex counts above this get a warning in the report.
+pub const VERTEX_WARNING: usize = 64;
+
+/// A warning when the model has more than [`VERTEX_WARNING`] vertices,
+/// naming the derived variables that cost most (each doubles the count;
+/// those used in the most matrix entries first, as the hardest to avoid).
+pub fn count_warning(p: &PolytopicModel) -> Option<String> {
+    if p.nv() <= VERTEX_WARNING {
+        return None;
+    }
+    let mut d: Vec<&qpv_dsl::Derived> = p.derived.iter().collect();
+    d.sort_by_key(|d| std::cmp::Reverse(d.used_in.len()));
+    let costly = if d.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; the derived variables each double it: {} (name a recurring function with `let` \
+             so it is shared, or narrow a parameter range so fewer functions are needed)",
+            d.iter()
+                .map(|d| format!(
+                    "{} = {} (used in {} entries)",
+                    d.name,
+                    d.text,
+                    d.used_in.len()
+                ))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    Some(format!(
+        "{} vertices (more than {VERTEX_WARNING}): {} parameter(s) and {} derived variable(s){costly}",
+        p.nv(),
+        p.scheduling.len(),
+        p.derived.len()
+    ))
 }
 
 /// Appends C and the nonzero M_k, indented by `indent`.

@@ -18,6 +18,8 @@ pub(super) fn kind_word(r: NameRef) -> &'static str {
         NameRef::Output(_) => "an output",
         NameRef::Param(_) => "a parameter",
         NameRef::Disturbance(_) => "a disturbance",
+        NameRef::Let(_) => "a `let` function",
+        NameRef::Const(_) => "a `const` number",
     }
 }
 
@@ -55,10 +57,13 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         param_reach: Vec::new(),
     };
     b.declare()?;
+    b.consts()?;
     let params = b.params()?;
-    let (a, n, bm, b_w) = b.dynamics()?;
+    b.lets(&params)?;
+    let (mut a, mut n, mut bm, mut b_w) = b.dynamics()?;
     let noise_outputs = b.noise_outputs()?;
-    let (c, m) = b.outputs()?;
+    let (mut c, mut m) = b.outputs()?;
+    let derived = b.derived(&mut a, &mut n, &mut bm, &mut b_w, &mut c, &mut m)?;
     let region = b.region()?;
     let state_bound = b.state_bound(&region)?;
     let designs = b.designs()?;
@@ -80,6 +85,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         region,
         state_bound,
         designs,
+        derived,
         warnings: Vec::new(),
     };
     b.usage(&model)?;

@@ -6,6 +6,7 @@
 //! in that order.
 
 mod build;
+mod derived;
 mod design;
 mod matrices;
 mod names;
@@ -72,6 +73,11 @@ pub struct Model {
     pub state_bound: StateBound,
     /// Design requests in source order.
     pub designs: Vec<DesignRequest>,
+    /// The derived scheduling variables φ_j(θ) (functions of the parameters
+    /// that are not multi-affine), in order of first use. Bit `ntheta() + j`
+    /// of a term mask of the matrices is φ_j; empty for a model whose
+    /// entries are multi-affine in θ.
+    pub derived: Vec<crate::sched::Derived>,
     /// Non-fatal remarks found while building the model.
     pub warnings: Vec<Warning>,
 }
@@ -96,25 +102,40 @@ impl Model {
 }
 
 impl Model {
+    /// The scheduling variables at `theta`: θ itself followed by the derived
+    /// variables φ_j(θ) (θ as given, not clamped). Term masks of the
+    /// matrices index this vector.
+    pub fn extended(&self, theta: &[f64]) -> Vec<f64> {
+        let mut v: Vec<f64> = (0..self.ntheta())
+            .map(|i| theta.get(i).copied().unwrap_or(0.0))
+            .collect();
+        for d in &self.derived {
+            let x = d.expr.eval(&v[..self.ntheta()]);
+            v.push(x);
+        }
+        v
+    }
     /// A(θ) at a full parameter vector (one entry per declared parameter).
     pub fn eval_a(&self, theta: &[f64]) -> DMatrix<f64> {
-        self.a.eval(theta)
+        self.a.eval(&self.extended(theta))
     }
     /// N_k(θ), k = 1..nx.
     pub fn eval_n(&self, theta: &[f64]) -> Vec<DMatrix<f64>> {
-        self.n.iter().map(|m| m.eval(theta)).collect()
+        let t = self.extended(theta);
+        self.n.iter().map(|m| m.eval(&t)).collect()
     }
     /// B(θ).
     pub fn eval_b(&self, theta: &[f64]) -> DMatrix<f64> {
-        self.b.eval(theta)
+        self.b.eval(&self.extended(theta))
     }
     /// C(θ).
     pub fn eval_c(&self, theta: &[f64]) -> DMatrix<f64> {
-        self.c.eval(theta)
+        self.c.eval(&self.extended(theta))
     }
     /// M_k(θ), k = 1..ny.
     pub fn eval_m(&self, theta: &[f64]) -> Vec<DMatrix<f64>> {
-        self.m.iter().map(|m| m.eval(theta)).collect()
+        let t = self.extended(theta);
+        self.m.iter().map(|m| m.eval(&t)).collect()
     }
     /// The right-hand side f(x, u, θ) = A(θ)x + N(θ,x)x + B(θ)u.
     pub fn rhs(&self, x: &DVector<f64>, u: &DVector<f64>, theta: &[f64]) -> DVector<f64> {
@@ -138,10 +159,11 @@ impl Model {
     /// Indices of the parameters that appear in A, N_k, B, B_w, C or M_k (those
     /// that generate vertices), in declaration order.
     pub fn scheduling(&self) -> Vec<usize> {
-        bits(self.param_mask()).collect()
+        bits(self.param_mask() & low_bits(self.ntheta())).collect()
     }
 
-    /// Bit mask of the parameters that appear in some matrix.
+    /// Bit mask of the parameters and derived variables that appear in some
+    /// matrix.
     fn param_mask(&self) -> u64 {
         self.a.param_mask()
             | self.b.param_mask()
@@ -158,5 +180,14 @@ impl Model {
     /// designed by the double-sum relaxation or an output post-filter).
     pub fn output_varies(&self) -> bool {
         self.c.param_mask() != 0 || self.m.iter().any(|p| p.param_mask() != 0)
+    }
+}
+
+/// The mask of the first `n` bits.
+pub(crate) fn low_bits(n: usize) -> u64 {
+    if n >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << n) - 1
     }
 }

@@ -5,7 +5,7 @@ use super::build::{kind_word, pos, Builder, R};
 use super::validate::MAX_COEFFICIENT;
 use crate::ast::{self, Item};
 use crate::diagnostic::{Diag, Span};
-use crate::poly::{fmt_num, NameRef};
+use crate::poly::{eval, fmt_num, sched_expr, Allowed, LetValue, NameRef};
 use serde::Serialize;
 
 /// A bounded scheduling parameter `param NAME in [lo, hi];`.
@@ -35,6 +35,8 @@ impl Builder<'_> {
                 Item::Outputs(l) => (l, 2),
                 Item::Params(p) => (&p.names, 3),
                 Item::Disturbances(l) => (l, 4),
+                Item::Let(id, _, _) => (std::slice::from_ref(id), 5),
+                Item::Const(id, _, _) => (std::slice::from_ref(id), 6),
                 _ => continue,
             };
             for id in list {
@@ -49,6 +51,27 @@ impl Builder<'_> {
                             pos(self.src, at)
                         ),
                     ));
+                }
+                if kind >= 5 {
+                    let (r, what) = if kind == 5 {
+                        self.names.lets.push((id.name.clone(), None));
+                        (NameRef::Let(self.names.lets.len() - 1), "`let` definitions")
+                    } else {
+                        self.names.consts.push((id.name.clone(), None));
+                        (
+                            NameRef::Const(self.names.consts.len() - 1),
+                            "`const` definitions",
+                        )
+                    };
+                    if self.names.lets.len() > MAX_DIM || self.names.consts.len() > MAX_DIM {
+                        return Err(Diag::new(
+                            id.span,
+                            format!("too many {what}: at most {MAX_DIM} are supported"),
+                        ));
+                    }
+                    self.names.lookup.insert(id.name.clone(), r);
+                    self.decl_spans.insert(id.name.clone(), id.span);
+                    continue;
                 }
                 let (vec, limit, what) = match kind {
                     0 => (&mut self.names.states, MAX_DIM, "states"),
@@ -159,6 +182,50 @@ impl Builder<'_> {
             }
         }
         Ok(decl.map(|_| out))
+    }
+
+    /// Evaluates the `const` definitions in source order (each may use the
+    /// ones before it).
+    pub(super) fn consts(&mut self) -> R<()> {
+        let mut k = 0;
+        for item in &self.ast.items {
+            let Item::Const(_, e, _) = item else { continue };
+            let v = self.constant(e, "a `const` definition")?;
+            self.names.consts[k].1 = Some(v);
+            k += 1;
+        }
+        Ok(())
+    }
+
+    /// Evaluates the `let` definitions in source order: a polynomial in the
+    /// parameters stands for itself, anything else is one derived
+    /// scheduling variable named after the `let`.
+    pub(super) fn lets(&mut self, params: &[Param]) -> R<()> {
+        {
+            let mut atoms = self.names.atoms.borrow_mut();
+            atoms.np = params.len();
+            atoms.boxes = params.iter().map(|p| (p.lo, p.hi)).collect();
+        }
+        let mut k = 0;
+        for item in &self.ast.items {
+            let Item::Let(id, e, _) = item else { continue };
+            let context = format!("the definition of `{}`", id.name);
+            let scope = self.scope(Allowed::Coefficient, &context);
+            let p = eval(e, &scope)?;
+            let def = sched_expr(e, &scope)?;
+            let np = params.len();
+            let value = if p.terms.keys().all(|m| m.theta >> np == 0) {
+                LetValue::Inline(p)
+            } else {
+                LetValue::Atom(
+                    self.names
+                        .atom(def.clone(), Some(&id.name), e.span, self.src)?,
+                )
+            };
+            self.names.lets[k].1 = Some((value, def));
+            k += 1;
+        }
+        Ok(())
     }
 
     pub(super) fn params(&mut self) -> R<Vec<Param>> {

@@ -11,7 +11,12 @@ pub const MAX_SCHEDULING: usize = 16;
 
 impl Builder<'_> {
     pub(super) fn usage(&mut self, model: &Model) -> R<()> {
-        let used = model.param_mask();
+        let np = model.ntheta();
+        let direct = model.param_mask() & super::low_bits(np);
+        let used = model
+            .derived
+            .iter()
+            .fold(direct, |m, d| m | d.expr.param_mask());
         for (i, p) in model.params.iter().enumerate() {
             if used & (1 << i) == 0 {
                 self.warnings.push(Warning {
@@ -24,7 +29,26 @@ impl Builder<'_> {
                 });
             }
         }
-        let sched: Vec<usize> = bits(used).collect();
+        let sched: Vec<usize> = bits(direct).collect();
+        if sched.len() + model.derived.len() > MAX_SCHEDULING && !model.derived.is_empty() {
+            let costly: Vec<String> = model
+                .derived
+                .iter()
+                .map(|d| format!("{} = {}", d.name, d.text))
+                .collect();
+            return Err(Diag::new(
+                model.derived[0].span,
+                format!(
+                    "too many scheduling variables: {} parameters and {} derived functions ({}) \
+                     would give 2^{} vertices; at most {MAX_SCHEDULING} are supported (name a \
+                     recurring function with `let` so it is shared, or fix a parameter)",
+                    sched.len(),
+                    model.derived.len(),
+                    costly.join(", "),
+                    sched.len() + model.derived.len()
+                ),
+            ));
+        }
         if sched.len() > MAX_SCHEDULING {
             let p = &model.params[sched[MAX_SCHEDULING]];
             return Err(Diag::new(
@@ -62,7 +86,13 @@ impl Builder<'_> {
         terms
             .map(|(mask, c)| {
                 bits(mask).fold(c.abs(), |acc, i| {
-                    acc * self.param_reach.get(i).copied().unwrap_or(1.0)
+                    acc * self.param_reach.get(i).copied().unwrap_or_else(|| {
+                        let atoms = self.names.atoms.borrow();
+                        atoms
+                            .list
+                            .get(i - atoms.np)
+                            .map_or(1.0, |a| a.lo.abs().max(a.hi.abs()))
+                    })
                 })
             })
             .sum()

@@ -3,7 +3,7 @@
 //! the generated `coeffs(θ)` computes each of them (and each product of
 //! parameters they use) once per evaluation.
 
-use super::tokens::{destructure, Sum};
+use super::tokens::{destructure, uses, Sum};
 use proc_macro2::{Ident, TokenStream};
 use qpv_dsl::ThetaPoly;
 use quote::{format_ident, quote};
@@ -69,7 +69,7 @@ impl Coeffs {
     /// The generated `struct Coeffs` (one `f64` field per interned
     /// polynomial) and `fn coeffs(θ) -> Coeffs`, for a model with `nth`
     /// parameters.
-    pub(super) fn items(&self, nth: usize) -> TokenStream {
+    pub(super) fn items(&self, nth: usize, nphi: usize) -> TokenStream {
         let kfields: Vec<Ident> = (0..self.polys.len())
             .map(|i| format_ident!("k{}", i))
             .collect();
@@ -77,7 +77,14 @@ impl Coeffs {
         let mono_lets: TokenStream = self.products().into_iter().map(product_let).collect();
         let body = quote! { #mono_lets Coeffs { #(#kfields: #kvalues),* } };
         let theta = format_ident!("theta");
-        let bind = destructure(&theta, "t", nth, &body);
+        let mut bind = destructure(&theta, "t", nth, &body);
+        // the derived scheduling variables φ_j are the variables t<nth + j>
+        let phis: Vec<String> = (nth..nth + nphi).map(|i| format!("t{i}")).collect();
+        if phis.iter().any(|n| uses(&body, n)) {
+            let values = format_ident!("phi_values");
+            let phi_bind = super::tokens::destructure_names(&values, &phis, &body);
+            bind.extend(quote!(let phi_values = &phi(theta); #phi_bind));
+        }
         quote! {
             /// θ-dependent coefficients of the equations, each computed once.
             #[derive(Clone, Copy)]

@@ -1,10 +1,13 @@
 //! The scheduling side of the generated module: `clamp_theta` (θ into Θ,
-//! NaN to the lower bound) and the vertex weights `mu(θ)`, products of
-//! normalised positions built as a prefix tree.
+//! NaN to the lower bound), the derived scheduling variables `phi(θ)` of a
+//! model that has them (computed from the same expressions as the model,
+//! with `libm` for the transcendental functions so the code stays
+//! `no_std`), and the vertex weights `mu(θ)`, products of normalised
+//! positions built as a prefix tree.
 
 use super::tokens::{destructure, lit};
 use proc_macro2::{Ident, TokenStream};
-use qpv_dsl::Model;
+use qpv_dsl::{Func, Model, SchedExpr};
 use quote::{format_ident, quote};
 
 /// The generated `clamp_theta`, `mu` and `mu_clamped` of a model whose
@@ -12,11 +15,14 @@ use quote::{format_ident, quote};
 /// `m.params`, first most significant).
 pub(super) fn items(m: &Model, scheduling: &[usize]) -> TokenStream {
     let clamp = clamp_theta(m);
+    let phi = phi_items(m);
     let mu_body = mu_body(m, scheduling);
     let theta = format_ident!("theta");
     let mu_bind = destructure(&theta, "t", m.ntheta(), &mu_body);
     quote! {
         #clamp
+
+        #phi
 
         /// The scheduling weights μ_l(θ), l = 1..NV: non-negative, summing to 1
         /// (θ is clamped into Θ first).
@@ -76,14 +82,31 @@ fn clamp_theta(m: &Model) -> TokenStream {
 /// μ(θ) for a clamped θ: w_i = normalised position, v_i = 1 − w_i, vertex
 /// products built as a prefix tree (first parameter most significant).
 fn mu_body(m: &Model, scheduling: &[usize]) -> TokenStream {
-    let ns = scheduling.len();
+    let ns = scheduling.len() + m.derived.len();
     let mut mu_lets = TokenStream::new();
-    for (i, &pi) in scheduling.iter().enumerate() {
-        let (plo, phi) = match m.params.get(pi) {
-            Some(p) => (p.lo, p.hi),
-            None => (0.0, 1.0),
-        };
-        let t = format_ident!("t{}", pi);
+    if !m.derived.is_empty() {
+        let f: Vec<Ident> = (0..m.derived.len())
+            .map(|j| format_ident!("f{}", j))
+            .collect();
+        mu_lets.extend(quote!(let [#(#f),*] = phi(theta);));
+    }
+    let params = scheduling.iter().map(|&pi| {
+        let (lo, hi) = m.params.get(pi).map_or((0.0, 1.0), |p| (p.lo, p.hi));
+        (format_ident!("t{}", pi), lo, hi, false)
+    });
+    // φ_j clamped into its range (which contains it up to rounding; NaN → lo)
+    let derived = m
+        .derived
+        .iter()
+        .enumerate()
+        .map(|(j, d)| (format_ident!("f{}", j), d.lo, d.hi, true));
+    for (i, (t, plo, phi, clamp)) in params.chain(derived).enumerate() {
+        if clamp {
+            let (l, h) = (lit(plo), lit(phi));
+            mu_lets.extend(quote! {
+                let #t = if #t >= #l { if #t <= #h { #t } else { #h } } else { #l };
+            });
+        }
         let w = format_ident!("w{}", i);
         let v = format_ident!("v{}", i);
         let num_expr = if plo == 0.0 {
@@ -126,4 +149,114 @@ fn mu_body(m: &Model, scheduling: &[usize]) -> TokenStream {
     }
     let mu_exprs: Vec<TokenStream> = level.into_iter().map(|(_, e)| e).collect();
     quote! { #mu_lets [#(#mu_exprs),*] }
+}
+
+/// `NPHI`, `PHI_MIN`, `PHI_MAX` and `phi(θ)` for a model with derived
+/// scheduling variables (nothing otherwise).
+fn phi_items(m: &Model) -> TokenStream {
+    if m.derived.is_empty() {
+        return TokenStream::new();
+    }
+    let nphi = super::tokens::usize_lit(m.derived.len());
+    let lo: Vec<TokenStream> = m.derived.iter().map(|d| lit(d.lo)).collect();
+    let hi: Vec<TokenStream> = m.derived.iter().map(|d| lit(d.hi)).collect();
+    let values: Vec<TokenStream> = m.derived.iter().map(|d| expr(&d.expr)).collect();
+    let body = quote!([#(#values),*]);
+    let theta = format_ident!("theta");
+    let bind = destructure(&theta, "t", m.ntheta(), &body);
+    let list: Vec<String> = m
+        .derived
+        .iter()
+        .map(|d| format!("{} = {}", d.name, d.text))
+        .collect();
+    let doc = format!(
+        " The derived scheduling variables at θ (as given, not clamped): {}. The gain is \
+         scheduled over the box of (θ, φ); `mu` clamps θ into Θ before calling this.",
+        list.join("; ")
+    );
+    quote! {
+        /// Number of derived scheduling variables φ_j(θ).
+        pub const NPHI: usize = #nphi;
+        /// Lower ends of the ranges of φ (they contain φ(θ) for every θ ∈ Θ).
+        pub const PHI_MIN: [f64; NPHI] = [#(#lo),*];
+        /// Upper ends of the ranges of φ.
+        pub const PHI_MAX: [f64; NPHI] = [#(#hi),*];
+
+        #[doc = #doc]
+        #[inline]
+        pub fn phi(theta: &[f64; NTHETA]) -> [f64; NPHI] {
+            #bind
+            #body
+        }
+    }
+}
+
+/// A scheduling function as a Rust expression over `t0`, `t1`, ... (the
+/// parameters), in the evaluation order of [`SchedExpr::eval`].
+pub(super) fn expr(e: &SchedExpr) -> TokenStream {
+    match e {
+        SchedExpr::Num(c) => {
+            let l = lit(*c);
+            quote!((#l))
+        }
+        SchedExpr::Param(i) => {
+            let t = format_ident!("t{}", i);
+            quote!(#t)
+        }
+        SchedExpr::Named(_, e) => expr(e),
+        SchedExpr::Neg(e) => {
+            let x = expr(e);
+            quote!((-#x))
+        }
+        SchedExpr::Sum(terms) => {
+            let mut acc = quote!(0.0);
+            for (neg, t) in terms {
+                let x = expr(t);
+                acc = if *neg {
+                    quote!((#acc - #x))
+                } else {
+                    quote!((#acc + #x))
+                };
+            }
+            acc
+        }
+        SchedExpr::Product(factors) => {
+            let mut acc = quote!(1.0);
+            for (div, f) in factors {
+                let x = expr(f);
+                acc = if *div {
+                    quote!((#acc / #x))
+                } else {
+                    quote!((#acc * #x))
+                };
+            }
+            acc
+        }
+        SchedExpr::Pow(e, n) => {
+            let x = expr(e);
+            let mut acc = quote!(1.0);
+            for _ in 0..*n {
+                acc = quote!((#acc * b));
+            }
+            quote!({ let b: f64 = #x; #acc })
+        }
+        SchedExpr::Call(f, e) => {
+            let x = expr(e);
+            let name = format_ident!(
+                "{}",
+                match f {
+                    Func::Sqrt => "sqrt",
+                    Func::Exp => "exp",
+                    Func::Ln => "log",
+                    Func::Sin => "sin",
+                    Func::Cos => "cos",
+                    Func::Tan => "tan",
+                    Func::Tanh => "tanh",
+                    Func::Atan => "atan",
+                    Func::Abs => "fabs",
+                }
+            );
+            quote!(::libm::#name(#x))
+        }
+    }
 }

@@ -148,7 +148,8 @@ pub fn check_model(model: &PolytopicModel) -> Result<(), SimError> {
             )));
         }
     }
-    let s = model.scheduling.len();
+    // derived scheduling variables φ_j(θ) double the vertices like parameters
+    let s = model.scheduling.len() + model.derived.len();
     if s > MAX_SCHEDULING {
         return Err(SimError::Model(format!(
             "{s} scheduling parameters (at most {MAX_SCHEDULING} supported)"

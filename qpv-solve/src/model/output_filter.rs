@@ -223,6 +223,7 @@ pub fn augment(model: &PolytopicModel, f: &OutputFilter) -> Result<PolytopicMode
         state_bound,
         designs: model.designs.clone(),
         noise: Default::default(),
+        derived: model.derived.clone(),
     })
 }
 

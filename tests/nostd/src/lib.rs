@@ -40,3 +40,19 @@ pub fn filter_observer_step(
     obs.step_rk4(dt, y, &[], theta);
     obs.state()
 }
+
+qpv_macros::qpv!(include "scheduling_functions.qpv");
+
+/// The derived scheduling variables and the gain of a model with scheduling
+/// functions (sin, cos, a quotient), computed without `std`.
+pub fn scheduled_gain(
+    theta: &[f64; scheduling_functions::NTHETA],
+) -> (
+    [f64; scheduling_functions::NPHI],
+    [[f64; scheduling_functions::NY]; scheduling_functions::NX],
+) {
+    (
+        scheduling_functions::phi(theta),
+        scheduling_functions::gain(theta),
+    )
+}

@@ -1,0 +1,209 @@
+//! Soundness of the scheduling-function embedding, checked against the model
+//! text itself: for random θ ∈ Θ (and random x, u), the right-hand side
+//! rebuilt from the vertex matrices, Σ_l μ_l(θ)(A_l x + N_l(x)x + B_l u),
+//! equals the `der` equations evaluated directly from their syntax tree, and
+//! every derived variable's range contains its sampled values.
+
+use crate::ast::{Expr, ExprKind, Item};
+use std::collections::HashMap;
+
+/// A small deterministic generator (xorshift64*), uniform in [0, 1).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// The value of an expression with every name looked up in `env`.
+fn direct(e: &Expr, env: &HashMap<String, f64>) -> f64 {
+    match &e.kind {
+        ExprKind::Number(v) => *v,
+        ExprKind::Name(n) => env[n],
+        ExprKind::Neg(x) => -direct(x, env),
+        ExprKind::Sum(t) => t.iter().fold(0.0, |a, (neg, x)| {
+            if *neg {
+                a - direct(x, env)
+            } else {
+                a + direct(x, env)
+            }
+        }),
+        ExprKind::Product(f) => f.iter().fold(1.0, |a, (div, x)| {
+            if *div {
+                a / direct(x, env)
+            } else {
+                a * direct(x, env)
+            }
+        }),
+        ExprKind::Pow(x, n) => direct(x, env).powi(*n as i32),
+        ExprKind::Call(f, _, x) => f.apply(direct(x, env)),
+    }
+}
+
+/// Checks one model text (equation form for the dynamics) on `samples`
+/// random points; returns the largest relative deviation.
+fn check(src: &str, samples: usize) -> f64 {
+    let file = crate::syntax::parse_file(src).expect("parses");
+    let ast = &file.models[0];
+    let model = &crate::parse(src).expect("valid")[0];
+    let poly = model.polytopic();
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut worst: f64 = 0.0;
+    for _ in 0..samples {
+        let mut env = HashMap::new();
+        let theta: Vec<f64> = model
+            .params
+            .iter()
+            .map(|p| {
+                let v = p.lo + (p.hi - p.lo) * rng.next();
+                env.insert(p.name.clone(), v);
+                v
+            })
+            .collect();
+        let x: Vec<f64> = model
+            .states
+            .iter()
+            .map(|_| 2.0 * rng.next() - 1.0)
+            .collect();
+        let u: Vec<f64> = model
+            .inputs
+            .iter()
+            .map(|_| 2.0 * rng.next() - 1.0)
+            .collect();
+        for (n, v) in model
+            .states
+            .iter()
+            .zip(&x)
+            .chain(model.inputs.iter().zip(&u))
+        {
+            env.insert(n.clone(), *v);
+        }
+        let mut ders: HashMap<String, f64> = HashMap::new();
+        for item in &ast.items {
+            match item {
+                Item::Const(id, e, _) | Item::Let(id, e, _) => {
+                    let v = direct(e, &env);
+                    env.insert(id.name.clone(), v);
+                }
+                Item::Der(eq) => {
+                    ders.insert(eq.target.name.clone(), direct(&eq.rhs, &env));
+                }
+                _ => {}
+            }
+        }
+        let xv = nalgebra::DVector::from_vec(x.clone());
+        let mut f = poly.a_at(&theta) * &xv;
+        if !u.is_empty() {
+            f += poly.b_at(&theta) * nalgebra::DVector::from_vec(u.clone());
+        }
+        for (k, nk) in poly.n_at(&theta).iter().enumerate() {
+            f[k] += xv.dot(&(nk * &xv));
+        }
+        for (k, name) in model.states.iter().enumerate() {
+            let want = ders[name];
+            let dev = (f[k] - want).abs() / (1.0 + want.abs());
+            worst = worst.max(dev);
+        }
+    }
+    worst
+}
+
+/// Samples each derived variable 10⁵ times on Θ: every value must lie in
+/// its range.
+fn ranges_contain_samples(src: &str) {
+    let model = &crate::parse(src).expect("valid")[0];
+    let mut rng = Rng(0x1234_5678_9ABC_DEF1);
+    for d in &model.derived {
+        for _ in 0..100_000 {
+            let theta: Vec<f64> = model
+                .params
+                .iter()
+                .map(|p| p.lo + (p.hi - p.lo) * rng.next())
+                .collect();
+            let v = d.expr.eval(&theta);
+            assert!(
+                d.lo <= v && v <= d.hi,
+                "{} = {} at {theta:?}: {v} outside [{}, {}]",
+                d.name,
+                d.text,
+                d.lo,
+                d.hi
+            );
+        }
+    }
+}
+
+const MIXED: &str = "model mixed {
+    state x1, x2, x3; input u; output y;
+    param m in [0, 0.8]; param q in [-1.2, 1.2]; param T in [300, 360];
+    const E = 5000; const R = 8.314;
+    let I1 = 4 - m;
+    let k = 2e3*exp(-E/(R*T));
+    der x1 = (3 - 2*m - (2 - m))/I1*x2*x3 + sin(q)^2*x1 - k*x1 + u/I1;
+    der x2 = -x2/(2 + cos(q)) + m^2*x1 + q*q*x3 - sqrt(1 + q^2)*x2*x2;
+    der x3 = -(1 + abs(q))*x3 + tanh(q)*x1 + x1/I1 - atan(m)*x1*x2 + tan(q/2)*u;
+    out y = x1;
+    region box(1);
+}";
+
+#[test]
+fn vertex_decomposition_reproduces_the_equations() {
+    let worst = check(MIXED, 2000);
+    assert!(worst < 1e-10, "largest deviation {worst:e}");
+}
+
+#[test]
+fn derived_ranges_contain_sampled_values() {
+    ranges_contain_samples(MIXED);
+}
+
+#[test]
+fn recurring_functions_share_one_derived_variable() {
+    let model = &crate::parse(MIXED).expect("valid")[0];
+    let texts: Vec<&str> = model.derived.iter().map(|d| d.text.as_str()).collect();
+    // 1/I1 is used in three places, q*q and q^2 are the same function
+    assert_eq!(
+        texts.iter().filter(|t| **t == "1/I1").count(),
+        1,
+        "{texts:?}"
+    );
+    assert_eq!(
+        texts.iter().filter(|t| **t == "q^2").count(),
+        1,
+        "{texts:?}"
+    );
+    // `let k = ...` is one variable named k, not split further
+    assert!(model.derived.iter().any(|d| d.name == "k"), "{texts:?}");
+    assert_eq!(
+        texts.iter().filter(|t| t.contains("exp")).count(),
+        1,
+        "{texts:?}"
+    );
+    let poly = model.polytopic();
+    let ns = poly.scheduling.len() + poly.derived.len();
+    assert_eq!(poly.nv(), 1 << ns);
+}
+
+#[test]
+fn multi_affine_models_have_no_derived_variables() {
+    let src = include_str!("../../examples/paper.qpv");
+    let model = &crate::parse(src).expect("valid")[0];
+    assert!(model.derived.is_empty());
+}
+
+#[test]
+fn examples_with_scheduling_functions_are_exact_and_enclosed() {
+    for src in [
+        include_str!("../../examples/spacecraft.qpv"),
+        include_str!("../../examples/manipulator.qpv"),
+        include_str!("../../examples/arrhenius_reactor.qpv"),
+    ] {
+        let worst = check(src, 300);
+        assert!(worst < 1e-10, "largest deviation {worst:e}");
+        ranges_contain_samples(src);
+    }
+}
