@@ -944,8 +944,11 @@ pub fn design_noise_with_progress(
             String::new()
         }
     )];
-    if request.conditions == qpv_dsl::Conditions::Decoupled {
-        notes.push("conditions = decoupled is not used by noise = min: its SDP solves the full family of vertex pairs".into());
+    if matches!(
+        request.conditions,
+        qpv_dsl::Conditions::Decoupled | qpv_dsl::Conditions::Cube
+    ) {
+        notes.push(format!("conditions = {} is not used by noise = min: its SDP solves the full family of vertex pairs", request.conditions.name()));
     }
     if bound_info.source == BoundSource::Auto {
         notes.push(format!(
@@ -1010,6 +1013,7 @@ pub fn design_noise_with_progress(
         mode: Mode::Sound,
         split: request.split,
         conditions: qpv_dsl::Conditions::Full,
+        cube: None,
         feasible,
         certifies: feasible,
         alpha,

@@ -61,7 +61,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
     let (c, m) = b.outputs()?;
     let region = b.region()?;
     let state_bound = b.state_bound(&region)?;
-    let designs = b.designs()?;
+    let designs = b.designs(&region)?;
     let mut model = Model {
         name: ast.name.name.clone(),
         span: ast.name.span,

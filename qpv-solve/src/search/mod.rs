@@ -45,7 +45,10 @@
 pub mod skew;
 
 use crate::backend::Status;
-use crate::certificate::{alpha_capacity, check, data_checks, Certificate, DataCheck};
+use crate::certificate::{
+    alpha_capacity, alpha_capacity_cube, check, check_cube, data_checks, Certificate, DataCheck,
+};
+use crate::conditions::cube::CubeSlacks;
 use crate::conditions::ConditionSet;
 use crate::error::SolveError;
 use crate::linalg::matrix_to_rows;
@@ -94,6 +97,8 @@ struct Point {
     l: Vec<DMatrix<f64>>,
     cert: Certificate,
     solver: SolverInfo,
+    /// The slacks of cube conditions (checked with the point).
+    cube: Option<CubeSlacks>,
 }
 
 /// The result of one attempt at (α, γ).
@@ -134,17 +139,36 @@ impl Ctx<'_, '_> {
         cert.passed
     }
 
+    /// The certificate of (P, L_l) at (α, γ): the full family, or the cube's
+    /// slack inequalities when the point carries cube slacks.
+    fn certify(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        p: &DMatrix<f64>,
+        l: &[DMatrix<f64>],
+        cube: Option<&CubeSlacks>,
+    ) -> Certificate {
+        match cube {
+            Some(c) => check_cube(self.model, self.mode, alpha, gamma, p, l, c),
+            None => check(self.model, self.mode, alpha, gamma, p, l),
+        }
+    }
+
     /// The largest α at which the point's (P, Γ_l, L_l) certify at `gamma`
     /// (exact capacity, times 1 − 1e-4, re-certified); None if they do not
     /// certify at any α > 0 there.
     fn lift(&self, base: &Point, gamma: f64) -> Option<Point> {
-        let cap = alpha_capacity(self.model, self.mode, gamma, &base.p, &base.gammas);
+        let cap = match &base.cube {
+            Some(c) => alpha_capacity_cube(self.model, self.mode, gamma, &base.p, &base.gammas, c),
+            None => alpha_capacity(self.model, self.mode, gamma, &base.p, &base.gammas),
+        };
         let a = cap * (1.0 - 1e-4);
         if !(a > 0.0 && a.is_finite()) {
             return None;
         }
         let a = a.min(self.settings.alpha_cap);
-        let cert = check(self.model, self.mode, a, gamma, &base.p, &base.l);
+        let cert = self.certify(a, gamma, &base.p, &base.l, base.cube.as_ref());
         if self.accepts(&cert) {
             Some(Point {
                 alpha: a,
@@ -205,7 +229,7 @@ impl Ctx<'_, '_> {
         if let Some(p) = res.p {
             if let Some(l) = gains(&p, &res.gammas) {
                 let tc = Instant::now();
-                let cert = check(self.model, self.mode, alpha, gamma, &p, &l);
+                let cert = self.certify(alpha, gamma, &p, &l, res.cube.as_ref());
                 solver.certify_seconds = tc.elapsed().as_secs_f64();
                 certified = self.accepts(&cert);
                 // Γ_l as the certificate sees them (P L_l).
@@ -218,6 +242,7 @@ impl Ctx<'_, '_> {
                     l,
                     cert,
                     solver: solver.clone(),
+                    cube: res.cube.clone(),
                 };
                 if certified {
                     alpha_certified = alpha;
@@ -622,7 +647,7 @@ fn design_skew(
         );
         return Ok(d);
     }
-    let r = skew_search(model, &d, SKEW_ROUNDS, settings, request.conditions)?;
+    let r = skew_search(model, &d, SKEW_ROUNDS, settings, d.conditions)?;
     let mut out = r.design.clone();
     if r.alpha_best() > d.alpha {
         out.skew = Some(
@@ -632,7 +657,7 @@ fn design_skew(
         );
         out.model = d.model.clone();
         out.split = Split::SkewSlack;
-        out.conditions = request.conditions;
+        out.conditions = d.conditions;
         out.state_bound = d.state_bound.clone();
         out.output_route = d.output_route.clone();
         let mut notes = d.notes.clone();
@@ -722,6 +747,13 @@ fn design_plain(
     let mode = request.mode;
     let set = ConditionSet::from_mode(mode);
     crate::model::validate(model)?;
+    // `conditions = auto`: the choice by size (crate::size::choose), noted.
+    let (chosen_conditions, auto_note) = crate::size::choose(model, request);
+    let resolved = DesignRequest {
+        conditions: chosen_conditions,
+        ..request.clone()
+    };
+    let request = &resolved;
     // Size guard (crate::size): refuse before anything is assembled or solved.
     let size_note = match crate::size::guard(model, request) {
         crate::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
@@ -766,7 +798,7 @@ fn design_plain(
     };
     // Full: all N p² rate blocks; decoupled: N·2p blocks with a slack Z_l per
     // θ-vertex (sufficient). The certificate checks the full family either way.
-    let prob = Problem::new(model, set)?.with_conditions(request.conditions);
+    let prob = Problem::new(model, set)?.with_conditions(request.conditions)?;
     let mut ctx = Ctx {
         model,
         mode,
@@ -778,6 +810,9 @@ fn design_plain(
 
     // The search.
     let mut notes: Vec<String> = Vec::new();
+    if !auto_note.is_empty() {
+        notes.push(auto_note);
+    }
     notes.extend(size_note); // size guard: the "slow" warning
     if bound_info.source == BoundSource::Auto {
         notes.push(format!(
@@ -815,6 +850,14 @@ fn design_plain(
             "conditions = decoupled: solved with {} rate blocks (one slack Z per rate combination, sufficient) instead of {}; the certificate checks the full family of {} blocks",
             ctx.prob.n_rate_blocks(),
             ctx.prob.n_full_rate_blocks(),
+            ctx.prob.n_full_rate_blocks()
+        ));
+    }
+    if request.conditions == Conditions::Cube {
+        notes.push(format!(
+            "conditions = cube: the region as a zonotope with {} generators; solved and certified with {} rate blocks (one pair of slacks Y, X per generator, sufficient) and D ⪰ GᵀPG, trace D ≤ 1 for the region's vertices, instead of {} vertex-pair blocks; the report's `cube` key carries the slacks",
+            ctx.prob.n_generators(),
+            ctx.prob.n_rate_blocks(),
             ctx.prob.n_full_rate_blocks()
         ));
     }
@@ -869,7 +912,7 @@ fn design_plain(
             last = at.point;
             if let Some(mut sp) = searched.filter(|p| p.alpha >= a && p.gamma == gamma_t) {
                 // Re-certify the search's point at exactly the reported α.
-                sp.cert = check(model, mode, a, gamma_t, &sp.p, &sp.l);
+                sp.cert = ctx.certify(a, gamma_t, &sp.p, &sp.l, sp.cube.as_ref());
                 if sp.cert.passed {
                     sp.alpha = a;
                     notes.push(format!(
@@ -1083,5 +1126,9 @@ fn design_plain(
         diagnosis,
         noise: None,
         sampling: None,
+        cube: shown
+            .as_ref()
+            .and_then(|p| p.cube.as_ref())
+            .map(CubeSlacks::to_report),
     })
 }
