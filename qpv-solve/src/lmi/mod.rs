@@ -1408,4 +1408,154 @@ mod tests {
         check_assembly(&synthetic_model(4), Mode::Sound);
         check_assembly(&synthetic_model(4), Mode::Paper);
     }
+
+    /// Cube assembly: at a random (P, Γ_l, Y, X, D) every block is the
+    /// matrix of the module doc of `lmi::cube`, built here in model units:
+    /// the region's D-block and trace row, then per combination and
+    /// generator (Y ∓ G(g))/s − εκI, (X ∓ H(g))/s − εκI, and
+    /// −(F0 + ΣY + ΣX)/s − εκI; (S1) and the facets equal the full assembly's.
+    fn check_cube_assembly(model: &PolytopicModel, mode: Mode) {
+        use crate::conditions::cube::CubeSlacks;
+        let set = ConditionSet::from_mode(mode);
+        let full = Problem::new(model, set).unwrap();
+        let cube = Problem::new(model, set)
+            .unwrap()
+            .with_conditions(Conditions::Cube)
+            .unwrap();
+        let gens = model.region.zonotope_generators().unwrap();
+        let (nx, ny, r) = (model.nx(), model.ny(), gens.len());
+        let combos = crate::conditions::rate_combos(model);
+        let nc = combos.len();
+        assert_eq!(cube.n_rate_blocks(), nc * (4 * r + 1));
+        assert_eq!(cube.n_vars(), full.n_vars() + nc * 2 * r * tri(nx) + r);
+        let (alpha, gamma) = (3.7, 0.35);
+        let settings = Settings::default();
+        let s = cube.scale;
+        let mut seed = 5u64;
+        let mut p = DMatrix::from_fn(nx, nx, |_, _| lcg(&mut seed));
+        p = (&p * p.transpose() + DMatrix::identity(nx, nx)) * s;
+        let gammas: Vec<DMatrix<f64>> = (0..model.nv())
+            .map(|_| DMatrix::from_fn(nx, ny, |_, _| lcg(&mut seed) * s))
+            .collect();
+        let mut sym = || {
+            let m = DMatrix::from_fn(nx, nx, |_, _| lcg(&mut seed) * s);
+            &m + m.transpose()
+        };
+        let mut per = || -> Vec<Vec<DMatrix<f64>>> {
+            (0..nc).map(|_| (0..r).map(|_| sym()).collect()).collect()
+        };
+        let (y, x) = (per(), per());
+        let slacks = CubeSlacks {
+            y,
+            x,
+            d: (0..r).map(|k| 0.1 + 0.05 * k as f64).collect(),
+        };
+        let mut xv = cube.pack(&p, &gammas);
+        cube.pack_cube(&mut xv, &slacks);
+        assert_eq!(cube.unpack_cube(&xv).unwrap().y[0][1], slacks.y[0][1]);
+        let asm = cube.assemble(alpha, gamma, &settings, Objective::Gains);
+        let a = &asm.a;
+        let mut sl = asm.b.clone();
+        for col in 0..a.n {
+            for k in a.colptr[col]..a.colptr[col + 1] {
+                sl[a.rowval[k]] -= a.nzval[k] * xv[col];
+            }
+        }
+        let fasm = full.assemble(alpha, gamma, &settings, Objective::Gains);
+        let fx = full.pack(&p, &gammas);
+        let mut fsl = fasm.b.clone();
+        for col in 0..fasm.a.n {
+            for k in fasm.a.colptr[col]..fasm.a.colptr[col + 1] {
+                fsl[fasm.a.rowval[k]] -= fasm.a.nzval[k] * fx[col];
+            }
+        }
+        let eps = settings.margin_rel;
+        let tol = |w: &DMatrix<f64>| 1e-9 * (1.0 + w.norm());
+        let mut row = 0;
+        // (S1) as in the full assembly.
+        assert!((0..tri(nx)).all(|i| (sl[i] - fsl[i]).abs() < 1e-12));
+        row += tri(nx);
+        let g = DMatrix::from_columns(&gens);
+        let dm = DMatrix::from_diagonal(&DVector::from_vec(slacks.d.clone()));
+        match set {
+            ConditionSet::Sound => {
+                let want = &dm - g.transpose() * &p * &g - DMatrix::identity(r, r) * eps;
+                let got = smat(&sl[row..row + tri(r)], r);
+                assert!((&got - &want).norm() < tol(&want), "D-block");
+                row += tri(r);
+            }
+            ConditionSet::Paper => {
+                let mut want = DMatrix::zeros(r + nx, r + nx);
+                want.view_mut((0, 0), (r, r)).copy_from(&dm);
+                let gh = &g / cube.rho;
+                want.view_mut((r, 0), (nx, r)).copy_from(&gh);
+                want.view_mut((0, r), (r, nx)).copy_from(&gh.transpose());
+                want.view_mut((r, r), (nx, nx)).copy_from(&(&p / s));
+                want -= DMatrix::identity(r + nx, r + nx) * eps;
+                let got = smat(&sl[row..row + tri(r + nx)], r + nx);
+                assert!((&got - &want).norm() < tol(&want), "[D Gᵀ; G P]");
+                row += tri(r + nx);
+            }
+        }
+        let trace: f64 = slacks.d.iter().sum();
+        assert!((sl[row] - (1.0 - eps - trace)).abs() < 1e-12, "trace row");
+        row += 1;
+        // Facets as in the full assembly.
+        let nf = model.region.facets.len() * tri(nx + 1);
+        let f0 = tri(nx)
+            + match set {
+                ConditionSet::Sound => model.region.vertices.len(),
+                ConditionSet::Paper => model.region.vertices.len() * tri(nx + 1),
+            };
+        assert!((0..nf).all(|i| (sl[row + i] - fsl[f0 + i]).abs() < 1e-12));
+        row += nf;
+        // Rate blocks.
+        let sigma = set.nonlinear_sign();
+        let eps_rate = eps * cube.rate_scale(alpha, gamma);
+        let eye = DMatrix::<f64>::identity(nx, nx);
+        let he = |m: DMatrix<f64>| &m + m.transpose();
+        let mut next = |row: &mut usize| {
+            let m = smat(&sl[*row..*row + tri(nx)], nx);
+            *row += tri(nx);
+            m
+        };
+        for (c, combo) in combos.iter().enumerate() {
+            let part = |which: u8, v: &DVector<f64>| {
+                let mut f = DMatrix::zeros(nx, nx);
+                for &(l, m, w) in &combo.terms {
+                    let (vl, vm, gl) = (&model.vertices[l], &model.vertices[m], &gammas[l]);
+                    f += match which {
+                        0 => he((&p * &vl.a - gl * &vm.c) * gamma) + &p * (gamma * alpha),
+                        1 => he(&p * rows(&vl.n, v) * (-sigma) + gl * rows(&vm.m, v)),
+                        _ => he(&p * rows_he(&vl.n, v) * sigma - gl * rows_he(&vm.m, v)),
+                    } * w;
+                }
+                f
+            };
+            let mut sum = part(0, &DVector::zeros(nx));
+            for (k, gk) in gens.iter().enumerate() {
+                for (which, sk) in [(1u8, &slacks.y[c][k]), (2u8, &slacks.x[c][k])] {
+                    let pk = part(which, gk);
+                    for sign in [1.0, -1.0] {
+                        let want = (sk - &pk * sign) / s - &eye * eps_rate;
+                        let got = next(&mut row);
+                        assert!((&got - &want).norm() < tol(&want), "c={c} k={k} {which}");
+                    }
+                    sum += sk;
+                }
+            }
+            let want = -sum / s - &eye * eps_rate;
+            let got = next(&mut row);
+            assert!((&got - &want).norm() < tol(&want), "main block c={c}");
+        }
+        assert_eq!(row, sl.len());
+    }
+
+    #[test]
+    fn cube_assembly_matches_direct_matrices() {
+        check_cube_assembly(&paper_model(), Mode::Sound);
+        check_cube_assembly(&paper_model(), Mode::Paper);
+        check_cube_assembly(&synthetic_model(4), Mode::Sound);
+        check_cube_assembly(&varying_output_model(), Mode::Sound);
+    }
 }
