@@ -199,6 +199,11 @@ impl Region {
     pub fn from_zonotope(gens: &[DVector<f64>]) -> Result<Region, RegionError> {
         let n = check_points_limit(gens, usize::MAX)?;
         let r = gens.len();
+        if r < n {
+            return Err(RegionError::Degenerate {
+                reason: format!("{r} generators cannot span {n} dimensions (the zonotope is flat)"),
+            });
+        }
         let limit = if r == n {
             MAX_PARALLELOTOPE_VERTICES
         } else {
