@@ -10,7 +10,7 @@
 //!   time, solves). Goals: nx = 12 under 10 s and nx = 16 under 60 s for
 //!   the fixed design, peak under 1 GiB.
 //! * `loss` (nx = 3..8): α_max at γ = min(0.3, 0.95 γ_max) with cube,
-//!   decoupled and (nx ≤ 5) full conditions, and the paper example at
+//!   decoupled and (nx ≤ 4) full conditions, and the paper example at
 //!   γ = 0.18898; loss = 1 − α_cube/α_ref against the vertex family
 //!   (full where solved, else decoupled).
 //!
@@ -109,7 +109,7 @@ fn loss_child(nx: usize) {
     };
     let (cube, tc) = alpha(Conditions::Cube);
     let (dec, td) = alpha(Conditions::Decoupled);
-    let (full, tf) = if nx <= 5 {
+    let (full, tf) = if nx <= 4 {
         alpha(Conditions::Full)
     } else {
         (f64::NAN, f64::NAN)
@@ -184,7 +184,7 @@ fn main() {
         }
     }
     if loss {
-        println!("bench cube_scale (loss): α_max at fixed γ, sound mode, symmetric split; loss of cube against full (nx ≤ 5) or decoupled");
+        println!("bench cube_scale (loss): α_max at fixed γ, sound mode, symmetric split; loss of cube against full (nx ≤ 4) or decoupled");
         println!(
             "{:>11} {:>6} {:>9} {:>7} {:>9} {:>7} {:>9} {:>7} {:>8}",
             "model", "γ", "full α", "s", "dec α", "s", "cube α", "s", "loss"

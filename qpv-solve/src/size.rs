@@ -156,7 +156,13 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     // KKT: A, the dense t×t scaling block of every PSD cone, the dense
     // variable block; the factor about as much again; cone work ~12 d².
     let cone_dense = psd_blocks * tri(t) + psd_blocks_plus * tri(t1);
-    let kkt = nonzeros + cone_dense + tri(variables);
+    // The cube's slacks each touch three blocks of their own combination,
+    // so they add fill per slack entry rather than a dense block.
+    let kkt = if cube {
+        nonzeros + cone_dense + tri(variables - slack) + slack * t
+    } else {
+        nonzeros + cone_dense + tri(variables)
+    };
     let cone_work = 12.0 * (psd_blocks * nx * nx + psd_blocks_plus * (nx + 1.0) * (nx + 1.0));
     let units = nonzeros + 2.0 * kkt + cone_work + rows;
     SizeEstimate {

@@ -31,10 +31,7 @@ pub fn mode_name(m: Mode) -> &'static str {
 }
 
 fn conditions_name(c: Conditions) -> &'static str {
-    match c {
-        Conditions::Full => "full",
-        Conditions::Decoupled => "decoupled",
-    }
+    c.name()
 }
 
 /// `qpv design --json`: one entry in `designs` per request that produced a
