@@ -1516,7 +1516,7 @@ mod tests {
         let eps_rate = eps * cube.rate_scale(alpha, gamma);
         let eye = DMatrix::<f64>::identity(nx, nx);
         let he = |m: DMatrix<f64>| &m + m.transpose();
-        let mut next = |row: &mut usize| {
+        let next = |row: &mut usize| {
             let m = smat(&sl[*row..*row + tri(nx)], nx);
             *row += tri(nx);
             m
