@@ -52,7 +52,11 @@ fn conditions_and_split_flags_reach_the_report() {
 #[test]
 fn bad_flag_values_are_rejected() {
     for (flag, value, want) in [
-        ("--conditions", "partial", "expected `full` or `decoupled`"),
+        (
+            "--conditions",
+            "partial",
+            "expected `full`, `decoupled`, `cube` or `auto`",
+        ),
         (
             "--split",
             "skew",

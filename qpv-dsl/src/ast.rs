@@ -157,6 +157,9 @@ pub enum RegionShape {
     Vertices(MatrixLit),
     /// `halfspaces [...]`: one row a_k per facet a_kᵀ x ≤ 1.
     Halfspaces(MatrixLit),
+    /// `zonotope [...]`: one generator g_k per row, the region
+    /// {Σ_k t_k g_k : |t_k| ≤ 1}.
+    Zonotope(MatrixLit),
 }
 
 /// `design { ... }`

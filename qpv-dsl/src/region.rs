@@ -32,10 +32,21 @@ pub struct Region {
     pub vertices: Vec<DVector<f64>>,
     /// The facet normals a_k, each facet being a_kᵀ x ≤ 1.
     pub facets: Vec<DVector<f64>>,
+    /// The generators g_k of a region given as a zonotope
+    /// {Σ_k t_k g_k : |t_k| ≤ 1} (`region zonotope [...]`); empty otherwise.
+    /// Boxes and other parallelotopes are recognised from their facets by
+    /// [`Region::zonotope_generators`], so they leave this empty.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub generators: Vec<DVector<f64>>,
 }
 
 /// Most vertices (or facets) a region may have.
 pub const MAX_REGION_VERTICES: usize = 4096;
+
+/// Most vertices of a box or parallelotope (2^16: up to 16 states). Their
+/// vertices are listed without a hull computation, and the conditions that
+/// scale (`conditions = cube`) never enumerate them.
+pub const MAX_PARALLELOTOPE_VERTICES: usize = 65_536;
 
 /// Relative tolerance of the enumeration.
 const TOL: f64 = 1e-9;
@@ -142,7 +153,7 @@ impl Region {
         if let Some(index) = radii.iter().position(|r| !(r.is_finite() && *r > 0.0)) {
             return Err(RegionError::BadRadius { index });
         }
-        if n >= 63 || (1usize << n) > MAX_REGION_VERTICES {
+        if n >= 63 || (1usize << n) > MAX_PARALLELOTOPE_VERTICES {
             return Err(RegionError::TooComplex);
         }
         let vertices = (0..1usize << n)
@@ -172,7 +183,130 @@ impl Region {
                 facets.push(a);
             }
         }
-        Ok(Region { vertices, facets })
+        Ok(Region {
+            vertices,
+            facets,
+            generators: Vec::new(),
+        })
+    }
+
+    /// The zonotope {Σ_k t_k g_k : |t_k| ≤ 1} of the generators `gens`
+    /// (which must span the space). With as many generators as dimensions
+    /// it is a parallelotope: its 2^n vertices are listed directly (at most
+    /// [`MAX_PARALLELOTOPE_VERTICES`]) and its facets are ±(rows of G⁻¹);
+    /// with more, the 2^r sign combinations (at most [`MAX_REGION_VERTICES`])
+    /// go through the hull computation. The generators are kept.
+    pub fn from_zonotope(gens: &[DVector<f64>]) -> Result<Region, RegionError> {
+        let n = check_points_limit(gens, usize::MAX)?;
+        let r = gens.len();
+        if r < n {
+            return Err(RegionError::Degenerate {
+                reason: format!("{r} generators cannot span {n} dimensions (the zonotope is flat)"),
+            });
+        }
+        let limit = if r == n {
+            MAX_PARALLELOTOPE_VERTICES
+        } else {
+            MAX_REGION_VERTICES
+        };
+        if r >= 63 || (1usize << r) > limit {
+            return Err(RegionError::TooComplex);
+        }
+        let sums: Vec<DVector<f64>> = (0..1usize << r)
+            .map(|l| {
+                let mut v = DVector::zeros(n);
+                for (k, g) in gens.iter().enumerate() {
+                    if (l >> (r - 1 - k)) & 1 == 1 {
+                        v += g;
+                    } else {
+                        v -= g;
+                    }
+                }
+                v
+            })
+            .collect();
+        let mut region = if r == n {
+            let g = DMatrix::from_columns(gens);
+            let inv = g
+                .clone()
+                .try_inverse()
+                .filter(|m| m.iter().all(|v| v.is_finite()));
+            let Some(inv) = inv.filter(|_| g.rank(1e-12 * g.norm()) == n) else {
+                return Err(RegionError::Degenerate {
+                    reason: "the generators do not span the space (the zonotope is flat)"
+                        .to_string(),
+                });
+            };
+            let mut facets = Vec::with_capacity(2 * n);
+            for k in 0..n {
+                let a: DVector<f64> = inv.row(k).transpose();
+                facets.push(a.clone());
+                facets.push(-a);
+            }
+            Region {
+                vertices: sums,
+                facets,
+                generators: Vec::new(),
+            }
+        } else {
+            hull_from_vertices(&sums)?.0
+        };
+        region.generators = gens.to_vec();
+        Ok(region)
+    }
+
+    /// The generators g_k of the region as a zonotope {Σ t_k g_k : |t_k| ≤ 1},
+    /// if it is one that can be recognised: the stored generators of a
+    /// `region zonotope`, else a parallelotope (2n facets in opposite pairs
+    /// ±a_k with independent a_k: the generators are the columns of A⁻¹; for
+    /// an axis-aligned box, exactly r_k e_k with r_k from the vertices).
+    /// None for any other polytope.
+    pub fn zonotope_generators(&self) -> Option<Vec<DVector<f64>>> {
+        if !self.generators.is_empty() {
+            return Some(self.generators.clone());
+        }
+        let n = self.dim();
+        if n == 0 || self.facets.len() != 2 * n || self.vertices.len() != 1usize << n.min(62) {
+            return None;
+        }
+        // One normal of each opposite pair.
+        let mut rows: Vec<DVector<f64>> = Vec::with_capacity(n);
+        let mut used = vec![false; self.facets.len()];
+        for i in 0..self.facets.len() {
+            if used[i] {
+                continue;
+            }
+            let a = &self.facets[i];
+            let scale = a.norm().max(f64::MIN_POSITIVE);
+            let j = (i + 1..self.facets.len())
+                .find(|&j| !used[j] && (a + &self.facets[j]).norm() <= 1e-12 * scale)?;
+            used[i] = true;
+            used[j] = true;
+            rows.push(a.clone());
+        }
+        if rows.len() != n {
+            return None;
+        }
+        let axis = |a: &DVector<f64>| a.iter().filter(|v| **v != 0.0).count() == 1;
+        if rows.iter().all(axis) {
+            // A box: r_k = max_i |x_(i),k|, exact.
+            let mut gens = Vec::with_capacity(n);
+            for a in &rows {
+                let k = a.iter().position(|v| *v != 0.0)?;
+                let r = self.vertices.iter().map(|x| x[k].abs()).fold(0.0, f64::max);
+                let mut g = DVector::zeros(n);
+                g[k] = r;
+                gens.push(g);
+            }
+            gens.sort_by_key(|g| g.iter().position(|v| *v != 0.0));
+            return Some(gens);
+        }
+        let a = DMatrix::from_fn(n, n, |r, c| rows[r][c]);
+        let inv = a.try_inverse()?;
+        let gens: Vec<DVector<f64>> = (0..n).map(|k| inv.column(k).into_owned()).collect();
+        gens.iter()
+            .all(|g| g.iter().all(|v| v.is_finite()))
+            .then_some(gens)
     }
 
     /// The convex hull of `points` (origin strictly inside); points that are
@@ -205,6 +339,11 @@ impl Region {
 }
 
 fn check_points(points: &[DVector<f64>]) -> Result<usize, RegionError> {
+    check_points_limit(points, MAX_REGION_VERTICES)
+}
+
+/// As [`check_points`] with a different limit on the number of rows.
+fn check_points_limit(points: &[DVector<f64>], limit: usize) -> Result<usize, RegionError> {
     let n = points.first().map(|p| p.len()).ok_or(RegionError::Empty)?;
     if n == 0 {
         return Err(RegionError::Empty);
@@ -214,7 +353,7 @@ fn check_points(points: &[DVector<f64>]) -> Result<usize, RegionError> {
             return Err(RegionError::BadPoint { index });
         }
     }
-    if points.len() > MAX_REGION_VERTICES {
+    if points.len() > limit {
         return Err(RegionError::TooComplex);
     }
     Ok(n)
@@ -353,7 +492,14 @@ pub(crate) fn hull_from_vertices(
     let facets = unscale(&facets_y, &scales, "facet normal")?;
     let dropped = (0..points.len()).filter(|i| !keep.contains(i)).collect();
     let vertices = keep.iter().map(|&i| points[i].clone()).collect();
-    Ok((Region { vertices, facets }, dropped))
+    Ok((
+        Region {
+            vertices,
+            facets,
+            generators: Vec::new(),
+        },
+        dropped,
+    ))
 }
 
 /// [`Region::from_halfspaces`], also returning the indices of the dropped rows.
@@ -383,7 +529,14 @@ pub(crate) fn hull_from_halfspaces(
     let vertices = unscale(&vertices_y, &scales, "vertex")?;
     let dropped = (0..normals.len()).filter(|i| !keep.contains(i)).collect();
     let facets = keep.iter().map(|&i| normals[i].clone()).collect();
-    Ok((Region { vertices, facets }, dropped))
+    Ok((
+        Region {
+            vertices,
+            facets,
+            generators: Vec::new(),
+        },
+        dropped,
+    ))
 }
 
 fn tight(a: &DVector<f64>, x: &DVector<f64>) -> bool {

@@ -62,6 +62,7 @@ fn is_token(rule: Rule) -> bool {
             | Rule::kw_box
             | Rule::kw_vertices
             | Rule::kw_halfspaces
+            | Rule::kw_zonotope
             | Rule::kw_state_bound
             | Rule::kw_design
             | Rule::kw_noise
@@ -307,6 +308,14 @@ fn parse_region_decl(pair: Pair<'_, Rule>) -> Result<RegionDecl> {
         Rule::region_halfspaces => {
             let s = span_of(&shape);
             RegionShape::Halfspaces(parse_matrix(next(&mut children(shape), s, "facet list")?)?)
+        }
+        Rule::region_zonotope => {
+            let s = span_of(&shape);
+            RegionShape::Zonotope(parse_matrix(next(
+                &mut children(shape),
+                s,
+                "generator list",
+            )?)?)
         }
         _ => return Err(internal(span, "unexpected region shape")),
     };
@@ -568,9 +577,11 @@ fn want(rule: Rule) -> Option<Want> {
         Rule::kw_box
         | Rule::kw_vertices
         | Rule::kw_halfspaces
+        | Rule::kw_zonotope
         | Rule::region_box
         | Rule::region_vertices
-        | Rule::region_halfspaces => RegionShape,
+        | Rule::region_halfspaces
+        | Rule::region_zonotope => RegionShape,
         Rule::matrix => Matrix,
         Rule::interval => Interval,
         Rule::EOI => EndOfInput,
@@ -597,7 +608,7 @@ fn want_text(w: Want) -> &'static str {
         Want::Exponent => "a whole-number exponent",
         Want::Operator => "an operator (`+ - * / ^`)",
         Want::Token(t) => t,
-        Want::RegionShape => "`box(...)`, `vertices [...]` or `halfspaces [...]`",
+        Want::RegionShape => "`box(...)`, `vertices [...]`, `halfspaces [...]` or `zonotope [...]`",
         Want::Matrix => "a matrix `[...]`",
         Want::Interval => "an interval `[lo, hi]`",
         Want::EndOfInput => "the end of the input",

@@ -67,11 +67,11 @@ fn design_defaults_follow_the_mode() {
     assert_eq!(
         got,
         vec![
-            (Mode::Sound, Split::Symmetric, Conditions::Full),
-            (Mode::Paper, Split::AsWritten, Conditions::Full),
-            (Mode::Sound, Split::AsWritten, Conditions::Full),
+            (Mode::Sound, Split::Symmetric, Conditions::Auto),
+            (Mode::Paper, Split::AsWritten, Conditions::Auto),
+            (Mode::Sound, Split::AsWritten, Conditions::Auto),
             (Mode::Paper, Split::Symmetric, Conditions::Decoupled),
-            (Mode::Paper, Split::Symmetric, Conditions::Full),
+            (Mode::Paper, Split::Symmetric, Conditions::Auto),
             (Mode::Sound, Split::Symmetric, Conditions::Full),
             (Mode::Sound, Split::SkewSlack, Conditions::Decoupled),
         ]
@@ -79,7 +79,7 @@ fn design_defaults_follow_the_mode() {
     let d = DesignRequest::default();
     assert_eq!(
         (d.mode, d.split, d.conditions),
-        (Mode::Sound, Split::Symmetric, Conditions::Full)
+        (Mode::Sound, Split::Symmetric, Conditions::Auto)
     );
     assert_eq!(Split::default_for(Mode::Paper), Split::AsWritten);
 }
@@ -155,11 +155,58 @@ fn paper_auto_example_parses() {
     let d = &m.designs[0];
     assert_eq!(
         (d.mode, d.split, d.conditions),
-        (Mode::Sound, Split::Symmetric, Conditions::Full)
+        (Mode::Sound, Split::Symmetric, Conditions::Auto)
     );
     // the same plant as the paper's example
     let paper = parse(PAPER).unwrap().remove(0).polytopic();
     let auto = m.polytopic();
     assert_eq!(auto.vertices, paper.vertices);
     assert_eq!(&auto.region, &paper.region);
+}
+
+/// `conditions = cube` and `region zonotope [...]`: a box and a
+/// parallelotope given by halfspaces are recognised as zonotopes (their
+/// generators recovered), a zonotope keeps its generators, and its
+/// vertices and facets are those of the polytope.
+#[test]
+fn cube_conditions_and_zonotope_regions() {
+    let with = |region: &str| {
+        let src = format!(
+            "model m {{ state x1, x2; output y; param th in [0, 1];
+             A = [-1, th; 0, -2]; C = [1, 0]; {region} design {{ conditions = cube; }} }}"
+        );
+        parse(&src).map(|mut v| v.remove(0))
+    };
+    let m = with("region box([0.5, 2]);").unwrap();
+    assert_eq!(m.designs[0].conditions, Conditions::Cube);
+    let g = m.region.zonotope_generators().unwrap();
+    assert_eq!(g.len(), 2);
+    assert_eq!((g[0][0], g[0][1], g[1][0], g[1][1]), (0.5, 0.0, 0.0, 2.0));
+    // |x1 + x2| ≤ 1, |x2| ≤ 1: a parallelotope with generators (1, 0), (−1, 1).
+    let m = with("region halfspaces [1, 1; -1, -1; 0, 1; 0, -1];").unwrap();
+    let g = m.region.zonotope_generators().unwrap();
+    let has = |x: f64, y: f64| {
+        g.iter().any(|v| {
+            ((v[0] - x).abs() + (v[1] - y).abs() < 1e-12)
+                || ((v[0] + x).abs() + (v[1] + y).abs() < 1e-12)
+        })
+    };
+    assert!(has(1.0, 0.0) && has(-1.0, 1.0), "{g:?}");
+    // A hexagon: three generators in the plane.
+    let m = with("region zonotope [1, 0; 0, 1; 0.5, 0.5];").unwrap();
+    assert_eq!(m.region.generators.len(), 3);
+    assert_eq!(m.region.vertices.len(), 6);
+    assert_eq!(m.region.facets.len(), 6);
+    assert!(m.region.contains(&DVector::from_vec(vec![1.5, 1.5])));
+    assert!(!m.region.contains(&DVector::from_vec(vec![1.5, -1.5])));
+    // A triangle is no zonotope: a positioned error at the setting.
+    let e = with("region vertices [1, 0; 0, 1; -1, -1];").unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.contains("`conditions = cube` needs a region that is a box"),
+        "{text}"
+    );
+    // Too few generators.
+    let e = with("region zonotope [1, 1];").unwrap_err().to_string();
+    assert!(e.contains("at least 2 generators"), "{e}");
 }

@@ -106,11 +106,11 @@ pub fn describe(req: &DesignRequest) -> String {
         text.push_str("; split = ");
         text.push_str(req.split.name());
     }
-    if req.conditions != Conditions::default() {
-        text.push_str(match req.conditions {
-            Conditions::Full => "; conditions = full",
-            Conditions::Decoupled => "; conditions = decoupled",
-        });
+    // `auto` (the default) and `full` (the former default, and what auto
+    // is for every model small enough to bake) read as before: no mention.
+    if !matches!(req.conditions, Conditions::Auto | Conditions::Full) {
+        text.push_str("; conditions = ");
+        text.push_str(req.conditions.name());
     }
     if let OutputRoute::Filter(f) = req.output_route {
         text.push_str(&format!(

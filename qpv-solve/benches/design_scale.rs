@@ -38,10 +38,7 @@ const GAMMA: f64 = 0.3;
 const FULL_MAX_NX: usize = 7;
 
 fn name(c: Conditions) -> &'static str {
-    match c {
-        Conditions::Full => "full",
-        Conditions::Decoupled => "decoupled",
-    }
+    c.name()
 }
 
 fn gamma_for(nx: usize) -> f64 {
@@ -55,7 +52,8 @@ fn child(nx: usize, conditions: Conditions) {
     let settings = Settings::default();
     let prob = Problem::new(&model, ConditionSet::Sound)
         .unwrap()
-        .with_conditions(conditions);
+        .with_conditions(conditions)
+        .unwrap();
     let t = Instant::now();
     let asm = prob.assemble(ALPHA, gamma, &settings, Objective::Gains);
     let t_asm = t.elapsed().as_secs_f64();

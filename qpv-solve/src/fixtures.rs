@@ -33,7 +33,11 @@ pub fn box_region(n: usize, h: f64) -> Region {
             facets.push(a);
         }
     }
-    Region { vertices, facets }
+    Region {
+        vertices,
+        facets,
+        generators: Vec::new(),
+    }
 }
 
 /// A(θ) of the paper's example.

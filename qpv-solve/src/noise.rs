@@ -451,6 +451,16 @@ pub fn attach(plant: &PolytopicModel, design: &mut Design) {
     let Ok(obs) = design.observer_model(plant) else {
         return;
     };
+    // Both figures check every region-vertex pair; a cube design exists
+    // to avoid that, so above the size the automatic choice solves
+    // exactly they are left out (and said so).
+    let pairs = obs.nv() * obs.region.vertices.len().pow(2);
+    if design.conditions == qpv_dsl::Conditions::Cube && pairs > crate::size::AUTO_FULL_BLOCKS {
+        design.notes.push(format!(
+            "the noise bound and the sampling figures are not computed for this cube design: they check all {pairs} vertex-pair blocks"
+        ));
+        return;
+    }
     let channels = channels_on_observer(plant, design, &NoiseChannels::from_model(plant));
     let (p, l) = (design.p_matrix(), design.l_matrices());
     design.noise = noise_bound(&obs, &channels, design.alpha, design.gamma, &p, &l);
@@ -941,8 +951,11 @@ fn noise_notes(
             String::new()
         }
     )];
-    if request.conditions == qpv_dsl::Conditions::Decoupled {
-        notes.push("conditions = decoupled is not used by noise = min: its SDP solves the full family of vertex pairs".into());
+    if matches!(
+        request.conditions,
+        qpv_dsl::Conditions::Decoupled | qpv_dsl::Conditions::Cube
+    ) {
+        notes.push(format!("conditions = {} is not used by noise = min: its SDP solves the full family of vertex pairs", request.conditions.name()));
     }
     if bound_info.source == BoundSource::Auto {
         notes.push(format!(
@@ -1018,6 +1031,7 @@ fn noise_report(
         mode: Mode::Sound,
         split,
         conditions: qpv_dsl::Conditions::Full,
+        cube: None,
         feasible,
         certifies: feasible,
         alpha,

@@ -98,6 +98,11 @@ pub struct SearchStep {
     pub phase: Phase,
 }
 
+/// What a report without the `conditions` key was solved with.
+fn full_conditions() -> Conditions {
+    Conditions::Full
+}
+
 /// A finished design: the certified observer (or why there is none).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Design {
@@ -116,7 +121,7 @@ pub struct Design {
     /// per (l, m) combination of the double sum — sufficient). The
     /// certificate (`margins`, `feasible`) always checks the full family.
     /// Reports written before the key existed read as "full".
-    #[serde(default, with = "conditions_serde")]
+    #[serde(default = "full_conditions", with = "conditions_serde")]
     pub conditions: Conditions,
     /// True only if the independent certificate passed for every condition
     /// family (and, in sound mode, the data check (S4)). In paper mode this
@@ -195,6 +200,11 @@ pub struct Design {
     /// the local maxima of α(γ)); only when γ = search.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gamma_search: Option<GammaSearchInfo>,
+    /// `conditions = cube`: the slacks Y_{c,k}, X_{c,k} and the diagonal D
+    /// the design was certified with ([`crate::conditions::cube`]);
+    /// [`Design::recheck`] checks the slack inequalities with them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cube: Option<crate::conditions::cube::CubeReport>,
 }
 
 /// A local maximum of α(γ) over the γ search's grid: where it is, its
@@ -341,14 +351,25 @@ impl Design {
     /// failed certificate with the reason.
     pub fn recheck(&self, model: &PolytopicModel) -> Certificate {
         match self.observer_model(model) {
-            Ok(m) => crate::check(
-                &m,
-                self.mode,
-                self.alpha,
-                self.gamma,
-                &self.p_matrix(),
-                &self.l_matrices(),
-            ),
+            Ok(m) => match &self.cube {
+                Some(c) => crate::certificate::check_cube(
+                    &m,
+                    self.mode,
+                    self.alpha,
+                    self.gamma,
+                    &self.p_matrix(),
+                    &self.l_matrices(),
+                    &crate::conditions::cube::CubeSlacks::from_report(c),
+                ),
+                None => crate::check(
+                    &m,
+                    self.mode,
+                    self.alpha,
+                    self.gamma,
+                    &self.p_matrix(),
+                    &self.l_matrices(),
+                ),
+            },
             Err(e) => Certificate::refused(
                 self.mode,
                 self.alpha,

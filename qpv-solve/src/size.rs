@@ -112,26 +112,57 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     let q = model.region.facets.len() as f64;
     let t = tri(nx);
     let t1 = tri(nx + 1.0);
-    let rate_blocks = match request.conditions {
-        Conditions::Full => c * p * p,
-        Conditions::Decoupled => c * 2.0 * p,
+    let conditions = match request.conditions {
+        Conditions::Auto => choose(model, request).0,
+        c => c,
     };
-    let slack = match request.conditions {
-        Conditions::Full => 0.0,
+    let r = model
+        .region
+        .zonotope_generators()
+        .map_or(0.0, |g| g.len() as f64);
+    let cube = conditions == Conditions::Cube;
+    let rate_blocks = match conditions {
+        Conditions::Full | Conditions::Auto => c * p * p,
+        Conditions::Decoupled => c * 2.0 * p,
+        Conditions::Cube => c * (4.0 * r + 1.0),
+    };
+    let slack = match conditions {
+        Conditions::Full | Conditions::Auto => 0.0,
         Conditions::Decoupled => c * t,
+        Conditions::Cube => c * 2.0 * r * t + r,
     };
     let variables = t + nv * nx * ny + slack + 1.0;
-    let vertex_psd = if request.mode == Mode::Paper { p } else { 0.0 };
+    // The region's vertex rows: p scalars (sound) or p blocks of nx + 1
+    // (paper); for cube conditions one block of r (sound) or r + nx (paper).
+    let vertex_psd = if request.mode == Mode::Paper && !cube {
+        p
+    } else {
+        0.0
+    };
+    let vertex_rows = match (cube, request.mode) {
+        (true, Mode::Sound) => tri(r) + 1.0,
+        (true, Mode::Paper) => tri(r + nx) + 1.0,
+        (false, Mode::Sound) => p,
+        (false, Mode::Paper) => 0.0,
+    };
     let psd_blocks = rate_blocks + 1.0;
     let psd_blocks_plus = q + vertex_psd;
-    let rows = psd_blocks * t + psd_blocks_plus * t1 + if vertex_psd > 0.0 { 0.0 } else { p } + 1.0;
+    let rows = psd_blocks * t + psd_blocks_plus * t1 + vertex_rows + 1.0;
     // Each rate row depends on P̂ (t), the Γ̂ of its terms, its slack and the margin.
     let per_rate_row = t + terms * nx * ny + 2.0;
-    let nonzeros = rate_blocks * t * per_rate_row + psd_blocks_plus * t1 * (t + nx) + p * t + t;
+    let vertex_nnz = if cube { vertex_rows * t } else { p * t };
+    let nonzeros =
+        rate_blocks * t * per_rate_row + psd_blocks_plus * t1 * (t + nx) + vertex_nnz + t;
     // KKT: A, the dense t×t scaling block of every PSD cone, the dense
     // variable block; the factor about as much again; cone work ~12 d².
     let cone_dense = psd_blocks * tri(t) + psd_blocks_plus * tri(t1);
-    let kkt = nonzeros + cone_dense + tri(variables);
+    // The cube's slacks each touch three blocks of their own combination,
+    // so they add fill per slack entry rather than a dense block.
+    let kkt = if cube {
+        nonzeros + cone_dense + tri(variables - slack) + slack * t
+    } else {
+        nonzeros + cone_dense + tri(variables)
+    };
     let cone_work = 12.0 * (psd_blocks * nx * nx + psd_blocks_plus * (nx + 1.0) * (nx + 1.0));
     let units = nonzeros + 2.0 * kkt + cone_work + rows;
     SizeEstimate {
@@ -146,7 +177,66 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
         units,
         bytes: units * BYTES_PER_UNIT,
         seconds_per_solve: units * SECONDS_PER_UNIT,
-        certificate_blocks: c * p * p,
+        certificate_blocks: if cube { rate_blocks } else { c * p * p },
+    }
+}
+
+/// Largest full family (c·p² rate blocks) that `conditions = auto` solves
+/// as it is (docs/method.md, "The automatic choice", has the measurements).
+pub const AUTO_FULL_BLOCKS: usize = 4096;
+
+/// Largest decoupled family (c·2p rate blocks) that `conditions = auto`
+/// prefers to the cube relaxation when the region is a zonotope.
+pub const AUTO_DECOUPLED_BLOCKS: usize = 512;
+
+/// The conditions `conditions = auto` stands for on `model`, and why (one
+/// sentence for the report): full while the full family has at most
+/// [`AUTO_FULL_BLOCKS`] blocks (exact on the vertices, and what every
+/// small model has always used); then decoupled while it has at most
+/// [`AUTO_DECOUPLED_BLOCKS`] blocks or the region is not a zonotope; then
+/// cube. An explicit choice is returned unchanged, with an empty reason.
+pub fn choose(model: &PolytopicModel, request: &DesignRequest) -> (Conditions, String) {
+    if request.conditions != Conditions::Auto {
+        return (request.conditions, String::new());
+    }
+    let filter = matches!(request.output_route, OutputRoute::Filter(_)) && model.output_varies();
+    let nv = model.nv().max(1);
+    let c = if model.nv() > 1 && model.output_varies() && !filter {
+        nv * nv
+    } else {
+        nv
+    };
+    let p = model.region.vertices.len();
+    let full = c.saturating_mul(p).saturating_mul(p);
+    let decoupled = c.saturating_mul(2 * p);
+    let gens = model.region.zonotope_generators().map(|g| g.len());
+    if full <= AUTO_FULL_BLOCKS {
+        return (
+            Conditions::Full,
+            format!(
+                "conditions = auto chose full: {c} rate combinations × {p}² region-vertex pairs = {full} blocks (at most {AUTO_FULL_BLOCKS} are solved exactly)"
+            ),
+        );
+    }
+    match gens {
+        Some(r) if decoupled > AUTO_DECOUPLED_BLOCKS => (
+            Conditions::Cube,
+            format!(
+                "conditions = auto chose cube: the full family would have {full} blocks and the decoupled one {decoupled} (more than {AUTO_DECOUPLED_BLOCKS}); the region is a zonotope with {r} generators, so {} blocks suffice",
+                c * (4 * r + 1)
+            ),
+        ),
+        _ => (
+            Conditions::Decoupled,
+            format!(
+                "conditions = auto chose decoupled: the full family would have {full} blocks (more than {AUTO_FULL_BLOCKS}), the decoupled one has {decoupled}{}",
+                if gens.is_none() {
+                    " (the region is not a zonotope, so cube conditions do not apply)"
+                } else {
+                    ""
+                }
+            ),
+        ),
     }
 }
 
@@ -197,6 +287,19 @@ pub fn guard(model: &PolytopicModel, request: &DesignRequest) -> Verdict {
     let too_big = e.bytes > MEMORY_BUDGET || e.certificate_blocks > CERTIFICATE_BUDGET;
     if too_big {
         let mut help = Vec::new();
+        if matches!(request.conditions, Conditions::Full | Conditions::Decoupled)
+            && model.region.zonotope_generators().is_some()
+        {
+            let mut d = request.clone();
+            d.conditions = Conditions::Cube;
+            let ed = estimate(model, &d);
+            if ed.bytes <= MEMORY_BUDGET {
+                help.push(format!(
+                    "`conditions = cube` (--conditions cube; the region is a box or zonotope) would need about {}",
+                    human_bytes(ed.bytes)
+                ));
+            }
+        }
         if request.conditions == Conditions::Full {
             let mut d = request.clone();
             d.conditions = Conditions::Decoupled;

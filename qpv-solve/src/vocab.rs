@@ -205,17 +205,17 @@ pub mod split_serde {
     }
 }
 
-/// (De)serialises [`Conditions`] as "full" / "decoupled".
+/// (De)serialises [`Conditions`] as "full" / "decoupled" / "cube".
 pub mod conditions_serde {
     use qpv_dsl::Conditions;
     use serde::{Deserialize, Deserializer, Serializer};
 
-    /// Writes "full" or "decoupled".
+    /// Writes "full", "decoupled" or "cube".
     pub fn serialize<S: Serializer>(c: &Conditions, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(c.name())
     }
 
-    /// Reads "full" or "decoupled".
+    /// Reads "full", "decoupled" or "cube".
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Conditions, D::Error> {
         let s = String::deserialize(d)?;
         Conditions::ALL
@@ -223,7 +223,7 @@ pub mod conditions_serde {
             .find(|v| v.name() == s)
             .ok_or_else(|| {
                 serde::de::Error::custom(format!(
-                    "unknown conditions {s:?}, expected \"full\" or \"decoupled\""
+                    "unknown conditions {s:?}, expected \"full\", \"decoupled\" or \"cube\""
                 ))
             })
     }

@@ -162,7 +162,11 @@ fn simplex(v: [[f64; 3]; 4]) -> Region {
         assert!(a.dot(opposite) < 1.0, "0 inside");
         facets.push(a);
     }
-    Region { vertices, facets }
+    Region {
+        vertices,
+        facets,
+        generators: Vec::new(),
+    }
 }
 
 /// The box lo ≤ x_i ≤ hi (lo < 0 < hi): facets e_i/hi and e_i/lo.
@@ -240,7 +244,8 @@ fn decoupled_solution_satisfies_the_full_family() {
         let gamma = if mode == Mode::Paper { 0.4 } else { gamma };
         let prob = Problem::new(&model, set)
             .unwrap()
-            .with_conditions(Conditions::Decoupled);
+            .with_conditions(Conditions::Decoupled)
+            .unwrap();
         let settings = Settings::default();
         let asm = prob.assemble(alpha, gamma, &settings, Objective::Gains);
         let mut solver = clarabel::solver::DefaultSolver::new(
@@ -388,4 +393,94 @@ fn full_gamma_search_is_never_below_decoupled() {
     };
     let (full, dec) = (search(Conditions::Full), search(Conditions::Decoupled));
     assert!(full >= dec * (1.0 - TOL), "full {full} < decoupled {dec}");
+}
+
+/// `conditions = cube` on the paper example at the reference γ: α ≥ 12.3
+/// (docs/method.md, the cube's measured loss), certified by the slack
+/// inequalities; the same P, L_l also pass the full vertex family (a
+/// cross-check that is affordable for nx ≤ 8), and the report re-checks
+/// from its JSON alone.
+#[test]
+fn paper_example_cube_certifies_and_passes_the_full_family() {
+    let model = paper_model();
+    let d = run(
+        &model,
+        &req(
+            AlphaSpec::Max,
+            GammaSpec::Fixed(0.18898),
+            Split::Symmetric,
+            Conditions::Cube,
+        ),
+    );
+    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert_eq!(d.conditions, Conditions::Cube);
+    assert!(d.alpha >= 12.3, "cube α = {}", d.alpha);
+    let cube = d.cube.as_ref().expect("the report carries the slacks");
+    assert_eq!(cube.d.len(), 3);
+    assert_eq!(cube.y.len(), model.nv());
+    let sym = model.with_split(Split::Symmetric);
+    let full = check(
+        &sym,
+        Mode::Sound,
+        d.alpha,
+        d.gamma,
+        &d.p_matrix(),
+        &d.l_matrices(),
+    );
+    assert!(full.passed, "{:?}", full.families);
+    assert_eq!(full.families[3].count, 4 * 8 * 8);
+    let back = Design::from_json(&d.to_json()).expect("JSON round trip");
+    let c = back.recheck(&model);
+    assert!(c.passed, "{:?}", c.families);
+    // The cube certificate checks 4r + 1 = 13 inequalities per θ-vertex.
+    assert_eq!(c.families[3].count, 4 * 13);
+}
+
+/// The cube certificate fails when a slack is lowered or a gain moved.
+#[test]
+fn cube_certificate_fails_for_perturbed_slacks_and_gains() {
+    use qpv_solve::certificate::check_cube;
+    use qpv_solve::conditions::cube::CubeSlacks;
+    let model = paper_model().with_split(Split::Symmetric);
+    let d = run(
+        &model,
+        &req(
+            AlphaSpec::Fixed(10.0),
+            GammaSpec::Fixed(0.18898),
+            Split::AsWritten,
+            Conditions::Cube,
+        ),
+    );
+    assert!(d.certifies, "{}", d.summary);
+    let slacks = CubeSlacks::from_report(d.cube.as_ref().unwrap());
+    let (p, l) = (d.p_matrix(), d.l_matrices());
+    let ok = check_cube(&model, Mode::Sound, d.alpha, d.gamma, &p, &l, &slacks);
+    assert!(ok.passed, "{:?}", ok.families);
+    // Y_{1,1} lowered by its own size: Y ⪰ ±G(g_1) fails.
+    let mut low = slacks.clone();
+    let y = &low.y[0][0];
+    let shift = y.norm() + 1.0;
+    low.y[0][0] = y - DMatrix::identity(3, 3) * shift;
+    let c = check_cube(&model, Mode::Sound, d.alpha, d.gamma, &p, &l, &low);
+    assert!(!c.passed && !c.families[3].passed);
+    assert!(
+        c.families[3].worst_at.contains("Y k=1"),
+        "{}",
+        c.families[3].worst_at
+    );
+    // X_{2,3} raised: the sum F0 + ΣY + ΣX ≺ 0 fails.
+    let mut high = slacks.clone();
+    high.x[1][2] += DMatrix::identity(3, 3) * (p.norm() * 1e3);
+    let c = check_cube(&model, Mode::Sound, d.alpha, d.gamma, &p, &l, &high);
+    assert!(!c.passed && c.families[3].worst_at.contains("F0"));
+    // D with a trace above 1.
+    let mut dd = slacks.clone();
+    dd.d[0] += 1.0;
+    let c = check_cube(&model, Mode::Sound, d.alpha, d.gamma, &p, &l, &dd);
+    assert!(!c.passed && !c.families[1].passed);
+    // A gain moved: some slack inequality no longer holds.
+    let mut l2 = l.clone();
+    l2[0] *= 3.0;
+    let c = check_cube(&model, Mode::Sound, d.alpha, d.gamma, &p, &l2, &slacks);
+    assert!(!c.passed && !c.families[3].passed);
 }

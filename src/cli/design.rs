@@ -96,13 +96,14 @@ fn parse_route(
 
 /// Parses `--conditions`.
 fn parse_conditions(s: &str) -> Result<Conditions, CliError> {
-    match s {
-        "full" => Ok(Conditions::Full),
-        "decoupled" => Ok(Conditions::Decoupled),
-        _ => Err(CliError::Input(format!(
-            "--conditions {s:?}: expected `full` or `decoupled`"
-        ))),
-    }
+    Conditions::ALL
+        .into_iter()
+        .find(|c| c.name() == s)
+        .ok_or_else(|| {
+            CliError::Input(format!(
+                "--conditions {s:?}: expected `full`, `decoupled`, `cube` or `auto`"
+            ))
+        })
 }
 
 /// The design flags of `qpv design` (each `None` when not given).
@@ -262,10 +263,7 @@ fn describe_request(r: &DesignRequest) -> String {
         Mode::Paper => "paper",
     };
     let split = r.split.name();
-    let conditions = match r.conditions {
-        Conditions::Full => "full",
-        Conditions::Decoupled => "decoupled",
-    };
+    let conditions = r.conditions.name();
     let route = match r.output_route {
         OutputRoute::DoubleSum => String::new(),
         OutputRoute::Filter(f) => {
@@ -476,10 +474,18 @@ pub fn describe_design(d: &Design) -> String {
         "  split = {}, conditions = {}\n",
         d.split.name(),
         match d.conditions {
-            Conditions::Full => "full (all vertex pairs)",
+            Conditions::Full | Conditions::Auto => "full (all vertex pairs)",
             Conditions::Decoupled => "decoupled (certified on all vertex pairs)",
+            Conditions::Cube => "cube (zonotope slacks; certified on the slack inequalities)",
         }
     ));
+    if let Some(why) = d
+        .notes
+        .iter()
+        .find(|n| n.starts_with("conditions = auto chose"))
+    {
+        s.push_str(&format!("  {why}\n"));
+    }
     if let Some(r) = &d.output_route {
         s.push_str(&describe_route(r));
     }

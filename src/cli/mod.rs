@@ -64,9 +64,12 @@ pub enum Command {
         /// paper mode). Overrides the model's design blocks.
         #[arg(long)]
         split: Option<String>,
-        /// Rate conditions solved: `full` (all p² vertex pairs) or
+        /// Rate conditions solved: `full` (all p² vertex pairs),
         /// `decoupled` (one slack per θ-vertex, 2p blocks; the certificate
-        /// still checks all pairs). Overrides the model's design blocks.
+        /// still checks all pairs), `cube` (box or zonotope regions: one
+        /// pair of slacks per generator, certified on the slack
+        /// inequalities) or `auto` (chosen by size; the default, the report
+        /// says which). Overrides the model's design blocks.
         #[arg(long)]
         conditions: Option<String>,
         /// How a θ-dependent output map is handled: `double_sum` (the

@@ -66,7 +66,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
     let derived = b.derived(&mut a, &mut n, &mut bm, &mut b_w, &mut c, &mut m)?;
     let region = b.region()?;
     let state_bound = b.state_bound(&region)?;
-    let designs = b.designs()?;
+    let designs = b.designs(&region)?;
     let mut model = Model {
         name: ast.name.name.clone(),
         span: ast.name.span,

@@ -6,6 +6,7 @@ use super::build::{bad_value, pos, Builder, R};
 use crate::ast::{self, Expr, ExprKind, Item};
 use crate::diagnostic::{suggest, Diag, Span};
 use crate::poly::{fmt_num, quote};
+use crate::region::Region;
 use serde::Serialize;
 
 /// Which set of LMI conditions a design uses.
@@ -119,29 +120,46 @@ impl Split {
     }
 }
 
-/// Which family of vertex conditions (S5) is imposed.
+/// Which family of rate conditions (S5) is imposed, and how the region
+/// enters them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum Conditions {
     /// All p² vertex pairs (i, j) per θ-vertex.
-    #[default]
     Full,
     /// One slack Z_l per θ-vertex (per rate combination for the double sum):
     /// 2p blocks per θ-vertex (sufficient for
     /// the full family, which certification still re-checks).
     Decoupled,
+    /// The matrix-cube relaxation for a box or zonotope region with r
+    /// generators: one pair of slacks per generator, 4r + 1 blocks per
+    /// θ-vertex whatever the number of region vertices, and (S2) through a
+    /// diagonal bound on GᵀPG (sufficient; the certificate checks the slack
+    /// inequalities themselves).
+    Cube,
+    /// Not chosen by the user: the solver picks full, decoupled or cube from
+    /// the problem's size (docs/method.md) and says which in the report.
+    #[default]
+    Auto,
 }
 
 impl Conditions {
-    /// Both vertex-condition families, in the order the language lists them.
-    pub const ALL: [Conditions; 2] = [Conditions::Full, Conditions::Decoupled];
+    /// Every value, in the order the language lists them.
+    pub const ALL: [Conditions; 4] = [
+        Conditions::Full,
+        Conditions::Decoupled,
+        Conditions::Cube,
+        Conditions::Auto,
+    ];
 
-    /// The name used in the language, reports and the CLI ("full" or
-    /// "decoupled"), matching serde's lowercase renaming.
+    /// The name used in the language, reports and the CLI ("full",
+    /// "decoupled", "cube" or "auto"), matching serde's lowercase renaming.
     pub fn name(self) -> &'static str {
         match self {
             Conditions::Full => "full",
             Conditions::Decoupled => "decoupled",
+            Conditions::Cube => "cube",
+            Conditions::Auto => "auto",
         }
     }
 }
@@ -195,7 +213,7 @@ impl Default for OutputFilter {
 ///
 /// Build one with `..Default::default()` so that new settings do not break
 /// construction sites: the default is `alpha = max; gamma = search;
-/// mode = sound; split = symmetric; conditions = full; output_route = double_sum;
+/// mode = sound; split = symmetric; conditions = auto; output_route = double_sum;
 /// noise = free;`.
 /// In paper mode set
 /// `split: Split::AsWritten` as well (see [`Split::default_for`]).
@@ -209,7 +227,7 @@ pub struct DesignRequest {
     pub mode: Mode,
     /// Representation of N_k, M_k in the LMIs.
     pub split: Split,
-    /// Full or decoupled vertex conditions.
+    /// Full, decoupled or cube rate conditions, or `Auto` (chosen by size).
     pub conditions: Conditions,
     /// How the output map enters the design (matters when C or M_k depend on θ).
     pub output_route: OutputRoute,
@@ -226,7 +244,7 @@ impl Default for DesignRequest {
             gamma: GammaSpec::Search,
             mode: Mode::Sound,
             split: Split::default_for(Mode::Sound),
-            conditions: Conditions::Full,
+            conditions: Conditions::Auto,
             output_route: OutputRoute::DoubleSum,
             noise: NoiseObjective::Free,
             span: Span::default(),
@@ -247,18 +265,18 @@ const DESIGN_KEYS: [&str; 7] = [
 
 impl Builder<'_> {
     /// Every `design { ... }` block, in source order.
-    pub(super) fn designs(&self) -> R<Vec<DesignRequest>> {
+    pub(super) fn designs(&self, region: &Region) -> R<Vec<DesignRequest>> {
         let mut out = Vec::new();
         for item in &self.ast.items {
             let Item::Design(block) = item else { continue };
-            out.push(self.design_block(block)?);
+            out.push(self.design_block(block, region)?);
         }
         Ok(out)
     }
 
     /// One design block: each key at most once, then the split default of
     /// its mode and the mode/split consistency.
-    fn design_block(&self, block: &ast::DesignBlock) -> R<DesignRequest> {
+    fn design_block(&self, block: &ast::DesignBlock, region: &Region) -> R<DesignRequest> {
         let mut req = DesignRequest {
             span: block.span,
             ..Default::default()
@@ -319,6 +337,22 @@ impl Builder<'_> {
                 at,
                 "`split = skew_slack` needs `mode = sound`: the paper's printed conditions \
                  are reproduced as written, with no slack",
+            ));
+        }
+        if req.conditions == Conditions::Cube && region.zonotope_generators().is_none() {
+            let at = seen
+                .iter()
+                .find(|(k, _)| *k == "conditions")
+                .map_or(block.span, |(_, s)| *s);
+            return Err(Diag::new(
+                at,
+                format!(
+                    "`conditions = cube` needs a region that is a box, a parallelotope or a \
+                     zonotope (`region zonotope [...]`); this region has {} vertices and {} \
+                     facets and is none of them: use `conditions = full` or `decoupled`",
+                    region.vertices.len(),
+                    region.facets.len()
+                ),
             ));
         }
         if req.noise == NoiseObjective::Min {
@@ -431,7 +465,7 @@ impl Builder<'_> {
         }
     }
 
-    /// `conditions = full | decoupled`.
+    /// `conditions = full | decoupled | cube | auto`.
     fn conditions_value(&self, v: &Expr) -> R<Conditions> {
         let w = word(v);
         match Conditions::ALL.into_iter().find(|x| Some(x.name()) == w) {
@@ -439,7 +473,7 @@ impl Builder<'_> {
             None => Err(bad_value(
                 v.span,
                 "conditions",
-                "`full` or `decoupled`",
+                "`full`, `decoupled`, `cube` or `auto`",
                 &self.found(v),
             )),
         }

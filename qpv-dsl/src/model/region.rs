@@ -6,7 +6,8 @@ use crate::ast::{self, Expr, Item, MatrixLit};
 use crate::diagnostic::{Diag, Warning};
 use crate::poly::fmt_num;
 use crate::region::{
-    hull_from_halfspaces, hull_from_vertices, Region, RegionError, MAX_REGION_VERTICES,
+    hull_from_halfspaces, hull_from_vertices, Region, RegionError, MAX_PARALLELOTOPE_VERTICES,
+    MAX_REGION_VERTICES,
 };
 use nalgebra::DVector;
 
@@ -79,8 +80,8 @@ impl Builder<'_> {
             return Err(Diag::new(
                 self.ast.name.span,
                 format!(
-                    "model `{}` has no region: add `region box(r);`, `region vertices [...];` or \
-                     `region halfspaces [...];`",
+                    "model `{}` has no region: add `region box(r);`, `region vertices [...];`, \
+                     `region halfspaces [...];` or `region zonotope [...];`",
                     self.ast.name.name
                 ),
             ));
@@ -103,8 +104,7 @@ impl Builder<'_> {
                     decl.span,
                     format!(
                         "a box in {nx} dimensions has 2^{nx} vertices; at most \
-                         {MAX_REGION_VERTICES} are supported (give the region by `vertices` or \
-                         `halfspaces` instead)"
+                         {MAX_PARALLELOTOPE_VERTICES} (16 states) are supported"
                     ),
                 ),
                 e => Diag::new(decl.span, e.to_string()),
@@ -135,6 +135,29 @@ impl Builder<'_> {
             ast::RegionShape::Halfspaces(lit) => {
                 let rows = self.constant_rows(lit, "halfspace", ctx)?;
                 (hull_from_halfspaces(&rows), lit, "halfspace")
+            }
+            ast::RegionShape::Zonotope(lit) => {
+                let gens = self.constant_rows(lit, "generator", ctx)?;
+                let r = gens.len();
+                return Region::from_zonotope(&gens).map_err(|e| match e {
+                    RegionError::TooComplex => Diag::new(
+                        lit.span,
+                        format!(
+                            "a zonotope with {r} generators has up to 2^{r} vertices; at most \
+                             {nx} generators (a parallelotope, up to 16 states) or \
+                             {} generators are supported",
+                            MAX_REGION_VERTICES.trailing_zeros()
+                        ),
+                    ),
+                    RegionError::Degenerate { .. } if r < nx => Diag::new(
+                        lit.span,
+                        format!(
+                            "a zonotope in {nx} dimensions needs at least {nx} generators (one \
+                             per state, spanning the space), found {r}"
+                        ),
+                    ),
+                    e => Diag::new(lit.span, e.to_string()),
+                });
             }
         };
         match result {

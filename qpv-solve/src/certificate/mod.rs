@@ -18,6 +18,7 @@
 //! in sound mode, reported as the violated assumption (15) in paper mode)
 //! and "region_in_F" max_i x_(i)ᵀQ⁻¹x_(i) ≤ 1 (reported).
 
+use crate::conditions::cube::CubeSlacks;
 use crate::conditions::{rate_combos, Combo, ConditionSet};
 use crate::linalg::rows::{rows, rows_he};
 use crate::model::{is_double_sum, validate};
@@ -220,7 +221,68 @@ pub fn check(
         })
         .collect();
     let lnorm: Vec<f64> = l.iter().map(|li| li.norm()).collect();
-    check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm)
+    check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, None)
+}
+
+/// As [`check`] for a design of `conditions = cube`: the rate family and
+/// the region's vertex condition are the cube's slack inequalities with
+/// the slacks given (docs/method.md), checked by eigenvalues at a cost
+/// polynomial in nx (no vertex pair is enumerated):
+/// * vertex family ("S2" / "13"): λ_min(D − GᵀPG) (sound) or
+///   λ_min([D Gᵀ; G P]) (paper), and 1 − Σ D_kk, with D = diag(d);
+/// * rate family ("S5" / "26"): λ_min(Y_{c,k} ∓ G_c(g_k)),
+///   λ_min(X_{c,k} ∓ H_c(g_k)) and −λ_max(F0_c + Σ_k Y_{c,k} + Σ_k X_{c,k})
+///   for every rate combination c and generator k.
+///
+/// The generators are the region's own ([`qpv_dsl::Region::zonotope_generators`]);
+/// (S1), the facets and the data checks are as in [`check`].
+pub fn check_cube(
+    model: &PolytopicModel,
+    mode: Mode,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    l: &[DMatrix<f64>],
+    slacks: &CubeSlacks,
+) -> Certificate {
+    let gammas: Vec<DMatrix<f64>> = l
+        .iter()
+        .map(|li| {
+            if p.ncols() == li.nrows() {
+                p * li
+            } else {
+                DMatrix::zeros(0, 0)
+            }
+        })
+        .collect();
+    let lnorm: Vec<f64> = l.iter().map(|li| li.norm()).collect();
+    check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, Some(slacks))
+}
+
+/// The generators of the model's zonotope region, if the slacks fit them.
+fn cube_input_errors(model: &PolytopicModel, c: &CubeSlacks) -> Result<Vec<DVector<f64>>, String> {
+    let Some(gens) = model.region.zonotope_generators() else {
+        return Err("cube slacks given, but the region is not a box or zonotope".into());
+    };
+    let (nx, r, nc) = (model.nx(), gens.len(), rate_combos(model).len());
+    let shape_ok = |v: &Vec<Vec<DMatrix<f64>>>| {
+        v.len() == nc
+            && v.iter().all(|per| {
+                per.len() == r
+                    && per
+                        .iter()
+                        .all(|m| m.shape() == (nx, nx) && m.iter().all(|x| x.is_finite()))
+            })
+    };
+    if !shape_ok(&c.y) || !shape_ok(&c.x) {
+        return Err(format!(
+            "cube slacks: expected {nc} × {r} symmetric {nx} × {nx} matrices Y and X (rate combinations × generators), with finite entries"
+        ));
+    }
+    if c.d.len() != r || !c.d.iter().all(|v| v.is_finite()) {
+        return Err(format!("cube slacks: expected {r} finite entries of D"));
+    }
+    Ok(gens)
 }
 
 /// As [`check`] but with Γ_l given directly (the guard then uses ‖Γ_l‖).
@@ -234,7 +296,7 @@ pub fn check_gamma(
 ) -> Certificate {
     let pn = p.norm().max(f64::MIN_POSITIVE);
     let lnorm: Vec<f64> = gammas.iter().map(|g| g.norm() / pn).collect();
-    check_inner(model, mode, alpha, gamma, p, gammas, &lnorm)
+    check_inner(model, mode, alpha, gamma, p, gammas, &lnorm, None)
 }
 
 fn input_errors(
@@ -336,6 +398,7 @@ pub fn data_checks(model: &PolytopicModel, mode: Mode, gamma: f64) -> BTreeMap<S
     out
 }
 
+#[allow(clippy::too_many_arguments)]
 fn check_inner(
     model: &PolytopicModel,
     mode: Mode,
@@ -344,9 +407,20 @@ fn check_inner(
     p: &DMatrix<f64>,
     gammas: &[DMatrix<f64>],
     lnorm: &[f64],
+    cube: Option<&CubeSlacks>,
 ) -> Certificate {
     let set = ConditionSet::from_mode(mode);
-    let errs = input_errors(model, alpha, gamma, p, gammas);
+    let mut errs = input_errors(model, alpha, gamma, p, gammas);
+    let gens = match cube {
+        Some(c) if errs.is_empty() => match cube_input_errors(model, c) {
+            Ok(g) => g,
+            Err(e) => {
+                errs.push(e);
+                Vec::new()
+            }
+        },
+        _ => Vec::new(),
+    };
     let data = if errs.is_empty() || p.nrows() == model.nx() {
         data_checks(model, mode, gamma.clamp(0.0, 1.0))
     } else {
@@ -382,9 +456,13 @@ fn check_inner(
         });
     }
 
-    // Region vertices.
+    // Region vertices (for cube slacks: through D).
     let mut sv = Acc::new(fv);
-    for (i, x) in xs.iter().enumerate() {
+    if let Some(c) = cube {
+        cube_region(&mut sv, set, &ps, &gens, &c.d);
+    }
+    let xs_vertex: &[DVector<f64>] = if cube.is_some() { &[] } else { xs };
+    for (i, x) in xs_vertex.iter().enumerate() {
         match set {
             ConditionSet::Sound => {
                 let v = 1.0 - x.dot(&(&ps * x));
@@ -425,9 +503,17 @@ fn check_inner(
 
     // Rate LMIs: Σ_t w_t Ξ_{l_t m_t}(i, j) ≺ 0 for every combination
     // (conditions::Combo), Ξ_{lm} = He{γ(PA_l − Γ_lC_m) + σP R_l − Γ_l S_m} + γαP.
-    let terms = Terms::new(model, xs, &ps, gammas, lnorm, gamma);
     let double = is_double_sum(model);
     let mut sr = Acc::new(fr);
+    if let Some(c) = cube {
+        let ct = CubeTerms::new(model, &ps, gammas, lnorm, set, gamma);
+        for (ci, combo) in rate_combos(model).iter().enumerate() {
+            ct.check(&mut sr, combo, ci, double, alpha, &gens, c);
+        }
+    }
+    let xs_pairs: &[DVector<f64>] = if cube.is_some() { &[] } else { xs };
+    let terms = Terms::new(model, xs_pairs, &ps, gammas, lnorm, gamma);
+    let xs = xs_pairs;
     for combo in rate_combos(model) {
         for i in 0..xs.len() {
             for j in 0..xs.len() {
@@ -452,6 +538,173 @@ fn check_inner(
         data_checks: data,
         passed,
         input_errors: Vec::new(),
+    }
+}
+
+/// The cube's vertex condition: D ⪰ GᵀPG (sound) or [D Gᵀ; G P] ⪰ 0
+/// (paper), and Σ D_kk ≤ 1.
+fn cube_region(
+    acc: &mut Acc,
+    set: ConditionSet,
+    ps: &DMatrix<f64>,
+    gens: &[DVector<f64>],
+    d: &[f64],
+) {
+    let (nx, r) = (ps.nrows(), gens.len());
+    let g = DMatrix::from_columns(gens);
+    let dm = DMatrix::from_diagonal(&DVector::from_column_slice(d));
+    let pn = ps.norm();
+    match set {
+        ConditionSet::Sound => {
+            let gpg = g.transpose() * ps * &g;
+            let m = &dm - &gpg;
+            let guard =
+                GUARD_C * (r as f64 + nx as f64 + 1.0) * 2.0 * (dm.norm() + pn * g.norm_squared());
+            acc.add(lambda_min(&m), guard, || "D ⪰ GᵀPG".into());
+        }
+        ConditionSet::Paper => {
+            let mut m = DMatrix::zeros(r + nx, r + nx);
+            m.view_mut((0, 0), (r, r)).copy_from(&dm);
+            m.view_mut((r, 0), (nx, r)).copy_from(&g);
+            m.view_mut((0, r), (r, nx)).copy_from(&g.transpose());
+            m.view_mut((r, r), (nx, nx)).copy_from(ps);
+            let guard = GUARD_C * (r as f64 + nx as f64 + 2.0) * m.norm();
+            acc.add(lambda_min(&m), guard, || "[D Gᵀ; G P] ⪰ 0".into());
+        }
+    }
+    let tr: f64 = d.iter().sum();
+    let guard = GUARD_C * (r as f64 + 1.0) * (1.0 + d.iter().map(|v| v.abs()).sum::<f64>());
+    acc.add(1.0 - tr, guard, || "trace D ≤ 1".into());
+}
+
+/// The pieces of the cube's rate inequalities, in model units.
+struct CubeTerms<'a> {
+    model: &'a PolytopicModel,
+    p: &'a DMatrix<f64>,
+    gammas: &'a [DMatrix<f64>],
+    /// ‖L_l‖‖P‖ + ‖Γ_l‖ (error size of Γ_l).
+    gn: Vec<f64>,
+    sigma: f64,
+    gamma: f64,
+}
+
+impl<'a> CubeTerms<'a> {
+    fn new(
+        model: &'a PolytopicModel,
+        p: &'a DMatrix<f64>,
+        gammas: &'a [DMatrix<f64>],
+        lnorm: &[f64],
+        set: ConditionSet,
+        gamma: f64,
+    ) -> Self {
+        let pn = p.norm();
+        CubeTerms {
+            model,
+            p,
+            gammas,
+            gn: gammas
+                .iter()
+                .enumerate()
+                .map(|(l, g)| lnorm.get(l).copied().unwrap_or(0.0) * pn + g.norm())
+                .collect(),
+            sigma: sigma(set),
+            gamma,
+        }
+    }
+
+    /// F0_c = Σ_t w_t (He{γ(PA_l − Γ_l C_m)} + γαP), G_c(g) = Σ_t w_t
+    /// He{−σP rows(N_l, g) + Γ_l rows(M_m, g)} and H_c(g) = Σ_t w_t
+    /// He{σP rowsHe(N_l, g) − Γ_l rowsHe(M_m, g)}: which = 0, 1, 2; with the
+    /// size of their terms (for the guard).
+    fn part(&self, c: &Combo, alpha: f64, which: u8, g: &DVector<f64>) -> (DMatrix<f64>, f64) {
+        let nx = self.p.nrows();
+        let pn = self.p.norm();
+        let mut out = DMatrix::zeros(nx, nx);
+        let mut size = 0.0;
+        for &(l, m, w) in &c.terms {
+            let (vl, vm, gl) = (
+                &self.model.vertices[l],
+                &self.model.vertices[m],
+                &self.gammas[l],
+            );
+            let (x, sz) = match which {
+                0 => {
+                    let x = (self.p * &vl.a - gl * &vm.c) * self.gamma
+                        + self.p * (0.5 * self.gamma * alpha);
+                    let sz =
+                        self.gamma * (pn * vl.a.norm() + self.gn[l] * vm.c.norm() + alpha * pn);
+                    (x, sz)
+                }
+                1 => {
+                    let (rn, rm) = (rows(&vl.n, g), rows(&vm.m, g));
+                    let x = self.p * &rn * (-self.sigma) + gl * &rm;
+                    (x, pn * rn.norm() + self.gn[l] * rm.norm())
+                }
+                _ => {
+                    let (rn, rm) = (rows_he(&vl.n, g), rows_he(&vm.m, g));
+                    let x = self.p * &rn * self.sigma - gl * &rm;
+                    (x, pn * rn.norm() + self.gn[l] * rm.norm())
+                }
+            };
+            out += (&x + x.transpose()) * w;
+            size += 2.0 * sz * w.abs();
+        }
+        (out, size)
+    }
+
+    /// Adds every slack inequality of combination `c` (index `ci`) to `acc`.
+    #[allow(clippy::too_many_arguments)]
+    fn check(
+        &self,
+        acc: &mut Acc,
+        c: &Combo,
+        ci: usize,
+        double: bool,
+        alpha: f64,
+        gens: &[DVector<f64>],
+        slacks: &CubeSlacks,
+    ) {
+        let nx = self.p.nrows();
+        let g0 = DVector::zeros(nx);
+        let guard =
+            |size: f64, m: &DMatrix<f64>| GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
+        let sym = |m: &DMatrix<f64>| (m + m.transpose()) * 0.5;
+        let (mut sum, mut size) = self.part(c, alpha, 0, &g0);
+        for (k, g) in gens.iter().enumerate() {
+            for (which, name, s) in [(1u8, "Y", &slacks.y[ci][k]), (2u8, "X", &slacks.x[ci][k])] {
+                let s = sym(s);
+                let (part, psize) = self.part(c, alpha, which, g);
+                for sign in [1.0, -1.0] {
+                    let m = &s - &part * sign;
+                    let sz = psize + s.norm();
+                    acc.add(lambda_min(&m), guard(sz, &m), || {
+                        format!(
+                            "{} {name} k={} {}",
+                            c.label(double),
+                            k + 1,
+                            if sign > 0.0 { "⪰ +" } else { "⪰ −" }
+                        )
+                    });
+                }
+                sum += &s;
+                size += s.norm();
+            }
+        }
+        acc.add(-lambda_max(&sum), guard(size, &sum), || {
+            format!("{} F0 + ΣY + ΣX", c.label(double))
+        });
+    }
+
+    /// The largest α with F0_c(α) + ΣY + ΣX ≺ 0 for these (P, Γ_l) and slacks.
+    fn capacity(&self, c: &Combo, ci: usize, linv: &DMatrix<f64>, slacks: &CubeSlacks) -> f64 {
+        let nx = self.p.nrows();
+        let (mut m0, _) = self.part(c, 0.0, 0, &DVector::zeros(nx));
+        for k in 0..slacks.y[ci].len() {
+            m0 += (&slacks.y[ci][k] + slacks.y[ci][k].transpose()) * 0.5;
+            m0 += (&slacks.x[ci][k] + slacks.x[ci][k].transpose()) * 0.5;
+        }
+        let w = linv * m0 * linv.transpose();
+        -lambda_max(&w) / (self.gamma * c.weight())
     }
 }
 
@@ -652,6 +905,43 @@ pub fn alpha_capacity(
                 worst = worst.min(a);
             }
         }
+    }
+    worst.max(0.0)
+}
+
+/// [`alpha_capacity`] for a design of `conditions = cube`: the largest α
+/// at which F0_c(α) + Σ_k Y_{c,k} + Σ_k X_{c,k} ≺ 0 for the same (P, Γ_l) and
+/// slacks (the slack inequalities and the region conditions do not depend
+/// on α; [`check_cube`] checks them). 0 if P is not positive definite.
+pub fn alpha_capacity_cube(
+    model: &PolytopicModel,
+    mode: Mode,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+    slacks: &CubeSlacks,
+) -> f64 {
+    let set = ConditionSet::from_mode(mode);
+    let ps = (p + p.transpose()) * 0.5;
+    let Some(ch) = ps.clone().cholesky() else {
+        return 0.0;
+    };
+    let Some(linv) = ch.l().try_inverse() else {
+        return 0.0;
+    };
+    let combos = rate_combos(model);
+    if slacks.y.len() != combos.len() || slacks.x.len() != combos.len() {
+        return 0.0;
+    }
+    let lnorm = vec![0.0; gammas.len()];
+    let ct = CubeTerms::new(model, &ps, gammas, &lnorm, set, gamma);
+    let mut worst = f64::INFINITY;
+    for (ci, combo) in combos.iter().enumerate() {
+        let a = ct.capacity(combo, ci, &linv, slacks);
+        if a.is_nan() {
+            return 0.0;
+        }
+        worst = worst.min(a);
     }
     worst.max(0.0)
 }

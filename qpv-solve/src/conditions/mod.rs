@@ -23,10 +23,15 @@
 //! and imposes
 //! F0_l + G_l(x_i) + Z_l ≺ 0 and H_l(x_j) ⪯ Z_l with a slack Z_l per
 //! θ-vertex ([`crate::lmi`]); the certificate checks F_{l,i,j} itself.
+//! `conditions = cube` bounds G_l and H_l over a zonotope region by one
+//! pair of slacks per generator ([`cube`]); the certificate checks those
+//! slack inequalities.
 //!
 //! Convention for N_k and M_k: the matrices are used exactly as written in
 //! the model (no symmetrisation): row k of rows(T, v) is vᵀ T_k and row k of
 //! rowsHe(T, v) is vᵀ (T_k + T_kᵀ).
+
+pub mod cube;
 
 use crate::vocab::Family;
 use nalgebra::{DMatrix, DVector};

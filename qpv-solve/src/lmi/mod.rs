@@ -40,10 +40,11 @@
 //! which changes no sign of any eigenvalue; (4) is the printed LMI divided
 //! by s > 0. The objective is ½ w Σ_l ‖Γ̂_l‖_F² (or 0 for pure feasibility).
 
+mod cube;
 pub mod skew;
 
 use crate::backend::{clarabel_settings, ensure_lapack, run_sdp, Sdp, Status};
-use crate::conditions::{rate_combos, Combo, ConditionSet, PairTerms, RegionForm};
+use crate::conditions::{rate_combos, rows, rows_he, Combo, ConditionSet, PairTerms, RegionForm};
 use crate::error::SolveError;
 use crate::linalg::csc::Columns;
 use crate::linalg::svec::{svec_index, svec_len, SQRT2};
@@ -54,6 +55,7 @@ use clarabel::solver::SupportedConeT;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::Conditions;
 use qpv_dsl::PolytopicModel;
+use std::sync::OnceLock;
 use std::time::Instant;
 
 /// Number of entries of the upper triangle of an n × n matrix.
@@ -67,6 +69,56 @@ pub fn tri(n: usize) -> usize {
 fn tri_idx(r: usize, c: usize) -> usize {
     debug_assert!(r <= c);
     svec_index(r, c)
+}
+
+/// The rows of a problem under construction: the constraint columns, the
+/// right-hand side and the cones, in row order.
+struct Rows {
+    cols: Columns,
+    b: Vec<f64>,
+    cones: Vec<SupportedConeT<f64>>,
+}
+
+impl Rows {
+    /// Opens a block of `len` rows holding a d × d matrix (len = d(d+1)/2)
+    /// with margin `eps` on its diagonal (b = −ε svec(I)); returns its first row.
+    fn open(&mut self, len: usize, eps: f64) -> usize {
+        let row0 = self.b.len();
+        self.b.resize(row0 + len, 0.0);
+        if eps != 0.0 {
+            let d = crate::linalg::svec::svec_side(len).expect("a triangle length");
+            for c in 0..d {
+                self.b[row0 + tri_idx(c, c)] = -eps;
+            }
+        }
+        row0
+    }
+}
+
+/// The max-margin variable t̂ and its coefficients svec(κW) in a rate block.
+struct MarginColumn {
+    var: usize,
+    coef: Vec<f64>,
+}
+
+/// The margins of the rate blocks: `eps` on the blocks that carry the rate
+/// (zero for the max-margin objective, whose column `column` sits there
+/// instead), `slack_eps` on the cube slack inequalities (always).
+struct RateMargins<'a> {
+    eps: f64,
+    slack_eps: f64,
+    column: Option<&'a MarginColumn>,
+}
+
+impl RateMargins<'_> {
+    /// Adds the max-margin column to the block starting at `row0`, if any.
+    fn push_column(&self, cols: &mut Columns, row0: usize) {
+        if let Some(m) = self.column {
+            for (idx, &w) in m.coef.iter().enumerate() {
+                cols.push(row0 + idx, m.var, w);
+            }
+        }
+    }
 }
 
 /// What the solve optimises.
@@ -109,6 +161,8 @@ pub struct SolveResult {
     pub gammas: Vec<DMatrix<f64>>,
     /// [`Objective::MaxMargin`]: the optimal normalised margin t̂ (NaN otherwise).
     pub margin: f64,
+    /// The slacks of cube conditions (model units), with the point.
+    pub cube: Option<crate::conditions::cube::CubeSlacks>,
 }
 
 /// The precomputed, (α, γ)-independent part of a design problem.
@@ -126,34 +180,26 @@ pub struct Problem<'m> {
     pub scale: f64,
     xs_hat: Vec<DVector<f64>>,
     as_hat: Vec<DVector<f64>>,
-    terms: PairTerms,
+    /// The vertex-pair terms (full and decoupled conditions only, computed
+    /// on first use: a cube problem never enumerates vertex pairs).
+    terms: OnceLock<PairTerms>,
     combos: Vec<Combo>,
     max_a_fro: f64,
-    max_r_fro: f64,
+    /// max ‖R_{l,i,j}‖_F over the vertex pairs (computed on first use).
+    max_r_fro: OnceLock<f64>,
+    /// Cube conditions: the region's generators (empty otherwise).
+    gens: Vec<DVector<f64>>,
+    /// Cube conditions: a bound on ‖R‖_F over the region, from the generators.
+    cube_r_fro: f64,
 }
 
 impl<'m> Problem<'m> {
-    /// Precomputes everything that does not depend on (α, γ).
+    /// Precomputes everything that does not depend on (α, γ) (the
+    /// vertex-pair terms only when full or decoupled conditions need them).
     pub fn new(model: &'m PolytopicModel, set: ConditionSet) -> Result<Self, SolveError> {
         validate(model)?;
         let nx = model.nx();
         let rho = region_radius(model);
-        let terms = PairTerms::new(model);
-        let np = model.region.vertices.len();
-        let mut max_r_fro: f64 = 0.0;
-        for l in 0..model.nv() {
-            for i in 0..np {
-                for j in 0..np {
-                    let mut acc = 0.0;
-                    let (h, w) = (&terms.nhe[l][j], &terms.nrw[l][i]);
-                    for k in 0..nx * nx {
-                        let d = h[k] - w[k];
-                        acc += d * d;
-                    }
-                    max_r_fro = max_r_fro.max(acc.sqrt());
-                }
-            }
-        }
         Ok(Problem {
             model,
             set,
@@ -166,22 +212,83 @@ impl<'m> Problem<'m> {
             scale: set.scale(rho),
             xs_hat: model.region.vertices.iter().map(|x| x / rho).collect(),
             as_hat: model.region.facets.iter().map(|a| a * rho).collect(),
-            terms,
+            terms: OnceLock::new(),
             combos: rate_combos(model),
             max_a_fro: model
                 .vertices
                 .iter()
                 .map(|v| v.a.norm())
                 .fold(0.0, f64::max),
-            max_r_fro,
+            max_r_fro: OnceLock::new(),
+            gens: Vec::new(),
+            cube_r_fro: 0.0,
+        })
+    }
+
+    /// The vertex-pair terms, computed on first use.
+    fn terms(&self) -> &PairTerms {
+        self.terms.get_or_init(|| PairTerms::new(self.model))
+    }
+
+    /// max over (l, i, j) of ‖R_{l,i,j}‖_F, computed on first use.
+    fn max_r_fro(&self) -> f64 {
+        *self.max_r_fro.get_or_init(|| {
+            let terms = self.terms();
+            let (nx, np) = (self.nx, self.model.region.vertices.len());
+            let mut max_r_fro: f64 = 0.0;
+            for l in 0..self.nv {
+                for i in 0..np {
+                    for j in 0..np {
+                        let mut acc = 0.0;
+                        let (h, w) = (&terms.nhe[l][j], &terms.nrw[l][i]);
+                        for k in 0..nx * nx {
+                            let d = h[k] - w[k];
+                            acc += d * d;
+                        }
+                        max_r_fro = max_r_fro.max(acc.sqrt());
+                    }
+                }
+            }
+            max_r_fro
         })
     }
 
     /// The same problem with the given family of rate conditions (the
-    /// default of [`Problem::new`] is [`Conditions::Full`]).
-    pub fn with_conditions(mut self, conditions: Conditions) -> Self {
+    /// default of [`Problem::new`] is [`Conditions::Full`]). `Cube` needs a
+    /// region that is a zonotope ([`crate::conditions::cube::generators`]);
+    /// `Auto` must be resolved first ([`crate::size::choose`]).
+    pub fn with_conditions(mut self, conditions: Conditions) -> Result<Self, SolveError> {
+        match conditions {
+            Conditions::Auto => {
+                return Err(SolveError::Unsupported(
+                    "conditions = auto must be resolved to full, decoupled or cube before assembly"
+                        .into(),
+                ))
+            }
+            Conditions::Cube => {
+                let Some(gens) = crate::conditions::cube::generators(self.model) else {
+                    return Err(SolveError::Unsupported(format!(
+                        "conditions = cube needs a region that is a box, a parallelotope or a zonotope; this one ({} vertices, {} facets) is none of them",
+                        self.model.region.vertices.len(),
+                        self.model.region.facets.len()
+                    )));
+                };
+                self.cube_r_fro = self
+                    .model
+                    .vertices
+                    .iter()
+                    .map(|v| {
+                        gens.iter()
+                            .map(|g| rows_he(&v.n, g).norm() + rows(&v.n, g).norm())
+                            .sum::<f64>()
+                    })
+                    .fold(0.0, f64::max);
+                self.gens = gens;
+            }
+            Conditions::Full | Conditions::Decoupled => {}
+        }
         self.conditions = conditions;
-        self
+        Ok(self)
     }
 
     /// The family of rate conditions assembled.
@@ -190,7 +297,7 @@ impl<'m> Problem<'m> {
     }
 
     /// Number of decision variables (P̂, Γ̂_l and, for decoupled conditions,
-    /// Ẑ_l; the margin variable of [`Objective::MaxMargin`] comes after them).
+    /// Ẑ_l, for cube ones Ŷ_{c,k}, X̂_{c,k} and D; the margin variable of [`Objective::MaxMargin`] comes after them).
     pub fn n_vars(&self) -> usize {
         self.gains_end() + self.n_slack_vars()
     }
@@ -200,28 +307,33 @@ impl<'m> Problem<'m> {
         self.np + self.nv * self.nx * self.ny
     }
 
-    /// Number of slack variables Ẑ_c, one per rate combination
-    /// ([`crate::conditions::Combo`]) of nx(nx+1)/2 entries when decoupled, else 0.
+    /// Number of slack variables: Ẑ_c, one per rate combination
+    /// ([`crate::conditions::Combo`]) of nx(nx+1)/2 entries when decoupled;
+    /// Ŷ_{c,k}, X̂_{c,k} per combination and generator, and the r entries of
+    /// D, for cube conditions; else 0.
     pub fn n_slack_vars(&self) -> usize {
         match self.conditions {
-            Conditions::Full => 0,
+            Conditions::Full | Conditions::Auto => 0,
             Conditions::Decoupled => self.combos.len() * self.np,
+            Conditions::Cube => self.combos.len() * 2 * self.gens.len() * self.np + self.gens.len(),
         }
     }
 
-    /// Number of rate LMI blocks assembled: c p² (full) or c·2p (decoupled),
-    /// with c combinations (c = N for a constant output map, N² for the
-    /// double sum).
+    /// Number of rate LMI blocks assembled: c p² (full), c·2p (decoupled)
+    /// or c(4r + 1) (cube, r generators), with c combinations (c = N for a
+    /// constant output map, N² for the double sum).
     pub fn n_rate_blocks(&self) -> usize {
         let p = self.model.region.vertices.len();
         match self.conditions {
-            Conditions::Full => self.combos.len() * p * p,
+            Conditions::Full | Conditions::Auto => self.combos.len() * p * p,
             Conditions::Decoupled => self.combos.len() * 2 * p,
+            Conditions::Cube => self.combos.len() * (4 * self.gens.len() + 1),
         }
     }
 
     /// Number of blocks of the full family (c p²), which the certificate
-    /// checks whatever was assembled.
+    /// checks for full and decoupled conditions (for cube ones it checks the
+    /// slack inequalities instead).
     pub fn n_full_rate_blocks(&self) -> usize {
         let p = self.model.region.vertices.len();
         self.combos.len() * p * p
@@ -239,7 +351,11 @@ impl<'m> Problem<'m> {
 
     /// κ: the data size of the rate LMIs used to scale their margin.
     pub fn rate_scale(&self, alpha: f64, gamma: f64) -> f64 {
-        gamma * (alpha + self.max_a_fro) + self.max_r_fro
+        let r = match self.conditions {
+            Conditions::Cube => self.cube_r_fro,
+            _ => self.max_r_fro(),
+        };
+        gamma * (alpha + self.max_a_fro) + r
     }
 
     #[inline]
@@ -267,20 +383,21 @@ impl<'m> Problem<'m> {
         x: Option<usize>,
     ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
         let sigma = self.set.nonlinear_sign();
+        let terms = self.terms();
         let mut k = DMatrix::zeros(self.nx, self.nx);
         let mut hs: Vec<(usize, DMatrix<f64>)> = Vec::new();
         for &(l, m, w) in &self.combos[c].terms {
             let mut h = DMatrix::zeros(self.ny, self.nx);
             if let Some(i) = e {
-                k += (&self.model.vertices[l].a * gamma - &self.terms.nrw[l][i] * sigma) * w;
+                k += (&self.model.vertices[l].a * gamma - &terms.nrw[l][i] * sigma) * w;
                 for d in 0..self.nx {
                     k[(d, d)] += 0.5 * gamma * alpha * w;
                 }
-                h += (&self.model.vertices[m].c * gamma - &self.terms.mrw[m][i]) * w;
+                h += (&self.model.vertices[m].c * gamma - &terms.mrw[m][i]) * w;
             }
             if let Some(j) = x {
-                k += &self.terms.nhe[l][j] * (sigma * w);
-                h += &self.terms.mhe[m][j] * w;
+                k += &terms.nhe[l][j] * (sigma * w);
+                h += &terms.mhe[m][j] * w;
             }
             match hs.iter_mut().find(|(g, _)| *g == l) {
                 Some((_, acc)) => *acc += h,
@@ -422,7 +539,9 @@ impl<'m> Problem<'m> {
     }
 
     /// As [`Problem::assemble`]; `metric` (P_ref in model units) sets W of
-    /// [`Objective::MaxMargin`] (ignored otherwise).
+    /// [`Objective::MaxMargin`] (ignored otherwise). The rows, in order:
+    /// (S1), the region's vertex condition, its facets, the rate family of
+    /// the chosen conditions, and t̂ ≤ 1 for the max-margin objective.
     pub fn assemble_with_metric(
         &self,
         alpha: f64,
@@ -431,64 +550,100 @@ impl<'m> Problem<'m> {
         objective: Objective,
         metric: Option<&DMatrix<f64>>,
     ) -> Assembled {
-        let nx = self.nx;
         let max_margin = objective == Objective::MaxMargin;
         let n = self.n_vars() + usize::from(max_margin);
         let tvar = self.n_vars();
         let kappa = self.rate_scale(alpha, gamma);
         let eps = settings.margin_rel;
-        let eps_rate = if max_margin {
-            0.0
-        } else {
-            settings.margin_rel * kappa
+        let eps_rate = if max_margin { 0.0 } else { eps * kappa };
+        let margin = max_margin.then(|| MarginColumn {
+            var: tvar,
+            coef: self.margin_column(metric, kappa),
+        });
+        let mut out = Rows {
+            cols: Columns::new(n),
+            b: Vec::new(),
+            cones: Vec::new(),
         };
-        // svec(W)·κ for the margin column (upper triangle, √2 off-diagonal).
-        let wcol: Vec<f64> = {
-            let mut w = vec![0.0; tri(nx)];
-            let m = metric
-                .filter(|m| m.shape() == (nx, nx) && m.iter().all(|v| v.is_finite()))
-                .map(|m| (m + m.transpose()) * 0.5);
-            let lmax = m
-                .as_ref()
-                .map(|m| m.clone().symmetric_eigenvalues().max())
-                .unwrap_or(0.0);
-            for c in 0..nx {
-                for r in 0..=c {
-                    let v = match &m {
-                        Some(m) if lmax > 0.0 => m[(r, c)] / lmax,
-                        _ => f64::from(u8::from(r == c)),
-                    };
-                    w[tri_idx(r, c)] = if r == c { v * kappa } else { SQRT2 * v * kappa };
-                }
+        self.push_s1(&mut out, eps);
+        match self.conditions {
+            Conditions::Cube => self.push_cube_region(&mut out, eps),
+            _ => self.push_region_vertices(&mut out, eps),
+        }
+        self.push_region_facets(&mut out, gamma, eps);
+        let rate = RateMargins {
+            eps: eps_rate,
+            slack_eps: eps * kappa,
+            column: margin.as_ref(),
+        };
+        match self.conditions {
+            Conditions::Full | Conditions::Auto => {
+                self.push_rate_full(&mut out, alpha, gamma, &rate)
             }
-            w
-        };
-        let p_reg = self.model.region.vertices.len();
-        let t = tri(nx);
-        let t1 = tri(nx + 1);
-        let mut cols = Columns::new(n);
-        let mut b: Vec<f64> = Vec::new();
-        let mut cones: Vec<SupportedConeT<f64>> = Vec::new();
+            Conditions::Decoupled => self.push_rate_decoupled(&mut out, alpha, gamma, &rate),
+            Conditions::Cube => self.push_rate_cube(&mut out, alpha, gamma, &rate),
+        }
+        if max_margin {
+            // t̂ ≤ 1.
+            let row = out.b.len();
+            out.b.push(1.0);
+            out.cols.push(row, tvar, 1.0);
+            out.cones.push(SupportedConeT::NonnegativeConeT(1));
+        }
+        let Rows { cols, b, cones } = out;
+        let a = cols.into_csc(b.len());
+        let (p, q) = self.objective(n, settings, objective);
+        Assembled { p, q, a, b, cones }
+    }
 
-        // (S1): P̂ − εI ⪰ 0: s = svec(P̂) − ε svec(I) ⇒ b = −ε svec(I), A = −svec(E_v).
-        let row0 = b.len();
-        b.resize(row0 + t, 0.0);
+    /// svec(W)·κ, the coefficients of the max-margin column t̂ in a rate
+    /// block (upper triangle, √2 off the diagonal): W = P_ref/λ_max(P_ref)
+    /// for a usable `metric`, else I.
+    fn margin_column(&self, metric: Option<&DMatrix<f64>>, kappa: f64) -> Vec<f64> {
+        let nx = self.nx;
+        let mut w = vec![0.0; tri(nx)];
+        let m = metric
+            .filter(|m| m.shape() == (nx, nx) && m.iter().all(|v| v.is_finite()))
+            .map(|m| (m + m.transpose()) * 0.5);
+        let lmax = m
+            .as_ref()
+            .map(|m| m.clone().symmetric_eigenvalues().max())
+            .unwrap_or(0.0);
         for c in 0..nx {
-            b[row0 + tri_idx(c, c)] = -eps;
             for r in 0..=c {
-                let scale = if r == c { 1.0 } else { SQRT2 };
-                cols.push(row0 + tri_idx(r, c), tri_idx(r, c), -scale);
+                let v = match &m {
+                    Some(m) if lmax > 0.0 => m[(r, c)] / lmax,
+                    _ => f64::from(u8::from(r == c)),
+                };
+                w[tri_idx(r, c)] = if r == c { v * kappa } else { SQRT2 * v * kappa };
             }
         }
-        cones.push(SupportedConeT::PSDTriangleConeT(nx));
+        w
+    }
 
-        // Region vertices.
+    /// (S1): P̂ − εI ⪰ 0: s = svec(P̂) − ε svec(I) ⇒ b = −ε svec(I), A = −svec(E_v).
+    fn push_s1(&self, out: &mut Rows, eps: f64) {
+        let nx = self.nx;
+        let row0 = out.open(tri(nx), eps);
+        for c in 0..nx {
+            for r in 0..=c {
+                let scale = if r == c { 1.0 } else { SQRT2 };
+                out.cols.push(row0 + tri_idx(r, c), tri_idx(r, c), -scale);
+            }
+        }
+        out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+    }
+
+    /// The region vertices: (S2) 1 − ε − x̂ᵀP̂x̂ ≥ 0 per vertex (one
+    /// nonnegative cone), or (13) [1 x̂ᵀ; x̂ P̂] − εI ⪰ 0 per vertex.
+    fn push_region_vertices(&self, out: &mut Rows, eps: f64) {
+        let nx = self.nx;
         match self.set.vertex_form() {
             RegionForm::VertexQuadratic => {
                 // 1 − ε − x̂ᵀP̂x̂ ≥ 0: b = 1 − ε, A[v] = x̂ᵀ E_v x̂.
-                let row0 = b.len();
+                let row0 = out.b.len();
                 for (i, x) in self.xs_hat.iter().enumerate() {
-                    b.push(1.0 - eps);
+                    out.b.push(1.0 - eps);
                     for c in 0..nx {
                         for r in 0..=c {
                             let v = if r == c {
@@ -496,47 +651,48 @@ impl<'m> Problem<'m> {
                             } else {
                                 2.0 * x[r] * x[c]
                             };
-                            cols.push(row0 + i, tri_idx(r, c), v);
+                            out.cols.push(row0 + i, tri_idx(r, c), v);
                         }
                     }
                 }
-                cones.push(SupportedConeT::NonnegativeConeT(p_reg));
+                out.cones
+                    .push(SupportedConeT::NonnegativeConeT(self.xs_hat.len()));
             }
             RegionForm::VertexSchur => {
                 // [1 x̂ᵀ; x̂ P̂] − εI ⪰ 0 (indices: 0 = the scalar, 1.. = P̂).
                 for x in &self.xs_hat {
-                    let row0 = b.len();
-                    b.resize(row0 + t1, 0.0);
-                    b[row0] = 1.0 - eps;
+                    let row0 = out.open(tri(nx + 1), eps);
+                    out.b[row0] = 1.0 - eps;
                     for c in 0..nx {
-                        b[row0 + tri_idx(0, c + 1)] = SQRT2 * x[c];
-                        b[row0 + tri_idx(c + 1, c + 1)] = -eps;
+                        out.b[row0 + tri_idx(0, c + 1)] = SQRT2 * x[c];
                     }
                     for c in 0..nx {
                         for r in 0..=c {
                             let scale = if r == c { 1.0 } else { SQRT2 };
-                            cols.push(row0 + tri_idx(r + 1, c + 1), tri_idx(r, c), -scale);
+                            out.cols
+                                .push(row0 + tri_idx(r + 1, c + 1), tri_idx(r, c), -scale);
                         }
                     }
-                    cones.push(SupportedConeT::PSDTriangleConeT(nx + 1));
+                    out.cones.push(SupportedConeT::PSDTriangleConeT(nx + 1));
                 }
             }
             _ => unreachable!("vertex form"),
         }
+    }
 
-        // Region facets.
+    /// The region facets: (S3) [1 γâₖᵀ; γâₖ P̂] − εI ⪰ 0 or (14)
+    /// [1 γâₖᵀP̂; γP̂âₖ P̂] − εI ⪰ 0 per facet.
+    fn push_region_facets(&self, out: &mut Rows, gamma: f64, eps: f64) {
+        let nx = self.nx;
         let facet_form = self.set.facet_form();
         for a in &self.as_hat {
-            let row0 = b.len();
-            b.resize(row0 + t1, 0.0);
-            b[row0] = 1.0 - eps;
-            for c in 0..nx {
-                b[row0 + tri_idx(c + 1, c + 1)] = -eps;
-            }
+            let row0 = out.open(tri(nx + 1), eps);
+            out.b[row0] = 1.0 - eps;
+            let cols = &mut out.cols;
             match facet_form {
                 RegionForm::FacetSchur => {
                     for c in 0..nx {
-                        b[row0 + tri_idx(0, c + 1)] = SQRT2 * gamma * a[c];
+                        out.b[row0 + tri_idx(0, c + 1)] = SQRT2 * gamma * a[c];
                     }
                     for c in 0..nx {
                         for r in 0..=c {
@@ -574,86 +730,73 @@ impl<'m> Problem<'m> {
                 }
                 _ => unreachable!("facet form"),
             }
-            cones.push(SupportedConeT::PSDTriangleConeT(nx + 1));
+            out.cones.push(SupportedConeT::PSDTriangleConeT(nx + 1));
         }
+    }
 
-        // Rate LMIs: s = −svec(F) − ε_rate svec(I), F = He{P̂K − Γ̂H}:
-        // b = −ε_rate svec(I), A[v] = svec(∂F/∂v).
-        let mut df = vec![0.0; nx * nx];
-        // Opens a block with margin `eps`, returns its first row.
-        let open_block = |b: &mut Vec<f64>, eps: f64| -> usize {
-            let row0 = b.len();
-            b.resize(row0 + t, 0.0);
-            if eps != 0.0 {
-                for c in 0..nx {
-                    b[row0 + tri_idx(c, c)] = -eps;
-                }
-            }
-            row0
-        };
-        let margin_col = |cols: &mut Columns, row0: usize| {
-            if max_margin {
-                for (idx, &w) in wcol.iter().enumerate() {
-                    cols.push(row0 + idx, tvar, w);
-                }
-            }
-        };
-        match self.conditions {
-            Conditions::Full => {
-                for c in 0..self.combos.len() {
-                    for i in 0..p_reg {
-                        for j in 0..p_reg {
-                            let (k, hs) = self.rate_kh(alpha, gamma, c, i, j);
-                            let row0 = open_block(&mut b, eps_rate);
-                            self.push_he_block(&mut cols, row0, &k, &hs, &mut df);
-                            margin_col(&mut cols, row0);
-                            cones.push(SupportedConeT::PSDTriangleConeT(nx));
-                        }
-                    }
-                }
-            }
-            Conditions::Decoupled => {
-                // Per θ-vertex: F0_l + G_l(x_i) + Ẑ_l ⪯ −ε κ I (the margin,
-                // and the max-margin column, sit here), then H_l(x_j) − Ẑ_l ⪯ 0.
-                // ∂(±Ẑ_l)/∂Ẑ_rc = ±E_rc: svec entry ±1 (diagonal) or ±√2.
-                let z_col = |cols: &mut Columns, row0: usize, l: usize, sign: f64| {
-                    for c in 0..nx {
-                        for r in 0..=c {
-                            let sc = if r == c { 1.0 } else { SQRT2 };
-                            cols.push(row0 + tri_idx(r, c), self.zvar(l, tri_idx(r, c)), sign * sc);
-                        }
-                    }
-                };
-                for c in 0..self.combos.len() {
-                    for i in 0..p_reg {
-                        let (k, hs) = self.decoupled_e_kh(alpha, gamma, c, i);
-                        let row0 = open_block(&mut b, eps_rate);
-                        self.push_he_block(&mut cols, row0, &k, &hs, &mut df);
-                        z_col(&mut cols, row0, c, 1.0);
-                        margin_col(&mut cols, row0);
-                        cones.push(SupportedConeT::PSDTriangleConeT(nx));
-                    }
-                    for j in 0..p_reg {
-                        let (k, hs) = self.decoupled_x_kh(c, j);
-                        let row0 = open_block(&mut b, 0.0);
-                        self.push_he_block(&mut cols, row0, &k, &hs, &mut df);
-                        z_col(&mut cols, row0, c, -1.0);
-                        cones.push(SupportedConeT::PSDTriangleConeT(nx));
-                    }
+    /// Full rate family: −He{P̂K − Γ̂H} − ε κ I ⪰ 0 per (combination, i, j):
+    /// b = −ε_rate svec(I), A[v] = svec(∂F/∂v).
+    fn push_rate_full(&self, out: &mut Rows, alpha: f64, gamma: f64, rate: &RateMargins) {
+        let p_reg = self.xs_hat.len();
+        let mut df = vec![0.0; self.nx * self.nx];
+        for c in 0..self.combos.len() {
+            for i in 0..p_reg {
+                for j in 0..p_reg {
+                    let (k, hs) = self.rate_kh(alpha, gamma, c, i, j);
+                    let row0 = out.open(tri(self.nx), rate.eps);
+                    self.push_he_block(&mut out.cols, row0, &k, &hs, &mut df);
+                    rate.push_column(&mut out.cols, row0);
+                    out.cones.push(SupportedConeT::PSDTriangleConeT(self.nx));
                 }
             }
         }
-        if max_margin {
-            // t̂ ≤ 1.
-            let row = b.len();
-            b.push(1.0);
-            cols.push(row, tvar, 1.0);
-            cones.push(SupportedConeT::NonnegativeConeT(1));
-        }
+    }
 
-        let m = b.len();
-        let a = cols.into_csc(m);
-        // Objective ½ w Σ Γ̂², diagonal on the Γ̂ columns.
+    /// Decoupled rate family, per combination c: F0_c + G_c(x_i) + Ẑ_c ⪯ −ε κ I
+    /// (the margin, and the max-margin column, sit here), then
+    /// H_c(x_j) − Ẑ_c ⪯ 0.
+    fn push_rate_decoupled(&self, out: &mut Rows, alpha: f64, gamma: f64, rate: &RateMargins) {
+        let p_reg = self.xs_hat.len();
+        let mut df = vec![0.0; self.nx * self.nx];
+        for c in 0..self.combos.len() {
+            for i in 0..p_reg {
+                let (k, hs) = self.decoupled_e_kh(alpha, gamma, c, i);
+                let row0 = out.open(tri(self.nx), rate.eps);
+                self.push_he_block(&mut out.cols, row0, &k, &hs, &mut df);
+                self.push_sym_var(&mut out.cols, row0, self.zvar(c, 0), 1.0);
+                rate.push_column(&mut out.cols, row0);
+                out.cones.push(SupportedConeT::PSDTriangleConeT(self.nx));
+            }
+            for j in 0..p_reg {
+                let (k, hs) = self.decoupled_x_kh(c, j);
+                let row0 = out.open(tri(self.nx), 0.0);
+                self.push_he_block(&mut out.cols, row0, &k, &hs, &mut df);
+                self.push_sym_var(&mut out.cols, row0, self.zvar(c, 0), -1.0);
+                out.cones.push(SupportedConeT::PSDTriangleConeT(self.nx));
+            }
+        }
+    }
+
+    /// The columns of ±Ŝ in an nx-block, Ŝ a symmetric variable whose upper
+    /// triangle starts at variable `first`: ∂(±Ŝ)/∂Ŝ_rc = ±E_rc, svec entry
+    /// ±1 (diagonal) or ±√2.
+    fn push_sym_var(&self, cols: &mut Columns, row0: usize, first: usize, sign: f64) {
+        for c in 0..self.nx {
+            for r in 0..=c {
+                let sc = if r == c { 1.0 } else { SQRT2 };
+                cols.push(row0 + tri_idx(r, c), first + tri_idx(r, c), sign * sc);
+            }
+        }
+    }
+
+    /// The objective: ½ w Σ Γ̂² (diagonal on the Γ̂ columns) for
+    /// [`Objective::Gains`], −t̂ for [`Objective::MaxMargin`].
+    fn objective(
+        &self,
+        n: usize,
+        settings: &Settings,
+        objective: Objective,
+    ) -> (CscMatrix<f64>, Vec<f64>) {
         let p = if objective == Objective::Gains && settings.gain_weight > 0.0 {
             let mut colptr = Vec::with_capacity(n + 1);
             let mut rowval = Vec::new();
@@ -671,10 +814,10 @@ impl<'m> Problem<'m> {
             CscMatrix::zeros((n, n))
         };
         let mut q = vec![0.0; n];
-        if max_margin {
-            q[tvar] = -1.0;
+        if objective == Objective::MaxMargin {
+            q[self.n_vars()] = -1.0;
         }
-        Assembled { p, q, a, b, cones }
+        (p, q)
     }
 
     /// Unpacks a solution vector into (P, Γ_l) in model units.
@@ -787,12 +930,12 @@ impl<'m> Problem<'m> {
             cs.tol_feas = cs.tol_feas.max(settings.search_tol);
         }
         let run = run_sdp(prob, cs)?;
-        let (p, gammas) = match &run.x {
+        let (p, gammas, cube) = match &run.x {
             Some(x) => {
                 let (p, g) = self.unpack(x);
-                (Some(p), g)
+                (Some(p), g, self.unpack_cube(x))
             }
-            None => (None, Vec::new()),
+            None => (None, Vec::new(), None),
         };
         let margin = match &run.x {
             Some(x) if objective == Objective::MaxMargin => x[self.n_vars()],
@@ -807,6 +950,7 @@ impl<'m> Problem<'m> {
             p,
             gammas,
             margin,
+            cube,
         })
     }
 }
@@ -1018,7 +1162,8 @@ mod tests {
         let full = Problem::new(model, set).unwrap();
         let dec = Problem::new(model, set)
             .unwrap()
-            .with_conditions(Conditions::Decoupled);
+            .with_conditions(Conditions::Decoupled)
+            .unwrap();
         let (nx, ny, nv, np) = (
             model.nx(),
             model.ny(),
@@ -1165,7 +1310,8 @@ mod tests {
         let model = paper_model();
         let prob = Problem::new(&model, ConditionSet::Sound)
             .unwrap()
-            .with_conditions(Conditions::Decoupled);
+            .with_conditions(Conditions::Decoupled)
+            .unwrap();
         let asm = prob.assemble(2.0, 0.15, &Settings::default(), Objective::MaxMargin);
         let t = prob.n_vars();
         assert_eq!(asm.a.n, t + 1);
@@ -1201,5 +1347,157 @@ mod tests {
     fn assembly_matches_direct_matrices_synthetic4() {
         check_assembly(&synthetic_model(4), Mode::Sound);
         check_assembly(&synthetic_model(4), Mode::Paper);
+    }
+
+    /// Cube assembly: at a random (P, Γ_l, Y, X, D) every block is the
+    /// matrix of the module doc of `lmi::cube`, built here in model units:
+    /// the region's D-block and trace row, then per combination and
+    /// generator (Y ∓ G(g))/s − εκI, (X ∓ H(g))/s − εκI, and
+    /// −(F0 + ΣY + ΣX)/s − εκI; (S1) and the facets equal the full assembly's.
+    fn check_cube_assembly(model: &PolytopicModel, mode: Mode) {
+        use crate::conditions::cube::CubeSlacks;
+        let set = ConditionSet::from_mode(mode);
+        let full = Problem::new(model, set).unwrap();
+        let cube = Problem::new(model, set)
+            .unwrap()
+            .with_conditions(Conditions::Cube)
+            .unwrap();
+        let gens = model.region.zonotope_generators().unwrap();
+        let (nx, ny, r) = (model.nx(), model.ny(), gens.len());
+        let combos = crate::conditions::rate_combos(model);
+        let nc = combos.len();
+        assert_eq!(cube.n_rate_blocks(), nc * (4 * r + 1));
+        assert_eq!(cube.n_vars(), full.n_vars() + nc * 2 * r * tri(nx) + r);
+        let (alpha, gamma) = (3.7, 0.35);
+        let settings = Settings::default();
+        let s = cube.scale;
+        let mut seed = 5u64;
+        let mut p = DMatrix::from_fn(nx, nx, |_, _| lcg(&mut seed));
+        p = (&p * p.transpose() + DMatrix::identity(nx, nx)) * s;
+        let gammas: Vec<DMatrix<f64>> = (0..model.nv())
+            .map(|_| DMatrix::from_fn(nx, ny, |_, _| lcg(&mut seed) * s))
+            .collect();
+        let mut sym = || {
+            let m = DMatrix::from_fn(nx, nx, |_, _| lcg(&mut seed) * s);
+            &m + m.transpose()
+        };
+        let mut per = || -> Vec<Vec<DMatrix<f64>>> {
+            (0..nc).map(|_| (0..r).map(|_| sym()).collect()).collect()
+        };
+        let (y, x) = (per(), per());
+        let slacks = CubeSlacks {
+            y,
+            x,
+            d: (0..r).map(|k| 0.1 + 0.05 * k as f64).collect(),
+        };
+        let mut xv = cube.pack(&p, &gammas);
+        cube.pack_cube(&mut xv, &slacks);
+        let back = cube.unpack_cube(&xv).unwrap();
+        assert!((&back.y[0][1] - &slacks.y[0][1]).norm() < 1e-12 * slacks.y[0][1].norm());
+        assert_eq!(back.d, slacks.d);
+        let asm = cube.assemble(alpha, gamma, &settings, Objective::Gains);
+        let a = &asm.a;
+        let mut sl = asm.b.clone();
+        for col in 0..a.n {
+            for k in a.colptr[col]..a.colptr[col + 1] {
+                sl[a.rowval[k]] -= a.nzval[k] * xv[col];
+            }
+        }
+        let fasm = full.assemble(alpha, gamma, &settings, Objective::Gains);
+        let fx = full.pack(&p, &gammas);
+        let mut fsl = fasm.b.clone();
+        for col in 0..fasm.a.n {
+            for k in fasm.a.colptr[col]..fasm.a.colptr[col + 1] {
+                fsl[fasm.a.rowval[k]] -= fasm.a.nzval[k] * fx[col];
+            }
+        }
+        let eps = settings.margin_rel;
+        let tol = |w: &DMatrix<f64>| 1e-9 * (1.0 + w.norm());
+        let mut row = 0;
+        // (S1) as in the full assembly.
+        assert!((0..tri(nx)).all(|i| (sl[i] - fsl[i]).abs() < 1e-12));
+        row += tri(nx);
+        let g = DMatrix::from_columns(&gens);
+        let dm = DMatrix::from_diagonal(&DVector::from_vec(slacks.d.clone()));
+        match set {
+            ConditionSet::Sound => {
+                let want = &dm - g.transpose() * &p * &g - DMatrix::identity(r, r) * eps;
+                let got = smat(&sl[row..row + tri(r)], r);
+                assert!((&got - &want).norm() < tol(&want), "D-block");
+                row += tri(r);
+            }
+            ConditionSet::Paper => {
+                let mut want = DMatrix::zeros(r + nx, r + nx);
+                want.view_mut((0, 0), (r, r)).copy_from(&dm);
+                let gh = &g / cube.rho;
+                want.view_mut((r, 0), (nx, r)).copy_from(&gh);
+                want.view_mut((0, r), (r, nx)).copy_from(&gh.transpose());
+                want.view_mut((r, r), (nx, nx)).copy_from(&(&p / s));
+                want -= DMatrix::identity(r + nx, r + nx) * eps;
+                let got = smat(&sl[row..row + tri(r + nx)], r + nx);
+                assert!((&got - &want).norm() < tol(&want), "[D Gᵀ; G P]");
+                row += tri(r + nx);
+            }
+        }
+        let trace: f64 = slacks.d.iter().sum();
+        assert!((sl[row] - (1.0 - eps - trace)).abs() < 1e-12, "trace row");
+        row += 1;
+        // Facets as in the full assembly.
+        let nf = model.region.facets.len() * tri(nx + 1);
+        let f0 = tri(nx)
+            + match set {
+                ConditionSet::Sound => model.region.vertices.len(),
+                ConditionSet::Paper => model.region.vertices.len() * tri(nx + 1),
+            };
+        assert!((0..nf).all(|i| (sl[row + i] - fsl[f0 + i]).abs() < 1e-12));
+        row += nf;
+        // Rate blocks.
+        let sigma = set.nonlinear_sign();
+        let eps_rate = eps * cube.rate_scale(alpha, gamma);
+        let eye = DMatrix::<f64>::identity(nx, nx);
+        let he = |m: DMatrix<f64>| &m + m.transpose();
+        let next = |row: &mut usize| {
+            let m = smat(&sl[*row..*row + tri(nx)], nx);
+            *row += tri(nx);
+            m
+        };
+        for (c, combo) in combos.iter().enumerate() {
+            let part = |which: u8, v: &DVector<f64>| {
+                let mut f = DMatrix::zeros(nx, nx);
+                for &(l, m, w) in &combo.terms {
+                    let (vl, vm, gl) = (&model.vertices[l], &model.vertices[m], &gammas[l]);
+                    f += match which {
+                        0 => he((&p * &vl.a - gl * &vm.c) * gamma) + &p * (gamma * alpha),
+                        1 => he(&p * rows(&vl.n, v) * (-sigma) + gl * rows(&vm.m, v)),
+                        _ => he(&p * rows_he(&vl.n, v) * sigma - gl * rows_he(&vm.m, v)),
+                    } * w;
+                }
+                f
+            };
+            let mut sum = part(0, &DVector::zeros(nx));
+            for (k, gk) in gens.iter().enumerate() {
+                for (which, sk) in [(1u8, &slacks.y[c][k]), (2u8, &slacks.x[c][k])] {
+                    let pk = part(which, gk);
+                    for sign in [1.0, -1.0] {
+                        let want = (sk - &pk * sign) / s - &eye * eps_rate;
+                        let got = next(&mut row);
+                        assert!((&got - &want).norm() < tol(&want), "c={c} k={k} {which}");
+                    }
+                    sum += sk;
+                }
+            }
+            let want = -sum / s - &eye * eps_rate;
+            let got = next(&mut row);
+            assert!((&got - &want).norm() < tol(&want), "main block c={c}");
+        }
+        assert_eq!(row, sl.len());
+    }
+
+    #[test]
+    fn cube_assembly_matches_direct_matrices() {
+        check_cube_assembly(&paper_model(), Mode::Sound);
+        check_cube_assembly(&paper_model(), Mode::Paper);
+        check_cube_assembly(&synthetic_model(4), Mode::Sound);
+        check_cube_assembly(&varying_output_model(), Mode::Sound);
     }
 }

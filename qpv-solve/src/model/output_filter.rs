@@ -189,6 +189,13 @@ pub fn augment(model: &PolytopicModel, f: &OutputFilter) -> Result<PolytopicMode
     let region = Region {
         vertices: model.region.vertices.iter().map(extend).collect(),
         facets: model.region.facets.iter().map(extend).collect(),
+        // A zonotope stays one with generators (g_k, 0), whose vertices are
+        // the (x_(i), 0) above.
+        generators: model
+            .region
+            .zonotope_generators()
+            .map(|g| g.iter().map(extend).collect())
+            .unwrap_or_default(),
     };
     let state_bound = match &model.state_bound {
         StateBound::Given(q) => {

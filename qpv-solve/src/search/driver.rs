@@ -4,7 +4,8 @@
 
 use super::{Ctx, Point};
 use crate::backend::Status;
-use crate::certificate::{check, data_checks, DataCheck};
+use crate::certificate::{data_checks, DataCheck};
+use crate::conditions::cube::CubeSlacks;
 use crate::conditions::ConditionSet;
 use crate::error::SolveError;
 use crate::linalg::matrix_to_rows;
@@ -101,10 +102,8 @@ impl Setup {
     /// decoupled: N·2p blocks with a slack Z_l per θ-vertex (sufficient).
     /// The certificate checks the full family either way.
     pub fn problem(&self, request: &DesignRequest) -> Result<Problem<'_>, SolveError> {
-        Ok(
-            Problem::new(&self.model, ConditionSet::from_mode(request.mode))?
-                .with_conditions(request.conditions),
-        )
+        Problem::new(&self.model, ConditionSet::from_mode(request.mode))?
+            .with_conditions(request.conditions)
     }
 
     /// The notes that follow from the setup alone: the size warning, the
@@ -150,6 +149,14 @@ impl Setup {
                 "conditions = decoupled: solved with {} rate blocks (one slack Z per rate combination, sufficient) instead of {}; the certificate checks the full family of {} blocks",
                 prob.n_rate_blocks(),
                 prob.n_full_rate_blocks(),
+                prob.n_full_rate_blocks()
+            ));
+        }
+        if request.conditions == Conditions::Cube {
+            notes.push(format!(
+                "conditions = cube: the region as a zonotope with {} generators; solved and certified with {} rate blocks (one pair of slacks Y, X per generator, sufficient) and D ⪰ GᵀPG, trace D ≤ 1 for the region's vertices, instead of {} vertex-pair blocks; the report's `cube` key carries the slacks",
+                prob.n_generators(),
+                prob.n_rate_blocks(),
                 prob.n_full_rate_blocks()
             ));
         }
@@ -276,7 +283,7 @@ impl Ctx<'_, '_> {
         }
         out.last = at.point;
         if let Some(mut sp) = t.searched.filter(|p| p.alpha >= a && p.gamma == t.gamma) {
-            sp.cert = check(self.model, self.mode, a, t.gamma, &sp.p, &sp.l);
+            sp.cert = self.certify(a, t.gamma, &sp.p, &sp.l, sp.cube.as_ref());
             if sp.cert.passed {
                 sp.alpha = a;
                 notes.push(format!(
@@ -417,10 +424,21 @@ pub(super) fn design_plain(
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
     let mode = request.mode;
+    // `conditions = auto`: the choice by size (crate::size::choose), noted.
+    let (chosen_conditions, auto_note) = crate::size::choose(model, request);
+    let resolved = DesignRequest {
+        conditions: chosen_conditions,
+        ..request.clone()
+    };
+    let request = &resolved;
     let setup = Setup::new(model, request, settings)?;
     let model: &PolytopicModel = &setup.model;
     let prob = setup.problem(request)?;
-    let mut notes = setup.notes(request, &prob);
+    let mut notes = Vec::new();
+    if !auto_note.is_empty() {
+        notes.push(auto_note);
+    }
+    notes.extend(setup.notes(request, &prob));
     let mut ctx = Ctx {
         model,
         mode,
@@ -534,6 +552,10 @@ pub(super) fn design_plain(
         noise: None,
         sampling: None,
         gamma_search,
+        cube: shown
+            .as_ref()
+            .and_then(|p| p.cube.as_ref())
+            .map(CubeSlacks::to_report),
     })
 }
 

@@ -53,7 +53,8 @@ use driver::design_plain;
 pub use driver::{alpha_profile, ProfilePoint};
 
 use crate::backend::Status;
-use crate::certificate::{alpha_capacity, check, Certificate};
+use crate::certificate::{alpha_capacity, alpha_capacity_cube, check, check_cube, Certificate};
+use crate::conditions::cube::CubeSlacks;
 use crate::error::SolveError;
 use crate::linalg::matrix_to_rows;
 use crate::lmi::{Objective, Problem};
@@ -97,6 +98,8 @@ struct Point {
     l: Vec<DMatrix<f64>>,
     cert: Certificate,
     solver: SolverInfo,
+    /// The slacks of cube conditions (checked with the point).
+    cube: Option<CubeSlacks>,
 }
 
 /// The result of one attempt at (α, γ).
@@ -143,17 +146,36 @@ impl Ctx<'_, '_> {
         cert.passed
     }
 
+    /// The certificate of (P, L_l) at (α, γ): the full family, or the cube's
+    /// slack inequalities when the point carries cube slacks.
+    fn certify(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        p: &DMatrix<f64>,
+        l: &[DMatrix<f64>],
+        cube: Option<&CubeSlacks>,
+    ) -> Certificate {
+        match cube {
+            Some(c) => check_cube(self.model, self.mode, alpha, gamma, p, l, c),
+            None => check(self.model, self.mode, alpha, gamma, p, l),
+        }
+    }
+
     /// The largest α at which the point's (P, Γ_l, L_l) certify at `gamma`
     /// (exact capacity, times 1 − 1e-4, re-certified); None if they do not
     /// certify at any α > 0 there.
     fn lift(&self, base: &Point, gamma: f64) -> Option<Point> {
-        let cap = alpha_capacity(self.model, self.mode, gamma, &base.p, &base.gammas);
+        let cap = match &base.cube {
+            Some(c) => alpha_capacity_cube(self.model, self.mode, gamma, &base.p, &base.gammas, c),
+            None => alpha_capacity(self.model, self.mode, gamma, &base.p, &base.gammas),
+        };
         let a = cap * (1.0 - 1e-4);
         if !(a > 0.0 && a.is_finite()) {
             return None;
         }
         let a = a.min(self.settings.alpha_cap);
-        let cert = check(self.model, self.mode, a, gamma, &base.p, &base.l);
+        let cert = self.certify(a, gamma, &base.p, &base.l, base.cube.as_ref());
         if self.accepts(&cert) {
             Some(Point {
                 alpha: a,
@@ -214,7 +236,7 @@ impl Ctx<'_, '_> {
         if let Some(p) = res.p {
             if let Some(l) = gains(&p, &res.gammas) {
                 let tc = Instant::now();
-                let cert = check(self.model, self.mode, alpha, gamma, &p, &l);
+                let cert = self.certify(alpha, gamma, &p, &l, res.cube.as_ref());
                 solver.certify_seconds = tc.elapsed().as_secs_f64();
                 certified = self.accepts(&cert);
                 // Γ_l as the certificate sees them (P L_l).
@@ -227,6 +249,7 @@ impl Ctx<'_, '_> {
                     l,
                     cert,
                     solver: solver.clone(),
+                    cube: res.cube.clone(),
                 };
                 if certified {
                     alpha_certified = alpha;
@@ -510,7 +533,7 @@ fn design_skew(
         );
         return Ok(d);
     }
-    let r = skew_search(model, &d, SKEW_ROUNDS, settings, request.conditions)?;
+    let r = skew_search(model, &d, SKEW_ROUNDS, settings, d.conditions)?;
     let mut out = r.design.clone();
     if r.alpha_best() > d.alpha {
         out.skew = Some(
@@ -520,7 +543,7 @@ fn design_skew(
         );
         out.model = d.model.clone();
         out.split = Split::SkewSlack;
-        out.conditions = request.conditions;
+        out.conditions = d.conditions;
         out.state_bound = d.state_bound.clone();
         out.output_route = d.output_route.clone();
         let mut notes = d.notes.clone();

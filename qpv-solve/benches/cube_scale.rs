@@ -1,0 +1,201 @@
+//! Bench: `conditions = cube` at scale, and what it costs in α.
+//!
+//! * `scale` (default sizes nx = 6, 8, 10, 12, 16): the synthetic model
+//!   (`synthetic_model`: 4 θ-vertices, 2 outputs, the box |x_i| ≤ 0.02, so
+//!   r = nx generators and 2^nx vertices), sound mode, cube conditions,
+//!   γ = min(0.3, 0.95 γ_max). Per size, in its own process (so that the
+//!   peak memory, VmHWM, is that size's): one fixed-(α = 1, γ) design
+//!   (wall time; Clarabel's own solve time, the assembly and the
+//!   certificate) and the α search at that γ (α = max: certified α, wall
+//!   time, solves). Goals: nx = 12 under 10 s and nx = 16 under 60 s for
+//!   the fixed design, peak under 1 GiB.
+//! * `loss` (nx = 3..8): α_max at γ = min(0.3, 0.95 γ_max) with cube,
+//!   decoupled and (nx ≤ 4) full conditions, and the paper example at
+//!   γ = 0.18898; loss = 1 − α_cube/α_ref against the vertex family
+//!   (full where solved, else decoupled).
+//!
+//! `cargo bench -p qpv-solve --bench cube_scale [-- scale|fixed|loss] [-- NX...]`
+//! (`fixed`: the scale table without the α search).
+//!
+//! Measured on the shared 2-core machine (docs/method.md, "Conditions that
+//! scale", has the table and the profile).
+
+use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel};
+use qpv_solve::conditions::gamma_max;
+use qpv_solve::conditions::reference::{paper_model, synthetic_model};
+use qpv_solve::{design, request, Design, Settings};
+use std::process::Command;
+use std::time::Instant;
+
+fn vm_hwm_mib() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    s.lines()
+        .find(|l| l.starts_with("VmHWM:"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|kb| kb.parse::<f64>().ok())
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+fn gamma_for(model: &PolytopicModel) -> f64 {
+    0.3f64.min(0.95 * gamma_max(model).expect("synthetic models have Q"))
+}
+
+fn run(model: &PolytopicModel, alpha: AlphaSpec, gamma: f64, c: Conditions) -> (Design, f64) {
+    let mut req = request(alpha, GammaSpec::Fixed(gamma), Mode::Sound);
+    req.conditions = c;
+    let t = Instant::now();
+    let d = design(model, &req, &Settings::default()).expect("design");
+    (d, t.elapsed().as_secs_f64())
+}
+
+/// One size of the scale table, in this process.
+fn scale_child(nx: usize, search: bool) {
+    let model = synthetic_model(nx);
+    let gamma = gamma_for(&model);
+    let (d, wall) = run(&model, AlphaSpec::Fixed(1.0), gamma, Conditions::Cube);
+    let peak_fixed = vm_hwm_mib();
+    if !search {
+        println!(
+            "{:>3} {:>6} {:>6.4} {:>8.2} {:>8.2} {:>6.2} {:>6.3} {:>5} {:>9} | (no α search) {:>9.0}",
+            nx,
+            model.region.vertices.len(),
+            gamma,
+            wall,
+            d.solver.seconds,
+            d.solver.assembly_seconds,
+            d.solver.certify_seconds,
+            d.solver.iterations,
+            if d.certifies { "yes" } else { "NO" },
+            peak_fixed
+        );
+        return;
+    }
+    let (m, wall_max) = run(&model, AlphaSpec::Max, gamma, Conditions::Cube);
+    let solves = m.search.len() + 1;
+    let solver_total: f64 =
+        m.search.iter().map(|s| s.solver_seconds).sum::<f64>() + m.solver.seconds;
+    println!(
+        "{:>3} {:>6} {:>6.4} {:>8.2} {:>8.2} {:>6.2} {:>6.3} {:>5} {:>9} | {:>8.4} {:>8.2} {:>8.2} {:>6} {:>9.0} {:>9.0}",
+        nx,
+        model.region.vertices.len(),
+        gamma,
+        wall,
+        d.solver.seconds,
+        d.solver.assembly_seconds,
+        d.solver.certify_seconds,
+        d.solver.iterations,
+        if d.certifies { "yes" } else { "NO" },
+        if m.certifies { m.alpha } else { f64::NAN },
+        wall_max,
+        solver_total,
+        solves,
+        peak_fixed,
+        vm_hwm_mib(),
+    );
+}
+
+/// One row of the loss table, in this process.
+fn loss_child(nx: usize) {
+    let (model, gamma, name) = if nx == 0 {
+        (paper_model(), 0.18898, "paper".to_string())
+    } else {
+        let m = synthetic_model(nx);
+        let g = gamma_for(&m);
+        (m, g, format!("synthetic{nx}"))
+    };
+    let alpha = |c: Conditions| {
+        let (d, wall) = run(&model, AlphaSpec::Max, gamma, c);
+        (if d.certifies { d.alpha } else { f64::NAN }, wall)
+    };
+    let (cube, tc) = alpha(Conditions::Cube);
+    let (dec, td) = alpha(Conditions::Decoupled);
+    let (full, tf) = if nx <= 4 {
+        alpha(Conditions::Full)
+    } else {
+        (f64::NAN, f64::NAN)
+    };
+    let reference = if full.is_nan() { dec } else { full };
+    println!(
+        "{:>11} {:>6.4} {:>9.4} {:>7.2} {:>9.4} {:>7.2} {:>9.4} {:>7.2} {:>7.2}%",
+        name,
+        gamma,
+        full,
+        tf,
+        dec,
+        td,
+        cube,
+        tc,
+        100.0 * (1.0 - cube / reference)
+    );
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if let Some(pos) = args.iter().position(|a| a == "--child") {
+        let nx: usize = args[pos + 2].parse().unwrap();
+        match args[pos + 1].as_str() {
+            "scale" => scale_child(nx, true),
+            "fixed" => scale_child(nx, false),
+            _ => loss_child(nx),
+        }
+        return;
+    }
+    let loss = args.iter().any(|a| a == "loss");
+    let fixed = args.iter().any(|a| a == "fixed");
+    let scale = args.iter().any(|a| a == "scale") || fixed || !loss;
+    let given: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
+    let exe = std::env::current_exe().unwrap();
+    let child = |what: &str, nx: usize| {
+        let st = Command::new(&exe)
+            .args(["--child", what, &nx.to_string()])
+            .status()
+            .expect("child runs");
+        if !st.success() {
+            println!("{nx:>3} {what}: child failed ({st})");
+        }
+    };
+    if scale {
+        println!("bench cube_scale (scale): synthetic model, sound, cube, 4 θ-vertices, box region; fixed design α = 1, then α = max at the same γ");
+        println!(
+            "{:>3} {:>6} {:>6} {:>8} {:>8} {:>6} {:>6} {:>5} {:>9} | {:>8} {:>8} {:>8} {:>6} {:>9} {:>9}",
+            "nx",
+            "verts",
+            "γ",
+            "wall s",
+            "solver s",
+            "asm s",
+            "cert s",
+            "iters",
+            "certified",
+            "α max",
+            "wall s",
+            "solver s",
+            "solves",
+            "peak MiB",
+            "peak max"
+        );
+        let nxs = if given.is_empty() {
+            vec![6, 8, 10, 12, 16]
+        } else {
+            given.clone()
+        };
+        for nx in nxs {
+            child(if fixed { "fixed" } else { "scale" }, nx);
+        }
+    }
+    if loss {
+        println!("bench cube_scale (loss): α_max at fixed γ, sound mode, symmetric split; loss of cube against full (nx ≤ 4) or decoupled");
+        println!(
+            "{:>11} {:>6} {:>9} {:>7} {:>9} {:>7} {:>9} {:>7} {:>8}",
+            "model", "γ", "full α", "s", "dec α", "s", "cube α", "s", "loss"
+        );
+        let nxs = if given.is_empty() {
+            vec![0, 3, 4, 5, 6, 7, 8]
+        } else {
+            given
+        };
+        for nx in nxs {
+            child("loss", nx);
+        }
+    }
+}

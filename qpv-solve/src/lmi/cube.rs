@@ -1,0 +1,250 @@
+//! The assembly of `conditions = cube` ([`crate::conditions::cube`]).
+//!
+//! Variables after Γ̂: per rate combination c and generator k the slacks
+//! Ŷ_{c,k}, X̂_{c,k} (upper triangles like P̂, model units over s), then the
+//! r diagonal entries of D (dimensionless). Rows:
+//!
+//! ```text
+//!   region, in place of the vertex rows:
+//!     sound (S2):  D − ĜᵀP̂Ĝ − εI ⪰ 0           PSD(r)       (Ĝ = G/ρ)
+//!     paper (13):  [D Ĝᵀ; Ĝ P̂] − εI ⪰ 0         PSD(r + nx)
+//!                  1 − ε − Σ_k D_kk ≥ 0          Nonnegative(1)
+//!   rate, per combination c:
+//!     Ŷ_{c,k} ∓ G_c(g_k) − εκ I ⪰ 0,  X̂_{c,k} ∓ H_c(g_k) − εκ I ⪰ 0   4r × PSD(nx)
+//!     −(F0_c + Σ_k Ŷ_{c,k} + Σ_k X̂_{c,k}) − ε_rate I ⪰ 0               PSD(nx)
+//! ```
+//!
+//! with F0_c, G_c, H_c the parts of the rate matrix He{P̂K − Γ̂H} of
+//! [`crate::lmi`]: F0 = He{P̂(γA_l + (γα/2)I) − γΓ̂_l C_m}, G(g) =
+//! He{−σP̂ rows(N_l, g) + Γ̂_l rows(M_m, g)}, H(g) = He{σP̂ rowsHe(N_l, g) −
+//! Γ̂_l rowsHe(M_m, g)}, each weighted by the combination's terms. The slack
+//! inequalities keep their margin εκ under every objective (the max-margin
+//! column sits on the last block only), so that the returned slacks satisfy
+//! them strictly, as the certificate requires.
+
+use super::{tri, tri_idx, Problem, RateMargins, Rows, SQRT2};
+use crate::conditions::cube::CubeSlacks;
+use crate::conditions::{rows, rows_he};
+use clarabel::solver::SupportedConeT;
+use nalgebra::{DMatrix, DVector};
+
+/// Which part of the rate matrix of a combination.
+#[derive(Clone, Copy)]
+enum Part<'a> {
+    /// F0: the terms without region vectors (with γαP).
+    Constant,
+    /// G(g): the e-vertex terms, linear in g.
+    E(&'a DVector<f64>),
+    /// H(g): the x-vertex terms, linear in g.
+    X(&'a DVector<f64>),
+}
+
+type Kh = (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>);
+
+impl Problem<'_> {
+    /// Number of generators r (cube conditions; 0 otherwise).
+    pub fn n_generators(&self) -> usize {
+        self.gens.len()
+    }
+
+    /// First variable of Ŷ_{c,k} (X̂_{c,k} follows it).
+    fn yvar(&self, c: usize, k: usize) -> usize {
+        self.gains_end() + (c * self.gens.len() + k) * 2 * self.np
+    }
+
+    /// Variable of D_kk.
+    fn dvar(&self, k: usize) -> usize {
+        self.gains_end() + self.combos.len() * self.gens.len() * 2 * self.np + k
+    }
+
+    /// K and the gain terms of one part of combination c's rate matrix, so
+    /// that the part is He{P̂K − Σ_l Γ̂_l H_l}, times `sign`.
+    fn cube_kh(&self, alpha: f64, gamma: f64, c: usize, part: Part, sign: f64) -> Kh {
+        let sigma = self.set.nonlinear_sign();
+        let mut k = DMatrix::zeros(self.nx, self.nx);
+        let mut hs: Vec<(usize, DMatrix<f64>)> = Vec::new();
+        for &(l, m, w) in &self.combos[c].terms {
+            let (vl, vm) = (&self.model.vertices[l], &self.model.vertices[m]);
+            let w = w * sign;
+            let h = match part {
+                Part::Constant => {
+                    k += &vl.a * (gamma * w);
+                    for d in 0..self.nx {
+                        k[(d, d)] += 0.5 * gamma * alpha * w;
+                    }
+                    &vm.c * (gamma * w)
+                }
+                Part::E(g) => {
+                    k -= rows(&vl.n, g) * (sigma * w);
+                    -rows(&vm.m, g) * w
+                }
+                Part::X(g) => {
+                    k += rows_he(&vl.n, g) * (sigma * w);
+                    rows_he(&vm.m, g) * w
+                }
+            };
+            match hs.iter_mut().find(|(g, _)| *g == l) {
+                Some((_, acc)) => *acc += h,
+                None => hs.push((l, h)),
+            }
+        }
+        hs.sort_by_key(|(g, _)| *g);
+        (k, hs)
+    }
+
+    /// The region's vertex condition through D (see the module doc).
+    pub(super) fn push_cube_region(&self, out: &mut Rows, eps: f64) {
+        let (nx, r) = (self.nx, self.gens.len());
+        let gh: Vec<DVector<f64>> = self.gens.iter().map(|g| g / self.rho).collect();
+        let sound = self.set.nonlinear_sign() > 0.0;
+        if sound {
+            // D − ĜᵀP̂Ĝ − εI ⪰ 0: A[P̂_ij] = +sc ∂(ĝ_aᵀP̂ĝ_b)/∂P̂_ij, A[D_k] = −1.
+            let row0 = out.open(tri(r), eps);
+            for j in 0..nx {
+                for i in 0..=j {
+                    let v = tri_idx(i, j);
+                    for bb in 0..r {
+                        for a in 0..=bb {
+                            let d = if i == j {
+                                gh[a][i] * gh[bb][i]
+                            } else {
+                                gh[a][i] * gh[bb][j] + gh[a][j] * gh[bb][i]
+                            };
+                            let sc = if a == bb { 1.0 } else { SQRT2 };
+                            out.cols.push(row0 + tri_idx(a, bb), v, sc * d);
+                        }
+                    }
+                }
+            }
+            for k in 0..r {
+                out.cols.push(row0 + tri_idx(k, k), self.dvar(k), -1.0);
+            }
+            out.cones.push(SupportedConeT::PSDTriangleConeT(r));
+        } else {
+            // [D Ĝᵀ; Ĝ P̂] − εI ⪰ 0 (indices 0..r: D, r..: P̂).
+            let row0 = out.open(tri(r + nx), eps);
+            for (a, g) in gh.iter().enumerate() {
+                for i in 0..nx {
+                    out.b[row0 + tri_idx(a, r + i)] = SQRT2 * g[i];
+                }
+            }
+            for j in 0..nx {
+                for i in 0..=j {
+                    let sc = if i == j { 1.0 } else { SQRT2 };
+                    out.cols
+                        .push(row0 + tri_idx(r + i, r + j), tri_idx(i, j), -sc);
+                }
+            }
+            for k in 0..r {
+                out.cols.push(row0 + tri_idx(k, k), self.dvar(k), -1.0);
+            }
+            out.cones.push(SupportedConeT::PSDTriangleConeT(r + nx));
+        }
+        // 1 − ε − Σ D_kk ≥ 0.
+        let row = out.b.len();
+        out.b.push(1.0 - eps);
+        for k in 0..r {
+            out.cols.push(row, self.dvar(k), 1.0);
+        }
+        out.cones.push(SupportedConeT::NonnegativeConeT(1));
+    }
+
+    /// The cube rate family (see the module doc).
+    pub(super) fn push_rate_cube(
+        &self,
+        out: &mut Rows,
+        alpha: f64,
+        gamma: f64,
+        rate: &RateMargins,
+    ) {
+        let nx = self.nx;
+        let mut df = vec![0.0; nx * nx];
+        let mut block = |out: &mut Rows, kh: &Kh, eps: f64, vars: &[(usize, f64)]| -> usize {
+            let row0 = out.open(tri(nx), eps);
+            self.push_he_block(&mut out.cols, row0, &kh.0, &kh.1, &mut df);
+            for &(first, sign) in vars {
+                self.push_sym_var(&mut out.cols, row0, first, sign);
+            }
+            out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+            row0
+        };
+        for c in 0..self.combos.len() {
+            let mut sum: Vec<(usize, f64)> = Vec::with_capacity(2 * self.gens.len());
+            for (k, g) in self.gens.iter().enumerate() {
+                let (y, x) = (self.yvar(c, k), self.yvar(c, k) + self.np);
+                // Ŷ − G ⪰ εI is −(G − Ŷ) ⪰ εI: the block of G with −Ŷ.
+                for part in [Part::E(g), Part::X(g)] {
+                    let var = if matches!(part, Part::E(_)) { y } else { x };
+                    for sign in [1.0, -1.0] {
+                        let kh = self.cube_kh(alpha, gamma, c, part, sign);
+                        block(out, &kh, rate.slack_eps, &[(var, -1.0)]);
+                    }
+                }
+                sum.push((y, 1.0));
+                sum.push((x, 1.0));
+            }
+            let f0 = self.cube_kh(alpha, gamma, c, Part::Constant, 1.0);
+            let row0 = block(out, &f0, rate.eps, &sum);
+            rate.push_column(&mut out.cols, row0);
+        }
+    }
+
+    /// The cube slacks of a solution vector, in model units (None unless
+    /// the conditions are cube).
+    pub fn unpack_cube(&self, x: &[f64]) -> Option<CubeSlacks> {
+        if self.gens.is_empty() {
+            return None;
+        }
+        let s = self.scale;
+        let sym = |first: usize| {
+            let mut m = DMatrix::zeros(self.nx, self.nx);
+            for c in 0..self.nx {
+                for r in 0..=c {
+                    let v = s * x[first + tri_idx(r, c)];
+                    m[(r, c)] = v;
+                    m[(c, r)] = v;
+                }
+            }
+            m
+        };
+        let per = |off: usize| -> Vec<Vec<DMatrix<f64>>> {
+            (0..self.combos.len())
+                .map(|c| {
+                    (0..self.gens.len())
+                        .map(|k| sym(self.yvar(c, k) + off))
+                        .collect()
+                })
+                .collect()
+        };
+        Some(CubeSlacks {
+            y: per(0),
+            x: per(self.np),
+            d: (0..self.gens.len()).map(|k| x[self.dvar(k)]).collect(),
+        })
+    }
+
+    /// Writes cube slacks (model units; upper triangles used) into a
+    /// variable vector from [`Problem::pack`] (cube conditions only; tests).
+    pub fn pack_cube(&self, x: &mut [f64], slacks: &CubeSlacks) {
+        assert!(
+            !self.gens.is_empty(),
+            "only cube problems have these slacks"
+        );
+        let mut put = |first: usize, m: &DMatrix<f64>| {
+            for c in 0..self.nx {
+                for r in 0..=c {
+                    x[first + tri_idx(r, c)] = m[(r, c)] / self.scale;
+                }
+            }
+        };
+        for c in 0..self.combos.len() {
+            for k in 0..self.gens.len() {
+                put(self.yvar(c, k), &slacks.y[c][k]);
+                put(self.yvar(c, k) + self.np, &slacks.x[c][k]);
+            }
+        }
+        for (k, d) in slacks.d.iter().enumerate() {
+            x[self.dvar(k)] = *d;
+        }
+    }
+}
