@@ -11,6 +11,7 @@ use crate::emit::{self, CertifiedDesign, EmitModel, Figures};
 use crate::fallback::{self, Failure};
 use crate::input::{Input, Source};
 use crate::slow_solve;
+use nalgebra::DMatrix;
 use proc_macro2::TokenStream;
 use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, NoiseObjective, OutputFilter,
@@ -339,57 +340,104 @@ fn one_design(
     req: &DesignRequest,
     cache: Option<&std::path::Path>,
 ) -> Result<Outcome, String> {
-    let request = describe(req);
-    let filter = filter_of(req);
-    // The design's state: the plant's, plus one filter state per output for
-    // the filter route (P is nz × nz, each L_l nz × ny).
-    let (nx, ny, nv) = (model.nx(), model.ny(), poly.nv());
-    let nz = nx + if filter.is_some() { ny } else { 0 };
     let settings = settings();
     // The key is the model as written (`state_bound auto` included), so an
     // auto bound is cached with the design.
     let key = cache::key(poly, req, &format!("{settings:?}"));
     let cached = cache.and_then(|dir| cache::load(dir, &key));
-    // `state_bound auto`: Q from the cache if it passes the independent
-    // state-bound check again, else computed; the design and the macro's own
-    // certificate then use it as given.
+    let (observer, bound) = observer_model(poly, req, &settings, cached.as_ref())?;
+    let ctx = DesignCtx {
+        request: describe(req),
+        req,
+        filter: filter_of(req),
+        // The design's state: the plant's, plus one filter state per output
+        // for the filter route (P is nz × nz, each L_l nz × ny).
+        nz: model.nx()
+            + if filter_of(req).is_some() {
+                model.ny()
+            } else {
+                0
+            },
+        ny: model.ny(),
+        observer: &observer,
+    };
+    // A cache hit is re-certified, never trusted blindly.
+    if let Some(e) = cached {
+        if let Some(hit) = ctx.recertified(&e) {
+            if e.bound != bound {
+                // the state bound was recomputed: keep the fresh one
+                if let Some(dir) = cache {
+                    let fresh = cache::Entry { bound, ..e };
+                    cache::store(dir, &key, &fresh);
+                }
+            }
+            return Ok(hit);
+        }
+    }
+    let (outcome, entry) = ctx.solved(&settings, bound)?;
+    if let Some(dir) = cache {
+        cache::store(dir, &key, &entry);
+    }
+    Ok(outcome)
+}
+
+/// The observer's model (the one builder): the state bound, then the output
+/// route (the plant, or the plant augmented by the output filter), then the
+/// representation of N_k, M_k the design uses (the plant, hence the
+/// generated code, is the same). `state_bound auto`: Q from the cache if it
+/// passes the independent state-bound check again, else computed (then
+/// returned for the cache); the design and the macro's own certificate use
+/// it as given.
+fn observer_model(
+    poly: &PolytopicModel,
+    req: &DesignRequest,
+    settings: &Settings,
+    cached: Option<&cache::Entry>,
+) -> Result<(ObserverModel, Option<cache::Bound>), String> {
     let options = ObserverOptions::for_request(req);
     let reused = cached
-        .as_ref()
         .and_then(|e| e.bound.as_ref())
         .and_then(|b| recheck_bound(poly, &options, b));
-    // The observer's model (the one builder): the state bound, then the
-    // output route (the plant, or the plant augmented by the output filter),
-    // then the representation of N_k, M_k the design uses (the plant, hence
-    // the generated code, is the same).
-    let (observer, bound) = match reused {
-        Some(found) => found,
-        None => {
-            let observer =
-                ObserverModel::prepare(poly, &options, StateBoundClaim::Compute(&settings))
-                    .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?;
-            let bound = match (
-                &poly.state_bound,
-                &observer.plant.state_bound,
-                observer.state_bound.h,
-            ) {
-                (StateBound::Auto { .. }, StateBound::Given(q), Some(h)) => Some(cache::Bound {
-                    h,
-                    symmetric: observer.state_bound.split.as_deref() == Some("symmetric"),
-                    q: matrix_to_rows(q).concat(),
-                }),
-                _ => None,
-            };
-            (observer, bound)
-        }
+    if let Some(found) = reused {
+        return Ok(found);
+    }
+    let observer = ObserverModel::prepare(poly, &options, StateBoundClaim::Compute(settings))
+        .map_err(|e| format!("design `{}` cannot be attempted: {e}", describe(req)))?;
+    let bound = match (
+        &poly.state_bound,
+        &observer.plant.state_bound,
+        observer.state_bound.h,
+    ) {
+        (StateBound::Auto { .. }, StateBound::Given(q), Some(h)) => Some(cache::Bound {
+            h,
+            symmetric: observer.state_bound.split.as_deref() == Some("symmetric"),
+            q: matrix_to_rows(q).concat(),
+        }),
+        _ => None,
     };
-    let poly = &observer.plant;
-    // `split = skew_slack`: the slack K_{k,l} (flattened: per vertex, per k,
-    // row-major nz × nz) the numbers were certified with, added to N_k.
-    let with_skew = |k: &[f64]| -> Option<qpv_dsl::PolytopicModel> {
+    Ok((observer, bound))
+}
+
+/// What one request's design needs beside the numbers: the request, its
+/// output route and sizes, and the observer's model.
+struct DesignCtx<'a> {
+    request: String,
+    req: &'a DesignRequest,
+    filter: Option<OutputFilter>,
+    nz: usize,
+    ny: usize,
+    observer: &'a ObserverModel,
+}
+
+impl DesignCtx<'_> {
+    /// The observer's model with the skew slack K_{k,l} the numbers were
+    /// certified with added to N_k (flattened: per vertex, per k, row-major
+    /// nz × nz; empty for no slack); None if its size does not fit.
+    fn with_skew(&self, k: &[f64]) -> Option<PolytopicModel> {
         if k.is_empty() {
-            return Some(observer.model.clone());
+            return Some(self.observer.model.clone());
         }
+        let (nv, nz) = (self.observer.plant.nv(), self.nz);
         if k.len() != nv * nz * nz * nz {
             return None;
         }
@@ -401,166 +449,169 @@ fn one_design(
                     .collect()
             })
             .collect();
-        observer.with_skew(&mats).ok()
-    };
+        self.observer.with_skew(&mats).ok()
+    }
 
-    // A cache hit is re-certified, never trusted blindly.
-    if let Some(e) = cached {
-        let checked_model = with_skew(&e.skew);
-        if let (Some(cm), true) = (
-            checked_model,
-            e.p.len() == nz * nz && e.l.len() == nv && e.l.iter().all(|l| l.len() == nz * ny),
-        ) {
-            let p = rows_to_matrix(&rows(&e.p, nz));
-            let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
-            let cert = qpv_solve::check(&cm, req.mode, e.alpha, e.gamma, &p, &ls);
-            if cert.passed {
-                if e.bound != bound {
-                    // the state bound was recomputed: keep the fresh one
-                    if let Some(dir) = cache {
-                        let fresh = cache::Entry {
-                            bound: bound.clone(),
-                            ..e.clone()
-                        };
-                        cache::store(dir, &key, &fresh);
-                    }
-                }
-                return Ok(Outcome {
-                    origin: "cache hit, re-certified",
-                    numbers: CertifiedDesign {
-                        request,
-                        mode: mode_name(req.mode).into(),
-                        certifies: req.mode == Mode::Sound,
-                        alpha: e.alpha,
-                        gamma: e.gamma,
-                        p: e.p,
-                        l: e.l,
-                        margins: cert
-                            .families
-                            .iter()
-                            .map(|f| (f.name.clone(), f.margin))
-                            .collect(),
-                        figures: figures(poly, &cm, filter, e.alpha, e.gamma, &p, &ls),
-                        status: e.status,
-                        iterations: e.iterations,
-                        filter,
-                    },
-                });
+    /// The numbers to emit for P, L_l that passed `cert` at (α, γ), with
+    /// the noise and sampling figures computed on them.
+    #[allow(clippy::too_many_arguments)]
+    fn numbers(
+        &self,
+        checked_model: &PolytopicModel,
+        (alpha, gamma): (f64, f64),
+        (p, ls): (&DMatrix<f64>, &[DMatrix<f64>]),
+        cert: &qpv_solve::Certificate,
+        status: String,
+        iterations: u32,
+    ) -> CertifiedDesign {
+        let poly = &self.observer.plant;
+        CertifiedDesign {
+            request: self.request.clone(),
+            mode: mode_name(self.req.mode).into(),
+            certifies: self.req.mode == Mode::Sound,
+            alpha,
+            gamma,
+            p: matrix_to_rows(p).concat(),
+            l: ls.iter().map(|l| matrix_to_rows(l).concat()).collect(),
+            margins: cert
+                .families
+                .iter()
+                .map(|f| (f.name.clone(), f.margin))
+                .collect(),
+            figures: figures(poly, checked_model, self.filter, alpha, gamma, p, ls),
+            status,
+            iterations,
+            filter: self.filter,
+        }
+    }
+
+    /// A cache entry whose numbers pass the certificate again on the model
+    /// as it is now; None if they do not (or do not fit it), and the design
+    /// is solved afresh.
+    fn recertified(&self, e: &cache::Entry) -> Option<Outcome> {
+        let (nz, ny, nv) = (self.nz, self.ny, self.observer.plant.nv());
+        let checked_model = self.with_skew(&e.skew)?;
+        let fits =
+            e.p.len() == nz * nz && e.l.len() == nv && e.l.iter().all(|l| l.len() == nz * ny);
+        if !fits {
+            return None;
+        }
+        let p = rows_to_matrix(&rows(&e.p, nz));
+        let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
+        let cert = qpv_solve::check(&checked_model, self.req.mode, e.alpha, e.gamma, &p, &ls);
+        cert.passed.then(|| Outcome {
+            origin: "cache hit, re-certified",
+            numbers: self.numbers(
+                &checked_model,
+                (e.alpha, e.gamma),
+                (&p, &ls),
+                &cert,
+                e.status.clone(),
+                e.iterations,
+            ),
+        })
+    }
+
+    /// Solves the request, accepts only a certified design (or, in paper
+    /// mode, a feasible reproduction), checks the numbers again itself, and
+    /// returns them with the cache entry to store.
+    fn solved(
+        &self,
+        settings: &Settings,
+        bound: Option<cache::Bound>,
+    ) -> Result<(Outcome, cache::Entry), String> {
+        let (request, req, poly) = (&self.request, self.req, &self.observer.plant);
+        let design = qpv_solve::design(poly, req, settings)
+            .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?;
+        let accepted = match req.mode {
+            Mode::Sound => design.feasible && design.certifies,
+            Mode::Paper => design.feasible,
+        };
+        if !accepted {
+            let mut msg = not_certified(request, &design, poly);
+            if req.noise == NoiseObjective::Min && !design.search.iter().any(|s| s.certified) {
+                let hint = best_tradeoff_point(poly, req);
+                msg = msg.replace("; no gain was baked", &format!("{hint}; no gain was baked"));
             }
+            return Err(msg);
         }
-    }
-
-    let design = qpv_solve::design(poly, req, &settings)
-        .map_err(|e| format!("design `{request}` cannot be attempted: {e}"))?;
-    let accepted = match req.mode {
-        Mode::Sound => design.feasible && design.certifies,
-        Mode::Paper => design.feasible,
-    };
-    if !accepted {
-        let mut msg = not_certified(&request, &design, poly);
-        if req.noise == NoiseObjective::Min && !design.search.iter().any(|s| s.certified) {
-            let hint = best_tradeoff_point(poly, req);
-            msg = msg.replace("; no gain was baked", &format!("{hint}; no gain was baked"));
+        let (nz, ny, nv) = (self.nz, self.ny, poly.nv());
+        let p = design.p_matrix();
+        let ls = design.l_matrices();
+        let shapes_ok = p.nrows() == nz
+            && p.ncols() == nz
+            && ls.len() == nv
+            && ls.iter().all(|l| l.nrows() == nz && l.ncols() == ny);
+        if !shapes_ok {
+            return Err(format!(
+                "design `{request}`: the solver returned matrices of unexpected size \
+                 (an internal error; please report it)"
+            ));
         }
-        return Err(msg);
-    }
-    let p = design.p_matrix();
-    let ls = design.l_matrices();
-    let shapes_ok = p.nrows() == nz
-        && p.ncols() == nz
-        && ls.len() == nv
-        && ls.iter().all(|l| l.nrows() == nz && l.ncols() == ny);
-    if !shapes_ok {
-        return Err(format!(
-            "design `{request}`: the solver returned matrices of unexpected size \
-             (an internal error; please report it)"
-        ));
-    }
-    // The solver already certified; the macro checks again itself, on exactly
-    // the numbers it is about to bake (and the skew slack they came with).
-    let skew: Vec<f64> = design
-        .skew
-        .iter()
-        .flatten()
-        .flatten()
-        .flatten()
-        .flatten()
-        .copied()
-        .collect();
-    let checked_model = with_skew(&skew).ok_or_else(|| {
-        format!(
-            "design `{request}`: the solver returned a skew slack of unexpected size \
-             (an internal error; please report it)"
-        )
-    })?;
-    let cert = qpv_solve::check(
-        &checked_model,
-        req.mode,
-        design.alpha,
-        design.gamma,
-        &p,
-        &ls,
-    );
-    let finite = p
-        .iter()
-        .chain(ls.iter().flat_map(|l| l.iter()))
-        .all(|v| v.is_finite());
-    if !cert.passed || !finite {
-        let worst = cert
-            .families
+        // The solver already certified; the macro checks again itself, on
+        // exactly the numbers it is about to bake (and the skew slack they
+        // came with).
+        let skew: Vec<f64> = design
+            .skew
             .iter()
-            .filter(|f| !f.passed)
-            .map(|f| format!("{} margin {}", f.name, sig(f.margin)))
-            .collect::<Vec<_>>()
-            .join(", ");
-        return Err(format!(
-            "design `{request}`: the solver's point did not pass the macro's own \
-             certificate check ({worst}); not baked"
-        ));
-    }
-    let entry = cache::Entry {
-        bound,
-        alpha: design.alpha,
-        gamma: design.gamma,
-        status: design.solver.detail.clone(),
-        iterations: design.solver.iterations,
-        p: matrix_to_rows(&p).concat(),
-        l: ls.iter().map(|l| matrix_to_rows(l).concat()).collect(),
-        skew,
-    };
-    if let Some(dir) = cache {
-        cache::store(dir, &key, &entry);
-    }
-    let numbers = CertifiedDesign {
-        request,
-        mode: mode_name(req.mode).into(),
-        certifies: req.mode == Mode::Sound,
-        alpha: entry.alpha,
-        gamma: entry.gamma,
-        p: entry.p,
-        l: entry.l,
-        margins: cert
-            .families
+            .flatten()
+            .flatten()
+            .flatten()
+            .flatten()
+            .copied()
+            .collect();
+        let checked_model = self.with_skew(&skew).ok_or_else(|| {
+            format!(
+                "design `{request}`: the solver returned a skew slack of unexpected size \
+                 (an internal error; please report it)"
+            )
+        })?;
+        let (alpha, gamma) = (design.alpha, design.gamma);
+        let cert = qpv_solve::check(&checked_model, req.mode, alpha, gamma, &p, &ls);
+        let finite = p
             .iter()
-            .map(|f| (f.name.clone(), f.margin))
-            .collect(),
-        figures: figures(
-            poly,
+            .chain(ls.iter().flat_map(|l| l.iter()))
+            .all(|v| v.is_finite());
+        if !cert.passed || !finite {
+            let worst = cert
+                .families
+                .iter()
+                .filter(|f| !f.passed)
+                .map(|f| format!("{} margin {}", f.name, sig(f.margin)))
+                .collect::<Vec<_>>()
+                .join(", ");
+            return Err(format!(
+                "design `{request}`: the solver's point did not pass the macro's own \
+                 certificate check ({worst}); not baked"
+            ));
+        }
+        let (status, iterations) = (design.solver.detail.clone(), design.solver.iterations);
+        let numbers = self.numbers(
             &checked_model,
-            filter,
-            entry.alpha,
-            entry.gamma,
-            &p,
-            &ls,
-        ),
-        status: entry.status,
-        iterations: entry.iterations,
-        filter,
-    };
-    Ok(Outcome {
-        origin: "solved",
-        numbers,
-    })
+            (alpha, gamma),
+            (&p, &ls),
+            &cert,
+            status.clone(),
+            iterations,
+        );
+        let entry = cache::Entry {
+            bound,
+            alpha,
+            gamma,
+            status,
+            iterations,
+            p: numbers.p.clone(),
+            l: numbers.l.clone(),
+            skew,
+        };
+        Ok((
+            Outcome {
+                origin: "solved",
+                numbers,
+            },
+            entry,
+        ))
+    }
 }
 
 /// A design ready for emission and where it came from (for `QPV_TIMING`).

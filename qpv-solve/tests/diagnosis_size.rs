@@ -2,7 +2,7 @@
 //! region vertices outside F) and the size guard that refuses a design too
 //! large to solve before anything is assembled.
 
-use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode};
+use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode};
 use qpv_solve::conditions::reference::{paper_model, synthetic_model};
 use qpv_solve::diagnosis::{diagnose, undetectable_modes};
 use qpv_solve::size::{estimate, guard, Verdict, CERTIFICATE_BUDGET, MEMORY_BUDGET};
@@ -102,7 +102,9 @@ fn the_size_estimate_grows_with_the_region_and_decoupled_is_smaller() {
     let mut last = 0.0;
     for nx in 3..=8 {
         let m = synthetic_model(nx);
-        let full = estimate(&m, &request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound));
+        let mut f = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+        f.conditions = Conditions::Full;
+        let full = estimate(&m, &f);
         let mut r = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
         r.conditions = Conditions::Decoupled;
         let dec = estimate(&m, &r);
@@ -118,7 +120,8 @@ fn the_size_estimate_grows_with_the_region_and_decoupled_is_smaller() {
 #[test]
 fn a_ten_state_box_is_refused_before_solving_and_three_states_fit() {
     let big = synthetic_model(10);
-    let req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+    let mut req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+    req.conditions = Conditions::Full;
     match guard(&big, &req) {
         Verdict::TooLarge(m) => {
             assert!(m.contains("1024 region vertices"), "{m}");
@@ -133,4 +136,16 @@ fn a_ten_state_box_is_refused_before_solving_and_three_states_fit() {
         other => panic!("expected TooLarge, got {other:?}"),
     }
     assert_eq!(guard(&synthetic_model(3), &req), Verdict::Fits);
+    // Left to choose (`conditions = auto`, the default), the same model gets
+    // the cube conditions, which fit.
+    let auto = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+    assert_eq!(auto.conditions, Conditions::Auto);
+    let (chosen, why) = qpv_solve::size::choose(&big, &auto);
+    assert_eq!(chosen, Conditions::Cube, "{why}");
+    let cube = DesignRequest {
+        conditions: chosen,
+        ..auto
+    };
+    let v = guard(&big, &cube);
+    assert!(!matches!(v, Verdict::TooLarge(_)), "{v:?}");
 }
