@@ -17,7 +17,10 @@
 //! * `profile` (default nx = 10): where one fixed-(α = 1, γ) cube solve
 //!   spends its time: the problem's size, the KKT system's and its LDL
 //!   factor's nonzeros, and Clarabel's own timers (cone scaling, KKT update,
-//!   which is the numerical factorisation, and KKT solves).
+//!   which is the numerical factorisation, and KKT solves). The problem is
+//!   assembled from the synthetic model as given, without the design's
+//!   symmetric split of N_k, so its iteration count can differ from the
+//!   design's by a few.
 //!
 //! `cargo bench -p qpv-solve --bench cube_scale [-- scale|fixed|loss|profile] [-- NX...]`
 //! (`fixed`: the scale table without the α search). Times are wall-clock and,
@@ -96,6 +99,9 @@ fn scale_child(nx: usize, search: bool) {
             if d.certifies { "yes" } else { "NO" },
             peak_fixed
         );
+        if !d.certifies {
+            println!("    (Clarabel: {})", d.solver.detail);
+        }
         return;
     }
     let (m, wall_max) = run(&model, AlphaSpec::Max, gamma, Conditions::Cube);
