@@ -14,11 +14,21 @@
 //!   γ = 0.18898; loss = 1 − α_cube/α_ref against the vertex family
 //!   (full where solved, else decoupled).
 //!
-//! `cargo bench -p qpv-solve --bench cube_scale [-- scale|fixed|loss] [-- NX...]`
-//! (`fixed`: the scale table without the α search).
+//! * `profile` (default nx = 10): where one fixed-(α = 1, γ) cube solve
+//!   spends its time: the problem's size, the KKT system's and its LDL
+//!   factor's nonzeros, and Clarabel's own timers (cone scaling, KKT update,
+//!   which is the numerical factorisation, and KKT solves). The problem is
+//!   assembled from the synthetic model as given, without the design's
+//!   symmetric split of N_k, so its iteration count can differ from the
+//!   design's by a few.
 //!
-//! Measured on the shared 2-core machine (docs/method.md, "Conditions that
-//! scale", has the table and the profile).
+//! `cargo bench -p qpv-solve --bench cube_scale [-- scale|fixed|loss|profile] [-- NX...]`
+//! (`fixed`: the scale table without the α search). Times are wall-clock and,
+//! because the machine may be shared, the process's CPU time too.
+//!
+//! Measured on the shared 2-core machine (docs/method.md, "Cube conditions:
+//! zonotope regions without vertex enumeration", has the tables and the
+//! profile).
 
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel};
 use qpv_solve::conditions::gamma_max;
@@ -34,6 +44,24 @@ fn vm_hwm_mib() -> f64 {
         .and_then(|l| l.split_whitespace().nth(1))
         .and_then(|kb| kb.parse::<f64>().ok())
         .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+/// CPU time (user + system) of this process so far, in seconds.
+fn cpu_seconds() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the command name (which is in parentheses): utime and
+    // stime are fields 14 and 15 of the whole line, in clock ticks (100/s).
+    let rest = s.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    // f[0] is field 3 (the state), so field k is f[k - 3].
+    match (f.get(11), f.get(12)) {
+        (Some(u), Some(st)) => {
+            let ticks =
+                u.parse::<f64>().unwrap_or(f64::NAN) + st.parse::<f64>().unwrap_or(f64::NAN);
+            ticks / 100.0
+        }
+        _ => f64::NAN,
+    }
 }
 
 fn gamma_for(model: &PolytopicModel) -> f64 {
@@ -52,15 +80,18 @@ fn run(model: &PolytopicModel, alpha: AlphaSpec, gamma: f64, c: Conditions) -> (
 fn scale_child(nx: usize, search: bool) {
     let model = synthetic_model(nx);
     let gamma = gamma_for(&model);
+    let cpu0 = cpu_seconds();
     let (d, wall) = run(&model, AlphaSpec::Fixed(1.0), gamma, Conditions::Cube);
+    let cpu = cpu_seconds() - cpu0;
     let peak_fixed = vm_hwm_mib();
     if !search {
         println!(
-            "{:>3} {:>6} {:>6.4} {:>8.2} {:>8.2} {:>6.2} {:>6.3} {:>5} {:>9} | (no α search) {:>9.0}",
+            "{:>3} {:>6} {:>6.4} {:>8.2} {:>7.2} {:>8.2} {:>6.2} {:>6.3} {:>5} {:>9} | (no α search) {:>9.0}",
             nx,
             model.region.vertices.len(),
             gamma,
             wall,
+            cpu,
             d.solver.seconds,
             d.solver.assembly_seconds,
             d.solver.certify_seconds,
@@ -68,6 +99,9 @@ fn scale_child(nx: usize, search: bool) {
             if d.certifies { "yes" } else { "NO" },
             peak_fixed
         );
+        if !d.certifies {
+            println!("    (Clarabel: {})", d.solver.detail);
+        }
         return;
     }
     let (m, wall_max) = run(&model, AlphaSpec::Max, gamma, Conditions::Cube);
@@ -75,11 +109,12 @@ fn scale_child(nx: usize, search: bool) {
     let solver_total: f64 =
         m.search.iter().map(|s| s.solver_seconds).sum::<f64>() + m.solver.seconds;
     println!(
-        "{:>3} {:>6} {:>6.4} {:>8.2} {:>8.2} {:>6.2} {:>6.3} {:>5} {:>9} | {:>8.4} {:>8.2} {:>8.2} {:>6} {:>9.0} {:>9.0}",
+        "{:>3} {:>6} {:>6.4} {:>8.2} {:>7.2} {:>8.2} {:>6.2} {:>6.3} {:>5} {:>9} | {:>8.4} {:>8.2} {:>8.2} {:>6} {:>9.0} {:>9.0}",
         nx,
         model.region.vertices.len(),
         gamma,
         wall,
+        cpu,
         d.solver.seconds,
         d.solver.assembly_seconds,
         d.solver.certify_seconds,
@@ -92,6 +127,57 @@ fn scale_child(nx: usize, search: bool) {
         peak_fixed,
         vm_hwm_mib(),
     );
+}
+
+/// The profile of one fixed-(α = 1, γ) cube solve, in this process: the
+/// assembled problem run through Clarabel directly, with its timers.
+fn profile_child(nx: usize) {
+    use clarabel::solver::{DefaultSolver, IPSolver};
+    use qpv_solve::backend::{clarabel_settings, ensure_lapack};
+    use qpv_solve::conditions::ConditionSet;
+    use qpv_solve::lmi::{Objective, Problem};
+    let model = synthetic_model(nx);
+    let gamma = gamma_for(&model);
+    let prob = Problem::new(&model, ConditionSet::Sound)
+        .and_then(|p| p.with_conditions(Conditions::Cube))
+        .expect("a box region");
+    let settings = Settings::default();
+    let t = Instant::now();
+    let sdp = prob.assemble(1.0, gamma, &settings, Objective::Gains);
+    let asm = t.elapsed().as_secs_f64();
+    println!(
+        "nx = {nx}: {} variables, {} rows, {} cones, nnz(A) = {}, assembly {asm:.3} s",
+        sdp.a.n,
+        sdp.a.m,
+        sdp.cones.len(),
+        sdp.a.nzval.len()
+    );
+    ensure_lapack();
+    let (cpu0, t) = (cpu_seconds(), Instant::now());
+    let mut solver = DefaultSolver::new(
+        &sdp.p,
+        &sdp.q,
+        &sdp.a,
+        &sdp.b,
+        &sdp.cones,
+        clarabel_settings(&settings),
+    )
+    .expect("solver setup");
+    solver.solve();
+    let li = &solver.info.linsolver;
+    println!(
+        "{:?} after {} iterations; wall {:.2} s, cpu {:.2} s; KKT: nnz {} , LDL factor nnz(L) {} ({})",
+        solver.solution.status,
+        solver.solution.iterations,
+        t.elapsed().as_secs_f64(),
+        cpu_seconds() - cpu0,
+        li.nnzA,
+        li.nnzL,
+        li.name
+    );
+    if let Some(timers) = &solver.timers {
+        timers.print();
+    }
 }
 
 /// One row of the loss table, in this process.
@@ -136,13 +222,15 @@ fn main() {
         match args[pos + 1].as_str() {
             "scale" => scale_child(nx, true),
             "fixed" => scale_child(nx, false),
+            "profile" => profile_child(nx),
             _ => loss_child(nx),
         }
         return;
     }
     let loss = args.iter().any(|a| a == "loss");
+    let profile = args.iter().any(|a| a == "profile");
     let fixed = args.iter().any(|a| a == "fixed");
-    let scale = args.iter().any(|a| a == "scale") || fixed || !loss;
+    let scale = args.iter().any(|a| a == "scale") || fixed || !(loss || profile);
     let given: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
     let exe = std::env::current_exe().unwrap();
     let child = |what: &str, nx: usize| {
@@ -157,11 +245,12 @@ fn main() {
     if scale {
         println!("bench cube_scale (scale): synthetic model, sound, cube, 4 θ-vertices, box region; fixed design α = 1, then α = max at the same γ");
         println!(
-            "{:>3} {:>6} {:>6} {:>8} {:>8} {:>6} {:>6} {:>5} {:>9} | {:>8} {:>8} {:>8} {:>6} {:>9} {:>9}",
+            "{:>3} {:>6} {:>6} {:>8} {:>7} {:>8} {:>6} {:>6} {:>5} {:>9} | {:>8} {:>8} {:>8} {:>6} {:>9} {:>9}",
             "nx",
             "verts",
             "γ",
             "wall s",
+            "cpu s",
             "solver s",
             "asm s",
             "cert s",
@@ -181,6 +270,16 @@ fn main() {
         };
         for nx in nxs {
             child(if fixed { "fixed" } else { "scale" }, nx);
+        }
+    }
+    if profile {
+        let nxs = if given.is_empty() {
+            vec![10]
+        } else {
+            given.clone()
+        };
+        for nx in nxs {
+            child("profile", nx);
         }
     }
     if loss {

@@ -1,7 +1,8 @@
 //! `conditions = cube`: the matrix-cube relaxation for a region that is a
 //! zonotope P = {Σ_k t_k g_k : |t_k| ≤ 1} (a box, a parallelotope or a
 //! `region zonotope`), as data: the generators and the slacks a solution
-//! carries. docs/method.md ("Conditions that scale") derives it.
+//! carries. docs/method.md ("Cube conditions: zonotope regions without vertex
+//! enumeration") derives it.
 //!
 //! Write the rate matrix of combination c at the pair (e, x) as
 //! F0_c + G_c(e) + H_c(x), G_c and H_c linear (the e-vertex and x-vertex

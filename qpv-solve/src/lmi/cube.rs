@@ -1,17 +1,22 @@
 //! The assembly of `conditions = cube` ([`crate::conditions::cube`]).
 //!
-//! Variables after Γ̂: per rate combination c and generator k the slacks
-//! Ŷ_{c,k}, X̂_{c,k} (upper triangles like P̂, model units over s), then the
-//! r diagonal entries of D (dimensionless). Rows:
+//! Variables after Γ̂: per rate combination c and generator k the lower
+//! slacks Ŝ_{c,k} = Ŷ_{c,k} − G_c(g_k), Ŝ'_{c,k} = X̂_{c,k} − H_c(g_k)
+//! (upper triangles like P̂, model units over s), then the r diagonal
+//! entries of D (dimensionless). Ŷ, X̂ themselves are not variables: the
+//! report's Y, X are recomputed from Ŝ, P and Γ_l ([`Problem::unpack_cube`]).
+//! Rows:
 //!
 //! ```text
 //!   region, in place of the vertex rows:
 //!     sound (S2):  D − ĜᵀP̂Ĝ − εI ⪰ 0           PSD(r)       (Ĝ = G/ρ)
 //!     paper (13):  [D Ĝᵀ; Ĝ P̂] − εI ⪰ 0         PSD(r + nx)
 //!                  1 − ε − Σ_k D_kk ≥ 0          Nonnegative(1)
-//!   rate, per combination c:
-//!     Ŷ_{c,k} ∓ G_c(g_k) − εκ I ⪰ 0,  X̂_{c,k} ∓ H_c(g_k) − εκ I ⪰ 0   4r × PSD(nx)
-//!     −(F0_c + Σ_k Ŷ_{c,k} + Σ_k X̂_{c,k}) − ε_rate I ⪰ 0               PSD(nx)
+//!   rate, per combination c and generator k (Ŷ − G = Ŝ, Ŷ + G = Ŝ + 2G):
+//!     Ŝ_{c,k} − εκ I ⪰ 0,  Ŝ_{c,k} + 2G_c(g_k) − εκ I ⪰ 0             2r × PSD(nx)
+//!     Ŝ'_{c,k} − εκ I ⪰ 0, Ŝ'_{c,k} + 2H_c(g_k) − εκ I ⪰ 0            2r × PSD(nx)
+//!   and per combination
+//!     −(F0_c + Σ_k (Ŝ_{c,k} + G_c(g_k)) + Σ_k (Ŝ'_{c,k} + H_c(g_k))) − ε_rate I ⪰ 0   PSD(nx)
 //! ```
 //!
 //! with F0_c, G_c, H_c the parts of the rate matrix He{P̂K − Γ̂H} of
@@ -21,6 +26,12 @@
 //! inequalities keep their margin εκ under every objective (the max-margin
 //! column sits on the last block only), so that the returned slacks satisfy
 //! them strictly, as the certificate requires.
+//!
+//! These are exactly Ŷ ∓ G ⪰ εκI, X̂ ∓ H ⪰ εκI and −(F0 + ΣŶ + ΣX̂) ⪰ ε_rate I
+//! (a change of variables); the lower slack makes the first block of every
+//! pair a block on its own variable only, which the solver's sparse LDL
+//! factorisation of the KKT system eliminates cheaply (about a quarter fewer
+//! operations per iteration at nx = 10..12 than with Ŷ, X̂ as variables).
 
 use super::{tri, tri_idx, Problem, RateMargins, Rows, SQRT2};
 use crate::conditions::cube::CubeSlacks;
@@ -149,7 +160,13 @@ impl Problem<'_> {
         out.cones.push(SupportedConeT::NonnegativeConeT(1));
     }
 
-    /// The cube rate family (see the module doc).
+    /// The cube rate family (see the module doc). The variables are the
+    /// lower slacks Ŝ = Ŷ − G(g_k) (and Ŝ' = X̂ − H(g_k)), so that the
+    /// first block of each pair, Ŝ ⪰ εκI, involves no other variable; the
+    /// second is Ŝ + 2G ⪰ εκI and the last −(F0 + Σ_k (Ŝ_k + G_k) + Σ_k
+    /// (Ŝ'_k + H_k)) ⪰ εI. The same inequalities in Ŷ, X̂ (an exact change
+    /// of variables), with about a quarter less work in the solver's KKT
+    /// factorisation: half of the slack blocks no longer couple to P̂ and Γ̂.
     pub(super) fn push_rate_cube(
         &self,
         out: &mut Rows,
@@ -170,32 +187,59 @@ impl Problem<'_> {
         };
         for c in 0..self.combos.len() {
             let mut sum: Vec<(usize, f64)> = Vec::with_capacity(2 * self.gens.len());
+            let mut main = self.cube_kh(alpha, gamma, c, Part::Constant, 1.0);
             for (k, g) in self.gens.iter().enumerate() {
                 let (y, x) = (self.yvar(c, k), self.yvar(c, k) + self.np);
-                // Ŷ − G ⪰ εI is −(G − Ŷ) ⪰ εI: the block of G with −Ŷ.
-                for part in [Part::E(g), Part::X(g)] {
-                    let var = if matches!(part, Part::E(_)) { y } else { x };
-                    for sign in [1.0, -1.0] {
-                        let kh = self.cube_kh(alpha, gamma, c, part, sign);
-                        block(out, &kh, rate.slack_eps, &[(var, -1.0)]);
-                    }
+                for (part, var) in [(Part::E(g), y), (Part::X(g), x)] {
+                    // Ŷ − G = Ŝ ⪰ εκI: the variable alone.
+                    let row0 = out.open(tri(nx), rate.slack_eps);
+                    self.push_sym_var(&mut out.cols, row0, var, -1.0);
+                    out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+                    // Ŷ + G = Ŝ + 2G ⪰ εκI is −(−2G − Ŝ) ⪰ εκI.
+                    let kh = self.cube_kh(alpha, gamma, c, part, -2.0);
+                    block(out, &kh, rate.slack_eps, &[(var, -1.0)]);
+                    // Ŷ = Ŝ + G in the main block.
+                    add_kh(&mut main, &self.cube_kh(alpha, gamma, c, part, 1.0));
+                    sum.push((var, 1.0));
                 }
-                sum.push((y, 1.0));
-                sum.push((x, 1.0));
             }
-            let f0 = self.cube_kh(alpha, gamma, c, Part::Constant, 1.0);
-            let row0 = block(out, &f0, rate.eps, &sum);
+            let row0 = block(out, &main, rate.eps, &sum);
             rate.push_column(&mut out.cols, row0);
         }
     }
 
+    /// He{P K − Σ_l Γ_l H_l} for (P, Γ_l) in model units.
+    fn eval_kh(kh: &Kh, p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> DMatrix<f64> {
+        let mut m = p * &kh.0;
+        for (l, h) in &kh.1 {
+            m -= &gammas[*l] * h;
+        }
+        &m + m.transpose()
+    }
+
+    /// G_c(g_k) (`e`) or H_c(g_k) (`!e`) at (P, Γ_l) in model units.
+    fn cube_part(
+        &self,
+        c: usize,
+        k: usize,
+        e: bool,
+        p: &DMatrix<f64>,
+        gs: &[DMatrix<f64>],
+    ) -> DMatrix<f64> {
+        let g = &self.gens[k];
+        let part = if e { Part::E(g) } else { Part::X(g) };
+        Self::eval_kh(&self.cube_kh(0.0, 0.0, c, part, 1.0), p, gs)
+    }
+
     /// The cube slacks of a solution vector, in model units (None unless
-    /// the conditions are cube).
+    /// the conditions are cube): Y = sŜ + G(g_k), X = sŜ' + H(g_k) at the
+    /// solution's (P, Γ_l).
     pub fn unpack_cube(&self, x: &[f64]) -> Option<CubeSlacks> {
         if self.gens.is_empty() {
             return None;
         }
         let s = self.scale;
+        let (p, gs) = self.unpack(x);
         let sym = |first: usize| {
             let mut m = DMatrix::zeros(self.nx, self.nx);
             for c in 0..self.nx {
@@ -211,7 +255,9 @@ impl Problem<'_> {
             (0..self.combos.len())
                 .map(|c| {
                     (0..self.gens.len())
-                        .map(|k| sym(self.yvar(c, k) + off))
+                        .map(|k| {
+                            sym(self.yvar(c, k) + off) + self.cube_part(c, k, off == 0, &p, &gs)
+                        })
                         .collect()
                 })
                 .collect()
@@ -224,12 +270,14 @@ impl Problem<'_> {
     }
 
     /// Writes cube slacks (model units; upper triangles used) into a
-    /// variable vector from [`Problem::pack`] (cube conditions only; tests).
+    /// variable vector from [`Problem::pack`], which must hold P and Γ_l
+    /// already (the variables are Ŝ = (Y − G)/s; cube conditions only; tests).
     pub fn pack_cube(&self, x: &mut [f64], slacks: &CubeSlacks) {
         assert!(
             !self.gens.is_empty(),
             "only cube problems have these slacks"
         );
+        let (p, gs) = self.unpack(x);
         let mut put = |first: usize, m: &DMatrix<f64>| {
             for c in 0..self.nx {
                 for r in 0..=c {
@@ -239,12 +287,30 @@ impl Problem<'_> {
         };
         for c in 0..self.combos.len() {
             for k in 0..self.gens.len() {
-                put(self.yvar(c, k), &slacks.y[c][k]);
-                put(self.yvar(c, k) + self.np, &slacks.x[c][k]);
+                put(
+                    self.yvar(c, k),
+                    &(&slacks.y[c][k] - self.cube_part(c, k, true, &p, &gs)),
+                );
+                put(
+                    self.yvar(c, k) + self.np,
+                    &(&slacks.x[c][k] - self.cube_part(c, k, false, &p, &gs)),
+                );
             }
         }
         for (k, d) in slacks.d.iter().enumerate() {
             x[self.dvar(k)] = *d;
         }
     }
+}
+
+/// `acc += kh` (K and the gain terms, merged by vertex).
+fn add_kh(acc: &mut Kh, kh: &Kh) {
+    acc.0 += &kh.0;
+    for (l, h) in &kh.1 {
+        match acc.1.iter_mut().find(|(g, _)| g == l) {
+            Some((_, a)) => *a += h,
+            None => acc.1.push((*l, h.clone())),
+        }
+    }
+    acc.1.sort_by_key(|(g, _)| *g);
 }
