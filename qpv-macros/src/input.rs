@@ -371,6 +371,7 @@ mod tests {
                 literal: Span::call_site(),
             },
             table: Vec::new(),
+            libm: quote::quote!(::libm),
         };
         let at = input.text.find("x2").expect("x2 in text");
         let msg = input.locate(at, "expected `,` or `;`, found `x2`");
