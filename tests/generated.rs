@@ -662,6 +662,7 @@ fn every_test_file_is_a_module_of_a_declared_binary() {
 
 qpv::qpv!(include "examples/spacecraft.qpv");
 qpv::qpv!(include "examples/arrhenius_reactor.qpv");
+qpv::qpv!(include "examples/manipulator.qpv");
 
 /// Checks φ, μ and the plant of one generated module against the model text.
 macro_rules! check_scheduling_functions {
@@ -746,11 +747,12 @@ macro_rules! converges_with_theta_sweeping {
 fn generated_phi_mu_and_plant_match_the_model_compiler() {
     check_scheduling_functions!(spacecraft, "../examples/spacecraft.qpv");
     check_scheduling_functions!(arrhenius_reactor, "../examples/arrhenius_reactor.qpv");
+    check_scheduling_functions!(manipulator, "../examples/manipulator.qpv");
 }
 
 #[test]
 fn scheduling_function_examples_are_certified_and_converge() {
-    const { assert!(spacecraft::CERTIFIES && arrhenius_reactor::CERTIFIES) };
+    const { assert!(spacecraft::CERTIFIES && arrhenius_reactor::CERTIFIES && manipulator::CERTIFIES) };
     for (name, ratio) in [
         (
             "spacecraft",
@@ -759,6 +761,10 @@ fn scheduling_function_examples_are_certified_and_converge() {
         (
             "arrhenius_reactor",
             converges_with_theta_sweeping!(arrhenius_reactor, 1.0),
+        ),
+        (
+            "manipulator",
+            converges_with_theta_sweeping!(manipulator, 1.0),
         ),
     ] {
         assert!(ratio < 1e-2, "{name}: ‖e(T)‖/‖e(0)‖ = {ratio:e}");

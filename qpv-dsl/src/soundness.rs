@@ -207,3 +207,37 @@ fn examples_with_scheduling_functions_are_exact_and_enclosed() {
         ranges_contain_samples(src);
     }
 }
+
+#[test]
+fn a_piece_of_the_parameter_box_is_exact_and_thinner() {
+    let src = include_str!("../../examples/manipulator.qpv");
+    let model = &crate::parse(src).expect("valid")[0];
+    let full = model.polytopic();
+    let piece = model.restricted(&[(0.2, 0.65)]).expect("inside Θ");
+    let poly = piece.polytopic();
+    assert_eq!(poly.nv(), full.nv());
+    let mut rng = Rng(0x2545_F491_4F6C_DD1D);
+    for (d, f) in piece.derived.iter().zip(&model.derived) {
+        assert!(
+            f.lo <= d.lo && d.hi <= f.hi,
+            "{}: [{}, {}]",
+            d.name,
+            d.lo,
+            d.hi
+        );
+        assert!(d.hi - d.lo < f.hi - f.lo, "{} is no thinner", d.name);
+    }
+    for _ in 0..1000 {
+        let theta = [0.2 + 0.45 * rng.next()];
+        for (d, v) in piece.derived.iter().zip(poly.phi(&theta)) {
+            let exact = d.expr.eval(&theta);
+            assert!(d.lo <= exact && exact <= d.hi && v == exact, "{}", d.name);
+        }
+        let (a, a_ref) = (poly.a_at(&theta), full.a_at(&theta));
+        let scale = a_ref.abs().max().max(1.0);
+        let dev = (&a - &a_ref).abs().max();
+        assert!(dev <= 1e-10 * scale, "{a} vs {a_ref}");
+    }
+    let err = model.restricted(&[(0.1, 0.65)]).unwrap_err();
+    assert!(err.contains("q2") && err.contains("[0.2, 2]"), "{err}");
+}

@@ -342,3 +342,43 @@ impl crate::model::Model {
         }
     }
 }
+
+impl crate::model::Model {
+    /// The same model on a smaller parameter box `theta` (one `(lo, hi)` per
+    /// declared parameter, each inside the declared range): the parameter
+    /// ranges replaced and every derived scheduling variable's range
+    /// recomputed on the smaller box, with the same proof (interval
+    /// arithmetic with outward rounding). The pieces of a partition of Θ
+    /// cover the curve {(θ, φ(θ))} by several small boxes instead of one
+    /// large one, which is how a tighter cover than the box of (θ, φ) is
+    /// measured. Errors name the parameter or the function that does not fit.
+    pub fn restricted(&self, theta: &[(f64, f64)]) -> Result<crate::model::Model, String> {
+        if theta.len() != self.params.len() {
+            return Err(format!(
+                "{} ranges for {} parameters",
+                theta.len(),
+                self.params.len()
+            ));
+        }
+        let mut out = self.clone();
+        for (p, &(lo, hi)) in out.params.iter_mut().zip(theta) {
+            if !(lo.is_finite() && hi.is_finite() && p.lo <= lo && lo < hi && hi <= p.hi) {
+                return Err(format!(
+                    "[{lo}, {hi}] is not a non-empty part of the range [{}, {}] of {}",
+                    p.lo, p.hi, p.name
+                ));
+            }
+            p.lo = lo;
+            p.hi = hi;
+        }
+        let names: Vec<String> = self.params.iter().map(|p| p.name.clone()).collect();
+        for d in &mut out.derived {
+            let (lo, hi, info) = crate::sched::range(&d.expr, theta, &names)
+                .map_err(|e| format!("`{}`: {}", d.text, e.message))?;
+            d.lo = lo;
+            d.hi = hi;
+            d.range = info;
+        }
+        Ok(out)
+    }
+}

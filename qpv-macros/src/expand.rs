@@ -23,12 +23,16 @@ use qpv_solve::report::{matrix_to_rows, rows_to_matrix};
 use qpv_solve::{Design, Settings};
 use quote::quote;
 
-/// Expands one `qpv!` invocation.
-pub fn expand(tokens: TokenStream) -> TokenStream {
+/// Expands one `qpv!` invocation; the generated code calls the math
+/// functions of a model's scheduling functions through `libm` (the path of
+/// the `libm` crate: `::libm`, or the facade's re-export).
+pub fn expand(tokens: TokenStream, libm: TokenStream) -> TokenStream {
     let input = match Input::from_tokens(tokens) {
         Ok(i) => i,
         Err(e) => return fallback::emit(&Failure::at(e.span, e.message), TokenStream::new()),
     };
+    let mut input = input;
+    input.libm = libm;
     let start = std::time::Instant::now();
     let mut out = TokenStream::new();
     if let Source::File { absolute, .. } = &input.source {
@@ -293,6 +297,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
         };
         emit::emit(&EmitModel {
             model,
+            libm: input.libm.clone(),
             scheduling: poly.scheduling.clone(),
             designs: model.designs.iter().map(zero).collect(),
         })
@@ -314,6 +319,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
     }
     Ok(emit::emit(&EmitModel {
         model,
+        libm: input.libm.clone(),
         scheduling: poly.scheduling.clone(),
         designs,
     }))

@@ -38,6 +38,9 @@ pub struct Input {
     pub source: Source,
     /// `(start, end, span)` of every printed token, sorted by `start`.
     table: Vec<(usize, usize, Span)>,
+    /// The path through which the generated code calls `libm` (`::libm`
+    /// unless the invocation came through the `qpv` facade).
+    pub libm: TokenStream,
 }
 
 /// An error found before the DSL sees the text (bad `include`, unreadable file).
@@ -70,6 +73,7 @@ impl Input {
             text: String::new(),
             source: Source::Inline,
             table: Vec::new(),
+            libm: quote::quote!(::libm),
         };
         input.print(tokens);
         Ok(input)
@@ -128,6 +132,7 @@ impl Input {
                 literal: lit.span(),
             },
             table: Vec::new(),
+            libm: quote::quote!(::libm),
         })
     }
 
@@ -366,6 +371,7 @@ mod tests {
                 literal: Span::call_site(),
             },
             table: Vec::new(),
+            libm: quote::quote!(::libm),
         };
         let at = input.text.find("x2").expect("x2 in text");
         let msg = input.locate(at, "expected `,` or `;`, found `x2`");

@@ -129,19 +129,16 @@ fn fmt_lambda(z: Complex<f64>) -> String {
 }
 
 fn vertex_label(model: &PolytopicModel, l: usize) -> String {
-    let Some(v) = model.vertices.get(l) else {
+    if l >= model.vertices.len() {
         return format!("vertex {}", l + 1);
-    };
+    }
+    // the corner in the scheduling parameters and the derived scheduling
+    // variables φ_j (at an end of their ranges), so a failing corner of
+    // (cos q2, 1/det M) is named
     let corner: Vec<String> = model
-        .scheduling
-        .iter()
-        .filter_map(|&i| {
-            Some(format!(
-                "{} = {}",
-                model.params.get(i)?.name,
-                v.theta.get(i)?
-            ))
-        })
+        .corner(l)
+        .into_iter()
+        .map(|(name, value)| format!("{name} = {value}"))
         .collect();
     if corner.is_empty() {
         format!("vertex {}", l + 1)

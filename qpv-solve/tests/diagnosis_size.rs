@@ -149,3 +149,30 @@ fn a_ten_state_box_is_refused_before_solving_and_three_states_fit() {
     let v = guard(&big, &cube);
     assert!(!matches!(v, Verdict::TooLarge(_)), "{v:?}");
 }
+
+#[test]
+fn the_pbh_test_names_the_derived_scheduling_variables_of_the_corner() {
+    // x2' = (0.5 − 1/θ) x2 is unseen and unstable where r = 1/θ is at its
+    // lower end 1/4: the corners (th = 1, r = 1/4) and (th = 4, r = 1/4).
+    let m = model(
+        "model u {
+        state x1, x2;  output y;  param th in [1, 4];
+        let r = 1/th;
+        der x1 = -(1 + th)*x1 + 0.5*x1*x2;
+        der x2 = (0.5 - r)*x2;
+        out y = x1;
+        region box(0.1);
+        state_bound Q = [0.04, 0; 0, 0.04];
+    }",
+    );
+    assert_eq!(m.nv(), 4);
+    let req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+    let found = diagnose(&m, &req, 1e-4);
+    let pbh: Vec<_> = found.iter().filter(|f| f.kind == "detectability").collect();
+    assert!(!pbh.is_empty(), "{found:?}");
+    assert!(
+        pbh[0].message.contains("vertex 1 (th = 1, r = 0.2"),
+        "{}",
+        pbh[0].message
+    );
+}

@@ -44,6 +44,9 @@ pub struct EmitModel<'a> {
     /// The designs, in source order; at least one has `certifies` (the
     /// caller checks), and the first such is re-exported at the model level.
     pub designs: Vec<CertifiedDesign>,
+    /// The path of the `libm` crate in the calling crate (`::libm`, or the
+    /// `qpv` facade's re-export), for the scheduling functions' math.
+    pub libm: TokenStream,
 }
 
 /// The numbers of one certified design.
@@ -122,7 +125,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
 
     let constants = model_constants(m, em.scheduling.len() + m.derived.len());
     let certificate_types = certificate::types();
-    let weights = weights::items(m, &em.scheduling);
+    let weights = weights::items(m, &em.scheduling, &em.libm);
     let coefficients = coeffs.items(m.ntheta(), m.derived.len());
     let plant = plant.module(m.nx(), m.nu());
     let mod_doc = module_doc(em, primary_index);
@@ -308,6 +311,7 @@ mod tests {
         };
         emit(&EmitModel {
             model,
+            libm: quote!(::libm),
             scheduling: vec![0, 1],
             designs: vec![design],
         })
