@@ -10,7 +10,7 @@ use crate::linalg::svec::svec_into;
 use crate::settings::Settings;
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::SupportedConeT;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use qpv_dsl::PolytopicModel;
 
 /// The answer of [`max_alpha_fixed_p`]: α, the gains L_l and the skew
@@ -28,17 +28,10 @@ pub fn max_alpha_fixed_p(
     gamma: f64,
     settings: &Settings,
 ) -> Result<Option<FixedP>, SolveError> {
-    let (nx, ny, nv) = (model.nx(), model.ny(), model.nv());
     // The LMIs are homogeneous in (P, Γ): work with P̂ = P/λ_max(P).
     let lmax = p.clone().symmetric_eigenvalues().max();
     let ph = p / lmax;
-    let nskew = nx * (nx - 1) / 2;
-    let n_g = nv * nx * ny;
-    let n_k = nv * nx * nskew;
-    let n = n_g + n_k + 1; // …, α
-    let avar = n - 1;
-    let xs = &model.region.vertices;
-    let t = nx * (nx + 1) / 2;
+    let vars = Vars::of(model);
     let kappa = gamma
         * model
             .vertices
@@ -46,118 +39,26 @@ pub fn max_alpha_fixed_p(
             .map(|v| v.a.norm())
             .fold(0.0, f64::max)
         + 1.0;
-    let eps = settings.margin_rel * kappa;
-    // Column-wise sparse A, b, cones: one PSD(nx) block per (combination, i, j).
-    let mut cols = Columns::new(n);
-    let mut b: Vec<f64> = Vec::new();
-    let mut cones = Vec::new();
-    let he = |x: &DMatrix<f64>| x + x.transpose();
-    let push = |cols: &mut Columns, row0: usize, var: usize, mat: &DMatrix<f64>| {
-        cols.push_svec(row0, var, &((mat + mat.transpose()) * 0.5), 1.0)
+    let mut blocks = Blocks {
+        cols: Columns::new(vars.n),
+        b: Vec::new(),
+        cones: Vec::new(),
     };
-    // −He{P̂ rows(E_ab^k, x)} for the skew basis E_ab − E_ba (a < b) of K_k,
-    // per region vertex: the K columns of every block at that e-vertex.
-    let k_basis: Vec<Vec<DMatrix<f64>>> = xs
-        .iter()
-        .map(|xi| {
-            let mut out = Vec::with_capacity(nx * nskew);
-            for k in 0..nx {
-                for a in 0..nx {
-                    for bb in a + 1..nx {
-                        let mut kk = vec![DMatrix::zeros(nx, nx); nx];
-                        kk[k][(a, bb)] = 1.0;
-                        kk[k][(bb, a)] = -1.0;
-                        out.push(-he(&(&ph * rows(&kk, xi))));
-                    }
-                }
-            }
-            out
-        })
-        .collect();
-    // The problem is small (this is an experiment on small models): the
-    // blocks are built densely, one unit variable at a time.
-    for combo in rate_combos(model) {
-        for (i, xi) in xs.iter().enumerate() {
-            for xj in xs {
-                // s = −F − εI ⪰ 0 with F = F0 + Σ x_v F_v: b = svec(−F0 − εI), A col v = svec(F_v).
-                let mut f0 = DMatrix::zeros(nx, nx);
-                let mut fg: Vec<(usize, DMatrix<f64>)> = Vec::new(); // (l, Σ w H_m)
-                let mut fk: Vec<(usize, f64)> = Vec::new(); // (l, Σ w)
-                for &(l, m, w) in &combo.terms {
-                    let (vl, vm) = (&model.vertices[l], &model.vertices[m]);
-                    let r = rows_he(&vl.n, xj) - rows(&vl.n, xi);
-                    let h = &vm.c * gamma + (rows_he(&vm.m, xj) - rows(&vm.m, xi));
-                    f0 += he(&(&ph * (&vl.a * gamma + &r))) * w;
-                    match fg.iter_mut().find(|(g, _)| *g == l) {
-                        Some((_, acc)) => *acc += h * w,
-                        None => fg.push((l, h * w)),
-                    }
-                    match fk.iter_mut().find(|(g, _)| *g == l) {
-                        Some((_, acc)) => *acc += w,
-                        None => fk.push((l, w)),
-                    }
-                }
-                let row0 = b.len();
-                let mut rhs = -f0;
-                for d in 0..nx {
-                    rhs[(d, d)] -= eps;
-                }
-                b.resize(row0 + t, 0.0);
-                svec_into(&rhs, &mut b[row0..row0 + t]);
-                fg.sort_by_key(|(l, _)| *l);
-                fk.sort_by_key(|(l, _)| *l);
-                // Γ_l entries: −He{E_rc H}.
-                for (l, h) in &fg {
-                    for gr in 0..nx {
-                        for gc in 0..ny {
-                            let mut e = DMatrix::zeros(nx, ny);
-                            e[(gr, gc)] = 1.0;
-                            push(
-                                &mut cols,
-                                row0,
-                                l * nx * ny + gr * ny + gc,
-                                &(-he(&(e * h))),
-                            );
-                        }
-                    }
-                }
-                // K_{k,l} entries.
-                for &(l, w) in &fk {
-                    for (idx, term) in k_basis[i].iter().enumerate() {
-                        push(&mut cols, row0, n_g + l * nx * nskew + idx, &(term * w));
-                    }
-                }
-                // α: (Σ w) γP̂.
-                push(&mut cols, row0, avar, &(&ph * (gamma * combo.weight())));
-                cones.push(SupportedConeT::PSDTriangleConeT(nx));
-            }
-        }
-    }
+    blocks.push_rate_blocks(model, &ph, &vars, gamma, settings.margin_rel * kappa);
     // α ≤ cap keeps the problem bounded.
-    let row = b.len();
-    b.push(settings.alpha_cap);
-    cols.push(row, avar, 1.0);
-    cones.push(SupportedConeT::NonnegativeConeT(1));
-    let a = cols.into_csc(b.len());
-    // Objective: −α + ½ w (‖Γ̂‖² + ‖K‖²) with a tiny w: it only keeps the
-    // problem bounded in directions α does not care about (a weight like
-    // the design's gain regularisation costs α here: measured 10.6 → 4.9).
-    let w = 1e-9;
-    let pdiag = CscMatrix::new(
-        n,
-        n,
-        (0..=n).map(|i| i.min(n - 1)).collect(),
-        (0..n - 1).collect(),
-        vec![w; n - 1],
-    );
-    let mut q = vec![0.0; n];
-    q[avar] = -1.0;
+    let row = blocks.b.len();
+    blocks.b.push(settings.alpha_cap);
+    blocks.cols.push(row, vars.alpha, 1.0);
+    blocks.cones.push(SupportedConeT::NonnegativeConeT(1));
+    let a = blocks.cols.into_csc(blocks.b.len());
+    let mut q = vec![0.0; vars.n];
+    q[vars.alpha] = -1.0;
     let sdp = Sdp {
-        p: pdiag,
+        p: regulariser(vars.n),
         q,
         a,
-        b,
-        cones,
+        b: blocks.b,
+        cones: blocks.cones,
     };
     let run = run_sdp(sdp, clarabel_settings(settings))?;
     // Only a solved α is used here (the caller certifies it).
@@ -169,30 +70,203 @@ pub fn max_alpha_fixed_p(
         Some(ch) => ch.inverse(),
         None => return Ok(None),
     };
-    let gains = (0..nv)
-        .map(|l| {
-            let g = DMatrix::from_fn(nx, ny, |r, c| x[l * nx * ny + r * ny + c] * lmax);
-            &pinv * g
-        })
-        .collect();
-    let k = (0..nv)
-        .map(|l| {
-            (0..nx)
-                .map(|kk| {
-                    let mut km = DMatrix::zeros(nx, nx);
-                    let mut idx = 0;
-                    for a in 0..nx {
-                        for bb in a + 1..nx {
-                            let v = x[n_g + l * nx * nskew + kk * nskew + idx];
-                            km[(a, bb)] = v;
-                            km[(bb, a)] = -v;
-                            idx += 1;
+    Ok(Some(vars.unpack(&x, &pinv, lmax)))
+}
+
+/// The variables of the fixed-P problem: Γ̂_l (nx × ny per θ-vertex, row
+/// by row), then K_{k,l} (per θ-vertex, per state k, its nx(nx−1)/2
+/// entries above the diagonal), then α.
+struct Vars {
+    nx: usize,
+    ny: usize,
+    nv: usize,
+    /// Entries of one K_{k,l} above the diagonal.
+    nskew: usize,
+    /// Where the K entries start (after all Γ̂_l).
+    k0: usize,
+    /// α's column.
+    alpha: usize,
+    /// All variables.
+    n: usize,
+}
+
+impl Vars {
+    fn of(model: &PolytopicModel) -> Vars {
+        let (nx, ny, nv) = (model.nx(), model.ny(), model.nv());
+        let nskew = nx * (nx - 1) / 2;
+        let k0 = nv * nx * ny;
+        let alpha = k0 + nv * nx * nskew;
+        Vars {
+            nx,
+            ny,
+            nv,
+            nskew,
+            k0,
+            alpha,
+            n: alpha + 1,
+        }
+    }
+
+    /// Column of entry (r, c) of Γ̂_l.
+    fn gamma_col(&self, l: usize, r: usize, c: usize) -> usize {
+        l * self.nx * self.ny + r * self.ny + c
+    }
+
+    /// Column of the `idx`-th skew-basis entry of K_{·,l} (state-major).
+    fn k_col(&self, l: usize, idx: usize) -> usize {
+        self.k0 + l * self.nx * self.nskew + idx
+    }
+
+    /// (α, L_l = P⁻¹Γ_l, K_{k,l}) from the solver's point (Γ = λ_max Γ̂).
+    fn unpack(&self, x: &[f64], pinv: &DMatrix<f64>, lmax: f64) -> FixedP {
+        let (nx, ny) = (self.nx, self.ny);
+        let gains = (0..self.nv)
+            .map(|l| pinv * DMatrix::from_fn(nx, ny, |r, c| x[self.gamma_col(l, r, c)] * lmax))
+            .collect();
+        let k = (0..self.nv)
+            .map(|l| {
+                (0..nx)
+                    .map(|kk| {
+                        let mut km = DMatrix::zeros(nx, nx);
+                        let mut idx = 0;
+                        for a in 0..nx {
+                            for bb in a + 1..nx {
+                                let v = x[self.k_col(l, kk * self.nskew + idx)];
+                                km[(a, bb)] = v;
+                                km[(bb, a)] = -v;
+                                idx += 1;
+                            }
+                        }
+                        km
+                    })
+                    .collect()
+            })
+            .collect();
+        (x[self.alpha], gains, k)
+    }
+}
+
+/// The problem's constraint data, built one PSD(nx) block at a time.
+struct Blocks {
+    cols: Columns,
+    b: Vec<f64>,
+    cones: Vec<SupportedConeT<f64>>,
+}
+
+fn he(x: &DMatrix<f64>) -> DMatrix<f64> {
+    x + x.transpose()
+}
+
+impl Blocks {
+    /// Adds `mat` (symmetrised) as variable `var`'s column of the block
+    /// starting at `row0`.
+    fn push(&mut self, row0: usize, var: usize, mat: &DMatrix<f64>) {
+        self.cols
+            .push_svec(row0, var, &((mat + mat.transpose()) * 0.5), 1.0)
+    }
+
+    /// One block s = −F − εI ⪰ 0 per (rate combination, e-vertex x_i,
+    /// x-vertex x_j), F = F0 + Σ_v x_v F_v: b = svec(−F0 − εI) and variable
+    /// v's column svec(F_v). The problem is small (an experiment on small
+    /// models), so the blocks are built densely, one unit variable at a time.
+    fn push_rate_blocks(
+        &mut self,
+        model: &PolytopicModel,
+        ph: &DMatrix<f64>,
+        vars: &Vars,
+        gamma: f64,
+        eps: f64,
+    ) {
+        let (nx, ny) = (vars.nx, vars.ny);
+        let t = nx * (nx + 1) / 2;
+        let xs = &model.region.vertices;
+        let k_basis = skew_basis(ph, xs, nx);
+        for combo in rate_combos(model) {
+            for (i, xi) in xs.iter().enumerate() {
+                for xj in xs {
+                    let mut f0 = DMatrix::zeros(nx, nx);
+                    let mut fg: Vec<(usize, DMatrix<f64>)> = Vec::new(); // (l, Σ w H_m)
+                    let mut fk: Vec<(usize, f64)> = Vec::new(); // (l, Σ w)
+                    for &(l, m, w) in &combo.terms {
+                        let (vl, vm) = (&model.vertices[l], &model.vertices[m]);
+                        let r = rows_he(&vl.n, xj) - rows(&vl.n, xi);
+                        let h = &vm.c * gamma + (rows_he(&vm.m, xj) - rows(&vm.m, xi));
+                        f0 += he(&(ph * (&vl.a * gamma + &r))) * w;
+                        match fg.iter_mut().find(|(g, _)| *g == l) {
+                            Some((_, acc)) => *acc += h * w,
+                            None => fg.push((l, h * w)),
+                        }
+                        match fk.iter_mut().find(|(g, _)| *g == l) {
+                            Some((_, acc)) => *acc += w,
+                            None => fk.push((l, w)),
                         }
                     }
-                    km
-                })
-                .collect()
+                    let row0 = self.b.len();
+                    let mut rhs = -f0;
+                    for d in 0..nx {
+                        rhs[(d, d)] -= eps;
+                    }
+                    self.b.resize(row0 + t, 0.0);
+                    svec_into(&rhs, &mut self.b[row0..row0 + t]);
+                    fg.sort_by_key(|(l, _)| *l);
+                    fk.sort_by_key(|(l, _)| *l);
+                    // Γ_l entries: −He{E_rc H}.
+                    for (l, h) in &fg {
+                        for gr in 0..nx {
+                            for gc in 0..ny {
+                                let mut e = DMatrix::zeros(nx, ny);
+                                e[(gr, gc)] = 1.0;
+                                self.push(row0, vars.gamma_col(*l, gr, gc), &(-he(&(e * h))));
+                            }
+                        }
+                    }
+                    // K_{k,l} entries.
+                    for &(l, w) in &fk {
+                        for (idx, term) in k_basis[i].iter().enumerate() {
+                            self.push(row0, vars.k_col(l, idx), &(term * w));
+                        }
+                    }
+                    // α: (Σ w) γP̂.
+                    self.push(row0, vars.alpha, &(ph * (gamma * combo.weight())));
+                    self.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+                }
+            }
+        }
+    }
+}
+
+/// −He{P̂ rows(E_ab^k, x)} for the skew basis E_ab − E_ba (a < b) of K_k,
+/// per region vertex x: the K columns of every block at that e-vertex.
+fn skew_basis(ph: &DMatrix<f64>, xs: &[DVector<f64>], nx: usize) -> Vec<Vec<DMatrix<f64>>> {
+    xs.iter()
+        .map(|xi| {
+            let mut out = Vec::new();
+            for k in 0..nx {
+                for a in 0..nx {
+                    for bb in a + 1..nx {
+                        let mut kk = vec![DMatrix::zeros(nx, nx); nx];
+                        kk[k][(a, bb)] = 1.0;
+                        kk[k][(bb, a)] = -1.0;
+                        out.push(-he(&(ph * rows(&kk, xi))));
+                    }
+                }
+            }
+            out
         })
-        .collect();
-    Ok(Some((x[avar], gains, k)))
+        .collect()
+}
+
+/// The objective's quadratic part: ½ w (‖Γ̂‖² + ‖K‖²) with a tiny w, which
+/// only keeps the problem bounded in directions α does not care about (a
+/// weight like the design's gain regularisation costs α here: measured
+/// 10.6 → 4.9). α's own column has no quadratic term.
+fn regulariser(n: usize) -> CscMatrix<f64> {
+    let w = 1e-9;
+    CscMatrix::new(
+        n,
+        n,
+        (0..=n).map(|i| i.min(n - 1)).collect(),
+        (0..n - 1).collect(),
+        vec![w; n - 1],
+    )
 }
