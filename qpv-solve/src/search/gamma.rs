@@ -14,15 +14,11 @@
 //! 3. every local maximum of the grid values that is within reach of the
 //!    best (α ≥ reach · best) is refined by golden-section steps in ln γ
 //!    inside the bracket of its two grid neighbours; local maxima out of
-//!    reach are recorded, not refined. A golden-section step only needs to
-//!    know whether its new γ beats the bracket's best, so it asks for the
-//!    value *above* that threshold: the evaluator may answer with any
-//!    certified lower bound ≤ the threshold once it has shown α(γ) does not
-//!    exceed it (one failed solve at the threshold, an upper bound).
+//!    reach are recorded, not refined.
 //!
 //! The caller then solves the best γ to the full tolerance. [`maximise`]
-//! only sees a function (γ, threshold) ↦ α (0 when nothing certifies), so
-//! it is tested on functions with known maxima.
+//! only sees a function γ ↦ α (0 when nothing certifies), so it is tested
+//! on functions with known maxima.
 
 use crate::report::{GammaSearchInfo, LocalMax};
 use crate::settings::Settings;
@@ -117,27 +113,25 @@ impl Samples {
     }
 }
 
-/// Maximises γ ↦ `eval(γ, phase, beat)` over the plan (module doc).
-/// `eval` returns the largest certified α at γ (0 if none); with
-/// `beat = Some(t)` it may instead return any certified lower bound ≤ t
-/// when α(γ) ≤ t (the caller only needs values above t). Each γ is
-/// evaluated at most once.
+/// Maximises γ ↦ `eval(γ, phase)` over the plan (module doc). `eval`
+/// returns the largest certified α at γ (0 if none); each γ is evaluated
+/// at most once.
 pub fn maximise<E>(
     plan: &GammaPlan,
-    eval: &mut dyn FnMut(f64, Phase, Option<f64>) -> Result<f64, E>,
+    eval: &mut dyn FnMut(f64, Phase) -> Result<f64, E>,
 ) -> Result<GammaOutcome, E> {
     let mut samples = Samples(Vec::new());
-    let mut value = |g: f64, phase: Phase, beat: Option<f64>, s: &mut Samples| -> Result<f64, E> {
+    let mut value = |g: f64, phase: Phase, s: &mut Samples| -> Result<f64, E> {
         if let Some(a) = s.get(g) {
             return Ok(a);
         }
-        let a = eval(g, phase, beat)?;
+        let a = eval(g, phase)?;
         s.insert(g, a);
         Ok(a)
     };
     let mut grid = plan.grid();
     for &g in grid.iter().rev() {
-        value(g, Phase::Grid, None, &mut samples)?;
+        value(g, Phase::Grid, &mut samples)?;
     }
     // Extend downwards while the lowest point is the best and still rising.
     let step = (grid[1] / grid[0]).max(1.0 + 1e-9);
@@ -147,7 +141,7 @@ pub fn maximise<E>(
             break;
         }
         let g = grid[0] / step;
-        let a = value(g, Phase::Grid, None, &mut samples)?;
+        let a = value(g, Phase::Grid, &mut samples)?;
         grid.insert(0, g);
         if a <= ba {
             break;
@@ -174,8 +168,8 @@ pub fn maximise<E>(
         if refined {
             let lo = grid[k.saturating_sub(1)];
             let hi = grid[(k + 1).min(grid.len() - 1)];
-            (g, a) = golden(lo, grid[k], hi, vals[k], plan.refine, &mut |x, t| {
-                value(x, Phase::Refine, Some(t), &mut samples)
+            (g, a) = golden(lo, grid[k], hi, vals[k], plan.refine, &mut |x| {
+                value(x, Phase::Refine, &mut samples)
             })?;
         }
         local.push(LocalMax {
@@ -204,16 +198,15 @@ pub fn maximise<E>(
 /// mid at the golden ratio and shrinks the bracket. At least `evals`
 /// evaluations, and up to [`EXTRA_REFINE`] times as many while the last
 /// [`GAIN_WINDOW`] raised the best by more than [`REFINE_GAIN`] (sharp
-/// peaks, as where α_max(γ) ∝ 1/γ ends abruptly at small γ). `f(x, t)`
-/// values x above the threshold t, the best so far. Returns the best
-/// (γ, α) seen.
+/// peaks, as where α_max(γ) ∝ 1/γ ends abruptly at small γ). Returns the
+/// best (γ, α) seen.
 fn golden<E>(
     lo: f64,
     mid: f64,
     hi: f64,
     f_mid: f64,
     evals: usize,
-    f: &mut dyn FnMut(f64, f64) -> Result<f64, E>,
+    f: &mut dyn FnMut(f64) -> Result<f64, E>,
 ) -> Result<(f64, f64), E> {
     const W: f64 = 0.381_966_011_250_105_1; // 2 − φ
     let (mut a, mut b, mut c) = (lo.ln(), mid.ln(), hi.ln());
@@ -236,7 +229,7 @@ fn golden<E>(
         } else {
             b - W * (b - a)
         };
-        let fx = f(x.exp(), fb)?;
+        let fx = f(x.exp())?;
         if fx > fb {
             // x is the new middle; b bounds it on one side.
             if right {
@@ -264,21 +257,11 @@ mod tests {
         GammaPlan::from_settings(0.5, &Settings::default())
     }
 
-    /// The search on `f`, its evaluator answering a threshold question
-    /// (`beat = Some(t)`, f(γ) ≤ t) with the least it may: 0.
     fn run(f: impl Fn(f64) -> f64) -> (GammaOutcome, usize) {
-        run_with(f, true)
-    }
-
-    fn run_with(f: impl Fn(f64) -> f64, thresholds: bool) -> (GammaOutcome, usize) {
         let mut calls = 0;
-        let out = maximise::<()>(&plan(), &mut |g, _, beat| {
+        let out = maximise::<()>(&plan(), &mut |g, _| {
             calls += 1;
-            let a = f(g);
-            Ok(match beat {
-                Some(t) if thresholds && a <= t => 0.0,
-                _ => a,
-            })
+            Ok(f(g))
         })
         .unwrap();
         (out, calls)
@@ -316,19 +299,6 @@ mod tests {
         assert!(out.info.local_maxima[0].alpha > out.info.local_maxima[1].alpha);
         assert!(out.info.local_maxima.iter().all(|m| m.refined));
         assert_eq!(out.info.points, calls, "each γ evaluated once");
-    }
-
-    #[test]
-    fn threshold_answers_find_the_same_maximum_as_exact_values() {
-        // A refinement step only compares its new γ with the bracket's best,
-        // so an evaluator that answers "not above the best" with 0 (one
-        // failed solve instead of a full α search) changes nothing.
-        let f = |g: f64| bump(g, 0.03, 1.0, 42.6).max(bump(g, 0.0017, 0.5, 74.2));
-        let (exact, n_exact) = run_with(f, false);
-        let (lean, n_lean) = run_with(f, true);
-        assert_eq!((exact.gamma, exact.alpha), (lean.gamma, lean.alpha));
-        assert_eq!(exact.info.local_maxima, lean.info.local_maxima);
-        assert_eq!(n_exact, n_lean, "the same γ values are evaluated");
     }
 
     #[test]

@@ -313,25 +313,6 @@ impl Ctx<'_, '_> {
         tol: f64,
         phase: Phase,
     ) -> Result<Option<Point>, SolveError> {
-        self.alpha_above(gamma, seed, tol, phase, None)
-    }
-
-    /// [`Ctx::alpha_max`], or, with `beat = Some(t)`, only if α_max(γ)
-    /// exceeds t: the first trial is at α = t (unless the seed already
-    /// certifies above t), and if that trial does not certify (after the
-    /// regularised retry) the search stops there and returns the seed's
-    /// certified lower bound (≤ t, possibly None). A γ that cannot beat the
-    /// best found so far then costs one solve instead of a full α search,
-    /// and it is set aside on a failed solve at t (an upper bound), never on
-    /// an estimate.
-    fn alpha_above(
-        &mut self,
-        gamma: f64,
-        seed: Option<&Point>,
-        tol: f64,
-        phase: Phase,
-        beat: Option<f64>,
-    ) -> Result<Option<Point>, SolveError> {
         let cap = self.settings.alpha_cap;
         let floor = self.settings.alpha_floor;
         let mut lo: Option<Point> = seed.and_then(|sp| self.lift(sp, gamma));
@@ -341,13 +322,6 @@ impl Ctx<'_, '_> {
             (None, Some(sp)) => sp.alpha.clamp(floor, cap),
             (None, None) => floor,
         };
-        // The threshold probe, unless the seed already certifies above it.
-        let mut probe = beat
-            .filter(|t| t.is_finite() && *t > 0.0)
-            .filter(|t| lo.as_ref().map_or(true, |p| p.alpha <= *t));
-        if let Some(t) = probe {
-            a = t.clamp(floor, cap);
-        }
         let mut big_gain;
         // Last trial with a positive (uncapped) margin, and the lowest
         // trial with a negative margin: (α, t̂).
@@ -376,10 +350,6 @@ impl Ctx<'_, '_> {
                 if retry.certified {
                     at = retry;
                 }
-            }
-            if probe.take().is_some() && !at.certified {
-                // α_max(γ) < t: this γ cannot beat the threshold.
-                return Ok(lo);
             }
             let t = at.margin;
             if at.certified {
@@ -460,14 +430,12 @@ impl Ctx<'_, '_> {
     /// at `gamma` is largest (an eigenvalue computation per point, no
     /// solve: near the small-γ end of some plants the solver's α search
     /// from scratch fails where a neighbour's P still certifies far up).
-    /// `beat`: as in [`Ctx::alpha_above`].
     fn alpha_seeded(
         &mut self,
         gamma: f64,
         found: &[Point],
         tol: f64,
         phase: Phase,
-        beat: Option<f64>,
     ) -> Result<Option<Point>, SolveError> {
         let mut seed: Option<(&Point, f64)> = None;
         for cand in found {
@@ -480,7 +448,7 @@ impl Ctx<'_, '_> {
         // Without a seed that certifies here, start from the smallest α:
         // its max-margin point's capacity is a good first bound, and if it
         // fails nothing certifies at this γ (feasibility is monotone in α).
-        self.alpha_above(gamma, seed.map(|(p, _)| p), tol, phase, beat)
+        self.alpha_max(gamma, seed.map(|(p, _)| p), tol, phase)
     }
 
     /// γ search maximising α ([`gamma::maximise`]: a logarithmic grid,
@@ -498,8 +466,8 @@ impl Ctx<'_, '_> {
         let solves_before = self.steps.len();
         let mut found: Vec<Point> = Vec::new();
         self.lean = true;
-        let out = gamma::maximise(&plan, &mut |g, phase, beat| {
-            Ok(match self.alpha_seeded(g, &found, coarse, phase, beat)? {
+        let out = gamma::maximise(&plan, &mut |g, phase| {
+            Ok(match self.alpha_seeded(g, &found, coarse, phase)? {
                 Some(pt) => {
                     let a = pt.alpha;
                     found.push(pt);
