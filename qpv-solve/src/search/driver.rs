@@ -576,7 +576,8 @@ pub struct ProfilePoint {
 /// γ (which only speeds the bisection up: every value is bracketed by a
 /// certified α and a failed one). The request's α and γ are ignored; its
 /// mode, split, conditions and output route are used. A dense profile to
-/// check a γ search against, or to plot α(γ).
+/// check a γ search against, or to plot α(γ). `conditions = auto` is
+/// resolved as a design resolves it.
 pub fn alpha_profile(
     model: &PolytopicModel,
     request: &DesignRequest,
@@ -586,6 +587,7 @@ pub fn alpha_profile(
     let req = DesignRequest {
         alpha: AlphaSpec::Max,
         gamma: GammaSpec::Search,
+        conditions: crate::size::choose(model, request).0,
         ..request.clone()
     };
     let setup = Setup::new(model, &req, settings)?;
