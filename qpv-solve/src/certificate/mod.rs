@@ -200,6 +200,22 @@ fn lambda_max(m: &DMatrix<f64>) -> f64 {
     e.iter().copied().fold(f64::NEG_INFINITY, f64::max)
 }
 
+/// Γ_l = P L_l as the certificate sees them (empty where the sizes do not
+/// fit, which the certificate then reports), and ‖L_l‖_F.
+fn gammas_of(p: &DMatrix<f64>, l: &[DMatrix<f64>]) -> (Vec<DMatrix<f64>>, Vec<f64>) {
+    let gammas = l
+        .iter()
+        .map(|li| {
+            if p.ncols() == li.nrows() {
+                p * li
+            } else {
+                DMatrix::zeros(0, 0)
+            }
+        })
+        .collect();
+    (gammas, l.iter().map(|li| li.norm()).collect())
+}
+
 /// Checks the conditions of `mode` for the given P and gains L_l (Γ_l = P L_l
 /// is recomputed), at decay rate `alpha` and region scaling `gamma`.
 pub fn check(
@@ -210,17 +226,7 @@ pub fn check(
     p: &DMatrix<f64>,
     l: &[DMatrix<f64>],
 ) -> Certificate {
-    let gammas: Vec<DMatrix<f64>> = l
-        .iter()
-        .map(|li| {
-            if p.ncols() == li.nrows() {
-                p * li
-            } else {
-                DMatrix::zeros(0, 0)
-            }
-        })
-        .collect();
-    let lnorm: Vec<f64> = l.iter().map(|li| li.norm()).collect();
+    let (gammas, lnorm) = gammas_of(p, l);
     check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, None)
 }
 
@@ -245,17 +251,7 @@ pub fn check_cube(
     l: &[DMatrix<f64>],
     slacks: &CubeSlacks,
 ) -> Certificate {
-    let gammas: Vec<DMatrix<f64>> = l
-        .iter()
-        .map(|li| {
-            if p.ncols() == li.nrows() {
-                p * li
-            } else {
-                DMatrix::zeros(0, 0)
-            }
-        })
-        .collect();
-    let lnorm: Vec<f64> = l.iter().map(|li| li.norm()).collect();
+    let (gammas, lnorm) = gammas_of(p, l);
     check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, Some(slacks))
 }
 
