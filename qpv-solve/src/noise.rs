@@ -50,7 +50,7 @@ use crate::lmi::{tri, Objective, Problem};
 use crate::model::output_filter::OutputRouteInfo;
 use crate::model::state_bound::StateBoundInfo;
 use crate::model::{ObserverModel, ObserverOptions, StateBoundClaim};
-use crate::report::{matrix_to_rows, Design, SearchStep, SolverInfo};
+use crate::report::{Design, ReportedMatrices, SearchStep, SolverInfo};
 use crate::vocab::{BoundSource, Phase};
 use crate::{Settings, SolveError};
 use clarabel::algebra::CscMatrix;
@@ -979,14 +979,12 @@ fn noise_report(
     let (obs, alpha, status) = (ctx.model, ctx.alpha, ctx.last_status);
     let feasible = best.is_some();
     let shown = best.or(ctx.last_uncertified.take());
-    let (p_rows, g_rows, l_rows, norms, margins, dchecks, solver, gamma_r, noise) = match &shown {
+    let shown_matrices = shown
+        .as_ref()
+        .map(|pt| ReportedMatrices::of(&pt.p, &pt.gammas, &pt.l))
+        .unwrap_or_default();
+    let (margins, dchecks, solver, gamma_r, noise) = match &shown {
         Some(pt) => (
-            matrix_to_rows(&pt.p),
-            pt.gammas.iter().map(matrix_to_rows).collect(),
-            pt.l.iter().map(matrix_to_rows).collect(),
-            pt.l.iter()
-                .map(|l| l.clone().singular_values().max())
-                .collect::<Vec<f64>>(),
             pt.cert.margins(),
             pt.cert.data_checks.clone(),
             pt.solver.clone(),
@@ -994,10 +992,6 @@ fn noise_report(
             feasible.then(|| pt.bound.clone()),
         ),
         None => (
-            Vec::new(),
-            Vec::new(),
-            Vec::new(),
-            Vec::new(),
             Default::default(),
             crate::certificate::data_checks(obs, Mode::Sound, gamma_req),
             SolverInfo {
@@ -1008,7 +1002,11 @@ fn noise_report(
             None,
         ),
     };
-    let max_gain = norms.iter().copied().fold(0.0, f64::max);
+    let max_gain = shown_matrices
+        .gain_norms
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
     let summary = match &noise {
         Some(nb) => format!(
             "CERTIFIED (sound conditions S1-S5 and the noise block LMI): V' + αV ≤ σ(|w|² + |v|²) with α = {alpha:.6}, γ = {gamma_r:.6}, σ = {:.6e}; E stays invariant for noise amplitude up to ν_max = {:.4e}; ‖e(∞)‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
@@ -1036,10 +1034,10 @@ fn noise_report(
         certifies: feasible,
         alpha,
         gamma: gamma_r,
-        p: p_rows,
-        gamma_l: g_rows,
-        l: l_rows,
-        gain_norms: norms,
+        p: shown_matrices.p,
+        gamma_l: shown_matrices.gamma_l,
+        l: shown_matrices.l,
+        gain_norms: shown_matrices.gain_norms,
         margins,
         data_checks: dchecks,
         solver,

@@ -272,6 +272,31 @@ impl GammaSearchInfo {
     }
 }
 
+/// P, Γ_l and L_l as a report writes them (rows), with ‖L_l‖₂: the part of
+/// a [`Design`] that comes from the point it shows (empty without one).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ReportedMatrices {
+    pub p: Vec<Vec<f64>>,
+    pub gamma_l: Vec<Vec<Vec<f64>>>,
+    pub l: Vec<Vec<Vec<f64>>>,
+    pub gain_norms: Vec<f64>,
+}
+
+impl ReportedMatrices {
+    /// The rows of P, Γ_l, L_l and the spectral norms of the L_l.
+    pub(crate) fn of(p: &DMatrix<f64>, gammas: &[DMatrix<f64>], l: &[DMatrix<f64>]) -> Self {
+        ReportedMatrices {
+            p: matrix_to_rows(p),
+            gamma_l: gammas.iter().map(matrix_to_rows).collect(),
+            l: l.iter().map(matrix_to_rows).collect(),
+            gain_norms: l
+                .iter()
+                .map(|li| li.clone().singular_values().max())
+                .collect(),
+        }
+    }
+}
+
 impl Design {
     /// P as a matrix (0 × 0 if absent).
     pub fn p_matrix(&self) -> DMatrix<f64> {
@@ -351,25 +376,18 @@ impl Design {
     /// failed certificate with the reason.
     pub fn recheck(&self, model: &PolytopicModel) -> Certificate {
         match self.observer_model(model) {
-            Ok(m) => match &self.cube {
-                Some(c) => crate::certificate::check_cube(
-                    &m,
-                    self.mode,
-                    self.alpha,
-                    self.gamma,
-                    &self.p_matrix(),
-                    &self.l_matrices(),
-                    &crate::conditions::cube::CubeSlacks::from_report(c),
-                ),
-                None => crate::check(
-                    &m,
-                    self.mode,
-                    self.alpha,
-                    self.gamma,
-                    &self.p_matrix(),
-                    &self.l_matrices(),
-                ),
-            },
+            Ok(m) => crate::certificate::check_with(
+                &m,
+                self.mode,
+                self.alpha,
+                self.gamma,
+                &self.p_matrix(),
+                &self.l_matrices(),
+                self.cube
+                    .as_ref()
+                    .map(crate::conditions::cube::CubeSlacks::from_report)
+                    .as_ref(),
+            ),
             Err(e) => Certificate::refused(
                 self.mode,
                 self.alpha,

@@ -255,6 +255,24 @@ pub fn check_cube(
     check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, Some(slacks))
 }
 
+/// [`check_cube`] when the design carries cube slacks, else [`check`]: the
+/// certificate a design's own conditions call for.
+#[allow(clippy::too_many_arguments)]
+pub fn check_with(
+    model: &PolytopicModel,
+    mode: Mode,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    l: &[DMatrix<f64>],
+    cube: Option<&CubeSlacks>,
+) -> Certificate {
+    match cube {
+        Some(c) => check_cube(model, mode, alpha, gamma, p, l, c),
+        None => check(model, mode, alpha, gamma, p, l),
+    }
+}
+
 /// The generators of the model's zonotope region, if the slacks fit them.
 fn cube_input_errors(model: &PolytopicModel, c: &CubeSlacks) -> Result<Vec<DVector<f64>>, String> {
     let Some(gens) = model.region.zonotope_generators() else {

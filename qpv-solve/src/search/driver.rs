@@ -8,12 +8,11 @@ use crate::certificate::{data_checks, DataCheck};
 use crate::conditions::cube::CubeSlacks;
 use crate::conditions::ConditionSet;
 use crate::error::SolveError;
-use crate::linalg::matrix_to_rows;
 use crate::lmi::{Objective, Problem};
 use crate::model::output_filter::OutputRouteInfo;
 use crate::model::state_bound::StateBoundInfo;
 use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim};
-use crate::report::{Design, GammaSearchInfo, SearchStep, SolverInfo};
+use crate::report::{Design, GammaSearchInfo, ReportedMatrices, SearchStep, SolverInfo};
 use crate::settings::Settings;
 use crate::vocab::{BoundSource, Candidate, Family, Phase};
 use qpv_dsl::{
@@ -505,24 +504,17 @@ pub(super) fn design_plain(
                 .collect()
         })
         .unwrap_or_default();
-    let (p_rows, g_rows, l_rows, norms) = match &shown {
-        Some(pt) => (
-            matrix_to_rows(&pt.p),
-            pt.gammas.iter().map(matrix_to_rows).collect(),
-            pt.l.iter().map(matrix_to_rows).collect(),
-            pt.l.iter()
-                .map(|l| l.clone().singular_values().max())
-                .collect::<Vec<f64>>(),
-        ),
-        None => (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
-    };
+    let shown_matrices = shown
+        .as_ref()
+        .map(|pt| ReportedMatrices::of(&pt.p, &pt.gammas, &pt.l))
+        .unwrap_or_default();
     let summary = summary(
         mode,
         feasible,
         (alpha_r, gamma_r),
         fin.status,
         &failed,
-        &norms,
+        &shown_matrices.gain_norms,
         &notes,
     );
     Ok(Design {
@@ -534,10 +526,10 @@ pub(super) fn design_plain(
         certifies: feasible && mode == Mode::Sound,
         alpha: alpha_r,
         gamma: gamma_r,
-        p: p_rows,
-        gamma_l: g_rows,
-        l: l_rows,
-        gain_norms: norms,
+        p: shown_matrices.p,
+        gamma_l: shown_matrices.gamma_l,
+        l: shown_matrices.l,
+        gain_norms: shown_matrices.gain_norms,
         margins,
         data_checks: dchecks,
         solver: fin.solver,

@@ -53,7 +53,7 @@ use driver::design_plain;
 pub use driver::{alpha_profile, ProfilePoint};
 
 use crate::backend::Status;
-use crate::certificate::{alpha_capacity, alpha_capacity_cube, check, check_cube, Certificate};
+use crate::certificate::{alpha_capacity, alpha_capacity_cube, check_with, Certificate};
 use crate::conditions::cube::CubeSlacks;
 use crate::error::SolveError;
 use crate::linalg::matrix_to_rows;
@@ -156,10 +156,7 @@ impl Ctx<'_, '_> {
         l: &[DMatrix<f64>],
         cube: Option<&CubeSlacks>,
     ) -> Certificate {
-        match cube {
-            Some(c) => check_cube(self.model, self.mode, alpha, gamma, p, l, c),
-            None => check(self.model, self.mode, alpha, gamma, p, l),
-        }
+        check_with(self.model, self.mode, alpha, gamma, p, l, cube)
     }
 
     /// The largest α at which the point's (P, Γ_l, L_l) certify at `gamma`
