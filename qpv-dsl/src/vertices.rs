@@ -181,8 +181,14 @@ impl PolytopicModel {
     ) -> DMatrix<f64> {
         let mu = self.mu(theta);
         let mut s = DMatrix::zeros(rows, cols);
+        // In place: a model with derived variables can have thousands of
+        // vertices, and `X_l * w` would allocate a matrix for each.
         for (w, v) in mu.iter().zip(&self.vertices) {
-            s += pick(v) * *w;
+            if *w != 0.0 {
+                for (a, b) in s.as_mut_slice().iter_mut().zip(pick(v).as_slice()) {
+                    *a += w * b;
+                }
+            }
         }
         s
     }

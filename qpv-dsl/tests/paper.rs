@@ -208,7 +208,7 @@ fn polytopic_decomposition_is_exact_at_random_theta() {
 
 #[test]
 fn all_examples_parse_and_their_bounds_contain_the_region() {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../examples");
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples");
     let mut count = 0;
     for entry in std::fs::read_dir(dir).unwrap() {
         let path = entry.unwrap().path();

@@ -22,7 +22,7 @@
 //!   symmetric split of N_k, so its iteration count can differ from the
 //!   design's by a few.
 //!
-//! `cargo bench -p qpv-solve --bench cube_scale [-- scale|fixed|loss|profile] [-- NX...]`
+//! `cargo bench --bench cube_scale [-- scale|fixed|loss|profile] [-- NX...]`
 //! (`fixed`: the scale table without the α search). Times are wall-clock and,
 //! because the machine may be shared, the process's CPU time too.
 //!

@@ -2,7 +2,7 @@
 //! assembly + Clarabel + certificate — beside Clarabel's own solve time.
 //! Goal: overhead (everything that is not Clarabel) ≤ 50 % of the solve.
 //!
-//! `cargo bench -p qpv-solve --bench design_fixed [-- REPEATS]`
+//! `cargo bench --bench design_fixed [-- REPEATS]`
 
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
 use qpv_solve::conditions::reference::paper_model;

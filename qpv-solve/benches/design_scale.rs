@@ -13,7 +13,7 @@
 //! nx = 7 (nx = 8: 262 144 blocks); its size is printed instead. Goals:
 //! nx = 6 full in < 60 s and < 4 GiB; nx = 8 decoupled certified in < 10 s.
 //!
-//! `cargo bench -p qpv-solve --bench design_scale [-- NX...] [-- full|decoupled]`
+//! `cargo bench --bench design_scale [-- NX...] [-- full|decoupled]`
 
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode};
 use qpv_solve::conditions::reference::synthetic_model;

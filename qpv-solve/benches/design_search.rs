@@ -4,7 +4,7 @@
 //! and the paper plant with a θ-dependent output map (C_22 = 1 + θ1,
 //! M_1[2,3] = 0.5 θ2) designed by the double sum and by the output filter.
 //!
-//! `cargo bench -p qpv-solve --bench design_search [-- REPEATS]`
+//! `cargo bench --bench design_search [-- REPEATS]`
 
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, OutputFilter, OutputRoute, PolytopicModel, Split};
 use qpv_solve::conditions::reference::paper_model;

@@ -11,7 +11,7 @@
 //! one-minute load average when the plant's row was printed (the machine
 //! may be shared).
 //!
-//! `cargo bench -p qpv-solve --bench gamma_search [-- [POINTS] [--heavy] [--steps] [NAME...]]`
+//! `cargo bench --bench gamma_search [-- [POINTS] [--heavy] [--steps] [NAME...]]`
 //! (POINTS: dense grid size, default 200; `--steps`: print the search's
 //! solves and the dense profile; NAME: only plants whose name contains it).
 

@@ -4,7 +4,7 @@
 //! Euler step, the noise-optimal design (one SDP), the noise-optimal design
 //! with γ searched, and a trade-off sweep of 6 points.
 //!
-//! Run: `cargo bench -p qpv-solve --bench noise`. Prints a table; nothing
+//! Run: `cargo bench --bench noise`. Prints a table; nothing
 //! is asserted on time.
 
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode};

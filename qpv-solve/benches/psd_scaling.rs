@@ -1,7 +1,7 @@
 //! How Clarabel's solve time grows with the size of one PSD cone, on the
 //! pure-Rust BLAS/LAPACK of `qpv_solve::lapack`, and what the individual
 //! routines cost at those sizes. Prints numbers; run with
-//! `cargo bench -p qpv-solve --bench psd_scaling` (add `-- quick` for one
+//! `cargo bench --bench psd_scaling` (add `-- quick` for one
 //! repetition). Needs the default `pure-lapack` feature.
 //!
 //! Problem: min trace(C X) s.t. trace(X) = 1, X ⪰ 0 (optimum λmin(C)),

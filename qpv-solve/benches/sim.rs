@@ -1,5 +1,5 @@
 //! Timing of the simulator and the falsifier on the paper's example
-//! (docs/method.md §14). Run with `cargo bench -p qpv-solve --bench sim`; prints numbers.
+//! (docs/method.md §14). Run with `cargo bench --bench sim`; prints numbers.
 
 use nalgebra::DMatrix;
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode};

@@ -3,7 +3,7 @@
 //! for both splits of N_k; every α printed is certified by the independent
 //! check on the model with N_k + K_k (the same plant).
 //!
-//! `cargo bench -p qpv-solve --bench skew_slack [-- ROUNDS]`
+//! `cargo bench --bench skew_slack [-- ROUNDS]`
 
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, Split};
 use qpv_solve::conditions::reference::paper_model;

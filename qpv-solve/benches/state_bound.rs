@@ -1,7 +1,7 @@
 //! Timing of `state_bound auto`: the paper's example (both
 //! splits of N_k, the h search step by step) and the synthetic scale models
 //! (nx = 3..8, 2^nx box vertices × 4 θ-vertices invariance blocks). Run with
-//! `cargo bench -p qpv-solve --bench state_bound`; prints numbers.
+//! `cargo bench --bench state_bound`; prints numbers.
 
 use qpv_dsl::{Split, StateBound};
 use qpv_solve::conditions::gamma_max;

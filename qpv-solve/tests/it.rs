@@ -1,11 +1,16 @@
 //! The integration tests of qpv-solve, one module per file.
 //!
 //! Every file next to this one is a module of this single test binary, so
-//! the crate's tests link once instead of once per file (`autotests =
-//! false` in Cargo.toml). A new test file must be added to the list below;
-//! `every_test_file_is_a_module` fails if one is missing.
+//! the crate's tests link once instead of once per file. A new test file
+//! must be added to the list below; `every_test_file_is_a_module` fails if
+//! one is missing.
 //!
-//! Run one file's tests with `cargo test -p qpv-solve --test it FILE::`.
+//! The binary is the test target `solve` of the root package (its
+//! Cargo.toml), not of qpv-solve: a test target of qpv-solve would be compiled
+//! at opt-level 3 like the library (the dev profile optimises the package
+//! as a whole), while this test code needs no optimisation; it calls the
+//! optimised library. Run one file's tests with
+//! `cargo test --test solve FILE::`.
 
 mod certificate;
 mod clarabel_psd;
@@ -26,7 +31,7 @@ mod state_bound;
 #[test]
 fn every_test_file_is_a_module() {
     let root = include_str!("it.rs");
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("qpv-solve/tests");
     let mut missing = Vec::new();
     for entry in std::fs::read_dir(&dir).expect("the tests directory") {
         let name = entry.expect("a directory entry").file_name();

@@ -140,7 +140,7 @@ fn imports(module: &[String], text: &str) -> Vec<Vec<String>> {
 
 #[test]
 fn no_import_against_the_layers_and_no_circle() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("qpv-solve/src");
     let mut files = Vec::new();
     sources(&src, &mut files);
     files.sort();
