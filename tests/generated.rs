@@ -750,6 +750,95 @@ fn generated_phi_mu_and_plant_match_the_model_compiler() {
     check_scheduling_functions!(manipulator, "../examples/manipulator.qpv");
 }
 
+/// The manipulator example cuts its parameter range into pieces (`cover`):
+/// the generated `piece`, `phi` and `mu` agree with the model compiler on
+/// random θ and on, just below and just above every breakpoint (and
+/// outside Θ), and μ is zero outside the piece that contains θ.
+#[test]
+fn generated_cover_locates_pieces_like_the_model_compiler() {
+    let poly = polytopic(include_str!("../examples/manipulator.qpv"));
+    let cover = poly
+        .cover
+        .as_ref()
+        .expect("the manipulator example has a cover");
+    assert!(cover.len() > 1);
+    assert_eq!(manipulator::PIECES, cover.len());
+    assert_eq!(manipulator::NV, poly.nv());
+    let per = manipulator::NV / manipulator::PIECES;
+    let mut rng = Rng(29);
+    let mut thetas: Vec<[f64; manipulator::NTHETA]> = (0..500)
+        .map(|_| {
+            core::array::from_fn(|i| {
+                rng.uniform(manipulator::THETA_MIN[i], manipulator::THETA_MAX[i])
+            })
+        })
+        .collect();
+    for a in &cover.axes {
+        for &b in &a.breaks {
+            for t in [
+                b,
+                b.next_down(),
+                b.next_up(),
+                b - 1e-9,
+                b + 1e-9,
+                b - 1.0,
+                b + 1.0,
+            ] {
+                let mut th: [f64; manipulator::NTHETA] = core::array::from_fn(|i| {
+                    rng.uniform(manipulator::THETA_MIN[i], manipulator::THETA_MAX[i])
+                });
+                th[a.param] = t;
+                thetas.push(th);
+            }
+        }
+    }
+    for theta in thetas {
+        let clamped = manipulator::clamp_theta(&theta).0;
+        let k = manipulator::piece(&theta);
+        assert_eq!(k, cover.locate(&clamped), "piece of {theta:?}");
+        let phi = manipulator::phi(&clamped);
+        let phi_ref = poly.phi(&theta);
+        assert!(rel_err(&phi, &phi_ref) <= 1e-12, "{phi:?} vs {phi_ref:?}");
+        let mu = manipulator::mu(&theta);
+        let mu_ref = poly.mu(&theta);
+        let diff = mu
+            .iter()
+            .zip(&mu_ref)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(diff <= 1e-12, "μ differs by {diff:e} at {theta:?}");
+        for (l, w) in mu.iter().enumerate() {
+            assert!(l / per == k || *w == 0.0, "μ_{l} = {w} outside piece {k}");
+        }
+        assert!((mu.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+}
+
+/// The baked P and L_l of the covered manipulator survive falsification
+/// on the true nonlinear error dynamics (θ drawn over the whole range, so
+/// the gain of every piece is exercised).
+#[test]
+fn covered_manipulator_gains_survive_falsification() {
+    let poly = polytopic(include_str!("../examples/manipulator.qpv"));
+    assert!(poly.cover.is_some());
+    let p = DMatrix::from_fn(manipulator::NX, manipulator::NX, |i, j| {
+        manipulator::P[i][j]
+    });
+    let l = gains(&manipulator::L);
+    assert_eq!(l.len(), poly.nv());
+    let f = qpv::solve::falsify::falsify(
+        &poly,
+        &p,
+        &l,
+        manipulator::ALPHA,
+        manipulator::GAMMA,
+        20_000,
+        7,
+    )
+    .expect("the model and gains are well formed");
+    assert!(f.passed(), "worst ratio {} at {:?}", f.worst_ratio, f.worst);
+}
+
 #[test]
 fn scheduling_function_examples_are_certified_and_converge() {
     const { assert!(spacecraft::CERTIFIES && arrhenius_reactor::CERTIFIES && manipulator::CERTIFIES) };
