@@ -334,7 +334,9 @@ impl crate::model::Model {
         let scheduling = self.scheduling();
         let whole: Vec<(f64, f64)> = self.params.iter().map(|p| (p.lo, p.hi)).collect();
         let whole_phi: Vec<(f64, f64)> = self.derived.iter().map(|d| (d.lo, d.hi)).collect();
-        let boxes: Vec<(&[(f64, f64)], &[(f64, f64)])> = match &self.cover {
+        // (parameter ranges, φ ranges) of each box: the whole box, or every piece
+        type Ranges<'a> = &'a [(f64, f64)];
+        let boxes: Vec<(Ranges<'_>, Ranges<'_>)> = match &self.cover {
             None => vec![(&whole, &whole_phi)],
             Some(c) => c
                 .pieces

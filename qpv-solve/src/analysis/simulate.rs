@@ -167,7 +167,7 @@ pub fn check_model(model: &PolytopicModel) -> Result<(), SimError> {
         if c.pieces.iter().any(|p| {
             p.theta.len() != model.ntheta()
                 || p.phi.len() != model.derived.len()
-                || p.theta.iter().chain(&p.phi).any(|&(lo, hi)| !(lo < hi))
+                || !p.theta.iter().chain(&p.phi).all(|&(lo, hi)| lo < hi)
         }) {
             return Err(SimError::Model(
                 "a piece of the cover has ranges that do not match the model".into(),
