@@ -48,6 +48,29 @@ inline_model! {
     }
 }
 
+// A grid cover (`cover a into 3, b into 2`: 6 pieces) of a model with a
+// scheduling function of `a` and a product a·b: the generated piece rule,
+// μ and observer against the reference on both axes' breakpoints.
+inline_model! {
+    GRID_TEXT,
+    model grid {
+        state x1, x2;
+        input u1;
+        output y1;
+        param a in [-1, 2];
+        param b in [0.5, 1.5];
+        A = [-3 + 0.5*a, 1 + a*b; -0.5*b/(2 + cos(a)), -4];
+        N1 = [0.1, 0; 0, -0.2*a];
+        N2 = [0, 0.3; 0, 0];
+        B = [1; 0.5 + b];
+        C = [1, 0];
+        region box(1);
+        state_bound Q = [0.2, 0; 0, 0.2];
+        cover a into 3, b into 2;
+        design { alpha = 0.5; gamma = 0.5; }
+    }
+}
+
 // The paper's example designed with `split = skew_slack`: the baked P and
 // L_l are certified on N_k + K_k (the same plant); the generated code does
 // not depend on the representation. The skew alternation starts from the
@@ -337,6 +360,52 @@ fn mu_and_gain_match_the_polytopic_model() {
             let want: f64 = (0..small::NV).map(|l| mu[l] * small::L[l][k][0]).sum();
             assert!((gk[0] - want).abs() <= 1e-12 * want.abs().max(1.0));
         }
+    }
+}
+
+#[test]
+fn grid_cover_pieces_mu_and_observer_match_the_reference() {
+    const { assert!(grid::CERTIFIES) };
+    let poly = polytopic(GRID_TEXT);
+    let cover = poly.cover.as_ref().expect("a cover");
+    assert_eq!((grid::PIECES, cover.len()), (6, 6));
+    assert_eq!(grid::NV, 6 * 8, "2^3 corners of (a, b, φ) per piece");
+    assert_eq!(poly.nv(), grid::NV);
+    let ls = gains(&grid::L);
+    let mut rng = Rng(5);
+    let mut thetas: Vec<[f64; 2]> = (0..1000)
+        .map(|_| [rng.uniform(-1.0, 2.0), rng.uniform(0.5, 1.5)])
+        .collect();
+    for ax in &cover.axes {
+        for &bk in &ax.breaks {
+            for t in [bk, bk.next_down(), bk.next_up(), bk - 0.7, bk + 0.7] {
+                let mut th = [rng.uniform(-1.0, 2.0), rng.uniform(0.5, 1.5)];
+                th[ax.param] = t;
+                thetas.push(th);
+            }
+        }
+    }
+    // both parameters on a breakpoint at once
+    thetas.push([0.0, 1.0]);
+    thetas.push([1.0, 1.0]);
+    for theta in thetas {
+        let clamped = grid::clamp_theta(&theta).0;
+        assert_eq!(grid::piece(&theta), cover.locate(&clamped), "{theta:?}");
+        let mu = grid::mu(&theta);
+        let mu_ref = poly.mu(&theta);
+        let diff = mu
+            .iter()
+            .zip(&mu_ref)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(diff <= 1e-12, "μ differs by {diff:e} at {theta:?}");
+        let x: [f64; 2] = core::array::from_fn(|_| rng.uniform(-1.0, 1.0));
+        let y = [rng.uniform(-1.0, 1.0)];
+        let u = [rng.uniform(-1.0, 1.0)];
+        let got = grid::Observer::with_state(&x).derivative(&y, &u, &theta);
+        let want = simulate::observer_derivative(&poly, &ls, &x, &y, &u, &theta)
+            .expect("reference evaluates");
+        assert!(rel_err(&got, &want) <= 1e-12, "{got:?} vs {want:?}");
     }
 }
 

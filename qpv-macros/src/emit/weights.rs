@@ -267,9 +267,12 @@ fn covered_mu_body(m: &Model, c: &qpv_dsl::Cover, scheduling: &[usize]) -> Token
     }
 }
 
-/// `let k: usize = ...;`: the piece of the cover that contains the clamped
-/// θ (`t<i>` bound by the caller).
+/// `let c<a>: usize = ...; let k: usize = ...;`: the piece of the cover
+/// that contains the clamped θ (`t<i>` bound by the caller): along each cut
+/// parameter the number of inner breakpoints ≤ θ_i, then the mixed-radix
+/// index, first parameter most significant.
 fn locate(c: &qpv_dsl::Cover) -> TokenStream {
+    let mut out = TokenStream::new();
     let mut k = quote!(0usize);
     for (a, axis) in c.axes.iter().enumerate() {
         let t = format_ident!("t{}", axis.param);
@@ -279,16 +282,16 @@ fn locate(c: &qpv_dsl::Cover) -> TokenStream {
             quote!(usize::from(#t >= #b))
         });
         let ci = format_ident!("c{}", a);
-        let count = quote!(0usize #(+ #inner)*);
+        out.extend(quote!(let #ci: usize = 0usize #(+ #inner)*;));
         let nl = super::tokens::usize_lit(n);
         k = if a == 0 {
             quote!(#ci)
         } else {
             quote!(#k * #nl + #ci)
         };
-        k = quote!({ let #ci: usize = #count; #k });
     }
-    quote!(let k: usize = #k;)
+    out.extend(quote!(let k: usize = #k;));
+    out
 }
 
 /// `PIECES` and `piece(θ)` for a model with a cover (nothing otherwise).
