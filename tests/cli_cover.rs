@@ -75,3 +75,35 @@ fn the_covered_manipulator_is_designed_checked_and_simulated() {
     let sim = qpv(&["simulate", MODEL, "--design", r, "--t-end", "1"]);
     assert_eq!(sim.status.code(), Some(0), "{}", text(&sim));
 }
+
+#[test]
+fn the_vertex_count_warning_names_the_cover() {
+    let text16 = std::fs::read_to_string(MODEL)
+        .expect("the example")
+        .replace("cover q2 into 4;", "cover q2 into 16;");
+    let file = tmp("cover", "manipulator16.qpv");
+    std::fs::write(&file, text16).expect("write");
+    let f = file.to_str().expect("utf-8 path");
+    let j = json_stdout(&qpv(&["vertices", f, "--json", "-"]));
+    assert_eq!(j["vertex_count"]["total"], 128);
+    assert_eq!(j["vertex_count"]["pieces"], 16);
+    let w = j["vertex_count"]["warning"]
+        .as_str()
+        .expect("a warning above 64");
+    assert!(
+        w.contains("128 vertices") && w.contains("its 16 pieces"),
+        "{w}"
+    );
+    let bad = std::fs::read_to_string(MODEL)
+        .expect("the example")
+        .replace("cover q2 into 4;", "cover q2 into 65;");
+    let file = tmp("cover", "manipulator65.qpv");
+    std::fs::write(&file, bad).expect("write");
+    let out = qpv(&["vertices", file.to_str().expect("utf-8 path")]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out).contains("65 pieces: at most 64"),
+        "{}",
+        text(&out)
+    );
+}
