@@ -11,7 +11,8 @@ use serde::Serialize;
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Vertex {
     /// The full parameter vector at this corner (parameters that generate no
-    /// vertex are set to their midpoint; they appear in no matrix).
+    /// vertex are set to their midpoint, with a cover the midpoint of the
+    /// piece's range; they appear in no matrix directly).
     pub theta: Vec<f64>,
     /// A_l.
     pub a: DMatrix<f64>,
