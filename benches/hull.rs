@@ -1,50 +1,49 @@
-//! Measurement: does a tighter cover of the curve {(θ, φ(θ))} than the box
-//! of (θ, φ) pay? For a plant with one parameter θ and derived scheduling
-//! variables φ(θ), Θ is split into `n` equal pieces and the polytopic model
-//! takes the corners of the box of (θ, φ) over each piece (ranges recomputed
-//! on the piece with the same proof, `Model::restricted`): n·2^d vertices
-//! instead of 2^d, each box much thinner. The design is solved with the
-//! largest certified α at the example's γ (the certificate checks every
-//! vertex), for the manipulator with its velocity region widened and the
-//! spacecraft. Prints a table: plant, region, pieces, vertices, certified α,
-//! solve time.
+//! Measurement: how much does the cover of the parameter box (`cover θ into
+//! n;`) pay against the one box of (θ, φ)? For a plant with one parameter θ
+//! and derived scheduling variables φ(θ), Θ is cut into `n` equal pieces and
+//! the polytopic model takes the corners of the box of (θ, φ) over each
+//! piece (ranges recomputed on the piece with the same proof): n·2^d
+//! vertices instead of 2^d, each box much thinner. The design is solved
+//! with the largest certified α at the example's γ (the certificate checks
+//! every vertex), for the manipulator with its velocity region widened and
+//! the spacecraft. Prints a table: plant, region, pieces, vertices,
+//! certified α, solve time.
 //!
 //!     cargo bench --bench hull --profile dev [-- manipulator|spacecraft] [--pieces 1,2,4,8]
 
-use qpv::dsl::{AlphaSpec, GammaSpec, Model, PolytopicModel};
+use qpv::dsl::{AlphaSpec, GammaSpec, Model};
 use std::time::Instant;
 
-/// The polytopic model over `n` equal pieces of the single parameter's range.
-fn pieces(model: &Model, n: usize) -> PolytopicModel {
-    assert_eq!(model.params.len(), 1, "one parameter");
-    let (lo, hi) = (model.params[0].lo, model.params[0].hi);
-    let cut = |k: usize| {
-        if k == n {
-            hi
-        } else {
-            lo + (hi - lo) * k as f64 / n as f64
-        }
-    };
-    let mut poly = model.polytopic();
-    poly.vertices.clear();
-    for k in 0..n {
-        let piece = model
-            .restricted(&[(cut(k), cut(k + 1))])
-            .expect("the piece is inside Θ");
-        poly.vertices.extend(piece.polytopic().vertices);
-    }
-    poly
+/// The model text with the single parameter's range cut into `n` pieces
+/// (the example's own `cover` statement, if any, replaced).
+fn with_cover(text: &str, n: usize) -> Model {
+    let plain: String = text
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("cover "))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let models = qpv::dsl::parse(&plain).expect("the example parses");
+    assert_eq!(models[0].params.len(), 1, "one parameter");
+    let name = models[0].params[0].name.clone();
+    let covered = plain.replacen(
+        "design {",
+        &format!("cover {name} into {n};\n    design {{"),
+        1,
+    );
+    qpv::dsl::parse(&covered)
+        .expect("the covered example parses")
+        .remove(0)
 }
 
 fn manipulator(v: f64) -> String {
     let src = include_str!("../examples/manipulator.qpv");
     let q = 4.0 * v * v;
     src.replace(
-        "region box([0.5, 0.5, 0.02, 0.02]);",
+        "region box([0.5, 0.5, 0.07, 0.07]);",
         &format!("region box([0.5, 0.5, {v}, {v}]);"),
     )
     .replace(
-        "0, 0, 0.0016, 0 ; 0, 0, 0, 0.0016 ]",
+        "0, 0, 0.0196, 0 ; 0, 0, 0, 0.0196 ]",
         &format!("0, 0, {q}, 0 ; 0, 0, 0, {q} ]"),
     )
 }
@@ -111,7 +110,7 @@ fn main() {
         req.alpha = AlphaSpec::Max;
         req.gamma = GammaSpec::Fixed(*gamma);
         for &n in &ns {
-            let poly = pieces(model, n);
+            let poly = with_cover(text, n).polytopic();
             let start = Instant::now();
             let d = qpv::solve::design(&poly, &req, &Default::default());
             let secs = start.elapsed().as_secs_f64();

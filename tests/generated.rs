@@ -48,6 +48,29 @@ inline_model! {
     }
 }
 
+// A grid cover (`cover a into 3, b into 2`: 6 pieces) of a model with a
+// scheduling function of `a` and a product a·b: the generated piece rule,
+// μ and observer against the reference on both axes' breakpoints.
+inline_model! {
+    GRID_TEXT,
+    model grid {
+        state x1, x2;
+        input u1;
+        output y1;
+        param a in [-1, 2];
+        param b in [0.5, 1.5];
+        A = [-3 + 0.5*a, 1 + a*b; -0.5*b/(2 + cos(a)), -4];
+        N1 = [0.1, 0; 0, -0.2*a];
+        N2 = [0, 0.3; 0, 0];
+        B = [1; 0.5 + b];
+        C = [1, 0];
+        region box(1);
+        state_bound Q = [0.2, 0; 0, 0.2];
+        cover a into 3, b into 2;
+        design { alpha = 0.5; gamma = 0.5; }
+    }
+}
+
 // The paper's example designed with `split = skew_slack`: the baked P and
 // L_l are certified on N_k + K_k (the same plant); the generated code does
 // not depend on the representation. The skew alternation starts from the
@@ -337,6 +360,52 @@ fn mu_and_gain_match_the_polytopic_model() {
             let want: f64 = (0..small::NV).map(|l| mu[l] * small::L[l][k][0]).sum();
             assert!((gk[0] - want).abs() <= 1e-12 * want.abs().max(1.0));
         }
+    }
+}
+
+#[test]
+fn grid_cover_pieces_mu_and_observer_match_the_reference() {
+    const { assert!(grid::CERTIFIES) };
+    let poly = polytopic(GRID_TEXT);
+    let cover = poly.cover.as_ref().expect("a cover");
+    assert_eq!((grid::PIECES, cover.len()), (6, 6));
+    assert_eq!(grid::NV, 6 * 8, "2^3 corners of (a, b, φ) per piece");
+    assert_eq!(poly.nv(), grid::NV);
+    let ls = gains(&grid::L);
+    let mut rng = Rng(5);
+    let mut thetas: Vec<[f64; 2]> = (0..1000)
+        .map(|_| [rng.uniform(-1.0, 2.0), rng.uniform(0.5, 1.5)])
+        .collect();
+    for ax in &cover.axes {
+        for &bk in &ax.breaks {
+            for t in [bk, bk.next_down(), bk.next_up(), bk - 0.7, bk + 0.7] {
+                let mut th = [rng.uniform(-1.0, 2.0), rng.uniform(0.5, 1.5)];
+                th[ax.param] = t;
+                thetas.push(th);
+            }
+        }
+    }
+    // both parameters on a breakpoint at once
+    thetas.push([0.0, 1.0]);
+    thetas.push([1.0, 1.0]);
+    for theta in thetas {
+        let clamped = grid::clamp_theta(&theta).0;
+        assert_eq!(grid::piece(&theta), cover.locate(&clamped), "{theta:?}");
+        let mu = grid::mu(&theta);
+        let mu_ref = poly.mu(&theta);
+        let diff = mu
+            .iter()
+            .zip(&mu_ref)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(diff <= 1e-12, "μ differs by {diff:e} at {theta:?}");
+        let x: [f64; 2] = core::array::from_fn(|_| rng.uniform(-1.0, 1.0));
+        let y = [rng.uniform(-1.0, 1.0)];
+        let u = [rng.uniform(-1.0, 1.0)];
+        let got = grid::Observer::with_state(&x).derivative(&y, &u, &theta);
+        let want = simulate::observer_derivative(&poly, &ls, &x, &y, &u, &theta)
+            .expect("reference evaluates");
+        assert!(rel_err(&got, &want) <= 1e-12, "{got:?} vs {want:?}");
     }
 }
 
@@ -748,6 +817,95 @@ fn generated_phi_mu_and_plant_match_the_model_compiler() {
     check_scheduling_functions!(spacecraft, "../examples/spacecraft.qpv");
     check_scheduling_functions!(arrhenius_reactor, "../examples/arrhenius_reactor.qpv");
     check_scheduling_functions!(manipulator, "../examples/manipulator.qpv");
+}
+
+/// The manipulator example cuts its parameter range into pieces (`cover`):
+/// the generated `piece`, `phi` and `mu` agree with the model compiler on
+/// random θ and on, just below and just above every breakpoint (and
+/// outside Θ), and μ is zero outside the piece that contains θ.
+#[test]
+fn generated_cover_locates_pieces_like_the_model_compiler() {
+    let poly = polytopic(include_str!("../examples/manipulator.qpv"));
+    let cover = poly
+        .cover
+        .as_ref()
+        .expect("the manipulator example has a cover");
+    assert!(cover.len() > 1);
+    assert_eq!(manipulator::PIECES, cover.len());
+    assert_eq!(manipulator::NV, poly.nv());
+    let per = manipulator::NV / manipulator::PIECES;
+    let mut rng = Rng(29);
+    let mut thetas: Vec<[f64; manipulator::NTHETA]> = (0..500)
+        .map(|_| {
+            core::array::from_fn(|i| {
+                rng.uniform(manipulator::THETA_MIN[i], manipulator::THETA_MAX[i])
+            })
+        })
+        .collect();
+    for a in &cover.axes {
+        for &b in &a.breaks {
+            for t in [
+                b,
+                b.next_down(),
+                b.next_up(),
+                b - 1e-9,
+                b + 1e-9,
+                b - 1.0,
+                b + 1.0,
+            ] {
+                let mut th: [f64; manipulator::NTHETA] = core::array::from_fn(|i| {
+                    rng.uniform(manipulator::THETA_MIN[i], manipulator::THETA_MAX[i])
+                });
+                th[a.param] = t;
+                thetas.push(th);
+            }
+        }
+    }
+    for theta in thetas {
+        let clamped = manipulator::clamp_theta(&theta).0;
+        let k = manipulator::piece(&theta);
+        assert_eq!(k, cover.locate(&clamped), "piece of {theta:?}");
+        let phi = manipulator::phi(&clamped);
+        let phi_ref = poly.phi(&theta);
+        assert!(rel_err(&phi, &phi_ref) <= 1e-12, "{phi:?} vs {phi_ref:?}");
+        let mu = manipulator::mu(&theta);
+        let mu_ref = poly.mu(&theta);
+        let diff = mu
+            .iter()
+            .zip(&mu_ref)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(diff <= 1e-12, "μ differs by {diff:e} at {theta:?}");
+        for (l, w) in mu.iter().enumerate() {
+            assert!(l / per == k || *w == 0.0, "μ_{l} = {w} outside piece {k}");
+        }
+        assert!((mu.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+}
+
+/// The baked P and L_l of the covered manipulator survive falsification
+/// on the true nonlinear error dynamics (θ drawn over the whole range, so
+/// the gain of every piece is exercised).
+#[test]
+fn covered_manipulator_gains_survive_falsification() {
+    let poly = polytopic(include_str!("../examples/manipulator.qpv"));
+    assert!(poly.cover.is_some());
+    let p = DMatrix::from_fn(manipulator::NX, manipulator::NX, |i, j| {
+        manipulator::P[i][j]
+    });
+    let l = gains(&manipulator::L);
+    assert_eq!(l.len(), poly.nv());
+    let f = qpv::solve::falsify::falsify(
+        &poly,
+        &p,
+        &l,
+        manipulator::ALPHA,
+        manipulator::GAMMA,
+        20_000,
+        7,
+    )
+    .expect("the model and gains are well formed");
+    assert!(f.passed(), "worst ratio {} at {:?}", f.worst_ratio, f.worst);
 }
 
 #[test]

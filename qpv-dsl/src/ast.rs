@@ -63,6 +63,20 @@ pub enum Item {
     Let(Ident, Expr, Span),
     /// `const NAME = EXPR;`: a named number.
     Const(Ident, Expr, Span),
+    /// `cover q2 into 4, m into 2;`: the parameter box cut into equal
+    /// pieces along each named parameter, and the statement's span.
+    Cover(Vec<CoverAxisAst>, Span),
+}
+
+/// One `NAME into COUNT` of a `cover` statement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CoverAxisAst {
+    /// The parameter cut.
+    pub param: Ident,
+    /// The number of equal pieces (a constant expression).
+    pub pieces: Expr,
+    /// The whole `NAME into COUNT`.
+    pub span: Span,
 }
 
 /// The right-hand side of a `state_bound` statement.

@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod ast;
+pub mod cover;
 pub mod diagnostic;
 mod equations;
 pub mod expr;
@@ -13,6 +14,7 @@ mod soundness;
 mod syntax;
 pub mod vertices;
 
+pub use cover::{Cover, CoverAxis, Piece};
 pub use diagnostic::{Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
 pub use model::{

@@ -208,10 +208,19 @@ fn examples_with_scheduling_functions_are_exact_and_enclosed() {
     }
 }
 
+/// The manipulator example without its `cover` statement (one box).
+fn manipulator_box() -> String {
+    include_str!("../../examples/manipulator.qpv")
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("cover "))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 #[test]
 fn a_piece_of_the_parameter_box_is_exact_and_thinner() {
-    let src = include_str!("../../examples/manipulator.qpv");
-    let model = &crate::parse(src).expect("valid")[0];
+    let src = manipulator_box();
+    let model = &crate::parse(&src).expect("valid")[0];
     let full = model.polytopic();
     let piece = model.restricted(&[(0.2, 0.65)]).expect("inside Θ");
     let poly = piece.polytopic();
@@ -240,4 +249,157 @@ fn a_piece_of_the_parameter_box_is_exact_and_thinner() {
     }
     let err = model.restricted(&[(0.1, 0.65)]).unwrap_err();
     assert!(err.contains("q2") && err.contains("[0.2, 2]"), "{err}");
+}
+
+/// A model with a grid cover whose matrices all depend on θ through
+/// scheduling functions: A, N_k, B, B_w, C and M_k.
+const COVERED: &str = "model covered {
+    state x1, x2; input u; output y; disturbance w;
+    param q in [0.2, 2.0]; param m in [0, 1];
+    let d = 2 - m*cos(q);
+    der x1 = -x1/d + sin(q)*x2 + m*x1*x2 + u/d + cos(q)*w;
+    der x2 = -(1 + m)*x2 + sin(q)*x1*x1/d + m*w/d;
+    out y = x1 + cos(q)*x2 + m*sin(q)*x1*x2;
+    cover q into 4, m into 3;
+    region box(1);
+}";
+
+/// θ values that exercise a cover: uniform in Θ, then every breakpoint
+/// (and its neighbouring floats) along each cut parameter, the ends of Θ
+/// and points outside it.
+fn cover_thetas(model: &crate::Model, rng: &mut Rng, n: usize) -> Vec<Vec<f64>> {
+    let uniform = |rng: &mut Rng| -> Vec<f64> {
+        model
+            .params
+            .iter()
+            .map(|p| p.lo + (p.hi - p.lo) * rng.next())
+            .collect()
+    };
+    let mut out: Vec<Vec<f64>> = (0..n).map(|_| uniform(rng)).collect();
+    let cover = model.cover.as_ref().expect("a cover");
+    for a in &cover.axes {
+        for &b in &a.breaks {
+            for t in [b, b.next_down(), b.next_up(), b - 0.3, b + 0.3] {
+                let mut th = uniform(rng);
+                th[a.param] = t;
+                out.push(th);
+            }
+        }
+    }
+    out.push(vec![f64::NAN; model.ntheta()]);
+    out
+}
+
+#[test]
+fn a_cover_reproduces_every_matrix_of_the_model() {
+    let model = &crate::parse(COVERED).expect("valid")[0];
+    let poly = model.polytopic();
+    let cover = model.cover.as_ref().expect("a cover");
+    assert_eq!(cover.len(), 12);
+    let per_piece = 1usize << (poly.scheduling.len() + poly.derived.len());
+    assert_eq!(poly.nv(), 12 * per_piece);
+    assert_eq!(poly.nv(), model.nv());
+    assert_eq!(poly.noise.b_w.len(), poly.nv());
+    let mut rng = Rng(0x0BAD_5EED_1234_5678);
+    let close = |a: &nalgebra::DMatrix<f64>, b: &nalgebra::DMatrix<f64>, what: &str| {
+        let dev = (a - b).abs().max();
+        assert!(dev <= 1e-10 * (1.0 + b.abs().max()), "{what}: {a} vs {b}");
+    };
+    for theta in cover_thetas(model, &mut rng, 2000) {
+        let mu = poly.mu(&theta);
+        assert_eq!(mu.len(), poly.nv());
+        assert!(mu.iter().all(|&w| w >= 0.0), "{mu:?}");
+        assert!((mu.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{mu:?}");
+        // only the piece that contains the clamped θ carries weight
+        let clamped: Vec<f64> = model
+            .params
+            .iter()
+            .zip(&theta)
+            .map(|(p, &t)| {
+                if t.is_nan() {
+                    p.lo
+                } else {
+                    t.clamp(p.lo, p.hi)
+                }
+            })
+            .collect();
+        let k = cover.locate(&clamped);
+        for (l, &w) in mu.iter().enumerate() {
+            assert!(
+                l / per_piece == k || w == 0.0,
+                "vertex {l} outside piece {k}"
+            );
+        }
+        for (a, i) in cover.axes.iter().zip(cover.indices(k)) {
+            let t = clamped[a.param];
+            assert!(a.breaks[i] <= t && t <= a.breaks[i + 1]);
+            assert!(
+                t < a.breaks[i + 1] || i + 2 == a.breaks.len(),
+                "breakpoint rule"
+            );
+        }
+        close(&poly.a_at(&theta), &model.eval_a(&clamped), "A");
+        close(&poly.b_at(&theta), &model.eval_b(&clamped), "B");
+        close(&poly.c_at(&theta), &model.eval_c(&clamped), "C");
+        for (x, y) in poly.n_at(&theta).iter().zip(model.eval_n(&clamped)) {
+            close(x, &y, "N");
+        }
+        for (x, y) in poly.m_at(&theta).iter().zip(model.eval_m(&clamped)) {
+            close(x, &y, "M");
+        }
+        let mut bw = nalgebra::DMatrix::zeros(model.nx(), 1);
+        for (w, b) in mu.iter().zip(&poly.noise.b_w) {
+            bw += b * *w;
+        }
+        close(&bw, &model.b_w.eval(&model.extended(&clamped)), "B_w");
+    }
+}
+
+#[test]
+fn piece_ranges_contain_sampled_values_and_are_thinner() {
+    let model = &crate::parse(COVERED).expect("valid")[0];
+    let cover = model.cover.as_ref().expect("a cover");
+    let mut rng = Rng(0x5151_2727_9090_AAAA);
+    for piece in &cover.pieces {
+        for (j, d) in model.derived.iter().enumerate() {
+            let (lo, hi) = piece.phi[j];
+            assert!(hi - lo <= d.hi - d.lo, "{}: no thinner on a piece", d.name);
+            for _ in 0..100_000 {
+                let theta: Vec<f64> = piece
+                    .theta
+                    .iter()
+                    .map(|&(l, h)| l + (h - l) * rng.next())
+                    .collect();
+                let v = d.expr.eval(&theta);
+                assert!(
+                    lo <= v && v <= hi,
+                    "{} at {theta:?}: {v} outside [{lo}, {hi}]",
+                    d.name
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn one_piece_is_the_box() {
+    let src = manipulator_box();
+    let plain = &crate::parse(&src).expect("valid")[0];
+    let one = src.replace("design {", "cover q2 into 1;\n    design {");
+    let one = &crate::parse(&one).expect("valid")[0];
+    assert_eq!(plain.polytopic().vertices, one.polytopic().vertices);
+    let four = src.replace("design {", "cover q2 into 4;\n    design {");
+    let four = &crate::parse(&four).expect("valid")[0];
+    let poly = four.polytopic();
+    assert_eq!(poly.nv(), 4 * plain.polytopic().nv());
+    // the pieces of a cover are what `restricted` gives on each piece
+    let cover = four.cover.as_ref().expect("a cover");
+    for (k, piece) in cover.pieces.iter().enumerate() {
+        let r = plain.restricted(&piece.theta).expect("inside Θ");
+        let per = r.polytopic().vertices;
+        assert_eq!(
+            &poly.vertices[k * per.len()..(k + 1) * per.len()],
+            per.as_slice()
+        );
+    }
 }

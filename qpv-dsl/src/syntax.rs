@@ -71,6 +71,8 @@ fn is_token(rule: Rule) -> bool {
             | Rule::kw_auto
             | Rule::kw_let
             | Rule::kw_const
+            | Rule::kw_cover
+            | Rule::kw_into
             | Rule::EOI
     )
 }
@@ -212,6 +214,22 @@ fn parse_statement(pair: Pair<'_, Rule>) -> Result<Item> {
             } else {
                 Item::Const(name, value, span)
             })
+        }
+        Rule::cover_decl => {
+            let axes = children(pair)
+                .map(|axis| {
+                    let aspan = span_of(&axis);
+                    let mut it = children(axis);
+                    let param = parse_ident(next(&mut it, aspan, "covered parameter")?);
+                    let pieces = parse_expr(next(&mut it, aspan, "number of pieces")?)?;
+                    Ok(CoverAxisAst {
+                        param,
+                        pieces,
+                        span: aspan,
+                    })
+                })
+                .collect::<Result<Vec<_>>>()?;
+            Ok(Item::Cover(axes, span))
         }
         _ => Err(internal(span, "unexpected statement")),
     }
@@ -532,6 +550,8 @@ fn want(rule: Rule) -> Option<Want> {
         | Rule::kw_disturbance
         | Rule::kw_let
         | Rule::kw_const
+        | Rule::kw_cover
+        | Rule::cover_decl
         | Rule::let_decl
         | Rule::const_decl
         | Rule::noise_decl
@@ -572,6 +592,8 @@ fn want(rule: Rule) -> Option<Want> {
         Rule::lparen => Token("`(`"),
         Rule::rparen => Token("`)`"),
         Rule::kw_in => Token("`in`"),
+        Rule::kw_into => Token("`into`"),
+        Rule::cover_axis => Name,
         Rule::q_name | Rule::bound_given => Token("`Q` (write `state_bound Q = [...]`)"),
         Rule::kw_auto | Rule::bound_auto => Token("`auto`"),
         Rule::kw_box
@@ -594,8 +616,8 @@ fn want_text(w: Want) -> &'static str {
         Want::Model => "a model `model NAME { ... }`",
         Want::Statement => {
             "a statement (`state`, `input`, `output`, `param`, `let`, `const`, `der`, `out`, \
-             `region`, `state_bound`, `design`, `noise`, `disturbance` or a matrix such as \
-             `A = [...]`)"
+             `region`, `state_bound`, `design`, `noise`, `disturbance`, `cover` or a matrix such \
+             as `A = [...]`)"
         }
         Want::DesignKey => {
             "a design setting (`alpha`, `gamma`, `mode`, `split`, `conditions`, `output_route` \
@@ -652,6 +674,7 @@ const STATEMENT_KEYWORDS: &[&str] = &[
     "disturbance",
     "let",
     "const",
+    "cover",
 ];
 
 fn is_ident_start(c: char) -> bool {
@@ -777,7 +800,8 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
                     None => format!(
                         "unknown statement `{w}`: a statement starts with `state`, `input`, `output`, \
                          `param`, `let`, `const`, `der`, `out`, `region`, `state_bound`, `design`, \
-                         `noise` or `disturbance`, or is a matrix definition such as `A = [...];`"
+                         `noise`, `disturbance` or `cover`, or is a matrix definition such as \
+                         `A = [...];`"
                     ),
                 };
                 return Diag::new(wspan, msg);

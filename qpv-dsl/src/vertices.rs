@@ -1,6 +1,7 @@
 //! The polytopic model: matrices at the corners of the parameter box and the
 //! multilinear weights μ_l(θ).
 
+use crate::cover::Cover;
 use crate::model::{DesignRequest, Param, Split, StateBound};
 use crate::region::Region;
 use nalgebra::DMatrix;
@@ -10,7 +11,8 @@ use serde::Serialize;
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Vertex {
     /// The full parameter vector at this corner (parameters that generate no
-    /// vertex are set to their midpoint; they appear in no matrix).
+    /// vertex are set to their midpoint, with a cover the midpoint of the
+    /// piece's range; they appear in no matrix directly).
     pub theta: Vec<f64>,
     /// A_l.
     pub a: DMatrix<f64>,
@@ -33,7 +35,8 @@ pub struct Vertex {
 /// before hi; so μ_1 = Π (hi_i − θ_i)/(hi_i − lo_i). A model with derived
 /// scheduling variables φ_j(θ) (`derived`) has the corners of the box of
 /// (θ, φ) instead, the φ_j after the parameters (less significant); μ then
-/// evaluates φ(θ) itself, so callers still pass θ only.
+/// evaluates φ(θ) itself, so callers still pass θ only. A model with a
+/// cover (`cover`) repeats this order for every piece, piece after piece.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PolytopicModel {
     /// The model's name.
@@ -48,7 +51,8 @@ pub struct PolytopicModel {
     pub params: Vec<Param>,
     /// Indices into `params` of the parameters that generate vertices.
     pub scheduling: Vec<usize>,
-    /// The 2^scheduling.len() vertices in the documented order.
+    /// The vertices in the documented order: 2^(scheduling.len() +
+    /// derived.len()) per piece of the cover.
     pub vertices: Vec<Vertex>,
     /// The convergence region.
     pub region: Region,
@@ -60,8 +64,14 @@ pub struct PolytopicModel {
     pub noise: NoiseDecl,
     /// The derived scheduling variables φ_j(θ) with their ranges (empty for
     /// a model whose entries are multi-affine in θ); each doubles the
-    /// vertices.
+    /// vertices. Their ranges are those on the whole box Θ.
     pub derived: Vec<crate::sched::Derived>,
+    /// The piecewise cover of Θ (`None`: one box). With a cover the vertices
+    /// are the 2^s corners of each piece's box of (θ, φ), piece after piece
+    /// (piece k owns vertices k·2^s .. (k+1)·2^s), and μ(θ) is nonzero on
+    /// the piece that contains θ only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cover: Option<Cover>,
 }
 
 /// The noise channels a model declares: which outputs are measured with
@@ -102,50 +112,65 @@ impl PolytopicModel {
 
     /// The weights μ_l(θ) for a full parameter vector `theta` (one entry per
     /// declared parameter). Each scheduling θ_i is clamped into [lo_i, hi_i]
-    /// first, so the weights are always ≥ 0 and sum to 1.
+    /// first, so the weights are always ≥ 0 and sum to 1. With a cover, the
+    /// weights are the multilinear weights of the box of the piece that
+    /// contains the clamped θ ([`Cover::locate`]), zero on every other piece.
     pub fn mu(&self, theta: &[f64]) -> Vec<f64> {
         let s = self.scheduling.len() + self.derived.len();
+        let piece = self
+            .cover
+            .as_ref()
+            .map(|c| (c, c.locate(&self.clamp(theta))));
+        let range = |pi: usize| match piece {
+            Some((c, k)) => c.pieces[k].theta[pi],
+            None => (self.params[pi].lo, self.params[pi].hi),
+        };
         let mut w = Vec::with_capacity(s);
         for &pi in &self.scheduling {
             let p = &self.params[pi];
+            let (lo, hi) = range(pi);
             let t = theta.get(pi).copied().unwrap_or(p.lo);
-            let t = if t.is_nan() {
-                p.lo
-            } else {
-                t.clamp(p.lo, p.hi)
-            };
-            w.push((t - p.lo) / (p.hi - p.lo));
+            let t = if t.is_nan() { lo } else { t.clamp(lo, hi) };
+            w.push((t - lo) / (hi - lo));
         }
         if !self.derived.is_empty() {
             w.extend(self.phi(theta));
             let ns = self.scheduling.len();
             for (j, d) in self.derived.iter().enumerate() {
-                w[ns + j] = (w[ns + j] - d.lo) / (d.hi - d.lo);
+                let (lo, hi) = match piece {
+                    Some((c, k)) => c.pieces[k].phi[j],
+                    None => (d.lo, d.hi),
+                };
+                w[ns + j] = (w[ns + j].clamp(lo, hi) - lo) / (hi - lo);
             }
         }
-        (0..1usize << s)
-            .map(|l| {
-                (0..s)
-                    .map(|i| {
-                        // bit (s-1-i) of l: first scheduling parameter most significant
-                        if (l >> (s - 1 - i)) & 1 == 1 {
-                            w[i]
-                        } else {
-                            1.0 - w[i]
-                        }
-                    })
-                    .product()
-            })
-            .collect()
+        let local = (0..1usize << s).map(|l| {
+            (0..s)
+                .map(|i| {
+                    // bit (s-1-i) of l: first scheduling parameter most significant
+                    if (l >> (s - 1 - i)) & 1 == 1 {
+                        w[i]
+                    } else {
+                        1.0 - w[i]
+                    }
+                })
+                .product()
+        });
+        match piece {
+            None => local.collect(),
+            Some((_, k)) => {
+                let mut out = vec![0.0; self.nv()];
+                for (o, v) in out[k << s..].iter_mut().zip(local) {
+                    *o = v;
+                }
+                out
+            }
+        }
     }
 
-    /// The derived scheduling variables φ_j(θ) for a full parameter vector,
-    /// with every parameter clamped into its range first (NaN to its lower
-    /// bound) and each φ_j clamped into its range (which contains it up to
-    /// rounding), as [`Self::mu`] uses them.
-    pub fn phi(&self, theta: &[f64]) -> Vec<f64> {
-        let clamped: Vec<f64> = self
-            .params
+    /// Every parameter clamped into its declared range (NaN to the lower bound).
+    fn clamp(&self, theta: &[f64]) -> Vec<f64> {
+        self.params
             .iter()
             .enumerate()
             .map(|(i, p)| {
@@ -156,7 +181,25 @@ impl PolytopicModel {
                     t.clamp(p.lo, p.hi)
                 }
             })
-            .collect();
+            .collect()
+    }
+
+    /// Number of pieces of the cover (1 without a cover).
+    pub fn pieces(&self) -> usize {
+        self.cover.as_ref().map_or(1, |c| c.len())
+    }
+
+    /// The piece of the cover that vertex `l` belongs to (0 without a cover).
+    pub fn piece_of(&self, l: usize) -> usize {
+        l >> (self.scheduling.len() + self.derived.len())
+    }
+
+    /// The derived scheduling variables φ_j(θ) for a full parameter vector,
+    /// with every parameter clamped into its range first (NaN to its lower
+    /// bound) and each φ_j clamped into its range (which contains it up to
+    /// rounding), as [`Self::mu`] uses them.
+    pub fn phi(&self, theta: &[f64]) -> Vec<f64> {
+        let clamped = self.clamp(theta);
         self.derived
             .iter()
             .map(|d| {
@@ -263,17 +306,24 @@ impl PolytopicModel {
     }
 
     /// The parameter vector of corner `l` restricted to the scheduling
-    /// parameters, as `(name, value)` pairs (for reports).
+    /// parameters, followed by the derived variables at their corner of the
+    /// box (of the piece of the cover that owns vertex `l`), as
+    /// `(name, value)` pairs (for reports).
     pub fn corner(&self, l: usize) -> Vec<(&str, f64)> {
         let nd = self.derived.len();
+        let k = self.piece_of(l);
         let mut out: Vec<(&str, f64)> = self
             .scheduling
             .iter()
             .map(|&i| (self.params[i].name.as_str(), self.vertices[l].theta[i]))
             .collect();
         for (j, d) in self.derived.iter().enumerate() {
-            let hi = (l >> (nd - 1 - j)) & 1 == 1;
-            out.push((d.name.as_str(), if hi { d.hi } else { d.lo }));
+            let (lo, hi) = match &self.cover {
+                Some(c) => c.pieces[k].phi[j],
+                None => (d.lo, d.hi),
+            };
+            let up = (l >> (nd - 1 - j)) & 1 == 1;
+            out.push((d.name.as_str(), if up { hi } else { lo }));
         }
         out
     }
@@ -281,49 +331,31 @@ impl PolytopicModel {
 
 impl crate::model::Model {
     /// The polytopic form: the matrices at the 2^s corners of the box of the
-    /// s scheduling parameters (those appearing in A, N_k, B, C or M_k), in the
-    /// documented order (first parameter most significant, lo before hi).
-    /// Exact because every entry is multi-affine in θ: the multilinear
-    /// interpolation Σ_l μ_l(θ) A_l reproduces A(θ) on the whole box.
+    /// s scheduling parameters (those appearing in A, N_k, B, C or M_k) and
+    /// derived variables, in the documented order (first parameter most
+    /// significant, lo before hi). Exact because every entry is multi-affine
+    /// in (θ, φ): the multilinear interpolation Σ_l μ_l(θ) A_l reproduces
+    /// A(θ) on the whole box. With a cover, the corners of every piece's box
+    /// (its parameter ranges and φ ranges), piece after piece.
     pub fn polytopic(&self) -> PolytopicModel {
         let scheduling = self.scheduling();
-        let np = self.ntheta();
-        let s = scheduling.len();
-        let nd = self.derived.len();
-        let base: Vec<f64> = self.params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
-        let mut b_w = Vec::with_capacity(1usize << (s + nd));
-        let vertices = (0..1usize << (s + nd))
-            .map(|l| {
-                let mut theta = base.clone();
-                for (i, &pi) in scheduling.iter().enumerate() {
-                    let p = &self.params[pi];
-                    theta[pi] = if (l >> (s + nd - 1 - i)) & 1 == 1 {
-                        p.hi
-                    } else {
-                        p.lo
-                    };
-                }
-                // the corner of the (θ, φ) box: φ_j at an end of its range
-                let mut ext = theta.clone();
-                for (j, d) in self.derived.iter().enumerate() {
-                    ext.push(if (l >> (nd - 1 - j)) & 1 == 1 {
-                        d.hi
-                    } else {
-                        d.lo
-                    });
-                }
-                debug_assert_eq!(ext.len(), np + nd);
-                b_w.push(self.b_w.eval(&ext));
-                Vertex {
-                    a: self.a.eval(&ext),
-                    n: self.n.iter().map(|m| m.eval(&ext)).collect(),
-                    b: self.b.eval(&ext),
-                    c: self.c.eval(&ext),
-                    m: self.m.iter().map(|m| m.eval(&ext)).collect(),
-                    theta,
-                }
-            })
-            .collect();
+        let whole: Vec<(f64, f64)> = self.params.iter().map(|p| (p.lo, p.hi)).collect();
+        let whole_phi: Vec<(f64, f64)> = self.derived.iter().map(|d| (d.lo, d.hi)).collect();
+        // (parameter ranges, φ ranges) of each box: the whole box, or every piece
+        type Ranges<'a> = &'a [(f64, f64)];
+        let boxes: Vec<(Ranges<'_>, Ranges<'_>)> = match &self.cover {
+            None => vec![(&whole, &whole_phi)],
+            Some(c) => c
+                .pieces
+                .iter()
+                .map(|p| (p.theta.as_slice(), p.phi.as_slice()))
+                .collect(),
+        };
+        let mut b_w = Vec::with_capacity(self.nv());
+        let mut vertices = Vec::with_capacity(self.nv());
+        for (theta_box, phi_box) in boxes {
+            self.box_corners(&scheduling, theta_box, phi_box, &mut vertices, &mut b_w);
+        }
         PolytopicModel {
             name: self.name.clone(),
             states: self.states.clone(),
@@ -345,6 +377,51 @@ impl crate::model::Model {
                 },
             },
             derived: self.derived.clone(),
+            cover: self.cover.clone(),
+        }
+    }
+
+    /// The vertices (and B_w,l) at the corners of one box of (θ, φ): the
+    /// ranges `theta_box` of the parameters and `phi_box` of the derived
+    /// variables; parameters that generate no vertex sit at the middle of
+    /// their range.
+    fn box_corners(
+        &self,
+        scheduling: &[usize],
+        theta_box: &[(f64, f64)],
+        phi_box: &[(f64, f64)],
+        vertices: &mut Vec<Vertex>,
+        b_w: &mut Vec<DMatrix<f64>>,
+    ) {
+        let np = self.ntheta();
+        let s = scheduling.len();
+        let nd = self.derived.len();
+        let base: Vec<f64> = theta_box.iter().map(|&(lo, hi)| 0.5 * (lo + hi)).collect();
+        for l in 0..1usize << (s + nd) {
+            let mut theta = base.clone();
+            for (i, &pi) in scheduling.iter().enumerate() {
+                let (lo, hi) = theta_box[pi];
+                theta[pi] = if (l >> (s + nd - 1 - i)) & 1 == 1 {
+                    hi
+                } else {
+                    lo
+                };
+            }
+            // the corner of the (θ, φ) box: φ_j at an end of its range
+            let mut ext = theta.clone();
+            for (j, &(lo, hi)) in phi_box.iter().enumerate() {
+                ext.push(if (l >> (nd - 1 - j)) & 1 == 1 { hi } else { lo });
+            }
+            debug_assert_eq!(ext.len(), np + nd);
+            b_w.push(self.b_w.eval(&ext));
+            vertices.push(Vertex {
+                a: self.a.eval(&ext),
+                n: self.n.iter().map(|m| m.eval(&ext)).collect(),
+                b: self.b.eval(&ext),
+                c: self.c.eval(&ext),
+                m: self.m.iter().map(|m| m.eval(&ext)).collect(),
+                theta,
+            });
         }
     }
 }
@@ -357,7 +434,8 @@ impl crate::model::Model {
     /// arithmetic with outward rounding). The pieces of a partition of Θ
     /// cover the curve {(θ, φ(θ))} by several small boxes instead of one
     /// large one, which is how a tighter cover than the box of (θ, φ) is
-    /// measured. Errors name the parameter or the function that does not fit.
+    /// measured. A cover of the model is dropped (its pieces belong to the
+    /// whole box). Errors name the parameter or the function that does not fit.
     pub fn restricted(&self, theta: &[(f64, f64)]) -> Result<crate::model::Model, String> {
         if theta.len() != self.params.len() {
             return Err(format!(
@@ -367,6 +445,7 @@ impl crate::model::Model {
             ));
         }
         let mut out = self.clone();
+        out.cover = None;
         for (p, &(lo, hi)) in out.params.iter_mut().zip(theta) {
             if !(lo.is_finite() && hi.is_finite() && p.lo <= lo && lo < hi && hi <= p.hi) {
                 return Err(format!(

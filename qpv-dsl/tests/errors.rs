@@ -169,6 +169,16 @@ fn cases() -> Vec<(
         ("junk after a model", BASE.to_string() + "junk", 9, 1, "junk", "expected a model `model NAME { ... }` or the end of the input, found `junk`"),
         ("keyword as a name", r("state x1, x2;", "state x1, in;"), 2, 15, "in", "expected a name, found the keyword `in`"),
         ("duplicate model", BASE.to_string() + BASE, 9, 7, "m", "a model named `m` is already defined at 1:7"),
+        ("cover of an unknown parameter", r("region box(1);", "region box(1); cover tj into 4;"), 7, 26, "tj", "unknown parameter `tj` in `cover` (did you mean `th`?)"),
+        ("cover of a state", r("region box(1);", "region box(1); cover x1 into 4;"), 7, 26, "x1", "`x1` is a state, not a parameter"),
+        ("cover of an unused parameter", r("param th in [0, 1];", "param th in [0, 1]; param p in [0, 1]; cover p into 2;"), 4, 50, "p", "parameter `p` appears in no matrix and no scheduling function"),
+        ("cover into 0 pieces", r("region box(1);", "region box(1); cover th into 0;"), 7, 34, "0", "the number of pieces must be at least 1, found 0"),
+        ("cover into a fraction", r("region box(1);", "region box(1); cover th into 2.5;"), 7, 34, "2.5", "the number of pieces must be a whole number, found 2.5"),
+        ("cover into too many pieces", r("region box(1);", "region box(1); cover th into 1000;"), 7, 34, "1000", "1000 pieces: at most 64 are supported"),
+        ("cover twice", r("region box(1);", "region box(1); cover th into 2; cover th into 3;"), 7, 37, "cover th into 3;", "a `cover` statement is already given at 7:20"),
+        ("cover cuts a parameter twice", r("region box(1);", "region box(1); cover th into 2, th into 3;"), 7, 37, "th", "`th` is cut twice"),
+        ("cover without a count", r("region box(1);", "region box(1); cover th into;"), 7, 33, ";", "expected an expression"),
+        ("cover without into", r("region box(1);", "region box(1); cover th 4;"), 7, 29, "4", "expected `into`"),
         ("deep nesting", r("-1, th;", &format!("-1, {}1{};", "(".repeat(70), ")".repeat(70))), 5, 76, "(", "brackets nested too deeply"),
     ]
 }

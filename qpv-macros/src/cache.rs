@@ -98,6 +98,11 @@ pub fn key(model: &PolytopicModel, request: &DesignRequest, settings: &str) -> S
     for d in &model.derived {
         let _ = writeln!(s, "derived {:?} {:?} {:?}", d.text, d.lo, d.hi);
     }
+    if let Some(c) = &model.cover {
+        for a in &c.axes {
+            let _ = writeln!(s, "cover {} {:?}", a.param, a.breaks);
+        }
+    }
     for v in &model.vertices {
         push_nums(&mut s, "theta", &v.theta);
         push_nums(&mut s, "A", v.a.iter());

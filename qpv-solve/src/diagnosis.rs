@@ -140,10 +140,18 @@ fn vertex_label(model: &PolytopicModel, l: usize) -> String {
         .into_iter()
         .map(|(name, value)| format!("{name} = {value}"))
         .collect();
+    // with a cover, the piece the corner belongs to
+    let piece = match &model.cover {
+        Some(c) => {
+            let k = model.piece_of(l);
+            format!(" of piece {} ({})", k + 1, c.label(k))
+        }
+        None => String::new(),
+    };
     if corner.is_empty() {
-        format!("vertex {}", l + 1)
+        format!("vertex {}{piece}", l + 1)
     } else {
-        format!("vertex {} ({})", l + 1, corner.join(", "))
+        format!("vertex {} ({}){piece}", l + 1, corner.join(", "))
     }
 }
 

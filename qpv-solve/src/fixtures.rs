@@ -124,6 +124,7 @@ pub fn paper_model() -> PolytopicModel {
         designs: vec![],
         noise: Default::default(),
         derived: Vec::new(),
+        cover: None,
     }
 }
 
@@ -193,5 +194,6 @@ pub fn synthetic_model(nx: usize) -> PolytopicModel {
         designs: vec![],
         noise: Default::default(),
         derived: Vec::new(),
+        cover: None,
     }
 }

@@ -24,6 +24,27 @@ const UNDETECTABLE: &str = "model u {
     state_bound Q = [0.04, 0; 0, 0.04];
 }";
 
+/// With a cover, the undetectable vertex is named with its piece: x2' =
+/// (0.5 − th) x2 is unseen and unstable for th < 0.5, so on 4 pieces of
+/// [0, 1] the corners th = 0, 0.25 (and th = 0.5, where λ = 0) fail.
+#[test]
+fn an_undetectable_vertex_of_a_cover_is_named_with_its_piece() {
+    let m = model(&UNDETECTABLE.replace("region box(0.1);", "region box(0.1); cover th into 4;"));
+    assert_eq!(m.nv(), 8);
+    let unstable = undetectable_modes(&m, 0.0);
+    let vertices: Vec<usize> = unstable.iter().map(|u| u.vertex).collect();
+    // pieces [0, 0.25] and [0.25, 0.5] (both corners), and the low corner of [0.5, 0.75]
+    assert_eq!(vertices, [0, 1, 2, 3, 4], "{unstable:?}");
+    let req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
+    let found = diagnose(&m, &req, 1e-4);
+    let text: Vec<&str> = found.iter().map(|f| f.message.as_str()).collect();
+    assert!(
+        text.iter()
+            .any(|t| t.contains("vertex 3 (th = 0.25) of piece 2 (th ∈ [0.25, 0.5])")),
+        "{text:?}"
+    );
+}
+
 #[test]
 fn the_pbh_test_names_the_vertex_and_the_state_of_an_undetectable_mode() {
     let m = model(UNDETECTABLE);

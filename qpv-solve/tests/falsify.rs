@@ -37,6 +37,7 @@ fn stable_linear(nx: usize) -> PolytopicModel {
         designs: vec![],
         noise: Default::default(),
         derived: Vec::new(),
+        cover: None,
     }
 }
 

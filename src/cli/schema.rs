@@ -196,6 +196,10 @@ pub struct VerticesOutput {
     /// The derived scheduling variables φ_j(θ) (non-multi-affine functions
     /// of the parameters), after the parameters in the vertex order.
     pub derived: Vec<DerivedView>,
+    /// The piecewise cover of the parameter box (absent without a `cover`
+    /// statement).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cover: Option<CoverView>,
     /// How many vertices there are and where they come from.
     pub vertex_count: VertexCountView,
     /// The θ-vertices in the documented order.
@@ -229,11 +233,67 @@ pub struct DerivedView {
     pub sampled: [f64; 2],
 }
 
-/// The vertex count: 2^(parameters + derived variables).
+/// The cover of the parameter box by a grid of equal pieces.
+#[derive(Serialize)]
+pub struct CoverView {
+    /// The parameters cut, first most significant in the piece index.
+    pub parameters: Vec<CoverAxisView>,
+    /// The pieces in order; piece k (1-based) owns the vertices
+    /// (k − 1)·2^s + 1 to k·2^s.
+    pub pieces: Vec<PieceView>,
+}
+
+/// One parameter of a cover.
+#[derive(Serialize)]
+pub struct CoverAxisView {
+    /// Its name.
+    pub name: String,
+    /// The number of equal pieces.
+    pub pieces: usize,
+    /// The breakpoints lo = b_0 < … < b_n = hi (a breakpoint belongs to
+    /// the piece above it).
+    pub breaks: Vec<f64>,
+}
+
+/// One piece of a cover.
+#[derive(Serialize)]
+pub struct PieceView {
+    /// 1-based piece number.
+    pub index: usize,
+    /// The piece in words (`q2 ∈ [0.2, 0.65]`).
+    pub label: String,
+    /// [lo, hi] of every declared parameter on the piece.
+    pub theta: Vec<[f64; 2]>,
+    /// The ranges of the derived scheduling variables on the piece.
+    pub derived: Vec<PieceRangeView>,
+    /// The first and last vertex of the piece (1-based, inclusive).
+    pub vertices: [usize; 2],
+}
+
+/// The range of one derived variable on one piece.
+#[derive(Serialize)]
+pub struct PieceRangeView {
+    /// The variable's name.
+    pub name: String,
+    /// Lower end (contains φ_j(θ) for every θ in the piece).
+    pub lo: f64,
+    /// Upper end.
+    pub hi: f64,
+    /// How the range was obtained, in words.
+    pub range_method: String,
+    /// The smallest and largest values sampled on the piece.
+    pub sampled: [f64; 2],
+}
+
+/// The vertex count: 2^(parameters + derived variables), times the pieces
+/// of a cover.
 #[derive(Serialize)]
 pub struct VertexCountView {
     /// The number of vertices.
     pub total: usize,
+    /// The pieces of the cover (absent without a cover: one box).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pieces: Option<usize>,
     /// Scheduling parameters (each doubles the count).
     pub parameters: usize,
     /// Derived scheduling variables (each doubles the count).
@@ -392,8 +452,10 @@ impl VerticesOutput {
                     sampled: [d.range.sampled_lo, d.range.sampled_hi],
                 })
                 .collect(),
+            cover: p.cover.as_ref().map(|c| cover_view(p, c)),
             vertex_count: VertexCountView {
                 total: p.nv(),
+                pieces: p.cover.as_ref().map(|c| c.len()),
                 parameters: p.scheduling.len(),
                 derived: p.derived.len(),
                 warning: super::vertices::count_warning(p),
@@ -493,4 +555,44 @@ pub fn pick_design(value: Value, path: &Path) -> Result<Value, CliError> {
         );
     }
     Ok(chosen)
+}
+
+/// The JSON view of a model's cover.
+fn cover_view(p: &PolytopicModel, c: &qpv_dsl::Cover) -> CoverView {
+    let per = p.nv() / c.len().max(1);
+    CoverView {
+        parameters: c
+            .axes
+            .iter()
+            .map(|a| CoverAxisView {
+                name: a.name.clone(),
+                pieces: a.breaks.len() - 1,
+                breaks: a.breaks.clone(),
+            })
+            .collect(),
+        pieces: c
+            .pieces
+            .iter()
+            .enumerate()
+            .map(|(k, piece)| PieceView {
+                index: k + 1,
+                label: c.label(k),
+                theta: piece.theta.iter().map(|&(lo, hi)| [lo, hi]).collect(),
+                derived: p
+                    .derived
+                    .iter()
+                    .zip(&piece.phi)
+                    .zip(&piece.range)
+                    .map(|((d, &(lo, hi)), info)| PieceRangeView {
+                        name: d.name.clone(),
+                        lo,
+                        hi,
+                        range_method: info.method.clone(),
+                        sampled: [info.sampled_lo, info.sampled_hi],
+                    })
+                    .collect(),
+                vertices: [k * per + 1, (k + 1) * per],
+            })
+            .collect(),
+    }
 }

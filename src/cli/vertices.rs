@@ -36,7 +36,17 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         "vertex order: corners of ({}), first most significant, lo before hi\n",
         sched.join(", ")
     ));
-    if !p.derived.is_empty() {
+    if let Some(c) = &p.cover {
+        s.push_str(&format!(
+            "vertices: {} piece(s) x 2^{} = {} ({} parameter(s) and {} derived scheduling \
+             variable(s) per piece)\n",
+            c.len(),
+            p.scheduling.len() + p.derived.len(),
+            p.nv(),
+            p.scheduling.len(),
+            p.derived.len()
+        ));
+    } else if !p.derived.is_empty() {
         s.push_str(&format!(
             "vertices: 2^{} = {} ({} parameter(s) and {} derived scheduling variable(s))\n",
             p.scheduling.len() + p.derived.len(),
@@ -44,6 +54,8 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
             p.scheduling.len(),
             p.derived.len()
         ));
+    }
+    if !p.derived.is_empty() {
         s.push_str("derived scheduling variables (functions of the parameters that are not multi-affine):\n");
         for d in &p.derived {
             s.push_str(&format!(
@@ -59,6 +71,9 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
             ));
         }
     }
+    if let Some(c) = &p.cover {
+        push_cover(&mut s, p, c);
+    }
     if let Some(w) = count_warning(p) {
         s.push_str(&format!("warning: {w}\n"));
     }
@@ -69,8 +84,13 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
             .iter()
             .map(|(n, x)| format!("{n} = {x}"))
             .collect();
+        let piece = if p.cover.is_some() {
+            format!(" of piece {}", p.piece_of(l) + 1)
+        } else {
+            String::new()
+        };
         s.push_str(&format!(
-            "\nvertex {} ({}):\n  A:\n{}",
+            "\nvertex {} ({}){piece}:\n  A:\n{}",
             l + 1,
             corner.join(", "),
             fmt_matrix(&v.a, "    ")
@@ -135,12 +155,63 @@ pub fn count_warning(p: &PolytopicModel) -> Option<String> {
                 .join(", ")
         )
     };
+    let pieces = match &p.cover {
+        Some(c) => format!(
+            "; the cover multiplies it by its {} pieces (fewer pieces, or cut fewer parameters)",
+            c.len()
+        ),
+        None => String::new(),
+    };
     Some(format!(
-        "{} vertices (more than {VERTEX_WARNING}): {} parameter(s) and {} derived variable(s){costly}",
+        "{} vertices (more than {VERTEX_WARNING}): {} parameter(s) and {} derived variable(s){costly}{pieces}",
         p.nv(),
         p.scheduling.len(),
         p.derived.len()
     ))
+}
+
+/// The cover: the parameters cut, their breakpoints, and for every piece
+/// its vertices and the ranges of the derived variables on it.
+fn push_cover(s: &mut String, p: &PolytopicModel, c: &qpv_dsl::Cover) {
+    let per = p.nv() / c.len().max(1);
+    let axes: Vec<String> = c
+        .axes
+        .iter()
+        .map(|a| {
+            let b: Vec<String> = a.breaks.iter().map(|x| x.to_string()).collect();
+            format!(
+                "{} into {} (breakpoints {})",
+                a.name,
+                a.breaks.len() - 1,
+                b.join(", ")
+            )
+        })
+        .collect();
+    s.push_str(&format!(
+        "cover: {}; each piece has its own box of ({}); a breakpoint belongs to the piece above it\n",
+        axes.join("; "),
+        p.scheduling
+            .iter()
+            .map(|&i| p.params[i].name.as_str())
+            .chain(p.derived.iter().map(|d| d.name.as_str()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    ));
+    for (k, piece) in c.pieces.iter().enumerate() {
+        s.push_str(&format!(
+            "  piece {} ({}): vertices {} to {}\n",
+            k + 1,
+            c.label(k),
+            k * per + 1,
+            (k + 1) * per
+        ));
+        for ((d, &(lo, hi)), info) in p.derived.iter().zip(&piece.phi).zip(&piece.range) {
+            s.push_str(&format!(
+                "    {} in [{lo}, {hi}] (sampled: [{}, {}])\n",
+                d.name, info.sampled_lo, info.sampled_hi
+            ));
+        }
+    }
 }
 
 /// Appends C and the nonzero M_k, indented by `indent`.

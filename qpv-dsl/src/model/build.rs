@@ -86,9 +86,11 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         state_bound,
         designs,
         derived,
+        cover: None,
         warnings: Vec::new(),
     };
     b.usage(&model)?;
+    model.cover = b.cover(&model)?;
     model.warnings = b.warnings;
     Ok(model)
 }

@@ -6,6 +6,7 @@
 //! in that order.
 
 mod build;
+mod cover;
 mod derived;
 mod design;
 mod matrices;
@@ -78,6 +79,11 @@ pub struct Model {
     /// of a term mask of the matrices is φ_j; empty for a model whose
     /// entries are multi-affine in θ.
     pub derived: Vec<crate::sched::Derived>,
+    /// The piecewise cover of the parameter box (`cover q2 into 4;`), with
+    /// the ranges of the derived variables on every piece; `None`: the
+    /// vertices are the corners of the one box of (θ, φ).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cover: Option<crate::cover::Cover>,
     /// Non-fatal remarks found while building the model.
     pub warnings: Vec<Warning>,
 }
@@ -174,6 +180,14 @@ impl Model {
                 .iter()
                 .chain(&self.m)
                 .fold(0, |m, p| m | p.param_mask())
+    }
+
+    /// Number of vertices of the polytopic model: 2^s corners (s scheduling
+    /// parameters and derived variables) per piece of the cover, one piece
+    /// without a cover.
+    pub fn nv(&self) -> usize {
+        let s = self.scheduling().len() + self.derived.len();
+        self.cover.as_ref().map_or(1, |c| c.len()) << s
     }
 
     /// Whether C or some M_k depends on θ (such a model is

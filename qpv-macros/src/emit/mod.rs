@@ -49,6 +49,15 @@ pub struct EmitModel<'a> {
     pub libm: TokenStream,
 }
 
+impl EmitModel<'_> {
+    /// Number of vertices: 2^s corners (s scheduling parameters and derived
+    /// variables) per piece of the model's cover.
+    pub fn nv(&self) -> usize {
+        let pieces = self.model.cover.as_ref().map_or(1, |c| c.len());
+        pieces << (self.scheduling.len() + self.model.derived.len())
+    }
+}
+
 /// The numbers of one certified design.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CertifiedDesign {
@@ -123,7 +132,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
         .map(|(i, d)| design::emit_design(em, d, i + 1, &state_eqs, &out_eqs, &mut coeffs))
         .collect();
 
-    let constants = model_constants(m, em.scheduling.len() + m.derived.len());
+    let constants = model_constants(m, em.nv());
     let certificate_types = certificate::types();
     let weights = weights::items(m, &em.scheduling, &em.libm);
     let coefficients = coeffs.items(m.ntheta(), m.derived.len());
@@ -166,14 +175,14 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
 }
 
 /// The model's sizes and parameter bounds: `NX`, `NY`, `NU`, `NTHETA`,
-/// `NV` (for `ns` scheduling parameters), `THETA_MIN`, `THETA_MAX`.
-fn model_constants(m: &Model, ns: usize) -> TokenStream {
+/// `NV` (`nv` vertices), `THETA_MIN`, `THETA_MAX`.
+fn model_constants(m: &Model, nv: usize) -> TokenStream {
     let (nx_l, ny_l, nu_l, nth_l, nv_l) = (
         usize_lit(m.nx()),
         usize_lit(m.ny()),
         usize_lit(m.nu()),
         usize_lit(m.ntheta()),
-        usize_lit(1usize << ns),
+        usize_lit(nv),
     );
     let lo: Vec<TokenStream> = m.params.iter().map(|p| lit(p.lo)).collect();
     let hi: Vec<TokenStream> = m.params.iter().map(|p| lit(p.hi)).collect();
@@ -200,7 +209,7 @@ fn model_constants(m: &Model, ns: usize) -> TokenStream {
 /// compiler's warnings.
 fn module_doc(em: &EmitModel<'_>, primary_index: usize) -> String {
     let m = em.model;
-    let nv = 1usize << (em.scheduling.len() + m.derived.len());
+    let nv = em.nv();
     let state_list = m.states.join(", ");
     let output_list = m.outputs.join(", ");
     let input_list = if m.inputs.is_empty() {
@@ -255,6 +264,20 @@ fn module_doc(em: &EmitModel<'_>, primary_index: usize) -> String {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    if let Some(c) = &m.cover {
+        let pieces: Vec<String> = (0..c.len())
+            .map(|k| format!("{} ({})", k + 1, c.label(k)))
+            .collect();
+        mod_doc.push_str(&format!(
+            "\n\n Cover: Θ is cut into {} pieces, each with its own box of (θ, φ) (the φ \
+             ranges recomputed on the piece); the vertices are the corners of every piece's \
+             box, piece after piece: {}. `mu` locates the piece of θ ([`piece`]; a breakpoint \
+             belongs to the piece above it) and is zero on every other piece, so the gain \
+             L(θ) may jump at a breakpoint (the certificate holds at every θ).",
+            c.len(),
+            pieces.join(", ")
+        ));
+    }
     for w in &m.warnings {
         mod_doc.push_str("\n\n Note from the model compiler: ");
         mod_doc.push_str(&w.message);

@@ -16,6 +16,7 @@ use quote::{format_ident, quote};
 pub(super) fn items(m: &Model, scheduling: &[usize], libm: &TokenStream) -> TokenStream {
     let clamp = clamp_theta(m);
     let phi = phi_items(m, libm);
+    let piece = piece_items(m);
     let mu_body = mu_body(m, scheduling);
     let theta = format_ident!("theta");
     let mu_bind = destructure(&theta, "t", m.ntheta(), &mu_body);
@@ -23,6 +24,8 @@ pub(super) fn items(m: &Model, scheduling: &[usize], libm: &TokenStream) -> Toke
         #clamp
 
         #phi
+
+        #piece
 
         /// The scheduling weights μ_l(θ), l = 1..NV: non-negative, summing to 1
         /// (θ is clamped into Θ first).
@@ -81,7 +84,12 @@ fn clamp_theta(m: &Model) -> TokenStream {
 
 /// μ(θ) for a clamped θ: w_i = normalised position, v_i = 1 − w_i, vertex
 /// products built as a prefix tree (first parameter most significant).
+/// With a cover, the piece is located first and the weights are those of
+/// its box (see [`covered_mu_body`]).
 fn mu_body(m: &Model, scheduling: &[usize]) -> TokenStream {
+    if let Some(c) = &m.cover {
+        return covered_mu_body(m, c, scheduling);
+    }
     let ns = scheduling.len() + m.derived.len();
     let mut mu_lets = TokenStream::new();
     if !m.derived.is_empty() {
@@ -123,6 +131,14 @@ fn mu_body(m: &Model, scheduling: &[usize]) -> TokenStream {
         };
         mu_lets.extend(quote! { let #w = #w_expr; let #v = 1.0 - #w; });
     }
+    let mu_exprs = products(ns, &mut mu_lets);
+    quote! { #mu_lets [#(#mu_exprs),*] }
+}
+
+/// The products of the prefix tree over `ns` weights `w<i>`/`v<i>` (first
+/// most significant), as `let` statements for the inner nodes and one
+/// expression per leaf, in vertex order.
+fn products(ns: usize, lets: &mut TokenStream) -> Vec<TokenStream> {
     let mut level: Vec<(String, TokenStream)> = vec![(String::new(), quote!(1.0))];
     for i in 0..ns {
         let w = format_ident!("w{}", i);
@@ -138,7 +154,7 @@ fn mu_body(m: &Model, scheduling: &[usize]) -> TokenStream {
                 };
                 if i > 0 && i + 1 < ns {
                     let id = format_ident!("p{}", nb);
-                    mu_lets.extend(quote!(let #id = #e;));
+                    lets.extend(quote!(let #id = #e;));
                     next.push((nb, quote!(#id)));
                 } else {
                     next.push((nb, e));
@@ -147,8 +163,172 @@ fn mu_body(m: &Model, scheduling: &[usize]) -> TokenStream {
         }
         level = next;
     }
-    let mu_exprs: Vec<TokenStream> = level.into_iter().map(|(_, e)| e).collect();
-    quote! { #mu_lets [#(#mu_exprs),*] }
+    level.into_iter().map(|(_, e)| e).collect()
+}
+
+/// μ(θ) for a clamped θ of a model with a cover: the piece index `k` (along
+/// each cut parameter, the number of inner breakpoints ≤ θ_i, first
+/// parameter most significant: the rule of `Cover::locate`), the ranges of
+/// that piece's box chosen by a `match` on `k`, the multilinear weights in
+/// it (φ clamped into the piece's range), and these written into the
+/// piece's slots of an otherwise zero array. No indexing, no allocation.
+fn covered_mu_body(m: &Model, c: &qpv_dsl::Cover, scheduling: &[usize]) -> TokenStream {
+    let nd = m.derived.len();
+    let ns = scheduling.len() + nd;
+    let per = 1usize << ns;
+    let mut lets = TokenStream::new();
+    if nd > 0 {
+        let f: Vec<Ident> = (0..nd).map(|j| format_ident!("f{}", j)).collect();
+        lets.extend(quote!(let [#(#f),*] = phi(theta);));
+    }
+    lets.extend(locate(c));
+    // per scheduling variable: lo, hi and 1/(hi − lo) on each piece
+    let lo_id: Vec<Ident> = (0..ns).map(|i| format_ident!("lo{}", i)).collect();
+    let hi_id: Vec<Ident> = (0..ns).map(|i| format_ident!("hi{}", i)).collect();
+    let inv_id: Vec<Ident> = (0..ns).map(|i| format_ident!("inv{}", i)).collect();
+    let pats: Vec<TokenStream> = (0..ns)
+        .flat_map(|i| {
+            let (l, h, r) = (&lo_id[i], &hi_id[i], &inv_id[i]);
+            let h = if i < scheduling.len() {
+                quote!(_)
+            } else {
+                quote!(#h)
+            };
+            [quote!(#l), h, quote!(#r)]
+        })
+        .collect();
+    let last = c.pieces.len().saturating_sub(1);
+    let arms: Vec<TokenStream> = c
+        .pieces
+        .iter()
+        .enumerate()
+        .map(|(k, piece)| {
+            let ranges = scheduling
+                .iter()
+                .map(|&pi| piece.theta.get(pi).copied().unwrap_or((0.0, 1.0)))
+                .chain(piece.phi.iter().copied());
+            let vals: Vec<TokenStream> = ranges
+                .flat_map(|(lo, hi)| [lit(lo), lit(hi), lit(1.0 / (hi - lo))])
+                .collect();
+            let pat = if k == last {
+                quote!(_)
+            } else {
+                let kl = super::tokens::usize_lit(k);
+                quote!(#kl)
+            };
+            quote! { #pat => [#(#vals),*], }
+        })
+        .collect();
+    lets.extend(quote! {
+        let [#(#pats),*] = match k { #(#arms)* };
+    });
+    let vars = scheduling
+        .iter()
+        .map(|&pi| (format_ident!("t{}", pi), false))
+        .chain((0..nd).map(|j| (format_ident!("f{}", j), true)));
+    for (i, (t, clamp)) in vars.enumerate() {
+        let (l, h, r) = (&lo_id[i], &hi_id[i], &inv_id[i]);
+        let w = format_ident!("w{}", i);
+        let v = format_ident!("v{}", i);
+        if clamp {
+            // φ clamped into the piece's range (contains it up to rounding)
+            lets.extend(quote! {
+                let #t = if #t >= #l { if #t <= #h { #t } else { #h } } else { #l };
+            });
+        }
+        lets.extend(quote! { let #w = (#t - #l) * #r; let #v = 1.0 - #w; });
+    }
+    let local = products(ns, &mut lets);
+    let q: Vec<Ident> = (0..per).map(|i| format_ident!("q{}", i)).collect();
+    lets.extend(quote!(#(let #q = #local;)*));
+    let o: Vec<Ident> = (0..c.pieces.len() * per)
+        .map(|i| format_ident!("o{}", i))
+        .collect();
+    let place: Vec<TokenStream> = (0..c.pieces.len())
+        .map(|k| {
+            let slots = &o[k * per..(k + 1) * per];
+            let pat = if k == last {
+                quote!(_)
+            } else {
+                let kl = super::tokens::usize_lit(k);
+                quote!(#kl)
+            };
+            quote! { #pat => { #(*#slots = #q;)* } }
+        })
+        .collect();
+    quote! {
+        #lets
+        let mut out = [0.0; NV];
+        {
+            let [#(#o),*] = &mut out;
+            match k { #(#place)* }
+        }
+        out
+    }
+}
+
+/// `let c<a>: usize = ...; let k: usize = ...;`: the piece of the cover
+/// that contains the clamped θ (`t<i>` bound by the caller): along each cut
+/// parameter the number of inner breakpoints ≤ θ_i, then the mixed-radix
+/// index, first parameter most significant.
+fn locate(c: &qpv_dsl::Cover) -> TokenStream {
+    let mut out = TokenStream::new();
+    let mut k = quote!(0usize);
+    for (a, axis) in c.axes.iter().enumerate() {
+        let t = format_ident!("t{}", axis.param);
+        let n = axis.breaks.len().saturating_sub(1).max(1);
+        let inner = axis.breaks.iter().skip(1).take(n - 1).map(|&b| {
+            let b = lit(b);
+            quote!(usize::from(#t >= #b))
+        });
+        let ci = format_ident!("c{}", a);
+        out.extend(quote!(let #ci: usize = 0usize #(+ #inner)*;));
+        let nl = super::tokens::usize_lit(n);
+        k = if a == 0 {
+            quote!(#ci)
+        } else {
+            quote!(#k * #nl + #ci)
+        };
+    }
+    out.extend(quote!(let k: usize = #k;));
+    out
+}
+
+/// `PIECES` and `piece(θ)` for a model with a cover (nothing otherwise).
+fn piece_items(m: &Model) -> TokenStream {
+    let Some(c) = &m.cover else {
+        return TokenStream::new();
+    };
+    let n = super::tokens::usize_lit(c.len());
+    let body = locate(c);
+    let theta = format_ident!("theta");
+    let full = quote!(#body k);
+    let bind = destructure(&theta, "t", m.ntheta(), &full);
+    let axes: Vec<String> = c
+        .axes
+        .iter()
+        .map(|a| {
+            let b: Vec<String> = a.breaks.iter().map(|x| x.to_string()).collect();
+            format!("{} at {}", a.name, b.join(", "))
+        })
+        .collect();
+    let doc = format!(
+        " The piece of the cover that contains θ (clamped into Θ first), 0-based;          breakpoints: {}. A breakpoint belongs to the piece above it. Piece k owns the          vertices k·NV/PIECES .. (k+1)·NV/PIECES.",
+        axes.join("; ")
+    );
+    quote! {
+        /// Number of pieces of the cover of Θ (the vertices are the corners of
+        /// each piece's box of (θ, φ), piece after piece).
+        pub const PIECES: usize = #n;
+
+        #[doc = #doc]
+        #[inline]
+        pub fn piece(theta: &[f64; NTHETA]) -> usize {
+            let theta = &clamp_theta(theta).0;
+            #bind
+            #full
+        }
+    }
 }
 
 /// `NPHI`, `PHI_MIN`, `PHI_MAX` and `phi(θ)` for a model with derived

@@ -161,11 +161,24 @@ pub fn check_model(model: &PolytopicModel) -> Result<(), SimError> {
             model.ntheta()
         )));
     }
-    if model.nv() != 1usize << s {
+    // 2^s corners per piece of the cover (one piece without a cover)
+    let pieces = model.pieces();
+    if let Some(c) = &model.cover {
+        if c.pieces.iter().any(|p| {
+            p.theta.len() != model.ntheta()
+                || p.phi.len() != model.derived.len()
+                || !p.theta.iter().chain(&p.phi).all(|&(lo, hi)| lo < hi)
+        }) {
+            return Err(SimError::Model(
+                "a piece of the cover has ranges that do not match the model".into(),
+            ));
+        }
+    }
+    if model.nv() != pieces << s {
         return Err(SimError::Model(format!(
-            "{} vertices for {s} scheduling parameters (expected {})",
+            "{} vertices for {s} scheduling parameters and {pieces} piece(s) (expected {})",
             model.nv(),
-            1usize << s
+            pieces << s
         )));
     }
     for (l, v) in model.vertices.iter().enumerate() {

@@ -231,6 +231,7 @@ pub fn augment(model: &PolytopicModel, f: &OutputFilter) -> Result<PolytopicMode
         designs: model.designs.clone(),
         noise: Default::default(),
         derived: model.derived.clone(),
+        cover: model.cover.clone(),
     })
 }
 

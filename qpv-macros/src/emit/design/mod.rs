@@ -45,7 +45,7 @@ impl Shape {
             nx,
             ny,
             nu: m.nu(),
-            nv: 1usize << (em.scheduling.len() + em.model.derived.len()),
+            nv: em.nv(),
             nz: if filter.is_some() { nx + ny } else { nx },
             ns: if filter.is_some() { nx + 2 * ny } else { nx },
             filter,
