@@ -13,6 +13,7 @@ mod decoupled;
 mod design;
 mod diagnosis_size;
 mod falsify;
+mod kkt_solver;
 mod lapack;
 mod layers;
 mod noise;
