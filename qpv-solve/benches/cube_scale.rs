@@ -26,9 +26,10 @@
 //! (one thread per core), `faer1`, `faer2` (1 or 2 threads) or `auto` is
 //! given; all but `qdldl` need `--features faer`. `verbose` prints
 //! Clarabel's iteration log; `alpha=A` fixes α = A instead of 1 (`fixed`,
-//! `scale` and `profile`).
+//! `scale` and `profile`); `chordal` turns Clarabel's chordal decomposition
+//! on (`profile` only).
 //!
-//! `cargo bench -p qpv-solve --bench cube_scale [--features faer] -- [scale|fixed|loss|profile] [qdldl|faer|faer1|faer2|auto] [verbose] [alpha=A] [NX...]`
+//! `cargo bench -p qpv-solve --bench cube_scale [--features faer] -- [scale|fixed|loss|profile] [qdldl|faer|faer1|faer2|auto] [verbose] [alpha=A] [chordal] [NX...]`
 //! (`fixed`: the scale table without the α search). Times are wall-clock and,
 //! because the machine may be shared, the process's CPU time too.
 //!
@@ -201,15 +202,12 @@ fn profile_child(nx: usize) {
     );
     ensure_lapack();
     let (cpu0, t) = (cpu_seconds(), Instant::now());
-    let mut solver = DefaultSolver::new(
-        &sdp.p,
-        &sdp.q,
-        &sdp.a,
-        &sdp.b,
-        &sdp.cones,
-        clarabel_settings(&settings),
-    )
-    .expect("solver setup");
+    let mut cs = clarabel_settings(&settings);
+    // `chordal`: Clarabel's chordal decomposition of the PSD cones (off in
+    // the design), to see whether it pays.
+    cs.chordal_decomposition_enable = std::env::args().any(|a| a == "chordal");
+    let mut solver =
+        DefaultSolver::new(&sdp.p, &sdp.q, &sdp.a, &sdp.b, &sdp.cones, cs).expect("solver setup");
     solver.solve();
     let li = &solver.info.linsolver;
     println!(
@@ -283,7 +281,10 @@ fn main() {
     let passed: Vec<&String> = args
         .iter()
         .filter(|a| {
-            ["qdldl", "faer", "faer1", "faer2", "auto", "verbose"].contains(&a.as_str())
+            [
+                "qdldl", "faer", "faer1", "faer2", "auto", "verbose", "chordal",
+            ]
+            .contains(&a.as_str())
                 || a.starts_with("alpha=")
         })
         .collect();
