@@ -15,7 +15,10 @@
 //!   (milliseconds) and re-solves if it does not pass. For `state_bound
 //!   auto` the computed Q is stored too and re-checked (invariance, region
 //!   inside F, F inside the box) before it is used; otherwise it is
-//!   recomputed.
+//!   recomputed. A `conditions = cube` design is stored with its slack
+//!   matrices (Y, X, D) and re-certified by them, as the search certified
+//!   it; an entry without them (written before they were stored) is
+//!   re-certified on the full vertex family, which the slacks imply.
 //! * Writes go to a temporary file renamed into place, so concurrent rustc
 //!   processes never see a half-written entry. Any I/O problem is a miss.
 
@@ -43,6 +46,22 @@ pub struct Entry {
     /// `split = skew_slack`: the slack K_{k,l}, per vertex, per k, row-major
     /// (empty without one); re-applied before the re-certification.
     pub skew: Vec<f64>,
+    /// `conditions = cube`: the slacks the design was certified with.
+    pub cube: Option<Cube>,
+}
+
+/// The slacks of a `conditions = cube` design, flattened: Y_{c,k} and
+/// X_{c,k} per rate combination c, per generator k, each matrix row-major;
+/// the diagonal of D. The caller reshapes them (r = `d.len()` generators,
+/// nz × nz matrices) and the certificate checks that they fit the model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cube {
+    /// Y_{c,k}, flattened.
+    pub y: Vec<f64>,
+    /// X_{c,k}, flattened like `y`.
+    pub x: Vec<f64>,
+    /// The diagonal of D.
+    pub d: Vec<f64>,
 }
 
 /// A computed `state_bound auto` result.
@@ -179,7 +198,9 @@ pub fn load(dir: &Path, key: &str) -> Option<Entry> {
         p: Vec::new(),
         l: Vec::new(),
         skew: Vec::new(),
+        cube: None,
     };
+    let (mut y, mut x, mut d) = (None, None, None);
     let nums = |rest: &str| -> Option<Vec<f64>> {
         rest.split_whitespace()
             .map(|t| t.parse::<f64>().ok())
@@ -195,6 +216,9 @@ pub fn load(dir: &Path, key: &str) -> Option<Entry> {
             "P" => e.p = nums(rest)?,
             "L" => e.l.push(nums(rest)?),
             "K" => e.skew = nums(rest)?,
+            "Y" => y = Some(nums(rest)?),
+            "X" => x = Some(nums(rest)?),
+            "D" => d = Some(nums(rest)?),
             "Q" => {
                 let v = nums(rest)?;
                 let (h, rest) = v.split_first()?;
@@ -208,12 +232,23 @@ pub fn load(dir: &Path, key: &str) -> Option<Entry> {
             _ => return None,
         }
     }
+    e.cube = match (y, x, d) {
+        (Some(y), Some(x), Some(d)) => Some(Cube { y, x, d }),
+        (None, None, None) => None,
+        // some slacks without the others: a damaged entry
+        _ => return None,
+    };
+    let cube_nums = e
+        .cube
+        .iter()
+        .flat_map(|c| c.y.iter().chain(&c.x).chain(&c.d));
     let finite = e.alpha.is_finite()
         && e.gamma.is_finite()
         && e.p
             .iter()
             .chain(e.l.iter().flatten())
             .chain(&e.skew)
+            .chain(cube_nums)
             .all(|v| v.is_finite());
     (finite && !e.p.is_empty() && !e.l.is_empty()).then_some(e)
 }
@@ -235,6 +270,11 @@ pub fn store(dir: &Path, key: &str, e: &Entry) {
     }
     if !e.skew.is_empty() {
         push_nums(&mut s, "K", &e.skew);
+    }
+    if let Some(c) = &e.cube {
+        push_nums(&mut s, "Y", &c.y);
+        push_nums(&mut s, "X", &c.x);
+        push_nums(&mut s, "D", &c.d);
     }
     if let Some(b) = &e.bound {
         let sym = if b.symmetric { 1.0 } else { 0.0 };
@@ -273,10 +313,43 @@ mod tests {
             p: vec![1.0, 0.1, 0.1, 2.0],
             l: vec![vec![0.1, -3.5e-7], vec![1.0 / 3.0, 4.0]],
             skew: vec![0.0, 0.25, -0.25, 0.0],
+            cube: None,
         };
         store(&dir, "some key\n", &e);
-        assert_eq!(load(&dir, "some key\n"), Some(e));
+        assert_eq!(load(&dir, "some key\n"), Some(e.clone()));
         assert_eq!(load(&dir, "another key\n"), None);
+
+        // With cube slacks (two generators, one rate combination, 2 × 2).
+        let cube = Cube {
+            y: vec![0.5, 0.1, 0.1, 0.25, 1e-9, 0.0, 0.0, 2.0],
+            x: vec![-0.5, 0.0, 0.0, -1.0 / 3.0, 3.0, 1.5, 1.5, 4.0],
+            d: vec![0.125, 7.0],
+        };
+        let with_cube = Entry {
+            cube: Some(cube),
+            ..e.clone()
+        };
+        store(&dir, "cube key\n", &with_cube);
+        let text = std::fs::read_to_string(file_for(&dir, "cube key\n")).expect("written");
+        assert!(text.contains("\nY 0.5 0.1") && text.contains("\nD 0.125 7.0\n"));
+        assert_eq!(load(&dir, "cube key\n"), Some(with_cube));
+
+        // An entry written before slacks were stored (no Y, X, D lines)
+        // loads without them; one with only some of them is a miss.
+        let old: String = text
+            .lines()
+            .filter(|l| !["Y ", "X ", "D "].iter().any(|t| l.starts_with(t)))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        std::fs::write(file_for(&dir, "cube key\n"), &old).expect("rewrite");
+        assert_eq!(load(&dir, "cube key\n"), Some(e));
+        let partial: String = text
+            .lines()
+            .filter(|l| !l.starts_with("X "))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        std::fs::write(file_for(&dir, "cube key\n"), &partial).expect("rewrite");
+        assert_eq!(load(&dir, "cube key\n"), None);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

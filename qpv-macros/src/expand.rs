@@ -17,6 +17,7 @@ use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, NoiseObjective, OutputFilter,
     OutputRoute, PolytopicModel, Split, StateBound,
 };
+use qpv_solve::conditions::cube::CubeSlacks;
 use qpv_solve::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 use qpv_solve::noise::NoiseChannels;
 use qpv_solve::report::{matrix_to_rows, rows_to_matrix};
@@ -504,7 +505,21 @@ impl DesignCtx<'_> {
         }
         let p = rows_to_matrix(&rows(&e.p, nz));
         let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
-        let cert = qpv_solve::check(&checked_model, self.req.mode, e.alpha, e.gamma, &p, &ls);
+        // Cube slacks are checked as the search checked them; an entry
+        // without slacks is checked on the full vertex family.
+        let slacks = match &e.cube {
+            Some(c) => Some(cube_slacks(c, nz)?),
+            None => None,
+        };
+        let cert = qpv_solve::certificate::check_with(
+            &checked_model,
+            self.req.mode,
+            e.alpha,
+            e.gamma,
+            &p,
+            &ls,
+            slacks.as_ref(),
+        );
         cert.passed.then(|| Outcome {
             origin: "cache hit, re-certified",
             numbers: self.numbers(
@@ -573,7 +588,18 @@ impl DesignCtx<'_> {
             )
         })?;
         let (alpha, gamma) = (design.alpha, design.gamma);
-        let cert = qpv_solve::check(&checked_model, req.mode, alpha, gamma, &p, &ls);
+        // A cube design is checked by its slacks (as the search did), not
+        // on the 2^nx region vertices.
+        let slacks = design.cube.as_ref().map(CubeSlacks::from_report);
+        let cert = qpv_solve::certificate::check_with(
+            &checked_model,
+            req.mode,
+            alpha,
+            gamma,
+            &p,
+            &ls,
+            slacks.as_ref(),
+        );
         let finite = p
             .iter()
             .chain(ls.iter().flat_map(|l| l.iter()))
@@ -609,6 +635,7 @@ impl DesignCtx<'_> {
             p: numbers.p.clone(),
             l: numbers.l.clone(),
             skew,
+            cube: slacks.as_ref().map(flat_cube),
         };
         Ok((
             Outcome {
@@ -618,6 +645,48 @@ impl DesignCtx<'_> {
             entry,
         ))
     }
+}
+
+/// Cube slacks flattened for the cache (per rate combination, per
+/// generator, row-major).
+fn flat_cube(c: &CubeSlacks) -> cache::Cube {
+    let flat = |v: &Vec<Vec<DMatrix<f64>>>| -> Vec<f64> {
+        v.iter()
+            .flatten()
+            .flat_map(|m| matrix_to_rows(m).concat())
+            .collect()
+    };
+    cache::Cube {
+        y: flat(&c.y),
+        x: flat(&c.x),
+        d: c.d.clone(),
+    }
+}
+
+/// Cached cube slacks back as matrices (r = `d.len()` generators, nz × nz
+/// matrices); None if the numbers cannot be split so. Whether they fit the
+/// model is the certificate's check.
+fn cube_slacks(c: &cache::Cube, nz: usize) -> Option<CubeSlacks> {
+    let per_combo = c.d.len() * nz * nz;
+    let ok = |v: &[f64]| per_combo > 0 && !v.is_empty() && v.len() % per_combo == 0;
+    if !ok(&c.y) || c.x.len() != c.y.len() {
+        return None;
+    }
+    let mats = |v: &[f64]| -> Vec<Vec<DMatrix<f64>>> {
+        v.chunks(per_combo)
+            .map(|combo| {
+                combo
+                    .chunks(nz * nz)
+                    .map(|m| rows_to_matrix(&rows(m, nz)))
+                    .collect()
+            })
+            .collect()
+    };
+    Some(CubeSlacks {
+        y: mats(&c.y),
+        x: mats(&c.x),
+        d: c.d.clone(),
+    })
 }
 
 /// A design ready for emission and where it came from (for `QPV_TIMING`).
@@ -801,6 +870,82 @@ mod tests {
         let third = one_design(model, &poly, req, Some(&dir)).expect("certified");
         assert_eq!(third.origin, "solved", "a tampered entry is re-solved");
         assert_eq!(third.numbers.p, first.numbers.p);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn cube_designs_are_rechecked_and_cached_with_their_slacks() {
+        let text = MODEL.replace(
+            "design { alpha = 0.5; gamma = 0.5; }",
+            "design { alpha = 0.5; gamma = 0.5; conditions = cube; }",
+        );
+        let models = qpv_dsl::parse(&text).expect("test model parses");
+        let model = &models[0];
+        let poly = model.polytopic();
+        let req = &model.designs[0];
+        assert_eq!(req.conditions, Conditions::Cube);
+        let dir = std::env::temp_dir().join(format!("qpv-expand-cube-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+
+        let first = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(first.origin, "solved");
+        assert!(first.numbers.certifies && first.numbers.alpha == 0.5);
+        // The baked margins are the cube's: the vertex family is the
+        // region's slack condition, all positive.
+        assert!(first.numbers.margins.iter().all(|(_, m)| *m > 0.0));
+        let key = cache::key(&poly, req, &format!("{:?}", settings()));
+        let file = cache::file_for(&dir, &key);
+        let entry = cache::load(&dir, &key).expect("cached");
+        let c = entry.cube.clone().expect("the slacks are cached");
+        // box(1) in R²: two generators, 2 × 2 slack matrices
+        assert_eq!(c.d.len(), 2);
+        assert!(!c.y.is_empty() && c.y.len() % 8 == 0 && c.x.len() == c.y.len());
+        assert!(c.d.iter().sum::<f64>() <= 1.0);
+
+        let second = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(second.origin, "cache hit, re-certified");
+        assert_eq!(second.numbers, first.numbers);
+
+        // Slacks that break the cube's region condition (trace D = 2 > 1)
+        // fail the re-check although P and L_l still satisfy the vertex
+        // family: the hit is checked by its slacks, and re-solved.
+        let text = std::fs::read_to_string(&file).expect("cache file written");
+        let rewrite = |f: &dyn Fn(&str) -> Option<String>| -> String {
+            text.lines()
+                .filter_map(|l| f(l).map(|l| format!("{l}\n")))
+                .collect()
+        };
+        let bad_d = rewrite(&|l| {
+            Some(if l.starts_with("D ") {
+                "D 1.0 1.0".to_string()
+            } else {
+                l.to_string()
+            })
+        });
+        std::fs::write(&file, bad_d).expect("rewrite cache file");
+        let p = rows_to_matrix(&rows(&entry.p, 2));
+        let ls: Vec<_> = entry
+            .l
+            .iter()
+            .map(|l| rows_to_matrix(&rows(l, 1)))
+            .collect();
+        let (observer, _) = observer_model(&poly, req, &settings(), None).expect("prepares");
+        let full = qpv_solve::check(&observer.model, Mode::Sound, 0.5, 0.5, &p, &ls);
+        assert!(full.passed, "the full vertex family alone would accept it");
+        let third = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(third.origin, "solved", "bad slacks are re-solved");
+        assert_eq!(third.numbers, first.numbers);
+
+        // An entry written before the slacks were stored still loads, and
+        // is re-certified on the full vertex family.
+        let old = rewrite(&|l| {
+            (!["Y ", "X ", "D "].iter().any(|t| l.starts_with(t))).then(|| l.to_string())
+        });
+        std::fs::write(&file, old).expect("rewrite cache file");
+        assert_eq!(cache::load(&dir, &key).expect("loads").cube, None);
+        let fourth = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(fourth.origin, "cache hit, re-certified");
+        assert_eq!(fourth.numbers.p, first.numbers.p);
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -22,7 +22,14 @@
 //!   symmetric split of N_k, so its iteration count can differ from the
 //!   design's by a few.
 //!
-//! `cargo bench --bench cube_scale [-- scale|fixed|loss|profile] [-- NX...]`
+//! The KKT solver is `Settings::default()`'s unless one of `qdldl`, `faer`
+//! (one thread per core), `faer1`, `faer2` (1 or 2 threads) or `auto` is
+//! given; all but `qdldl` need `--features faer`. `verbose` prints
+//! Clarabel's iteration log; `alpha=A` fixes α = A instead of 1 (`fixed`,
+//! `scale` and `profile`); `chordal` turns Clarabel's chordal decomposition
+//! on (`profile` only).
+//!
+//! `cargo bench --bench cube_scale [--features faer] -- [scale|fixed|loss|profile] [qdldl|faer|faer1|faer2|auto] [verbose] [alpha=A] [chordal] [NX...]`
 //! (`fixed`: the scale table without the α search). Times are wall-clock and,
 //! because the machine may be shared, the process's CPU time too.
 //!
@@ -33,7 +40,7 @@
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel};
 use qpv_solve::conditions::gamma_max;
 use qpv_solve::conditions::reference::{paper_model, synthetic_model};
-use qpv_solve::{design, request, Design, Settings};
+use qpv_solve::{design, request, Design, KktSolver, Settings};
 use std::process::Command;
 use std::time::Instant;
 
@@ -68,20 +75,61 @@ fn gamma_for(model: &PolytopicModel) -> f64 {
     0.3f64.min(0.95 * gamma_max(model).expect("synthetic models have Q"))
 }
 
+/// The KKT solver named on the command line (`None`: the default).
+fn kkt_solver(args: &[String]) -> Option<KktSolver> {
+    args.iter().find_map(|a| match a.as_str() {
+        "qdldl" => Some(KktSolver::Qdldl),
+        #[cfg(feature = "faer")]
+        "faer" => Some(KktSolver::Faer { threads: 0 }),
+        #[cfg(feature = "faer")]
+        "faer1" => Some(KktSolver::Faer { threads: 1 }),
+        #[cfg(feature = "faer")]
+        "faer2" => Some(KktSolver::Faer { threads: 2 }),
+        #[cfg(feature = "faer")]
+        "auto" => Some(KktSolver::Auto),
+        #[cfg(not(feature = "faer"))]
+        "faer" | "faer1" | "faer2" | "auto" => panic!("{a} needs `--features faer`"),
+        _ => None,
+    })
+}
+
+/// The settings of every solve of this process.
+fn settings() -> Settings {
+    let args: Vec<String> = std::env::args().collect();
+    let mut s = Settings::default();
+    if let Some(k) = kkt_solver(&args) {
+        s.kkt_solver = k;
+    }
+    s.verbose = args.iter().any(|a| a == "verbose");
+    s
+}
+
 fn run(model: &PolytopicModel, alpha: AlphaSpec, gamma: f64, c: Conditions) -> (Design, f64) {
     let mut req = request(alpha, GammaSpec::Fixed(gamma), Mode::Sound);
     req.conditions = c;
     let t = Instant::now();
-    let d = design(model, &req, &Settings::default()).expect("design");
+    let d = design(model, &req, &settings()).expect("design");
     (d, t.elapsed().as_secs_f64())
 }
 
 /// One size of the scale table, in this process.
+/// The α of the fixed design: 1, or `alpha=A` on the command line.
+fn fixed_alpha() -> f64 {
+    std::env::args()
+        .find_map(|a| a.strip_prefix("alpha=").and_then(|v| v.parse().ok()))
+        .unwrap_or(1.0)
+}
+
 fn scale_child(nx: usize, search: bool) {
     let model = synthetic_model(nx);
     let gamma = gamma_for(&model);
     let cpu0 = cpu_seconds();
-    let (d, wall) = run(&model, AlphaSpec::Fixed(1.0), gamma, Conditions::Cube);
+    let (d, wall) = run(
+        &model,
+        AlphaSpec::Fixed(fixed_alpha()),
+        gamma,
+        Conditions::Cube,
+    );
     let cpu = cpu_seconds() - cpu0;
     let peak_fixed = vm_hwm_mib();
     if !search {
@@ -141,9 +189,9 @@ fn profile_child(nx: usize) {
     let prob = Problem::new(&model, ConditionSet::Sound)
         .and_then(|p| p.with_conditions(Conditions::Cube))
         .expect("a box region");
-    let settings = Settings::default();
+    let settings = settings();
     let t = Instant::now();
-    let sdp = prob.assemble(1.0, gamma, &settings, Objective::Gains);
+    let sdp = prob.assemble(fixed_alpha(), gamma, &settings, Objective::Gains);
     let asm = t.elapsed().as_secs_f64();
     println!(
         "nx = {nx}: {} variables, {} rows, {} cones, nnz(A) = {}, assembly {asm:.3} s",
@@ -154,15 +202,12 @@ fn profile_child(nx: usize) {
     );
     ensure_lapack();
     let (cpu0, t) = (cpu_seconds(), Instant::now());
-    let mut solver = DefaultSolver::new(
-        &sdp.p,
-        &sdp.q,
-        &sdp.a,
-        &sdp.b,
-        &sdp.cones,
-        clarabel_settings(&settings),
-    )
-    .expect("solver setup");
+    let mut cs = clarabel_settings(&settings);
+    // `chordal`: Clarabel's chordal decomposition of the PSD cones (off in
+    // the design), to see whether it pays.
+    cs.chordal_decomposition_enable = std::env::args().any(|a| a == "chordal");
+    let mut solver =
+        DefaultSolver::new(&sdp.p, &sdp.q, &sdp.a, &sdp.b, &sdp.cones, cs).expect("solver setup");
     solver.solve();
     let li = &solver.info.linsolver;
     println!(
@@ -233,9 +278,24 @@ fn main() {
     let scale = args.iter().any(|a| a == "scale") || fixed || !(loss || profile);
     let given: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
     let exe = std::env::current_exe().unwrap();
+    let passed: Vec<&String> = args
+        .iter()
+        .filter(|a| {
+            [
+                "qdldl", "faer", "faer1", "faer2", "auto", "verbose", "chordal",
+            ]
+            .contains(&a.as_str())
+                || a.starts_with("alpha=")
+        })
+        .collect();
+    println!(
+        "KKT solver: {:?}",
+        kkt_solver(&args).unwrap_or(Settings::default().kkt_solver)
+    );
     let child = |what: &str, nx: usize| {
         let st = Command::new(&exe)
             .args(["--child", what, &nx.to_string()])
+            .args(&passed)
             .status()
             .expect("child runs");
         if !st.success() {
@@ -243,7 +303,10 @@ fn main() {
         }
     };
     if scale {
-        println!("bench cube_scale (scale): synthetic model, sound, cube, 4 θ-vertices, box region; fixed design α = 1, then α = max at the same γ");
+        println!(
+            "bench cube_scale (scale): synthetic model, sound, cube, 4 θ-vertices, box region; fixed design α = {}, then α = max at the same γ",
+            fixed_alpha()
+        );
         println!(
             "{:>3} {:>6} {:>6} {:>8} {:>7} {:>8} {:>6} {:>6} {:>5} {:>9} | {:>8} {:>8} {:>8} {:>6} {:>9} {:>9}",
             "nx",

@@ -3,7 +3,7 @@
 //! BLAS/LAPACK symbols its PSD cones need.
 
 use crate::error::SolveError;
-use crate::settings::Settings;
+use crate::settings::{KktSolver, Settings};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
 use serde::{Deserialize, Serialize};
@@ -59,7 +59,16 @@ pub fn interpret(s: SolverStatus) -> Status {
 /// block is dense, and splitting the sparse region blocks of box regions
 /// only adds cones (measured 10 % slower per iteration on the paper example).
 pub fn clarabel_settings(s: &Settings) -> DefaultSettings<f64> {
+    let (direct_solve_method, max_threads) = match s.kkt_solver {
+        KktSolver::Qdldl => ("qdldl", 0),
+        #[cfg(feature = "faer")]
+        KktSolver::Faer { threads } => ("faer", threads),
+        #[cfg(feature = "faer")]
+        KktSolver::Auto => ("auto", 0),
+    };
     DefaultSettings {
+        direct_solve_method: direct_solve_method.to_string(),
+        max_threads,
         chordal_decomposition_enable: false,
         max_iter: s.max_iter,
         time_limit: s.time_limit,

@@ -99,7 +99,7 @@ pub use linalg::svec;
 pub use model::{output_filter, state_bound};
 pub use report::{DataCheck, Design, GammaSearchInfo, LocalMax, SearchStep, SolverInfo, Status};
 pub use search::{alpha_profile, design, design_with_progress, request, ProfilePoint};
-pub use settings::Settings;
+pub use settings::{KktSolver, Settings};
 
 /// The skew-symmetric slack of `split = skew_slack` (the alternation, its
 /// fixed-P step and the model transformation), under its former path.

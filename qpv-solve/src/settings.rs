@@ -57,6 +57,49 @@ pub struct Settings {
     pub search_tol: f64,
     /// Print Clarabel's iteration log. Default false.
     pub verbose: bool,
+    /// Clarabel: the direct solver of the KKT system factorised at every
+    /// interior-point iteration. Default [`KktSolver::default`].
+    pub kkt_solver: KktSolver,
+}
+
+/// The sparse LDLᵀ solver Clarabel factorises its KKT systems with.
+///
+/// Without the `faer` feature only [`KktSolver::Qdldl`] exists. The enum is
+/// `non_exhaustive` because the feature adds variants.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum KktSolver {
+    /// QDLDL: Clarabel's built-in simplicial, single-threaded LDLᵀ. Fast on
+    /// small problems, slow once the factor has millions of nonzeros (cube
+    /// conditions at nx ≥ 10).
+    Qdldl,
+    /// faer's supernodal LDLᵀ (dense kernels on the factor's supernodes) on
+    /// `threads` threads: 0 = one per core (rayon's pool), 1 = sequential.
+    #[cfg(feature = "faer")]
+    Faer {
+        /// Number of threads (0 = one per core).
+        threads: u32,
+    },
+    /// Clarabel's own choice per problem: it orders the KKT system, counts
+    /// the factorisation's operations and takes faer (one thread per core)
+    /// when they exceed 40 per factor entry, where dense supernodes pay
+    /// (the cube conditions: about 150), else QDLDL.
+    #[cfg(feature = "faer")]
+    Auto,
+}
+
+impl Default for KktSolver {
+    /// QDLDL without the `faer` feature, [`KktSolver::Auto`] with it.
+    fn default() -> Self {
+        #[cfg(feature = "faer")]
+        {
+            KktSolver::Auto
+        }
+        #[cfg(not(feature = "faer"))]
+        {
+            KktSolver::Qdldl
+        }
+    }
 }
 
 impl Default for Settings {
@@ -80,6 +123,7 @@ impl Default for Settings {
             tol_infeas_rel: 1e-8,
             search_tol: 1e-5,
             verbose: false,
+            kkt_solver: KktSolver::default(),
         }
     }
 }

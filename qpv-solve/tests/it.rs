@@ -18,6 +18,7 @@ mod decoupled;
 mod design;
 mod diagnosis_size;
 mod falsify;
+mod kkt_solver;
 mod lapack;
 mod layers;
 mod noise;
