@@ -243,14 +243,18 @@ fn gains<const NX: usize, const NY: usize>(l: &[[[f64; NY]; NX]]) -> Vec<DMatrix
         .collect()
 }
 
-/// ‖a − b‖∞ / ‖b‖∞.
-fn rel_err(a: &[f64], b: &[f64]) -> f64 {
+/// ‖a − b‖∞ (the lengths must agree).
+fn max_diff(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len());
-    let diff = a
-        .iter()
+    a.iter()
         .zip(b)
         .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max);
+        .fold(0.0, f64::max)
+}
+
+/// ‖a − b‖∞ / ‖b‖∞.
+fn rel_err(a: &[f64], b: &[f64]) -> f64 {
+    let diff = max_diff(a, b);
     let scale = b.iter().map(|y| y.abs()).fold(f64::MIN_POSITIVE, f64::max);
     diff / scale
 }
@@ -393,11 +397,7 @@ fn grid_cover_pieces_mu_and_observer_match_the_reference() {
         assert_eq!(grid::piece(&theta), cover.locate(&clamped), "{theta:?}");
         let mu = grid::mu(&theta);
         let mu_ref = poly.mu(&theta);
-        let diff = mu
-            .iter()
-            .zip(&mu_ref)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let diff = max_diff(&mu, &mu_ref);
         assert!(diff <= 1e-12, "μ differs by {diff:e} at {theta:?}");
         let x: [f64; 2] = core::array::from_fn(|_| rng.uniform(-1.0, 1.0));
         let y = [rng.uniform(-1.0, 1.0)];
@@ -751,11 +751,7 @@ macro_rules! check_scheduling_functions {
             assert!(rel_err(&phi, &phi_ref) <= 1e-12, "{phi:?} vs {phi_ref:?}");
             let mu = $m::mu(&theta);
             let mu_ref = poly.mu(&theta);
-            let diff = mu
-                .iter()
-                .zip(&mu_ref)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
+            let diff = max_diff(&mu, &mu_ref);
             assert!(diff <= 1e-12, "μ differs by {diff:e}");
             let x: [f64; $m::NX] = core::array::from_fn(|_| rng.uniform(-0.05, 0.05));
             let u: [f64; $m::NU] = core::array::from_fn(|_| rng.uniform(-0.1, 0.1));
@@ -870,11 +866,7 @@ fn generated_cover_locates_pieces_like_the_model_compiler() {
         assert!(rel_err(&phi, &phi_ref) <= 1e-12, "{phi:?} vs {phi_ref:?}");
         let mu = manipulator::mu(&theta);
         let mu_ref = poly.mu(&theta);
-        let diff = mu
-            .iter()
-            .zip(&mu_ref)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let diff = max_diff(&mu, &mu_ref);
         assert!(diff <= 1e-12, "μ differs by {diff:e} at {theta:?}");
         for (l, w) in mu.iter().enumerate() {
             assert!(l / per == k || *w == 0.0, "μ_{l} = {w} outside piece {k}");
