@@ -180,7 +180,6 @@ fn scale_child(nx: usize, search: bool) {
 /// The profile of one fixed-(α = 1, γ) cube solve, in this process: the
 /// assembled problem run through Clarabel directly, with its timers.
 fn profile_child(nx: usize) {
-    use clarabel::solver::{DefaultSolver, IPSolver};
     use qpv_solve::backend::{clarabel_settings, ensure_lapack};
     use qpv_solve::conditions::ConditionSet;
     use qpv_solve::lmi::{Objective, Problem};
@@ -206,9 +205,7 @@ fn profile_child(nx: usize) {
     // `chordal`: Clarabel's chordal decomposition of the PSD cones (off in
     // the design), to see whether it pays.
     cs.chordal_decomposition_enable = std::env::args().any(|a| a == "chordal");
-    let mut solver =
-        DefaultSolver::new(&sdp.p, &sdp.q, &sdp.a, &sdp.b, &sdp.cones, cs).expect("solver setup");
-    solver.solve();
+    let solver = qpv_clarabel::solve(sdp, cs).expect("solver setup");
     let li = &solver.info.linsolver;
     println!(
         "{:?} after {} iterations; wall {:.2} s, cpu {:.2} s; KKT: nnz {} , LDL factor nnz(L) {} ({})",

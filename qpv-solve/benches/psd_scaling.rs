@@ -11,9 +11,9 @@ use std::ffi::c_int;
 use std::hint::black_box;
 use std::time::Instant;
 
-use clarabel::algebra::*;
-use clarabel::solver::*;
 use nalgebra::DMatrix;
+use qpv_clarabel::clarabel::algebra::*;
+use qpv_clarabel::clarabel::solver::*;
 use qpv_solve::lapack;
 use qpv_solve::svec::{svec, svec_index, svec_len};
 
@@ -59,8 +59,14 @@ fn solve_min_eig(n: usize, seed: u64) -> Run {
         .build()
         .unwrap();
     let cones = [ZeroConeT(1), PSDTriangleConeT(n)];
-    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings).unwrap();
-    solver.solve();
+    let sdp = qpv_clarabel::Sdp {
+        p,
+        q,
+        a,
+        b,
+        cones: cones.to_vec(),
+    };
+    let solver = qpv_clarabel::solve(sdp, settings).unwrap();
     let wall = t0.elapsed().as_secs_f64() * 1e3;
     assert_eq!(solver.solution.status, SolverStatus::Solved, "n = {n}");
     Run {

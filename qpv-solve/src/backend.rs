@@ -4,8 +4,7 @@
 
 use crate::error::SolveError;
 use crate::settings::{KktSolver, Settings};
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT};
+use clarabel::solver::{DefaultSettings, SolverStatus};
 use serde::{Deserialize, Serialize};
 
 /// The outcome of one call to the SDP solver, as this crate interprets it.
@@ -82,21 +81,9 @@ pub fn clarabel_settings(s: &Settings) -> DefaultSettings<f64> {
     }
 }
 
-/// One SDP in Clarabel's standard form: minimise ½xᵀPx + qᵀx subject to
-/// Ax + s = b, s in `cones` (rows of `A` in the order of the cones).
-#[derive(Debug, Clone)]
-pub struct Sdp {
-    /// Quadratic cost (upper triangle).
-    pub p: CscMatrix<f64>,
-    /// Linear cost.
-    pub q: Vec<f64>,
-    /// Constraint matrix.
-    pub a: CscMatrix<f64>,
-    /// Constraint right-hand side.
-    pub b: Vec<f64>,
-    /// Cones, in row order.
-    pub cones: Vec<SupportedConeT<f64>>,
-}
+/// One SDP in Clarabel's standard form (minimise ½xᵀPx + qᵀx subject to
+/// Ax + s = b, s in the cones), as `qpv-clarabel` takes it.
+pub use qpv_clarabel::Sdp;
 
 /// What one solver call returned, read by the one rule of this crate.
 #[derive(Debug, Clone)]
@@ -133,22 +120,20 @@ pub fn has_point(s: SolverStatus) -> bool {
 
 /// Runs Clarabel once on `sdp`: the only place in the crate that calls the
 /// solver, so every caller reads its answer by the same rule.
-/// The problem data are dropped once the solver holds its own copy, so the
-/// peak memory is one copy, not two.
+/// The problem data are dropped once the solver holds its own copy
+/// ([`qpv_clarabel::solve`]), so the peak memory is one copy, not two.
 pub fn run_sdp(sdp: Sdp, settings: DefaultSettings<f64>) -> Result<SdpRun, SolveError> {
     ensure_lapack();
-    let mut solver = DefaultSolver::new(&sdp.p, &sdp.q, &sdp.a, &sdp.b, &sdp.cones, settings)
-        .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
-    drop(sdp);
-    solver.solve();
-    let sol = &solver.solution;
+    let solved =
+        qpv_clarabel::solve(sdp, settings).map_err(|e| SolveError::Setup(format!("{e:?}")))?;
+    let sol = solved.solution;
     let point = has_point(sol.status) && sol.x.iter().all(|v| v.is_finite());
     Ok(SdpRun {
         status: interpret(sol.status),
         detail: format!("{:?}", sol.status),
         iterations: sol.iterations,
         solve_seconds: sol.solve_time,
-        x: point.then(|| sol.x.clone()),
+        x: point.then_some(sol.x),
     })
 }
 

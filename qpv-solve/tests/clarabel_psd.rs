@@ -3,9 +3,10 @@
 //! Clarabel handles sizes ≤ 3 in closed form without LAPACK).
 #![allow(clippy::needless_range_loop)]
 
-use clarabel::algebra::*;
-use clarabel::solver::*;
 use nalgebra::DMatrix;
+use qpv_clarabel::clarabel::algebra::*;
+use qpv_clarabel::clarabel::solver::*;
+use qpv_clarabel::Solved;
 use qpv_solve::svec::{smat, svec, svec_index, svec_len, SQRT2};
 use std::time::Instant;
 
@@ -53,22 +54,28 @@ fn min_eig_sdp(c: &DMatrix<f64>) -> (SolverStatus, f64, Vec<f64>) {
 }
 
 /// Runs Clarabel on `min ½xᵀPx + qᵀx, A x + s = b, s ∈ cones` (P = 0),
-/// printing the solve time; returns the solver for inspection.
+/// printing the solve time; returns the solution for inspection.
 fn solve(
     name: &str,
     q: &[f64],
     rows: &[Vec<f64>],
     b: &[f64],
     cones: &[SupportedConeT<f64>],
-) -> DefaultSolver<f64> {
+) -> Solved {
     #[cfg(feature = "pure-lapack")]
     qpv_solve::lapack::ensure_linked();
     let n = q.len();
     let a = CscMatrix::from(rows);
     let p = CscMatrix::<f64>::zeros((n, n));
     let t0 = Instant::now();
-    let mut solver = DefaultSolver::new(&p, q, &a, b, cones, settings()).unwrap();
-    solver.solve();
+    let sdp = qpv_clarabel::Sdp {
+        p,
+        q: q.to_vec(),
+        a,
+        b: b.to_vec(),
+        cones: cones.to_vec(),
+    };
+    let solver = qpv_clarabel::solve(sdp, settings()).unwrap();
     let wall = t0.elapsed();
     eprintln!(
         "{name}: status {:?}, {} iterations, Clarabel solve_time {:.3} ms, setup+solve wall {:.3} ms",

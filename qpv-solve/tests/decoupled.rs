@@ -248,20 +248,12 @@ fn decoupled_solution_satisfies_the_full_family() {
             .unwrap();
         let settings = Settings::default();
         let asm = prob.assemble(alpha, gamma, &settings, Objective::Gains);
-        let mut solver = clarabel::solver::DefaultSolver::new(
-            &asm.p,
-            &asm.q,
-            &asm.a,
-            &asm.b,
-            &asm.cones,
-            qpv_solve::sdp::clarabel_settings(&settings),
-        )
-        .unwrap();
         qpv_solve::sdp::ensure_lapack();
-        clarabel::solver::IPSolver::solve(&mut solver);
+        let solver =
+            qpv_clarabel::solve(asm, qpv_solve::sdp::clarabel_settings(&settings)).unwrap();
         assert_eq!(
             solver.solution.status,
-            clarabel::solver::SolverStatus::Solved,
+            qpv_clarabel::clarabel::solver::SolverStatus::Solved,
             "{mode:?}"
         );
         let x = &solver.solution.x;
