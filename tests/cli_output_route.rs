@@ -68,9 +68,17 @@ fn assert_shapes(d: &serde_json::Value, n: usize) {
     assert!(d["P"].as_array().unwrap().iter().all(|r| rows(r) == n));
 }
 
+/// The example's three design blocks as written, at a fixed γ = 0.3 near
+/// the searched optimum of each (0.29-0.33): the routes and the report's
+/// shapes are what is tested here; the γ search is tested in the solver's
+/// tests (one search on the pole-5 filter design takes about 840 solves).
 #[test]
 fn the_example_certifies_by_both_routes() {
-    let (out, j) = design_json(EXAMPLE);
+    let text = example_text();
+    assert_eq!(text.matches("gamma = search;").count(), 3, "three searches");
+    let path = tmp("fixed_gamma.qpv");
+    std::fs::write(&path, text.replace("gamma = search;", "gamma = 0.3;")).expect("write");
+    let (out, j) = design_json(path.to_str().unwrap());
     assert_eq!(
         out.status.code(),
         Some(0),
@@ -93,7 +101,7 @@ fn the_example_certifies_by_both_routes() {
     assert_eq!(rows(&ds["output_route"]["states"]), NX);
     assert_shapes(ds, NX);
     let a_ds = ds["alpha"].as_f64().unwrap();
-    assert!(a_ds > 0.65, "double-sum α = {a_ds} (measured 0.694)");
+    assert!(a_ds > 0.65, "double-sum α = {a_ds} (measured 0.683)");
 
     // 2., 3. filter: one filter state per output, single sum
     for (d, pole) in [(&reports[1], 50.0), (&reports[2], 5.0)] {

@@ -301,7 +301,8 @@ impl Ctx<'_, '_> {
     /// upper bound hi. Trial points: once the optimal margin t̂(α) is known
     /// on both sides, the secant root of t̂ (shifted by 0.3·tol to cross the
     /// root); else from lo while lifts gain more than `tol`; else bisection
-    /// of [lo, hi] or a probe at lo·(1 + 0.9·tol). Stops when
+    /// of [lo, hi] or a probe at lo·(1 + 0.9·tol) (a larger step after
+    /// points only a regularised retry certified). Stops when
     /// hi ≤ lo·(1 + tol): lo is certified, hi was not.
     fn alpha_max(
         &mut self,
@@ -327,6 +328,12 @@ impl Ctx<'_, '_> {
         let mut last_ok;
         // Illinois factor on the retained positive end after repeated failures.
         let mut fails_in_row = 0i32;
+        // Trials in a row certified only by the regularised retry. Such a
+        // point has no margin to lift with, so without an upper bound the
+        // search would creep up by 0.9·tol per pair of solves (hundreds on
+        // an output-filter design with a slow pole); instead each one
+        // doubles the next step, up to 8 × 0.9·tol.
+        let mut retried = 0i32;
         loop {
             let metric = lo.as_ref().or(seed).map(|p| p.p.clone());
             let mut at = self.attempt(
@@ -346,7 +353,12 @@ impl Ctx<'_, '_> {
                 let retry = self.attempt_regularised(Candidate::new(a, gamma), Phase::Retry)?;
                 if retry.certified {
                     at = retry;
+                    retried += 1;
+                } else {
+                    retried = 0;
                 }
+            } else {
+                retried = 0;
             }
             let t = at.margin;
             if at.certified {
@@ -357,7 +369,9 @@ impl Ctx<'_, '_> {
                 }
                 let pt = at.point.expect("certified attempts carry a point");
                 let l = lo.as_ref().map_or(0.0, |p| p.alpha);
-                big_gain = pt.alpha > l * (1.0 + tol);
+                // (A retried point gains only if it lies beyond the trial.)
+                big_gain =
+                    pt.alpha > l * (1.0 + tol) && (retried == 0 || pt.alpha > a * (1.0 + tol));
                 if hi.is_some_and(|h| pt.alpha >= h) {
                     // An earlier "not certified" was spurious.
                     hi = None;
@@ -415,7 +429,7 @@ impl Ctx<'_, '_> {
                 (Some(r), _) => r,
                 (_, Some(h)) if h > 4.0 * l => (l * h).sqrt(),
                 (_, Some(h)) => (0.5 * (l + h)).max(l * (1.0 + 0.9 * tol)),
-                (_, None) => l * (1.0 + 0.9 * tol),
+                (_, None) => l * (1.0 + 0.9 * tol * 2f64.powi(retried.min(4) - 1).max(1.0)),
             }
             .min(cap);
         }
