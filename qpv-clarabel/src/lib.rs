@@ -4,8 +4,8 @@
 //! method (setup, KKT factorisation, the PSD cones' scaling, the iteration)
 //! is compiled by whichever crate first calls `DefaultSolver::<f64>::new`
 //! and `solve`. Called from qpv-solve, that code would be compiled into
-//! qpv-solve, again into qpv-solve's unit tests, and again (unoptimised)
-//! into every test or bench that drives Clarabel directly. Behind the one
+//! qpv-solve and again (unoptimised) into every test or bench that drives
+//! Clarabel directly. Behind the one
 //! non-generic [`solve`] below it is compiled once, optimised, in parallel
 //! with the crates that do not need it.
 //!

@@ -9,8 +9,6 @@ pub mod model;
 mod poly;
 pub mod region;
 pub mod sched;
-#[cfg(test)]
-mod soundness;
 mod syntax;
 pub mod vertices;
 
@@ -24,6 +22,40 @@ pub use model::{
 pub use region::{Region, RegionError};
 pub use sched::{Derived, Func, RangeInfo, SchedExpr};
 pub use vertices::{NoiseDecl, PolytopicModel, Vertex};
+
+/// Not part of the API (it may change at any time): the internals that the
+/// tests of this crate check directly, exposed for the root package's test
+/// target `dsl` (`qpv-dsl/tests/`), which is built outside this crate.
+#[doc(hidden)]
+pub mod __internals {
+    use crate::ast::{Expr, File};
+    use crate::{Error, RangeInfo, SchedExpr};
+
+    pub use crate::syntax::{is_matrix_name_shape, QpvParser, Rule};
+    /// The trait of [`QpvParser::parse`].
+    pub use pest::Parser;
+
+    /// The syntax tree of a whole text, before any model is built.
+    pub fn parse_file(src: &str) -> Result<File, Error> {
+        crate::syntax::parse_file(src).map_err(|d| d.into_error(src))
+    }
+
+    /// The syntax tree of one pair of rule [`Rule::expr`].
+    pub fn parse_expr(pair: pest::iterators::Pair<'_, Rule>) -> Result<Expr, Error> {
+        let src = pair.get_input();
+        crate::syntax::parse_expr(pair).map_err(|d| d.into_error(src))
+    }
+
+    /// The range of `e` on the parameter box `theta` (see
+    /// `crate::sched::range`); the error is its message.
+    pub fn range(
+        e: &SchedExpr,
+        theta: &[(f64, f64)],
+        names: &[String],
+    ) -> Result<(f64, f64, RangeInfo), String> {
+        crate::sched::range(e, theta, names).map_err(|e| e.message)
+    }
+}
 
 /// Parses and validates a model text: one or more `model NAME { ... }`
 /// blocks. Every check of the language happens here, so

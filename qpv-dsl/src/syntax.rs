@@ -10,9 +10,10 @@ use pest::pratt_parser::{Assoc, Op, PrattParser};
 use pest::Parser;
 use std::sync::LazyLock;
 
+/// The pest parser of `grammar.pest` (its rules are [`Rule`]).
 #[derive(pest_derive::Parser)]
 #[grammar = "grammar.pest"]
-struct QpvParser;
+pub struct QpvParser;
 
 /// Deepest bracket nesting accepted; checked before pest runs so that neither
 /// pest nor the recursive stages after it can exhaust the stack.
@@ -385,7 +386,9 @@ fn parse_design_entry(pair: Pair<'_, Rule>) -> Result<DesignEntry> {
 
 // ===================== Expressions =====================
 
-fn parse_expr(pair: Pair<'_, Rule>) -> Result<Expr> {
+/// The syntax tree of an `expr` pair: sums and products flattened in
+/// left-to-right order.
+pub(crate) fn parse_expr(pair: Pair<'_, Rule>) -> Result<Expr> {
     PRATT
         .map_primary(parse_power)
         .map_prefix(|op, rhs| {
@@ -863,7 +866,7 @@ fn unknown_function(span: Span, w: &str) -> Diag {
 
 /// True for names that can denote a matrix: A, B, C, N<k>, M<k> (with or
 /// without `_` before k).
-pub(crate) fn is_matrix_name_shape(w: &str) -> bool {
+pub fn is_matrix_name_shape(w: &str) -> bool {
     matches!(w, "A" | "B" | "B_w" | "C")
         || ((w.starts_with('N') || w.starts_with('M'))
             && w.len() > 1
@@ -872,54 +875,4 @@ pub(crate) fn is_matrix_name_shape(w: &str) -> bool {
                 .chars()
                 .all(|c| c.is_ascii_digit())
             && !w[1..].trim_start_matches('_').is_empty())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn lex(rule: Rule, s: &str) -> bool {
-        QpvParser::parse(rule, s)
-            .map(|mut p| p.next().map(|p| p.as_str().len()) == Some(s.len()))
-            .unwrap_or(false)
-    }
-
-    #[test]
-    fn lexer_rules_consume_whole_input() {
-        for n in ["2", "0.5", ".5", "1e-3", "2.5E+4", "3."] {
-            assert!(lex(Rule::number, n), "{n}");
-        }
-        for i in ["x1", "_a", "th_2", "states", "inx"] {
-            assert!(lex(Rule::ident, i), "{i}");
-        }
-        for k in ["state", "in", "model"] {
-            assert!(!lex(Rule::ident, k), "{k}");
-        }
-        assert!(lex(Rule::expr, "-(4 + th1)*x1 + 0.5*x1^2 - x2/2"));
-        assert!(lex(Rule::matrix, "[1, 2; 3, 4;]"));
-    }
-
-    #[test]
-    fn flattening_keeps_left_to_right_order() {
-        let mut p = QpvParser::parse(Rule::expr, "a - b + c * d / e").unwrap();
-        let e = parse_expr(p.next().unwrap()).unwrap();
-        match e.kind {
-            ExprKind::Sum(t) => {
-                assert_eq!(t.len(), 3);
-                assert!(t[1].0 && !t[2].0);
-                assert!(matches!(&t[2].1.kind, ExprKind::Product(f) if f.len() == 3 && f[2].0));
-            }
-            k => panic!("{k:?}"),
-        }
-    }
-
-    #[test]
-    fn matrix_names() {
-        for w in ["A", "B", "C", "N1", "N_2", "M12"] {
-            assert!(is_matrix_name_shape(w), "{w}");
-        }
-        for w in ["N", "Q", "N_", "Na", "stat"] {
-            assert!(!is_matrix_name_shape(w), "{w}");
-        }
-    }
 }

@@ -1,4 +1,5 @@
-//! The integration tests of qpv-dsl, one module per file.
+//! The tests of qpv-dsl, one module per file (the library has no unit tests
+//! of its own: they would be a second optimised build of it).
 //!
 //! Every file next to this one is a module of this single test binary, so
 //! the crate's tests link once instead of once per file. A new test file
@@ -19,6 +20,10 @@ mod noise;
 mod options;
 mod paper;
 mod region;
+mod region_basic;
+mod sched_range;
+mod soundness;
+mod syntax;
 
 /// Test files that are not listed above would silently not run: refuse them.
 #[test]

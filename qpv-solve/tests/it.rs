@@ -1,4 +1,5 @@
-//! The integration tests of qpv-solve, one module per file.
+//! The tests of qpv-solve, one module per file (the library has no unit tests
+//! of its own: they would be a second optimised build of it).
 //!
 //! Every file next to this one is a module of this single test binary, so
 //! the crate's tests link once instead of once per file. A new test file
@@ -18,15 +19,20 @@ mod decoupled;
 mod design;
 mod diagnosis_size;
 mod falsify;
+mod gamma_search;
 mod kkt_solver;
 mod lapack;
 mod layers;
+mod linalg;
+mod lmi_assembly;
 mod noise;
 mod observer_model;
+mod output_filter;
 mod output_route;
 mod simulate;
 mod skew_slack;
 mod state_bound;
+mod vocab;
 
 /// Test files that are not listed above would silently not run: refuse them.
 #[test]

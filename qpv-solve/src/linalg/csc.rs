@@ -69,29 +69,3 @@ impl Columns {
         CscMatrix::new(m, n, colptr, rowval, nzval)
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn svec_block_is_packed_upper_triangle_with_sqrt2() {
-        let m = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 3.0]);
-        let mut cols = Columns::new(2);
-        cols.push_svec(0, 1, &m, -1.0);
-        let a = cols.into_csc(3);
-        assert_eq!(a.colptr, vec![0, 0, 3]);
-        assert_eq!(a.rowval, vec![0, 1, 2]);
-        let s2 = std::f64::consts::SQRT_2;
-        assert_eq!(a.nzval, vec![-1.0, -2.0 * s2, -3.0]);
-    }
-
-    #[test]
-    fn zeros_are_not_stored() {
-        let mut cols = Columns::new(1);
-        cols.push(0, 0, 0.0);
-        cols.push(1, 0, 4.0);
-        let a = cols.into_csc(2);
-        assert_eq!((a.rowval, a.nzval), (vec![1], vec![4.0]));
-    }
-}

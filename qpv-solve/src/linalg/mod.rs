@@ -1,5 +1,6 @@
 //! Small linear-algebra helpers shared by every layer: the svec packing of
-//! symmetric matrices, rows / rowsHe, and matrices as lists of rows.
+//! symmetric matrices, rows / rowsHe, matrices as lists of rows, and the
+//! symmetric square root.
 
 pub mod csc;
 pub mod rows;
@@ -19,4 +20,13 @@ pub fn rows_to_matrix(rows: &[Vec<f64>]) -> DMatrix<f64> {
     let r = rows.len();
     let c = rows.first().map_or(0, |x| x.len());
     DMatrix::from_fn(r, c, |i, j| rows[i].get(j).copied().unwrap_or(f64::NAN))
+}
+
+/// The symmetric square root Q^{1/2} of a positive semidefinite `q` (its
+/// symmetric part; eigenvalues below 0, from rounding, count as 0). It maps
+/// the unit ball onto the ellipsoid {x : xᵀQ⁻¹x ≤ 1} of a state bound Q.
+pub fn sqrtm(q: &DMatrix<f64>) -> DMatrix<f64> {
+    let e = ((q + q.transpose()) * 0.5).symmetric_eigen();
+    let d = DMatrix::from_diagonal(&e.eigenvalues.map(|v| v.max(0.0).sqrt()));
+    &e.eigenvectors * d * e.eigenvectors.transpose()
 }

@@ -34,29 +34,3 @@ pub fn rows_he(t: &[DMatrix<f64>], v: &DVector<f64>) -> DMatrix<f64> {
     }
     out
 }
-
-#[cfg(test)]
-#[allow(clippy::needless_range_loop)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn rows_and_rows_he_match_quadratic_forms() {
-        // row k of rows(T, v) v = vᵀ T_k v; rowsHe(T, x) e = eᵀ He{T_k} x.
-        let t = vec![
-            DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 3.0, 4.0]),
-            DMatrix::from_row_slice(2, 2, &[0.0, -1.0, 5.0, 0.5]),
-        ];
-        let v = DVector::from_vec(vec![0.3, -0.7]);
-        let e = DVector::from_vec(vec![1.1, 0.2]);
-        let r = rows(&t, &v);
-        let rh = rows_he(&t, &v);
-        for k in 0..2 {
-            let q = v.dot(&(&t[k] * &v));
-            assert!(((&r * &v)[k] - q).abs() < 1e-14);
-            let he = &t[k] + t[k].transpose();
-            let q2 = e.dot(&(&he * &v));
-            assert!(((&rh * &e)[k] - q2).abs() < 1e-14);
-        }
-    }
-}

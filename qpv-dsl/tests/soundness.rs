@@ -2,9 +2,13 @@
 //! text itself: for random θ ∈ Θ (and random x, u), the right-hand side
 //! rebuilt from the vertex matrices, Σ_l μ_l(θ)(A_l x + N_l(x)x + B_l u),
 //! equals the `der` equations evaluated directly from their syntax tree, and
-//! every derived variable's range contains its sampled values.
+//! every derived variable's range contains its sampled values. The same
+//! holds on a piece of Θ (`restricted`) and on every piece of a `cover`,
+//! whose ranges are thinner.
 
-use crate::ast::{Expr, ExprKind, Item};
+use qpv_dsl::__internals::parse_file;
+use qpv_dsl::ast::{Expr, ExprKind, Item};
+use qpv_dsl::{parse, Model};
 use std::collections::HashMap;
 
 /// A small deterministic generator (xorshift64*), uniform in [0, 1).
@@ -47,9 +51,9 @@ fn direct(e: &Expr, env: &HashMap<String, f64>) -> f64 {
 /// Checks one model text (equation form for the dynamics) on `samples`
 /// random points; returns the largest relative deviation.
 fn check(src: &str, samples: usize) -> f64 {
-    let file = crate::syntax::parse_file(src).expect("parses");
+    let file = parse_file(src).expect("parses");
     let ast = &file.models[0];
-    let model = &crate::parse(src).expect("valid")[0];
+    let model = &parse(src).expect("valid")[0];
     let poly = model.polytopic();
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
     let mut worst: f64 = 0.0;
@@ -115,7 +119,7 @@ fn check(src: &str, samples: usize) -> f64 {
 /// Samples each derived variable 10⁵ times on Θ: every value must lie in
 /// its range.
 fn ranges_contain_samples(src: &str) {
-    let model = &crate::parse(src).expect("valid")[0];
+    let model = &parse(src).expect("valid")[0];
     let mut rng = Rng(0x1234_5678_9ABC_DEF1);
     for d in &model.derived {
         for _ in 0..100_000 {
@@ -163,7 +167,7 @@ fn derived_ranges_contain_sampled_values() {
 
 #[test]
 fn recurring_functions_share_one_derived_variable() {
-    let model = &crate::parse(MIXED).expect("valid")[0];
+    let model = &parse(MIXED).expect("valid")[0];
     let texts: Vec<&str> = model.derived.iter().map(|d| d.text.as_str()).collect();
     // 1/I1 is used in three places, q*q and q^2 are the same function
     assert_eq!(
@@ -191,7 +195,7 @@ fn recurring_functions_share_one_derived_variable() {
 #[test]
 fn multi_affine_models_have_no_derived_variables() {
     let src = include_str!("../../examples/paper.qpv");
-    let model = &crate::parse(src).expect("valid")[0];
+    let model = &parse(src).expect("valid")[0];
     assert!(model.derived.is_empty());
 }
 
@@ -220,7 +224,7 @@ fn manipulator_box() -> String {
 #[test]
 fn a_piece_of_the_parameter_box_is_exact_and_thinner() {
     let src = manipulator_box();
-    let model = &crate::parse(&src).expect("valid")[0];
+    let model = &parse(&src).expect("valid")[0];
     let full = model.polytopic();
     let piece = model.restricted(&[(0.2, 0.65)]).expect("inside Θ");
     let poly = piece.polytopic();
@@ -264,10 +268,27 @@ const COVERED: &str = "model covered {
     region box(1);
 }";
 
+/// The next float above a finite `x` (`f64::next_up`, stable only since
+/// Rust 1.86; the workspace supports 1.80).
+fn next_up(x: f64) -> f64 {
+    if x == 0.0 {
+        f64::from_bits(1)
+    } else if x > 0.0 {
+        f64::from_bits(x.to_bits() + 1)
+    } else {
+        f64::from_bits(x.to_bits() - 1)
+    }
+}
+
+/// The next float below a finite `x` (`f64::next_down`).
+fn next_down(x: f64) -> f64 {
+    -next_up(-x)
+}
+
 /// θ values that exercise a cover: uniform in Θ, then every breakpoint
 /// (and its neighbouring floats) along each cut parameter, the ends of Θ
 /// and points outside it.
-fn cover_thetas(model: &crate::Model, rng: &mut Rng, n: usize) -> Vec<Vec<f64>> {
+fn cover_thetas(model: &Model, rng: &mut Rng, n: usize) -> Vec<Vec<f64>> {
     let uniform = |rng: &mut Rng| -> Vec<f64> {
         model
             .params
@@ -279,7 +300,7 @@ fn cover_thetas(model: &crate::Model, rng: &mut Rng, n: usize) -> Vec<Vec<f64>> 
     let cover = model.cover.as_ref().expect("a cover");
     for a in &cover.axes {
         for &b in &a.breaks {
-            for t in [b, b.next_down(), b.next_up(), b - 0.3, b + 0.3] {
+            for t in [b, next_down(b), next_up(b), b - 0.3, b + 0.3] {
                 let mut th = uniform(rng);
                 th[a.param] = t;
                 out.push(th);
@@ -292,7 +313,7 @@ fn cover_thetas(model: &crate::Model, rng: &mut Rng, n: usize) -> Vec<Vec<f64>> 
 
 #[test]
 fn a_cover_reproduces_every_matrix_of_the_model() {
-    let model = &crate::parse(COVERED).expect("valid")[0];
+    let model = &parse(COVERED).expect("valid")[0];
     let poly = model.polytopic();
     let cover = model.cover.as_ref().expect("a cover");
     assert_eq!(cover.len(), 12);
@@ -357,7 +378,7 @@ fn a_cover_reproduces_every_matrix_of_the_model() {
 
 #[test]
 fn piece_ranges_contain_sampled_values_and_are_thinner() {
-    let model = &crate::parse(COVERED).expect("valid")[0];
+    let model = &parse(COVERED).expect("valid")[0];
     let cover = model.cover.as_ref().expect("a cover");
     let mut rng = Rng(0x5151_2727_9090_AAAA);
     for piece in &cover.pieces {
@@ -384,12 +405,12 @@ fn piece_ranges_contain_sampled_values_and_are_thinner() {
 #[test]
 fn one_piece_is_the_box() {
     let src = manipulator_box();
-    let plain = &crate::parse(&src).expect("valid")[0];
+    let plain = &parse(&src).expect("valid")[0];
     let one = src.replace("design {", "cover q2 into 1;\n    design {");
-    let one = &crate::parse(&one).expect("valid")[0];
+    let one = &parse(&one).expect("valid")[0];
     assert_eq!(plain.polytopic().vertices, one.polytopic().vertices);
     let four = src.replace("design {", "cover q2 into 4;\n    design {");
-    let four = &crate::parse(&four).expect("valid")[0];
+    let four = &parse(&four).expect("valid")[0];
     let poly = four.polytopic();
     assert_eq!(poly.nv(), 4 * plain.polytopic().nv());
     // the pieces of a cover are what `restricted` gives on each piece
