@@ -4,19 +4,12 @@
 //! boundary of F; a bad filter and an unresolved state bound are errors.
 
 use nalgebra::{DMatrix, DVector};
-use qpv_dsl::{OutputFilter, PolytopicModel, StateBound};
+use qpv_dsl::{OutputFilter, StateBound};
 use qpv_solve::conditions::reference::{paper_model, paper_q};
 use qpv_solve::linalg::sqrtm;
 use qpv_solve::output_filter::{augment, filter_bound};
 
-fn varying() -> PolytopicModel {
-    let mut m = paper_model();
-    for v in &mut m.vertices {
-        v.c[(1, 1)] = 1.0 + v.theta[0];
-        v.m[0][(1, 2)] = 0.5 * v.theta[1];
-    }
-    m
-}
+use crate::output_route::varying;
 
 #[test]
 fn augmented_plant_is_plant_plus_filter() {

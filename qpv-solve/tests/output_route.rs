@@ -11,8 +11,9 @@ use qpv_solve::falsify::falsify_design;
 use qpv_solve::simulate::{envelope_factor, simulate, Scenario, Trajectory};
 use qpv_solve::{design, Design, Settings};
 
-/// The paper's plant with C_22(θ) = 1 + θ1 and M_1[2,3](θ) = 0.5 θ2.
-fn varying() -> PolytopicModel {
+/// The paper's plant with C_22(θ) = 1 + θ1 and M_1[2,3](θ) = 0.5 θ2 (also
+/// the plant of `output_filter`'s tests).
+pub(crate) fn varying() -> PolytopicModel {
     let mut m = paper_model();
     for v in &mut m.vertices {
         v.c[(1, 1)] = 1.0 + v.theta[0];
