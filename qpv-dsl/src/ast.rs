@@ -226,5 +226,5 @@ pub enum ExprKind {
     /// `base ^ n` with a whole-number exponent.
     Pow(Box<Expr>, u32),
     /// `f(arg)`: a function of the parameters, with the span of its name.
-    Call(crate::sched::Func, Span, Box<Expr>),
+    Call(crate::func::Func, Span, Box<Expr>),
 }

@@ -113,8 +113,8 @@ impl Cover {
                 format!(
                     "{} ∈ [{}, {}]",
                     a.name,
-                    crate::poly::fmt_num(lo),
-                    crate::poly::fmt_num(hi)
+                    crate::diagnostic::fmt_num(lo),
+                    crate::diagnostic::fmt_num(hi)
                 )
             })
             .collect::<Vec<_>>()

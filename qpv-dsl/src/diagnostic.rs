@@ -156,3 +156,8 @@ pub(crate) fn suggest<'a>(
         .min_by_key(|(d, _)| *d)
         .map(|(_, c)| c)
 }
+
+/// Shortest round-trip text of a number.
+pub(crate) fn fmt_num(v: f64) -> String {
+    format!("{v}")
+}

@@ -122,3 +122,17 @@ impl PolyMatrix {
         nalgebra::DMatrix::from_fn(self.rows, self.cols, |i, j| self.get(i, j).eval(theta))
     }
 }
+
+/// The indices of the set bits of `mask`, lowest first.
+pub(crate) fn bits(mask: u64) -> impl Iterator<Item = usize> {
+    let mut m = mask;
+    std::iter::from_fn(move || {
+        if m == 0 {
+            None
+        } else {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            Some(i)
+        }
+    })
+}

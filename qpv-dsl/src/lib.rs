@@ -5,6 +5,7 @@ pub mod cover;
 pub mod diagnostic;
 mod equations;
 pub mod expr;
+pub mod func;
 pub mod model;
 mod poly;
 pub mod region;
@@ -15,12 +16,13 @@ pub mod vertices;
 pub use cover::{Cover, CoverAxis, Piece};
 pub use diagnostic::{Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
+pub use func::Func;
 pub use model::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, NoiseObjective, OutputFilter,
     OutputRoute, Param, Split, StateBound, MAX_COEFFICIENT,
 };
 pub use region::{Region, RegionError};
-pub use sched::{Derived, Func, RangeInfo, SchedExpr};
+pub use sched::{Derived, RangeInfo, SchedExpr};
 pub use vertices::{NoiseDecl, PolytopicModel, Vertex};
 
 /// Not part of the API (it may change at any time): the internals that the

@@ -9,8 +9,9 @@
 
 use crate::ast::{Expr, ExprKind};
 use crate::diagnostic::{suggest, Diag, Span};
-use crate::expr::ThetaPoly;
-use crate::sched::{range, Func, RangeInfo, SchedExpr};
+use crate::expr::{bits, ThetaPoly};
+use crate::func::Func;
+use crate::sched::{range, RangeInfo, SchedExpr};
 use std::cell::RefCell;
 use std::collections::{BTreeMap, HashMap};
 
@@ -262,25 +263,6 @@ impl Names {
     pub fn mono_text(&self, m: &Mono) -> String {
         self.term_text(&bits(m.theta).map(|i| (i, 1)).collect::<Vec<_>>(), &m.vars)
     }
-}
-
-/// Shortest round-trip text of a number.
-pub(crate) fn fmt_num(v: f64) -> String {
-    format!("{v}")
-}
-
-/// The indices of the set bits of `mask`, lowest first.
-pub(crate) fn bits(mask: u64) -> impl Iterator<Item = usize> {
-    let mut m = mask;
-    std::iter::from_fn(move || {
-        if m == 0 {
-            None
-        } else {
-            let i = m.trailing_zeros() as usize;
-            m &= m - 1;
-            Some(i)
-        }
-    })
 }
 
 /// Which names an expression may use.

@@ -11,6 +11,7 @@
 //! by bisecting Θ until it is within [`RANGE_TOLERANCE`] (relative to the
 //! width of the sampled range) of the values sampled on the way.
 
+pub use crate::func::Func;
 use serde::Serialize;
 use std::fmt::Write as _;
 
@@ -21,79 +22,6 @@ pub const RANGE_TOLERANCE: f64 = 1e-6;
 
 /// Most boxes the bisection of Θ may evaluate for one range.
 const MAX_BOXES: usize = 3000;
-
-/// A function that may appear in a scheduling expression.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Func {
-    /// √x, defined for x ≥ 0.
-    Sqrt,
-    /// eˣ.
-    Exp,
-    /// Natural logarithm, defined for x > 0.
-    Ln,
-    /// sin x (radians).
-    Sin,
-    /// cos x (radians).
-    Cos,
-    /// tan x, undefined at π/2 + kπ.
-    Tan,
-    /// tanh x.
-    Tanh,
-    /// atan x.
-    Atan,
-    /// |x|.
-    Abs,
-}
-
-impl Func {
-    /// Every function, in the order the documentation lists them.
-    pub const ALL: [Func; 9] = [
-        Func::Sqrt,
-        Func::Exp,
-        Func::Ln,
-        Func::Sin,
-        Func::Cos,
-        Func::Tan,
-        Func::Tanh,
-        Func::Atan,
-        Func::Abs,
-    ];
-
-    /// The name as written in a model.
-    pub fn name(self) -> &'static str {
-        match self {
-            Func::Sqrt => "sqrt",
-            Func::Exp => "exp",
-            Func::Ln => "ln",
-            Func::Sin => "sin",
-            Func::Cos => "cos",
-            Func::Tan => "tan",
-            Func::Tanh => "tanh",
-            Func::Atan => "atan",
-            Func::Abs => "abs",
-        }
-    }
-
-    /// The function of a name, if it is one.
-    pub fn from_name(s: &str) -> Option<Func> {
-        Func::ALL.into_iter().find(|f| f.name() == s)
-    }
-
-    /// The value at `x` (NaN or infinite where undefined).
-    pub fn apply(self, x: f64) -> f64 {
-        match self {
-            Func::Sqrt => x.sqrt(),
-            Func::Exp => x.exp(),
-            Func::Ln => x.ln(),
-            Func::Sin => x.sin(),
-            Func::Cos => x.cos(),
-            Func::Tan => x.tan(),
-            Func::Tanh => x.tanh(),
-            Func::Atan => x.atan(),
-            Func::Abs => x.abs(),
-        }
-    }
-}
 
 /// A scheduling function of the declared parameters, as a tree. Evaluation
 /// ([`SchedExpr::eval`]) and the generated code follow the same tree, so
@@ -603,7 +531,7 @@ pub(crate) fn range(
     theta: &[(f64, f64)],
     names: &[String],
 ) -> Result<(f64, f64, RangeInfo), RangeError> {
-    let dims: Vec<usize> = crate::poly::bits(e.param_mask()).collect();
+    let dims: Vec<usize> = crate::expr::bits(e.param_mask()).collect();
     let full: Vec<Iv> = theta.iter().map(|&(lo, hi)| Iv { lo, hi }).collect();
     let widths: Vec<f64> = theta.iter().map(|&(lo, hi)| hi - lo).collect();
     let point = |b: &[Iv]| -> Vec<f64> { b.iter().map(|v| 0.5 * (v.lo + v.hi)).collect() };

@@ -483,7 +483,7 @@ fn parse_primary(pair: Pair<'_, Rule>) -> Result<Expr> {
             let fname = next(&mut it, span, "function name")?;
             let fspan = span_of(&fname);
             let arg = parse_expr(next(&mut it, span, "function argument")?)?;
-            let Some(f) = crate::sched::Func::from_name(fname.as_str()) else {
+            let Some(f) = crate::func::Func::from_name(fname.as_str()) else {
                 return Err(internal(fspan, "unknown function"));
             };
             Ok(Expr {
@@ -849,7 +849,7 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
 
 /// `name(` where no function of that name exists.
 fn unknown_function(span: Span, w: &str) -> Diag {
-    let names: Vec<&str> = crate::sched::Func::ALL.iter().map(|f| f.name()).collect();
+    let names: Vec<&str> = crate::func::Func::ALL.iter().map(|f| f.name()).collect();
     let hint = crate::diagnostic::suggest(w, names.iter().copied())
         .map(|s| format!(" (did you mean `{s}`?)"))
         .unwrap_or_default();

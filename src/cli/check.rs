@@ -7,7 +7,8 @@
 //! (a reproduction, not a certificate).
 
 use super::design::parse_split;
-use super::input::{emit_json, exit, load_model, print_text, read_report, CliError};
+use super::input::{emit_json, exit, load_model, print_text, CliError};
+use super::schema::read_report;
 use super::schema::CheckOutput;
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Model, OutputRoute, PolytopicModel, Split, StateBound};
 use qpv_solve::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};

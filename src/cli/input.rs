@@ -112,14 +112,6 @@ pub fn read_json(path: &Path) -> Result<serde_json::Value, CliError> {
     serde_json::from_str(&text).map_err(|e| CliError::Input(format!("{}: {e}", path.display())))
 }
 
-/// Reads a design report or gains file and returns the one design in it
-/// to use (see [`super::schema::pick_design`]): a report of several
-/// designs gives its first certified one (else the first feasible one, else
-/// the first), and stderr says which.
-pub fn read_report(path: &Path) -> Result<serde_json::Value, CliError> {
-    super::schema::pick_design(read_json(path)?, path)
-}
-
 /// Writes `value` as pretty JSON to `target` (`-` = stdout); does nothing for `None`.
 pub fn emit_json<T: serde::Serialize>(target: Option<&str>, value: &T) -> Result<(), CliError> {
     let Some(target) = target else { return Ok(()) };

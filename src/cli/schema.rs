@@ -9,7 +9,7 @@
 //! (`margins` is family → worst margin, `feasible` and `certifies` mean the
 //! same for `design` and `check`).
 
-use super::input::CliError;
+use super::input::{read_json, CliError};
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, OutputRoute, PolytopicModel};
 use qpv_dsl::{Region, StateBound};
 use qpv_solve::report::{matrix_to_rows, DataCheck, Design};
@@ -458,7 +458,7 @@ impl VerticesOutput {
                 pieces: p.cover.as_ref().map(|c| c.len()),
                 parameters: p.scheduling.len(),
                 derived: p.derived.len(),
-                warning: super::vertices::count_warning(p),
+                warning: count_warning(p),
             },
             vertices: p
                 .vertices
@@ -595,4 +595,56 @@ fn cover_view(p: &PolytopicModel, c: &qpv_dsl::Cover) -> CoverView {
             })
             .collect(),
     }
+}
+
+/// Reads a design report or gains file and returns the one design in it
+/// to use (see [`pick_design`]): a report of several
+/// designs gives its first certified one (else the first feasible one, else
+/// the first), and stderr says which.
+pub fn read_report(path: &Path) -> Result<serde_json::Value, CliError> {
+    pick_design(read_json(path)?, path)
+}
+
+/// Vertex counts above this get a warning in the report.
+pub const VERTEX_WARNING: usize = 64;
+
+/// A warning when the model has more than [`VERTEX_WARNING`] vertices,
+/// naming the derived variables that cost most (each doubles the count;
+/// those used in the most matrix entries first, as the hardest to avoid).
+pub fn count_warning(p: &PolytopicModel) -> Option<String> {
+    if p.nv() <= VERTEX_WARNING {
+        return None;
+    }
+    let mut d: Vec<&qpv_dsl::Derived> = p.derived.iter().collect();
+    d.sort_by_key(|d| std::cmp::Reverse(d.used_in.len()));
+    let costly = if d.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; the derived variables each double it: {} (name a recurring function with `let` \
+             so it is shared, or narrow a parameter range so fewer functions are needed)",
+            d.iter()
+                .map(|d| format!(
+                    "{} = {} (used in {} entries)",
+                    d.name,
+                    d.text,
+                    d.used_in.len()
+                ))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    let pieces = match &p.cover {
+        Some(c) => format!(
+            "; the cover multiplies it by its {} pieces (fewer pieces, or cut fewer parameters)",
+            c.len()
+        ),
+        None => String::new(),
+    };
+    Some(format!(
+        "{} vertices (more than {VERTEX_WARNING}): {} parameter(s) and {} derived variable(s){costly}{pieces}",
+        p.nv(),
+        p.scheduling.len(),
+        p.derived.len()
+    ))
 }

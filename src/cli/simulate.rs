@@ -16,8 +16,9 @@
 //! most [`PLOT_POINTS`] points per curve, so memory does not grow with the
 //! number of steps.
 
-use super::input::{load_model, read_report, CliError};
+use super::input::{load_model, CliError};
 use super::noisy::{simulate_noisy, NoiseBoundCurve, NoiseGen};
+use super::schema::read_report;
 use super::signal::{expr_signal, parse_assignment, table_signal, Table, TimeFn};
 use nalgebra::DMatrix;
 use qpv::plot::{line_chart, Series, PALETTE};

@@ -1,7 +1,7 @@
 //! `qpv vertices`: the derived polytopic model, as text and as JSON.
 
 use super::input::{emit_json, fmt_matrix, load_model, print_text, CliError};
-use super::schema::VerticesOutput;
+use super::schema::{count_warning, VerticesOutput};
 use nalgebra::DMatrix;
 use qpv_dsl::PolytopicModel;
 use std::path::Path;
@@ -124,50 +124,6 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         s.push_str(&format!("  a_{} = {:?}\n", k + 1, a.as_slice()));
     }
     s
-}
-
-/// Vertex counts above this get a warning in the report.
-pub const VERTEX_WARNING: usize = 64;
-
-/// A warning when the model has more than [`VERTEX_WARNING`] vertices,
-/// naming the derived variables that cost most (each doubles the count;
-/// those used in the most matrix entries first, as the hardest to avoid).
-pub fn count_warning(p: &PolytopicModel) -> Option<String> {
-    if p.nv() <= VERTEX_WARNING {
-        return None;
-    }
-    let mut d: Vec<&qpv_dsl::Derived> = p.derived.iter().collect();
-    d.sort_by_key(|d| std::cmp::Reverse(d.used_in.len()));
-    let costly = if d.is_empty() {
-        String::new()
-    } else {
-        format!(
-            "; the derived variables each double it: {} (name a recurring function with `let` \
-             so it is shared, or narrow a parameter range so fewer functions are needed)",
-            d.iter()
-                .map(|d| format!(
-                    "{} = {} (used in {} entries)",
-                    d.name,
-                    d.text,
-                    d.used_in.len()
-                ))
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    };
-    let pieces = match &p.cover {
-        Some(c) => format!(
-            "; the cover multiplies it by its {} pieces (fewer pieces, or cut fewer parameters)",
-            c.len()
-        ),
-        None => String::new(),
-    };
-    Some(format!(
-        "{} vertices (more than {VERTEX_WARNING}): {} parameter(s) and {} derived variable(s){costly}{pieces}",
-        p.nv(),
-        p.scheduling.len(),
-        p.derived.len()
-    ))
 }
 
 /// The cover: the parameters cut, their breakpoints, and for every piece

@@ -6,8 +6,8 @@
 
 use super::build::{Builder, R};
 use crate::diagnostic::Diag;
+use crate::expr::bits;
 use crate::expr::PolyMatrix;
-use crate::poly::bits;
 use crate::sched::Derived;
 
 impl Builder<'_> {

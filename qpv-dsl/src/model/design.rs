@@ -4,8 +4,9 @@
 
 use super::build::{bad_value, pos, Builder, R};
 use crate::ast::{self, Expr, ExprKind, Item};
+use crate::diagnostic::fmt_num;
 use crate::diagnostic::{suggest, Diag, Span};
-use crate::poly::{fmt_num, quote};
+use crate::poly::quote;
 use crate::region::Region;
 use serde::Serialize;
 

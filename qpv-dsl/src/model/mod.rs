@@ -25,8 +25,8 @@ pub use state_bound::StateBound;
 pub use validate::{MAX_COEFFICIENT, MAX_SCHEDULING};
 
 use crate::diagnostic::{Span, Warning};
+use crate::expr::bits;
 use crate::expr::PolyMatrix;
-use crate::poly::bits;
 use crate::region::Region;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;

@@ -4,8 +4,9 @@
 use super::build::{kind_word, pos, Builder, R};
 use super::validate::MAX_COEFFICIENT;
 use crate::ast::{self, Item};
+use crate::diagnostic::fmt_num;
 use crate::diagnostic::{Diag, Span};
-use crate::poly::{eval, fmt_num, sched_expr, Allowed, LetValue, NameRef};
+use crate::poly::{eval, sched_expr, Allowed, LetValue, NameRef};
 use serde::Serialize;
 
 /// A bounded scheduling parameter `param NAME in [lo, hi];`.

@@ -3,8 +3,8 @@
 
 use super::build::{pos, Builder, R};
 use crate::ast::{self, Expr, Item, MatrixLit};
+use crate::diagnostic::fmt_num;
 use crate::diagnostic::{Diag, Warning};
-use crate::poly::fmt_num;
 use crate::region::{
     hull_from_halfspaces, hull_from_vertices, Region, RegionError, MAX_PARALLELOTOPE_VERTICES,
     MAX_REGION_VERTICES,

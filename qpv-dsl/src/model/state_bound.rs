@@ -4,8 +4,8 @@
 use super::build::{bad_value, pos, Builder, R};
 use super::validate::MAX_COEFFICIENT;
 use crate::ast::{self, Item};
+use crate::diagnostic::fmt_num;
 use crate::diagnostic::{suggest, Diag, Span, Warning};
-use crate::poly::fmt_num;
 use crate::region::Region;
 use nalgebra::DMatrix;
 use serde::Serialize;

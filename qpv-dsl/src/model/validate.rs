@@ -4,7 +4,8 @@
 use super::build::{Builder, R};
 use super::Model;
 use crate::diagnostic::{Diag, Span, Warning};
-use crate::poly::{bits, quote, Poly, Var};
+use crate::expr::bits;
+use crate::poly::{quote, Poly, Var};
 
 /// Most parameters that may generate vertices (2^16 vertices).
 pub const MAX_SCHEDULING: usize = 16;
