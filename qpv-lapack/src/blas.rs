@@ -133,43 +133,99 @@ pub unsafe extern "C" fn dgemm_(
     let a = unsafe { slice(a, mat_len(a_rows, a_cols, lda)) };
     let (b_rows, b_cols) = if tb { (n, k) } else { (k, n) };
     let b = unsafe { slice(b, mat_len(b_rows, b_cols, ldb)) };
-    // Reference-BLAS loop orders: contiguous inner loops in every case.
-    // (nalgebra's `gemm` on row-strided views indexes out of bounds for small
-    // sizes in nalgebra 0.34, so it is not used here.)
-    for j in 0..n {
-        let ccol = &mut c[j * ldc..j * ldc + m];
-        if !ta {
-            // C[:, j] = beta C[:, j] + sum_l (alpha op(B)[l, j]) A[:, l]
-            if beta == 0.0 {
-                ccol.fill(0.0);
-            } else if beta != 1.0 {
-                ccol.iter_mut().for_each(|v| *v *= beta);
-            }
-            for l in 0..k {
-                let blj = if tb { b[l * ldb + j] } else { b[j * ldb + l] };
-                let temp = alpha * blj;
-                let acol = &a[l * lda..l * lda + m];
-                for (cij, ail) in ccol.iter_mut().zip(acol) {
-                    *cij += temp * ail;
+    let op = Gemm {
+        ta,
+        tb,
+        alpha,
+        beta,
+    };
+    // The PSD cones' scalings multiply the square blocks of the cone (one
+    // call per block and product, several per interior-point iteration):
+    // with the size a constant the loops below unroll. Measured with
+    // callgrind on one fixed paper-example design (6 × 6 rate blocks):
+    // dgemm_'s instructions 90.5 M -> 41.4 M, the whole run's 7 % fewer.
+    // The arithmetic and its order are those of the general case, so the
+    // results are bit for bit the same.
+    match m {
+        2 if n == 2 && k == 2 => op.run(2, 2, 2, a, lda, b, ldb, c, ldc),
+        3 if n == 3 && k == 3 => op.run(3, 3, 3, a, lda, b, ldb, c, ldc),
+        4 if n == 4 && k == 4 => op.run(4, 4, 4, a, lda, b, ldb, c, ldc),
+        5 if n == 5 && k == 5 => op.run(5, 5, 5, a, lda, b, ldb, c, ldc),
+        6 if n == 6 && k == 6 => op.run(6, 6, 6, a, lda, b, ldb, c, ldc),
+        _ => op.run(m, n, k, a, lda, b, ldb, c, ldc),
+    }
+}
+
+/// The flags and scalars of one `dgemm_` call.
+struct Gemm {
+    ta: bool,
+    tb: bool,
+    alpha: f64,
+    beta: f64,
+}
+
+impl Gemm {
+    /// `C := alpha * op(A) * op(B) + beta * C` on validated, non-trivial
+    /// dimensions (`alpha != 0`, `k > 0`); inlined into each call site so
+    /// that constant dimensions specialise it.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &self,
+        m: usize,
+        n: usize,
+        k: usize,
+        a: &[f64],
+        lda: usize,
+        b: &[f64],
+        ldb: usize,
+        c: &mut [f64],
+        ldc: usize,
+    ) {
+        let Gemm {
+            ta,
+            tb,
+            alpha,
+            beta,
+        } = *self;
+        // Reference-BLAS loop orders: contiguous inner loops in every case.
+        // (nalgebra's `gemm` on row-strided views indexes out of bounds for small
+        // sizes in nalgebra 0.34, so it is not used here.)
+        for j in 0..n {
+            let ccol = &mut c[j * ldc..j * ldc + m];
+            if !ta {
+                // C[:, j] = beta C[:, j] + sum_l (alpha op(B)[l, j]) A[:, l]
+                if beta == 0.0 {
+                    ccol.fill(0.0);
+                } else if beta != 1.0 {
+                    ccol.iter_mut().for_each(|v| *v *= beta);
                 }
-            }
-        } else {
-            // C[i, j] = alpha dot(A[:, i], op(B)[:, j]) + beta C[i, j]
-            for (i, cij) in ccol.iter_mut().enumerate() {
-                let ai = &a[i * lda..i * lda + k];
-                let temp: f64 = if tb {
-                    ai.iter().enumerate().map(|(l, v)| v * b[l * ldb + j]).sum()
-                } else {
-                    ai.iter()
-                        .zip(&b[j * ldb..j * ldb + k])
-                        .map(|(p, q)| p * q)
-                        .sum()
-                };
-                *cij = if beta == 0.0 {
-                    alpha * temp
-                } else {
-                    alpha * temp + beta * *cij
-                };
+                for l in 0..k {
+                    let blj = if tb { b[l * ldb + j] } else { b[j * ldb + l] };
+                    let temp = alpha * blj;
+                    let acol = &a[l * lda..l * lda + m];
+                    for (cij, ail) in ccol.iter_mut().zip(acol) {
+                        *cij += temp * ail;
+                    }
+                }
+            } else {
+                // C[i, j] = alpha dot(A[:, i], op(B)[:, j]) + beta C[i, j]
+                for (i, cij) in ccol.iter_mut().enumerate() {
+                    let ai = &a[i * lda..i * lda + k];
+                    let temp: f64 = if tb {
+                        ai.iter().enumerate().map(|(l, v)| v * b[l * ldb + j]).sum()
+                    } else {
+                        ai.iter()
+                            .zip(&b[j * ldb..j * ldb + k])
+                            .map(|(p, q)| p * q)
+                            .sum()
+                    };
+                    *cij = if beta == 0.0 {
+                        alpha * temp
+                    } else {
+                        alpha * temp + beta * *cij
+                    };
+                }
             }
         }
     }
