@@ -228,10 +228,13 @@ fn schur_step(p: &DMatrix<f64>, fs: &[(String, DMatrix<f64>)], beta: f64) -> Opt
     (best.is_finite() && best > 0.0).then_some(best)
 }
 
-fn rk4_gain(z: Complex<f64>) -> f64 {
+/// |R(z)|² for RK4's stability function R(z) = 1 + z + z²/2 + z³/6 + z⁴/24
+/// (squared: the scan below only compares it with 1, and the square needs
+/// no `hypot`, which was an eighth of a small design's run time).
+fn rk4_gain_sq(z: Complex<f64>) -> f64 {
     let z2 = z * z;
     let r = Complex::new(1.0, 0.0) + z + z2 * 0.5 + z2 * z / 6.0 + z2 * z2 / 24.0;
-    r.norm()
+    r.norm_sqr()
 }
 
 /// The largest h with |R(h'λ)| < 1 for all h' ∈ (0, h] (relative precision
@@ -247,11 +250,11 @@ fn rk4_step_for(lambda: Complex<f64>) -> f64 {
     let mut lo = 0.0;
     for k in 1..=n {
         let h = dh * k as f64;
-        if rk4_gain(lambda * h) >= 1.0 {
+        if rk4_gain_sq(lambda * h) >= 1.0 {
             let mut hi = h;
             while hi - lo > 1e-6 * hi {
                 let mid = 0.5 * (lo + hi);
-                if rk4_gain(lambda * mid) < 1.0 {
+                if rk4_gain_sq(lambda * mid) < 1.0 {
                     lo = mid;
                 } else {
                     hi = mid;
