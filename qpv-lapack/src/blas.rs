@@ -142,7 +142,7 @@ pub unsafe extern "C" fn dgemm_(
     // The PSD cones' scalings multiply the square blocks of the cone (one
     // call per block and product, several per interior-point iteration):
     // with the size a constant the loops below unroll. Measured with
-    // callgrind on one fixed paper-example design (6 × 6 rate blocks):
+    // callgrind on one fixed paper-example design:
     // dgemm_'s instructions 90.5 M -> 41.4 M, the whole run's 7 % fewer.
     // The arithmetic and its order are those of the general case, so the
     // results are bit for bit the same.

@@ -11,9 +11,13 @@
 //! one-minute load average when the plant's row was printed (the machine
 //! may be shared).
 //!
-//! `cargo bench --bench gamma_search [-- [POINTS] [--heavy] [--steps] [NAME...]]`
+//! `cargo bench --bench gamma_search [-- [POINTS] [--heavy] [--steps] [--decoupled] [NAME...]]`
 //! (POINTS: dense grid size, default 200; `--steps`: print the search's
-//! solves and the dense profile; NAME: only plants whose name contains it).
+//! solves and the dense profile; `--decoupled`: the search and the dense
+//! grid both solve the decoupled conditions instead of the full ones, for a
+//! plant whose full family is too costly for a dense grid, such as the
+//! elastic arm; NAME: only plants whose name contains it). The dense grid's
+//! progress goes to stderr, 20 points at a time.
 
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel};
 use qpv_solve::{alpha_profile, design, request, Design, Settings};
@@ -63,6 +67,11 @@ fn main() {
     let points: usize = args.iter().find_map(|a| a.parse().ok()).unwrap_or(200);
     let heavy = args.iter().any(|a| a == "--heavy");
     let steps = args.iter().any(|a| a == "--steps");
+    let family = if args.iter().any(|a| a == "--decoupled") {
+        Conditions::Decoupled
+    } else {
+        Conditions::Full
+    };
     let only: Vec<&String> = args
         .iter()
         .filter(|a| !a.starts_with("--") && a.parse::<usize>().is_err())
@@ -101,7 +110,8 @@ fn main() {
     }
     let settings = Settings::default();
     println!(
-        "bench gamma_search: search vs a dense log grid of {points} points over [γ_hi·1e-4, γ_hi] (sound, default split); cpu seconds"
+        "bench gamma_search: search vs a dense log grid of {points} points over [γ_hi·1e-4, γ_hi] (sound, default split, {} conditions); cpu seconds",
+        family.name()
     );
     println!(
         "{:<17} {:>10} {:>10} {:>10} {:>10} {:>8} {:>7} {:>8} {:>7} {:>8} {:>10} {:>6} {:>5}  local maxima",
@@ -123,7 +133,7 @@ fn main() {
         .iter()
         .filter(|(n, _)| only.is_empty() || only.iter().any(|o| n.contains(o.as_str())))
     {
-        let (d, _, cpu) = search(model, Conditions::Full, &settings);
+        let (d, _, cpu) = search(model, family, &settings);
         let info = d
             .gamma_search
             .clone()
@@ -150,8 +160,19 @@ fn main() {
             .collect();
         let c0 = cpu_seconds();
         let mut req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
-        req.conditions = Conditions::Full;
-        let prof = alpha_profile(model, &req, &grid, &settings).expect("profile");
+        req.conditions = family;
+        // In pieces, so that a long grid shows its progress (each piece's
+        // first point is not seeded by the previous piece's last).
+        let mut prof = Vec::with_capacity(points);
+        for piece in grid.chunks(20) {
+            prof.extend(alpha_profile(model, &req, piece, &settings).expect("profile"));
+            let best = prof.iter().map(|p| p.alpha).fold(0.0, f64::max);
+            eprintln!(
+                "  {name}: dense {}/{points} points, best α so far {best:.4}, {:.0} cpu s",
+                prof.len(),
+                cpu_seconds() - c0
+            );
+        }
         let dense_cpu = cpu_seconds() - c0;
         if steps {
             for p in &prof {
@@ -169,7 +190,11 @@ fn main() {
             }
         });
         let dense_solves: usize = prof.iter().map(|p| p.solves).sum();
-        let (dd, _, _) = search(model, Conditions::Decoupled, &settings);
+        let dd = if family == Conditions::Decoupled {
+            d.clone()
+        } else {
+            search(model, Conditions::Decoupled, &settings).0
+        };
         let alpha = if d.certifies { d.alpha } else { 0.0 };
         let alpha_d = if dd.certifies { dd.alpha } else { 0.0 };
         let gap = 100.0 * (best.0 - alpha) / best.0.max(1e-300);
