@@ -236,8 +236,13 @@ pub struct GammaSearchInfo {
     /// Solves the search made (grid, refinement and the final α search at
     /// the best γ; not the final regularised solve).
     pub solves: usize,
-    /// The local maxima of α(γ) over the grid, best first.
+    /// The local maxima of α(γ) over the grid, best first (the best one
+    /// where the continuation below a cliff ended, if it moved).
     pub local_maxima: Vec<LocalMax>,
+    /// γ values evaluated by the continuation below a cliff (0: the best
+    /// point was not at one). Absent from reports written before it.
+    #[serde(default)]
+    pub continued: usize,
 }
 
 impl GammaSearchInfo {
@@ -256,8 +261,16 @@ impl GammaSearchInfo {
                 )
             })
             .collect();
+        let walk = if self.continued > 0 {
+            format!(
+                "; continued below a cliff of the grid ({} of those γ values)",
+                self.continued
+            )
+        } else {
+            String::new()
+        };
         format!(
-            "γ search: best over γ ∈ [{:.4e}, {:.6}], {} log-spaced grid points ({} γ values evaluated, {} solves); local maxima at {}",
+            "γ search: best over γ ∈ [{:.4e}, {:.6}], {} log-spaced grid points ({} γ values evaluated, {} solves){walk}; local maxima at {}",
             self.gamma_lo,
             self.gamma_hi,
             self.grid_points,

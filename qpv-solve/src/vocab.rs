@@ -144,6 +144,9 @@ named_enum! {
         Grid = "grid",
         /// The γ refinement around the best grid point.
         Refine = "refine",
+        /// The walk to smaller γ from a best point whose lower neighbour
+        /// certified nothing (a cliff that a seeded solve may cross).
+        Continue = "continue",
         /// The fine α bisection at the chosen γ.
         FinalBisect = "final-bisect",
         /// The gain-objective solve of the returned design.

@@ -81,3 +81,42 @@ fn nothing_certified_gives_zero() {
     assert!(out.info.local_maxima.is_empty());
     assert_eq!(calls, plan().points);
 }
+
+/// A false cliff, like the elastic arm's: α_max(γ) = 1/γ down to
+/// γ = 0.005 (nothing below), but an evaluation from scratch certifies only
+/// for γ ≥ 0.03; below that a value is found only near an earlier
+/// certified point (within a factor 1.2 above it, as a seeded solve lifts
+/// a neighbour's P). The grid and its refinement stop at the false cliff;
+/// the continuation walks down to the real one.
+#[test]
+fn continues_past_a_cliff_that_only_seeded_evaluations_cross() {
+    let mut seen: Vec<(f64, f64)> = Vec::new();
+    let mut calls = 0;
+    let out = maximise::<()>(&plan(), &mut |g, _| {
+        calls += 1;
+        let seeded = seen.iter().any(|&(x, a)| a > 0.0 && x > g && x <= 1.2 * g);
+        let a = if g >= 0.005 && (g >= 0.03 || seeded) {
+            1.0 / g
+        } else {
+            0.0
+        };
+        seen.push((g, a));
+        Ok(a)
+    })
+    .unwrap();
+    assert!(out.alpha >= 0.99 * 200.0, "α = {}", out.alpha);
+    assert!(out.gamma >= 0.005, "γ = {}", out.gamma);
+    assert!(out.info.continued > 0);
+    assert!(out.info.continued <= qpv_solve::search::gamma::MAX_CONTINUATION);
+    assert_eq!(out.info.local_maxima[0].alpha, out.alpha);
+    assert_eq!(out.info.points, calls, "each γ evaluated once");
+    assert!(out.info.statement().contains("continued below a cliff"));
+}
+
+#[test]
+fn no_continuation_where_the_best_point_is_not_at_a_cliff() {
+    // A smooth peak whose lower neighbours certify (less).
+    let (out, _) = run(|g| bump(g, 0.05, 1.0, 20.0));
+    assert_eq!(out.info.continued, 0);
+    assert!(!out.info.statement().contains("continued"));
+}

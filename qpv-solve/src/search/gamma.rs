@@ -14,7 +14,15 @@
 //! 3. every local maximum of the grid values that is within reach of the
 //!    best (α ≥ reach · best) is refined by golden-section steps in ln γ
 //!    inside the bracket of its two grid neighbours; local maxima out of
-//!    reach are recorded, not refined.
+//!    reach are recorded, not refined;
+//! 4. if the best point's lower neighbour certified nothing (a cliff:
+//!    α_max(γ) often grows as γ falls until the solver's search from
+//!    scratch fails, while a solve seeded by the best point's P still
+//!    certifies a little further down), the search walks down from the best
+//!    point in steps of ln γ ([`continue_down`]): a step that certifies more
+//!    is taken, one that certifies nothing is halved, one that certifies
+//!    less ends the walk (the peak is behind it), as does a step below
+//!    [`REFINE_GAIN`] in γ or [`MAX_CONTINUATION`] evaluations.
 //!
 //! The caller then solves the best γ to the full tolerance. [`maximise`]
 //! only sees a function γ ↦ α (0 when nothing certifies), so it is tested
@@ -33,6 +41,11 @@ const EXTRA_REFINE: usize = 3;
 const GAIN_WINDOW: usize = 2;
 /// ... raised the best by more than this (relative).
 const REFINE_GAIN: f64 = 0.005;
+
+/// The continuation's first step: γ × this ...
+const CONTINUATION_STEP: f64 = 0.9;
+/// ... and its most evaluations.
+pub const MAX_CONTINUATION: usize = 30;
 
 /// The range and effort of one γ search.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -178,19 +191,60 @@ pub fn maximise<E>(
             refined,
         });
     }
+    let before = samples.best();
+    let continued = continue_down(&mut samples, &mut |x, s| value(x, Phase::Continue, s))?;
     let (gamma, alpha) = samples.best();
+    if continued > 0 && alpha > before.1 {
+        // The walk moved the best local maximum: report where it ended.
+        if let Some(m) = local.iter_mut().find(|m| m.gamma == before.0) {
+            (m.gamma, m.alpha) = (gamma, alpha);
+        }
+    }
     Ok(GammaOutcome {
         gamma,
         alpha,
         info: GammaSearchInfo {
-            gamma_lo: grid[0],
+            gamma_lo: grid[0].min(gamma),
             gamma_hi: plan.hi,
             grid_points: grid.len(),
             points: samples.0.len(),
             solves: 0,
             local_maxima: local,
+            continued,
         },
     })
+}
+
+/// Step 4 of the search (module doc): from the best point, while the point
+/// evaluated just below it certified nothing (or there is none), walks down
+/// in ln γ. Returns the number of evaluations made (0 when the best point
+/// is not at a cliff, or nothing certified anywhere).
+fn continue_down<E>(
+    samples: &mut Samples,
+    value: &mut dyn FnMut(f64, &mut Samples) -> Result<f64, E>,
+) -> Result<usize, E> {
+    let (mut g, mut a) = samples.best();
+    let below = samples.0.iter().rev().find(|&&(x, _)| x < g).map(|p| p.1);
+    if a <= 0.0 || below.is_some_and(|b| b > 0.0) {
+        return Ok(0);
+    }
+    let mut rho = CONTINUATION_STEP;
+    let mut evals = 0;
+    while evals < MAX_CONTINUATION && rho < 1.0 - REFINE_GAIN {
+        let x = g * rho;
+        let ax = value(x, samples)?;
+        evals += 1;
+        if ax > a {
+            (g, a) = (x, ax);
+            // A longer step next, as long as steps certify.
+            rho = rho.powf(1.25);
+        } else if ax > 0.0 {
+            break; // α falls again below x: the peak lies behind.
+        } else {
+            rho = rho.sqrt();
+        }
+    }
+    Ok(evals)
 }
 
 /// Golden-section steps in ln γ from the bracket lo ≤ mid ≤ hi (mid the
