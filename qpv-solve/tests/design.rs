@@ -451,3 +451,26 @@ fn symmetric_split_certifies_a_faster_rate() {
         d.seconds_total
     );
 }
+
+/// A fixed (α, γ) request whose regularised solve returns a point that fails
+/// the certificate (the elastic arm: ill-conditioned, AlmostSolved) is
+/// answered by the α search at that γ: its certified point covers α and is
+/// reported at exactly α, certified again from its JSON.
+#[test]
+fn a_fixed_request_falls_back_to_the_alpha_search_at_its_gamma() {
+    let src = include_str!("../../examples/elastic_arm.qpv");
+    let model = qpv_dsl::parse(src).expect("example parses")[0].polytopic();
+    let mut r = qpv_solve::request(AlphaSpec::Fixed(35.0), GammaSpec::Fixed(0.035), Mode::Sound);
+    r.conditions = Conditions::Decoupled;
+    let d = run(&model, &r);
+    assert!(d.certifies, "{}", d.summary);
+    assert_eq!((d.alpha, d.gamma), (35.0, 0.035));
+    let final_step = d.search.iter().find(|s| s.phase == "final").expect("final");
+    assert!(
+        !final_step.certified,
+        "the regularised solve itself fails here"
+    );
+    assert!(d.search.iter().any(|s| s.phase == "retry" && s.certified));
+    assert!(d.notes.iter().any(|n| n.contains("the α search at this γ")));
+    assert!(recheck_json(&model, &d).passed);
+}

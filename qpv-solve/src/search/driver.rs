@@ -281,6 +281,7 @@ impl Ctx<'_, '_> {
             return Ok(out);
         }
         out.last = at.point;
+        let fixed = t.searched.is_none() && t.gamma_search.is_none();
         if let Some(mut sp) = t.searched.filter(|p| p.alpha >= a && p.gamma == t.gamma) {
             sp.cert = self.certify(a, t.gamma, &sp.p, &sp.l, sp.cube.as_ref());
             if sp.cert.passed {
@@ -291,6 +292,27 @@ impl Ctx<'_, '_> {
                 ));
                 out.solver = sp.solver.clone();
                 out.chosen = Some(sp);
+            }
+        }
+        if out.chosen.is_none() && fixed {
+            // A fixed request: the α search at its γ (max-margin solves,
+            // whose points lie deep inside the feasible set, and their
+            // capacities), where the regularised solve returned a point on
+            // the edge that fails the certificate (ill-conditioned plants).
+            let tol = (10.0 * self.settings.bisection_rel_tol).min(0.05);
+            let found = self.alpha_max(t.gamma, None, tol, Phase::Retry)?;
+            if let Some(mut p) = found.filter(|p| p.alpha >= a) {
+                p.cert = self.certify(a, t.gamma, &p.p, &p.l, p.cube.as_ref());
+                if p.cert.passed {
+                    p.alpha = a;
+                    notes.push(format!(
+                        "the regularised final solve did not certify ({}); the α search at this γ certified a point that covers α and is reported (its gains are not regularised)",
+                        at.status
+                    ));
+                    out.status = p.solver.status;
+                    out.solver = p.solver.clone();
+                    out.chosen = Some(p);
+                }
             }
         }
         Ok(out)
