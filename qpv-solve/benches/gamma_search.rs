@@ -16,8 +16,7 @@
 //! solves and the dense profile; `--decoupled`: the search and the dense
 //! grid both solve the decoupled conditions instead of the full ones, for a
 //! plant whose full family is too costly for a dense grid, such as the
-//! elastic arm; NAME: only plants whose name contains it). The dense grid's
-//! progress goes to stderr, 20 points at a time.
+//! elastic arm; NAME: only plants whose name contains it).
 
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel};
 use qpv_solve::{alpha_profile, design, request, Design, Settings};
@@ -161,18 +160,9 @@ fn main() {
         let c0 = cpu_seconds();
         let mut req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
         req.conditions = family;
-        // In pieces, so that a long grid shows its progress (each piece's
-        // first point is not seeded by the previous piece's last).
-        let mut prof = Vec::with_capacity(points);
-        for piece in grid.chunks(20) {
-            prof.extend(alpha_profile(model, &req, piece, &settings).expect("profile"));
-            let best = prof.iter().map(|p| p.alpha).fold(0.0, f64::max);
-            eprintln!(
-                "  {name}: dense {}/{points} points, best α so far {best:.4}, {:.0} cpu s",
-                prof.len(),
-                cpu_seconds() - c0
-            );
-        }
+        // One call: every point is seeded by the previous certified one (a
+        // grid cut into pieces would restart each piece from scratch).
+        let prof = alpha_profile(model, &req, &grid, &settings).expect("profile");
         let dense_cpu = cpu_seconds() - c0;
         if steps {
             for p in &prof {

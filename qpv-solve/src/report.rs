@@ -19,7 +19,7 @@
 //! `sampling` ({`max_step_euler`, `beta`, `step_estimate_rk4`}, see
 //! [`crate::sampling::Sampling`]). A γ search adds `gamma_search`
 //! ({`gamma_lo`, `gamma_hi`, `grid_points`, `points`, `solves`,
-//! `local_maxima` [{`gamma`, `alpha`, `refined`}]}, see
+//! `local_maxima` [{`gamma`, `alpha`, `refined`}], `continued`}, see
 //! [`GammaSearchInfo`]). Matrices are plain `Vec<Vec<f64>>` rows;
 //! serde_json writes the shortest round-tripping decimal of every `f64`, so
 //! a reloaded design certifies exactly as the written one.
@@ -223,15 +223,15 @@ pub struct LocalMax {
 /// reader can judge the "best" it reports: α_max(γ) need not be unimodal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GammaSearchInfo {
-    /// Lowest γ of the logarithmic grid (below γ_hi / span if the grid was
-    /// extended downwards).
+    /// Lowest γ searched: of the logarithmic grid (below γ_hi / span if the
+    /// grid was extended downwards), or where the continuation ended.
     pub gamma_lo: f64,
     /// Highest γ searched (γ_hi).
     pub gamma_hi: f64,
     /// Grid points (including downward extensions).
     pub grid_points: usize,
-    /// γ values evaluated in all (grid and refinement), each to the
-    /// coarse tolerance.
+    /// γ values evaluated in all (grid, refinement and continuation), each
+    /// to the coarse tolerance.
     pub points: usize,
     /// Solves the search made (grid, refinement and the final α search at
     /// the best γ; not the final regularised solve).

@@ -470,7 +470,7 @@ fn a_fixed_request_falls_back_to_the_alpha_search_at_its_gamma() {
         !final_step.certified,
         "the regularised solve itself fails here"
     );
-    assert!(d.search.iter().any(|s| s.phase == "retry" && s.certified));
+    assert!(d.search.iter().any(|s| s.phase == "bisect" && s.certified));
     assert!(d.notes.iter().any(|n| n.contains("the α search at this γ")));
     assert!(recheck_json(&model, &d).passed);
 }

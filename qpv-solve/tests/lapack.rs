@@ -258,8 +258,8 @@ fn dgemm_matches_reference() {
         let (m, n, k) = if case < 20 {
             (case % 3, (case / 3) % 3, case % 2)
         } else if case < 70 {
-            // The square sizes 2..=6 that dgemm_ specialises, with every
-            // transpose combination.
+            // The square sizes 2..=6 that dgemm_ specialises, each with
+            // several of the transpose flags.
             let s = 2 + (case / 5) % 5;
             (s, s, s)
         } else {

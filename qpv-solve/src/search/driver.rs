@@ -241,7 +241,9 @@ impl Ctx<'_, '_> {
 
     /// The final solve at the target, with the gain regularisation; if it
     /// does not certify, the search's certified point at the same (α, γ)
-    /// (re-certified at exactly that α) is reported instead, with a note.
+    /// (re-certified at exactly that α) is reported instead, with a note. A
+    /// fixed request has no search point: if its solve returned a point that
+    /// fails the certificate, the α search at its γ supplies one covering α.
     fn final_solve(&mut self, t: Target, notes: &mut Vec<String>) -> Result<Final, SolveError> {
         let Some(a) = t.alpha else {
             let (status, solver) = match self.steps.last() {
@@ -294,13 +296,14 @@ impl Ctx<'_, '_> {
                 out.chosen = Some(sp);
             }
         }
-        if out.chosen.is_none() && fixed {
-            // A fixed request: the α search at its γ (max-margin solves,
-            // whose points lie deep inside the feasible set, and their
-            // capacities), where the regularised solve returned a point on
-            // the edge that fails the certificate (ill-conditioned plants).
+        if out.chosen.is_none() && fixed && out.last.is_some() {
+            // A fixed request whose regularised solve returned a point that
+            // fails the certificate (not an infeasibility certificate, not a
+            // numerical error without a point): the α search at its γ
+            // (max-margin solves, whose points lie deep inside the feasible
+            // set, and their capacities), as on ill-conditioned plants.
             let tol = (10.0 * self.settings.bisection_rel_tol).min(0.05);
-            let found = self.alpha_max(t.gamma, None, tol, Phase::Retry)?;
+            let found = self.alpha_max(t.gamma, None, tol, Phase::Bisect)?;
             if let Some(mut p) = found.filter(|p| p.alpha >= a) {
                 p.cert = self.certify(a, t.gamma, &p.p, &p.l, p.cube.as_ref());
                 if p.cert.passed {
@@ -309,7 +312,6 @@ impl Ctx<'_, '_> {
                         "the regularised final solve did not certify ({}); the α search at this γ certified a point that covers α and is reported (its gains are not regularised)",
                         at.status
                     ));
-                    out.status = p.solver.status;
                     out.solver = p.solver.clone();
                     out.chosen = Some(p);
                 }

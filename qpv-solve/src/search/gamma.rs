@@ -19,10 +19,12 @@
 //!    α_max(γ) often grows as γ falls until the solver's search from
 //!    scratch fails, while a solve seeded by the best point's P still
 //!    certifies a little further down), the search walks down from the best
-//!    point in steps of ln γ ([`continue_down`]): a step that certifies more
-//!    is taken, one that certifies nothing is halved, one that certifies
-//!    less ends the walk (the peak is behind it), as does a step below
-//!    [`REFINE_GAIN`] in γ or [`MAX_CONTINUATION`] evaluations.
+//!    point in steps of ln γ: a step that certifies more is taken (and the
+//!    next one made longer), one that certifies nothing is halved (a longer
+//!    step after a success may probe below a γ that already failed: seeds
+//!    have changed since), one that certifies less ends the walk (the peak
+//!    is behind it), as does a step below 0.5 % in γ or
+//!    [`MAX_CONTINUATION`] evaluations.
 //!
 //! The caller then solves the best γ to the full tolerance. [`maximise`]
 //! only sees a function γ ↦ α (0 when nothing certifies), so it is tested
@@ -42,9 +44,10 @@ const GAIN_WINDOW: usize = 2;
 /// ... raised the best by more than this (relative).
 const REFINE_GAIN: f64 = 0.005;
 
-/// The continuation's first step: γ × this ...
+/// The continuation's first step: γ × this.
 const CONTINUATION_STEP: f64 = 0.9;
-/// ... and its most evaluations.
+/// Most evaluations of the continuation below a cliff (step 4 of the
+/// search), so that a plant whose α grows without end as γ falls stops.
 pub const MAX_CONTINUATION: usize = 30;
 
 /// The range and effort of one γ search.
@@ -195,10 +198,15 @@ pub fn maximise<E>(
     let continued = continue_down(&mut samples, &mut |x, s| value(x, Phase::Continue, s))?;
     let (gamma, alpha) = samples.best();
     if continued > 0 && alpha > before.1 {
-        // The walk moved the best local maximum: report where it ended.
-        if let Some(m) = local.iter_mut().find(|m| m.gamma == before.0) {
+        // The walk moved the best local maximum: report where it ended (the
+        // refinement's γ may differ from the sample's by rounding in ln γ).
+        if let Some(m) = local
+            .iter_mut()
+            .find(|m| (m.gamma - before.0).abs() <= 1e-9 * before.0)
+        {
             (m.gamma, m.alpha) = (gamma, alpha);
         }
+        local.sort_by(|x, y| y.alpha.total_cmp(&x.alpha));
     }
     Ok(GammaOutcome {
         gamma,

@@ -1,7 +1,9 @@
 //! The design driver: fixed (α, γ), α = max at fixed γ, and the γ search.
 //!
 //! * Fixed (α, γ): one solve with the default objective (½ w Σ‖Γ̂_l‖_F²,
-//!   moderate gains), then the independent certificate.
+//!   moderate gains), then the independent certificate; if its point fails
+//!   the certificate, the α search below at that γ, whose certified point
+//!   covering α is reported at exactly α.
 //! * α = max at fixed γ: feasibility is monotone in α
 //!   (the γαP term with P ≻ 0), so the largest certified α is bracketed
 //!   [lo, hi] with lo certified and hi not, until hi ≤ lo·(1 + tol)
@@ -24,8 +26,10 @@
 //!   neighbouring points found; the grid extends downwards while its lowest
 //!   point is still the best; every local maximum of the grid values within
 //!   reach of the best ([`Settings::gamma_reach`]) is refined by
-//!   golden-section steps in ln γ ([`Settings::gamma_refine`]); then α_max
-//!   to the full tolerance at the best γ. α_max(γ) is not assumed unimodal
+//!   golden-section steps in ln γ ([`Settings::gamma_refine`]); if the
+//!   point below the best certified nothing, a seeded walk continues down
+//!   from the best ([`gamma`], step 4); then α_max to the full tolerance at
+//!   the best γ. α_max(γ) is not assumed unimodal
 //!   and no point is discarded on an estimate; the result is the best
 //!   *certified* (α, γ) found, not a proof of global optimality in γ, and
 //!   the report states what was searched (range, points, local maxima).
