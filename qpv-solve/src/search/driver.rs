@@ -284,37 +284,40 @@ impl Ctx<'_, '_> {
         }
         out.last = at.point;
         let fixed = t.searched.is_none() && t.gamma_search.is_none();
-        if let Some(mut sp) = t.searched.filter(|p| p.alpha >= a && p.gamma == t.gamma) {
-            sp.cert = self.certify(a, t.gamma, &sp.p, &sp.l, sp.cube.as_ref());
-            if sp.cert.passed {
-                sp.alpha = a;
+        // The point reported instead: the search's at the same (α, γ), or,
+        // for a fixed request whose regularised solve returned a point that
+        // fails the certificate (not an infeasibility certificate, not a
+        // numerical error without a point), the α search at its γ
+        // (max-margin solves, whose points lie deep inside the feasible set,
+        // and their capacities), as on ill-conditioned plants.
+        let fallback = match t.searched.filter(|p| p.alpha >= a && p.gamma == t.gamma) {
+            Some(sp) => Some((
+                sp,
+                "the search's certified point at the same (α, γ) is reported",
+            )),
+            None if fixed && out.last.is_some() => {
+                let tol = (10.0 * self.settings.bisection_rel_tol).min(0.05);
+                self.alpha_max(t.gamma, None, tol, Phase::Bisect)?
+                    .filter(|p| p.alpha >= a)
+                    .map(|p| {
+                        (
+                            p,
+                            "the α search at this γ certified a point that covers α and is reported",
+                        )
+                    })
+            }
+            None => None,
+        };
+        if let Some((mut p, how)) = fallback {
+            p.cert = self.certify(a, t.gamma, &p.p, &p.l, p.cube.as_ref());
+            if p.cert.passed {
+                p.alpha = a;
                 notes.push(format!(
-                    "the regularised final solve did not certify ({}); the search's certified point at the same (α, γ) is reported (its gains are not regularised)",
+                    "the regularised final solve did not certify ({}); {how} (its gains are not regularised)",
                     at.status
                 ));
-                out.solver = sp.solver.clone();
-                out.chosen = Some(sp);
-            }
-        }
-        if out.chosen.is_none() && fixed && out.last.is_some() {
-            // A fixed request whose regularised solve returned a point that
-            // fails the certificate (not an infeasibility certificate, not a
-            // numerical error without a point): the α search at its γ
-            // (max-margin solves, whose points lie deep inside the feasible
-            // set, and their capacities), as on ill-conditioned plants.
-            let tol = (10.0 * self.settings.bisection_rel_tol).min(0.05);
-            let found = self.alpha_max(t.gamma, None, tol, Phase::Bisect)?;
-            if let Some(mut p) = found.filter(|p| p.alpha >= a) {
-                p.cert = self.certify(a, t.gamma, &p.p, &p.l, p.cube.as_ref());
-                if p.cert.passed {
-                    p.alpha = a;
-                    notes.push(format!(
-                        "the regularised final solve did not certify ({}); the α search at this γ certified a point that covers α and is reported (its gains are not regularised)",
-                        at.status
-                    ));
-                    out.solver = p.solver.clone();
-                    out.chosen = Some(p);
-                }
+                out.solver = p.solver.clone();
+                out.chosen = Some(p);
             }
         }
         Ok(out)
