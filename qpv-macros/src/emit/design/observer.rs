@@ -289,8 +289,20 @@ fn steppers(xs: &[Ident]) -> TokenStream {
         /// contracts by at least (1 − dt·EULER_BETA) per step on the
         /// certified set, assuming the plant is discretised by the same
         /// Euler step (a continuous plant is covered by simulation only).
+        /// Above `MAX_STEP_EULER` nothing is proven (`STEP_ESTIMATE_RK4`
+        /// is the RK4 counterpart, an estimate only).
+        ///
+        /// In debug builds a `dt` above `MAX_STEP_EULER` panics through
+        /// `debug_assert!` (not when `MAX_STEP_EULER` is 0, i.e. no step
+        /// could be proven); release builds do not check.
         #[inline]
         pub fn step_euler(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
+            debug_assert!(
+                !(MAX_STEP_EULER > 0.0 && dt > MAX_STEP_EULER),
+                "step_euler: dt = {} exceeds MAX_STEP_EULER = {}, the certified Euler step",
+                dt,
+                MAX_STEP_EULER
+            );
             let (c, g, clamped) = schedule(theta);
             self.clamped = self.clamped.saturating_add(clamped as u64);
             let [#(#k1),*] = rhs(&c, &g, &self.state, y, u);
@@ -304,7 +316,8 @@ fn steppers(xs: &[Ident]) -> TokenStream {
         /// `STEP_ESTIMATE_RK4` estimates the largest stable step (every
         /// frozen vertex error dynamics stable under RK4); it is an
         /// estimate, not a certificate: prefer `step_euler` below
-        /// `MAX_STEP_EULER` where a proof is needed.
+        /// `MAX_STEP_EULER` where a proof is needed. No step size is
+        /// checked here, in debug or release builds.
         #[inline]
         pub fn step_rk4(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
             let (c, g, clamped) = schedule(theta);
