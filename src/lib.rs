@@ -55,7 +55,8 @@ pub mod plot;
 /// * `mu(&θ) -> [f64; NV]`, `gain(&θ) -> [[f64; NY]; NZ]`,
 ///   `clamp_theta(&θ) -> ([f64; NTHETA], bool)`;
 /// * `Observer`: `new()`, `with_state(&x0)`, `from_state(&s)`, `state()`,
-///   `derivative(&y, &u, &θ) -> [f64; NS]`, `step_euler(dt, &y, &u, &θ)`,
+///   `derivative(&y, &u, &θ) -> [f64; NS]`, `step_euler(dt, &y, &u, &θ)`
+///   (debug builds assert `dt ≤ MAX_STEP_EULER` when that is positive),
 ///   `step_rk4(dt, &y, &u, &θ)`, `estimate() -> [f64; NX]`, `clamped()`;
 /// * `plant::derivative(&x, &u, &θ)`, `plant::output(&x, &θ)`.
 ///
