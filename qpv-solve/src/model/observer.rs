@@ -134,25 +134,57 @@ impl ObserverModel {
     }
 }
 
-/// One skew-symmetric nz × nz matrix per state and θ-vertex.
+/// Largest size of a skew slack against N: beyond it, N + K loses N's
+/// digits to rounding (ulp(K) ≈ ‖N‖), and the certificate would judge a
+/// plant other than the model's.
+const SKEW_SIZE_LIMIT: f64 = 1e6;
+
+/// One skew-symmetric nx × nx matrix per state and θ-vertex. A slack read
+/// from a file may change the representation of N_k, never the plant:
+/// its symmetric part (which would change xᵀN_k x) must vanish to rounding
+/// *judged against the size of N at that vertex*, not of K (a tolerance
+/// that grows with K lets a huge skew part hide a symmetric part that
+/// cancels N), and K may not be so large that N + K rounds N away.
 fn check_skew(model: &PolytopicModel, k: &[Vec<DMatrix<f64>>]) -> Result<(), SolveError> {
     let n = model.nx();
-    let fits = k.len() == model.nv()
+    let shaped = k.len() == model.nv()
         && k.iter().all(|kl| {
             kl.len() == n
-                && kl.iter().all(|kk| {
-                    kk.shape() == (n, n)
-                        && kk.iter().all(|v| v.is_finite())
-                        && (kk + kk.transpose()).amax() <= 1e-12 * (1.0 + kk.amax())
-                })
+                && kl
+                    .iter()
+                    .all(|kk| kk.shape() == (n, n) && kk.iter().all(|v| v.is_finite()))
         });
-    if fits {
-        Ok(())
-    } else {
-        Err(SolveError::Dimensions(format!(
-            "the skew slack must hold one skew-symmetric {n}×{n} matrix per state and θ-vertex"
-        )))
+    if !shaped {
+        return Err(SolveError::Dimensions(format!(
+            "the skew slack must hold one skew-symmetric {n}×{n} matrix of finite numbers per \
+             state and θ-vertex"
+        )));
     }
+    for (l, (kl, v)) in k.iter().zip(&model.vertices).enumerate() {
+        let nmax = v.n.iter().map(|m| m.amax()).fold(0.0, f64::max);
+        for (s, kk) in kl.iter().enumerate() {
+            let sym = ((kk + kk.transpose()) * 0.5).amax();
+            if sym > 1e-12 * (1.0 + nmax) {
+                return Err(SolveError::Dimensions(format!(
+                    "the skew slack K_{} at θ-vertex {} is not skew-symmetric: its symmetric part \
+                     (largest entry {sym:.3e}) would change the plant (N at this vertex has \
+                     entries up to {nmax:.3e}); a slack may only change how N is written",
+                    s + 1,
+                    l + 1
+                )));
+            }
+            if kk.amax() > SKEW_SIZE_LIMIT * (1.0 + nmax) {
+                return Err(SolveError::Dimensions(format!(
+                    "the skew slack K_{} at θ-vertex {} is too large (largest entry {:.3e}, N has \
+                     entries up to {nmax:.3e}): N + K would lose N's digits to rounding",
+                    s + 1,
+                    l + 1,
+                    kk.amax()
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Refuses a claimed state bound with the reason.

@@ -9,7 +9,9 @@ pub fn with_skew(model: &PolytopicModel, k: &[Vec<DMatrix<f64>>]) -> PolytopicMo
     let mut out = model.clone();
     for (v, kl) in out.vertices.iter_mut().zip(k) {
         for (n, kk) in v.n.iter_mut().zip(kl) {
-            *n += kk;
+            // The skew part only (exact for a skew-symmetric K): a
+            // symmetric remainder would change the plant.
+            *n += (kk - kk.transpose()) * 0.5;
         }
     }
     out
