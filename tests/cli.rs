@@ -676,3 +676,47 @@ fn help_documents_the_exit_codes() {
     }
     assert!(text.contains("docs/schema.md"));
 }
+
+/// A file with two models: gains designed for the second are checked and
+/// simulated against the second (the one the report names), never
+/// silently against the first; a `--model` that disagrees is an error
+/// naming both.
+#[test]
+fn check_and_simulate_use_the_model_the_report_names() {
+    let lv = std::fs::read_to_string("examples/lotka_volterra.qpv").unwrap();
+    let first = lv
+        .replace("model lotka_volterra", "model first")
+        .replace("- (4/3)*s*e1*e2;", "- (4/3)*s*e1*e2 - 5*e1;");
+    let file = common::tmp("report-model", "two.qpv");
+    std::fs::write(&file, format!("{first}\n{lv}")).unwrap();
+    let report = common::tmp("report-model", "second.json");
+    let (f, r) = (file.to_str().unwrap(), report.to_str().unwrap());
+    let out = qpv(&[
+        "design",
+        f,
+        "--model",
+        "lotka_volterra",
+        "--alpha",
+        "1",
+        "--gamma",
+        "0.3",
+        "--json",
+        r,
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", common::text(&out));
+    let out = qpv(&["check", f, "--gains", r, "--json", "-"]);
+    assert_eq!(out.status.code(), Some(0), "{}", common::text(&out));
+    assert_eq!(common::json_stdout(&out)["model"], "lotka_volterra");
+    for cmd in [
+        vec!["check", f, "--gains", r, "--model", "first"],
+        vec!["simulate", f, "--design", r, "--model", "first"],
+    ] {
+        let out = qpv(&cmd);
+        let text = common::text(&out);
+        assert_eq!(out.status.code(), Some(2), "{cmd:?}: {text}");
+        assert!(
+            text.contains("--model first disagrees") && text.contains("`lotka_volterra`"),
+            "{cmd:?}: {text}"
+        );
+    }
+}

@@ -7,7 +7,7 @@
 //! (a reproduction, not a certificate).
 
 use super::design::parse_split;
-use super::input::{emit_json, exit, load_model, print_text, CliError};
+use super::input::{emit_json, exit, load_model_for, print_text, CliError};
 use super::schema::read_report;
 use super::schema::CheckOutput;
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Model, OutputRoute, PolytopicModel, Split, StateBound};
@@ -29,6 +29,9 @@ struct Gains {
     alpha: Option<f64>,
     gamma: Option<f64>,
     mode: Option<String>,
+    /// The model the gains were designed for (a design report names it);
+    /// the model checked, unless `--model` disagrees (an error).
+    model: Option<String>,
     /// Representation of N_k, M_k the gains were designed with
     /// ("as_written" | "symmetric"; a design report carries it).
     split: Option<String>,
@@ -247,8 +250,8 @@ pub fn run(
     flags: Flags,
     json: Option<&str>,
 ) -> Result<i32, CliError> {
-    let (_, model) = load_model(file, model_name)?;
     let g = read_gains(gains)?;
+    let (_, model) = load_model_for(file, model_name, gains, g.model.as_deref())?;
     let (mode, mode_source) = choose_mode(flags.mode, &g, gains)?;
     let (alpha, alpha_source) = choose_value(
         "alpha",

@@ -106,6 +106,36 @@ pub fn load_model(path: &Path, name: Option<&str>) -> Result<(String, Model), Cl
     Ok((src, model))
 }
 
+/// The model a report's gains are checked or simulated against: the one
+/// the report names (`report_model`, a design report's `model`), unless
+/// `--model` names one; a `--model` that disagrees with the report is an
+/// error naming both, never a silent choice (gains designed for one model
+/// say nothing about another).
+pub fn load_model_for(
+    path: &Path,
+    flag: Option<&str>,
+    report: &Path,
+    report_model: Option<&str>,
+) -> Result<(String, Model), CliError> {
+    match (flag, report_model) {
+        (Some(f), Some(r)) if f != r => Err(CliError::Input(format!(
+            "--model {f} disagrees with {}, whose gains were designed for model `{r}`",
+            report.display()
+        ))),
+        (_, Some(r)) => load_model(path, Some(r)).map_err(|e| match e {
+            CliError::Input(m) if m.ends_with(&format!("no model named `{r}`")) => {
+                CliError::Input(format!(
+                    "{}: no model named `{r}`, which {} names as the model of its gains",
+                    path.display(),
+                    report.display()
+                ))
+            }
+            other => other,
+        }),
+        (f, None) => load_model(path, f),
+    }
+}
+
 /// Reads and parses the JSON file `path` (at most [`JSON_LIMIT`] bytes).
 pub fn read_json(path: &Path) -> Result<serde_json::Value, CliError> {
     let text = read_bounded(path, JSON_LIMIT, "JSON files")?;

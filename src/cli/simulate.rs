@@ -16,7 +16,7 @@
 //! most [`PLOT_POINTS`] points per curve, so memory does not grow with the
 //! number of steps.
 
-use super::input::{load_model, CliError};
+use super::input::{load_model_for, CliError};
 use super::noisy::{simulate_noisy, NoiseBoundCurve, NoiseGen};
 use super::schema::read_report;
 use super::signal::{expr_signal, parse_assignment, table_signal, Table, TimeFn};
@@ -430,10 +430,10 @@ fn noise_setup(
 
 /// Runs `qpv simulate`.
 pub fn run(o: Options<'_>) -> Result<i32, CliError> {
-    let (_, model) = load_model(o.file, o.model)?;
-    let poly = model.polytopic();
     let design: Design = serde_json::from_value(read_report(o.design)?)
         .map_err(|e| CliError::Input(format!("{}: {e}", o.design.display())))?;
+    let (_, model) = load_model_for(o.file, o.model, o.design, Some(&design.model))?;
+    let poly = model.polytopic();
     if design.l.is_empty() {
         return Err(CliError::Input(format!(
             "{}: the design has no gains (it was not solved)",
