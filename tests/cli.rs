@@ -720,3 +720,41 @@ fn check_and_simulate_use_the_model_the_report_names() {
         );
     }
 }
+
+/// `check` on a model without a state bound: every family may hold, and
+/// the verdict says which assumption is missing instead of a bare
+/// "NOT certified".
+#[test]
+fn check_without_a_state_bound_names_the_missing_assumption() {
+    let lv = std::fs::read_to_string("examples/lotka_volterra.qpv").unwrap();
+    let report = common::tmp("no-bound", "lv.json");
+    let out = qpv(&[
+        "design",
+        "examples/lotka_volterra.qpv",
+        "--alpha",
+        "1",
+        "--gamma",
+        "0.3",
+        "--json",
+        report.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", common::text(&out));
+    let unbounded: String = lv
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("state_bound"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert_ne!(unbounded, lv);
+    let file = common::tmp("no-bound", "lv.qpv");
+    std::fs::write(&file, unbounded).unwrap();
+    let out = qpv(&[
+        "check",
+        file.to_str().unwrap(),
+        "--gains",
+        report.to_str().unwrap(),
+    ]);
+    let t = common::text(&out);
+    assert_eq!(out.status.code(), Some(1), "{t}");
+    assert!(t.contains("NOT certified"), "{t}");
+    assert!(t.contains("the model has no state bound F"), "{t}");
+}

@@ -239,3 +239,37 @@ fn tradeoff_rejects_too_few_points() {
     assert_eq!(out.status.code(), Some(2), "{t}");
     assert!(t.contains("--points 1"), "{t}");
 }
+
+#[test]
+fn simulate_recomputes_sigma_and_never_trusts_the_reports() {
+    // σ divided by 10⁴ (ν_max × 100) in the report: a run at twice the
+    // true ν_max used to print "certified under noise" from the forged
+    // figures; σ is recomputed from the model and the gains instead.
+    let (report, d) = paper_noise_min();
+    let nu_max = num(&d["noise"], "max_amplitude");
+    let mut doc: Value =
+        serde_json::from_str(&std::fs::read_to_string(report).expect("report")).expect("json");
+    let noise = &mut doc["designs"][0]["noise"];
+    noise["sigma"] = Value::from(num(noise, "sigma") / 1e4);
+    noise["max_amplitude"] = Value::from(nu_max * 100.0);
+    let forged = tmp("forged_sigma.json");
+    std::fs::write(&forged, doc.to_string()).expect("write");
+    let out = qpv(&[
+        "simulate",
+        "examples/paper.qpv",
+        "--design",
+        forged.to_str().expect("utf-8"),
+        "--scenario",
+        "paper",
+        "--noise",
+        &(2.0 * nu_max).to_string(),
+        "--seed",
+        "7",
+    ]);
+    let t = text(&out);
+    assert!(!t.contains("certified under noise"), "{t}");
+    assert!(
+        t.contains("no bound is certified at this noise level"),
+        "{t}"
+    );
+}

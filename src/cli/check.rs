@@ -337,6 +337,24 @@ pub fn run(
         }
         _ => "  => NOT certified\n",
     });
+    // Every family holding but no verdict: say which assumption is missing.
+    let families_hold = cert.input_errors.is_empty() && cert.families.iter().all(|f| f.passed);
+    if code == exit::NOT_CERTIFIED && families_hold && mode == Mode::Sound {
+        let s4 = qpv_solve::vocab::Family::S4.name();
+        match cert.data_checks.get(s4) {
+            None => s.push_str(
+                "     why: every condition family holds, but the model has no state bound F \
+                 (`state_bound Q = [..];` or `state_bound auto;`), so (S4) and Assumption 2 \
+                 (the plant state stays in F) cannot be checked: without F nothing is certified\n",
+            ),
+            Some(c) if c.required && !c.passed => s.push_str(&format!(
+                "     why: every condition family holds, but the data check (S4) fails: \
+                 γ² a_kᵀ Q a_k = {:.4} > 1 (γ above γ_max: F does not lie in P/γ)\n",
+                c.value
+            )),
+            _ => {}
+        }
+    }
     print_text(json, &s);
     emit_json(
         json,

@@ -430,7 +430,7 @@ fn noise_setup(
 
 /// Runs `qpv simulate`.
 pub fn run(o: Options<'_>) -> Result<i32, CliError> {
-    let design: Design = serde_json::from_value(read_report(o.design)?)
+    let mut design: Design = serde_json::from_value(read_report(o.design)?)
         .map_err(|e| CliError::Input(format!("{}: {e}", o.design.display())))?;
     let (_, model) = load_model_for(o.file, o.model, o.design, Some(&design.model))?;
     let poly = model.polytopic();
@@ -470,6 +470,14 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
 
     // What is certified, and therefore what the run is compared with.
     let reason = not_certified_reason(&design, &poly);
+    // Every figure a claim rests on (σ, ν_max, the error bound, the Euler
+    // step) is recomputed from the model as it is now and the gains as
+    // given; the report's own figures are claims, never read as facts.
+    design.noise = None;
+    design.sampling = None;
+    if reason.is_none() {
+        qpv_solve::noise::attach(&poly, &mut design);
+    }
     let e0: Vec<f64> = sc.x0.iter().zip(&sc.xhat0).map(|(a, b)| a - b).collect();
     let (mut noise_gen, noise_bound) = noise_setup(&o, &design, &obs, &reason, &e0)?;
     let (claim, e0_inside) = claim_of(&design, &obs, &reason, &e0, noise_bound, o.noise.is_some());
