@@ -1050,6 +1050,8 @@ fn noise_report(
         skew: None,
         diagnosis: None,
         noise,
+        max_gain: None,
+        practical: None,
         sampling: None,
         gamma_search: None,
     };

@@ -205,6 +205,41 @@ pub struct Design {
     /// [`Design::recheck`] checks the slack inequalities with them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cube: Option<crate::conditions::cube::CubeReport>,
+    /// `max_gain = G`: the bound on every ‖L_l‖₂ the design claims;
+    /// [`Design::recheck`] checks it from the reported L (data check
+    /// `max_gain`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_gain: Option<f64>,
+    /// The practical `alpha = max` ([`Practical`]): the certified
+    /// supremum found and the tolerance below it; only for α = max with
+    /// `within` > 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub practical: Option<Practical>,
+}
+
+/// How a practical `alpha = max` chose its design: the fastest certified
+/// α found (α_sup), the tolerance, and whether the supremum is reached
+/// only through high gains. The figures are the search's: `alpha_sup` is
+/// a certified α (its point passed the certificate when found), not
+/// re-checked from the report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Practical {
+    /// The fastest certified α the search found (the certified supremum
+    /// estimate), and its γ.
+    pub alpha_sup: f64,
+    /// γ of `alpha_sup`.
+    pub gamma_sup: f64,
+    /// The largest gain max_l ‖L_l‖₂ of the design certified at `alpha_sup`.
+    pub gain_sup: f64,
+    /// The tolerance: the design's α ≥ (1 − within)·alpha_sup, unless
+    /// `high_gain` moved it to the knee.
+    pub within: f64,
+    /// α was still rising at the smallest γ searched while the gains grew:
+    /// the supremum is approached only as ‖L‖ → ∞, and the design
+    /// returned is the knee of the α–gain curve.
+    pub high_gain: bool,
+    /// Solves spent on the smallest-gain designs (after the α search).
+    pub solves: usize,
 }
 
 /// A local maximum of α(γ) over the γ search's grid: where it is, its
@@ -400,7 +435,8 @@ impl Design {
                     .as_ref()
                     .map(crate::conditions::cube::CubeSlacks::from_report)
                     .as_ref(),
-            ),
+            )
+            .with_gain_bound(&self.l_matrices(), self.max_gain),
             Err(e) => Certificate::refused(
                 self.mode,
                 self.alpha,

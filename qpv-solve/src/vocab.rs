@@ -130,6 +130,9 @@ named_enum! {
         Paper26 = "26",
         /// Data check: the certified ellipsoid lies in the state bound F.
         RegionInF = "region_in_F",
+        /// Data check of `max_gain = G`: every ‖L_l‖₂ ≤ G, from the gains
+        /// as given.
+        MaxGain = "max_gain",
     }
 }
 
@@ -155,6 +158,9 @@ named_enum! {
         Retry = "retry",
         /// The solves that explain a failed request.
         Diagnose = "diagnose",
+        /// The smallest-gain solves of the practical α = max (α at the
+        /// tolerance below the certified supremum).
+        Practical = "practical",
         /// The noise-optimal solve at a fixed γ.
         Noise = "noise",
         /// The γ grid of the noise-optimal design.

@@ -29,6 +29,7 @@ mod noise;
 mod observer_model;
 mod output_filter;
 mod output_route;
+mod practical;
 mod simulate;
 mod skew_slack;
 mod state_bound;

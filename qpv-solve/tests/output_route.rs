@@ -187,6 +187,7 @@ fn alpha_max_after_retries_takes_a_few_dozen_solves() {
     let src = include_str!("../../examples/varying_output.qpv");
     let model = qpv_dsl::parse(src).expect("parses")[0].polytopic();
     let mut r = qpv_solve::request(AlphaSpec::Max, GammaSpec::Fixed(0.3), Mode::Sound);
+    r.within = 0.0; // the α search itself
     r.output_route = OutputRoute::Filter(OutputFilter {
         pole: 5.0,
         gain: 5.0,

@@ -127,6 +127,10 @@ pub struct Flags<'a> {
     pub filter_gain: Option<f64>,
     /// `--noise` (`min` or `free`).
     pub noise: Option<&'a str>,
+    /// `--within`: the practical α = max's tolerance.
+    pub within: Option<f64>,
+    /// `--max-gain`: the bound on every ‖L_l‖₂.
+    pub max_gain: Option<f64>,
 }
 
 /// Parses `--noise`: whether the design minimises the certified noise gain.
@@ -181,6 +185,26 @@ fn requests(model: &Model, f: Flags) -> Result<Vec<Planned>, CliError> {
     };
     let route = parse_route(f.output_route, f.filter_pole, f.filter_gain)?;
     let noise_min = parse_noise(f.noise)?;
+    if let Some(w) = f.within {
+        if !(0.0..=DesignRequest::MAX_WITHIN).contains(&w) {
+            return Err(CliError::Input(format!(
+                "--within {w}: expected a fraction from 0 (the fastest point found) to {} (e.g. 0.01 for 1 %)",
+                DesignRequest::MAX_WITHIN
+            )));
+        }
+    }
+    if let Some(g) = f.max_gain {
+        if !(g.is_finite() && g > 0.0) {
+            return Err(CliError::Input(format!(
+                "--max-gain {g}: expected a positive number (the bound on every ||L_l||_2)"
+            )));
+        }
+        if noise_min {
+            return Err(CliError::Input(
+                "--max-gain with --noise min: the noise SDP has no gain bound".into(),
+            ));
+        }
+    }
     let plan: Vec<Planned> = reqs
         .into_iter()
         .map(|mut r| {
@@ -206,6 +230,31 @@ fn requests(model: &Model, f: Flags) -> Result<Vec<Planned>, CliError> {
             }
             if let Some(o) = route {
                 r.output_route = o;
+            }
+            if let Some(g) = f.max_gain {
+                if r.mode != Mode::Sound || r.noise == qpv_dsl::NoiseObjective::Min {
+                    let skip = Some(
+                        "--max-gain applies to sound-mode requests without noise = min only"
+                            .to_string(),
+                    );
+                    return Planned { request: r, skip };
+                }
+                if r.split == Split::SkewSlack {
+                    let skip =
+                        Some("--max-gain does not apply to split = skew_slack".to_string());
+                    return Planned { request: r, skip };
+                }
+                r.max_gain = Some(g);
+            }
+            if let Some(w) = f.within {
+                if r.alpha != AlphaSpec::Max {
+                    let skip = Some(
+                        "--within applies to alpha = max requests only (this one has a fixed alpha)"
+                            .to_string(),
+                    );
+                    return Planned { request: r, skip };
+                }
+                r.within = w;
             }
             Planned {
                 request: r,
@@ -355,10 +404,11 @@ fn describe_verdict(d: &Design) -> String {
         (true, Mode::Sound) => format!(
             "  CERTIFIED: alpha = {:.6} at gamma = {:.6}: every sound condition family holds ({}) and the data check S4, \
              by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), \
-             {rejected} of them rejected by that check and not used\n",
+             {rejected} of them rejected by that check and not used\n{}",
             d.alpha,
             d.gamma,
-            families.join(", ")
+            families.join(", "),
+            practical_line(d)
         ),
         (true, Mode::Paper) => format!(
             "  the paper's printed conditions hold at alpha = {:.6}, gamma = {:.6} (reproduction: no convergence claim)\n",
@@ -376,6 +426,64 @@ fn describe_verdict(d: &Design) -> String {
             }
         }
     }
+}
+
+/// The one line a user steps an observer by: α (and, for the practical
+/// α = max, its share of the certified supremum), the largest gain, the
+/// certified Euler step.
+fn practical_line(d: &Design) -> String {
+    let gain = d.gain_norms.iter().copied().fold(0.0, f64::max);
+    let alpha = match &d.practical {
+        Some(p) => format!(
+            "alpha = {} ({:.1} % of the certified supremum {}{})",
+            sig(d.alpha),
+            100.0 * d.alpha / p.alpha_sup,
+            sig(p.alpha_sup),
+            if p.high_gain {
+                "; high gain near it: the knee is returned"
+            } else {
+                ""
+            }
+        ),
+        None => format!("alpha = {}", sig(d.alpha)),
+    };
+    let step = match &d.sampling {
+        Some(sp) if sp.max_step_euler > 0.0 => {
+            format!(", Euler step <= {}", seconds(sp.max_step_euler))
+        }
+        _ => String::new(),
+    };
+    let bound = d
+        .max_gain
+        .map(|g| format!(" (bound {})", sig(g)))
+        .unwrap_or_default();
+    format!("  {alpha}, ||L|| <= {}{bound}{step}\n", sig(gain))
+}
+
+/// Three significant digits, in scientific form outside [1e-3, 1e5).
+fn sig(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        format!("{v}")
+    } else if !(1e-3..1e5).contains(&v.abs()) {
+        format!("{v:.2e}")
+    } else {
+        let d = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+        format!("{v:.d$}")
+    }
+}
+
+/// A duration with its unit (s, ms, us, ns), three significant digits.
+fn seconds(h: f64) -> String {
+    let (v, unit) = if h >= 1.0 {
+        (h, "s")
+    } else if h >= 1e-3 {
+        (h * 1e3, "ms")
+    } else if h >= 1e-6 {
+        (h * 1e6, "us")
+    } else {
+        (h * 1e9, "ns")
+    };
+    format!("{} {unit}", sig(v))
 }
 
 /// The margins of a design that failed: per family, of its best attempt.

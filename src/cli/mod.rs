@@ -91,6 +91,15 @@ pub enum Command {
         /// sound design reports its noise bound either way.
         #[arg(long)]
         noise: Option<String>,
+        /// With alpha = max: return the smallest-gain design certified at
+        /// alpha >= (1 - WITHIN) x the certified supremum (a fraction, 0 to
+        /// 0.5; default 0.01; 0 returns the fastest point found).
+        #[arg(long, allow_negative_numbers = true)]
+        within: Option<f64>,
+        /// Bound every gain: ||L_l||_2 <= G at every vertex, imposed in the
+        /// SDP and checked by the certificate from the reported gains.
+        #[arg(long = "max-gain", allow_negative_numbers = true)]
+        max_gain: Option<f64>,
         /// Write the JSON report to this file (`-` for stdout).
         #[arg(long)]
         json: Option<String>,
@@ -231,6 +240,8 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             filter_pole,
             filter_gain,
             noise,
+            within,
+            max_gain,
             json,
         } => design::run(
             &file,
@@ -245,6 +256,8 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
                 filter_pole,
                 filter_gain,
                 noise: noise.as_deref(),
+                within,
+                max_gain,
             },
             json.as_deref(),
         ),

@@ -234,6 +234,14 @@ pub struct DesignRequest {
     pub output_route: OutputRoute,
     /// Whether the design minimises the noise bound σ (`noise = min`).
     pub noise: NoiseObjective,
+    /// `alpha = max(within = t)`: the design returned is the smallest-gain
+    /// one certified at α ≥ (1 − t)·α_sup, α_sup the certified supremum
+    /// (the last fraction of α is bought with large gains); 0 returns the
+    /// fastest point found, as before. Default [`DesignRequest::DEFAULT_WITHIN`].
+    pub within: f64,
+    /// `max_gain = G`: every ‖L_l‖₂ ≤ G, imposed in the SDP and checked by
+    /// the certificate from the reported gains. None: no bound.
+    pub max_gain: Option<f64>,
     /// The `design` block in the source, for errors about this request.
     pub span: Span,
 }
@@ -248,13 +256,22 @@ impl Default for DesignRequest {
             conditions: Conditions::Auto,
             output_route: OutputRoute::DoubleSum,
             noise: NoiseObjective::Free,
+            within: DesignRequest::DEFAULT_WITHIN,
+            max_gain: None,
             span: Span::default(),
         }
     }
 }
 
+impl DesignRequest {
+    /// The default tolerance of `alpha = max`: 1 % below the certified supremum.
+    pub const DEFAULT_WITHIN: f64 = 0.01;
+    /// The largest tolerance accepted (half the supremum).
+    pub const MAX_WITHIN: f64 = 0.5;
+}
+
 /// The keys of a `design { ... }` block.
-const DESIGN_KEYS: [&str; 7] = [
+const DESIGN_KEYS: [&str; 8] = [
     "alpha",
     "gamma",
     "mode",
@@ -262,6 +279,7 @@ const DESIGN_KEYS: [&str; 7] = [
     "conditions",
     "output_route",
     "noise",
+    "max_gain",
 ];
 
 impl Builder<'_> {
@@ -295,17 +313,32 @@ impl Builder<'_> {
                     ),
                 ));
             }
-            if let (Some((_, ospan)), false) = (&entry.options, key == "output_route") {
+            if let (Some((_, ospan)), false) =
+                (&entry.options, key == "output_route" || key == "alpha")
+            {
                 return Err(Diag::new(
                     *ospan,
                     format!(
-                        "`{key}` takes no options in parentheses (only `output_route = \
-                         filter(...)` does)"
+                        "`{key}` takes no options in parentheses (only `alpha = max(within = ..)` \
+                         and `output_route = filter(...)` do)"
                     ),
                 ));
             }
             match key {
-                "alpha" => req.alpha = self.alpha_value(&entry.value)?,
+                "alpha" => {
+                    req.alpha = self.alpha_value(&entry.value)?;
+                    if let Some((opts, ospan)) = &entry.options {
+                        if req.alpha != AlphaSpec::Max {
+                            return Err(Diag::new(
+                                *ospan,
+                                "only `alpha = max` takes options (`max(within = 0.01)`): a \
+                                 fixed alpha is designed as given",
+                            ));
+                        }
+                        req.within = self.within_option(opts)?;
+                    }
+                }
+                "max_gain" => req.max_gain = Some(self.max_gain_value(&entry.value)?),
                 "gamma" => req.gamma = self.gamma_value(&entry.value)?,
                 "mode" => req.mode = self.mode_value(&entry.value)?,
                 "split" => split = Some(self.split_value(&entry.value)?),
@@ -320,7 +353,7 @@ impl Builder<'_> {
                         entry.key.span,
                         format!(
                             "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
-                             `split`, `conditions`, `output_route` or `noise`{hint}"
+                             `split`, `conditions`, `output_route`, `noise` or `max_gain`{hint}"
                         ),
                     ));
                 }
@@ -384,7 +417,77 @@ impl Builder<'_> {
                 ));
             }
         }
+        if req.max_gain.is_some() {
+            let at = seen
+                .iter()
+                .find(|(k, _)| *k == "max_gain")
+                .map_or(block.span, |(_, s)| *s);
+            let clash = if req.noise == NoiseObjective::Min {
+                Some("`noise = min` (its SDP has no gain bound)")
+            } else if req.split == Split::SkewSlack {
+                Some("`split = skew_slack` (the slack search has no gain bound)")
+            } else if req.mode == Mode::Paper {
+                Some("`mode = paper` (the printed conditions certify nothing)")
+            } else {
+                None
+            };
+            if let Some(what) = clash {
+                return Err(Diag::new(
+                    at,
+                    format!("`max_gain` cannot be combined with {what}"),
+                ));
+            }
+        }
         Ok(req)
+    }
+
+    /// The options of `alpha = max(...)`: `within = t`, 0 ≤ t ≤ 0.5.
+    fn within_option(&self, options: &[ast::DesignEntry]) -> R<f64> {
+        let mut within = None;
+        for entry in options {
+            let key = entry.key.name.as_str();
+            if key != "within" {
+                let hint = suggest(key, ["within"])
+                    .map(|s| format!(" (did you mean `{s}`?)"))
+                    .unwrap_or_default();
+                return Err(Diag::new(
+                    entry.key.span,
+                    format!(
+                        "unknown option `{key}` of `alpha = max`: expected `within` (the \
+                         fraction of the certified supremum α may give up for smaller gains, \
+                         e.g. `within = 0.01`){hint}"
+                    ),
+                ));
+            }
+            if within.is_some() {
+                return Err(Diag::new(entry.key.span, "`within` is set twice"));
+            }
+            let t = self.constant(&entry.value, "the tolerance `within`")?;
+            if !(0.0..=DesignRequest::MAX_WITHIN).contains(&t) {
+                return Err(bad_value(
+                    entry.value.span,
+                    "within",
+                    "a fraction from 0 (the fastest point found) to 0.5, e.g. 0.01 for 1 %",
+                    &fmt_num(t),
+                ));
+            }
+            within = Some(t);
+        }
+        Ok(within.unwrap_or(DesignRequest::DEFAULT_WITHIN))
+    }
+
+    /// `max_gain = G`, G > 0 finite.
+    fn max_gain_value(&self, v: &Expr) -> R<f64> {
+        let g = self.constant(v, "the gain bound max_gain")?;
+        if !(g.is_finite() && g > 0.0) {
+            return Err(bad_value(
+                v.span,
+                "max_gain",
+                "a positive number (the bound on every ‖L_l‖₂)",
+                &fmt_num(g),
+            ));
+        }
+        Ok(g)
     }
 
     /// `noise = free | min`.

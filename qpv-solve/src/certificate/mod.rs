@@ -114,6 +114,19 @@ impl Certificate {
         }
     }
 
+    /// The certificate with the data check of `max_gain = G` (required):
+    /// max_l ‖L_l‖₂ ≤ G, computed from the gains `l` as given (see
+    /// [`gain_check`]); unchanged when `bound` is None.
+    pub fn with_gain_bound(mut self, l: &[DMatrix<f64>], bound: Option<f64>) -> Certificate {
+        if let Some(g) = bound {
+            let c = gain_check(l, g);
+            self.passed &= c.passed;
+            self.data_checks
+                .insert(Family::MaxGain.name().to_string(), c);
+        }
+        self
+    }
+
     /// Whether every condition family passed (ignoring data checks).
     pub fn families_passed(&self) -> bool {
         self.input_errors.is_empty() && self.families.iter().all(|f| f.passed)
@@ -121,6 +134,30 @@ impl Certificate {
 }
 
 const GUARD_C: f64 = 16.0 * f64::EPSILON;
+
+/// The data check of `max_gain = G`: max_l ‖L_l‖₂ (largest singular
+/// value, from the gains as given) ≤ G. A non-finite gain or bound fails.
+pub fn gain_check(l: &[DMatrix<f64>], bound: f64) -> DataCheck {
+    let value = l
+        .iter()
+        .map(|li| {
+            if li.iter().all(|v| v.is_finite()) {
+                li.clone().singular_values().max()
+            } else {
+                f64::INFINITY
+            }
+        })
+        .fold(0.0, f64::max);
+    let passed = bound.is_finite() && bound > 0.0 && value <= bound;
+    DataCheck {
+        value: finite(value),
+        bound: finite(bound),
+        margin: finite(bound - value),
+        passed,
+        required: true,
+        description: "max_gain: every ‖L_l‖₂ ≤ G (the design's gain bound)".into(),
+    }
+}
 
 /// JSON has no NaN/∞: NaN and −∞ become −f64::MAX, +∞ becomes f64::MAX.
 fn finite(v: f64) -> f64 {

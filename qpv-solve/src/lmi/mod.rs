@@ -137,6 +137,15 @@ pub enum Objective {
     /// exact in one step). t̂ < 0 at the optimum means no (P, Γ) satisfies
     /// the rate LMIs at this α.
     MaxMargin,
+    /// Minimise a bound κ on every ‖L_l‖₂: the problem is homogenised
+    /// (Charnes–Cooper: every right-hand side b becomes c·b with a new
+    /// scalar c ≥ 0, so a point (x, c) with c > 0 is a feasible x·c
+    /// scaled), normalised by P̂ ⪰ I, and ‖Γ̂_l‖₂ ≤ κ is the block
+    /// [κI, Γ̂_lᵀ; Γ̂_l, κI] ⪰ 0. Then ‖L_l‖₂ = ‖P⁻¹Γ_l‖₂ ≤
+    /// ‖Γ̂_l‖₂/λ_min(P̂) ≤ κ: the minimum over the design's feasible set of
+    /// max_l ‖Γ_l‖₂/λ_min(P), a convex surrogate of the largest gain
+    /// (docs/method.md, the practical α = max).
+    MinGain,
 }
 
 /// One assembled problem in Clarabel's standard form (the backend's [`Sdp`]).
@@ -159,7 +168,9 @@ pub struct SolveResult {
     pub p: Option<DMatrix<f64>>,
     /// Γ_l (model units).
     pub gammas: Vec<DMatrix<f64>>,
-    /// [`Objective::MaxMargin`]: the optimal normalised margin t̂ (NaN otherwise).
+    /// [`Objective::MaxMargin`]: the optimal normalised margin t̂;
+    /// [`Objective::MinGain`]: the optimal gain bound κ (the solver's, not
+    /// certified); NaN otherwise.
     pub margin: f64,
     /// The slacks of cube conditions (model units), with the point.
     pub cube: Option<crate::conditions::cube::CubeSlacks>,
@@ -191,6 +202,9 @@ pub struct Problem<'m> {
     gens: Vec<DVector<f64>>,
     /// Cube conditions: a bound on ‖R‖_F over the region, from the generators.
     cube_r_fro: f64,
+    /// `max_gain = G`: the bound imposed on every ‖L_l‖₂ (see
+    /// [`Problem::with_max_gain`]).
+    max_gain: Option<f64>,
 }
 
 impl<'m> Problem<'m> {
@@ -222,7 +236,23 @@ impl<'m> Problem<'m> {
             max_r_fro: OnceLock::new(),
             gens: Vec::new(),
             cube_r_fro: 0.0,
+            max_gain: None,
         })
+    }
+
+    /// The same problem with ‖L_l‖₂ ≤ G imposed at every θ-vertex (None:
+    /// no bound): a variable p̂ with P̂ − p̂I ⪰ 0 and
+    /// [G'p̂ I, Γ̂_lᵀ; Γ̂_l, G'p̂ I] ⪰ 0, G' = G(1 − 10⁻⁴) (room for the
+    /// solver's tolerance), so that ‖L_l‖₂ ≤ ‖Γ̂_l‖₂/λ_min(P̂) ≤ G' —
+    /// linear, and exact up to the surrogate's ‖P⁻¹Γ‖ ≤ ‖Γ‖/λ_min(P).
+    pub fn with_max_gain(mut self, max_gain: Option<f64>) -> Self {
+        self.max_gain = max_gain.filter(|g| g.is_finite() && *g > 0.0);
+        self
+    }
+
+    /// The gain bound imposed, if any.
+    pub fn max_gain(&self) -> Option<f64> {
+        self.max_gain
     }
 
     /// The vertex-pair terms, computed on first use.
@@ -299,6 +329,11 @@ impl<'m> Problem<'m> {
     /// Number of decision variables (P̂, Γ̂_l and, for decoupled conditions,
     /// Ẑ_l, for cube ones Ŷ_{c,k}, X̂_{c,k} and D; the margin variable of [`Objective::MaxMargin`] comes after them).
     pub fn n_vars(&self) -> usize {
+        self.gains_end() + self.n_slack_vars() + usize::from(self.max_gain.is_some())
+    }
+
+    /// The variable p̂ ≤ λ_min(P̂) of the gain bound (after the slacks).
+    fn gain_bound_var(&self) -> usize {
         self.gains_end() + self.n_slack_vars()
     }
 
@@ -551,7 +586,10 @@ impl<'m> Problem<'m> {
         metric: Option<&DMatrix<f64>>,
     ) -> Assembled {
         let max_margin = objective == Objective::MaxMargin;
-        let n = self.n_vars() + usize::from(max_margin);
+        let min_gain = objective == Objective::MinGain;
+        // Extra variables after the problem's: t̂ (max margin), or c and κ
+        // (min gain).
+        let n = self.n_vars() + usize::from(max_margin) + 2 * usize::from(min_gain);
         let tvar = self.n_vars();
         let kappa = self.rate_scale(alpha, gamma);
         let eps = settings.margin_rel;
@@ -583,6 +621,12 @@ impl<'m> Problem<'m> {
             Conditions::Decoupled => self.push_rate_decoupled(&mut out, alpha, gamma, &rate),
             Conditions::Cube => self.push_rate_cube(&mut out, alpha, gamma, &rate),
         }
+        if let Some(g) = self.max_gain {
+            self.push_gain_bound(&mut out, g);
+        }
+        if min_gain {
+            self.homogenise_for_min_gain(&mut out);
+        }
         if max_margin {
             // t̂ ≤ 1.
             let row = out.b.len();
@@ -594,6 +638,64 @@ impl<'m> Problem<'m> {
         let a = cols.into_csc(b.len());
         let (p, q) = self.objective(n, settings, objective);
         Assembled { p, q, a, b, cones }
+    }
+
+    /// `max_gain = G`: P̂ − p̂I ⪰ 0, then [G'p̂ I_ny, Γ̂_lᵀ; Γ̂_l, G'p̂ I_nx] ⪰ 0
+    /// per θ-vertex (see [`Problem::with_max_gain`]).
+    fn push_gain_bound(&self, out: &mut Rows, g: f64) {
+        let nx = self.nx;
+        let pvar = self.gain_bound_var();
+        // P̂ − p̂ I ⪰ 0.
+        let row0 = out.open(tri(nx), 0.0);
+        self.push_sym_var(&mut out.cols, row0, 0, -1.0);
+        for d in 0..nx {
+            out.cols.push(row0 + tri_idx(d, d), pvar, 1.0);
+        }
+        out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+        let g = g * (1.0 - 1e-4);
+        for l in 0..self.nv {
+            self.push_gain_block(out, l, pvar, g);
+        }
+    }
+
+    /// [w·v I_ny, Γ̂_lᵀ; Γ̂_l, w·v I_nx] ⪰ 0 for the scalar variable v:
+    /// s = −A x with A holding −w on the diagonal (column v) and −√2 at
+    /// the Γ̂_l entries (row ny + r, column c < ny: packed at (c, ny + r)).
+    fn push_gain_block(&self, out: &mut Rows, l: usize, v: usize, w: f64) {
+        let (nx, ny) = (self.nx, self.ny);
+        let d = nx + ny;
+        let row0 = out.open(tri(d), 0.0);
+        for k in 0..d {
+            out.cols.push(row0 + tri_idx(k, k), v, -w);
+        }
+        for r in 0..nx {
+            for c in 0..ny {
+                out.cols
+                    .push(row0 + tri_idx(c, ny + r), self.gvar(l, r, c), -SQRT2);
+            }
+        }
+        out.cones.push(SupportedConeT::PSDTriangleConeT(d));
+    }
+
+    /// [`Objective::MinGain`]: every row so far becomes homogeneous (its
+    /// right-hand side b moves into the column of c: A x − c b + s = 0),
+    /// then c ≥ 0, P̂ − I ⪰ 0 and the blocks ‖Γ̂_l‖₂ ≤ κ.
+    fn homogenise_for_min_gain(&self, out: &mut Rows) {
+        let (cvar, kvar) = (self.n_vars(), self.n_vars() + 1);
+        for (r, b) in out.b.iter_mut().enumerate() {
+            out.cols.push(r, cvar, -*b);
+            *b = 0.0;
+        }
+        // c ≥ 0 (s = c).
+        let row = out.b.len();
+        out.b.push(0.0);
+        out.cols.push(row, cvar, -1.0);
+        out.cones.push(SupportedConeT::NonnegativeConeT(1));
+        // P̂ − I ⪰ 0.
+        self.push_s1(out, 1.0);
+        for l in 0..self.nv {
+            self.push_gain_block(out, l, kvar, 1.0);
+        }
     }
 
     /// svec(W)·κ, the coefficients of the max-margin column t̂ in a rate
@@ -814,8 +916,10 @@ impl<'m> Problem<'m> {
             CscMatrix::zeros((n, n))
         };
         let mut q = vec![0.0; n];
-        if objective == Objective::MaxMargin {
-            q[self.n_vars()] = -1.0;
+        match objective {
+            Objective::MaxMargin => q[self.n_vars()] = -1.0,
+            Objective::MinGain => q[self.n_vars() + 1] = 1.0,
+            Objective::Feasibility | Objective::Gains => {}
         }
         (p, q)
     }
@@ -929,7 +1033,19 @@ impl<'m> Problem<'m> {
             cs.tol_gap_rel = cs.tol_gap_rel.max(settings.search_tol);
             cs.tol_feas = cs.tol_feas.max(settings.search_tol);
         }
-        let run = run_sdp(prob, cs)?;
+        let mut run = run_sdp(prob, cs)?;
+        let mut margin = f64::NAN;
+        if objective == Objective::MinGain {
+            // Divide the homogenised point by c (no point without c > 0).
+            let nv = self.n_vars();
+            run.x = run.x.take().and_then(|x| {
+                let c = x[nv];
+                (c.is_finite() && c > 0.0).then(|| {
+                    margin = x[nv + 1];
+                    x[..nv].iter().map(|v| v / c).collect()
+                })
+            });
+        }
         let (p, gammas, cube) = match &run.x {
             Some(x) => {
                 let (p, g) = self.unpack(x);
@@ -937,10 +1053,9 @@ impl<'m> Problem<'m> {
             }
             None => (None, Vec::new(), None),
         };
-        let margin = match &run.x {
-            Some(x) if objective == Objective::MaxMargin => x[self.n_vars()],
-            _ => f64::NAN,
-        };
+        if let Some(x) = run.x.as_ref().filter(|_| objective == Objective::MaxMargin) {
+            margin = x[self.n_vars()];
+        }
         Ok(SolveResult {
             status: run.status,
             detail: run.detail,

@@ -101,8 +101,11 @@ impl Setup {
     /// decoupled: N·2p blocks with a slack Z_l per θ-vertex (sufficient).
     /// The certificate checks the full family either way.
     pub fn problem(&self, request: &DesignRequest) -> Result<Problem<'_>, SolveError> {
-        Problem::new(&self.model, ConditionSet::from_mode(request.mode))?
-            .with_conditions(request.conditions)
+        Ok(
+            Problem::new(&self.model, ConditionSet::from_mode(request.mode))?
+                .with_conditions(request.conditions)?
+                .with_max_gain(request.max_gain),
+        )
     }
 
     /// The notes that follow from the setup alone: the size warning, the
@@ -173,6 +176,12 @@ struct Target {
     searched: Option<Point>,
     /// What a γ search searched.
     gamma_search: Option<GammaSearchInfo>,
+    /// The practical α = max's design, final as it is (no regularised
+    /// solve after it: that would trade its smallest gain for another
+    /// objective's).
+    ready: Option<Point>,
+    /// How the practical α = max chose it.
+    practical: Option<crate::report::Practical>,
 }
 
 /// The outcome of the final solve.
@@ -202,18 +211,29 @@ impl Ctx<'_, '_> {
                 gamma: g,
                 searched: None,
                 gamma_search: None,
+                ready: None,
+                practical: None,
             },
             (AlphaSpec::Max, GammaSpec::Fixed(g)) => {
                 let pt = self.alpha_max(g, None, tol, Phase::Bisect)?;
-                Target {
+                let trace = pt
+                    .as_ref()
+                    .map(|p| super::practical::Trace::at_fixed_gamma(p.gamma, p.alpha));
+                let mut t = Target {
                     alpha: pt.as_ref().map(|p| p.alpha),
                     gamma: g,
                     searched: pt,
                     gamma_search: None,
+                    ready: None,
+                    practical: None,
+                };
+                if let Some(trace) = trace {
+                    self.make_practical(request, &mut t, &trace, notes)?;
                 }
+                t
             }
             (alpha, GammaSpec::Search) => {
-                let (pt, info) = self.gamma_search(gamma_hi)?;
+                let (pt, info, trace) = self.gamma_search(gamma_hi)?;
                 notes.push(info.statement());
                 let g = pt.as_ref().map(|p| p.gamma).unwrap_or(gamma_hi);
                 let (alpha, searched) = match alpha {
@@ -229,14 +249,47 @@ impl Ctx<'_, '_> {
                         (Some(a), pt.filter(|p| p.alpha >= a))
                     }
                 };
-                Target {
+                let mut t = Target {
                     alpha,
                     gamma: g,
                     searched,
                     gamma_search: Some(info),
+                    ready: None,
+                    practical: None,
+                };
+                if request.alpha == AlphaSpec::Max {
+                    self.make_practical(request, &mut t, &trace, notes)?;
                 }
+                t
             }
         })
+    }
+
+    /// The practical α = max ([`super::practical`]) below the searched
+    /// fastest point, in sound mode with `within` > 0: the target becomes
+    /// its smallest-gain design, final as it is.
+    fn make_practical(
+        &mut self,
+        request: &DesignRequest,
+        t: &mut Target,
+        trace: &super::practical::Trace,
+        notes: &mut Vec<String>,
+    ) -> Result<(), SolveError> {
+        let Some(sup) = t.searched.clone() else {
+            return Ok(());
+        };
+        if request.mode != Mode::Sound || request.within <= 0.0 {
+            return Ok(());
+        }
+        let out = self.practical(&sup, request.within, trace)?;
+        notes.extend(out.notes);
+        t.practical = Some(out.info);
+        if let Some(p) = out.point {
+            t.alpha = Some(p.alpha);
+            t.gamma = p.gamma;
+            t.ready = Some(p);
+        }
+        Ok(())
     }
 
     /// The final solve at the target, with the gain regularisation; if it
@@ -266,6 +319,14 @@ impl Ctx<'_, '_> {
                 solver,
             });
         };
+        if let Some(p) = t.ready {
+            return Ok(Final {
+                status: p.solver.status,
+                solver: p.solver.clone(),
+                chosen: Some(p),
+                last: None,
+            });
+        }
         let at = self.attempt(
             Candidate::new(a, t.gamma),
             Objective::Gains,
@@ -400,6 +461,49 @@ fn data_notes(
     }
 }
 
+/// Why a `max_gain = G` request certified nothing: the smallest gain the
+/// same conditions certify at the smallest α (one min-gain solve without
+/// the bound, at γ), or that none certifies even there.
+fn gain_bound_failure(
+    setup: &Setup,
+    request: &DesignRequest,
+    settings: &Settings,
+    bound: f64,
+    gamma: f64,
+) -> Result<String, SolveError> {
+    let free = DesignRequest {
+        max_gain: None,
+        ..request.clone()
+    };
+    let mut quiet = |_: &SearchStep| {};
+    let mut ctx = Ctx {
+        model: &setup.model,
+        mode: request.mode,
+        settings,
+        prob: setup.problem(&free)?,
+        steps: Vec::new(),
+        progress: &mut quiet,
+        lean: false,
+        max_gain: None,
+    };
+    let a = settings.alpha_floor;
+    let at = ctx.attempt(
+        Candidate::new(a, gamma),
+        Objective::MinGain,
+        None,
+        Phase::Diagnose,
+    )?;
+    Ok(match at.point.filter(|_| at.certified) {
+        Some(p) => format!(
+            "max_gain = {bound} is not reachable: the smallest gain certified without the bound at α = {a}, γ = {gamma:.6} is max ‖L_l‖₂ = {:.4e} (a design with that gain exists; raise max_gain to at least it)",
+            super::practical::max_gain(&p)
+        ),
+        None => format!(
+            "max_gain = {bound}: no design certifies at α = {a}, γ = {gamma:.6} even without the bound"
+        ),
+    })
+}
+
 /// The human summary: the verdict line, then every note.
 fn summary(
     mode: Mode,
@@ -473,10 +577,12 @@ pub(super) fn design_plain(
         steps: Vec::new(),
         progress,
         lean: false,
+        max_gain: request.max_gain,
     };
     let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
     let (alpha_t, gamma_t) = (target.alpha, target.gamma);
     let gamma_search = target.gamma_search.clone();
+    let practical = target.practical.clone();
     let fin = ctx.final_solve(target, &mut notes)?;
 
     let feasible = fin.chosen.is_some();
@@ -511,6 +617,9 @@ pub(super) fn design_plain(
             {
                 margins = p.cert.margins();
             }
+        }
+        if let Some(g) = request.max_gain {
+            notes.push(gain_bound_failure(&setup, request, settings, g, gamma_r)?);
         }
         Some(crate::diagnosis::diagnose(
             model,
@@ -569,6 +678,8 @@ pub(super) fn design_plain(
         skew: None,
         diagnosis,
         noise: None,
+        max_gain: request.max_gain,
+        practical,
         sampling: None,
         gamma_search,
         cube: shown
@@ -619,6 +730,7 @@ pub fn alpha_profile(
         steps: Vec::new(),
         progress: &mut quiet,
         lean: false,
+        max_gain: req.max_gain,
     };
     let mut prev: Option<Point> = None;
     let mut out = Vec::with_capacity(gammas.len());

@@ -105,6 +105,12 @@ pub struct GammaOutcome {
     pub alpha: f64,
     /// The searched range, point counts and local maxima.
     pub info: GammaSearchInfo,
+    /// The walk below a cliff (step 4): the best point before it, then
+    /// every point it took, in order (empty when there was no walk).
+    pub walk: Vec<(f64, f64)>,
+    /// The walk ended with α still rising (by its evaluation or step
+    /// limit, not because α fell): the supremum lies at smaller γ still.
+    pub still_rising: bool,
 }
 
 /// Evaluated points (γ, α), kept sorted by γ.
@@ -195,7 +201,8 @@ pub fn maximise<E>(
         });
     }
     let before = samples.best();
-    let continued = continue_down(&mut samples, &mut |x, s| value(x, Phase::Continue, s))?;
+    let (continued, walk, still_rising) =
+        continue_down(&mut samples, &mut |x, s| value(x, Phase::Continue, s))?;
     let (gamma, alpha) = samples.best();
     if continued > 0 && alpha > before.1 {
         // The walk moved the best local maximum: report where it ended (the
@@ -220,39 +227,51 @@ pub fn maximise<E>(
             local_maxima: local,
             continued,
         },
+        walk,
+        still_rising,
     })
 }
+
+/// The walk's evaluations, path and whether α was still rising at its end.
+type Walk = (usize, Vec<(f64, f64)>, bool);
 
 /// Step 4 of the search (module doc): from the best point, while the point
 /// evaluated just below it certified nothing (or there is none), walks down
 /// in ln γ. Returns the number of evaluations made (0 when the best point
-/// is not at a cliff, or nothing certified anywhere).
+/// is not at a cliff, or nothing certified anywhere), the walk's path (its
+/// start, then every point taken) and whether it ended with α still
+/// rising (not because α fell below a point).
 fn continue_down<E>(
     samples: &mut Samples,
     value: &mut dyn FnMut(f64, &mut Samples) -> Result<f64, E>,
-) -> Result<usize, E> {
+) -> Result<Walk, E> {
     let (mut g, mut a) = samples.best();
     let below = samples.0.iter().rev().find(|&&(x, _)| x < g).map(|p| p.1);
     if a <= 0.0 || below.is_some_and(|b| b > 0.0) {
-        return Ok(0);
+        return Ok((0, Vec::new(), false));
     }
+    let mut path = vec![(g, a)];
     let mut rho = CONTINUATION_STEP;
     let mut evals = 0;
+    let mut rising = true;
     while evals < MAX_CONTINUATION && rho < 1.0 - REFINE_GAIN {
         let x = g * rho;
         let ax = value(x, samples)?;
         evals += 1;
         if ax > a {
             (g, a) = (x, ax);
+            path.push((g, a));
             // A longer step next, as long as steps certify.
             rho = rho.powf(1.25);
         } else if ax > 0.0 {
+            rising = false;
             break; // α falls again below x: the peak lies behind.
         } else {
             rho = rho.sqrt();
         }
     }
-    Ok(evals)
+    let rising = rising && path.len() > 1;
+    Ok((evals, path, rising))
 }
 
 /// Golden-section steps in ln γ from the bracket lo ≤ mid ≤ hi (mid the

@@ -51,6 +51,7 @@
 
 mod driver;
 pub mod gamma;
+mod practical;
 pub mod skew;
 
 use driver::design_plain;
@@ -142,6 +143,9 @@ struct Ctx<'a, 'm> {
     /// solved negative optimum is not); the final α search at the best γ
     /// keeps the retry.
     lean: bool,
+    /// `max_gain = G`: the certificate's required data check on every
+    /// ‖L_l‖₂ (the problem imposes it too).
+    max_gain: Option<f64>,
 }
 
 impl Ctx<'_, '_> {
@@ -161,6 +165,7 @@ impl Ctx<'_, '_> {
         cube: Option<&CubeSlacks>,
     ) -> Certificate {
         check_with(self.model, self.mode, alpha, gamma, p, l, cube)
+            .with_gain_bound(l, self.max_gain)
     }
 
     /// The largest α at which the point's (P, Γ_l, L_l) certify at `gamma`
@@ -474,7 +479,7 @@ impl Ctx<'_, '_> {
     fn gamma_search(
         &mut self,
         gamma_hi: f64,
-    ) -> Result<(Option<Point>, GammaSearchInfo), SolveError> {
+    ) -> Result<(Option<Point>, GammaSearchInfo, practical::Trace), SolveError> {
         let tol = self.settings.bisection_rel_tol;
         let coarse = (10.0 * tol).min(0.05);
         let plan = gamma::GammaPlan::from_settings(gamma_hi, self.settings);
@@ -493,6 +498,13 @@ impl Ctx<'_, '_> {
         });
         self.lean = false;
         let out = out?;
+        let mut samples: Vec<(f64, f64)> = found.iter().map(|p| (p.gamma, p.alpha)).collect();
+        samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let trace = practical::Trace {
+            samples,
+            walk: out.walk.clone(),
+            still_rising: out.still_rising,
+        };
         let mut info = out.info;
         let best = found
             .iter()
@@ -511,7 +523,7 @@ impl Ctx<'_, '_> {
             }
         };
         info.solves = self.steps.len() - solves_before;
-        Ok((result, info))
+        Ok((result, info, trace))
     }
 }
 
@@ -535,12 +547,21 @@ fn design_skew(
                 .into(),
         ));
     }
+    // The alternation maximises α from the fastest symmetric point: the
+    // practical tolerance does not apply to it (noted).
     let sym = DesignRequest {
         split: Split::Symmetric,
+        within: 0.0,
         ..request.clone()
     };
     let mut d = design_plain(model, &sym, settings, progress)?;
     d.split = Split::SkewSlack;
+    if request.alpha == AlphaSpec::Max && request.within > 0.0 {
+        d.notes.push(format!(
+            "split = skew_slack maximises α: `within = {}` (the practical α = max) is not applied to it",
+            request.within
+        ));
+    }
     if !d.certifies {
         d.notes.push(
             "split = skew_slack: the symmetric design did not certify, so no slack was searched"

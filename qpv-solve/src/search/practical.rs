@@ -1,0 +1,277 @@
+//! The practical `alpha = max` (docs/method.md, "The practical α = max"):
+//! the α search finds the certified supremum α_sup; the design returned is
+//! the one of smallest gain certified at α_t = (1 − within)·α_sup, since the
+//! last fraction of α is often bought with gains 10⁴ times larger.
+//!
+//! * Gain objective: [`Objective::MinGain`] minimises κ with
+//!   ‖L_l‖₂ ≤ ‖Γ_l‖₂/λ_min(P) ≤ κ (a convex surrogate of max_l ‖L_l‖₂),
+//!   at α_t, at every γ where the α search certified α ≥ α_t (at most
+//!   [`MAX_CANDIDATES`] of them), then [`REFINE`] golden-section steps in
+//!   ln γ between the best one's neighbours. Every point is certified like
+//!   any other; the gain reported is the reported L's, not κ. At the best
+//!   γ and at the supremum's, the default regularised objective is solved
+//!   too, and the smallest actual gain kept (the surrogate bounds the gain;
+//!   it is not the gain).
+//! * High gain: when the γ search's walk below a cliff ended with α still
+//!   rising (the supremum lies at γ → 0) and the design at α_t has more
+//!   than [`KNEE_FACTOR`] times the smallest gain at the walk's start, the
+//!   supremum is approached only as ‖L‖ → ∞. The design returned is then
+//!   the *knee*: the fastest walk point whose smallest-gain design at
+//!   (1 − within)·α has at most [`KNEE_FACTOR`] times the gain at the
+//!   walk's start (bisection over the walk's points, gains growing along it).
+
+use super::{Ctx, Point};
+use crate::error::SolveError;
+use crate::lmi::Objective;
+use crate::report::Practical;
+use crate::vocab::{Candidate, Phase};
+
+/// Most γ values at which the smallest-gain design is solved before the
+/// refinement.
+pub const MAX_CANDIDATES: usize = 10;
+/// Golden-section steps in ln γ around the best candidate.
+pub const REFINE: usize = 3;
+/// The knee: the fastest point of the walk whose gain is within this factor
+/// of the gain at the walk's start (and the high-gain test's threshold).
+pub const KNEE_FACTOR: f64 = 10.0;
+
+/// What the α search saw, for the practical design: every certified
+/// (γ, α) it found, sorted by γ, and its walk below a cliff.
+pub(super) struct Trace {
+    /// Certified (γ, α) pairs, ascending in γ.
+    pub samples: Vec<(f64, f64)>,
+    /// The walk's start and the points it took ([`super::gamma::GammaOutcome::walk`]).
+    pub walk: Vec<(f64, f64)>,
+    /// The walk ended with α still rising.
+    pub still_rising: bool,
+}
+
+impl Trace {
+    /// The trace of an α search at one fixed γ.
+    pub fn at_fixed_gamma(gamma: f64, alpha: f64) -> Trace {
+        Trace {
+            samples: vec![(gamma, alpha)],
+            walk: Vec::new(),
+            still_rising: false,
+        }
+    }
+}
+
+/// The practical design: its point (None if no smallest-gain design
+/// certified, then the fastest point stands), what the report says about
+/// it, and the notes.
+pub(super) struct Outcome {
+    pub point: Option<Point>,
+    pub info: Practical,
+    pub notes: Vec<String>,
+}
+
+/// max_l ‖L_l‖₂ of a point.
+pub(super) fn max_gain(p: &Point) -> f64 {
+    p.l.iter()
+        .map(|l| l.clone().singular_values().max())
+        .fold(0.0, f64::max)
+}
+
+impl Ctx<'_, '_> {
+    /// The certified smallest-gain design at (α, γ), if any.
+    fn min_gain_at(&mut self, alpha: f64, gamma: f64) -> Result<Option<Point>, SolveError> {
+        let at = self.attempt(
+            Candidate::new(alpha, gamma),
+            Objective::MinGain,
+            None,
+            Phase::Practical,
+        )?;
+        Ok(if at.certified { at.point } else { None })
+    }
+
+    /// The practical design below the fastest certified point `sup` (module
+    /// doc), from what the α search saw.
+    pub(super) fn practical(
+        &mut self,
+        sup: &Point,
+        within: f64,
+        trace: &Trace,
+    ) -> Result<Outcome, SolveError> {
+        let n0 = self.steps.len();
+        let a_t = (1.0 - within) * sup.alpha;
+        let gain_sup = max_gain(sup);
+        let cands = candidates(trace, sup.gamma, a_t);
+        let mut best: Option<(Point, f64)> = None;
+        let mut tried: Vec<(f64, f64)> = Vec::new();
+        for &g in &cands {
+            let gain = self.try_gamma(a_t, g, &mut best)?;
+            tried.push((g, gain));
+        }
+        // Golden-section steps in ln γ inside the bracket of the best
+        // candidate's neighbours (a side without a neighbour is not probed).
+        if let Some(k) = best
+            .as_ref()
+            .and_then(|(b, _)| cands.iter().position(|&g| g == b.gamma))
+        {
+            let (mut a, mut m, mut c) = (
+                cands[k.saturating_sub(1)].ln(),
+                cands[k].ln(),
+                cands[(k + 1).min(cands.len() - 1)].ln(),
+            );
+            let mut fm = tried[k].1;
+            const W: f64 = 0.381_966_011_250_105_1;
+            for _ in 0..REFINE {
+                if c - a < 1e-3 {
+                    break;
+                }
+                let right = c - m >= m - a;
+                let x = if right {
+                    m + W * (c - m)
+                } else {
+                    m - W * (m - a)
+                };
+                let fx = self.try_gamma(a_t, x.exp(), &mut best)?;
+                if fx < fm {
+                    if right {
+                        a = m;
+                    } else {
+                        c = m;
+                    }
+                    (m, fm) = (x, fx);
+                } else if right {
+                    c = x;
+                } else {
+                    a = x;
+                }
+            }
+        }
+        // The surrogate bounds the gain, it is not the gain: the default
+        // regularised objective (½ w Σ‖Γ̂_l‖²) at the same point sometimes
+        // does better (and solves where the homogenised problem's scaling
+        // fails): the smaller actual gain is kept.
+        let g_best = best.as_ref().map_or(sup.gamma, |(b, _)| b.gamma);
+        let mut at_gammas = vec![g_best];
+        if sup.gamma != g_best {
+            at_gammas.push(sup.gamma);
+        }
+        for g in at_gammas {
+            let at = self.attempt(
+                Candidate::new(a_t, g),
+                Objective::Gains,
+                None,
+                Phase::Practical,
+            )?;
+            if let Some(p) = at.point.filter(|_| at.certified) {
+                let gain = max_gain(&p);
+                if best.as_ref().map_or(true, |(_, bg)| gain < *bg) {
+                    best = Some((p, gain));
+                }
+            }
+        }
+        let mut notes = Vec::new();
+        let mut high_gain = false;
+        if let (true, Some((b, gb)), Some(&(g0, a0))) =
+            (trace.still_rising, best.as_ref(), trace.walk.first())
+        {
+            let reference = self.min_gain_at((1.0 - within) * a0, g0)?;
+            if let Some(r) = reference.filter(|r| *gb > KNEE_FACTOR * max_gain(r)) {
+                let g_ref = max_gain(&r);
+                let (b_gain, b_alpha) = (*gb, b.alpha);
+                // Bisection over the walk: index lo is within the factor
+                // (its design known), index hi is not.
+                let (mut lo, mut hi) = (0usize, trace.walk.len() - 1);
+                let mut knee = r;
+                while hi - lo > 1 {
+                    let mid = (lo + hi) / 2;
+                    let (g, a) = trace.walk[mid];
+                    match self.min_gain_at((1.0 - within) * a, g)? {
+                        Some(p) if max_gain(&p) <= KNEE_FACTOR * g_ref => {
+                            lo = mid;
+                            knee = p;
+                        }
+                        _ => hi = mid,
+                    }
+                }
+                high_gain = true;
+                notes.push(format!(
+                    "high gain: the certified α still rises at the smallest γ searched while the gains grow (max ‖L_l‖₂ = {b_gain:.4e} at α = {b_alpha:.6}, against {g_ref:.4e} at α = {:.6}, where the walk to small γ started): the supremum is approached only as ‖L‖ → ∞, so the design returned is the knee of the α–gain curve (the fastest point of the walk whose smallest gain is within {KNEE_FACTOR}× that at its start); `max_gain = G` or a sample period sets the real limit",
+                    (1.0 - within) * a0
+                ));
+                let kg = max_gain(&knee);
+                best = Some((knee, kg));
+            }
+        }
+        let solves = self.steps.len() - n0;
+        match &best {
+            Some((p, g)) => notes.insert(
+                0,
+                format!(
+                    "alpha = max(within = {within}): α = {:.6} is {:.1} % of the certified supremum α_sup = {:.6} (γ = {:.6}, max ‖L_l‖₂ = {gain_sup:.4e}); the smallest-gain design there has max ‖L_l‖₂ = {g:.4e} at γ = {:.6} ({solves} solves minimising κ with P ⪰ λ I, ‖Γ_l‖₂ ≤ κλ over {} values of γ)",
+                    p.alpha,
+                    100.0 * p.alpha / sup.alpha,
+                    sup.alpha,
+                    sup.gamma,
+                    p.gamma,
+                    tried.len()
+                ),
+            ),
+            None => notes.push(format!(
+                "alpha = max(within = {within}): no smallest-gain design certified at α = {a_t:.6} ({solves} solves); the fastest certified point is reported"
+            )),
+        }
+        Ok(Outcome {
+            point: best.map(|(p, _)| p),
+            info: Practical {
+                alpha_sup: sup.alpha,
+                gamma_sup: sup.gamma,
+                gain_sup,
+                within,
+                high_gain,
+                solves,
+            },
+            notes,
+        })
+    }
+
+    /// The smallest-gain design at (α, γ): its gain (∞ if it did not
+    /// certify), kept in `best` if smaller.
+    fn try_gamma(
+        &mut self,
+        alpha: f64,
+        gamma: f64,
+        best: &mut Option<(Point, f64)>,
+    ) -> Result<f64, SolveError> {
+        Ok(match self.min_gain_at(alpha, gamma)? {
+            Some(p) => {
+                let g = max_gain(&p);
+                if best.as_ref().map_or(true, |(_, bg)| g < *bg) {
+                    *best = Some((p, g));
+                }
+                g
+            }
+            None => f64::INFINITY,
+        })
+    }
+}
+
+/// The γ values to solve at: every γ where the search certified α ≥ α_t
+/// and the supremum's γ, ascending, thinned evenly to [`MAX_CANDIDATES`]
+/// (keeping both ends and the supremum's γ).
+fn candidates(trace: &Trace, gamma_sup: f64, alpha_t: f64) -> Vec<f64> {
+    let mut c: Vec<f64> = trace
+        .samples
+        .iter()
+        .filter(|s| s.1 >= alpha_t)
+        .map(|s| s.0)
+        .chain([gamma_sup])
+        .collect();
+    c.sort_by(f64::total_cmp);
+    c.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * b.abs());
+    if c.len() > MAX_CANDIDATES {
+        let k = c.len();
+        let mut keep: Vec<f64> = (0..MAX_CANDIDATES - 1)
+            .map(|i| c[i * (k - 1) / (MAX_CANDIDATES - 2)])
+            .chain([gamma_sup])
+            .collect();
+        keep.sort_by(f64::total_cmp);
+        keep.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * b.abs());
+        c = keep;
+    }
+    c
+}
