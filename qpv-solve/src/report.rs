@@ -240,6 +240,10 @@ pub struct Practical {
     pub high_gain: bool,
     /// Solves spent on the smallest-gain designs (after the α search).
     pub solves: usize,
+    /// `alpha_sup` is the search's cap (`Settings::alpha_cap`), not a
+    /// supremum: a larger α may certify.
+    #[serde(default)]
+    pub capped: bool,
 }
 
 /// A local maximum of α(γ) over the γ search's grid: where it is, its

@@ -44,6 +44,9 @@ struct Gains {
     /// `split = skew_slack`: the skew-symmetric slack K_{k,l} the gains were
     /// certified with (a design report carries it).
     skew: Option<Vec<Vec<Vec<Vec<f64>>>>>,
+    /// `max_gain = G`: the bound on every ‖L_l‖₂ the design claims, checked
+    /// from `L` (a required data check).
+    max_gain: Option<f64>,
 }
 
 /// The part of a design report's `state_bound` entry `qpv check` uses.
@@ -285,7 +288,9 @@ pub fn run(
     let p = rows_to_matrix(&g.p);
     let l: Vec<_> = g.l.iter().map(|r| rows_to_matrix(r)).collect();
     let cert = match observer_model(&model, split, &g, gains)? {
-        Ok(poly) => qpv_solve::check(&poly, mode, alpha, gamma, &p, &l),
+        Ok(poly) => {
+            qpv_solve::check(&poly, mode, alpha, gamma, &p, &l).with_gain_bound(&l, g.max_gain)
+        }
         Err(reason) => Certificate::refused(mode, alpha, gamma, reason),
     };
     let code = match (cert.passed, mode) {

@@ -131,6 +131,8 @@ pub struct Flags<'a> {
     pub within: Option<f64>,
     /// `--max-gain`: the bound on every ‖L_l‖₂.
     pub max_gain: Option<f64>,
+    /// `--alpha-cap`: the largest α the search tries.
+    pub alpha_cap: Option<f64>,
 }
 
 /// Parses `--noise`: whether the design minimises the certified noise gain.
@@ -435,9 +437,14 @@ fn practical_line(d: &Design) -> String {
     let gain = d.gain_norms.iter().copied().fold(0.0, f64::max);
     let alpha = match &d.practical {
         Some(p) => format!(
-            "alpha = {} ({:.1} % of the certified supremum {}{})",
+            "alpha = {} ({:.1} % of {} {}{})",
             sig(d.alpha),
             100.0 * d.alpha / p.alpha_sup,
+            if p.capped {
+                "the search's cap"
+            } else {
+                "the certified supremum"
+            },
             sig(p.alpha_sup),
             if p.high_gain {
                 "; high gain near it: the knee is returned"
@@ -690,7 +697,15 @@ pub fn run(
     let plan = requests(&model, flags)?;
     let noise_min = parse_noise(flags.noise)?;
     let poly = model.polytopic();
-    let settings = qpv_solve::Settings::default();
+    let mut settings = qpv_solve::Settings::default();
+    if let Some(cap) = flags.alpha_cap {
+        if !(cap.is_finite() && cap > 0.0) {
+            return Err(CliError::Input(format!(
+                "--alpha-cap {cap}: expected a positive number (the largest alpha the search tries)"
+            )));
+        }
+        settings.alpha_cap = cap;
+    }
     let mut designs = Vec::new();
     let mut skipped = Vec::new();
     let mut failures = Vec::new();

@@ -100,6 +100,10 @@ pub enum Command {
         /// SDP and checked by the certificate from the reported gains.
         #[arg(long = "max-gain", allow_negative_numbers = true)]
         max_gain: Option<f64>,
+        /// The largest alpha the search tries (default 1e6): a design that
+        /// reaches it says so.
+        #[arg(long = "alpha-cap", allow_negative_numbers = true)]
+        alpha_cap: Option<f64>,
         /// Write the JSON report to this file (`-` for stdout).
         #[arg(long)]
         json: Option<String>,
@@ -242,6 +246,7 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             noise,
             within,
             max_gain,
+            alpha_cap,
             json,
         } => design::run(
             &file,
@@ -258,6 +263,7 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
                 noise: noise.as_deref(),
                 within,
                 max_gain,
+                alpha_cap,
             },
             json.as_deref(),
         ),

@@ -278,6 +278,12 @@ impl Ctx<'_, '_> {
         let Some(sup) = t.searched.clone() else {
             return Ok(());
         };
+        let cap = self.settings.alpha_cap;
+        if sup.alpha >= cap * (1.0 - 1e-9) {
+            notes.push(format!(
+                "α reached the search's cap α = {cap:e} (`Settings::alpha_cap`, `qpv design --alpha-cap`): a larger α may certify; the cap is a setting, not a property of the plant"
+            ));
+        }
         if request.mode != Mode::Sound || request.within <= 0.0 {
             return Ok(());
         }

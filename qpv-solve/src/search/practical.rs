@@ -198,11 +198,17 @@ impl Ctx<'_, '_> {
             }
         }
         let solves = self.steps.len() - n0;
+        let capped = sup.alpha >= self.settings.alpha_cap * (1.0 - 1e-9);
+        let of = if capped {
+            "the search's cap"
+        } else {
+            "the certified supremum"
+        };
         match &best {
             Some((p, g)) => notes.insert(
                 0,
                 format!(
-                    "alpha = max(within = {within}): α = {:.6} is {:.1} % of the certified supremum α_sup = {:.6} (γ = {:.6}, max ‖L_l‖₂ = {gain_sup:.4e}); the smallest-gain design there has max ‖L_l‖₂ = {g:.4e} at γ = {:.6} ({solves} solves minimising κ with P ⪰ λ I, ‖Γ_l‖₂ ≤ κλ over {} values of γ)",
+                    "alpha = max(within = {within}): α = {:.6} is {:.1} % of {of} α_sup = {:.6} (γ = {:.6}, max ‖L_l‖₂ = {gain_sup:.4e}); the smallest-gain design there has max ‖L_l‖₂ = {g:.4e} at γ = {:.6} ({solves} solves minimising κ with P ⪰ λ I, ‖Γ_l‖₂ ≤ κλ over {} values of γ)",
                     p.alpha,
                     100.0 * p.alpha / sup.alpha,
                     sup.alpha,
@@ -224,6 +230,7 @@ impl Ctx<'_, '_> {
                 within,
                 high_gain,
                 solves,
+                capped,
             },
             notes,
         })
