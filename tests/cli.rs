@@ -5,6 +5,7 @@
 //! its modules (one link instead of six), sharing the helpers of
 //! tests/common.
 
+mod cli_claims;
 mod cli_cover;
 mod cli_decoupled;
 mod cli_noise;

@@ -3,6 +3,7 @@
 
 mod check;
 mod design;
+mod gains;
 mod input;
 mod noisy;
 mod schema;

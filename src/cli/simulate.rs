@@ -16,9 +16,9 @@
 //! most [`PLOT_POINTS`] points per curve, so memory does not grow with the
 //! number of steps.
 
+use super::gains::{parse_mode_name, read_gains, Gains};
 use super::input::{load_model_for, CliError};
 use super::noisy::{simulate_noisy, NoiseBoundCurve, NoiseGen};
-use super::schema::read_report;
 use super::signal::{expr_signal, parse_assignment, table_signal, Table, TimeFn};
 use nalgebra::DMatrix;
 use qpv::plot::{line_chart, Series, PALETTE};
@@ -94,15 +94,23 @@ struct Claim {
     noise_bound: Option<NoiseBoundCurve>,
 }
 
-/// Why the design is not certified here, or `None` if it is.
-fn not_certified_reason(design: &Design, poly: &PolytopicModel) -> Option<String> {
+/// Why the design is not certified here, or `None` if it is: its own
+/// verdict may only withdraw a claim (`certifies: false`); a claim is made
+/// only when the independent re-check ([`Design::recheck_on`], the one
+/// `qpv check` runs) passes on `obs`, the observer model built from the
+/// model as it is now.
+fn not_certified_reason(
+    design: &Design,
+    claims: Option<bool>,
+    obs: &PolytopicModel,
+) -> Option<String> {
     if design.mode == qpv_dsl::Mode::Paper {
         return Some("the report is a paper-mode reproduction, which certifies nothing".into());
     }
-    if !design.certifies {
+    if claims == Some(false) {
         return Some("the report does not certify (certifies: false)".into());
     }
-    let cert = design.recheck(poly);
+    let cert = design.recheck_on(obs);
     if cert.passed {
         return None;
     }
@@ -123,6 +131,42 @@ fn not_certified_reason(design: &Design, poly: &PolytopicModel) -> Option<String
         "the independent certificate fails on the model as it is now: {}",
         why.join(", ")
     ))
+}
+
+/// The design a report's gains are simulated and re-checked with: its
+/// mode (sound if absent), α and γ (required: the claim is made at them),
+/// split and the rest of its claim ([`Gains::design`]).
+fn claimed_design(g: &Gains, model: &str, path: &Path) -> Result<Design, CliError> {
+    let mode = match g.mode.as_deref() {
+        Some(m) => parse_mode_name(m, &format!("{}: the report's `mode`", path.display()))?,
+        None => qpv_dsl::Mode::Sound,
+    };
+    let value = |name: &str, v: Option<f64>, ok: fn(f64) -> bool, expected: &str| match v {
+        Some(v) if ok(v) => Ok(v),
+        Some(v) => Err(CliError::Input(format!(
+            "{}: the report's `{name}` is {}: expected {expected}",
+            path.display(),
+            qpv_dsl::diagnostic::fmt_num(v)
+        ))),
+        None => Err(CliError::Input(format!(
+            "{}: the report has no `{name}` ({expected}): the gains are re-checked at it",
+            path.display()
+        ))),
+    };
+    let alpha = value(
+        "alpha",
+        g.alpha,
+        |a| a.is_finite() && a > 0.0,
+        "a positive finite number",
+    )?;
+    let gamma = value(
+        "gamma",
+        g.gamma,
+        |v| v > 0.0 && v < 1.0,
+        "a number in (0, 1)",
+    )?;
+    let split = g.split(mode, path)?;
+    g.design(model, (mode, alpha, gamma, split), path)
 }
 
 /// Applies `--param`, `--input` and `--input-csv` to the scenario's signals.
@@ -430,9 +474,9 @@ fn noise_setup(
 
 /// Runs `qpv simulate`.
 pub fn run(o: Options<'_>) -> Result<i32, CliError> {
-    let mut design: Design = serde_json::from_value(read_report(o.design)?)
-        .map_err(|e| CliError::Input(format!("{}: {e}", o.design.display())))?;
-    let (_, model) = load_model_for(o.file, o.model, o.design, Some(&design.model))?;
+    let g = read_gains(o.design)?;
+    let (_, model) = load_model_for(o.file, o.model, o.design, g.model.as_deref())?;
+    let mut design = claimed_design(&g, &model.name, o.design)?;
     let poly = model.polytopic();
     if design.l.is_empty() {
         return Err(CliError::Input(format!(
@@ -469,12 +513,11 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     }
 
     // What is certified, and therefore what the run is compared with.
-    let reason = not_certified_reason(&design, &poly);
+    let reason = not_certified_reason(&design, g.certifies, &obs);
     // Every figure a claim rests on (σ, ν_max, the error bound, the Euler
     // step) is recomputed from the model as it is now and the gains as
     // given; the report's own figures are claims, never read as facts.
-    design.noise = None;
-    design.sampling = None;
+    design.certifies = reason.is_none();
     if reason.is_none() {
         qpv_solve::noise::attach(&poly, &mut design);
     }
