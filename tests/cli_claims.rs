@@ -131,3 +131,142 @@ fn check_refuses_a_recheck_beyond_the_certificate_budget() {
         assert!(!t.contains("=> certified"), "{t}");
     }
 }
+
+#[test]
+fn json_output_never_overwrites_an_input() {
+    let dir = tmp("same-file");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let model = dir.join("m.qpv");
+    let text_before = std::fs::read_to_string("examples/lotka_volterra.qpv").expect("model");
+    std::fs::write(&model, &text_before).expect("write");
+    let link = dir.join("link.qpv");
+    let hard = dir.join("hard.qpv");
+    let _ = std::fs::remove_file(&link);
+    let _ = std::fs::remove_file(&hard);
+    std::os::unix::fs::symlink(&model, &link).expect("symlink");
+    std::fs::hard_link(&model, &hard).expect("hard link");
+    let dotted = dir.join(".").join("m.qpv");
+    for out_path in [&model, &dotted, &link, &hard] {
+        let out = qpv(&["design", s(&model), "--json", s(out_path)]);
+        let t = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{t}");
+        assert!(t.contains("the same file as the input"), "{t}");
+        assert_eq!(std::fs::read_to_string(&model).expect("model"), text_before);
+    }
+    // check: the gains file is an input too.
+    let report = design(
+        "same-file-gains.json",
+        &[
+            "examples/lotka_volterra.qpv",
+            "--alpha",
+            "1",
+            "--gamma",
+            "0.3",
+        ],
+    );
+    let before = std::fs::read_to_string(&report).expect("report");
+    let out = qpv(&[
+        "check",
+        "examples/lotka_volterra.qpv",
+        "--gains",
+        s(&report),
+        "--json",
+        s(&report),
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert_eq!(std::fs::read_to_string(&report).expect("report"), before);
+    // vertices: the model.
+    let out = qpv(&["vertices", s(&model), "--json", s(&link)]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert_eq!(std::fs::read_to_string(&model).expect("model"), text_before);
+}
+
+#[test]
+fn json_reports_are_written_atomically_through_a_symlink() {
+    let dir = tmp("atomic");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let target = dir.join("report.json");
+    let link = dir.join("latest.json");
+    std::fs::write(&target, "old").expect("write");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&target, &link).expect("symlink");
+    let out = qpv(&["vertices", "examples/paper.qpv", "--json", s(&link)]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    // The link stays a link, its target holds the whole new document, and
+    // no temporary file is left behind.
+    assert!(std::fs::symlink_metadata(&link)
+        .expect("link")
+        .file_type()
+        .is_symlink());
+    assert_eq!(read(&target)["command"], "vertices");
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.ends_with(".tmp")), "{names:?}");
+}
+
+#[test]
+fn output_paths_are_checked_before_the_work() {
+    // tradeoff --plot FILE: refused before the sweep. The 12-state chain's
+    // α = max design would itself be refused as too large: the --plot
+    // error comes first, so nothing was solved.
+    let (model, _) = chain(12);
+    let file = tmp("plot-is-a-file");
+    std::fs::write(&file, "x").expect("write");
+    let json = tmp("tradeoff-never.json");
+    let _ = std::fs::remove_file(&json);
+    let out = qpv(&[
+        "tradeoff",
+        s(&model),
+        "--plot",
+        s(&file),
+        "--json",
+        s(&json),
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("--plot") && t.contains("not a directory"), "{t}");
+    assert!(!t.contains("too large"), "{t}");
+    // --json into a directory that does not exist, or onto a directory.
+    let missing = tmp("no-such-dir").join("out.json");
+    for target in [s(&missing), s(&std::env::temp_dir())] {
+        let out = qpv(&["design", s(&model), "--json", target]);
+        let t = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{t}");
+        assert!(t.contains("--json"), "{t}");
+        assert!(!t.contains("too large"), "{t}");
+    }
+    // simulate --plot DIR whose CSV would overwrite its own --input-csv.
+    let dir = tmp("plot-over-input");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let csv = dir.join("trajectories.csv");
+    std::fs::write(&csv, "t,s\n0,1\n1,1\n").expect("csv");
+    let report = design(
+        "plot-over-input.json",
+        &[
+            "examples/lotka_volterra.qpv",
+            "--alpha",
+            "1",
+            "--gamma",
+            "0.3",
+        ],
+    );
+    let out = qpv(&[
+        "simulate",
+        "examples/lotka_volterra.qpv",
+        "--design",
+        s(&report),
+        "--input-csv",
+        s(&csv),
+        "--plot",
+        s(&dir),
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("the same file as the input"), "{t}");
+    assert_eq!(
+        std::fs::read_to_string(&csv).expect("csv"),
+        "t,s\n0,1\n1,1\n"
+    );
+}

@@ -7,7 +7,7 @@
 //! (a reproduction, not a certificate).
 
 use super::gains::{parse_mode_name, read_gains, Gains};
-use super::input::{emit_json, exit, load_model_for, print_text, CliError};
+use super::input::{check_json_target, emit_json, exit, load_model_for, print_text, CliError};
 use super::schema::CheckOutput;
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Model, OutputRoute, StateBound};
 use qpv_solve::report::Design;
@@ -163,6 +163,7 @@ pub fn run(
     flags: Flags,
     json: Option<&str>,
 ) -> Result<i32, CliError> {
+    check_json_target(json, &[file, gains])?;
     let g = read_gains(gains)?;
     let (_, model) = load_model_for(file, model_name, gains, g.model.as_deref())?;
     let (mode, mode_source) = choose_mode(flags.mode, &g, gains)?;

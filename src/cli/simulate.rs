@@ -17,7 +17,7 @@
 //! number of steps.
 
 use super::gains::{parse_mode_name, read_gains, Gains};
-use super::input::{load_model_for, CliError};
+use super::input::{load_model_for, prepare_plot_dir, CliError};
 use super::noisy::{simulate_noisy, NoiseBoundCurve, NoiseGen};
 use super::signal::{expr_signal, parse_assignment, table_signal, Table, TimeFn};
 use nalgebra::DMatrix;
@@ -510,6 +510,16 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             poly.nx(),
             poly.states.join(", ")
         )));
+    }
+
+    if let Some(dir) = o.plot {
+        let mut files: Vec<String> = ["trajectories.csv", "mu.svg", "error.svg"]
+            .map(String::from)
+            .to_vec();
+        files.extend((1..=obs.nx()).map(|k| format!("x{k}.svg")));
+        let mut inputs = vec![o.file, o.design];
+        inputs.extend(o.input_csv);
+        prepare_plot_dir(dir, &files, &inputs)?;
     }
 
     // What is certified, and therefore what the run is compared with.
