@@ -270,3 +270,107 @@ fn output_paths_are_checked_before_the_work() {
         "t,s\n0,1\n1,1\n"
     );
 }
+
+/// The Lotka–Volterra example's certified design (s ∈ [0.8, 1.2]).
+fn lotka_volterra() -> PathBuf {
+    design(
+        "lv.json",
+        &[
+            "examples/lotka_volterra.qpv",
+            "--alpha",
+            "1",
+            "--gamma",
+            "0.3",
+        ],
+    )
+}
+
+fn simulate_lv(extra: &[&str]) -> (Option<i32>, String) {
+    let report = lotka_volterra();
+    let mut args = vec![
+        "simulate",
+        "examples/lotka_volterra.qpv",
+        "--design",
+        s(&report),
+    ];
+    args.extend_from_slice(extra);
+    let out = qpv(&args);
+    (out.status.code(), text(&out))
+}
+
+#[test]
+fn a_parameter_outside_theta_or_given_twice_is_bad_input() {
+    // s = 100 used to be clamped in the plant while the CSV recorded 100.
+    let (code, t) = simulate_lv(&["--param", "s=100"]);
+    assert_eq!(code, Some(2), "{t}");
+    assert!(
+        t.contains("--param s=100") && t.contains("outside Θ") && t.contains("[0.8, 1.2]"),
+        "{t}"
+    );
+    assert!(!t.contains("certified"), "{t}");
+    // Leaving Θ later in the run: named with the time.
+    let (code, t) = simulate_lv(&["--param", "s=1+t", "--t-end", "1"]);
+    assert_eq!(code, Some(2), "{t}");
+    assert!(t.contains("at t = 0.2"), "{t}");
+    // A repeated --param used to keep the last silently; a CSV column and
+    // a flag for the same name too.
+    let (code, t) = simulate_lv(&["--param", "s=1", "--param", "s=0.9"]);
+    assert_eq!(code, Some(2), "{t}");
+    assert!(
+        t.contains("given twice") && t.contains("--param s=1"),
+        "{t}"
+    );
+    let csv = tmp("s.csv");
+    std::fs::write(&csv, "t,s\n0,1\n1,1.1\n").expect("csv");
+    let (code, t) = simulate_lv(&["--input-csv", s(&csv), "--param", "s=0.9"]);
+    assert_eq!(code, Some(2), "{t}");
+    assert!(
+        t.contains("given twice") && t.contains("--input-csv"),
+        "{t}"
+    );
+    // A table column outside Θ.
+    std::fs::write(&csv, "t,s\n0,1\n1,1.5\n").expect("csv");
+    let (code, t) = simulate_lv(&["--input-csv", s(&csv)]);
+    assert_eq!(code, Some(2), "{t}");
+    assert!(t.contains("outside Θ"), "{t}");
+    // Inside Θ: runs, certified.
+    let (code, t) = simulate_lv(&["--param", "s=1+0.2*sin(t)"]);
+    assert_eq!(code, Some(0), "{t}");
+}
+
+#[test]
+fn a_signal_that_is_not_a_finite_number_is_bad_input() {
+    // Used to end as "diverged" or "LEAVES the envelope (up to inf
+    // times)", exit 1: it is the input that is wrong.
+    for (param, when) in [("s=0/0", "NaN at t = 0"), ("s=1/t", "inf at t = 0")] {
+        let (code, t) = simulate_lv(&["--param", param]);
+        assert_eq!(code, Some(2), "{t}");
+        assert!(t.contains(param) && t.contains(when), "{t}");
+    }
+    // An input that overflows: exp(1000 t) is inf from t ≈ 0.71.
+    let model = tmp("forced.qpv");
+    std::fs::write(
+        &model,
+        "model forced {\n  state x;\n  input u;\n  output y;\n  der x = -x + u;\n  \
+         out y = x;\n  region box(1);\n  state_bound Q = [4];\n}\n",
+    )
+    .expect("model");
+    let gains = write(
+        "forced.json",
+        &serde_json::json!({"P": [[1.0]], "L": [[[1.0]]], "alpha": 1.0, "gamma": 0.5}),
+    );
+    let out = qpv(&[
+        "simulate",
+        s(&model),
+        "--design",
+        s(&gains),
+        "--input",
+        "u=exp(1000*t)",
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("--input u=exp(1000*t)") && t.contains("u(t) is inf at t = 0.71"),
+        "{t}"
+    );
+}

@@ -22,6 +22,7 @@ use super::noisy::{simulate_noisy, NoiseBoundCurve, NoiseGen};
 use super::signal::{expr_signal, parse_assignment, table_signal, Table, TimeFn};
 use nalgebra::DMatrix;
 use qpv::plot::{line_chart, Series, PALETTE};
+use qpv_dsl::diagnostic::fmt_num;
 use qpv_dsl::{PolytopicModel, StateBound};
 use qpv_solve::report::Design;
 use qpv_solve::simulate::{envelope_factor, plant_output, simulate, Scenario, Signal};
@@ -169,22 +170,51 @@ fn claimed_design(g: &Gains, model: &str, path: &Path) -> Result<Design, CliErro
     g.design(model, (mode, alpha, gamma, split), path)
 }
 
-/// Applies `--param`, `--input` and `--input-csv` to the scenario's signals.
+/// A signal given on the command line: where it came from (`--param
+/// s=...`, `--input-csv FILE`), the name it sets, Θ of a parameter, and
+/// the function.
+struct Given {
+    source: String,
+    name: String,
+    theta: Option<(f64, f64)>,
+    f: TimeFn,
+}
+
+/// Applies `--param`, `--input` and `--input-csv` to the scenario's
+/// signals; a name set twice (by two flags, or a flag and a CSV column) is
+/// refused, never silently the last.
 fn apply_signals(
     sc: &mut Scenario,
     poly: &PolytopicModel,
     o: &Options<'_>,
-) -> Result<Vec<String>, CliError> {
-    let mut set = |name: &str, f: TimeFn, flag: &str| -> Result<String, CliError> {
-        if let Some(i) = poly.inputs.iter().position(|n| n == name) {
-            sc.u[i] = Signal::Custom(f);
-            Ok(format!("input {name}"))
+) -> Result<Vec<Given>, CliError> {
+    let mut given: Vec<Given> = Vec::new();
+    let mut set = |name: &str, f: TimeFn, source: String, flag: &str| -> Result<(), CliError> {
+        if let Some(first) = given.iter().find(|g| g.name == name) {
+            return Err(CliError::Input(format!(
+                "{source}: `{name}` is given twice (first by {}); give each input or parameter once",
+                first.source
+            )));
+        }
+        let theta = if let Some(i) = poly.inputs.iter().position(|n| n == name) {
+            if flag == "--param" {
+                return Err(CliError::Input(format!(
+                    "{source}: `{name}` is an input; use --input"
+                )));
+            }
+            sc.u[i] = Signal::Custom(f.clone());
+            None
         } else if let Some(i) = poly.params.iter().position(|p| p.name == name) {
-            sc.theta[i] = Signal::Custom(f);
-            Ok(format!("parameter {name}"))
+            if flag == "--input" {
+                return Err(CliError::Input(format!(
+                    "{source}: `{name}` is a parameter; use --param"
+                )));
+            }
+            sc.theta[i] = Signal::Custom(f.clone());
+            Some((poly.params[i].lo, poly.params[i].hi))
         } else {
             let params: Vec<&str> = poly.params.iter().map(|p| p.name.as_str()).collect();
-            Err(CliError::Input(format!(
+            return Err(CliError::Input(format!(
                 "{flag}: `{name}` is neither an input ({}) nor a parameter ({}) of model {}",
                 if poly.inputs.is_empty() {
                     "none".to_string()
@@ -193,35 +223,78 @@ fn apply_signals(
                 },
                 params.join(", "),
                 poly.name
-            )))
-        }
+            )));
+        };
+        given.push(Given {
+            source,
+            name: name.to_string(),
+            theta,
+            f,
+        });
+        Ok(())
     };
-    let mut given = Vec::new();
     if let Some(path) = o.input_csv {
         let table = Arc::new(Table::read(path)?);
         for (k, name) in table.names.iter().enumerate() {
             let flag = format!("--input-csv {}", path.display());
-            given.push(set(name, table_signal(&table, k), &flag)?);
+            set(name, table_signal(&table, k), flag.clone(), &flag)?;
         }
     }
     for (flag, args) in [("--param", &o.params), ("--input", &o.inputs)] {
         for a in args {
             let (name, e) = parse_assignment(flag, a)?;
-            let what = set(&name, expr_signal(e), flag)?;
-            if flag == "--param" && what.starts_with("input") {
-                return Err(CliError::Input(format!(
-                    "--param {a:?}: `{name}` is an input; use --input"
-                )));
-            }
-            if flag == "--input" && what.starts_with("parameter") {
-                return Err(CliError::Input(format!(
-                    "--input {a:?}: `{name}` is a parameter; use --param"
-                )));
-            }
-            given.push(what);
+            set(&name, expr_signal(e), format!("{flag} {a}"), flag)?;
         }
     }
     Ok(given)
+}
+
+/// Checks every signal given on the command line at every time the run
+/// evaluates it (each RK4 step's start, midpoint and end): a value that
+/// is not a finite number (0/0, 1/t at t = 0, exp(1000 t) overflowing) or
+/// a parameter outside its interval Θ (where the plant's matrices are not
+/// known) is bad input, named with the flag, the value and the time.
+fn check_signals(given: &[Given], steps: usize, dt: f64, t_end: f64) -> Result<(), CliError> {
+    for g in given {
+        let bad = |t: f64, v: f64| -> Option<String> {
+            if !v.is_finite() {
+                return Some(format!(
+                    "{}: {}(t) is {v} at t = {}: expected a finite number",
+                    g.source,
+                    g.name,
+                    fmt_num(t)
+                ));
+            }
+            let (lo, hi) = g.theta?;
+            let tol = 1e-12 * lo.abs().max(hi.abs()).max(hi - lo);
+            (v < lo - tol || v > hi + tol).then(|| {
+                format!(
+                    "{}: {}(t) = {} at t = {} is outside Θ: {} ∈ [{}, {}] (the plant is only \
+                     known there; give a θ(t) inside the interval)",
+                    g.source,
+                    g.name,
+                    fmt_num(v),
+                    fmt_num(t),
+                    g.name,
+                    fmt_num(lo),
+                    fmt_num(hi)
+                )
+            })
+        };
+        let at = |t: f64| bad(t, (g.f)(t)).map_or(Ok(()), |m| Err(CliError::Input(m)));
+        at(0.0)?;
+        for k in 0..steps {
+            let t = k as f64 * dt;
+            let t_next = if k + 1 == steps {
+                t_end
+            } else {
+                (k + 1) as f64 * dt
+            };
+            at(t + 0.5 * (t_next - t))?;
+            at(t_next)?;
+        }
+    }
+    Ok(())
 }
 
 /// The recorded sample of one time instant.
@@ -378,8 +451,21 @@ fn scenario(o: &Options<'_>, poly: &PolytopicModel) -> Result<Scenario, CliError
     sc.dt = o.dt;
     let given = apply_signals(&mut sc, poly, o)?;
     if !given.is_empty() {
-        println!("signals given: {}", given.join(", "));
+        let names: Vec<String> = given
+            .iter()
+            .map(|g| {
+                let kind = if g.theta.is_some() {
+                    "parameter"
+                } else {
+                    "input"
+                };
+                format!("{kind} {}", g.name)
+            })
+            .collect();
+        println!("signals given: {}", names.join(", "));
     }
+    let (steps, _, _) = step_counts(o)?;
+    check_signals(&given, steps, o.dt, o.t_end)?;
     let unset: Vec<&str> = poly
         .inputs
         .iter()
