@@ -374,3 +374,183 @@ fn a_signal_that_is_not_a_finite_number_is_bad_input() {
         "{t}"
     );
 }
+
+#[test]
+fn negative_flag_values_are_refused_with_the_real_reason() {
+    // Used to be "unexpected argument '-1'" from the argument parser.
+    let report = lotka_volterra();
+    let lv = "examples/lotka_volterra.qpv";
+    for (args, want) in [
+        (
+            vec!["design", lv, "--alpha", "-1"],
+            "--alpha \"-1\": expected a positive number",
+        ),
+        (
+            vec!["design", lv, "--gamma", "-0.5"],
+            "--gamma \"-0.5\": expected a number in (0, 1)",
+        ),
+        (
+            vec!["simulate", lv, "--design", s(&report), "--dt", "-1"],
+            "--dt -1: expected a positive number",
+        ),
+        (
+            vec!["simulate", lv, "--design", s(&report), "--t-end", "-1"],
+            "--t-end -1: expected a non-negative number",
+        ),
+        (
+            vec!["simulate", lv, "--design", s(&report), "--every", "-1"],
+            "--every -1: expected a positive number",
+        ),
+        (
+            vec!["simulate", lv, "--design", s(&report), "--noise", "-1"],
+            "--noise -1: expected a non-negative amplitude",
+        ),
+    ] {
+        let out = qpv(&args);
+        let t = text(&out);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {t}");
+        assert!(t.contains(want), "{args:?}: {t}");
+    }
+}
+
+#[test]
+fn reports_need_their_gains_keys_only() {
+    let report = lotka_volterra();
+    let doc = read(&report);
+    // Without `schema`: says so, not "missing field `P`".
+    let mut unversioned = doc.clone();
+    unversioned
+        .as_object_mut()
+        .expect("object")
+        .remove("schema");
+    let file = write("no-schema.json", &unversioned);
+    let out = qpv(&["check", "examples/lotka_volterra.qpv", "--gains", s(&file)]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("\"schema\": \"qpv/1\""), "{t}");
+    assert!(!t.contains("missing field"), "{t}");
+    // An unknown state_bound.split is refused, not ignored.
+    let mut odd = doc.clone();
+    odd["designs"][0]["state_bound"]["split"] = Value::from("diagonal");
+    let file = write("odd-split.json", &odd);
+    let out = qpv(&["check", "examples/lotka_volterra.qpv", "--gains", s(&file)]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("`state_bound.split` is \"diagonal\""), "{t}");
+    // simulate needs what check needs: no `Gamma`, no `mode`, no verdict.
+    let mut lean = doc.clone();
+    let d = lean["designs"][0].as_object_mut().expect("design");
+    for key in [
+        "Gamma",
+        "mode",
+        "certifies",
+        "feasible",
+        "margins",
+        "summary",
+        "search",
+    ] {
+        d.remove(key);
+    }
+    let file = write("lean.json", &lean);
+    let out = qpv(&[
+        "simulate",
+        "examples/lotka_volterra.qpv",
+        "--design",
+        s(&file),
+        "--t-end",
+        "0.5",
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(t.contains("certified (independent re-check"), "{t}");
+}
+
+#[test]
+fn byte_order_marks_are_skipped_and_line_ends_of_every_kind_are_lines() {
+    let bom = "\u{FEFF}";
+    let model = tmp("bom.qpv");
+    let src = std::fs::read_to_string("examples/lotka_volterra.qpv").expect("model");
+    std::fs::write(&model, format!("{bom}{src}")).expect("write");
+    let report = lotka_volterra();
+    let gains = tmp("bom.json");
+    std::fs::write(
+        &gains,
+        format!("{bom}{}", std::fs::read_to_string(&report).unwrap()),
+    )
+    .expect("write");
+    let out = qpv(&["check", s(&model), "--gains", s(&gains)]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    // A CSV with a byte-order mark and old Mac (CR) line ends.
+    let csv = tmp("bom-cr.csv");
+    std::fs::write(&csv, format!("{bom}t,s\r0,1\r1,1.1\r")).expect("csv");
+    let out = qpv(&[
+        "simulate",
+        s(&model),
+        "--design",
+        s(&gains),
+        "--input-csv",
+        s(&csv),
+        "--t-end",
+        "0.5",
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(t.contains("signals given: parameter s"), "{t}");
+    // A model with CR line ends: the error is at its line (4), not line 1.
+    let cr = tmp("cr.qpv");
+    std::fs::write(
+        &cr,
+        "model a {\r  state x;\r  output y;\r  der x = -x + foo;\r  out y = x;\r}\r",
+    )
+    .expect("write");
+    let out = qpv(&["vertices", s(&cr)]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("cr.qpv:4:16"), "{t}");
+    // A NUL byte is named as such.
+    let nul = tmp("nul.qpv");
+    std::fs::write(&nul, "model a {\n  state x;\n\0 output y;\n}\n").expect("write");
+    let out = qpv(&["vertices", s(&nul)]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("nul.qpv:3:1") && t.contains("U+0000 (NUL)"),
+        "{t}"
+    );
+}
+
+#[test]
+fn tiny_and_huge_numbers_are_printed_in_scientific_form() {
+    let report = lotka_volterra();
+    let out = qpv(&[
+        "check",
+        "examples/lotka_volterra.qpv",
+        "--gains",
+        s(&report),
+        "--alpha",
+        "1e-320",
+    ]);
+    let t = text(&out);
+    assert!(t.contains("alpha = 1e-320"), "{t}");
+    assert!(!t.contains("0000000000"), "{t}");
+    let out = qpv(&[
+        "simulate",
+        "examples/lotka_volterra.qpv",
+        "--design",
+        s(&report),
+        "--t-end",
+        "1e308",
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(t.contains("--t-end 1e308"), "{t}");
+    assert!(!t.contains("0000000000"), "{t}");
+}
+
+#[test]
+fn an_endless_input_csv_is_refused() {
+    // /dev/zero used to be read to the end: 24 GB resident, then killed.
+    let (code, t) = simulate_lv(&["--input-csv", "/dev/zero"]);
+    assert_eq!(code, Some(2), "{t}");
+    assert!(t.contains("larger than 64 MiB"), "{t}");
+}

@@ -9,6 +9,7 @@
 use super::gains::{parse_mode_name, read_gains, Gains};
 use super::input::{check_json_target, emit_json, exit, load_model_for, print_text, CliError};
 use super::schema::CheckOutput;
+use qpv_dsl::diagnostic::fmt_num;
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Model, OutputRoute, StateBound};
 use qpv_solve::report::Design;
 use qpv_solve::{Certificate, SolveError};
@@ -59,7 +60,8 @@ fn choose_value(
             Ok((v, format!("--{name}")))
         } else {
             Err(CliError::Input(format!(
-                "--{name} {v}: expected {expected}"
+                "--{name} {}: expected {expected}",
+                fmt_num(v)
             )))
         };
     }
@@ -68,8 +70,9 @@ fn choose_value(
             Ok((v, "gains file".into()))
         } else {
             Err(CliError::Input(format!(
-                "{}: the gains file's `{name}` is {v}: expected {expected}",
-                path.display()
+                "{}: the gains file's `{name}` is {}: expected {expected}",
+                path.display(),
+                fmt_num(v)
             )))
         };
     }
@@ -200,7 +203,7 @@ pub fn run(
         (false, _) => exit::NOT_CERTIFIED,
     };
     let mut s = format!(
-        "check of {} against {} mode ({}) at alpha = {alpha} ({alpha_source}), gamma = {gamma} ({gamma_source}):\n",
+        "check of {} against {} mode ({}) at alpha = {} ({alpha_source}), gamma = {} ({gamma_source}):\n",
         gains.display(),
         match mode {
             Mode::Sound => "sound",
@@ -210,7 +213,9 @@ pub fn run(
             "default" => "the default; --mode paper checks a reproduction",
             "--mode" => "from --mode",
             _ => "from the gains file's `mode`",
-        }
+        },
+        fmt_num(alpha),
+        fmt_num(gamma)
     );
     for e in &cert.input_errors {
         s.push_str(&format!("  input error: {e}\n"));

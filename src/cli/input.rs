@@ -61,7 +61,8 @@ fn size_words(bytes: u64) -> String {
 
 /// Reads the text file `path` (`what` names it in errors), refusing more
 /// than `limit` bytes. Reads at most `limit + 1` bytes whatever the file
-/// is, so a device such as /dev/zero or a pipe cannot exhaust memory.
+/// is, so a device such as /dev/zero or a pipe cannot exhaust memory. A
+/// leading byte-order mark (U+FEFF, as some editors write) is skipped.
 pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<String, CliError> {
     let file = std::fs::File::open(path)
         .map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
@@ -76,12 +77,16 @@ pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<String, CliEr
             size_words(limit)
         )));
     }
-    String::from_utf8(bytes).map_err(|e| {
+    let text = String::from_utf8(bytes).map_err(|e| {
         CliError::Input(format!(
             "{}: not UTF-8 text (invalid byte at offset {})",
             path.display(),
             e.utf8_error().valid_up_to()
         ))
+    })?;
+    Ok(match text.strip_prefix('\u{FEFF}') {
+        Some(rest) => rest.to_string(),
+        None => text,
     })
 }
 

@@ -405,14 +405,14 @@ fn open_csv(
 fn step_counts(o: &Options<'_>) -> Result<(usize, usize, usize), CliError> {
     if !(o.t_end.is_finite() && o.t_end >= 0.0) {
         return Err(CliError::Input(format!(
-            "--t-end {}: expected a non-negative number",
-            o.t_end
+            "--t-end {}: expected a non-negative number of seconds",
+            fmt_num(o.t_end)
         )));
     }
     if !(o.dt.is_finite() && o.dt > 0.0) {
         return Err(CliError::Input(format!(
-            "--dt {}: expected a positive number",
-            o.dt
+            "--dt {}: expected a positive number of seconds",
+            fmt_num(o.dt)
         )));
     }
     let steps_f = (o.t_end / o.dt - 1e-9).ceil().max(0.0);
@@ -420,14 +420,16 @@ fn step_counts(o: &Options<'_>) -> Result<(usize, usize, usize), CliError> {
         return Err(CliError::Input(format!(
             "--t-end {} with --dt {} needs {steps_f:.3e} RK4 steps; at most {MAX_STEPS:.0e} are run: \
              increase --dt or shorten --t-end",
-            o.t_end, o.dt
+            fmt_num(o.t_end),
+            fmt_num(o.dt)
         )));
     }
     let steps = steps_f as usize;
     let every = o.every.unwrap_or((o.t_end / DEFAULT_ROWS).max(o.dt));
     if !(every.is_finite() && every > 0.0) {
         return Err(CliError::Input(format!(
-            "--every {every}: expected a positive number of seconds"
+            "--every {}: expected a positive number of seconds",
+            fmt_num(every)
         )));
     }
     let stride = ((every / o.dt).round() as usize).max(1);
@@ -498,7 +500,8 @@ fn noise_setup(
     if let Some(nu) = o.noise {
         if !(nu.is_finite() && nu >= 0.0) {
             return Err(CliError::Input(format!(
-                "--noise {nu}: expected a non-negative amplitude"
+                "--noise {}: expected a non-negative amplitude",
+                fmt_num(nu)
             )));
         }
     }
@@ -531,7 +534,8 @@ fn noise_setup(
     if let (Some(nu), Some(g)) = (o.noise, &noise_gen) {
         let names: Vec<&str> = g.outputs.iter().map(|&i| obs.outputs[i].as_str()).collect();
         println!(
-            "measurement noise: |v(t)| = {nu} on {} (random direction, seed {}, held over each step)",
+            "measurement noise: |v(t)| = {} on {} (random direction, seed {}, held over each step)",
+            fmt_num(nu),
             names.join(", "),
             o.seed
         );
@@ -691,7 +695,7 @@ fn write_row(
     cells.extend(y);
     cells.extend(&r.mu);
     cells.push(r.err);
-    let text: Vec<String> = cells.iter().map(f64::to_string).collect();
+    let text: Vec<String> = cells.iter().map(|&v| fmt_num(v)).collect();
     writeln!(w, "{}", text.join(","))
 }
 
