@@ -554,3 +554,42 @@ fn an_endless_input_csv_is_refused() {
     assert_eq!(code, Some(2), "{t}");
     assert!(t.contains("larger than 64 MiB"), "{t}");
 }
+
+#[test]
+fn only_the_chosen_design_of_a_report_is_read() {
+    // The report is parsed straight into the gains of the design used (a
+    // 61 MiB report used to peak at 3 GB as JSON values): another design
+    // of the file is skipped unread, even one whose P is not a matrix.
+    let report = lotka_volterra();
+    let mut doc = read(&report);
+    let good = doc["designs"][0].clone();
+    let mut broken = good.clone();
+    broken["P"] = Value::from("not a matrix");
+    broken["certifies"] = Value::from(false);
+    broken["feasible"] = Value::from(false);
+    doc["designs"] = Value::from(vec![broken, good]);
+    let file = write("two-designs.json", &doc);
+    let out = qpv(&["check", "examples/lotka_volterra.qpv", "--gains", s(&file)]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(t.contains("using report 2"), "{t}");
+}
+
+#[test]
+fn a_csv_beyond_its_size_limit_is_refused_before_the_run() {
+    // 1e8 steps with a row each: about 22 GiB of CSV (19 GB in the probe).
+    let dir = tmp("csv-cap");
+    let (code, t) = simulate_lv(&[
+        "--t-end",
+        "1000",
+        "--dt",
+        "1e-5",
+        "--every",
+        "1e-5",
+        "--plot",
+        s(&dir),
+    ]);
+    assert_eq!(code, Some(2), "{t}");
+    assert!(t.contains("at most 1 GiB") && t.contains("--every"), "{t}");
+    assert!(!dir.join("trajectories.csv").exists());
+}

@@ -96,15 +96,10 @@ fn unit_interval(g: f64) -> bool {
 /// refused state bound claim is a failed certificate saying why (exit 1:
 /// not certified, not an input error); a claim that does not fit the model
 /// at all (a slack of the wrong shape) is bad input.
-fn recheck(
-    model: &Model,
-    design: &Design,
-    g: &Gains,
-    gains: &Path,
-) -> Result<Certificate, CliError> {
+fn recheck(model: &Model, design: &Design, gains: &Path) -> Result<Certificate, CliError> {
     let plant = model.polytopic();
     let n = model.nx();
-    let has_q = g
+    let has_q = design
         .state_bound
         .as_ref()
         .and_then(|b| b.q.as_ref())
@@ -196,7 +191,7 @@ pub fn run(
     // representation the gains were designed with (default: the mode's).
     let split = g.split(mode, gains)?;
     let design = g.design(&model.name, (mode, alpha, gamma, split), gains)?;
-    let cert = recheck(&model, &design, &g, gains)?;
+    let cert = recheck(&model, &design, gains)?;
     let code = match (cert.passed, mode) {
         (true, Mode::Sound) => exit::CERTIFIED,
         (true, Mode::Paper) => exit::REPRODUCTION,

@@ -10,8 +10,8 @@
 //! a report may claim").
 
 use super::design::parse_split;
-use super::input::CliError;
-use super::schema::read_report;
+use super::input::{read_bounded, CliError, JSON_LIMIT};
+use super::schema::SCHEMA;
 use qpv_dsl::{Conditions, Mode, Split};
 use qpv_solve::conditions::cube::CubeReport;
 use qpv_solve::output_filter::OutputRouteInfo;
@@ -74,38 +74,192 @@ fn rectangular(rows: &[Vec<f64>]) -> bool {
         .all(|r| r.len() == rows.first().map_or(0, Vec::len))
 }
 
-/// Reads the gains file or report at `path` (any form [`read_report`]
-/// accepts); errors name the file and what was expected.
+/// What picking a design of a report needs to know of each: its verdict
+/// (only to choose; never trusted for a claim).
+#[derive(serde::Deserialize)]
+struct Verdict {
+    certifies: Option<serde_json::Value>,
+    feasible: Option<serde_json::Value>,
+}
+
+/// The envelope of a JSON object, read without its matrices (skipped, not
+/// built: a 60 MiB report must not become gigabytes of JSON values).
+#[derive(serde::Deserialize)]
+struct Head {
+    schema: Option<serde_json::Value>,
+    command: Option<serde_json::Value>,
+    designs: Option<serde::de::IgnoredAny>,
+    #[serde(rename = "P")]
+    p: Option<serde::de::IgnoredAny>,
+    #[serde(rename = "L")]
+    l: Option<serde::de::IgnoredAny>,
+}
+
+/// `{"designs": [...]}` of a versioned report: only the verdicts.
+#[derive(serde::Deserialize)]
+struct Verdicts {
+    designs: Vec<Verdict>,
+}
+
+/// Deserialises element `n` of a JSON array as [`Gains`], skipping the
+/// others without building them; `None` if the array is shorter.
+struct Nth(usize);
+
+impl<'de> serde::de::DeserializeSeed<'de> for Nth {
+    type Value = Option<Gains>;
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
+        d.deserialize_seq(self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for Nth {
+    type Value = Option<Gains>;
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("an array of design reports")
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+        let mut out = None;
+        let mut i = 0;
+        loop {
+            if i == self.0 {
+                match seq.next_element::<Gains>()? {
+                    Some(g) => out = Some(g),
+                    None => break,
+                }
+            } else if seq.next_element::<serde::de::IgnoredAny>()?.is_none() {
+                break;
+            }
+            i += 1;
+        }
+        Ok(out)
+    }
+}
+
+/// Deserialises design `n` of the `designs` key of a report object.
+struct DesignsNth(usize);
+
+impl<'de> serde::de::DeserializeSeed<'de> for DesignsNth {
+    type Value = Option<Gains>;
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
+        d.deserialize_map(self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for DesignsNth {
+    type Value = Option<Gains>;
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("a design report document")
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+        let mut out = None;
+        while let Some(key) = map.next_key::<String>()? {
+            if key == "designs" {
+                out = map.next_value_seed(Nth(self.0))?;
+            } else {
+                map.next_value::<serde::de::IgnoredAny>()?;
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Of several designs the first certified one (else the first feasible
+/// one, else the first), and stderr says which.
+fn pick(verdicts: &[Verdict], path: &Path) -> usize {
+    let yes = |v: &Option<serde_json::Value>| v == &Some(serde_json::Value::Bool(true));
+    let i = verdicts
+        .iter()
+        .position(|v| yes(&v.certifies))
+        .or_else(|| verdicts.iter().position(|v| yes(&v.feasible)))
+        .unwrap_or(0);
+    if verdicts.len() > 1 {
+        eprintln!(
+            "note: {} holds several reports; using report {} (the first certified one, else the first feasible one)",
+            path.display(),
+            i + 1
+        );
+    }
+    i
+}
+
+/// Reads the gains file or report at `path`, in any of its forms:
+///
+/// * a `qpv design --json` document (`"schema": "qpv/1"`, `designs`);
+/// * the unversioned forms older versions wrote: one report object, or an
+///   array of reports for several requests;
+/// * a plain gains object written by hand (`P`, `L`, ...).
+///
+/// Of several designs the first certified one is used (else the first
+/// feasible one, else the first), and stderr says which. The file is read
+/// bounded ([`JSON_LIMIT`]) and parsed straight into [`Gains`], the other
+/// designs and keys skipped; errors name the file and what was expected.
 pub fn read_gains(path: &Path) -> Result<Gains, CliError> {
     let bad = |m: String| CliError::Input(format!("{}: {m}", path.display()));
-    let value = read_report(path)?;
-    let Some(obj) = value.as_object() else {
-        return Err(bad(
-            "expected a JSON object with the gains `P` and `L` (or a `qpv design --json` report)"
-                .into(),
-        ));
-    };
-    let missing: Vec<&str> = ["P", "L"]
-        .into_iter()
-        .filter(|k| !obj.contains_key(*k))
-        .collect();
-    if !missing.is_empty() {
-        return Err(bad(format!(
-            "no {} key: a gains file holds `P` (rows) and `L` (per vertex, NX rows of NY), as a \
-             `qpv design --json` report does{}",
-            missing
-                .iter()
-                .map(|k| format!("`{k}`"))
-                .collect::<Vec<_>>()
-                .join(" or "),
-            if obj.contains_key("designs") || obj.contains_key("command") {
-                " (a document with `designs` needs `\"schema\": \"qpv/1\"`)"
-            } else {
-                ""
+    let json = |e: serde_json::Error| bad(e.to_string());
+    let text = read_bounded(path, JSON_LIMIT, "JSON files")?;
+    let none = || bad("the report holds no design".to_string());
+    let g: Gains = match text.trim_start().chars().next() {
+        Some('[') => {
+            let verdicts: Vec<Verdict> = serde_json::from_str(&text).map_err(json)?;
+            let i = pick(&verdicts, path);
+            let mut de = serde_json::Deserializer::from_str(&text);
+            serde::de::DeserializeSeed::deserialize(Nth(i), &mut de)
+                .map_err(json)?
+                .ok_or_else(none)?
+        }
+        Some('{') => {
+            let head: Head = serde_json::from_str(&text).map_err(json)?;
+            match &head.schema {
+                Some(serde_json::Value::String(v)) if v == SCHEMA => {
+                    match head.command.as_ref().and_then(|c| c.as_str()) {
+                        Some("design") => {}
+                        Some(other) => {
+                            return Err(bad(format!(
+                                "a `qpv {other}` document holds no gains; give a `qpv design --json` report"
+                            )))
+                        }
+                        None => return Err(bad("`command` is missing".into())),
+                    }
+                    let verdicts: Verdicts = serde_json::from_str(&text).map_err(|e| {
+                        bad(format!(
+                            "`designs` must be an array of design reports ({e})"
+                        ))
+                    })?;
+                    let i = pick(&verdicts.designs, path);
+                    let mut de = serde_json::Deserializer::from_str(&text);
+                    serde::de::DeserializeSeed::deserialize(DesignsNth(i), &mut de)
+                        .map_err(|e| bad(format!("design {}: {e}", i + 1)))?
+                        .ok_or_else(none)?
+                }
+                Some(other) => {
+                    return Err(bad(format!(
+                        "`schema` is {other}: this qpv reads `{SCHEMA}` (and the older reports \
+                         without a `schema` key)"
+                    )))
+                }
+                None if head.p.is_none() || head.l.is_none() => {
+                    return Err(bad(format!(
+                        "no {} key: a gains file holds `P` (rows) and `L` (per vertex, NX rows \
+                         of NY), as a `qpv design --json` report does{}",
+                        if head.p.is_none() { "`P`" } else { "`L`" },
+                        if head.designs.is_some() || head.command.is_some() {
+                            " (a document with `designs` needs `\"schema\": \"qpv/1\"`)"
+                        } else {
+                            ""
+                        }
+                    )))
+                }
+                None => serde_json::from_str(&text).map_err(json)?,
             }
-        )));
-    }
-    let g: Gains = serde_json::from_value(value).map_err(|e| bad(e.to_string()))?;
+        }
+        _ => {
+            return Err(bad(
+                "expected a JSON object with the gains `P` and `L` (or a `qpv design --json` \
+                 report)"
+                    .into(),
+            ))
+        }
+    };
     if !rectangular(&g.p) || g.l.iter().any(|l| !rectangular(l)) {
         return Err(bad("P and every L_l must have rows of equal length".into()));
     }
@@ -167,25 +321,26 @@ impl Gains {
     /// file claims about the representation (skew slack, state bound,
     /// output route, cube slacks) and nothing it says about its verdict.
     pub fn design(
-        &self,
+        self,
         model: &str,
         (mode, alpha, gamma, split): (Mode, f64, f64, Split),
         path: &Path,
     ) -> Result<Design, CliError> {
-        let mut d = Design::claimed(model, mode, alpha, gamma, self.p.clone(), self.l.clone());
+        let conditions = self.conditions(path)?;
+        let mut d = Design::claimed(model, mode, alpha, gamma, self.p, self.l);
         d.split = split;
-        d.conditions = self.conditions(path)?;
-        d.skew = self.skew.clone();
-        d.cube = self.cube.clone();
-        d.output_route = self.output_route.clone();
-        d.state_bound = self.state_bound.as_ref().map(|b| StateBoundInfo {
+        d.conditions = conditions;
+        d.skew = self.skew;
+        d.cube = self.cube;
+        d.output_route = self.output_route;
+        d.state_bound = self.state_bound.map(|b| StateBoundInfo {
             source: qpv_solve::vocab::BoundSource::Auto,
-            q: b.q.clone(),
+            q: b.q,
             h: b.h,
             h_fixed: false,
             gamma_max: None,
             gamma_upper: None,
-            split: b.split.clone(),
+            split: b.split,
             check: None,
             solves: 0,
             seconds: 0.0,

@@ -141,12 +141,6 @@ pub fn load_model_for(
     }
 }
 
-/// Reads and parses the JSON file `path` (at most [`JSON_LIMIT`] bytes).
-pub fn read_json(path: &Path) -> Result<serde_json::Value, CliError> {
-    let text = read_bounded(path, JSON_LIMIT, "JSON files")?;
-    serde_json::from_str(&text).map_err(|e| CliError::Input(format!("{}: {e}", path.display())))
-}
-
 /// Writes `value` as pretty JSON to `target` (`-` = stdout); does nothing
 /// for `None`. A file is written atomically ([`write_atomic`]): an
 /// interrupted run leaves the old file or the new one, never half of one.

@@ -40,6 +40,14 @@ pub const PLOT_POINTS: usize = 5000;
 /// interval is max(dt, t_end / DEFAULT_ROWS).
 pub const DEFAULT_ROWS: f64 = 10_000.0;
 
+/// Largest CSV `qpv simulate --plot` writes, estimated before the run as
+/// rows × columns × [`CSV_CELL_BYTES`]: 1 GiB.
+pub const MAX_CSV_BYTES: f64 = 1024.0 * 1024.0 * 1024.0;
+
+/// Bytes per CSV cell in that estimate (a shortest round-trip number and
+/// its comma).
+pub const CSV_CELL_BYTES: f64 = 24.0;
+
 /// Steps integrated per call of the library integrator (bounds memory).
 const CHUNK_STEPS: usize = 20_000;
 
@@ -137,7 +145,7 @@ fn not_certified_reason(
 /// The design a report's gains are simulated and re-checked with: its
 /// mode (sound if absent), α and γ (required: the claim is made at them),
 /// split and the rest of its claim ([`Gains::design`]).
-fn claimed_design(g: &Gains, model: &str, path: &Path) -> Result<Design, CliError> {
+fn claimed_design(g: Gains, model: &str, path: &Path) -> Result<Design, CliError> {
     let mode = match g.mode.as_deref() {
         Some(m) => parse_mode_name(m, &format!("{}: the report's `mode`", path.display()))?,
         None => qpv_dsl::Mode::Sound,
@@ -437,6 +445,31 @@ fn step_counts(o: &Options<'_>) -> Result<(usize, usize, usize), CliError> {
     Ok((steps, stride, plot_stride))
 }
 
+/// Refuses a CSV larger than [`MAX_CSV_BYTES`] before the run (the step
+/// limit alone allowed about 19 GB with a small `--every`).
+fn csv_size_guard(
+    o: &Options<'_>,
+    obs: &PolytopicModel,
+    steps: usize,
+    stride: usize,
+) -> Result<(), CliError> {
+    let rows = (steps / stride + 2) as f64;
+    let columns =
+        (2 + 2 * obs.nx() + obs.params.len() + obs.inputs.len() + obs.ny() + obs.nv()) as f64;
+    let bytes = rows * columns * CSV_CELL_BYTES;
+    if bytes <= MAX_CSV_BYTES {
+        return Ok(());
+    }
+    let every = stride as f64 * o.dt;
+    let fits = every * bytes / MAX_CSV_BYTES * 1.01;
+    Err(CliError::Input(format!(
+        "--every {}: trajectories.csv would have {rows:.3e} rows of {columns} columns (about \
+         {:.1} GiB); at most 1 GiB is written: give --every {fits:.2e} or more, or a shorter --t-end",
+        fmt_num(every),
+        bytes / MAX_CSV_BYTES
+    )))
+}
+
 /// The scenario of `--scenario`, with the run's horizon and step, the
 /// signals and initial state given on the command line.
 fn scenario(o: &Options<'_>, poly: &PolytopicModel) -> Result<Scenario, CliError> {
@@ -566,7 +599,8 @@ fn noise_setup(
 pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     let g = read_gains(o.design)?;
     let (_, model) = load_model_for(o.file, o.model, o.design, g.model.as_deref())?;
-    let mut design = claimed_design(&g, &model.name, o.design)?;
+    let claims = g.certifies;
+    let mut design = claimed_design(g, &model.name, o.design)?;
     let poly = model.polytopic();
     if design.l.is_empty() {
         return Err(CliError::Input(format!(
@@ -602,6 +636,9 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         )));
     }
 
+    if o.plot.is_some() {
+        csv_size_guard(&o, &obs, steps, stride)?;
+    }
     if let Some(dir) = o.plot {
         let mut files: Vec<String> = ["trajectories.csv", "mu.svg", "error.svg"]
             .map(String::from)
@@ -613,7 +650,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     }
 
     // What is certified, and therefore what the run is compared with.
-    let reason = not_certified_reason(&design, g.certifies, &obs);
+    let reason = not_certified_reason(&design, claims, &obs);
     // Every figure a claim rests on (σ, ν_max, the error bound, the Euler
     // step) is recomputed from the model as it is now and the gains as
     // given; the report's own figures are claims, never read as facts.
