@@ -593,3 +593,222 @@ fn a_csv_beyond_its_size_limit_is_refused_before_the_run() {
     assert!(t.contains("at most 1 GiB") && t.contains("--every"), "{t}");
     assert!(!dir.join("trajectories.csv").exists());
 }
+
+/// splitmix64: the fuzz test's seeded generator.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+    fn pick<'a, T>(&mut self, v: &'a [T]) -> &'a T {
+        &v[self.below(v.len())]
+    }
+}
+
+/// JSON pointers of every number under `v` (at `at`).
+fn numbers(v: &Value, at: String, out: &mut Vec<String>) {
+    match v {
+        Value::Number(_) => out.push(at),
+        Value::Array(a) => {
+            for (i, x) in a.iter().enumerate() {
+                numbers(x, format!("{at}/{i}"), out);
+            }
+        }
+        Value::Object(o) => {
+            for (k, x) in o {
+                numbers(x, format!("{at}/{k}"), out);
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Multiplies every number under `v` by `f`.
+fn scale(v: &mut Value, f: f64) {
+    match v {
+        Value::Number(n) => *v = Value::from(n.as_f64().unwrap_or(0.0) * f),
+        Value::Array(a) => a.iter_mut().for_each(|x| scale(x, f)),
+        Value::Object(o) => o.values_mut().for_each(|x| scale(x, f)),
+        _ => {}
+    }
+}
+
+/// One random mutation of the design object `d` (every numeric field,
+/// every slack; scaling, swapping, removal), described in words.
+fn mutate(d: &mut Value, rng: &mut Rng) -> String {
+    const KEYS: [&str; 14] = [
+        "P",
+        "L",
+        "alpha",
+        "gamma",
+        "cube",
+        "skew",
+        "state_bound",
+        "noise",
+        "sampling",
+        "margins",
+        "data_checks",
+        "Gamma",
+        "gain_norms",
+        "mode",
+    ];
+    let present: Vec<&str> = KEYS.into_iter().filter(|k| d.get(*k).is_some()).collect();
+    let key = *rng.pick(&present);
+    let mut leaves = Vec::new();
+    numbers(&d[key], format!("/{key}"), &mut leaves);
+    let factors = [-1.0, 0.0, 1e-4, 0.5, 0.9, 1.0 + 1e-9, 1.1, 2.0, 1e4];
+    let specials = [0.0, 1e308, -1e308, 5e-324, 1e-300];
+    match rng.below(7) {
+        0 | 1 if !leaves.is_empty() => {
+            let at = rng.pick(&leaves).clone();
+            let x = d.pointer(&at).and_then(Value::as_f64).unwrap_or(0.0);
+            let f = *rng.pick(&factors);
+            *d.pointer_mut(&at).expect("leaf") = Value::from(x * f);
+            format!("{at} × {f}")
+        }
+        2 if !leaves.is_empty() => {
+            let at = rng.pick(&leaves).clone();
+            let v = *rng.pick(&specials);
+            *d.pointer_mut(&at).expect("leaf") = Value::from(v);
+            format!("{at} = {v:e}")
+        }
+        3 => {
+            let f = *rng.pick(&factors);
+            scale(&mut d[key], f);
+            format!("/{key} scaled by {f}")
+        }
+        4 if leaves.len() > 1 => {
+            let (a, b) = (rng.pick(&leaves).clone(), rng.pick(&leaves).clone());
+            let va = d.pointer(&a).cloned().expect("leaf");
+            let vb = d.pointer(&b).cloned().expect("leaf");
+            *d.pointer_mut(&a).expect("leaf") = vb;
+            *d.pointer_mut(&b).expect("leaf") = va;
+            format!("{a} swapped with {b}")
+        }
+        5 => {
+            // Swap two entries of an array (two vertices' gains, two
+            // generators' slacks, two rows), or two keys' values.
+            match d[key].as_array_mut() {
+                Some(a) if a.len() > 1 => {
+                    let n = a.len();
+                    let (i, j) = (rng.below(n), rng.below(n));
+                    a.swap(i, j);
+                    format!("/{key}: entries {i} and {j} swapped")
+                }
+                _ => {
+                    let other = *rng.pick(&present);
+                    let (va, vb) = (d[key].clone(), d[other].clone());
+                    d[key] = vb;
+                    d[other] = va;
+                    format!("/{key} swapped with /{other}")
+                }
+            }
+        }
+        _ => {
+            d.as_object_mut().expect("design").remove(key);
+            format!("/{key} removed")
+        }
+    }
+}
+
+/// Whether an independent sampling of V' + αV on the plant as written
+/// (not the observer model the report's slacks build) falsifies P, L_l at
+/// (α, γ): the counterexample, if any.
+fn falsified(model: &str, d: &Value, alpha: f64, gamma: f64) -> Option<String> {
+    use qpv::solve::report::rows_to_matrix;
+    let src = std::fs::read_to_string(model).expect("model");
+    let plant = qpv::dsl::parse(&src).expect("model").remove(0).polytopic();
+    let rows = |v: &Value| -> Vec<Vec<f64>> {
+        serde_json::from_value(v.clone()).expect("rows (the command accepted them)")
+    };
+    let p = rows_to_matrix(&rows(&d["P"]));
+    let l: Vec<_> = d["L"]
+        .as_array()
+        .expect("L")
+        .iter()
+        .map(|m| rows_to_matrix(&rows(m)))
+        .collect();
+    let f = qpv::solve::falsify::falsify(&plant, &p, &l, alpha, gamma, 3000, 11)
+        .expect("the sampler runs on gains the certificate accepted");
+    (!f.passed()).then(|| format!("{:?}", f.worst))
+}
+
+#[test]
+fn fuzzed_reports_never_claim_what_sampling_falsifies() {
+    let bases = [
+        (
+            "examples/paper.qpv",
+            design(
+                "fuzz-paper.json",
+                &["examples/paper.qpv", "--alpha", "10", "--gamma", "0.1889"],
+            ),
+        ),
+        ("examples/paper.qpv", paper_cube()),
+        ("examples/lotka_volterra.qpv", lotka_volterra()),
+    ];
+    let mut rng = Rng(24);
+    let (mut claims, mut cases) = (0, 0);
+    for (model, report) in &bases {
+        let doc = read(report);
+        let base = &doc["designs"][0];
+        let alpha = base["alpha"].as_f64().expect("alpha");
+        let gamma = base["gamma"].as_f64().expect("gamma");
+        assert!(
+            falsified(model, base, alpha, gamma).is_none(),
+            "{model}: the base design"
+        );
+        // The sampler bites: the same gains at 100 α are falsified.
+        assert!(
+            falsified(model, base, 100.0 * alpha, gamma).is_some(),
+            "{model}: 100 α"
+        );
+        for case in 0..30 {
+            let mut m = doc.clone();
+            let what = mutate(&mut m["designs"][0], &mut rng);
+            let file = write(&format!("fuzz-{case}.json"), &m);
+            let d = &m["designs"][0];
+            cases += 1;
+            let out = qpv(&["check", model, "--gains", s(&file), "--json", "-"]);
+            let check_claims = out.status.code() == Some(0);
+            if check_claims {
+                let j = common::json_stdout(&out);
+                assert_eq!(j["certifies"], true, "{what}");
+                let (a, g) = (common::num(&j, "alpha"), common::num(&j, "gamma"));
+                if let Some(cx) = falsified(model, d, a, g) {
+                    panic!("{model} {what}: check certified α = {a}, γ = {g}; sampling found {cx}");
+                }
+                claims += 1;
+            }
+            let out = qpv(&["simulate", model, "--design", s(&file), "--t-end", "0.05"]);
+            let t = text(&out);
+            if t.contains("certified (independent re-check on this model)") {
+                let (a, g) = (num_at(d, "alpha"), num_at(d, "gamma"));
+                if let Some(cx) = falsified(model, d, a, g) {
+                    panic!(
+                        "{model} {what}: simulate claimed α = {a}, γ = {g}; sampling found {cx}"
+                    );
+                }
+                assert!(
+                    check_claims,
+                    "{model} {what}: simulate claims what check does not: {t}"
+                );
+            }
+        }
+    }
+    // The mutations are not all fatal: some certified reports remain (the
+    // claims checked above), and most cases are refused or not certified.
+    eprintln!("fuzz: {claims} of {cases} mutated reports certified by check, none falsified");
+    assert!(claims > 0 && claims < cases, "{claims} of {cases}");
+}
+
+fn num_at(d: &Value, key: &str) -> f64 {
+    d[key].as_f64().unwrap_or_else(|| panic!("{key} in {d}"))
+}
