@@ -132,6 +132,7 @@ fn check_refuses_a_recheck_beyond_the_certificate_budget() {
     }
 }
 
+#[cfg(unix)] // symlinks and hard links
 #[test]
 fn json_output_never_overwrites_an_input() {
     let dir = tmp("same-file");
@@ -181,6 +182,7 @@ fn json_output_never_overwrites_an_input() {
     assert_eq!(std::fs::read_to_string(&model).expect("model"), text_before);
 }
 
+#[cfg(unix)] // symlinks and hard links
 #[test]
 fn json_reports_are_written_atomically_through_a_symlink() {
     let dir = tmp("atomic");
