@@ -5,10 +5,12 @@
 //! its modules (one link instead of six), sharing the helpers of
 //! tests/common.
 
+mod cli_claims;
 mod cli_cover;
 mod cli_decoupled;
 mod cli_noise;
 mod cli_output_route;
+mod cli_practical;
 mod cli_simulate;
 mod cli_state_bound;
 mod common;

@@ -20,22 +20,46 @@ impl Span {
 }
 
 /// 1-based line and column (in characters) of a byte offset in `src`.
+/// A line ends at `\n`, `\r\n` or a lone `\r` (old Mac files), as in
+/// [`source_lines`].
 pub fn line_col(src: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(src.len());
     let mut line = 1;
     let mut col = 1;
-    for (i, ch) in src.char_indices() {
+    let mut chars = src.char_indices().peekable();
+    while let Some((i, ch)) = chars.next() {
         if i >= offset {
             break;
         }
-        if ch == '\n' {
+        let lf_follows = chars.peek().is_some_and(|&(_, c)| c == '\n');
+        if ch == '\n' || (ch == '\r' && !lf_follows) {
             line += 1;
             col = 1;
-        } else {
+        } else if ch != '\r' {
             col += 1;
         }
     }
     (line, col)
+}
+
+/// The lines of `src`, each without its ending: a line ends at `\n`,
+/// `\r\n` or a lone `\r` (the line numbers of [`line_col`]).
+pub fn source_lines(src: &str) -> impl Iterator<Item = &str> {
+    let mut rest = Some(src);
+    std::iter::from_fn(move || {
+        let s = rest?;
+        match s.find(['\n', '\r']) {
+            Some(i) => {
+                let skip = if s[i..].starts_with("\r\n") { 2 } else { 1 };
+                rest = Some(&s[i + skip..]).filter(|r| !r.is_empty());
+                Some(&s[..i])
+            }
+            None => {
+                rest = None;
+                Some(s)
+            }
+        }
+    })
 }
 
 /// An error in a model text: what went wrong, what was expected, and where.
@@ -57,7 +81,7 @@ impl Error {
     /// Builds an error at `span` of `src`, computing line, column and excerpt.
     pub fn new(src: &str, span: Span, message: impl Into<String>) -> Self {
         let (line, column) = line_col(src, span.start);
-        let excerpt = src.lines().nth(line - 1).unwrap_or("").to_string();
+        let excerpt = source_lines(src).nth(line - 1).unwrap_or("").to_string();
         Error {
             message: message.into(),
             span,
@@ -157,7 +181,14 @@ pub(crate) fn suggest<'a>(
         .map(|(_, c)| c)
 }
 
-/// Shortest round-trip text of a number.
-pub(crate) fn fmt_num(v: f64) -> String {
-    format!("{v}")
+/// Shortest round-trip text of a number: plain decimal for magnitudes in
+/// [1e-5, 1e16) (and 0), scientific otherwise (`1e-320`, `1e308`, never
+/// hundreds of digits).
+pub fn fmt_num(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 || !v.is_finite() || (1e-5..1e16).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
 }

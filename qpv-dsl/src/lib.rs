@@ -70,6 +70,21 @@ pub fn parse(src: &str) -> Result<Vec<Model>, Error> {
     if src.len() > MAX_SOURCE_BYTES {
         return Err(too_long(src));
     }
+    if let Some((at, c)) = src
+        .char_indices()
+        .find(|&(_, c)| c.is_control() && !matches!(c, '\t' | '\n' | '\r'))
+    {
+        let name = if c == '\0' { " (NUL)" } else { "" };
+        return Err(Error::new(
+            src,
+            Span::new(at, at + c.len_utf8()),
+            format!(
+                "a control character U+{:04X}{name} in the text: a model file is plain text \
+                 (is this a binary file, or UTF-16 rather than UTF-8?)",
+                c as u32
+            ),
+        ));
+    }
     parse_diag(src).map_err(|d| d.into_error(src))
 }
 
@@ -87,7 +102,12 @@ pub const MAX_MODELS: usize = 64;
 /// The error for a text longer than [`MAX_SOURCE_BYTES`], at the start of
 /// the text (with a short excerpt: the first line may be the whole text).
 fn too_long(src: &str) -> Error {
-    let first: String = src.lines().next().unwrap_or("").chars().take(80).collect();
+    let first: String = diagnostic::source_lines(src)
+        .next()
+        .unwrap_or("")
+        .chars()
+        .take(80)
+        .collect();
     Error {
         message: format!(
             "the model text is {} bytes long: at most {MAX_SOURCE_BYTES} bytes (1 MiB) are \

@@ -261,3 +261,34 @@ fn warnings_are_positioned() {
         .iter()
         .any(|(at, msg)| at.starts_with("state_bound") && msg.contains("xᵀQ⁻¹x = 4.0000 > 1")));
 }
+
+#[test]
+fn old_mac_line_endings_give_the_right_positions() {
+    // Lines ended by a lone CR (and by CRLF) count as lines: the error is
+    // on line 5, with that line as its excerpt.
+    let bad = BASE.replacen("-1, th;", "-1, th2;", 1);
+    for ending in ["\r", "\r\n"] {
+        let e = parse(&bad.replace('\n', ending)).unwrap_err();
+        assert_eq!((e.line, e.column), (5, 14), "{ending:?}: {e}");
+        assert_eq!(e.excerpt, "    A = [-1, th2; 0, -2];", "{ending:?}");
+    }
+}
+
+#[test]
+fn a_control_character_is_named_not_an_unknown_statement() {
+    let e = parse(&BASE.replacen("    output y;", "\0   output y;", 1)).unwrap_err();
+    assert_eq!((e.line, e.column), (3, 1), "{e}");
+    assert!(e.message.contains("U+0000 (NUL)"), "{e}");
+    assert!(e.message.contains("plain text"), "{e}");
+}
+
+#[test]
+fn numbers_far_from_one_are_shown_in_scientific_form() {
+    use qpv_dsl::diagnostic::fmt_num;
+    assert_eq!(fmt_num(1e-320), "1e-320");
+    assert_eq!(fmt_num(1e308), "1e308");
+    assert_eq!(fmt_num(-2.5e-7), "-2.5e-7");
+    assert_eq!(fmt_num(0.25), "0.25");
+    assert_eq!(fmt_num(1200.0), "1200");
+    assert_eq!(fmt_num(0.0), "0");
+}

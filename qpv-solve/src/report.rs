@@ -423,30 +423,116 @@ impl Design {
 
     /// The independent certificate of this design's P and L_l against
     /// `model` (through [`Design::observer_model`]: the design's verified Q,
-    /// output route and split applied), at its α and γ. A model the design
-    /// cannot be applied to (a refused Q, a route that does not fit) gives a
-    /// failed certificate with the reason.
+    /// output route, split and skew slack applied), at its α and γ, by
+    /// [`Design::recheck_on`]. A model the design cannot be applied to (a
+    /// refused Q, a route that does not fit) gives a failed certificate
+    /// with the reason.
+    ///
+    /// This is the one re-check of a report's claim (`qpv check` and
+    /// `qpv simulate` both use it): nothing the report says about its own
+    /// margins, data checks or verdict is read.
     pub fn recheck(&self, model: &PolytopicModel) -> Certificate {
         match self.observer_model(model) {
-            Ok(m) => crate::certificate::check_with(
-                &m,
-                self.mode,
-                self.alpha,
-                self.gamma,
-                &self.p_matrix(),
-                &self.l_matrices(),
-                self.cube
-                    .as_ref()
-                    .map(crate::conditions::cube::CubeSlacks::from_report)
-                    .as_ref(),
-            )
-            .with_gain_bound(&self.l_matrices(), self.max_gain),
+            Ok(m) => self.recheck_on(&m),
             Err(e) => Certificate::refused(
                 self.mode,
                 self.alpha,
                 self.gamma,
                 format!("observer's model: {e}"),
             ),
+        }
+    }
+
+    /// The independent certificate of this design's P and L_l on `obs`, the
+    /// observer model [`Design::observer_model`] built: with the design's
+    /// cube slacks (the `cube` key) the slack inequalities of
+    /// [`crate::certificate::check_cube`], else every region-vertex pair.
+    /// Refused (a failed certificate saying why, nothing computed) when
+    /// that is more than [`crate::size::CERTIFICATE_BUDGET`] rate blocks,
+    /// the budget of a design's own certificate.
+    pub fn recheck_on(&self, obs: &PolytopicModel) -> Certificate {
+        let slacks = self
+            .cube
+            .as_ref()
+            .map(crate::conditions::cube::CubeSlacks::from_report);
+        let blocks = recheck_blocks(obs, slacks.is_some());
+        if blocks > crate::size::CERTIFICATE_BUDGET {
+            let combos = combinations(obs);
+            return Certificate::refused(
+                self.mode,
+                self.alpha,
+                self.gamma,
+                format!(
+                    "too large to re-check: {combos} rate combination(s) × {}² region-vertex pairs \
+                     = {blocks:.3e} blocks, more than the certificate's budget of {:.3e}{}",
+                    obs.region.vertices.len(),
+                    crate::size::CERTIFICATE_BUDGET,
+                    if obs.region.zonotope_generators().is_some() {
+                        "; a `conditions = cube` report carries slacks (its `cube` key) that are \
+                         re-checked without enumerating the pairs"
+                    } else {
+                        "; a region with fewer vertices would fit"
+                    }
+                ),
+            );
+        }
+        let l = self.l_matrices();
+        crate::certificate::check_with(
+            obs,
+            self.mode,
+            self.alpha,
+            self.gamma,
+            &self.p_matrix(),
+            &l,
+            slacks.as_ref(),
+        )
+        .with_gain_bound(&l, self.max_gain)
+    }
+
+    /// A design that holds only the claim of a gains file: P and L_l (rows)
+    /// to be checked in `mode` at (`alpha`, `gamma`) for model `model`, not
+    /// certified by anything yet (`feasible` and `certifies` false, no
+    /// margins, no search). The caller sets what else the file claims
+    /// (split, state bound, output route, skew and cube slacks), then
+    /// [`Design::recheck`] judges it.
+    pub fn claimed(
+        model: &str,
+        mode: Mode,
+        alpha: f64,
+        gamma: f64,
+        p: Vec<Vec<f64>>,
+        l: Vec<Vec<Vec<f64>>>,
+    ) -> Design {
+        Design {
+            model: model.to_string(),
+            mode,
+            split: Split::default_for(mode),
+            conditions: Conditions::Full,
+            feasible: false,
+            certifies: false,
+            alpha,
+            gamma,
+            p,
+            gamma_l: Vec::new(),
+            l,
+            gain_norms: Vec::new(),
+            margins: BTreeMap::new(),
+            data_checks: BTreeMap::new(),
+            solver: SolverInfo::default(),
+            seconds_total: 0.0,
+            search: Vec::new(),
+            notes: Vec::new(),
+            summary: String::new(),
+            state_bound: None,
+            output_route: None,
+            skew: None,
+            diagnosis: None,
+            noise: None,
+            sampling: None,
+            gamma_search: None,
+            cube: None,
+            max_gain: None,
+            practical: None,
         }
     }
 
@@ -457,6 +543,30 @@ impl Design {
     /// Parses a design written by [`Design::to_json`].
     pub fn from_json(text: &str) -> Result<Design, serde_json::Error> {
         serde_json::from_str(text)
+    }
+}
+
+/// The rate combinations of `obs`: r θ-vertices, or r² for the double sum.
+fn combinations(obs: &PolytopicModel) -> f64 {
+    let r = obs.nv() as f64;
+    if crate::model::is_double_sum(obs) {
+        r * r
+    } else {
+        r
+    }
+}
+
+/// The rate blocks the certificate of a design on `obs` checks: c·(4r + 1)
+/// with cube slacks (r generators), else c·p² (p region vertices), for c
+/// rate combinations (as f64: it may exceed any integer type).
+fn recheck_blocks(obs: &PolytopicModel, cube: bool) -> f64 {
+    let c = combinations(obs);
+    match obs.region.zonotope_generators() {
+        Some(g) if cube => c * (4.0 * g.len() as f64 + 1.0),
+        _ => {
+            let p = obs.region.vertices.len() as f64;
+            c * p * p
+        }
     }
 }
 

@@ -126,6 +126,7 @@ const OTHERS: &[Crate] = &[
             ("cli::vertices", 3),
             ("cli::design", 3),
             ("cli::simulate", 3),
+            ("cli::gains", 3),
             ("cli::check", 4),
             ("cli::tradeoff", 4),
             ("cli", 5),

@@ -6,57 +6,14 @@
 //! `design` blocks; a paper-mode check whose conditions hold exits 3
 //! (a reproduction, not a certificate).
 
-use super::design::parse_split;
-use super::input::{emit_json, exit, load_model_for, print_text, CliError};
-use super::schema::read_report;
+use super::gains::{parse_mode_name, read_gains, Gains};
+use super::input::{check_json_target, emit_json, exit, load_model_for, print_text, CliError};
 use super::schema::CheckOutput;
-use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Model, OutputRoute, PolytopicModel, Split, StateBound};
-use qpv_solve::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
-use qpv_solve::output_filter::OutputRouteInfo;
-use qpv_solve::report::{rows_to_matrix, skew_matrices};
+use qpv_dsl::diagnostic::fmt_num;
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Model, OutputRoute, StateBound};
+use qpv_solve::report::Design;
 use qpv_solve::{Certificate, SolveError};
 use std::path::Path;
-
-/// The gains file: `P` (rows), `L` (per vertex, NX rows of NY), and
-/// optionally the `alpha`, `gamma` and `mode` they were designed for (a
-/// `qpv design --json` report is such a file).
-#[derive(serde::Deserialize)]
-struct Gains {
-    #[serde(rename = "P")]
-    p: Vec<Vec<f64>>,
-    #[serde(rename = "L")]
-    l: Vec<Vec<Vec<f64>>>,
-    alpha: Option<f64>,
-    gamma: Option<f64>,
-    mode: Option<String>,
-    /// The model the gains were designed for (a design report names it);
-    /// the model checked, unless `--model` disagrees (an error).
-    model: Option<String>,
-    /// Representation of N_k, M_k the gains were designed with
-    /// ("as_written" | "symmetric"; a design report carries it).
-    split: Option<String>,
-    /// The state bound the design used (a design report carries it); its Q
-    /// is needed to check a model with `state_bound auto`.
-    state_bound: Option<GainsBound>,
-    /// The output route the design used (a design report carries it): a
-    /// filter-route design is checked against the augmented plant.
-    output_route: Option<OutputRouteInfo>,
-    /// `split = skew_slack`: the skew-symmetric slack K_{k,l} the gains were
-    /// certified with (a design report carries it).
-    skew: Option<Vec<Vec<Vec<Vec<f64>>>>>,
-    /// `max_gain = G`: the bound on every ‖L_l‖₂ the design claims, checked
-    /// from `L` (a required data check).
-    max_gain: Option<f64>,
-}
-
-/// The part of a design report's `state_bound` entry `qpv check` uses.
-#[derive(serde::Deserialize)]
-struct GainsBound {
-    #[serde(rename = "Q")]
-    q: Option<Vec<Vec<f64>>>,
-    h: Option<f64>,
-    split: Option<String>,
-}
 
 /// The flags of `qpv check` (each `None` when not given).
 #[derive(Debug, Clone, Copy, Default)]
@@ -69,24 +26,6 @@ pub struct Flags<'a> {
     pub gamma: Option<f64>,
 }
 
-fn rectangular(rows: &[Vec<f64>]) -> bool {
-    rows.iter()
-        .all(|r| r.len() == rows.first().map_or(0, Vec::len))
-}
-
-/// Reads the gains file (any report form [`read_report`] accepts).
-fn read_gains(path: &Path) -> Result<Gains, CliError> {
-    let g: Gains = serde_json::from_value(read_report(path)?)
-        .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
-    if !rectangular(&g.p) || g.l.iter().any(|l| !rectangular(l)) {
-        return Err(CliError::Input(format!(
-            "{}: P and every L_l must have rows of equal length",
-            path.display()
-        )));
-    }
-    Ok(g)
-}
-
 /// The mode to check and where it came from: `--mode`, else the gains
 /// file's `mode`, else sound.
 fn choose_mode(
@@ -94,23 +33,12 @@ fn choose_mode(
     g: &Gains,
     path: &Path,
 ) -> Result<(Mode, &'static str), CliError> {
-    let parse = |s: &str| match s {
-        "sound" => Some(Mode::Sound),
-        "paper" => Some(Mode::Paper),
-        _ => None,
-    };
     if let Some(m) = flag {
-        return parse(m)
-            .map(|m| (m, "--mode"))
-            .ok_or_else(|| CliError::Input(format!("--mode {m:?}: expected `sound` or `paper`")));
+        return parse_mode_name(m, "--mode").map(|m| (m, "--mode"));
     }
     match g.mode.as_deref() {
-        Some(m) => parse(m).map(|m| (m, "gains file")).ok_or_else(|| {
-            CliError::Input(format!(
-                "{}: the gains file's `mode` is {m:?}: expected \"sound\" or \"paper\"",
-                path.display()
-            ))
-        }),
+        Some(m) => parse_mode_name(m, &format!("{}: the gains file's `mode`", path.display()))
+            .map(|m| (m, "gains file")),
         None => Ok((Mode::Sound, "default")),
     }
 }
@@ -132,7 +60,8 @@ fn choose_value(
             Ok((v, format!("--{name}")))
         } else {
             Err(CliError::Input(format!(
-                "--{name} {v}: expected {expected}"
+                "--{name} {}: expected {expected}",
+                fmt_num(v)
             )))
         };
     }
@@ -141,8 +70,9 @@ fn choose_value(
             Ok((v, "gains file".into()))
         } else {
             Err(CliError::Input(format!(
-                "{}: the gains file's `{name}` is {v}: expected {expected}",
-                path.display()
+                "{}: the gains file's `{name}` is {}: expected {expected}",
+                path.display(),
+                fmt_num(v)
             )))
         };
     }
@@ -159,73 +89,51 @@ fn unit_interval(g: f64) -> bool {
     g > 0.0 && g < 1.0
 }
 
-/// The model the gains belong to, built by the same builder the design
-/// uses ([`ObserverModel::prepare`]): the split, the state bound, the output
-/// route (the filter augmentation) and the skew slack. An auto state
-/// bound's Q from the gains file is a claim the builder verifies against the
-/// model as it is now; a refused claim is `Ok(Err(reason))`: the gains are
-/// then not certified (exit 1), which is not an input error.
-fn observer_model(
-    model: &Model,
-    split: Split,
-    g: &Gains,
-    gains: &Path,
-) -> Result<Result<PolytopicModel, String>, CliError> {
+/// The certificate of `design` on `model` by [`Design::recheck_on`] (the
+/// re-check `qpv simulate` uses too), on the observer model
+/// [`Design::observer_model`] builds: the split, the state bound, the output
+/// route, the skew slack and the cube slacks the gains file claims. A
+/// refused state bound claim is a failed certificate saying why (exit 1:
+/// not certified, not an input error); a claim that does not fit the model
+/// at all (a slack of the wrong shape) is bad input.
+fn recheck(model: &Model, design: &Design, gains: &Path) -> Result<Certificate, CliError> {
     let plant = model.polytopic();
     let n = model.nx();
-    let claim = match g.state_bound.as_ref() {
-        Some(GainsBound {
-            q: Some(q),
-            h,
-            split,
-        }) if q.len() == n && q.iter().all(|r| r.len() == n) => Some(ClaimedBound {
-            q: rows_to_matrix(q),
-            h: *h,
-            split: split.as_deref().and_then(|s| parse_split(s).ok()),
-        }),
-        _ => None,
-    };
-    if matches!(plant.state_bound, StateBound::Auto { .. }) && claim.is_none() {
+    let has_q = design
+        .state_bound
+        .as_ref()
+        .and_then(|b| b.q.as_ref())
+        .is_some_and(|q| q.len() == n && q.iter().all(|r| r.len() == n));
+    if matches!(plant.state_bound, StateBound::Auto { .. }) && !has_q {
         return Err(CliError::Input(format!(
             "{}: the model has `state_bound auto`, so the gains file must carry the \
              design's state bound (`state_bound.Q`, {n}×{n}; a `qpv design --json` report does)",
             gains.display()
         )));
     }
-    let route = g
-        .output_route
-        .as_ref()
-        .map(|r| r.output_route())
-        .unwrap_or_default();
-    let skew = g.skew.as_ref().map(|k| skew_matrices(k));
-    let options = ObserverOptions {
-        output_route: &route,
-        split,
-        skew: skew.as_deref(),
-    };
-    let defaults = qpv_solve::Settings::default();
-    let bound = match &claim {
-        Some(c) => StateBoundClaim::Claimed(c),
-        None => StateBoundClaim::Compute(&defaults),
-    };
-    match ObserverModel::prepare(&plant, &options, bound) {
+    match design.observer_model(&plant) {
         Ok(observer) => {
-            if let OutputRoute::Filter(f) = &route {
+            if let OutputRoute::Filter(f) = &design.route() {
                 eprintln!(
                     "output filter route (pole {}, gain {}): checking against the augmented plant ({})",
                     f.pole,
                     f.gain,
-                    observer.model.states.join(", ")
+                    observer.states.join(", ")
                 );
             }
-            if skew.is_some() {
+            if design.skew.is_some() {
                 eprintln!(
                     "skew-symmetric slack K_k (from the gains file) added to N_k: the same plant"
                 );
             }
-            Ok(Ok(observer.model))
+            Ok(design.recheck_on(&observer))
         }
-        Err(e @ SolveError::StateBound(_)) => Ok(Err(format!("state bound: {e}"))),
+        Err(e @ SolveError::StateBound(_)) => Ok(Certificate::refused(
+            design.mode,
+            design.alpha,
+            design.gamma,
+            format!("state bound: {e}"),
+        )),
         Err(e) => Err(CliError::Input(format!("{}: {e}", gains.display()))),
     }
 }
@@ -253,6 +161,7 @@ pub fn run(
     flags: Flags,
     json: Option<&str>,
 ) -> Result<i32, CliError> {
+    check_json_target(json, &[file, gains])?;
     let g = read_gains(gains)?;
     let (_, model) = load_model_for(file, model_name, gains, g.model.as_deref())?;
     let (mode, mode_source) = choose_mode(flags.mode, &g, gains)?;
@@ -280,26 +189,16 @@ pub fn run(
     )?;
     // The same plant either way; the conditions are checked in the
     // representation the gains were designed with (default: the mode's).
-    let split = match g.split.as_deref() {
-        Some(name) => parse_split(name)
-            .map_err(|_| CliError::Input(format!("{}: unknown split {name:?}", gains.display())))?,
-        None => Split::default_for(mode),
-    };
-    let p = rows_to_matrix(&g.p);
-    let l: Vec<_> = g.l.iter().map(|r| rows_to_matrix(r)).collect();
-    let cert = match observer_model(&model, split, &g, gains)? {
-        Ok(poly) => {
-            qpv_solve::check(&poly, mode, alpha, gamma, &p, &l).with_gain_bound(&l, g.max_gain)
-        }
-        Err(reason) => Certificate::refused(mode, alpha, gamma, reason),
-    };
+    let split = g.split(mode, gains)?;
+    let design = g.design(&model.name, (mode, alpha, gamma, split), gains)?;
+    let cert = recheck(&model, &design, gains)?;
     let code = match (cert.passed, mode) {
         (true, Mode::Sound) => exit::CERTIFIED,
         (true, Mode::Paper) => exit::REPRODUCTION,
         (false, _) => exit::NOT_CERTIFIED,
     };
     let mut s = format!(
-        "check of {} against {} mode ({}) at alpha = {alpha} ({alpha_source}), gamma = {gamma} ({gamma_source}):\n",
+        "check of {} against {} mode ({}) at alpha = {} ({alpha_source}), gamma = {} ({gamma_source}):\n",
         gains.display(),
         match mode {
             Mode::Sound => "sound",
@@ -309,7 +208,9 @@ pub fn run(
             "default" => "the default; --mode paper checks a reproduction",
             "--mode" => "from --mode",
             _ => "from the gains file's `mode`",
-        }
+        },
+        fmt_num(alpha),
+        fmt_num(gamma)
     );
     for e in &cert.input_errors {
         s.push_str(&format!("  input error: {e}\n"));

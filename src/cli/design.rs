@@ -1,6 +1,8 @@
 //! `qpv design`: parse, derive, solve, certify, and report.
 
-use super::input::{emit_json, exit, fmt_matrix, load_model, print_text, CliError};
+use super::input::{
+    check_json_target, emit_json, exit, fmt_matrix, load_model, print_text, CliError,
+};
 use super::schema::{DesignOutput, NotRun};
 use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute, Split,
@@ -693,6 +695,7 @@ pub fn run(
     flags: Flags,
     json: Option<&str>,
 ) -> Result<i32, CliError> {
+    check_json_target(json, &[file])?;
     let (_, model) = load_model(file, model_name)?;
     let plan = requests(&model, flags)?;
     let noise_min = parse_noise(flags.noise)?;

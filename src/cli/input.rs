@@ -61,7 +61,8 @@ fn size_words(bytes: u64) -> String {
 
 /// Reads the text file `path` (`what` names it in errors), refusing more
 /// than `limit` bytes. Reads at most `limit + 1` bytes whatever the file
-/// is, so a device such as /dev/zero or a pipe cannot exhaust memory.
+/// is, so a device such as /dev/zero or a pipe cannot exhaust memory. A
+/// leading byte-order mark (U+FEFF, as some editors write) is skipped.
 pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<String, CliError> {
     let file = std::fs::File::open(path)
         .map_err(|e| CliError::Input(format!("cannot read {}: {e}", path.display())))?;
@@ -76,12 +77,16 @@ pub fn read_bounded(path: &Path, limit: u64, what: &str) -> Result<String, CliEr
             size_words(limit)
         )));
     }
-    String::from_utf8(bytes).map_err(|e| {
+    let text = String::from_utf8(bytes).map_err(|e| {
         CliError::Input(format!(
             "{}: not UTF-8 text (invalid byte at offset {})",
             path.display(),
             e.utf8_error().valid_up_to()
         ))
+    })?;
+    Ok(match text.strip_prefix('\u{FEFF}') {
+        Some(rest) => rest.to_string(),
+        None => text,
     })
 }
 
@@ -136,13 +141,9 @@ pub fn load_model_for(
     }
 }
 
-/// Reads and parses the JSON file `path` (at most [`JSON_LIMIT`] bytes).
-pub fn read_json(path: &Path) -> Result<serde_json::Value, CliError> {
-    let text = read_bounded(path, JSON_LIMIT, "JSON files")?;
-    serde_json::from_str(&text).map_err(|e| CliError::Input(format!("{}: {e}", path.display())))
-}
-
-/// Writes `value` as pretty JSON to `target` (`-` = stdout); does nothing for `None`.
+/// Writes `value` as pretty JSON to `target` (`-` = stdout); does nothing
+/// for `None`. A file is written atomically ([`write_atomic`]): an
+/// interrupted run leaves the old file or the new one, never half of one.
 pub fn emit_json<T: serde::Serialize>(target: Option<&str>, value: &T) -> Result<(), CliError> {
     let Some(target) = target else { return Ok(()) };
     let text = serde_json::to_string_pretty(value).map_err(|e| CliError::Io(e.to_string()))?;
@@ -151,9 +152,111 @@ pub fn emit_json<T: serde::Serialize>(target: Option<&str>, value: &T) -> Result
         writeln!(std::io::stdout().lock(), "{text}")
             .map_err(|e| CliError::Io(format!("cannot write to stdout: {e}")))
     } else {
-        std::fs::write(target, text + "\n")
-            .map_err(|e| CliError::Io(format!("cannot write {target}: {e}")))
+        write_atomic(Path::new(target), &(text + "\n"))
     }
+}
+
+/// Writes `text` to `target` through a temporary file in the same
+/// directory, renamed over it at the end (the rename is atomic). A symlink
+/// is written through: its target is replaced, the link stays.
+pub fn write_atomic(target: &Path, text: &str) -> Result<(), CliError> {
+    use std::io::Write;
+    let io = |e: std::io::Error| CliError::Io(format!("cannot write {}: {e}", target.display()));
+    let resolved = std::fs::canonicalize(target).unwrap_or_else(|_| target.to_path_buf());
+    let dir = match resolved.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    let name = resolved
+        .file_name()
+        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let written = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(text.as_bytes())?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, &resolved)
+    })();
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written.map_err(io)
+}
+
+/// Whether `a` and `b` name the same existing file (through `./`, `..`,
+/// symlinks or hard links: the same device and inode on Unix, the same
+/// canonical path elsewhere).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return ma.dev() == mb.dev() && ma.ino() == mb.ino();
+        }
+    }
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(ca), Ok(cb)) => ca == cb,
+        _ => false,
+    }
+}
+
+/// Checks an output file before any work: `flag` (`--json`, `--plot`)
+/// names it in errors. It must not be an input of the run (it would be
+/// overwritten: a model replaced by JSON), nor a directory, and its
+/// directory must exist.
+pub fn check_output_file(path: &Path, flag: &str, inputs: &[&Path]) -> Result<(), CliError> {
+    if let Some(input) = inputs.iter().find(|i| same_file(path, i)) {
+        return Err(CliError::Input(format!(
+            "{flag} {}: the same file as the input {}, which it would overwrite; write the output \
+             to another file",
+            path.display(),
+            input.display()
+        )));
+    }
+    if path.is_dir() {
+        return Err(CliError::Input(format!(
+            "{flag} {}: a directory; expected the name of a file to write",
+            path.display()
+        )));
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(CliError::Input(format!(
+            "{flag} {}: the directory {} does not exist",
+            path.display(),
+            dir.display()
+        )));
+    }
+    Ok(())
+}
+
+/// [`check_output_file`] for `--json TARGET` (nothing to check for stdout).
+pub fn check_json_target(target: Option<&str>, inputs: &[&Path]) -> Result<(), CliError> {
+    match target {
+        None | Some("-") => Ok(()),
+        Some(t) => check_output_file(Path::new(t), "--json", inputs),
+    }
+}
+
+/// Prepares the directory of `--plot DIR` before any work: creates it
+/// (an existing file of that name is an error) and checks each of the
+/// `files` it will hold with [`check_output_file`].
+pub fn prepare_plot_dir(dir: &Path, files: &[String], inputs: &[&Path]) -> Result<(), CliError> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(CliError::Input(format!(
+            "--plot {}: exists and is not a directory; expected a directory for the figures",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir_all(dir)
+        .map_err(|e| CliError::Io(format!("--plot {}: cannot create it: {e}", dir.display())))?;
+    for f in files {
+        check_output_file(&dir.join(f), "--plot", inputs)?;
+    }
+    Ok(())
 }
 
 /// Prints the human-readable `text` where it does not mix with JSON: on

@@ -3,6 +3,7 @@
 
 mod check;
 mod design;
+mod gains;
 mod input;
 mod noisy;
 mod schema;
@@ -53,10 +54,10 @@ pub enum Command {
         #[arg(long)]
         mode: Option<String>,
         /// Decay rate: a number or `max`.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         alpha: Option<String>,
         /// Region scaling: a number in (0,1) or `search`.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         gamma: Option<String>,
         /// Representation of N_k, M_k: `as_written`, `symmetric` or
         /// `skew_slack` (symmetric plus a searched skew-symmetric slack;
@@ -121,7 +122,7 @@ pub enum Command {
         #[arg(long, default_value_t = 8)]
         points: usize,
         /// Region scaling: a number in (0,1) or `search` (default: search).
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         gamma: Option<String>,
         /// Write the table as JSON to this file (`-` for stdout).
         #[arg(long)]
@@ -184,10 +185,10 @@ pub enum Command {
         #[arg(long)]
         model: Option<String>,
         /// End time [s].
-        #[arg(long, default_value_t = 2.0)]
+        #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
         t_end: f64,
         /// RK4 step [s].
-        #[arg(long, default_value_t = 1e-3)]
+        #[arg(long, default_value_t = 1e-3, allow_negative_numbers = true)]
         dt: f64,
         /// Initial plant state, comma-separated (default: the scenario's).
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
@@ -212,13 +213,13 @@ pub enum Command {
         input_csv: Option<PathBuf>,
         /// Output interval of the CSV [s] (default: max(dt, t_end/10000));
         /// the figures keep at most 5000 points per curve.
-        #[arg(long, value_name = "DT")]
+        #[arg(long, value_name = "DT", allow_negative_numbers = true)]
         every: Option<f64>,
         /// Bounded measurement noise: |v(t)| = NU on the report's noisy
         /// outputs (every output by default), a random direction held over
         /// each step. With a certified noise bound and NU <= nu_max the
         /// error is checked against the certified bound.
-        #[arg(long, value_name = "NU")]
+        #[arg(long, value_name = "NU", allow_negative_numbers = true)]
         noise: Option<f64>,
         /// Seed of the noise.
         #[arg(long, default_value_t = 1)]

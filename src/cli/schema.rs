@@ -1,6 +1,6 @@
 //! The one JSON schema of every command's `--json` output (docs/schema.md
-//! documents every key), and reading design reports in it and in the older
-//! unversioned forms.
+//! documents every key); reading the gains of a report in it and in the
+//! older unversioned forms is `cli::gains`.
 //!
 //! Every document is an object with the same envelope: `schema` (the
 //! version, [`SCHEMA`]), `command` (`design`, `check` or `vertices`) and
@@ -9,7 +9,6 @@
 //! (`margins` is family → worst margin, `feasible` and `certifies` mean the
 //! same for `design` and `check`).
 
-use super::input::{read_json, CliError};
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, OutputRoute, PolytopicModel};
 use qpv_dsl::{Region, StateBound};
 use qpv_solve::report::{matrix_to_rows, DataCheck, Design};
@@ -496,67 +495,6 @@ impl VerticesOutput {
     }
 }
 
-/// The one design to use from a parsed report or gains file at `path`:
-///
-/// * a `qpv design --json` document (`"schema": "qpv/1"`, `designs`);
-/// * the unversioned forms older versions wrote: one report object, or an
-///   array of reports for several requests;
-/// * a plain gains object written by hand (`P`, `L`, ...).
-///
-/// Of several designs the first certified one is used (else the first
-/// feasible one, else the first), and stderr says which.
-pub fn pick_design(value: Value, path: &Path) -> Result<Value, CliError> {
-    let bad = |msg: String| CliError::Input(format!("{}: {msg}", path.display()));
-    let items = match value {
-        Value::Object(mut o) if o.contains_key("schema") => {
-            match o.get("schema") {
-                Some(Value::String(s)) if s == SCHEMA => {}
-                other => {
-                    return Err(bad(format!(
-                        "`schema` is {}: this qpv reads `{SCHEMA}` (and the older reports without \
-                         a `schema` key)",
-                        other.map_or("missing".into(), Value::to_string)
-                    )))
-                }
-            }
-            match o.get("command").and_then(Value::as_str) {
-                Some("design") => {}
-                Some(other) => {
-                    return Err(bad(format!(
-                        "a `qpv {other}` document holds no gains; give a `qpv design --json` report"
-                    )))
-                }
-                None => return Err(bad("`command` is missing".into())),
-            }
-            match o.remove("designs") {
-                Some(Value::Array(items)) => items,
-                _ => return Err(bad("`designs` must be an array of design reports".into())),
-            }
-        }
-        Value::Array(items) => items,
-        other => return Ok(other),
-    };
-    let flag = |v: &Value, key: &str| v.get(key) == Some(&Value::Bool(true));
-    let pick = items
-        .iter()
-        .position(|v| flag(v, "certifies"))
-        .or_else(|| items.iter().position(|v| flag(v, "feasible")))
-        .unwrap_or(0);
-    let several = items.len() > 1;
-    let chosen = items
-        .into_iter()
-        .nth(pick)
-        .ok_or_else(|| bad("the report holds no design".into()))?;
-    if several {
-        eprintln!(
-            "note: {} holds several reports; using report {} (the first certified one, else the first feasible one)",
-            path.display(),
-            pick + 1
-        );
-    }
-    Ok(chosen)
-}
-
 /// The JSON view of a model's cover.
 fn cover_view(p: &PolytopicModel, c: &qpv_dsl::Cover) -> CoverView {
     let per = p.nv() / c.len().max(1);
@@ -595,14 +533,6 @@ fn cover_view(p: &PolytopicModel, c: &qpv_dsl::Cover) -> CoverView {
             })
             .collect(),
     }
-}
-
-/// Reads a design report or gains file and returns the one design in it
-/// to use (see [`pick_design`]): a report of several
-/// designs gives its first certified one (else the first feasible one, else
-/// the first), and stderr says which.
-pub fn read_report(path: &Path) -> Result<serde_json::Value, CliError> {
-    pick_design(read_json(path)?, path)
 }
 
 /// Vertex counts above this get a warning in the report.

@@ -6,7 +6,7 @@
 //! `+ - * / ^` (with `^` binding tightest and associating to the right),
 //! unary minus, parentheses and the functions `sin`, `cos`, `exp`, `sqrt`.
 
-use super::input::CliError;
+use super::input::{read_bounded, CliError};
 use std::sync::Arc;
 
 /// A parsed expression of t.
@@ -255,31 +255,24 @@ pub struct Table {
     columns: Vec<Vec<f64>>,
 }
 
-/// Largest CSV table accepted by `--input-csv` (bytes).
-pub const MAX_TABLE_BYTES: u64 = 256 << 20;
+/// Largest CSV table accepted by `--input-csv` (bytes): the limit of the
+/// JSON inputs.
+pub const MAX_TABLE_BYTES: u64 = super::input::JSON_LIMIT;
 
 impl Table {
     /// Reads a CSV file: a header `t,NAME,...`, then rows of numbers with
-    /// strictly increasing t. Errors name the line.
+    /// strictly increasing t. Errors name the line. Read like every input
+    /// ([`read_bounded`]: at most [`MAX_TABLE_BYTES`], so /dev/zero or an
+    /// endless pipe is refused; a byte-order mark is skipped).
     pub fn read(path: &std::path::Path) -> Result<Table, CliError> {
-        let what = path.display();
-        let size = std::fs::metadata(path)
-            .map_err(|e| CliError::Input(format!("cannot read {what}: {e}")))?
-            .len();
-        if size > MAX_TABLE_BYTES {
-            return Err(CliError::Input(format!(
-                "{what}: {size} bytes; --input-csv accepts at most {MAX_TABLE_BYTES} bytes"
-            )));
-        }
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| CliError::Input(format!("cannot read {what}: {e}")))?;
-        Table::parse(&text).map_err(|m| CliError::Input(format!("{what}:{m}")))
+        let text = read_bounded(path, MAX_TABLE_BYTES, "--input-csv tables")?;
+        Table::parse(&text).map_err(|m| CliError::Input(format!("{}:{m}", path.display())))
     }
 
     /// Parses CSV text (see [`Table::read`]); errors start with `LINE: `.
     pub fn parse(text: &str) -> Result<Table, String> {
-        let mut lines = text
-            .lines()
+        // A line ends at LF, CRLF or a lone CR, as in model files.
+        let mut lines = qpv_dsl::diagnostic::source_lines(text)
             .enumerate()
             .filter(|(_, l)| !l.trim().is_empty());
         let (_, header) = lines

@@ -16,12 +16,13 @@
 //! most [`PLOT_POINTS`] points per curve, so memory does not grow with the
 //! number of steps.
 
-use super::input::{load_model_for, CliError};
+use super::gains::{parse_mode_name, read_gains, Gains};
+use super::input::{load_model_for, prepare_plot_dir, CliError};
 use super::noisy::{simulate_noisy, NoiseBoundCurve, NoiseGen};
-use super::schema::read_report;
 use super::signal::{expr_signal, parse_assignment, table_signal, Table, TimeFn};
 use nalgebra::DMatrix;
 use qpv::plot::{line_chart, Series, PALETTE};
+use qpv_dsl::diagnostic::fmt_num;
 use qpv_dsl::{PolytopicModel, StateBound};
 use qpv_solve::report::Design;
 use qpv_solve::simulate::{envelope_factor, plant_output, simulate, Scenario, Signal};
@@ -38,6 +39,14 @@ pub const PLOT_POINTS: usize = 5000;
 /// Default number of CSV rows when `--every` is not given: the output
 /// interval is max(dt, t_end / DEFAULT_ROWS).
 pub const DEFAULT_ROWS: f64 = 10_000.0;
+
+/// Largest CSV `qpv simulate --plot` writes, estimated before the run as
+/// rows × columns × [`CSV_CELL_BYTES`]: 1 GiB.
+pub const MAX_CSV_BYTES: f64 = 1024.0 * 1024.0 * 1024.0;
+
+/// Bytes per CSV cell in that estimate (a shortest round-trip number and
+/// its comma).
+pub const CSV_CELL_BYTES: f64 = 24.0;
 
 /// Steps integrated per call of the library integrator (bounds memory).
 const CHUNK_STEPS: usize = 20_000;
@@ -94,15 +103,23 @@ struct Claim {
     noise_bound: Option<NoiseBoundCurve>,
 }
 
-/// Why the design is not certified here, or `None` if it is.
-fn not_certified_reason(design: &Design, poly: &PolytopicModel) -> Option<String> {
+/// Why the design is not certified here, or `None` if it is: its own
+/// verdict may only withdraw a claim (`certifies: false`); a claim is made
+/// only when the independent re-check ([`Design::recheck_on`], the one
+/// `qpv check` runs) passes on `obs`, the observer model built from the
+/// model as it is now.
+fn not_certified_reason(
+    design: &Design,
+    claims: Option<bool>,
+    obs: &PolytopicModel,
+) -> Option<String> {
     if design.mode == qpv_dsl::Mode::Paper {
         return Some("the report is a paper-mode reproduction, which certifies nothing".into());
     }
-    if !design.certifies {
+    if claims == Some(false) {
         return Some("the report does not certify (certifies: false)".into());
     }
-    let cert = design.recheck(poly);
+    let cert = design.recheck_on(obs);
     if cert.passed {
         return None;
     }
@@ -125,22 +142,87 @@ fn not_certified_reason(design: &Design, poly: &PolytopicModel) -> Option<String
     ))
 }
 
-/// Applies `--param`, `--input` and `--input-csv` to the scenario's signals.
+/// The design a report's gains are simulated and re-checked with: its
+/// mode (sound if absent), α and γ (required: the claim is made at them),
+/// split and the rest of its claim ([`Gains::design`]).
+fn claimed_design(g: Gains, model: &str, path: &Path) -> Result<Design, CliError> {
+    let mode = match g.mode.as_deref() {
+        Some(m) => parse_mode_name(m, &format!("{}: the report's `mode`", path.display()))?,
+        None => qpv_dsl::Mode::Sound,
+    };
+    let value = |name: &str, v: Option<f64>, ok: fn(f64) -> bool, expected: &str| match v {
+        Some(v) if ok(v) => Ok(v),
+        Some(v) => Err(CliError::Input(format!(
+            "{}: the report's `{name}` is {}: expected {expected}",
+            path.display(),
+            qpv_dsl::diagnostic::fmt_num(v)
+        ))),
+        None => Err(CliError::Input(format!(
+            "{}: the report has no `{name}` ({expected}): the gains are re-checked at it",
+            path.display()
+        ))),
+    };
+    let alpha = value(
+        "alpha",
+        g.alpha,
+        |a| a.is_finite() && a > 0.0,
+        "a positive finite number",
+    )?;
+    let gamma = value(
+        "gamma",
+        g.gamma,
+        |v| v > 0.0 && v < 1.0,
+        "a number in (0, 1)",
+    )?;
+    let split = g.split(mode, path)?;
+    g.design(model, (mode, alpha, gamma, split), path)
+}
+
+/// A signal given on the command line: where it came from (`--param
+/// s=...`, `--input-csv FILE`), the name it sets, Θ of a parameter, and
+/// the function.
+struct Given {
+    source: String,
+    name: String,
+    theta: Option<(f64, f64)>,
+    f: TimeFn,
+}
+
+/// Applies `--param`, `--input` and `--input-csv` to the scenario's
+/// signals; a name set twice (by two flags, or a flag and a CSV column) is
+/// refused, never silently the last.
 fn apply_signals(
     sc: &mut Scenario,
     poly: &PolytopicModel,
     o: &Options<'_>,
-) -> Result<Vec<String>, CliError> {
-    let mut set = |name: &str, f: TimeFn, flag: &str| -> Result<String, CliError> {
-        if let Some(i) = poly.inputs.iter().position(|n| n == name) {
-            sc.u[i] = Signal::Custom(f);
-            Ok(format!("input {name}"))
+) -> Result<Vec<Given>, CliError> {
+    let mut given: Vec<Given> = Vec::new();
+    let mut set = |name: &str, f: TimeFn, source: String, flag: &str| -> Result<(), CliError> {
+        if let Some(first) = given.iter().find(|g| g.name == name) {
+            return Err(CliError::Input(format!(
+                "{source}: `{name}` is given twice (first by {}); give each input or parameter once",
+                first.source
+            )));
+        }
+        let theta = if let Some(i) = poly.inputs.iter().position(|n| n == name) {
+            if flag == "--param" {
+                return Err(CliError::Input(format!(
+                    "{source}: `{name}` is an input; use --input"
+                )));
+            }
+            sc.u[i] = Signal::Custom(f.clone());
+            None
         } else if let Some(i) = poly.params.iter().position(|p| p.name == name) {
-            sc.theta[i] = Signal::Custom(f);
-            Ok(format!("parameter {name}"))
+            if flag == "--input" {
+                return Err(CliError::Input(format!(
+                    "{source}: `{name}` is a parameter; use --param"
+                )));
+            }
+            sc.theta[i] = Signal::Custom(f.clone());
+            Some((poly.params[i].lo, poly.params[i].hi))
         } else {
             let params: Vec<&str> = poly.params.iter().map(|p| p.name.as_str()).collect();
-            Err(CliError::Input(format!(
+            return Err(CliError::Input(format!(
                 "{flag}: `{name}` is neither an input ({}) nor a parameter ({}) of model {}",
                 if poly.inputs.is_empty() {
                     "none".to_string()
@@ -149,35 +231,78 @@ fn apply_signals(
                 },
                 params.join(", "),
                 poly.name
-            )))
-        }
+            )));
+        };
+        given.push(Given {
+            source,
+            name: name.to_string(),
+            theta,
+            f,
+        });
+        Ok(())
     };
-    let mut given = Vec::new();
     if let Some(path) = o.input_csv {
         let table = Arc::new(Table::read(path)?);
         for (k, name) in table.names.iter().enumerate() {
             let flag = format!("--input-csv {}", path.display());
-            given.push(set(name, table_signal(&table, k), &flag)?);
+            set(name, table_signal(&table, k), flag.clone(), &flag)?;
         }
     }
     for (flag, args) in [("--param", &o.params), ("--input", &o.inputs)] {
         for a in args {
             let (name, e) = parse_assignment(flag, a)?;
-            let what = set(&name, expr_signal(e), flag)?;
-            if flag == "--param" && what.starts_with("input") {
-                return Err(CliError::Input(format!(
-                    "--param {a:?}: `{name}` is an input; use --input"
-                )));
-            }
-            if flag == "--input" && what.starts_with("parameter") {
-                return Err(CliError::Input(format!(
-                    "--input {a:?}: `{name}` is a parameter; use --param"
-                )));
-            }
-            given.push(what);
+            set(&name, expr_signal(e), format!("{flag} {a}"), flag)?;
         }
     }
     Ok(given)
+}
+
+/// Checks every signal given on the command line at every time the run
+/// evaluates it (each RK4 step's start, midpoint and end): a value that
+/// is not a finite number (0/0, 1/t at t = 0, exp(1000 t) overflowing) or
+/// a parameter outside its interval Θ (where the plant's matrices are not
+/// known) is bad input, named with the flag, the value and the time.
+fn check_signals(given: &[Given], steps: usize, dt: f64, t_end: f64) -> Result<(), CliError> {
+    for g in given {
+        let bad = |t: f64, v: f64| -> Option<String> {
+            if !v.is_finite() {
+                return Some(format!(
+                    "{}: {}(t) is {v} at t = {}: expected a finite number",
+                    g.source,
+                    g.name,
+                    fmt_num(t)
+                ));
+            }
+            let (lo, hi) = g.theta?;
+            let tol = 1e-12 * lo.abs().max(hi.abs()).max(hi - lo);
+            (v < lo - tol || v > hi + tol).then(|| {
+                format!(
+                    "{}: {}(t) = {} at t = {} is outside Θ: {} ∈ [{}, {}] (the plant is only \
+                     known there; give a θ(t) inside the interval)",
+                    g.source,
+                    g.name,
+                    fmt_num(v),
+                    fmt_num(t),
+                    g.name,
+                    fmt_num(lo),
+                    fmt_num(hi)
+                )
+            })
+        };
+        let at = |t: f64| bad(t, (g.f)(t)).map_or(Ok(()), |m| Err(CliError::Input(m)));
+        at(0.0)?;
+        for k in 0..steps {
+            let t = k as f64 * dt;
+            let t_next = if k + 1 == steps {
+                t_end
+            } else {
+                (k + 1) as f64 * dt
+            };
+            at(t + 0.5 * (t_next - t))?;
+            at(t_next)?;
+        }
+    }
+    Ok(())
 }
 
 /// The recorded sample of one time instant.
@@ -288,14 +413,14 @@ fn open_csv(
 fn step_counts(o: &Options<'_>) -> Result<(usize, usize, usize), CliError> {
     if !(o.t_end.is_finite() && o.t_end >= 0.0) {
         return Err(CliError::Input(format!(
-            "--t-end {}: expected a non-negative number",
-            o.t_end
+            "--t-end {}: expected a non-negative number of seconds",
+            fmt_num(o.t_end)
         )));
     }
     if !(o.dt.is_finite() && o.dt > 0.0) {
         return Err(CliError::Input(format!(
-            "--dt {}: expected a positive number",
-            o.dt
+            "--dt {}: expected a positive number of seconds",
+            fmt_num(o.dt)
         )));
     }
     let steps_f = (o.t_end / o.dt - 1e-9).ceil().max(0.0);
@@ -303,19 +428,46 @@ fn step_counts(o: &Options<'_>) -> Result<(usize, usize, usize), CliError> {
         return Err(CliError::Input(format!(
             "--t-end {} with --dt {} needs {steps_f:.3e} RK4 steps; at most {MAX_STEPS:.0e} are run: \
              increase --dt or shorten --t-end",
-            o.t_end, o.dt
+            fmt_num(o.t_end),
+            fmt_num(o.dt)
         )));
     }
     let steps = steps_f as usize;
     let every = o.every.unwrap_or((o.t_end / DEFAULT_ROWS).max(o.dt));
     if !(every.is_finite() && every > 0.0) {
         return Err(CliError::Input(format!(
-            "--every {every}: expected a positive number of seconds"
+            "--every {}: expected a positive number of seconds",
+            fmt_num(every)
         )));
     }
     let stride = ((every / o.dt).round() as usize).max(1);
     let plot_stride = stride.max(steps.div_ceil(PLOT_POINTS));
     Ok((steps, stride, plot_stride))
+}
+
+/// Refuses a CSV larger than [`MAX_CSV_BYTES`] before the run (the step
+/// limit alone allowed about 19 GB with a small `--every`).
+fn csv_size_guard(
+    o: &Options<'_>,
+    obs: &PolytopicModel,
+    steps: usize,
+    stride: usize,
+) -> Result<(), CliError> {
+    let rows = (steps / stride + 2) as f64;
+    let columns =
+        (2 + 2 * obs.nx() + obs.params.len() + obs.inputs.len() + obs.ny() + obs.nv()) as f64;
+    let bytes = rows * columns * CSV_CELL_BYTES;
+    if bytes <= MAX_CSV_BYTES {
+        return Ok(());
+    }
+    let every = stride as f64 * o.dt;
+    let fits = every * bytes / MAX_CSV_BYTES * 1.01;
+    Err(CliError::Input(format!(
+        "--every {}: trajectories.csv would have {rows:.3e} rows of {columns} columns (about \
+         {:.1} GiB); at most 1 GiB is written: give --every {fits:.2e} or more, or a shorter --t-end",
+        fmt_num(every),
+        bytes / MAX_CSV_BYTES
+    )))
 }
 
 /// The scenario of `--scenario`, with the run's horizon and step, the
@@ -334,8 +486,21 @@ fn scenario(o: &Options<'_>, poly: &PolytopicModel) -> Result<Scenario, CliError
     sc.dt = o.dt;
     let given = apply_signals(&mut sc, poly, o)?;
     if !given.is_empty() {
-        println!("signals given: {}", given.join(", "));
+        let names: Vec<String> = given
+            .iter()
+            .map(|g| {
+                let kind = if g.theta.is_some() {
+                    "parameter"
+                } else {
+                    "input"
+                };
+                format!("{kind} {}", g.name)
+            })
+            .collect();
+        println!("signals given: {}", names.join(", "));
     }
+    let (steps, _, _) = step_counts(o)?;
+    check_signals(&given, steps, o.dt, o.t_end)?;
     let unset: Vec<&str> = poly
         .inputs
         .iter()
@@ -368,7 +533,8 @@ fn noise_setup(
     if let Some(nu) = o.noise {
         if !(nu.is_finite() && nu >= 0.0) {
             return Err(CliError::Input(format!(
-                "--noise {nu}: expected a non-negative amplitude"
+                "--noise {}: expected a non-negative amplitude",
+                fmt_num(nu)
             )));
         }
     }
@@ -401,7 +567,8 @@ fn noise_setup(
     if let (Some(nu), Some(g)) = (o.noise, &noise_gen) {
         let names: Vec<&str> = g.outputs.iter().map(|&i| obs.outputs[i].as_str()).collect();
         println!(
-            "measurement noise: |v(t)| = {nu} on {} (random direction, seed {}, held over each step)",
+            "measurement noise: |v(t)| = {} on {} (random direction, seed {}, held over each step)",
+            fmt_num(nu),
             names.join(", "),
             o.seed
         );
@@ -430,9 +597,10 @@ fn noise_setup(
 
 /// Runs `qpv simulate`.
 pub fn run(o: Options<'_>) -> Result<i32, CliError> {
-    let mut design: Design = serde_json::from_value(read_report(o.design)?)
-        .map_err(|e| CliError::Input(format!("{}: {e}", o.design.display())))?;
-    let (_, model) = load_model_for(o.file, o.model, o.design, Some(&design.model))?;
+    let g = read_gains(o.design)?;
+    let (_, model) = load_model_for(o.file, o.model, o.design, g.model.as_deref())?;
+    let claims = g.certifies;
+    let mut design = claimed_design(g, &model.name, o.design)?;
     let poly = model.polytopic();
     if design.l.is_empty() {
         return Err(CliError::Input(format!(
@@ -468,13 +636,25 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         )));
     }
 
+    if o.plot.is_some() {
+        csv_size_guard(&o, &obs, steps, stride)?;
+    }
+    if let Some(dir) = o.plot {
+        let mut files: Vec<String> = ["trajectories.csv", "mu.svg", "error.svg"]
+            .map(String::from)
+            .to_vec();
+        files.extend((1..=obs.nx()).map(|k| format!("x{k}.svg")));
+        let mut inputs = vec![o.file, o.design];
+        inputs.extend(o.input_csv);
+        prepare_plot_dir(dir, &files, &inputs)?;
+    }
+
     // What is certified, and therefore what the run is compared with.
-    let reason = not_certified_reason(&design, &poly);
+    let reason = not_certified_reason(&design, claims, &obs);
     // Every figure a claim rests on (σ, ν_max, the error bound, the Euler
     // step) is recomputed from the model as it is now and the gains as
     // given; the report's own figures are claims, never read as facts.
-    design.noise = None;
-    design.sampling = None;
+    design.certifies = reason.is_none();
     if reason.is_none() {
         qpv_solve::noise::attach(&poly, &mut design);
     }
@@ -552,7 +732,7 @@ fn write_row(
     cells.extend(y);
     cells.extend(&r.mu);
     cells.push(r.err);
-    let text: Vec<String> = cells.iter().map(f64::to_string).collect();
+    let text: Vec<String> = cells.iter().map(|&v| fmt_num(v)).collect();
     writeln!(w, "{}", text.join(","))
 }
 

@@ -5,7 +5,9 @@
 //! whose error bound is within twice the sweep's smallest.
 
 use super::design::parse_gamma;
-use super::input::{emit_json, exit, load_model, print_text, CliError};
+use super::input::{
+    check_json_target, emit_json, exit, load_model, prepare_plot_dir, print_text, CliError,
+};
 use super::schema::SCHEMA;
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec};
 use qpv_solve::noise::{default_alphas, knee_of, tradeoff, NoiseChannels, TradeoffPoint};
@@ -212,6 +214,11 @@ pub fn run(o: Options) -> Result<i32, CliError> {
         .map(parse_gamma)
         .transpose()?
         .unwrap_or(GammaSpec::Search);
+    // Every output is checked before the sweep (which can take minutes).
+    check_json_target(o.json, &[o.file])?;
+    if let Some(dir) = o.plot {
+        prepare_plot_dir(dir, &["tradeoff.svg".to_string()], &[o.file])?;
+    }
     let (_, model) = load_model(o.file, o.model)?;
     let poly = model.polytopic();
     let settings = qpv_solve::Settings::default();

@@ -1,6 +1,6 @@
 //! `qpv vertices`: the derived polytopic model, as text and as JSON.
 
-use super::input::{emit_json, fmt_matrix, load_model, print_text, CliError};
+use super::input::{check_json_target, emit_json, fmt_matrix, load_model, print_text, CliError};
 use super::schema::{count_warning, VerticesOutput};
 use nalgebra::DMatrix;
 use qpv_dsl::PolytopicModel;
@@ -8,6 +8,7 @@ use std::path::Path;
 
 /// Runs `qpv vertices`.
 pub fn run(file: &Path, model_name: Option<&str>, json: Option<&str>) -> Result<i32, CliError> {
+    check_json_target(json, &[file])?;
     let (_, m) = load_model(file, model_name)?;
     let poly = m.polytopic();
     emit_json(json, &VerticesOutput::new(&poly))?;
