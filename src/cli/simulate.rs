@@ -658,6 +658,20 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     if reason.is_none() {
         qpv_solve::noise::attach(&poly, &mut design);
     }
+    if let Some(sp) = design
+        .sampling
+        .as_ref()
+        .filter(|sp| o.dt > sp.max_step_euler)
+    {
+        println!(
+            "note: --dt {} exceeds the certified Euler step h = {} of these gains: this run \
+             integrates the continuous plant and observer together by RK4, so it says nothing \
+             about the observer stepped at that rate (stepped by Euler, the decay is certified \
+             for steps up to h only)",
+            fmt_num(o.dt),
+            fmt_num(sp.max_step_euler)
+        );
+    }
     let e0: Vec<f64> = sc.x0.iter().zip(&sc.xhat0).map(|(a, b)| a - b).collect();
     let (mut noise_gen, noise_bound) = noise_setup(&o, &design, &obs, &reason, &e0)?;
     let (claim, e0_inside) = claim_of(&design, &obs, &reason, &e0, noise_bound, o.noise.is_some());
