@@ -210,14 +210,23 @@ fn tradeoff_writes_the_table_and_the_figure() {
     assert_eq!(v["command"], "tradeoff");
     assert_eq!(v["model"], "paper_example");
     let points = v["points"].as_array().expect("points");
-    assert_eq!(points.len(), 3);
-    let alpha_max = num(&v["alpha_max"], "alpha");
+    // 3 requested, and up to 3 more below 5 % while the gain still falls.
+    assert!((3..=6).contains(&points.len()), "{points:?}");
+    let alpha_sup = num(&v["alpha_max"], "alpha_sup");
     for p in points {
-        for key in ["alpha", "gamma", "sigma", "error_bound", "max_gain"] {
+        for key in [
+            "alpha",
+            "gamma",
+            "sigma",
+            "error_bound",
+            "max_gain",
+            "max_step_euler",
+        ] {
             assert!(p[key].is_number(), "{key} in {p}");
         }
-        assert!(num(p, "alpha") < alpha_max);
+        assert!(num(p, "alpha") <= 0.99 * alpha_sup * (1.0 + 1e-12));
     }
+    assert!(t.contains("euler_step"), "{t}");
     let alphas: Vec<f64> = points.iter().map(|p| num(p, "alpha")).collect();
     assert!(alphas.windows(2).all(|w| w[0] < w[1]), "{alphas:?}");
     let knee = v["knee"].as_u64().expect("a knee") as usize;

@@ -1136,6 +1136,11 @@ pub struct TradeoffPoint {
     pub max_amplitude: Option<f64>,
     /// max_l ‖L_l‖₂ (None if not certified).
     pub max_gain: Option<f64>,
+    /// The certified Euler step of the point's design
+    /// ([`crate::sampling::Sampling::max_step_euler`]; None if not
+    /// certified or not computed).
+    #[serde(default)]
+    pub max_step_euler: Option<f64>,
     /// Wall time of this point's design, seconds.
     pub seconds: f64,
 }
@@ -1179,6 +1184,11 @@ pub fn tradeoff(
             error_bound: nb.map(|n| n.error_bound),
             max_amplitude: nb.map(|n| n.max_amplitude),
             max_gain: nb.map(|_| d.gain_norms.iter().copied().fold(0.0, f64::max)),
+            max_step_euler: d
+                .sampling
+                .as_ref()
+                .filter(|_| nb.is_some())
+                .map(|sp| sp.max_step_euler),
             seconds: d.seconds_total,
         });
     }

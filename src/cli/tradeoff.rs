@@ -19,6 +19,12 @@ use std::path::Path;
 /// before the report says its gains are far above what the knee needs.
 const GAIN_EXCESS: f64 = 10.0;
 
+/// The sweep extends below 5 % of the supremum while its lowest point's
+/// gain is below the next one's by more than this factor ...
+const GAIN_FALL: f64 = 2.0;
+/// ... by at most this many points (each a fifth of the previous α).
+const EXTEND: usize = 3;
+
 /// The options of `qpv tradeoff`.
 pub struct Options<'a> {
     /// The model file.
@@ -45,6 +51,7 @@ struct PointView {
     error_bound: Option<f64>,
     max_amplitude: Option<f64>,
     max_gain: Option<f64>,
+    max_step_euler: Option<f64>,
     knee: bool,
     seconds: f64,
 }
@@ -53,6 +60,9 @@ struct PointView {
 #[derive(Serialize)]
 struct FastestView {
     alpha: f64,
+    /// The certified supremum the sweep's range is measured against (the
+    /// practical α = max stays within its tolerance of it).
+    alpha_sup: f64,
     gamma: f64,
     max_gain: f64,
     sigma: Option<f64>,
@@ -89,18 +99,19 @@ fn opt(v: Option<f64>, prec: usize) -> String {
 /// The table of a sweep, one line per point, the knee marked.
 fn table(points: &[TradeoffPoint], knee: Option<usize>) -> String {
     let mut s = format!(
-        "  {:>10} {:>9} {:>12} {:>12} {:>11} {:>11}\n",
-        "alpha", "gamma", "sigma", "error_bound", "nu_max", "max_gain"
+        "  {:>10} {:>9} {:>12} {:>12} {:>11} {:>11} {:>11}\n",
+        "alpha", "gamma", "sigma", "error_bound", "nu_max", "max_gain", "euler_step"
     );
     for (k, p) in points.iter().enumerate() {
         s.push_str(&format!(
-            "  {:>10.4} {:>9.5} {:>12} {:>12} {:>11} {:>11}{}\n",
+            "  {:>10.4} {:>9.5} {:>12} {:>12} {:>11} {:>11} {:>11}{}\n",
             p.alpha,
             p.gamma,
             opt(p.sigma, 4),
             p.error_bound.map_or("-".into(), |e| format!("{e:.4}")),
             opt(p.max_amplitude, 3),
             p.max_gain.map_or("-".into(), |g| format!("{g:.4}")),
+            opt(p.max_step_euler, 3),
             if !p.certified {
                 "  not certified"
             } else if Some(k) == knee {
@@ -168,6 +179,10 @@ fn json_view<'a>(
         },
         alpha_max: FastestView {
             alpha: fastest.alpha,
+            alpha_sup: fastest
+                .practical
+                .as_ref()
+                .map_or(fastest.alpha, |p| p.alpha_sup),
             gamma: fastest.gamma,
             max_gain: max_gain(fastest),
             sigma: fastest.noise.as_ref().map(|n| n.sigma),
@@ -186,6 +201,7 @@ fn json_view<'a>(
                 error_bound: p.error_bound,
                 max_amplitude: p.max_amplitude,
                 max_gain: p.max_gain,
+                max_step_euler: p.max_step_euler,
                 knee: Some(k) == knee,
                 seconds: p.seconds,
             })
@@ -257,19 +273,44 @@ pub fn run(o: Options) -> Result<i32, CliError> {
         );
         return Ok(exit::NOT_CERTIFIED);
     }
-    let alphas = default_alphas(fastest.alpha, o.points);
+    // The range: up to 99 % of the certified supremum (the practical
+    // α = max reports it), down to where the gain has stopped falling.
+    let top = fastest
+        .practical
+        .as_ref()
+        .map_or(fastest.alpha, |p| p.alpha_sup);
+    let alphas = default_alphas(top, o.points);
     let channels = NoiseChannels::from_model(&poly);
     let mut points = Vec::with_capacity(alphas.len());
-    for (k, &a) in alphas.iter().enumerate() {
+    let one_point = |a: f64, what: String| -> Result<TradeoffPoint, CliError> {
         bar.set_message(format!(
-            "{}: noise-optimal design {}/{} at alpha = {a:.4}",
-            model.name,
-            k + 1,
-            alphas.len()
+            "{}: noise-optimal design {what} at alpha = {a:.4}",
+            model.name
         ));
         bar.tick();
         let one = tradeoff(&poly, &base, &channels, &[a], &settings).map_err(bad)?;
-        points.extend(one.points);
+        Ok(one.points.into_iter().next().expect("one point per alpha"))
+    };
+    for (k, &a) in alphas.iter().enumerate() {
+        points.push(one_point(a, format!("{}/{}", k + 1, alphas.len()))?);
+    }
+    // The practical end: while the lowest point's gain is still more than
+    // GAIN_FALL times the next one's lower (the gain still falls steeply
+    // as α falls), one more point at a fifth of its α, at most EXTEND.
+    for _ in 0..EXTEND {
+        let (Some(g0), Some(g1)) = (points[0].max_gain, points.get(1).and_then(|p| p.max_gain))
+        else {
+            break;
+        };
+        if g0 > g1 / GAIN_FALL || points[0].alpha < top * 1e-4 {
+            break;
+        }
+        let a = points[0].alpha / 5.0;
+        let p = one_point(a, "below the range".into())?;
+        if !p.certified {
+            break;
+        }
+        points.insert(0, p);
     }
     bar.finish_and_clear();
     let knee = knee_of(&points);
@@ -286,7 +327,7 @@ pub fn run(o: Options) -> Result<i32, CliError> {
         }
     );
     s.push_str(&format!(
-        "  fastest certified design: alpha = {:.6}, gamma = {:.6}, max ||L_l||_2 = {:.4}{}\n",
+        "  alpha = max design: alpha = {:.6} (certified supremum {top:.6}), gamma = {:.6}, max ||L_l||_2 = {:.4}{}\n",
         fastest.alpha,
         fastest.gamma,
         fast_gain,
