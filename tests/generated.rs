@@ -23,6 +23,7 @@ macro_rules! inline_model {
 }
 
 mod generated_noise;
+mod generated_practical;
 
 // Inputs, bounds other than [0, 1], a product θ_a θ_b, an unused parameter
 // (no vertex), an output nonlinearity, two designs.

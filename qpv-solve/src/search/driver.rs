@@ -491,6 +491,7 @@ fn gain_bound_failure(
         progress: &mut quiet,
         lean: false,
         max_gain: None,
+        margin_rel: None,
     };
     let a = settings.alpha_floor;
     let at = ctx.attempt(
@@ -584,6 +585,7 @@ pub(super) fn design_plain(
         progress,
         lean: false,
         max_gain: request.max_gain,
+        margin_rel: None,
     };
     let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
     let (alpha_t, gamma_t) = (target.alpha, target.gamma);
@@ -737,6 +739,7 @@ pub fn alpha_profile(
         progress: &mut quiet,
         lean: false,
         max_gain: req.max_gain,
+        margin_rel: None,
     };
     let mut prev: Option<Point> = None;
     let mut out = Vec::with_capacity(gammas.len());

@@ -146,6 +146,10 @@ struct Ctx<'a, 'm> {
     /// `max_gain = G`: the certificate's required data check on every
     /// ‖L_l‖₂ (the problem imposes it too).
     max_gain: Option<f64>,
+    /// A smaller relative margin of the solves than the settings' (the
+    /// practical design's retry where the default margin exceeds what the
+    /// conditions leave); None: the settings' own.
+    margin_rel: Option<f64>,
 }
 
 impl Ctx<'_, '_> {
@@ -225,9 +229,17 @@ impl Ctx<'_, '_> {
     ) -> Result<Attempt, SolveError> {
         let Candidate { alpha, gamma } = cand;
         let t0 = Instant::now();
-        let res = self
-            .prob
-            .solve_with_metric(alpha, gamma, self.settings, objective, metric)?;
+        let relaxed = self.margin_rel.map(|m| Settings {
+            margin_rel: m,
+            ..self.settings.clone()
+        });
+        let res = self.prob.solve_with_metric(
+            alpha,
+            gamma,
+            relaxed.as_ref().unwrap_or(self.settings),
+            objective,
+            metric,
+        )?;
         let mut solver = SolverInfo {
             status: res.status,
             detail: res.detail.clone(),

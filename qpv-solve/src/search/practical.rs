@@ -74,14 +74,26 @@ pub(super) fn max_gain(p: &Point) -> f64 {
 }
 
 impl Ctx<'_, '_> {
-    /// The certified smallest-gain design at (α, γ), if any.
+    /// The certified smallest-gain design at (α, γ), if any. Near the
+    /// supremum the conditions may leave less room than the solves' default
+    /// margin (the max-margin optimum t̂ below `Settings::margin_rel`): then
+    /// the margin is measured (one max-margin solve, W = I) and the solve
+    /// repeated with half of it. The certificate is the same either way.
     fn min_gain_at(&mut self, alpha: f64, gamma: f64) -> Result<Option<Point>, SolveError> {
-        let at = self.attempt(
-            Candidate::new(alpha, gamma),
-            Objective::MinGain,
-            None,
-            Phase::Practical,
-        )?;
+        let cand = Candidate::new(alpha, gamma);
+        let at = self.attempt(cand, Objective::MinGain, None, Phase::Practical)?;
+        if at.certified {
+            return Ok(at.point);
+        }
+        let room = self.attempt(cand, Objective::MaxMargin, None, Phase::Practical)?;
+        let t = room.margin;
+        if !(t.is_finite() && t > 0.0 && t < self.settings.margin_rel) {
+            return Ok(None);
+        }
+        self.margin_rel = Some(0.5 * t);
+        let at = self.attempt(cand, Objective::MinGain, None, Phase::Practical);
+        self.margin_rel = None;
+        let at = at?;
         Ok(if at.certified { at.point } else { None })
     }
 
