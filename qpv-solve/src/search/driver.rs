@@ -492,6 +492,8 @@ fn gain_bound_failure(
         lean: false,
         max_gain: None,
         margin_rel: None,
+        within: 0.0,
+        walk_stopped: false,
     };
     let a = settings.alpha_floor;
     let at = ctx.attempt(
@@ -586,6 +588,12 @@ pub(super) fn design_plain(
         lean: false,
         max_gain: request.max_gain,
         margin_rel: None,
+        within: if request.alpha == AlphaSpec::Max && mode == Mode::Sound {
+            request.within
+        } else {
+            0.0
+        },
+        walk_stopped: false,
     };
     let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
     let (alpha_t, gamma_t) = (target.alpha, target.gamma);
@@ -740,6 +748,8 @@ pub fn alpha_profile(
         lean: false,
         max_gain: req.max_gain,
         margin_rel: None,
+        within: 0.0,
+        walk_stopped: false,
     };
     let mut prev: Option<Point> = None;
     let mut out = Vec::with_capacity(gammas.len());

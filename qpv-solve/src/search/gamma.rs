@@ -142,6 +142,17 @@ pub fn maximise<E>(
     plan: &GammaPlan,
     eval: &mut dyn FnMut(f64, Phase) -> Result<f64, E>,
 ) -> Result<GammaOutcome, E> {
+    maximise_until(plan, eval, &|| false)
+}
+
+/// [`maximise`], with a walk below a cliff (step 4) that also ends when
+/// `stop` says so (checked before each of its evaluations): the practical
+/// α = max ends it once the gains have exploded.
+pub fn maximise_until<E>(
+    plan: &GammaPlan,
+    eval: &mut dyn FnMut(f64, Phase) -> Result<f64, E>,
+    stop: &dyn Fn() -> bool,
+) -> Result<GammaOutcome, E> {
     let mut samples = Samples(Vec::new());
     let mut value = |g: f64, phase: Phase, s: &mut Samples| -> Result<f64, E> {
         if let Some(a) = s.get(g) {
@@ -202,7 +213,7 @@ pub fn maximise<E>(
     }
     let before = samples.best();
     let (continued, walk, still_rising) =
-        continue_down(&mut samples, &mut |x, s| value(x, Phase::Continue, s))?;
+        continue_down(&mut samples, &mut |x, s| value(x, Phase::Continue, s), stop)?;
     let (gamma, alpha) = samples.best();
     if continued > 0 && alpha > before.1 {
         // The walk moved the best local maximum: report where it ended (the
@@ -244,6 +255,7 @@ type Walk = (usize, Vec<(f64, f64)>, bool);
 fn continue_down<E>(
     samples: &mut Samples,
     value: &mut dyn FnMut(f64, &mut Samples) -> Result<f64, E>,
+    stop: &dyn Fn() -> bool,
 ) -> Result<Walk, E> {
     let (mut g, mut a) = samples.best();
     let below = samples.0.iter().rev().find(|&&(x, _)| x < g).map(|p| p.1);
@@ -254,7 +266,7 @@ fn continue_down<E>(
     let mut rho = CONTINUATION_STEP;
     let mut evals = 0;
     let mut rising = true;
-    while evals < MAX_CONTINUATION && rho < 1.0 - REFINE_GAIN {
+    while evals < MAX_CONTINUATION && rho < 1.0 - REFINE_GAIN && !stop() {
         let x = g * rho;
         let ax = value(x, samples)?;
         evals += 1;

@@ -146,6 +146,12 @@ struct Ctx<'a, 'm> {
     /// `max_gain = G`: the certificate's required data check on every
     /// ‖L_l‖₂ (the problem imposes it too).
     max_gain: Option<f64>,
+    /// The practical α = max's tolerance (0: the fastest point, the walk
+    /// below a cliff runs to its end).
+    within: f64,
+    /// The γ search's walk ended because the gains exploded (practical
+    /// α = max only): α_sup is the fastest point found, not the supremum.
+    walk_stopped: bool,
     /// A smaller relative margin of the solves than the settings' (the
     /// practical design's retry where the default margin exceeds what the
     /// conditions leave); None: the settings' own.
@@ -498,16 +504,40 @@ impl Ctx<'_, '_> {
         let solves_before = self.steps.len();
         let mut found: Vec<Point> = Vec::new();
         self.lean = true;
-        let out = gamma::maximise(&plan, &mut |g, phase| {
-            Ok(match self.alpha_seeded(g, &found, coarse, phase)? {
-                Some(pt) => {
-                    let a = pt.alpha;
-                    found.push(pt);
-                    a
+        // The practical α = max (within > 0) ends the walk below a cliff
+        // once a point's gain exceeds WALK_GAIN_LIMIT times the walk's
+        // start: the design it returns lies far below such points.
+        let stop = std::cell::Cell::new(false);
+        let mut walk_start: Option<f64> = None;
+        let practical = self.within > 0.0;
+        let out = gamma::maximise_until(
+            &plan,
+            &mut |g, phase| {
+                if phase == Phase::Continue && walk_start.is_none() {
+                    walk_start = found
+                        .iter()
+                        .max_by(|a, b| a.alpha.total_cmp(&b.alpha))
+                        .map(practical::max_gain);
                 }
-                None => 0.0,
-            })
-        });
+                Ok(match self.alpha_seeded(g, &found, coarse, phase)? {
+                    Some(pt) => {
+                        let a = pt.alpha;
+                        if let (true, Phase::Continue, Some(g0)) = (practical, phase, walk_start) {
+                            if practical::max_gain(&pt) > practical::WALK_GAIN_LIMIT * g0 {
+                                stop.set(true);
+                            }
+                        }
+                        found.push(pt);
+                        a
+                    }
+                    None => 0.0,
+                })
+            },
+            &|| stop.get(),
+        );
+        if stop.get() {
+            self.walk_stopped = true;
+        }
         self.lean = false;
         let out = out?;
         let mut samples: Vec<(f64, f64)> = found.iter().map(|p| (p.gamma, p.alpha)).collect();

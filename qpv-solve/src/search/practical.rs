@@ -34,6 +34,10 @@ pub const REFINE: usize = 3;
 /// The knee: the fastest point of the walk whose gain is within this factor
 /// of the gain at the walk's start (and the high-gain test's threshold).
 pub const KNEE_FACTOR: f64 = 10.0;
+/// The γ search's walk below a cliff stops (practical α = max only) once a
+/// point's gain exceeds this factor times the gain at the walk's start: α
+/// is still rising there only because ‖L‖ → ∞.
+pub const WALK_GAIN_LIMIT: f64 = 100.0;
 
 /// What the α search saw, for the practical design: every certified
 /// (γ, α) it found, sorted by γ, and its walk below a cliff.
@@ -178,13 +182,15 @@ impl Ctx<'_, '_> {
         }
         let mut notes = Vec::new();
         let mut high_gain = false;
-        if let (true, Some((b, gb)), Some(&(g0, a0))) =
-            (trace.still_rising, best.as_ref(), trace.walk.first())
-        {
+        let rising = trace.still_rising || self.walk_stopped;
+        if let (true, Some(&(g0, a0))) = (rising, trace.walk.first()) {
+            // The design at the tolerance, or (none certified) the fastest.
+            let (b_gain, b_alpha) = best
+                .as_ref()
+                .map_or((gain_sup, sup.alpha), |(b, gb)| (*gb, b.alpha));
             let reference = self.min_gain_at((1.0 - within) * a0, g0)?;
-            if let Some(r) = reference.filter(|r| *gb > KNEE_FACTOR * max_gain(r)) {
+            if let Some(r) = reference.filter(|r| b_gain > KNEE_FACTOR * max_gain(r)) {
                 let g_ref = max_gain(&r);
-                let (b_gain, b_alpha) = (*gb, b.alpha);
                 // Bisection over the walk: index lo is within the factor
                 // (its design known), index hi is not.
                 let (mut lo, mut hi) = (0usize, trace.walk.len() - 1);
@@ -202,7 +208,12 @@ impl Ctx<'_, '_> {
                 }
                 high_gain = true;
                 notes.push(format!(
-                    "high gain: the certified α still rises at the smallest γ searched while the gains grow (max ‖L_l‖₂ = {b_gain:.4e} at α = {b_alpha:.6}, against {g_ref:.4e} at α = {:.6}, where the walk to small γ started): the supremum is approached only as ‖L‖ → ∞, so the design returned is the knee of the α–gain curve (the fastest point of the walk whose smallest gain is within {KNEE_FACTOR}× that at its start); `max_gain = G` or a sample period sets the real limit",
+                    "high gain: the certified α {} at the smallest γ searched while the gains grow (max ‖L_l‖₂ = {b_gain:.4e} at α = {b_alpha:.6}, against {g_ref:.4e} at α = {:.6}, where the walk to small γ started): the supremum is approached only as ‖L‖ → ∞, so the design returned is the knee of the α–gain curve (the fastest point of the walk whose smallest gain is within {KNEE_FACTOR}× that at its start); `max_gain = G` or a sample period sets the real limit",
+                    if self.walk_stopped {
+                        "was still rising where the walk stopped (a point's gain above 100× its start)"
+                    } else {
+                        "still rises"
+                    },
                     (1.0 - within) * a0
                 ));
                 let kg = max_gain(&knee);
@@ -213,6 +224,8 @@ impl Ctx<'_, '_> {
         let capped = sup.alpha >= self.settings.alpha_cap * (1.0 - 1e-9);
         let of = if capped {
             "the search's cap"
+        } else if self.walk_stopped {
+            "the fastest point found (the walk to small γ stopped where the gains passed 100× its start; α rises further only as ‖L‖ → ∞)"
         } else {
             "the certified supremum"
         };
