@@ -519,7 +519,8 @@ impl DesignCtx<'_> {
             &p,
             &ls,
             slacks.as_ref(),
-        );
+        )
+        .with_gain_bound(&ls, self.req.max_gain);
         cert.passed.then(|| Outcome {
             origin: "cache hit, re-certified",
             numbers: self.numbers(
@@ -599,7 +600,8 @@ impl DesignCtx<'_> {
             &p,
             &ls,
             slacks.as_ref(),
-        );
+        )
+        .with_gain_bound(&ls, req.max_gain);
         let finite = p
             .iter()
             .chain(ls.iter().flat_map(|l| l.iter()))
