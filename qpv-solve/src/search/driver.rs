@@ -11,7 +11,7 @@ use crate::error::SolveError;
 use crate::lmi::{Objective, Problem};
 use crate::model::output_filter::OutputRouteInfo;
 use crate::model::state_bound::StateBoundInfo;
-use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim};
+use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim, StateScaling};
 use crate::report::{Design, GammaSearchInfo, ReportedMatrices, SearchStep, SolverInfo};
 use crate::settings::Settings;
 use crate::vocab::{BoundSource, Candidate, Family, Phase};
@@ -35,6 +35,10 @@ pub(super) struct Setup {
     pub gmax: Option<f64>,
     /// The top of the γ search's range.
     pub gamma_hi: f64,
+    /// A badly scaled model in balanced coordinates x = D z, with D
+    /// ([`StateScaling`]): the problem is solved there, its points mapped
+    /// back, and certified on `model`.
+    pub scaled: Option<(PolytopicModel, StateScaling)>,
 }
 
 impl Setup {
@@ -87,7 +91,10 @@ impl Setup {
             }
             ConditionSet::Paper => 1.0 - 1e-6,
         };
+        let scaled = StateScaling::of(&model, request.mode)
+            .and_then(|sc| sc.model(&model).map(|zm| (zm, sc)));
         Ok(Setup {
+            scaled,
             model,
             bound_info: prepared.state_bound,
             route_info: prepared.output_route,
@@ -101,11 +108,14 @@ impl Setup {
     /// decoupled: N·2p blocks with a slack Z_l per θ-vertex (sufficient).
     /// The certificate checks the full family either way.
     pub fn problem(&self, request: &DesignRequest) -> Result<Problem<'_>, SolveError> {
-        Ok(
-            Problem::new(&self.model, ConditionSet::from_mode(request.mode))?
-                .with_conditions(request.conditions)?
-                .with_max_gain(request.max_gain),
-        )
+        let (model, scaling) = match &self.scaled {
+            Some((zm, sc)) => (zm, Some(sc.clone())),
+            None => (&self.model, None),
+        };
+        Ok(Problem::new(model, ConditionSet::from_mode(request.mode))?
+            .with_conditions(request.conditions)?
+            .with_max_gain(request.max_gain)
+            .with_scaling(scaling))
     }
 
     /// The notes that follow from the setup alone: the size warning, the
@@ -114,6 +124,13 @@ impl Setup {
         let (bound_info, route_info) = (&self.bound_info, &self.route_info);
         let mut notes: Vec<String> = Vec::new();
         notes.extend(self.size_note.clone());
+        if let Some((_, sc)) = &self.scaled {
+            let d: Vec<String> = sc.d.iter().map(|v| format!("{v:e}")).collect();
+            notes.push(format!(
+                "units: the region's extents per state are far from 1, so the conditions were solved in balanced coordinates x = D z, D = diag({}) (exact: powers of two), and P, L_l mapped back and certified in the model's own coordinates",
+                d.join(", ")
+            ));
+        }
         if bound_info.source == BoundSource::Auto {
             notes.push(format!(
                 "state bound computed (state_bound auto): h = {:.6}, γ_max = {:.6}, in {} solves, {:.3} s",
