@@ -2,7 +2,7 @@
 //! requested α/γ search, the final regularised solve, the notes and the
 //! summary, each a function of its own.
 
-use super::{Ctx, Point};
+use super::{Claims, Ctx, Point};
 use crate::backend::Status;
 use crate::certificate::{data_checks, DataCheck};
 use crate::conditions::cube::CubeSlacks;
@@ -508,6 +508,7 @@ fn gain_bound_failure(
         progress: &mut quiet,
         lean: false,
         max_gain: None,
+        claims: Claims::default(),
     };
     let a = settings.alpha_floor;
     let at = ctx.attempt(
@@ -601,6 +602,7 @@ pub(super) fn design_plain(
         progress,
         lean: false,
         max_gain: request.max_gain,
+        claims: Claims::default(),
     };
     let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
     let (alpha_t, gamma_t) = (target.alpha, target.gamma);
@@ -644,11 +646,9 @@ pub(super) fn design_plain(
         if let Some(g) = request.max_gain {
             notes.push(gain_bound_failure(&setup, request, settings, g, gamma_r)?);
         }
-        Some(crate::diagnosis::diagnose(
-            model,
-            request,
-            settings.alpha_floor,
-        ))
+        let mut findings = crate::diagnosis::diagnose(model, request, settings.alpha_floor);
+        findings.extend(ctx.claims.finding(request.conditions));
+        Some(findings)
     };
     ctx.solve_notes(feasible, &fin.solver, &mut notes);
     data_notes(mode, &dchecks, gamma_r, setup.gmax, &mut notes);
@@ -754,6 +754,7 @@ pub fn alpha_profile(
         progress: &mut quiet,
         lean: false,
         max_gain: req.max_gain,
+        claims: Claims::default(),
     };
     let mut prev: Option<Point> = None;
     let mut out = Vec::with_capacity(gammas.len());
