@@ -12,6 +12,12 @@
 //! * **Region too large for this Q**: a region vertex outside
 //!   F = {xᵀQ⁻¹x ≤ 1}, with the factor the region must shrink by.
 //!
+//! * **Wide ranges of the scheduling functions**: a model with derived
+//!   scheduling variables φ_j(θ) and no cover treats φ as independent of θ
+//!   over the whole box of their ranges; when cutting one parameter's range
+//!   into pieces would shrink those ranges markedly (measured by sampling
+//!   φ on a grid, [`cover_estimate`]), the finding proposes `cover θ into n`.
+//!
 //! [`diagnose`] is a pure function; `design` attaches its findings to a
 //! report that does not certify ([`crate::Design::diagnosis`]).
 
@@ -155,6 +161,140 @@ fn vertex_label(model: &PolytopicModel, l: usize) -> String {
     }
 }
 
+/// Pieces of the cover that [`diagnose`] proposes.
+pub const COVER_PIECES: usize = 4;
+
+/// A cover's ratio below which the whole-box ranges count as wide.
+const WIDE_RATIO: f64 = 0.6;
+
+/// What cutting one parameter's range into equal pieces does to the ranges
+/// of the derived scheduling variables, measured by sampling.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CoverEstimate {
+    /// The parameter cut (index into the model's parameters).
+    pub param: usize,
+    /// The number of pieces.
+    pub pieces: usize,
+    /// The sampled width of φ_j on a piece over its sampled width on the
+    /// whole box, averaged over the pieces and the φ_j that vary.
+    pub ratio: f64,
+}
+
+/// For every parameter with a range, the ratio of [`CoverEstimate`] for a
+/// cut into `pieces`; the best (smallest) one. φ_j is evaluated on a grid
+/// of the parameter box (at most about 4096 points per piece, at least 3
+/// per parameter), so the ratio is an estimate; None without derived
+/// scheduling variables or when no φ_j varies.
+pub fn cover_estimate(model: &PolytopicModel, pieces: usize) -> Option<CoverEstimate> {
+    let np = model.params.len();
+    if model.derived.is_empty() || np == 0 || pieces < 2 {
+        return None;
+    }
+    let free: Vec<usize> = (0..np)
+        .filter(|&i| {
+            let p = &model.params[i];
+            p.lo.is_finite() && p.hi.is_finite() && p.hi > p.lo
+        })
+        .collect();
+    if free.is_empty() {
+        return None;
+    }
+    let per = ((4096f64).powf(1.0 / free.len() as f64).floor() as usize).clamp(3, 33);
+    // The widths of every φ_j on the grid of the box `lo..hi` (per parameter).
+    let widths = |lo: &[f64], hi: &[f64]| -> Vec<f64> {
+        let mut mins = vec![f64::INFINITY; model.derived.len()];
+        let mut maxs = vec![f64::NEG_INFINITY; model.derived.len()];
+        let total = per.checked_pow(free.len() as u32).unwrap_or(usize::MAX);
+        let mut theta: Vec<f64> = model.params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
+        for mut idx in 0..total.min(1 << 16) {
+            for &i in &free {
+                let t = (idx % per) as f64 / (per - 1) as f64;
+                idx /= per;
+                theta[i] = lo[i] + t * (hi[i] - lo[i]);
+            }
+            for (j, d) in model.derived.iter().enumerate() {
+                let v = d.expr.eval(&theta);
+                if v.is_finite() {
+                    mins[j] = mins[j].min(v);
+                    maxs[j] = maxs[j].max(v);
+                }
+            }
+        }
+        mins.iter()
+            .zip(&maxs)
+            .map(|(a, b)| (b - a).max(0.0))
+            .collect()
+    };
+    let lo: Vec<f64> = model.params.iter().map(|p| p.lo).collect();
+    let hi: Vec<f64> = model.params.iter().map(|p| p.hi).collect();
+    let whole = widths(&lo, &hi);
+    let varying: Vec<usize> = (0..whole.len())
+        .filter(|&j| {
+            whole[j] > 1e-12 * (1.0 + model.derived[j].lo.abs().max(model.derived[j].hi.abs()))
+        })
+        .collect();
+    if varying.is_empty() {
+        return None;
+    }
+    let mut best: Option<CoverEstimate> = None;
+    for &i in &free {
+        let mut sum = 0.0;
+        for k in 0..pieces {
+            let (mut plo, mut phi) = (lo.clone(), hi.clone());
+            let w = (hi[i] - lo[i]) / pieces as f64;
+            plo[i] = lo[i] + w * k as f64;
+            phi[i] = if k + 1 == pieces {
+                hi[i]
+            } else {
+                lo[i] + w * (k + 1) as f64
+            };
+            let part = widths(&plo, &phi);
+            sum += varying.iter().map(|&j| part[j] / whole[j]).sum::<f64>();
+        }
+        let ratio = sum / (pieces * varying.len()) as f64;
+        if best.as_ref().map_or(true, |b| ratio < b.ratio) {
+            best = Some(CoverEstimate {
+                param: i,
+                pieces,
+                ratio,
+            });
+        }
+    }
+    best
+}
+
+/// The finding on wide ranges of the scheduling functions, if any (a model
+/// with derived scheduling variables and no cover, whose ranges a cover
+/// into [`COVER_PIECES`] would shrink below [`WIDE_RATIO`] of their width).
+fn wide_phi_finding(model: &PolytopicModel) -> Option<Finding> {
+    if model.cover.is_some() {
+        return None;
+    }
+    let est = cover_estimate(model, COVER_PIECES)?;
+    if est.ratio > WIDE_RATIO {
+        return None;
+    }
+    let name = &model.params[est.param].name;
+    let ranges: Vec<String> = model
+        .derived
+        .iter()
+        .map(|d| format!("{} in [{:.4}, {:.4}]", d.name, d.lo, d.hi))
+        .collect();
+    Some(Finding {
+        kind: "cover".into(),
+        blocking: false,
+        message: format!(
+            "the scheduling functions' ranges over the whole parameter box are wide ({}): the \
+             polytopic model treats them as independent of the parameters, which is conservative; \
+             cut the range with `cover {name} into {n};` (measured on a grid: on each piece their \
+             ranges shrink to {:.0} % of their width on average; {n}× the vertices)",
+            ranges.join(", "),
+            100.0 * est.ratio,
+            n = est.pieces,
+        ),
+    })
+}
+
 /// The findings for `request` on `model` (the plant with its state bound
 /// resolved). `alpha_floor` stands in for α when the request searches α
 /// (the smallest α a search tries).
@@ -239,5 +379,6 @@ pub fn diagnose(model: &PolytopicModel, request: &DesignRequest, alpha_floor: f6
             }
         }
     }
+    out.extend(wide_phi_finding(model));
     out
 }

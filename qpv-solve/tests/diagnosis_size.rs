@@ -197,3 +197,97 @@ fn the_pbh_test_names_the_derived_scheduling_variables_of_the_corner() {
         pbh[0].message
     );
 }
+
+/// The two-link arm of examples/manipulator.qpv with |q2| ≤ 1 rad, without
+/// its cover, velocities within 0.2 rad/s, α = max at γ = 0.45 under
+/// `conditions` (issue 24, item 14).
+fn natural_arm(conditions: &str) -> qpv_dsl::PolytopicModel {
+    let src = include_str!("../../examples/manipulator.qpv")
+        .replace("param  q2 in [0.2, 2.0]", "param  q2 in [-1, 1]")
+        .replace("    cover q2 into 4;", "")
+        .replace(
+            "region box([0.5, 0.5, 0.07, 0.07])",
+            "region box([0.5, 0.5, 0.2, 0.2])",
+        )
+        .replace(
+            "0, 0, 0.0196, 0 ; 0, 0, 0, 0.0196",
+            "0, 0, 0.16, 0 ; 0, 0, 0, 0.16",
+        )
+        .replace(
+            "design { alpha = 0.15; gamma = 0.45; conditions = cube; }",
+            &format!("design {{ alpha = max; gamma = 0.45; conditions = {conditions}; }}"),
+        );
+    assert!(src.contains("in [-1, 1]") && !src.contains("cover q2") && src.contains("alpha = max"));
+    qpv_dsl::parse(&src).expect("the arm parses")[0].polytopic()
+}
+
+/// Wide ranges of the scheduling functions: the failure's diagnosis says
+/// so and proposes the cover, with the measured shrink; and every point of
+/// the decoupled problem failed the full certificate: it says so and
+/// proposes `conditions = full`.
+#[test]
+fn wide_scheduling_ranges_propose_a_cover_and_failed_decoupled_points_full_conditions() {
+    let m = natural_arm("decoupled");
+    assert!(m.cover.is_none() && !m.derived.is_empty());
+    let est = qpv_solve::diagnosis::cover_estimate(&m, 4).expect("an estimate");
+    assert_eq!(m.params[est.param].name, "q2");
+    assert!(est.ratio > 0.0 && est.ratio < 0.6, "ratio {}", est.ratio);
+    let d = qpv_solve::design(&m, &m.designs[0], &qpv_solve::Settings::default()).unwrap();
+    assert!(!d.certifies, "{}", d.summary);
+    let findings = d.diagnosis.as_ref().expect("a diagnosis");
+    let cover = findings
+        .iter()
+        .find(|f| f.kind == "cover")
+        .unwrap_or_else(|| panic!("no cover finding: {findings:?}"));
+    assert!(
+        cover.message.contains("`cover q2 into 4;`"),
+        "{}",
+        cover.message
+    );
+    assert!(
+        cover
+            .message
+            .contains(&format!("{:.0} %", 100.0 * est.ratio)),
+        "{}",
+        cover.message
+    );
+    let cond = findings
+        .iter()
+        .find(|f| f.kind == "conditions")
+        .unwrap_or_else(|| panic!("no conditions finding: {findings:?}"));
+    assert!(
+        cond.message.contains("`conditions = full`"),
+        "{}",
+        cond.message
+    );
+    // "k of k": as many failed as were returned, at least one.
+    let counts: Vec<&str> = cond.message.split(['(', ')']).collect();
+    let of = counts.iter().find(|s| s.contains(" of ")).expect("k of n");
+    let (k, n) = of.split_once(" of ").unwrap();
+    assert_eq!(k, n);
+    assert!(n.parse::<usize>().unwrap() >= 1);
+}
+
+/// Neither finding where it does not apply: the cover is not proposed for
+/// the example with its cover, nor for a model without scheduling
+/// functions; `conditions = full` is not proposed to a full design.
+#[test]
+fn cover_and_conditions_findings_only_where_they_apply() {
+    let with_cover =
+        qpv_dsl::parse(include_str!("../../examples/manipulator.qpv")).unwrap()[0].polytopic();
+    let mut req = with_cover.designs[0].clone();
+    req.alpha = qpv_dsl::AlphaSpec::Fixed(0.15);
+    let f = qpv_solve::diagnosis::diagnose(&with_cover, &req, 1e-4);
+    assert!(!f.iter().any(|f| f.kind == "cover"), "{f:?}");
+    let paper = qpv_solve::conditions::reference::paper_model();
+    assert_eq!(qpv_solve::diagnosis::cover_estimate(&paper, 4), None);
+    let m = natural_arm("full");
+    let d = qpv_solve::design(&m, &m.designs[0], &qpv_solve::Settings::default()).unwrap();
+    assert!(!d.certifies);
+    let findings = d.diagnosis.expect("a diagnosis");
+    assert!(findings.iter().any(|f| f.kind == "cover"), "{findings:?}");
+    assert!(
+        !findings.iter().any(|f| f.kind == "conditions"),
+        "{findings:?}"
+    );
+}

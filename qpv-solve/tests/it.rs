@@ -33,6 +33,7 @@ mod practical;
 mod simulate;
 mod skew_slack;
 mod state_bound;
+mod units;
 mod vocab;
 
 /// Test files that are not listed above would silently not run: refuse them.

@@ -21,7 +21,7 @@
 use crate::conditions::cube::CubeSlacks;
 use crate::conditions::{rate_combos, Combo, ConditionSet};
 use crate::linalg::rows::{rows, rows_he};
-use crate::model::{is_double_sum, validate};
+use crate::model::{is_double_sum, validate, StateScaling};
 use crate::vocab::Family;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{Mode, PolytopicModel, StateBound};
@@ -263,8 +263,48 @@ pub fn check(
     p: &DMatrix<f64>,
     l: &[DMatrix<f64>],
 ) -> Certificate {
+    if let Some((zm, s)) = balanced(model, mode) {
+        if let (Some(pz), Some(lz)) = (s.p_to_z(p), l_to_z(&s, l)) {
+            let (gammas, lnorm) = gammas_of(&pz, &lz);
+            return check_inner(&zm, mode, alpha, gamma, &pz, &gammas, &lnorm, None);
+        }
+    }
     let (gammas, lnorm) = gammas_of(p, l);
     check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, None)
+}
+
+/// The model in balanced coordinates x = D z ([`StateScaling`]: sound mode,
+/// a badly scaled region, every entry transformed exactly), with D. The
+/// certificate evaluates every condition on the user's P and L_l after this
+/// congruence (P_z = DPD, L_z = D⁻¹L, exact in floating point): the same
+/// inequalities, with the eigenvalues of well-balanced matrices; its
+/// margins are those of the balanced matrices.
+fn balanced(model: &PolytopicModel, mode: Mode) -> Option<(PolytopicModel, StateScaling)> {
+    let s = StateScaling::of(model, mode)?;
+    Some((s.model(model)?, s))
+}
+
+fn l_to_z(s: &StateScaling, l: &[DMatrix<f64>]) -> Option<Vec<DMatrix<f64>>> {
+    l.iter().map(|x| s.l_to_z(x)).collect()
+}
+
+fn gammas_to_z(s: &StateScaling, g: &[DMatrix<f64>]) -> Option<Vec<DMatrix<f64>>> {
+    g.iter().map(|x| s.gamma_to_z(x)).collect()
+}
+
+/// Cube slacks in balanced coordinates: Y_z = DYD, X_z = DXD (D of the
+/// generators unchanged: G_zᵀP_zG_z = GᵀPG).
+fn cube_to_z(s: &StateScaling, c: &CubeSlacks) -> Option<CubeSlacks> {
+    let per = |v: &Vec<Vec<DMatrix<f64>>>| -> Option<Vec<Vec<DMatrix<f64>>>> {
+        v.iter()
+            .map(|row| row.iter().map(|m| s.p_to_z(m)).collect())
+            .collect()
+    };
+    Some(CubeSlacks {
+        y: per(&c.y)?,
+        x: per(&c.x)?,
+        d: c.d.clone(),
+    })
 }
 
 /// As [`check`] for a design of `conditions = cube`: the rate family and
@@ -288,6 +328,13 @@ pub fn check_cube(
     l: &[DMatrix<f64>],
     slacks: &CubeSlacks,
 ) -> Certificate {
+    if let Some((zm, s)) = balanced(model, mode) {
+        if let (Some(pz), Some(lz), Some(cz)) = (s.p_to_z(p), l_to_z(&s, l), cube_to_z(&s, slacks))
+        {
+            let (gammas, lnorm) = gammas_of(&pz, &lz);
+            return check_inner(&zm, mode, alpha, gamma, &pz, &gammas, &lnorm, Some(&cz));
+        }
+    }
     let (gammas, lnorm) = gammas_of(p, l);
     check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, Some(slacks))
 }
@@ -345,6 +392,13 @@ pub fn check_gamma(
     p: &DMatrix<f64>,
     gammas: &[DMatrix<f64>],
 ) -> Certificate {
+    if let Some((zm, s)) = balanced(model, mode) {
+        if let (Some(pz), Some(gz)) = (s.p_to_z(p), gammas_to_z(&s, gammas)) {
+            let pn = pz.norm().max(f64::MIN_POSITIVE);
+            let lnorm: Vec<f64> = gz.iter().map(|g| g.norm() / pn).collect();
+            return check_inner(&zm, mode, alpha, gamma, &pz, &gz, &lnorm, None);
+        }
+    }
     let pn = p.norm().max(f64::MIN_POSITIVE);
     let lnorm: Vec<f64> = gammas.iter().map(|g| g.norm() / pn).collect();
     check_inner(model, mode, alpha, gamma, p, gammas, &lnorm, None)
@@ -931,6 +985,21 @@ pub fn alpha_capacity(
     p: &DMatrix<f64>,
     gammas: &[DMatrix<f64>],
 ) -> f64 {
+    if let Some((zm, s)) = balanced(model, mode) {
+        if let (Some(pz), Some(gz)) = (s.p_to_z(p), gammas_to_z(&s, gammas)) {
+            return capacity_inner(&zm, mode, gamma, &pz, &gz);
+        }
+    }
+    capacity_inner(model, mode, gamma, p, gammas)
+}
+
+fn capacity_inner(
+    model: &PolytopicModel,
+    mode: Mode,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+) -> f64 {
     let set = ConditionSet::from_mode(mode);
     let ps = (p + p.transpose()) * 0.5;
     let Some(ch) = ps.clone().cholesky() else {
@@ -965,6 +1034,24 @@ pub fn alpha_capacity(
 /// slacks (the slack inequalities and the region conditions do not depend
 /// on α; [`check_cube`] checks them). 0 if P is not positive definite.
 pub fn alpha_capacity_cube(
+    model: &PolytopicModel,
+    mode: Mode,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+    slacks: &CubeSlacks,
+) -> f64 {
+    if let Some((zm, s)) = balanced(model, mode) {
+        if let (Some(pz), Some(gz), Some(cz)) =
+            (s.p_to_z(p), gammas_to_z(&s, gammas), cube_to_z(&s, slacks))
+        {
+            return capacity_cube_inner(&zm, mode, gamma, &pz, &gz, &cz);
+        }
+    }
+    capacity_cube_inner(model, mode, gamma, p, gammas, slacks)
+}
+
+fn capacity_cube_inner(
     model: &PolytopicModel,
     mode: Mode,
     gamma: f64,

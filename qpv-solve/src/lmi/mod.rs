@@ -48,7 +48,7 @@ use crate::conditions::{rate_combos, rows, rows_he, Combo, ConditionSet, PairTer
 use crate::error::SolveError;
 use crate::linalg::csc::Columns;
 use crate::linalg::svec::{svec_index, svec_len, SQRT2};
-use crate::model::{region_radius, validate};
+use crate::model::{region_radius, validate, StateScaling};
 use crate::settings::Settings;
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::SupportedConeT;
@@ -205,6 +205,9 @@ pub struct Problem<'m> {
     /// `max_gain = G`: the bound imposed on every ‖L_l‖₂ (see
     /// [`Problem::with_max_gain`]).
     max_gain: Option<f64>,
+    /// The change of coordinates x = D z the problem is posed in (see
+    /// [`Problem::with_scaling`]); None: the model's own coordinates.
+    scaling: Option<StateScaling>,
 }
 
 impl<'m> Problem<'m> {
@@ -237,6 +240,34 @@ impl<'m> Problem<'m> {
             gens: Vec::new(),
             cube_r_fro: 0.0,
             max_gain: None,
+            scaling: None,
+        })
+    }
+
+    /// The same problem posed in coordinates z = D⁻¹x: `model` (the
+    /// problem's own) is the user's model transformed by
+    /// [`StateScaling::model`], and every solve maps its point back to the
+    /// user's coordinates (P = D⁻¹P_zD⁻¹, Γ_l = D⁻¹Γ_z,l, the cube slacks
+    /// like P) and a metric P_ref forward (D P_ref D), so that callers see
+    /// the user's units only. A gain bound G is imposed as G / max_i d_i on
+    /// L_z = D⁻¹L (sufficient: ‖L‖₂ ≤ max_i d_i ‖L_z‖₂); the certificate
+    /// checks the user's ‖L_l‖₂.
+    pub fn with_scaling(mut self, scaling: Option<StateScaling>) -> Self {
+        self.scaling = scaling.filter(|s| s.len() == self.nx);
+        self
+    }
+
+    /// The change of coordinates the problem is posed in, if any.
+    pub fn scaling(&self) -> Option<&StateScaling> {
+        self.scaling.as_ref()
+    }
+
+    /// The gain bound in the problem's coordinates.
+    fn max_gain_z(&self) -> Option<f64> {
+        let g = self.max_gain?;
+        Some(match &self.scaling {
+            Some(s) => g / s.max(),
+            None => g,
         })
     }
 
@@ -621,7 +652,7 @@ impl<'m> Problem<'m> {
             Conditions::Decoupled => self.push_rate_decoupled(&mut out, alpha, gamma, &rate),
             Conditions::Cube => self.push_rate_cube(&mut out, alpha, gamma, &rate),
         }
-        if let Some(g) = self.max_gain {
+        if let Some(g) = self.max_gain_z() {
             self.push_gain_bound(&mut out, g);
         }
         if min_gain {
@@ -1022,6 +1053,15 @@ impl<'m> Problem<'m> {
     ) -> Result<SolveResult, SolveError> {
         ensure_lapack();
         let t0 = Instant::now();
+        let metric_z = match (&self.scaling, metric) {
+            (Some(s), Some(m)) if m.shape() == (self.nx, self.nx) => {
+                Some(DMatrix::from_fn(self.nx, self.nx, |r, c| {
+                    m[(r, c)] * s.d[r] * s.d[c]
+                }))
+            }
+            _ => None,
+        };
+        let metric = metric_z.as_ref().or(metric);
         let prob = self.assemble_with_metric(alpha, gamma, settings, objective, metric);
         let assembly_seconds = t0.elapsed().as_secs_f64();
         let mut cs = clarabel_settings(settings);
@@ -1056,6 +1096,25 @@ impl<'m> Problem<'m> {
         if let Some(x) = run.x.as_ref().filter(|_| objective == Objective::MaxMargin) {
             margin = x[self.n_vars()];
         }
+        let (p, gammas, cube) = match &self.scaling {
+            // Back to the user's coordinates.
+            Some(s) => (
+                p.map(|p| s.p_from_z(&p)),
+                gammas.iter().map(|g| s.gamma_from_z(g)).collect(),
+                cube.map(|c| crate::conditions::cube::CubeSlacks {
+                    y: c.y
+                        .iter()
+                        .map(|r| r.iter().map(|m| s.p_from_z(m)).collect())
+                        .collect(),
+                    x: c.x
+                        .iter()
+                        .map(|r| r.iter().map(|m| s.p_from_z(m)).collect())
+                        .collect(),
+                    d: c.d,
+                }),
+            ),
+            None => (p, gammas, cube),
+        };
         Ok(SolveResult {
             status: run.status,
             detail: run.detail,

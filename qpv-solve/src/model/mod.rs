@@ -5,8 +5,10 @@
 pub mod observer;
 pub mod output_filter;
 pub mod plant;
+pub mod scaling;
 pub mod skew;
 pub mod state_bound;
 
 pub use observer::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 pub use plant::{gamma_max, gamma_max_for, is_double_sum, region_radius, validate, with_split};
+pub use scaling::StateScaling;

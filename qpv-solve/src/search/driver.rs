@@ -2,7 +2,7 @@
 //! requested α/γ search, the final regularised solve, the notes and the
 //! summary, each a function of its own.
 
-use super::{Ctx, Point};
+use super::{Claims, Ctx, Point};
 use crate::backend::Status;
 use crate::certificate::{data_checks, DataCheck};
 use crate::conditions::cube::CubeSlacks;
@@ -11,7 +11,7 @@ use crate::error::SolveError;
 use crate::lmi::{Objective, Problem};
 use crate::model::output_filter::OutputRouteInfo;
 use crate::model::state_bound::StateBoundInfo;
-use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim};
+use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim, StateScaling};
 use crate::report::{Design, GammaSearchInfo, ReportedMatrices, SearchStep, SolverInfo};
 use crate::settings::Settings;
 use crate::vocab::{BoundSource, Candidate, Family, Phase};
@@ -35,6 +35,10 @@ pub(super) struct Setup {
     pub gmax: Option<f64>,
     /// The top of the γ search's range.
     pub gamma_hi: f64,
+    /// A badly scaled model in balanced coordinates x = D z, with D
+    /// ([`StateScaling`]): the problem is solved there, its points mapped
+    /// back, and certified on `model`.
+    pub scaled: Option<(PolytopicModel, StateScaling)>,
 }
 
 impl Setup {
@@ -87,7 +91,10 @@ impl Setup {
             }
             ConditionSet::Paper => 1.0 - 1e-6,
         };
+        let scaled = StateScaling::of(&model, request.mode)
+            .and_then(|sc| sc.model(&model).map(|zm| (zm, sc)));
         Ok(Setup {
+            scaled,
             model,
             bound_info: prepared.state_bound,
             route_info: prepared.output_route,
@@ -101,11 +108,14 @@ impl Setup {
     /// decoupled: N·2p blocks with a slack Z_l per θ-vertex (sufficient).
     /// The certificate checks the full family either way.
     pub fn problem(&self, request: &DesignRequest) -> Result<Problem<'_>, SolveError> {
-        Ok(
-            Problem::new(&self.model, ConditionSet::from_mode(request.mode))?
-                .with_conditions(request.conditions)?
-                .with_max_gain(request.max_gain),
-        )
+        let (model, scaling) = match &self.scaled {
+            Some((zm, sc)) => (zm, Some(sc.clone())),
+            None => (&self.model, None),
+        };
+        Ok(Problem::new(model, ConditionSet::from_mode(request.mode))?
+            .with_conditions(request.conditions)?
+            .with_max_gain(request.max_gain)
+            .with_scaling(scaling))
     }
 
     /// The notes that follow from the setup alone: the size warning, the
@@ -114,6 +124,13 @@ impl Setup {
         let (bound_info, route_info) = (&self.bound_info, &self.route_info);
         let mut notes: Vec<String> = Vec::new();
         notes.extend(self.size_note.clone());
+        if let Some((_, sc)) = &self.scaled {
+            let d: Vec<String> = sc.d.iter().map(|v| format!("{v:e}")).collect();
+            notes.push(format!(
+                "units: the region's extents per state are far from 1, so the conditions were solved in balanced coordinates x = D z, D = diag({}) (exact: powers of two), and P, L_l mapped back and certified in the model's own coordinates",
+                d.join(", ")
+            ));
+        }
         if bound_info.source == BoundSource::Auto {
             notes.push(format!(
                 "state bound computed (state_bound auto): h = {:.6}, γ_max = {:.6}, in {} solves, {:.3} s",
@@ -494,6 +511,7 @@ fn gain_bound_failure(
         margin_rel: None,
         within: 0.0,
         walk_stopped: false,
+        claims: Claims::default(),
     };
     let a = settings.alpha_floor;
     let at = ctx.attempt(
@@ -594,6 +612,7 @@ pub(super) fn design_plain(
             0.0
         },
         walk_stopped: false,
+        claims: Claims::default(),
     };
     let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
     let (alpha_t, gamma_t) = (target.alpha, target.gamma);
@@ -637,11 +656,9 @@ pub(super) fn design_plain(
         if let Some(g) = request.max_gain {
             notes.push(gain_bound_failure(&setup, request, settings, g, gamma_r)?);
         }
-        Some(crate::diagnosis::diagnose(
-            model,
-            request,
-            settings.alpha_floor,
-        ))
+        let mut findings = crate::diagnosis::diagnose(model, request, settings.alpha_floor);
+        findings.extend(ctx.claims.finding(request.conditions));
+        Some(findings)
     };
     ctx.solve_notes(feasible, &fin.solver, &mut notes);
     data_notes(mode, &dchecks, gamma_r, setup.gmax, &mut notes);
@@ -750,6 +767,7 @@ pub fn alpha_profile(
         margin_rel: None,
         within: 0.0,
         walk_stopped: false,
+        claims: Claims::default(),
     };
     let mut prev: Option<Point> = None;
     let mut out = Vec::with_capacity(gammas.len());

@@ -156,6 +156,37 @@ struct Ctx<'a, 'm> {
     /// practical design's retry where the default margin exceeds what the
     /// conditions leave); None: the settings' own.
     margin_rel: Option<f64>,
+    /// The points the solver returned as satisfying the problem's
+    /// conditions, and how many of them the certificate rejected.
+    claims: Claims,
+}
+
+/// The points the solver returned with status solved, and those of them
+/// that failed the certificate: with decoupled conditions, all of them
+/// failing says that the decoupled problem (sufficient for the full
+/// family, and more conservative) gave nothing the full family accepts.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Claims {
+    /// Points returned with status solved.
+    pub solved: usize,
+    /// Of those, points that failed the certificate.
+    pub rejected: usize,
+}
+
+impl Claims {
+    /// The finding for a design that certified nothing, when every point
+    /// that satisfied the decoupled conditions failed the full certificate.
+    pub fn finding(&self, conditions: Conditions) -> Option<crate::diagnosis::Finding> {
+        (conditions == Conditions::Decoupled && self.solved > 0 && self.rejected == self.solved)
+            .then(|| crate::diagnosis::Finding {
+                kind: "conditions".into(),
+                blocking: false,
+                message: format!(
+                    "every point the solver returned for the decoupled conditions failed the full certificate ({} of {}): the decoupled rate conditions (one slack per rate combination) are sufficient for the full family but more conservative; try `conditions = full` (every vertex pair solved as it is certified)",
+                    self.rejected, self.solved
+                ),
+            })
+    }
 }
 
 impl Ctx<'_, '_> {
@@ -263,6 +294,10 @@ impl Ctx<'_, '_> {
                 let cert = self.certify(alpha, gamma, &p, &l, res.cube.as_ref());
                 solver.certify_seconds = tc.elapsed().as_secs_f64();
                 certified = self.accepts(&cert);
+                if res.status == Status::Solved {
+                    self.claims.solved += 1;
+                    self.claims.rejected += usize::from(!certified);
+                }
                 // Γ_l as the certificate sees them (P L_l).
                 let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &p * li).collect();
                 let mut pt = Point {
