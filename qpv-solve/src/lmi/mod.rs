@@ -41,6 +41,7 @@
 //! by s > 0. The objective is ½ w Σ_l ‖Γ̂_l‖_F² (or 0 for pure feasibility).
 
 mod cube;
+mod sampled;
 pub mod skew;
 
 use crate::backend::{clarabel_settings, ensure_lapack, run_sdp, Sdp, Status};
@@ -205,6 +206,9 @@ pub struct Problem<'m> {
     /// `max_gain = G`: the bound imposed on every ‖L_l‖₂ (see
     /// [`Problem::with_max_gain`]).
     max_gain: Option<f64>,
+    /// `sample = h`: the discrete decrease replaces the rate family (see
+    /// [`Problem::with_sample`]).
+    sample: Option<f64>,
 }
 
 impl<'m> Problem<'m> {
@@ -237,6 +241,7 @@ impl<'m> Problem<'m> {
             gens: Vec::new(),
             cube_r_fro: 0.0,
             max_gain: None,
+            sample: None,
         })
     }
 
@@ -615,9 +620,10 @@ impl<'m> Problem<'m> {
             column: margin.as_ref(),
         };
         match self.conditions {
-            Conditions::Full | Conditions::Auto => {
-                self.push_rate_full(&mut out, alpha, gamma, &rate)
-            }
+            Conditions::Full | Conditions::Auto => match self.sample {
+                Some(h) => self.push_rate_sampled(&mut out, alpha, gamma, h, &rate),
+                None => self.push_rate_full(&mut out, alpha, gamma, &rate),
+            },
             Conditions::Decoupled => self.push_rate_decoupled(&mut out, alpha, gamma, &rate),
             Conditions::Cube => self.push_rate_cube(&mut out, alpha, gamma, &rate),
         }

@@ -104,7 +104,8 @@ impl Setup {
         Ok(
             Problem::new(&self.model, ConditionSet::from_mode(request.mode))?
                 .with_conditions(request.conditions)?
-                .with_max_gain(request.max_gain),
+                .with_max_gain(request.max_gain)
+                .with_sample(request.sample)?,
         )
     }
 
@@ -491,6 +492,7 @@ fn gain_bound_failure(
         progress: &mut quiet,
         lean: false,
         max_gain: None,
+        sample: request.sample,
     };
     let a = settings.alpha_floor;
     let at = ctx.attempt(
@@ -510,11 +512,13 @@ fn gain_bound_failure(
     })
 }
 
-/// The human summary: the verdict line, then every note.
+/// The human summary: the verdict line, then every note. `sample`: the
+/// sample period of a `sample = h` design (its verdict names the discrete
+/// decrease and the rate).
 fn summary(
     mode: Mode,
     feasible: bool,
-    (alpha, gamma): (f64, f64),
+    (alpha, gamma, sample): (f64, f64, Option<f64>),
     final_status: Status,
     failed: &[String],
     norms: &[f64],
@@ -527,6 +531,18 @@ fn summary(
         format!("; failed: {}", failed.join(", "))
     };
     let mut s = match (mode, feasible) {
+        (Mode::Sound, true) if sample.is_some() => {
+            let h = sample.unwrap_or(f64::NAN);
+            format!(
+                "CERTIFIED at {} (sound conditions S1-S4 and the discrete decrease S5d): the Euler-stepped observer has V(e_(k+1)) ≤ (1 − hα)V(e_k) = {:.6}·V(e_k) with α = {alpha:.6} per second, γ = {gamma:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {max_norm:.4}.",
+                crate::sampling::describe_period(h),
+                1.0 - h * alpha
+            )
+        }
+        (Mode::Sound, false) if sample.is_some() => format!(
+            "NOT CERTIFIED at {} (sound conditions S1-S4 and the discrete decrease S5d) at α = {alpha:.6}, γ = {gamma:.6}: solver {final_status}{failed}.",
+            crate::sampling::describe_period(sample.unwrap_or(f64::NAN))
+        ),
         (Mode::Sound, true) => format!(
             "CERTIFIED (sound conditions S1-S5): V' ≤ −αV with α = {alpha:.6}, γ = {gamma:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {max_norm:.4}."
         ),
@@ -560,8 +576,17 @@ pub(super) fn design_plain(
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
     let mode = request.mode;
-    // `conditions = auto`: the choice by size (crate::size::choose), noted.
-    let (chosen_conditions, auto_note) = crate::size::choose(model, request);
+    // `conditions = auto`: the choice by size (crate::size::choose), noted;
+    // a sampled design has the full vertex family only.
+    let (chosen_conditions, auto_note) = match request.sample {
+        Some(h) if request.conditions == Conditions::Auto => (
+            Conditions::Full,
+            format!(
+                "sample = {h:e}: the discrete decrease is solved and certified on the full vertex family (conditions = full)"
+            ),
+        ),
+        _ => crate::size::choose(model, request),
+    };
     let resolved = DesignRequest {
         conditions: chosen_conditions,
         ..request.clone()
@@ -584,6 +609,7 @@ pub(super) fn design_plain(
         progress,
         lean: false,
         max_gain: request.max_gain,
+        sample: request.sample,
     };
     let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
     let (alpha_t, gamma_t) = (target.alpha, target.gamma);
@@ -653,7 +679,7 @@ pub(super) fn design_plain(
     let summary = summary(
         mode,
         feasible,
-        (alpha_r, gamma_r),
+        (alpha_r, gamma_r, request.sample),
         fin.status,
         &failed,
         &shown_matrices.gain_norms,
@@ -692,6 +718,9 @@ pub(super) fn design_plain(
             .as_ref()
             .and_then(|p| p.cube.as_ref())
             .map(CubeSlacks::to_report),
+        sample: request
+            .sample
+            .map(|h| crate::sampling::SampleInfo::new(h, alpha_r)),
     })
 }
 
@@ -737,6 +766,7 @@ pub fn alpha_profile(
         progress: &mut quiet,
         lean: false,
         max_gain: req.max_gain,
+        sample: req.sample,
     };
     let mut prev: Option<Point> = None;
     let mut out = Vec::with_capacity(gammas.len());
