@@ -174,3 +174,36 @@ fn the_report_carries_the_sample_and_the_recheck_uses_it() {
     assert!(cert.input_errors.is_empty(), "{cert:?}");
     assert!(!cert.family("S5d").unwrap().passed, "{cert:?}");
 }
+
+/// Infeasible at the rate: a fixed α beyond what the discrete decrease
+/// certifies at h is a failure whose note names the largest α certified at
+/// that h; that α certifies as a fixed request at the same h.
+#[test]
+fn a_rate_beyond_the_sample_period_says_what_certifies_there() {
+    let model = paper_model();
+    let s = Settings::default();
+    let h = 0.03;
+    let d = design(&model, &req(AlphaSpec::Fixed(12.3), GAMMA, Some(h)), &s).unwrap();
+    assert!(!d.certifies, "{}", d.summary);
+    assert!(
+        d.summary.starts_with("NOT CERTIFIED at h = 3e-2 s"),
+        "{}",
+        d.summary
+    );
+    let note = d
+        .notes
+        .iter()
+        .find(|n| n.starts_with("not certified at h = 3e-2 s"))
+        .unwrap_or_else(|| panic!("{:?}", d.notes));
+    let key = "the largest α certified at this h and γ = 0.188980 is ";
+    let at = note.find(key).unwrap_or_else(|| panic!("{note}")) + key.len();
+    let alpha: f64 = note[at..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(alpha > 0.0 && alpha < 12.3, "{note}");
+    let ok = design(&model, &req(AlphaSpec::Fixed(alpha), GAMMA, Some(h)), &s).unwrap();
+    assert!(ok.certifies, "{}", ok.summary);
+}

@@ -391,6 +391,35 @@ impl Ctx<'_, '_> {
         Ok(out)
     }
 
+    /// Why a `sample = h` request certified nothing: the largest α the
+    /// discrete decrease certifies at this h and γ (an α search to a coarse
+    /// tolerance), or that none does.
+    fn sample_failure(
+        &mut self,
+        h: f64,
+        requested: AlphaSpec,
+        gamma: f64,
+    ) -> Result<String, SolveError> {
+        let tol = (10.0 * self.settings.bisection_rel_tol).min(0.05);
+        let best = self.alpha_max(gamma, None, tol, Phase::Diagnose)?;
+        let at = crate::sampling::describe_period(h);
+        let asked = match requested {
+            AlphaSpec::Fixed(a) => format!("α = {a}"),
+            AlphaSpec::Max => "any α".to_string(),
+        };
+        Ok(match best {
+            Some(p) => format!(
+                "not certified at {at}: {asked} is beyond this rate; the largest α certified at this h and γ = {gamma:.6} is {:.6} (decrease 1 − hα = {:.6} per step; coarse search). A design at a shorter h certifies more (α → the continuous α_max as h → 0)",
+                p.alpha,
+                1.0 - h * p.alpha
+            ),
+            None => format!(
+                "not certified at {at}: no α ≥ {} certifies the discrete decrease at this h and γ = {gamma:.6}: the step is too long for this plant and region (the explicit Euler step itself must contract V); try a shorter h, or a continuous design and its certified Euler step (`sampling.max_step_euler`)",
+                self.settings.alpha_floor
+            ),
+        })
+    }
+
     /// Notes on the solves: unknown statuses, a certified point from an
     /// unsolved status, points the certificate rejected.
     fn solve_notes(&self, feasible: bool, final_solver: &SolverInfo, notes: &mut Vec<String>) {
@@ -652,6 +681,9 @@ pub(super) fn design_plain(
         }
         if let Some(g) = request.max_gain {
             notes.push(gain_bound_failure(&setup, request, settings, g, gamma_r)?);
+        }
+        if let Some(h) = request.sample {
+            notes.push(ctx.sample_failure(h, request.alpha, gamma_r)?);
         }
         Some(crate::diagnosis::diagnose(
             model,
