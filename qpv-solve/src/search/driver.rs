@@ -101,12 +101,10 @@ impl Setup {
     /// decoupled: N·2p blocks with a slack Z_l per θ-vertex (sufficient).
     /// The certificate checks the full family either way.
     pub fn problem(&self, request: &DesignRequest) -> Result<Problem<'_>, SolveError> {
-        Ok(
-            Problem::new(&self.model, ConditionSet::from_mode(request.mode))?
-                .with_conditions(request.conditions)?
-                .with_max_gain(request.max_gain)
-                .with_sample(request.sample)?,
-        )
+        Problem::new(&self.model, ConditionSet::from_mode(request.mode))?
+            .with_conditions(request.conditions)?
+            .with_max_gain(request.max_gain)
+            .with_sample(request.sample)
     }
 
     /// The notes that follow from the setup alone: the size warning, the
