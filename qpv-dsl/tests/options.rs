@@ -210,3 +210,13 @@ fn cube_conditions_and_zonotope_regions() {
     let e = with("region zonotope [1, 1];").unwrap_err().to_string();
     assert!(e.contains("at least 2 generators"), "{e}");
 }
+
+#[test]
+fn sample_parses_as_a_period_in_seconds() {
+    let m = one("design { }
+         design { sample = 1e-4; }
+         design { alpha = 5; gamma = 0.5; sample = 1/100; conditions = full; }");
+    let samples: Vec<Option<f64>> = m.designs.iter().map(|d| d.sample).collect();
+    assert_eq!(samples, vec![None, Some(1e-4), Some(0.01)]);
+    assert_eq!(m.designs[2].conditions, Conditions::Full);
+}

@@ -313,6 +313,13 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 stub(),
             )
         };
+        if let Some(h) = req.sample {
+            return Err(fail(format!(
+                "`sample = {h}`: qpv! does not emit sampled designs yet (the generated observer \
+                 would need its SAMPLE_PERIOD and a fixed-step `step`, and the cache its \
+                 discrete re-check); design it with `qpv design`, which certifies it at h"
+            )));
+        }
         let start = std::time::Instant::now();
         let design = one_design(model, &poly, req, cache_dir.as_deref()).map_err(fail)?;
         timing(&model.name, &design.numbers.request, design.origin, start);

@@ -1053,6 +1053,7 @@ fn noise_report(
         max_gain: None,
         practical: None,
         sampling: None,
+        sample: None,
         gamma_search: None,
     };
     if d.certifies {

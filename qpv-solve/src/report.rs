@@ -215,6 +215,12 @@ pub struct Design {
     /// `within` > 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub practical: Option<Practical>,
+    /// `sample = h`: the design is certified at the sample period h by the
+    /// discrete decrease (family "S5d" in place of "S5";
+    /// [`crate::sampling::SampleInfo`]); [`Design::recheck`] checks that
+    /// family. Absent for continuous-time designs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sample: Option<crate::sampling::SampleInfo>,
 }
 
 /// How a practical `alpha = max` chose its design: the fastest certified
@@ -477,15 +483,31 @@ impl Design {
             );
         }
         let l = self.l_matrices();
-        crate::certificate::check_with(
-            obs,
-            self.mode,
-            self.alpha,
-            self.gamma,
-            &self.p_matrix(),
-            &l,
-            slacks.as_ref(),
-        )
+        match &self.sample {
+            Some(s) if self.mode == Mode::Sound => crate::certificate::check_sampled(
+                obs,
+                self.alpha,
+                self.gamma,
+                s.h,
+                &self.p_matrix(),
+                &l,
+            ),
+            Some(_) => Certificate::refused(
+                self.mode,
+                self.alpha,
+                self.gamma,
+                "a sampled design (`sample` key) is checked in sound mode only".into(),
+            ),
+            None => crate::certificate::check_with(
+                obs,
+                self.mode,
+                self.alpha,
+                self.gamma,
+                &self.p_matrix(),
+                &l,
+                slacks.as_ref(),
+            ),
+        }
         .with_gain_bound(&l, self.max_gain)
     }
 
@@ -533,6 +555,7 @@ impl Design {
             cube: None,
             max_gain: None,
             practical: None,
+            sample: None,
         }
     }
 

@@ -48,6 +48,59 @@ pub struct Sampling {
     pub step_estimate_rk4: f64,
 }
 
+/// The sample period of a `sample = h` design (the report's `sample` key):
+/// the design is certified for the explicit-Euler observer stepped at h,
+/// V(e_{k+1}) ≤ (1 − hα)V(e_k) on the vertex family (docs/method.md §16).
+///
+/// Conventions: `alpha` is a rate per second, as for every design;
+/// `decrease` = 1 − hα is the factor V contracts by per step. (A continuous
+/// design's `sampling.beta` = α/2 is the per-second rate its gains keep at
+/// the step `sampling.max_step_euler`; a sampled design keeps all of α.)
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SampleInfo {
+    /// The sample period h, seconds.
+    pub h: f64,
+    /// The certified rate α per second (the design's α).
+    pub alpha: f64,
+    /// hα: the rate per step.
+    pub alpha_per_step: f64,
+    /// 1 − hα: V(e_{k+1}) ≤ decrease · V(e_k).
+    pub decrease: f64,
+}
+
+impl SampleInfo {
+    /// The sample key of a design certified at (h, α).
+    pub fn new(h: f64, alpha: f64) -> SampleInfo {
+        SampleInfo {
+            h,
+            alpha,
+            alpha_per_step: h * alpha,
+            decrease: 1.0 - h * alpha,
+        }
+    }
+
+    /// "h = 1e-4 s (10 kHz)": the period and its rate.
+    pub fn describe(&self) -> String {
+        describe_period(self.h)
+    }
+}
+
+/// "h = 1e-4 s (10 kHz)", "h = 0.002 s (500 Hz)": a sample period and its
+/// rate, the shortest round-tripping form of h.
+pub fn describe_period(h: f64) -> String {
+    let f = 1.0 / h;
+    let (v, unit) = if f >= 1e6 {
+        (f / 1e6, "MHz")
+    } else if f >= 1e3 {
+        (f / 1e3, "kHz")
+    } else {
+        (f, "Hz")
+    };
+    let v = format!("{v:.4}");
+    let v = v.trim_end_matches('0').trim_end_matches('.');
+    format!("h = {h:e} s ({v} {unit})")
+}
+
 /// The error-dynamics matrices at every vertex (l, m, i, j), labelled
 /// (1-based): F = A_l − L_l C_m + (rowsHe(N_l, x_j) − rows(N_l, x_i))/γ
 /// − L_l (rowsHe(M_m, x_j) − rows(M_m, x_i))/γ.

@@ -122,6 +122,9 @@ named_enum! {
         S4 = "S4",
         /// The rate conditions (sound).
         S5 = "S5",
+        /// The discrete decrease of a `sample = h` design (replaces S5):
+        /// [(1 − hα)P, (P + hΦ)ᵀ; P + hΦ, P] ⪰ 0 per combination and pair.
+        S5d = "S5d",
         /// The paper's printed vertex condition.
         Paper13 = "13",
         /// The paper's printed facet condition.

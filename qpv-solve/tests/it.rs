@@ -30,6 +30,7 @@ mod observer_model;
 mod output_filter;
 mod output_route;
 mod practical;
+mod sampled;
 mod simulate;
 mod skew_slack;
 mod state_bound;

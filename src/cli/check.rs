@@ -24,6 +24,8 @@ pub struct Flags<'a> {
     pub alpha: Option<f64>,
     /// `--gamma`.
     pub gamma: Option<f64>,
+    /// `--sample`: check the discrete decrease at this period.
+    pub sample: Option<f64>,
 }
 
 /// The mode to check and where it came from: `--mode`, else the gains
@@ -190,7 +192,35 @@ pub fn run(
     // The same plant either way; the conditions are checked in the
     // representation the gains were designed with (default: the mode's).
     let split = g.split(mode, gains)?;
-    let design = g.design(&model.name, (mode, alpha, gamma, split), gains)?;
+    let claimed_h = g.sample.as_ref().map(|s| s.h);
+    let mut design = g.design(&model.name, (mode, alpha, gamma, split), gains)?;
+    let sample = match (flags.sample, claimed_h) {
+        (Some(h), _) if !positive(h) => {
+            return Err(CliError::Input(format!(
+                "--sample {}: expected a positive sample period in seconds",
+                fmt_num(h)
+            )))
+        }
+        (Some(h), _) => Some((h, "--sample")),
+        (None, Some(h)) if !positive(h) => {
+            return Err(CliError::Input(format!(
+            "{}: the gains file's `sample.h` is {}: expected a positive sample period in seconds",
+            gains.display(),
+            fmt_num(h)
+        )))
+        }
+        (None, Some(h)) => Some((h, "gains file")),
+        (None, None) => None,
+    };
+    if let Some((h, _)) = sample {
+        if mode != Mode::Sound {
+            return Err(CliError::Input(
+                "--sample checks the discrete decrease, a sound-mode condition: drop --mode paper"
+                    .into(),
+            ));
+        }
+        design.sample = Some(qpv_solve::sampling::SampleInfo::new(h, alpha));
+    }
     let cert = recheck(&model, &design, gains)?;
     let code = match (cert.passed, mode) {
         (true, Mode::Sound) => exit::CERTIFIED,
@@ -212,6 +242,13 @@ pub fn run(
         fmt_num(alpha),
         fmt_num(gamma)
     );
+    if let Some((h, source)) = sample {
+        s.push_str(&format!(
+            "  sampled at {} ({source}): the observer stepped by explicit Euler, V(e_k+1) <= {} V(e_k) (family S5d in place of S5)\n",
+            qpv_solve::sampling::describe_period(h),
+            fmt_num(1.0 - h * alpha)
+        ));
+    }
     for e in &cert.input_errors {
         s.push_str(&format!("  input error: {e}\n"));
     }
@@ -236,6 +273,9 @@ pub fn run(
         ));
     }
     s.push_str(match code {
+        exit::CERTIFIED if sample.is_some() => {
+            "  => certified at the sample period: all conditions hold (sound mode)\n"
+        }
         exit::CERTIFIED => "  => certified: all conditions hold (sound mode)\n",
         exit::REPRODUCTION => {
             "  => reproduction: the paper's printed conditions hold; this is not a certificate \

@@ -58,6 +58,9 @@ pub struct Gains {
     /// `max_gain = G`: the bound on every ‖L_l‖₂ the design claims, checked
     /// from `L` (a required data check of the re-check).
     pub max_gain: Option<f64>,
+    /// `sample = h`: the sample period the design is certified at (a
+    /// report's `sample` key); checked on the discrete decrease S5d.
+    pub sample: Option<qpv_solve::sampling::SampleInfo>,
 }
 
 /// The part of a design report's `state_bound` entry a check uses.

@@ -101,6 +101,12 @@ pub enum Command {
         /// SDP and checked by the certificate from the reported gains.
         #[arg(long = "max-gain", allow_negative_numbers = true)]
         max_gain: Option<f64>,
+        /// Design at the sample period H seconds (e.g. 1e-4 for 10 kHz):
+        /// the observer stepped by explicit Euler at H is certified by the
+        /// discrete decrease V(e_k+1) <= (1 - H alpha) V(e_k) in place of
+        /// the continuous rate condition (sound mode, full conditions).
+        #[arg(long, allow_negative_numbers = true)]
+        sample: Option<f64>,
         /// The largest alpha the search tries (default 1e6): a design that
         /// reaches it says so.
         #[arg(long = "alpha-cap", allow_negative_numbers = true)]
@@ -154,6 +160,11 @@ pub enum Command {
         /// the first of the model's design blocks of the checked mode that fixes it).
         #[arg(long, allow_negative_numbers = true)]
         gamma: Option<f64>,
+        /// Check the gains at the sample period H seconds: the discrete
+        /// decrease S5d of the Euler-stepped observer in place of S5
+        /// (default: the gains file's `sample.h`, else continuous time).
+        #[arg(long, allow_negative_numbers = true)]
+        sample: Option<f64>,
         /// Write the JSON report to this file (`-` for stdout).
         #[arg(long)]
         json: Option<String>,
@@ -247,6 +258,7 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             noise,
             within,
             max_gain,
+            sample,
             alpha_cap,
             json,
         } => design::run(
@@ -264,6 +276,7 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
                 noise: noise.as_deref(),
                 within,
                 max_gain,
+                sample,
                 alpha_cap,
             },
             json.as_deref(),
@@ -290,6 +303,7 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             mode,
             alpha,
             gamma,
+            sample,
             json,
         } => check::run(
             &file,
@@ -299,6 +313,7 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
                 mode: mode.as_deref(),
                 alpha,
                 gamma,
+                sample,
             },
             json.as_deref(),
         ),

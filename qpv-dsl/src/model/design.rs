@@ -242,6 +242,12 @@ pub struct DesignRequest {
     /// `max_gain = G`: every ‖L_l‖₂ ≤ G, imposed in the SDP and checked by
     /// the certificate from the reported gains. None: no bound.
     pub max_gain: Option<f64>,
+    /// `sample = h`: design at the sample period h (seconds) of an explicit
+    /// Euler implementation. The rate condition (S5) is replaced by the
+    /// discrete decrease V(e_{k+1}) ≤ (1 − hα)V(e_k) (docs/method.md, "Design
+    /// at the sample period"); α stays a rate per unit time. None: a
+    /// continuous-time design.
+    pub sample: Option<f64>,
     /// The `design` block in the source, for errors about this request.
     pub span: Span,
 }
@@ -258,6 +264,7 @@ impl Default for DesignRequest {
             noise: NoiseObjective::Free,
             within: DesignRequest::DEFAULT_WITHIN,
             max_gain: None,
+            sample: None,
             span: Span::default(),
         }
     }
@@ -271,7 +278,7 @@ impl DesignRequest {
 }
 
 /// The keys of a `design { ... }` block.
-const DESIGN_KEYS: [&str; 8] = [
+const DESIGN_KEYS: [&str; 9] = [
     "alpha",
     "gamma",
     "mode",
@@ -280,6 +287,7 @@ const DESIGN_KEYS: [&str; 8] = [
     "output_route",
     "noise",
     "max_gain",
+    "sample",
 ];
 
 impl Builder<'_> {
@@ -339,6 +347,7 @@ impl Builder<'_> {
                     }
                 }
                 "max_gain" => req.max_gain = Some(self.max_gain_value(&entry.value)?),
+                "sample" => req.sample = Some(self.sample_value(&entry.value)?),
                 "gamma" => req.gamma = self.gamma_value(&entry.value)?,
                 "mode" => req.mode = self.mode_value(&entry.value)?,
                 "split" => split = Some(self.split_value(&entry.value)?),
@@ -353,7 +362,7 @@ impl Builder<'_> {
                         entry.key.span,
                         format!(
                             "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
-                             `split`, `conditions`, `output_route`, `noise` or `max_gain`{hint}"
+                             `split`, `conditions`, `output_route`, `noise`, `max_gain` or `sample`{hint}"
                         ),
                     ));
                 }
@@ -438,7 +447,73 @@ impl Builder<'_> {
                 ));
             }
         }
+        if req.sample.is_some() {
+            self.sample_clashes(&req, &seen, block.span)?;
+        }
         Ok(req)
+    }
+
+    /// The settings a `sample = h` design cannot be combined with (yet), each
+    /// an error at the clashing key saying why.
+    fn sample_clashes(&self, req: &DesignRequest, seen: &[(&str, Span)], block: Span) -> R<()> {
+        let at = |key: &str| {
+            seen.iter()
+                .find(|(k, _)| *k == key)
+                .map_or(block, |(_, s)| *s)
+        };
+        let clash: Option<(&str, &str)> = if req.mode == Mode::Paper {
+            Some((
+                "mode",
+                "`sample` needs `mode = sound`: the paper's printed conditions have no \
+                 discrete-time form and certify nothing",
+            ))
+        } else if req.conditions == Conditions::Decoupled {
+            Some((
+                "conditions",
+                "`sample` is designed with the full vertex family (`conditions = full` or \
+                 `auto`): the decoupled split bounds the e- and x-vertex terms of a sum, and \
+                 the discrete decrease is not a sum of them (its h² term couples e and x)",
+            ))
+        } else if req.conditions == Conditions::Cube {
+            Some((
+                "conditions",
+                "`sample` is designed with the full vertex family (`conditions = full` or \
+                 `auto`): the matrix-cube relaxation of `conditions = cube` has no \
+                 discrete-time form in qpv yet",
+            ))
+        } else if req.noise == NoiseObjective::Min {
+            Some((
+                "noise",
+                "`noise = min` has no discrete-time form in qpv yet: drop `sample` for the \
+                 continuous noise-optimal design, or `noise = min` for the sampled one",
+            ))
+        } else if req.split == Split::SkewSlack {
+            Some((
+                "split",
+                "`split = skew_slack` searches its slack with the continuous rate \
+                 conditions: use `split = symmetric` or `as_written` with `sample`",
+            ))
+        } else {
+            None
+        };
+        match clash {
+            Some((key, msg)) => Err(Diag::new(at(key), msg)),
+            None => Ok(()),
+        }
+    }
+
+    /// `sample = h`: the sample period in seconds, positive and finite.
+    fn sample_value(&self, v: &Expr) -> R<f64> {
+        let h = self.constant(v, "the sample period `sample`")?;
+        if !(h.is_finite() && h > 0.0) {
+            return Err(bad_value(
+                v.span,
+                "sample",
+                "a positive sample period in seconds (e.g. `sample = 1e-4` for 10 kHz)",
+                &fmt_num(h),
+            ));
+        }
+        Ok(h)
     }
 
     /// The options of `alpha = max(...)`: `within = t`, 0 ≤ t ≤ 0.5.

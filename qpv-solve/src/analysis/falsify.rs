@@ -33,6 +33,7 @@
 
 use crate::analysis::simulate::{check_gains, check_model, Frozen, SimError};
 use crate::report::Design;
+use crate::vocab::Candidate;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{PolytopicModel, StateBound};
 use serde::Serialize;
@@ -180,6 +181,9 @@ struct Ratio<'a> {
     gains: &'a [DMatrix<f64>],
     p: &'a DMatrix<f64>,
     alpha: f64,
+    /// `sample = h`: the ratio is that of the Euler step (see
+    /// [`falsify_sampled`]).
+    sample: Option<f64>,
     frozen: Frozen,
     xhat: Vec<f64>,
     fx: Vec<f64>,
@@ -218,6 +222,18 @@ impl<'a> Ratio<'a> {
         let v: f64 = e.iter().zip(&self.pe).map(|(a, b)| a * b).sum();
         if v == 0.0 {
             return None;
+        }
+        if let Some(h) = self.sample {
+            // e⁺ = e + h e' (the Euler step of plant and observer), and
+            // r = V(e⁺)/V(e) − (1 − hα).
+            let ep: Vec<f64> = e.iter().zip(&self.fx).map(|(a, b)| a + h * b).collect();
+            let mut vp = 0.0;
+            for (i, ei) in ep.iter().enumerate() {
+                for (j, ej) in ep.iter().enumerate() {
+                    vp += ei * self.p[(i, j)] * ej;
+                }
+            }
+            return Some(vp / v - (1.0 - h * self.alpha));
         }
         let vdot: f64 = 2.0
             * self
@@ -495,6 +511,51 @@ pub fn falsify(
     samples: usize,
     seed: u64,
 ) -> Result<Falsification, SimError> {
+    run(
+        model,
+        p,
+        gains,
+        Candidate::new(alpha, gamma),
+        None,
+        samples,
+        seed,
+    )
+}
+
+/// [`falsify`] for the claim of a `sample = h` design: the plant and the
+/// observer stepped by the same explicit Euler step h, e⁺ = e + h·e' with
+/// e' the true error derivative above, and the ratio
+/// r = V(e⁺)/V(e) − (1 − hα); any r ≥ 0 is a counterexample to
+/// V(e_{k+1}) ≤ (1 − hα)V(e_k). The samples are drawn exactly as by
+/// [`falsify`].
+pub fn falsify_sampled(
+    model: &PolytopicModel,
+    p: &DMatrix<f64>,
+    gains: &[DMatrix<f64>],
+    claim: Candidate,
+    h: f64,
+    samples: usize,
+    seed: u64,
+) -> Result<Falsification, SimError> {
+    if !(h.is_finite() && h > 0.0) {
+        return Err(SimError::NotFinite {
+            what: "the sample period h".to_string(),
+        });
+    }
+    run(model, p, gains, claim, Some(h), samples, seed)
+}
+
+/// [`falsify`] and [`falsify_sampled`].
+fn run(
+    model: &PolytopicModel,
+    p: &DMatrix<f64>,
+    gains: &[DMatrix<f64>],
+    claim: Candidate,
+    sample: Option<f64>,
+    samples: usize,
+    seed: u64,
+) -> Result<Falsification, SimError> {
+    let Candidate { alpha, gamma } = claim;
     check_model(model)?;
     check_gains(model, gains)?;
     let nx = model.nx();
@@ -509,6 +570,7 @@ pub fn falsify(
         gains,
         p,
         alpha,
+        sample,
         frozen: Frozen::new(model),
         xhat: vec![0.0; nx],
         fx: vec![0.0; nx],
@@ -573,7 +635,8 @@ pub fn falsify(
     Ok(out)
 }
 
-/// [`falsify`] applied to a finished [`Design`]: its P, L_l, α and γ.
+/// [`falsify`] applied to a finished [`Design`]: its P, L_l, α and γ (and
+/// for a `sample = h` design [`falsify_sampled`] at its h).
 ///
 /// A design without a solution (empty P) is reported as a [`SimError::Shape`]
 /// error. Falsifying a paper-mode design is allowed; it tests the claim
@@ -590,12 +653,12 @@ pub fn falsify_design(
     let model = design
         .observer_model(model)
         .map_err(|e| SimError::Model(e.to_string()))?;
-    falsify(
+    run(
         &model,
         &design.p_matrix(),
         &design.l_matrices(),
-        design.alpha,
-        design.gamma,
+        Candidate::new(design.alpha, design.gamma),
+        design.sample.map(|s| s.h),
         samples,
         seed,
     )

@@ -18,6 +18,10 @@
 //! in sound mode, reported as the violated assumption (15) in paper mode)
 //! and "region_in_F" max_i x_(i)ᵀQ⁻¹x_(i) ≤ 1 (reported).
 
+mod sampled;
+
+pub use sampled::{alpha_capacity_sampled, sampled_block};
+
 use crate::conditions::cube::CubeSlacks;
 use crate::conditions::{rate_combos, Combo, ConditionSet};
 use crate::linalg::rows::{rows, rows_he};
@@ -266,11 +270,40 @@ pub fn check(
     if let Some((zm, s)) = balanced(model, mode) {
         if let (Some(pz), Some(lz)) = (s.p_to_z(p), l_to_z(&s, l)) {
             let (gammas, lnorm) = gammas_of(&pz, &lz);
-            return check_inner(&zm, mode, alpha, gamma, &pz, &gammas, &lnorm, None);
+            return check_inner(
+                &zm,
+                mode,
+                alpha,
+                gamma,
+                &pz,
+                &gammas,
+                &lnorm,
+                RateCheck::Vertex,
+            );
         }
     }
     let (gammas, lnorm) = gammas_of(p, l);
-    check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, None)
+    check_inner(
+        model,
+        mode,
+        alpha,
+        gamma,
+        p,
+        &gammas,
+        &lnorm,
+        RateCheck::Vertex,
+    )
+}
+
+/// Which rate family [`check_inner`] checks.
+#[derive(Clone, Copy)]
+enum RateCheck<'a> {
+    /// (S5)/(26) at every combination and region-vertex pair.
+    Vertex,
+    /// The cube's slack inequalities with these slacks.
+    Cube(&'a CubeSlacks),
+    /// The discrete decrease (S5d) at the sample period h ([`sampled`]).
+    Sampled(f64),
 }
 
 /// The model in balanced coordinates x = D z ([`StateScaling`]: sound mode,
@@ -332,11 +365,71 @@ pub fn check_cube(
         if let (Some(pz), Some(lz), Some(cz)) = (s.p_to_z(p), l_to_z(&s, l), cube_to_z(&s, slacks))
         {
             let (gammas, lnorm) = gammas_of(&pz, &lz);
-            return check_inner(&zm, mode, alpha, gamma, &pz, &gammas, &lnorm, Some(&cz));
+            return check_inner(
+                &zm,
+                mode,
+                alpha,
+                gamma,
+                &pz,
+                &gammas,
+                &lnorm,
+                RateCheck::Cube(&cz),
+            );
         }
     }
     let (gammas, lnorm) = gammas_of(p, l);
-    check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, Some(slacks))
+    check_inner(
+        model,
+        mode,
+        alpha,
+        gamma,
+        p,
+        &gammas,
+        &lnorm,
+        RateCheck::Cube(slacks),
+    )
+}
+
+/// The certificate of a `sample = h` design (sound mode): (S1)–(S4) as in
+/// [`check`], and in place of (S5) the discrete decrease family "S5d",
+/// λ_min of [W(1 − hα)P, Mᵀ; M, WP] ⪰ 0 with M = WP + h Σ_t w_t Φ_t for
+/// every rate combination (weight W = Σ_t w_t) and region-vertex pair,
+/// Φ = PA_l − Γ_l C_m + (P R_{l,i,j} − Γ_l S_{m,i,j})/γ, Γ_l = P L_l
+/// recomputed (see [`sampled`]).
+pub fn check_sampled(
+    model: &PolytopicModel,
+    alpha: f64,
+    gamma: f64,
+    h: f64,
+    p: &DMatrix<f64>,
+    l: &[DMatrix<f64>],
+) -> Certificate {
+    if let Some((zm, s)) = balanced(model, Mode::Sound) {
+        if let (Some(pz), Some(lz)) = (s.p_to_z(p), l_to_z(&s, l)) {
+            let (gammas, lnorm) = gammas_of(&pz, &lz);
+            return check_inner(
+                &zm,
+                Mode::Sound,
+                alpha,
+                gamma,
+                &pz,
+                &gammas,
+                &lnorm,
+                RateCheck::Sampled(h),
+            );
+        }
+    }
+    let (gammas, lnorm) = gammas_of(p, l);
+    check_inner(
+        model,
+        Mode::Sound,
+        alpha,
+        gamma,
+        p,
+        &gammas,
+        &lnorm,
+        RateCheck::Sampled(h),
+    )
 }
 
 /// [`check_cube`] when the design carries cube slacks, else [`check`]: the
@@ -396,12 +489,30 @@ pub fn check_gamma(
         if let (Some(pz), Some(gz)) = (s.p_to_z(p), gammas_to_z(&s, gammas)) {
             let pn = pz.norm().max(f64::MIN_POSITIVE);
             let lnorm: Vec<f64> = gz.iter().map(|g| g.norm() / pn).collect();
-            return check_inner(&zm, mode, alpha, gamma, &pz, &gz, &lnorm, None);
+            return check_inner(
+                &zm,
+                mode,
+                alpha,
+                gamma,
+                &pz,
+                &gz,
+                &lnorm,
+                RateCheck::Vertex,
+            );
         }
     }
     let pn = p.norm().max(f64::MIN_POSITIVE);
     let lnorm: Vec<f64> = gammas.iter().map(|g| g.norm() / pn).collect();
-    check_inner(model, mode, alpha, gamma, p, gammas, &lnorm, None)
+    check_inner(
+        model,
+        mode,
+        alpha,
+        gamma,
+        p,
+        gammas,
+        &lnorm,
+        RateCheck::Vertex,
+    )
 }
 
 fn input_errors(
@@ -512,10 +623,17 @@ fn check_inner(
     p: &DMatrix<f64>,
     gammas: &[DMatrix<f64>],
     lnorm: &[f64],
-    cube: Option<&CubeSlacks>,
+    rate: RateCheck<'_>,
 ) -> Certificate {
     let set = ConditionSet::from_mode(mode);
+    let cube = match rate {
+        RateCheck::Cube(c) => Some(c),
+        _ => None,
+    };
     let mut errs = input_errors(model, alpha, gamma, p, gammas);
+    if let RateCheck::Sampled(h) = rate {
+        errs.extend(sampled::input_errors(set, alpha, h));
+    }
     let gens = match cube {
         Some(c) if errs.is_empty() => match cube_input_errors(model, c) {
             Ok(g) => g,
@@ -544,6 +662,10 @@ fn check_inner(
     }
     let nx = model.nx();
     let [f1, fv, ff, fr] = set.families();
+    let fr = match rate {
+        RateCheck::Sampled(_) => Family::S5d,
+        _ => fr,
+    };
     let pn = p.norm();
     let xs = &model.region.vertices;
 
@@ -619,7 +741,11 @@ fn check_inner(
     let xs_pairs: &[DVector<f64>] = if cube.is_some() { &[] } else { xs };
     let terms = Terms::new(model, xs_pairs, &ps, gammas, lnorm, gamma);
     let xs = xs_pairs;
-    for combo in rate_combos(model) {
+    if let RateCheck::Sampled(h) = rate {
+        sampled::check_family(&mut sr, &terms, model, alpha, gamma, h);
+    }
+    let vertex = matches!(rate, RateCheck::Vertex | RateCheck::Cube(_));
+    for combo in rate_combos(model).into_iter().filter(|_| vertex) {
         for i in 0..xs.len() {
             for j in 0..xs.len() {
                 let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, i, j);
@@ -880,6 +1006,21 @@ impl<'a> Terms<'a> {
         i: usize,
         j: usize,
     ) -> (DMatrix<f64>, f64) {
+        let (x, size) = self.phi(sigma, gamma, l, m, i, j);
+        (&x + x.transpose(), size)
+    }
+
+    /// γ(PA_l − Γ_lC_m) + σP R_{l,i,j} − Γ_l S_{m,i,j} (γ·PF at the vertex,
+    /// for σ = +1), whose He is [`Terms::xi0`], and the size of its terms.
+    fn phi(
+        &self,
+        sigma: f64,
+        gamma: f64,
+        l: usize,
+        m: usize,
+        i: usize,
+        j: usize,
+    ) -> (DMatrix<f64>, f64) {
         let g = &self.gammas[l];
         let (vl, vm) = (&self.model.vertices[l], &self.model.vertices[m]);
         let r = &self.nhe[l][j] - &self.nrw[l][i];
@@ -890,7 +1031,7 @@ impl<'a> Terms<'a> {
             + gamma * self.gn[l] * vm.c.norm()
             + pn * r.norm()
             + self.gn[l] * s.norm();
-        (&x + x.transpose(), size)
+        (x, size)
     }
 
     /// Σ_t w_t Ξ_{l_t m_t}(i, j) (with its γαP terms) and its size.

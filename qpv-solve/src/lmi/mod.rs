@@ -41,6 +41,7 @@
 //! by s > 0. The objective is ½ w Σ_l ‖Γ̂_l‖_F² (or 0 for pure feasibility).
 
 mod cube;
+mod sampled;
 pub mod skew;
 
 use crate::backend::{clarabel_settings, ensure_lapack, run_sdp, Sdp, Status};
@@ -208,6 +209,9 @@ pub struct Problem<'m> {
     /// The change of coordinates x = D z the problem is posed in (see
     /// [`Problem::with_scaling`]); None: the model's own coordinates.
     scaling: Option<StateScaling>,
+    /// `sample = h`: the discrete decrease replaces the rate family (see
+    /// [`Problem::with_sample`]).
+    sample: Option<f64>,
 }
 
 impl<'m> Problem<'m> {
@@ -241,6 +245,7 @@ impl<'m> Problem<'m> {
             cube_r_fro: 0.0,
             max_gain: None,
             scaling: None,
+            sample: None,
         })
     }
 
@@ -646,9 +651,10 @@ impl<'m> Problem<'m> {
             column: margin.as_ref(),
         };
         match self.conditions {
-            Conditions::Full | Conditions::Auto => {
-                self.push_rate_full(&mut out, alpha, gamma, &rate)
-            }
+            Conditions::Full | Conditions::Auto => match self.sample {
+                Some(h) => self.push_rate_sampled(&mut out, alpha, gamma, h, &rate),
+                None => self.push_rate_full(&mut out, alpha, gamma, &rate),
+            },
             Conditions::Decoupled => self.push_rate_decoupled(&mut out, alpha, gamma, &rate),
             Conditions::Cube => self.push_rate_cube(&mut out, alpha, gamma, &rate),
         }

@@ -115,7 +115,8 @@ impl Setup {
         Ok(Problem::new(model, ConditionSet::from_mode(request.mode))?
             .with_conditions(request.conditions)?
             .with_max_gain(request.max_gain)
-            .with_scaling(scaling))
+            .with_scaling(scaling)
+            .with_sample(request.sample)?)
     }
 
     /// The notes that follow from the setup alone: the size warning, the
@@ -407,6 +408,35 @@ impl Ctx<'_, '_> {
         Ok(out)
     }
 
+    /// Why a `sample = h` request certified nothing: the largest α the
+    /// discrete decrease certifies at this h and γ (an α search to a coarse
+    /// tolerance), or that none does.
+    fn sample_failure(
+        &mut self,
+        h: f64,
+        requested: AlphaSpec,
+        gamma: f64,
+    ) -> Result<String, SolveError> {
+        let tol = (10.0 * self.settings.bisection_rel_tol).min(0.05);
+        let best = self.alpha_max(gamma, None, tol, Phase::Diagnose)?;
+        let at = crate::sampling::describe_period(h);
+        let asked = match requested {
+            AlphaSpec::Fixed(a) => format!("α = {a}"),
+            AlphaSpec::Max => "any α".to_string(),
+        };
+        Ok(match best {
+            Some(p) => format!(
+                "not certified at {at}: {asked} is beyond this rate; the largest α certified at this h and γ = {gamma:.6} is {:.6} (decrease 1 − hα = {:.6} per step; coarse search). A design at a shorter h certifies more (α → the continuous α_max as h → 0)",
+                p.alpha,
+                1.0 - h * p.alpha
+            ),
+            None => format!(
+                "not certified at {at}: no α ≥ {} certifies the discrete decrease at this h and γ = {gamma:.6}: the step is too long for this plant and region (the explicit Euler step itself must contract V); try a shorter h, or a continuous design and its certified Euler step (`sampling.max_step_euler`)",
+                self.settings.alpha_floor
+            ),
+        })
+    }
+
     /// Notes on the solves: unknown statuses, a certified point from an
     /// unsolved status, points the certificate rejected.
     fn solve_notes(&self, feasible: bool, final_solver: &SolverInfo, notes: &mut Vec<String>) {
@@ -512,6 +542,7 @@ fn gain_bound_failure(
         within: 0.0,
         walk_stopped: false,
         claims: Claims::default(),
+        sample: request.sample,
     };
     let a = settings.alpha_floor;
     let at = ctx.attempt(
@@ -531,11 +562,13 @@ fn gain_bound_failure(
     })
 }
 
-/// The human summary: the verdict line, then every note.
+/// The human summary: the verdict line, then every note. `sample`: the
+/// sample period of a `sample = h` design (its verdict names the discrete
+/// decrease and the rate).
 fn summary(
     mode: Mode,
     feasible: bool,
-    (alpha, gamma): (f64, f64),
+    (alpha, gamma, sample): (f64, f64, Option<f64>),
     final_status: Status,
     failed: &[String],
     norms: &[f64],
@@ -548,6 +581,18 @@ fn summary(
         format!("; failed: {}", failed.join(", "))
     };
     let mut s = match (mode, feasible) {
+        (Mode::Sound, true) if sample.is_some() => {
+            let h = sample.unwrap_or(f64::NAN);
+            format!(
+                "CERTIFIED at {} (sound conditions S1-S4 and the discrete decrease S5d): the Euler-stepped observer has V(e_(k+1)) ≤ (1 − hα)V(e_k) = {:.6}·V(e_k) with α = {alpha:.6} per second, γ = {gamma:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {max_norm:.4}.",
+                crate::sampling::describe_period(h),
+                1.0 - h * alpha
+            )
+        }
+        (Mode::Sound, false) if sample.is_some() => format!(
+            "NOT CERTIFIED at {} (sound conditions S1-S4 and the discrete decrease S5d) at α = {alpha:.6}, γ = {gamma:.6}: solver {final_status}{failed}.",
+            crate::sampling::describe_period(sample.unwrap_or(f64::NAN))
+        ),
         (Mode::Sound, true) => format!(
             "CERTIFIED (sound conditions S1-S5): V' ≤ −αV with α = {alpha:.6}, γ = {gamma:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {max_norm:.4}."
         ),
@@ -581,8 +626,17 @@ pub(super) fn design_plain(
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
     let mode = request.mode;
-    // `conditions = auto`: the choice by size (crate::size::choose), noted.
-    let (chosen_conditions, auto_note) = crate::size::choose(model, request);
+    // `conditions = auto`: the choice by size (crate::size::choose), noted;
+    // a sampled design has the full vertex family only.
+    let (chosen_conditions, auto_note) = match request.sample {
+        Some(h) if request.conditions == Conditions::Auto => (
+            Conditions::Full,
+            format!(
+                "sample = {h:e}: the discrete decrease is solved and certified on the full vertex family (conditions = full)"
+            ),
+        ),
+        _ => crate::size::choose(model, request),
+    };
     let resolved = DesignRequest {
         conditions: chosen_conditions,
         ..request.clone()
@@ -613,6 +667,7 @@ pub(super) fn design_plain(
         },
         walk_stopped: false,
         claims: Claims::default(),
+        sample: request.sample,
     };
     let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
     let (alpha_t, gamma_t) = (target.alpha, target.gamma);
@@ -656,6 +711,9 @@ pub(super) fn design_plain(
         if let Some(g) = request.max_gain {
             notes.push(gain_bound_failure(&setup, request, settings, g, gamma_r)?);
         }
+        if let Some(h) = request.sample {
+            notes.push(ctx.sample_failure(h, request.alpha, gamma_r)?);
+        }
         let mut findings = crate::diagnosis::diagnose(model, request, settings.alpha_floor);
         findings.extend(ctx.claims.finding(request.conditions));
         Some(findings)
@@ -680,7 +738,7 @@ pub(super) fn design_plain(
     let summary = summary(
         mode,
         feasible,
-        (alpha_r, gamma_r),
+        (alpha_r, gamma_r, request.sample),
         fin.status,
         &failed,
         &shown_matrices.gain_norms,
@@ -719,6 +777,9 @@ pub(super) fn design_plain(
             .as_ref()
             .and_then(|p| p.cube.as_ref())
             .map(CubeSlacks::to_report),
+        sample: request
+            .sample
+            .map(|h| crate::sampling::SampleInfo::new(h, alpha_r)),
     })
 }
 
@@ -768,6 +829,7 @@ pub fn alpha_profile(
         within: 0.0,
         walk_stopped: false,
         claims: Claims::default(),
+        sample: req.sample,
     };
     let mut prev: Option<Point> = None;
     let mut out = Vec::with_capacity(gammas.len());

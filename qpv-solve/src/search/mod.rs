@@ -58,7 +58,10 @@ use driver::design_plain;
 pub use driver::{alpha_profile, ProfilePoint};
 
 use crate::backend::Status;
-use crate::certificate::{alpha_capacity, alpha_capacity_cube, check_with, Certificate};
+use crate::certificate::{
+    alpha_capacity, alpha_capacity_cube, alpha_capacity_sampled, check_sampled, check_with,
+    Certificate,
+};
 use crate::conditions::cube::CubeSlacks;
 use crate::error::SolveError;
 use crate::linalg::matrix_to_rows;
@@ -159,6 +162,9 @@ struct Ctx<'a, 'm> {
     /// The points the solver returned as satisfying the problem's
     /// conditions, and how many of them the certificate rejected.
     claims: Claims,
+    /// `sample = h`: points are certified on the discrete decrease (S5d)
+    /// and lifted by its capacity (the problem assembles it too).
+    sample: Option<f64>,
 }
 
 /// The points the solver returned with status solved, and those of them
@@ -205,17 +211,23 @@ impl Ctx<'_, '_> {
         l: &[DMatrix<f64>],
         cube: Option<&CubeSlacks>,
     ) -> Certificate {
-        check_with(self.model, self.mode, alpha, gamma, p, l, cube)
-            .with_gain_bound(l, self.max_gain)
+        match self.sample {
+            Some(h) => check_sampled(self.model, alpha, gamma, h, p, l),
+            None => check_with(self.model, self.mode, alpha, gamma, p, l, cube),
+        }
+        .with_gain_bound(l, self.max_gain)
     }
 
     /// The largest α at which the point's (P, Γ_l, L_l) certify at `gamma`
     /// (exact capacity, times 1 − 1e-4, re-certified); None if they do not
     /// certify at any α > 0 there.
     fn lift(&self, base: &Point, gamma: f64) -> Option<Point> {
-        let cap = match &base.cube {
-            Some(c) => alpha_capacity_cube(self.model, self.mode, gamma, &base.p, &base.gammas, c),
-            None => alpha_capacity(self.model, self.mode, gamma, &base.p, &base.gammas),
+        let cap = match (&base.cube, self.sample) {
+            (_, Some(h)) => alpha_capacity_sampled(self.model, gamma, h, &base.p, &base.gammas),
+            (Some(c), None) => {
+                alpha_capacity_cube(self.model, self.mode, gamma, &base.p, &base.gammas, c)
+            }
+            (None, None) => alpha_capacity(self.model, self.mode, gamma, &base.p, &base.gammas),
         };
         let a = cap * (1.0 - 1e-4);
         if !(a > 0.0 && a.is_finite()) {
@@ -715,8 +727,15 @@ pub fn design_with_progress(
     } else {
         design_plain(model, request, settings, progress)?
     };
-    // The noise bound and the sampling figures of a certified design.
-    crate::noise::attach(model, &mut d);
+    // The noise bound and the sampling figures of a certified
+    // continuous-time design (both are continuous-time analyses).
+    if d.sample.is_none() {
+        crate::noise::attach(model, &mut d);
+    } else if d.certifies {
+        d.notes.push(
+            "sample = h: the noise bound and the Euler-step figures are continuous-time analyses and are not computed for a sampled design".into(),
+        );
+    }
     Ok(d)
 }
 

@@ -1,0 +1,173 @@
+//! The discrete decrease family "S5d" of a `sample = h` design, recomputed
+//! from P and the gains L_l (Γ_l = P L_l) in model units.
+//!
+//! The observer and the plant stepped by the same explicit Euler step h
+//! give the error map e⁺ = (I + hF)e, F the error-dynamics matrix of
+//! docs/method.md §2. V(e⁺) ≤ (1 − hα)V(e) for every e ⇔
+//! (I + hF)ᵀP(I + hF) ⪯ (1 − hα)P ⇔ (Schur complement, P ≻ 0)
+//!
+//! ```text
+//!     [ (1 − hα)P      (P + hPF)ᵀ ]
+//!     [ P + hPF         P         ]  ⪰ 0,
+//! ```
+//!
+//! affine in F. At the vertex (θ-vertex l, output vertex m, e = x_(i)/γ,
+//! x = x_(j)/γ), PF = Φ = PA_l − Γ_l C_m + (P R_{l,i,j} − Γ_l S_{m,i,j})/γ.
+//! A rate combination (weights w_t, W = Σ_t w_t; see
+//! [`crate::conditions::Combo`]) sums the vertex blocks with its weights:
+//! [W(1 − hα)P, Mᵀ; M, WP], M = WP + h Σ_t w_t Φ_t. The family's margin
+//! is λ_min of that block (positive = satisfied).
+
+use super::{lambda_min, Acc, Terms, GUARD_C};
+use crate::conditions::{rate_combos, Combo, ConditionSet};
+use crate::model::is_double_sum;
+use nalgebra::DMatrix;
+use qpv_dsl::PolytopicModel;
+
+/// The input errors of a sampled check: sound mode only, h positive finite.
+pub(super) fn input_errors(set: ConditionSet, alpha: f64, h: f64) -> Vec<String> {
+    let mut errs = Vec::new();
+    if set != ConditionSet::Sound {
+        errs.push("the sampled decrease (S5d) is a sound-mode condition".into());
+    }
+    if !(h.is_finite() && h > 0.0) {
+        errs.push(format!(
+            "sample period h = {h} is not a positive finite number"
+        ));
+    } else if alpha.is_finite() && h * alpha >= 1.0 {
+        errs.push(format!(
+            "hα = {:.6} ≥ 1: no Lyapunov function decreases by a factor 1 − hα ≤ 0 per step",
+            h * alpha
+        ));
+    }
+    errs
+}
+
+/// The combination's block W(1 − hα)P, M, WP as one 2nx matrix, and the
+/// size of its terms (for the guard).
+fn block(
+    terms: &Terms<'_>,
+    combo: &Combo,
+    alpha: f64,
+    gamma: f64,
+    h: f64,
+    i: usize,
+    j: usize,
+) -> (DMatrix<f64>, f64) {
+    let p = terms.p;
+    let nx = p.nrows();
+    let w = combo.weight();
+    let pn = p.norm();
+    let mut m = p * w;
+    let mut size = w.abs() * pn;
+    for &(l, mm, wt) in &combo.terms {
+        // phi = γΦ (σ = +1: the sound error dynamics).
+        let (phi, sz) = terms.phi(1.0, gamma, l, mm, i, j);
+        m += phi * (h * wt / gamma);
+        size += h * wt.abs() * sz / gamma;
+    }
+    let mut b = DMatrix::zeros(2 * nx, 2 * nx);
+    b.view_mut((0, 0), (nx, nx))
+        .copy_from(&(p * (w * (1.0 - h * alpha))));
+    b.view_mut((nx, 0), (nx, nx)).copy_from(&m);
+    b.view_mut((0, nx), (nx, nx)).copy_from(&m.transpose());
+    b.view_mut((nx, nx), (nx, nx)).copy_from(&(p * w));
+    let size = 2.0 * size + w.abs() * pn * (1.0 + (1.0 - h * alpha).abs());
+    (b, size)
+}
+
+/// Adds every discrete block (combination, i, j) to `acc` (λ_min ⪰ 0).
+pub(super) fn check_family(
+    acc: &mut Acc,
+    terms: &Terms<'_>,
+    model: &PolytopicModel,
+    alpha: f64,
+    gamma: f64,
+    h: f64,
+) {
+    let double = is_double_sum(model);
+    let np = model.region.vertices.len();
+    let nx = model.nx();
+    for combo in rate_combos(model) {
+        for i in 0..np {
+            for j in 0..np {
+                let (b, size) = block(terms, &combo, alpha, gamma, h, i, j);
+                let guard = GUARD_C * (2.0 * nx as f64 + 1.0) * 2.0 * (size + b.norm());
+                acc.add(lambda_min(&b), guard, || {
+                    format!("{} i={} j={}", combo.label(double), i + 1, j + 1)
+                });
+            }
+        }
+    }
+}
+
+/// The discrete block of combination `combo` at the pair (i, j) (0-based)
+/// in model units, [W(1 − hα)P, Mᵀ; M, WP], required ⪰ 0 (the family the
+/// certificate checks for a `sample = h` design).
+#[allow(clippy::too_many_arguments)]
+pub fn sampled_block(
+    model: &PolytopicModel,
+    alpha: f64,
+    gamma: f64,
+    h: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+    combo: &Combo,
+    i: usize,
+    j: usize,
+) -> DMatrix<f64> {
+    let lnorm = vec![0.0; gammas.len()];
+    let pair = [
+        model.region.vertices[i].clone(),
+        model.region.vertices[j].clone(),
+    ];
+    let terms = Terms::new(model, &pair, p, gammas, &lnorm, gamma);
+    block(&terms, combo, alpha, gamma, h, 0, 1).0
+}
+
+/// The largest α at which the *same* (P, Γ_l) satisfy every discrete block
+/// at (γ, h): W(1 − hα)P ⪰ Mᵀ(WP)⁻¹M ⇔ 1 − hα ≥ σ_max(L⁻¹ M L⁻ᵀ)²/W²
+/// (P = LLᵀ), so α_c = min over the blocks of (1 − σ_max²/W²)/h — the
+/// generalised eigenvalue problem of the discrete family, solved exactly.
+/// 0 if P is not positive definite or not even α → 0⁺ works.
+pub fn alpha_capacity_sampled(
+    model: &PolytopicModel,
+    gamma: f64,
+    h: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+) -> f64 {
+    if !(h.is_finite() && h > 0.0) {
+        return 0.0;
+    }
+    let ps = (p + p.transpose()) * 0.5;
+    let Some(ch) = ps.clone().cholesky() else {
+        return 0.0;
+    };
+    let Some(linv) = ch.l().try_inverse() else {
+        return 0.0;
+    };
+    let nx = ps.nrows();
+    let xs = &model.region.vertices;
+    let lnorm = vec![0.0; gammas.len()];
+    let terms = Terms::new(model, xs, &ps, gammas, &lnorm, gamma);
+    let mut worst = f64::INFINITY;
+    for combo in rate_combos(model) {
+        let w = combo.weight();
+        for i in 0..xs.len() {
+            for j in 0..xs.len() {
+                // α = 0 gives top-left WP; M is the lower-left block.
+                let (b, _) = block(&terms, &combo, 0.0, gamma, h, i, j);
+                let m = b.view((nx, 0), (nx, nx)).into_owned();
+                let n = &linv * m * linv.transpose();
+                let smax = n.singular_values().max();
+                let a = (1.0 - (smax / w).powi(2)) / h;
+                if a.is_nan() {
+                    return 0.0;
+                }
+                worst = worst.min(a);
+            }
+        }
+    }
+    worst.max(0.0)
+}

@@ -1,0 +1,139 @@
+//! The discrete decrease family of a `sample = h` design (docs/method.md
+//! §16), assembled in place of the continuous rate family (S5).
+//!
+//! In model units the block of rate combination c (weights w_t, W = Σ w_t)
+//! at the pair (i, j) is [W(1 − hα)P, Mᵀ; M, WP] ⪰ 0 with
+//! M = WP + h Σ_t w_t Φ_t, Φ = PA_l − Γ_l C_m + (P R_{l,i,j} − Γ_l S_{m,i,j})/γ.
+//! In the scaled variables (P = sP̂, Γ_l = sΓ̂_l, divided by s) and in the
+//! notation of [`Problem::rate_kh`] at α = 0 (K₀ = Σ_t w_t(γA_l + R),
+//! H_l = Σ_t w_t(γC_m + S)), γΦ/s = P̂K₀ − Σ_l Γ̂_l H_l, so
+//!
+//! ```text
+//!     [ W(1 − hα)P̂                    Mᵀ ]
+//!     [ M = WP̂ + (h/γ)(P̂K₀ − Σ Γ̂_l H_l)   WP̂ ]  − δ I ⪰ 0,
+//! ```
+//!
+//! a PSD(2nx) block. Its Schur complement is, to first order in h,
+//! (h/γ)·(−He{P̂K − Γ̂H}) — the continuous block times h/γ — so the margin
+//! δ = ε t/(1 + t) with t = hκ/γ (κ = [`Problem::rate_scale`]) matches the
+//! continuous margin εκ for small h and stays below the scale of P̂ for
+//! large h. The max-margin column (if any) sits on the top-left block:
+//! [W(1 − hα)P̂ − t̂ c Ŵ, Mᵀ; M, WP̂] ⪰ 0 with c = t/(1 + t), Ŵ the metric
+//! of [`super::Objective::MaxMargin`]: t̂ > 0 leaves room for a larger α.
+
+use super::{tri_idx, Problem, RateMargins, Rows};
+use crate::error::SolveError;
+use clarabel::solver::SupportedConeT;
+use nalgebra::DMatrix;
+use qpv_dsl::Conditions;
+
+impl Problem<'_> {
+    /// The same problem at the sample period h (None: continuous time):
+    /// the rate family becomes the discrete decrease. Full conditions only
+    /// (the decoupled and cube relaxations split the rate matrix into a sum
+    /// of e- and x-vertex terms, which the discrete block is not).
+    pub fn with_sample(mut self, h: Option<f64>) -> Result<Self, SolveError> {
+        if let Some(h) = h {
+            if !(h.is_finite() && h > 0.0) {
+                return Err(SolveError::Unsupported(format!(
+                    "sample = {h}: the sample period must be a positive finite number of seconds"
+                )));
+            }
+            if !matches!(self.conditions, Conditions::Full) {
+                return Err(SolveError::Unsupported(format!(
+                    "sample = {h} needs the full vertex conditions, not conditions = {}: the discrete decrease has no decoupled or cube form in qpv",
+                    self.conditions.name()
+                )));
+            }
+        }
+        self.sample = h;
+        Ok(self)
+    }
+
+    /// The sample period of a sampled design, if any.
+    pub fn sample(&self) -> Option<f64> {
+        self.sample
+    }
+
+    /// c = t/(1 + t), t = hκ/γ: the margin factor of the discrete blocks.
+    fn sampled_factor(&self, alpha: f64, gamma: f64, h: f64) -> f64 {
+        let t = h * self.rate_scale(alpha, gamma) / gamma;
+        t / (1.0 + t)
+    }
+
+    /// The discrete family: one PSD(2nx) block per (combination, i, j).
+    pub(super) fn push_rate_sampled(
+        &self,
+        out: &mut Rows,
+        alpha: f64,
+        gamma: f64,
+        h: f64,
+        rate: &RateMargins,
+    ) {
+        let nx = self.nx;
+        let d = 2 * nx;
+        let kappa = self.rate_scale(alpha, gamma);
+        let c = self.sampled_factor(alpha, gamma, h);
+        // rate.eps is ε κ (0 for the max-margin objective).
+        let delta = if kappa > 0.0 {
+            rate.eps / kappa * c
+        } else {
+            0.0
+        };
+        let p_reg = self.xs_hat.len();
+        let mut dm = DMatrix::<f64>::zeros(d, d);
+        for ci in 0..self.combos.len() {
+            let w = self.combos[ci].weight();
+            for i in 0..p_reg {
+                for j in 0..p_reg {
+                    let (k0, hs) = self.rate_kh(0.0, gamma, ci, i, j);
+                    let row0 = out.open(tri_len(d), delta);
+                    // P̂ columns: −∂block/∂P̂_v.
+                    for pc in 0..nx {
+                        for pr in 0..=pc {
+                            dm.fill(0.0);
+                            let mut e = DMatrix::<f64>::zeros(nx, nx);
+                            e[(pr, pc)] = 1.0;
+                            e[(pc, pr)] = 1.0;
+                            let m = &e * w + &e * &k0 * (h / gamma);
+                            dm.view_mut((0, 0), (nx, nx))
+                                .copy_from(&(&e * (w * (1.0 - h * alpha))));
+                            dm.view_mut((nx, nx), (nx, nx)).copy_from(&(&e * w));
+                            dm.view_mut((nx, 0), (nx, nx)).copy_from(&m);
+                            dm.view_mut((0, nx), (nx, nx)).copy_from(&m.transpose());
+                            out.cols.push_svec(row0, tri_idx(pr, pc), &dm, -1.0);
+                        }
+                    }
+                    // Γ̂_l columns: ∂M/∂Γ̂_l[gr, gc] = −(h/γ) E_{gr,gc} H_l.
+                    for (l, hl) in &hs {
+                        for gr in 0..nx {
+                            for gc in 0..self.ny {
+                                dm.fill(0.0);
+                                for b in 0..nx {
+                                    let v = -(h / gamma) * hl[(gc, b)];
+                                    dm[(nx + gr, b)] = v;
+                                    dm[(b, nx + gr)] = v;
+                                }
+                                out.cols.push_svec(row0, self.gvar(*l, gr, gc), &dm, -1.0);
+                            }
+                        }
+                    }
+                    if let Some(mc) = rate.column {
+                        // The top-left nx block of a 2nx svec has the same
+                        // packed indices as an nx svec: coef = svec(κŴ).
+                        let scale = if kappa > 0.0 { c / kappa } else { 0.0 };
+                        for (idx, &v) in mc.coef.iter().enumerate() {
+                            out.cols.push(row0 + idx, mc.var, v * scale);
+                        }
+                    }
+                    out.cones.push(SupportedConeT::PSDTriangleConeT(d));
+                }
+            }
+        }
+    }
+}
+
+/// Number of entries of the packed upper triangle of a d × d matrix.
+fn tri_len(d: usize) -> usize {
+    super::tri(d)
+}

@@ -1,0 +1,209 @@
+//! `sample = h`: the discrete decrease family (docs/method.md §16) — the
+//! sampled α against the continuous one, the continuous design's certified
+//! Euler step against the discrete certificate, a brute-force check on the
+//! true Euler error map, and the report's re-check.
+
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode, PolytopicModel, Split};
+use qpv_solve::conditions::reference::paper_model;
+use qpv_solve::falsify::falsify_design;
+use qpv_solve::sampling::SampleInfo;
+use qpv_solve::{design, Design, Settings};
+
+/// γ_max of the paper example (docs/method.md §14).
+const GAMMA: f64 = 0.18898;
+
+fn req(alpha: AlphaSpec, gamma: f64, sample: Option<f64>) -> qpv_dsl::DesignRequest {
+    let mut r = qpv_solve::request(alpha, GammaSpec::Fixed(gamma), Mode::Sound);
+    r.split = Split::Symmetric;
+    r.within = 0.0;
+    r.sample = sample;
+    r
+}
+
+fn example(name: &str, src: &str) -> PolytopicModel {
+    qpv_dsl::parse(src)
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+        .remove(0)
+        .polytopic()
+}
+
+/// As h → 0 the sampled α_max approaches the continuous α_max from below;
+/// it falls as h grows; every sampled design re-checks through its report
+/// on S5d, and its gains also pass the continuous certificate at its α (the
+/// discrete block implies He{PF} + αP ⪯ −h FᵀPF, docs/method.md §16).
+#[test]
+fn sampled_alpha_approaches_the_continuous_alpha_from_below() {
+    let model = paper_model();
+    let s = Settings::default();
+    let tol = s.bisection_rel_tol;
+    let cont = design(&model, &req(AlphaSpec::Max, GAMMA, None), &s).unwrap();
+    assert!(cont.certifies, "{}", cont.summary);
+    let mut alphas = Vec::new();
+    for h in [1e-4, 1e-3, 1e-2] {
+        let d = design(&model, &req(AlphaSpec::Max, GAMMA, Some(h)), &s).unwrap();
+        assert!(d.certifies, "h = {h}: {}", d.summary);
+        assert!(d.summary.starts_with("CERTIFIED at h = "), "{}", d.summary);
+        let sample = d.sample.expect("a sampled design reports its period");
+        assert_eq!(sample.h, h);
+        assert!((sample.decrease - (1.0 - h * d.alpha)).abs() < 1e-15);
+        let cert = d.recheck(&model);
+        assert!(cert.passed, "h = {h}: {cert:?}");
+        assert!(cert.family("S5d").is_some() && cert.family("S5").is_none());
+        assert!(d.margins.contains_key("S5d"), "{:?}", d.margins);
+        // The same gains, read as a continuous design, certify at α.
+        let as_continuous = Design {
+            sample: None,
+            alpha: d.alpha * (1.0 - 1e-3),
+            ..d.clone()
+        };
+        assert!(as_continuous.recheck(&model).passed, "h = {h}");
+        assert!(
+            d.alpha <= cont.alpha * (1.0 + tol),
+            "h = {h}: sampled α {} above the continuous α {}",
+            d.alpha,
+            cont.alpha
+        );
+        alphas.push(d.alpha);
+    }
+    // h → 0: within 0.5 % of the continuous α at h = 1e-4.
+    assert!(
+        alphas[0] >= cont.alpha * (1.0 - 5e-3),
+        "{alphas:?} vs {}",
+        cont.alpha
+    );
+    // and falling with h (each to the bisection tolerance)
+    for w in alphas.windows(2) {
+        assert!(w[1] <= w[0] * (1.0 + tol), "{alphas:?}");
+    }
+    assert!(alphas[2] < alphas[0] * (1.0 - tol), "{alphas:?}");
+}
+
+/// The continuous design's certified Euler step (`sampling.max_step_euler`,
+/// computed by the sampling module's own bisection with β = α/2) is where
+/// the independent discrete certificate's S5d at α/2 changes sign: the
+/// continuous gains pass it at h* and fail it 1 % above.
+#[test]
+fn continuous_gains_pass_the_discrete_certificate_at_their_euler_step() {
+    let model = paper_model();
+    let s = Settings::default();
+    let cont = design(&model, &req(AlphaSpec::Fixed(10.0), GAMMA, None), &s).unwrap();
+    assert!(cont.certifies, "{}", cont.summary);
+    let sm = cont
+        .sampling
+        .clone()
+        .expect("a certified design has sampling figures");
+    assert_eq!(sm.beta, 5.0);
+    let at = |h: f64| Design {
+        alpha: sm.beta,
+        sample: Some(SampleInfo::new(h, sm.beta)),
+        ..cont.clone()
+    };
+    let pass = at(sm.max_step_euler).recheck(&model);
+    assert!(pass.passed, "{pass:?}");
+    let fail = at(sm.max_step_euler * 1.01).recheck(&model);
+    assert!(!fail.passed, "{fail:?}");
+    assert!(!fail.family("S5d").unwrap().passed);
+    // (S1)-(S4) do not depend on h
+    for f in ["S1", "S2", "S3"] {
+        assert!(fail.family(f).unwrap().passed, "{f}");
+    }
+}
+
+/// The discrete certificate against the true Euler error map, sampled:
+/// (θ, e, x) ∈ Θ × E × F, e⁺ = e + h·e'(e, x, θ), V(e⁺)/V(e) never above
+/// 1 − hα (20 000 samples per plant; three plants, one with a θ-dependent
+/// output map on the double sum).
+#[test]
+fn the_true_euler_error_map_never_exceeds_the_certified_decrease() {
+    let s = Settings::default();
+    let cases: Vec<(&str, PolytopicModel, f64, f64, f64)> = vec![
+        ("paper", paper_model(), 8.0, GAMMA, 0.02),
+        (
+            "lotka_volterra",
+            example("lotka", include_str!("../../examples/lotka_volterra.qpv")),
+            1.0,
+            0.3,
+            0.05,
+        ),
+        (
+            "varying_output",
+            example("varying", include_str!("../../examples/varying_output.qpv")),
+            0.3,
+            0.33,
+            0.1,
+        ),
+    ];
+    for (name, model, alpha, gamma, h) in cases {
+        let d = design(&model, &req(AlphaSpec::Fixed(alpha), gamma, Some(h)), &s).unwrap();
+        assert!(d.certifies, "{name}: {}", d.summary);
+        let f = falsify_design(&model, &d, 20_000, 11).unwrap();
+        assert_eq!(f.samples + f.skipped, 20_000, "{name}");
+        assert!(f.samples > 19_000, "{name}");
+        assert!(f.passed(), "{name}: {:?}", f.worst);
+        assert!(f.worst_ratio < 0.0 && f.worst_ratio.is_finite(), "{name}");
+        // A claim no Lyapunov function can meet is caught (hα > 1: the
+        // decrease factor is negative), so the ratio is live.
+        let impossible = Design {
+            alpha: 1.5 / h,
+            ..d.clone()
+        };
+        assert!(!falsify_design(&model, &impossible, 2_000, 11)
+            .unwrap()
+            .passed());
+    }
+}
+
+/// The report round-trips through JSON with its `sample` key, and the
+/// re-check reads h from it: a tampered h fails.
+#[test]
+fn the_report_carries_the_sample_and_the_recheck_uses_it() {
+    let model = paper_model();
+    let s = Settings::default();
+    let d = design(&model, &req(AlphaSpec::Fixed(10.0), GAMMA, Some(1e-2)), &s).unwrap();
+    assert!(d.certifies, "{}", d.summary);
+    assert!(d.noise.is_none() && d.sampling.is_none());
+    let json = d.to_json();
+    assert!(json.contains("\"sample\""), "{json}");
+    let back = Design::from_json(&json).unwrap();
+    assert_eq!(back.sample, d.sample);
+    assert!(back.recheck(&model).passed);
+    let mut tampered = back.clone();
+    tampered.sample = Some(SampleInfo::new(0.05, 10.0));
+    let cert = tampered.recheck(&model);
+    assert!(!cert.passed, "{cert:?}");
+    assert!(cert.input_errors.is_empty(), "{cert:?}");
+    assert!(!cert.family("S5d").unwrap().passed, "{cert:?}");
+}
+
+/// Infeasible at the rate: a fixed α beyond what the discrete decrease
+/// certifies at h is a failure whose note names the largest α certified at
+/// that h; that α certifies as a fixed request at the same h.
+#[test]
+fn a_rate_beyond_the_sample_period_says_what_certifies_there() {
+    let model = paper_model();
+    let s = Settings::default();
+    let h = 0.03;
+    let d = design(&model, &req(AlphaSpec::Fixed(12.3), GAMMA, Some(h)), &s).unwrap();
+    assert!(!d.certifies, "{}", d.summary);
+    assert!(
+        d.summary.starts_with("NOT CERTIFIED at h = 3e-2 s"),
+        "{}",
+        d.summary
+    );
+    let note = d
+        .notes
+        .iter()
+        .find(|n| n.starts_with("not certified at h = 3e-2 s"))
+        .unwrap_or_else(|| panic!("{:?}", d.notes));
+    let key = "the largest α certified at this h and γ = 0.188980 is ";
+    let at = note.find(key).unwrap_or_else(|| panic!("{note}")) + key.len();
+    let alpha: f64 = note[at..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(alpha > 0.0 && alpha < 12.3, "{note}");
+    let ok = design(&model, &req(AlphaSpec::Fixed(alpha), GAMMA, Some(h)), &s).unwrap();
+    assert!(ok.certifies, "{}", ok.summary);
+}
