@@ -554,11 +554,11 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
     // φ(θ)
     if nphi > 0 {
         let code = body_assign(&p, &phi, "f", r);
+        let binds = bind("theta", &names("t", nth), &code, r);
         let _ = write!(
             s,
-            "/* The derived scheduling variables φ(θ) (θ as given). */\nstatic void {name}_phi(const {r} *theta, {r} *f) {{\n{}{}{code}}}\n\n",
-            unused(&["theta"], &code),
-            bind("theta", &names("t", nth), &code, r)
+            "/* The derived scheduling variables φ(θ) (θ as given). */\nstatic void {name}_phi(const {r} *theta, {r} *f) {{\n{}{binds}{code}}}\n\n",
+            unused(&["theta"], &format!("{binds}{code}")),
         );
     }
 
@@ -574,7 +574,7 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
             pre.push_str(&bind("phi_values", &names("f", nphi), &code, r));
         }
         let theta_bind = bind("theta", &names("t", nth), &format!("{pre}{code}"), r);
-        let all = format!("{pre}{code}");
+        let all = format!("{theta_bind}{pre}{code}");
         let _ = write!(
             s,
             "/* The scheduling weights μ_l at a clamped θ. */\nstatic void {name}_mu_clamped(const {r} *theta, {r} *mu) {{\n{}{theta_bind}{pre}{code}}}\n\n",
@@ -600,23 +600,23 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
             );
             pre.push_str(&bind("phi_values", &phis, &code, r));
         }
-        let all = format!("{pre}{code}");
+        let binds = bind("theta", &names("t", nth), &code, r);
+        let all = format!("{binds}{pre}{code}");
         let _ = write!(
             s,
-            "/* The θ-dependent coefficients at θ. */\nstatic void {name}_coeffs_at(const {r} *theta, {name}_coeffs *c) {{\n{}{}{pre}{code}}}\n\n",
+            "/* The θ-dependent coefficients at θ. */\nstatic void {name}_coeffs_at(const {r} *theta, {name}_coeffs *c) {{\n{}{binds}{pre}{code}}}\n\n",
             unused(&["theta"], &all),
-            bind("theta", &names("t", nth), &code, r)
         );
     }
 
     // gains(μ)
     {
         let code = body_assign(&p, &gains, "g", r);
+        let binds = bind("mu", &names("m", nv), &code, r);
         let _ = write!(
             s,
-            "/* The scheduled gain Σ_l μ_l L_l, NZ × NY row-major. */\nstatic void {name}_gains(const {r} *mu, {r} *g) {{\n{}{}{code}}}\n\n",
-            unused(&["mu"], &code),
-            bind("mu", &names("m", nv), &code, r)
+            "/* The scheduled gain Σ_l μ_l L_l, NZ × NY row-major. */\nstatic void {name}_gains(const {r} *mu, {r} *g) {{\n{}{binds}{code}}}\n\n",
+            unused(&["mu"], &format!("{binds}{code}")),
         );
     }
 
@@ -636,7 +636,7 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
         let _ = write!(
             s,
             "/* The observer's right-hand side: the plant rows plus the gain times the residual. */\nstatic void {name}_rhs(const {name}_coeffs *c, const {r} *g, const {r} *s, const {r} *y, const {r} *u, {r} *ds) {{\n{}{binds}{code}}}\n\n",
-            unused(&["c", "g", "s", "y", "u"], &code)
+            unused(&["c", "g", "s", "y", "u"], &format!("{binds}{code}"))
         );
     }
 
@@ -767,7 +767,7 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
         } else {
             &["x", "theta"]
         };
-        let all = format!("{pre}{code}");
+        let all = format!("{pre}{binds}{code}");
         let _ = write!(
             s,
             "void {name}_{fname}({args}) {{\n{}{pre}{binds}{code}}}\n\n",

@@ -136,6 +136,7 @@ const OTHERS: &[Crate] = &[
             ("cli::simulate", 3),
             ("cli::check", 4),
             ("cli::tradeoff", 4),
+            ("cli::codegen", 4),
             ("cli", 5),
         ],
         apart: &[],

@@ -21,26 +21,26 @@ use std::path::Path;
 /// optionally the `alpha`, `gamma` and `mode` they were designed for (a
 /// `qpv design --json` report is such a file).
 #[derive(serde::Deserialize)]
-struct Gains {
+pub(super) struct Gains {
     #[serde(rename = "P")]
-    p: Vec<Vec<f64>>,
+    pub(super) p: Vec<Vec<f64>>,
     #[serde(rename = "L")]
-    l: Vec<Vec<Vec<f64>>>,
-    alpha: Option<f64>,
-    gamma: Option<f64>,
-    mode: Option<String>,
+    pub(super) l: Vec<Vec<Vec<f64>>>,
+    pub(super) alpha: Option<f64>,
+    pub(super) gamma: Option<f64>,
+    pub(super) mode: Option<String>,
     /// The model the gains were designed for (a design report names it);
     /// the model checked, unless `--model` disagrees (an error).
-    model: Option<String>,
+    pub(super) model: Option<String>,
     /// Representation of N_k, M_k the gains were designed with
     /// ("as_written" | "symmetric"; a design report carries it).
-    split: Option<String>,
+    pub(super) split: Option<String>,
     /// The state bound the design used (a design report carries it); its Q
     /// is needed to check a model with `state_bound auto`.
     state_bound: Option<GainsBound>,
     /// The output route the design used (a design report carries it): a
     /// filter-route design is checked against the augmented plant.
-    output_route: Option<OutputRouteInfo>,
+    pub(super) output_route: Option<OutputRouteInfo>,
     /// `split = skew_slack`: the skew-symmetric slack K_{k,l} the gains were
     /// certified with (a design report carries it).
     skew: Option<Vec<Vec<Vec<Vec<f64>>>>>,
@@ -72,7 +72,7 @@ fn rectangular(rows: &[Vec<f64>]) -> bool {
 }
 
 /// Reads the gains file (any report form [`read_report`] accepts).
-fn read_gains(path: &Path) -> Result<Gains, CliError> {
+pub(super) fn read_gains(path: &Path) -> Result<Gains, CliError> {
     let g: Gains = serde_json::from_value(read_report(path)?)
         .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
     if !rectangular(&g.p) || g.l.iter().any(|l| !rectangular(l)) {
@@ -162,7 +162,7 @@ fn unit_interval(g: f64) -> bool {
 /// bound's Q from the gains file is a claim the builder verifies against the
 /// model as it is now; a refused claim is `Ok(Err(reason))`: the gains are
 /// then not certified (exit 1), which is not an input error.
-fn observer_model(
+pub(super) fn observer_model(
     model: &Model,
     split: Split,
     g: &Gains,
