@@ -878,3 +878,62 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
     }
     t
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn literals_parse_back_to_the_same_bits() {
+        for v in [
+            0.1,
+            -2.5e-300,
+            1.0 / 3.0,
+            123456.789,
+            1e22,
+            5e-324,
+            10.0,
+            -0.0,
+        ] {
+            let t = literal(v, Float::F64);
+            assert!(
+                t.contains('.') || t.contains('e'),
+                "{t} is a floating constant"
+            );
+            assert_eq!(t.parse::<f64>().map(f64::to_bits), Ok(v.to_bits()), "{t}");
+            let t = literal(v, Float::F32);
+            let body = t.strip_suffix('f').expect("f suffix");
+            assert!(body.contains('.') || body.contains('e'), "{t}");
+            assert_eq!(
+                body.parse::<f32>().map(f32::to_bits),
+                Ok((v as f32).to_bits()),
+                "{t}"
+            );
+        }
+    }
+
+    #[test]
+    fn selections_clamps_and_signs_print_as_c() {
+        let p = Printer { float: Float::F32 };
+        let sel = Expr::Select(
+            "k".into(),
+            vec![Expr::Num(1.0), Expr::Num(2.0), Expr::Num(3.0)],
+        );
+        assert_eq!(p.expr(&sel), "(k == 0u ? 1.0f : (k == 1u ? 2.0f : 3.0f))");
+        let clamp = Expr::Clamp(
+            Box::new(Expr::var("f0")),
+            Box::new(Expr::Num(-1.0)),
+            Box::new(Expr::Num(2.0)),
+        );
+        assert_eq!(
+            p.expr(&clamp),
+            "(f0 >= -1.0f ? (f0 <= 2.0f ? f0 : 2.0f) : -1.0f)"
+        );
+        // never `--` (a decrement)
+        let nn = Expr::Neg(Box::new(Expr::Num(-1.0)));
+        assert_eq!(p.expr(&nn), "- -1.0f");
+        let call = Expr::Call(qpv_dsl::Func::Sin, Box::new(Expr::var("t0")));
+        assert_eq!(p.expr(&call), "sinf(t0)");
+        assert_eq!(Printer { float: Float::F64 }.expr(&call), "sin(t0)");
+    }
+}

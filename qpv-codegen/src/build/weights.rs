@@ -250,3 +250,71 @@ pub fn locate(c: &Cover) -> Vec<Let> {
     });
     lets
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use qpv_dsl::CoverAxis;
+    use std::collections::BTreeMap;
+
+    /// Evaluates the index lets of [`locate`] at θ.
+    fn eval(e: &Expr, theta: &[f64], env: &BTreeMap<String, f64>) -> f64 {
+        match e {
+            Expr::Num(v) => *v,
+            Expr::Int(n) => *n as f64,
+            Expr::Var(v) => match v.strip_prefix('t').and_then(|i| i.parse::<usize>().ok()) {
+                Some(i) => theta[i],
+                None => env[v],
+            },
+            Expr::Paren(a) => eval(a, theta, env),
+            Expr::Ge(a, b) => f64::from(u8::from(eval(a, theta, env) >= eval(b, theta, env))),
+            Expr::Bin(op, a, b) => {
+                let (a, b) = (eval(a, theta, env), eval(b, theta, env));
+                match op {
+                    Op::Add => a + b,
+                    Op::Sub => a - b,
+                    Op::Mul => a * b,
+                    Op::Div => a / b,
+                }
+            }
+            other => panic!("not an index expression: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_piece_index_is_mixed_radix_for_three_cut_parameters() {
+        // 3 × 4 × 2 pieces: the old `c0 * n + c1 * n + c2` was wrong here
+        let axis = |param: usize, n: usize| CoverAxis {
+            param,
+            name: format!("p{param}"),
+            breaks: (0..=n).map(|k| k as f64 / n as f64).collect(),
+        };
+        let cover = Cover {
+            axes: vec![axis(0, 3), axis(1, 4), axis(2, 2)],
+            pieces: Vec::new(),
+        };
+        let lets = locate(&cover);
+        let mut seen = std::collections::BTreeSet::new();
+        for i in 0..3 {
+            for j in 0..4 {
+                for l in 0..2 {
+                    let theta = [
+                        (i as f64 + 0.5) / 3.0,
+                        (j as f64 + 0.5) / 4.0,
+                        (l as f64 + 0.5) / 2.0,
+                    ];
+                    let mut env = BTreeMap::new();
+                    for let_ in &lets {
+                        let v = eval(&let_.value, &theta, &env);
+                        env.insert(let_.name.clone(), v);
+                    }
+                    let k = env["k"] as usize;
+                    assert_eq!(k, cover.locate(&theta), "θ = {theta:?}");
+                    assert_eq!(k, (i * 4 + j) * 2 + l);
+                    seen.insert(k);
+                }
+            }
+        }
+        assert_eq!(seen.len(), 24, "every piece reached once");
+    }
+}
