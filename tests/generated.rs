@@ -25,6 +25,10 @@ macro_rules! inline_model {
 mod generated_noise;
 mod generated_practical;
 
+// The C export against the Rust observers of this binary (runs `qpv codegen`).
+#[cfg(feature = "cli")]
+mod generated_c;
+
 // Inputs, bounds other than [0, 1], a product θ_a θ_b, an unused parameter
 // (no vertex), an output nonlinearity, two designs.
 inline_model! {

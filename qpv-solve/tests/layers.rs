@@ -32,6 +32,8 @@
 //! 4 polytope     vertices (the polytopic model and μ_l(θ))
 //! ```
 //!
+//! qpv-codegen: the IR and the certified numbers (0), the builders of
+//! the observer's bodies (1), the C printer (2).
 //! qpv-macros: the macro's input, the cache, the fallback and the slow-solve
 //! note (0), code emission (1), the expansion that drives them (2). The
 //! root package: plot (0); in the command line, file input (1), the JSON
@@ -115,6 +117,12 @@ const OTHERS: &[Crate] = &[
         skip: &[],
     },
     Crate {
+        src: "qpv-codegen/src",
+        layers: &[("ir", 0), ("design", 0), ("build", 1), ("c", 2)],
+        apart: &[],
+        skip: &[],
+    },
+    Crate {
         src: "src",
         layers: &[
             ("plot", 0),
@@ -129,6 +137,7 @@ const OTHERS: &[Crate] = &[
             ("cli::gains", 3),
             ("cli::check", 4),
             ("cli::tradeoff", 4),
+            ("cli::codegen", 4),
             ("cli", 5),
         ],
         apart: &[],

@@ -2,6 +2,7 @@
 //! subcommand.
 
 mod check;
+mod codegen;
 mod design;
 mod gains;
 mod input;
@@ -180,6 +181,34 @@ pub enum Command {
         #[arg(long)]
         json: Option<String>,
     },
+    /// Export a certified observer as C99 (`<model>.h`, `<model>.c`): a
+    /// design block solved and independently certified, or a report's
+    /// gains re-certified; with `--float f32` the constants are rounded to
+    /// float before the certificate. Exit 1 (nothing written) when the
+    /// numbers to bake are not certified.
+    Codegen {
+        /// The model file (.qpv).
+        file: PathBuf,
+        /// Target language: `c`.
+        #[arg(long, default_value = "c")]
+        lang: String,
+        /// Number type of the generated code: `f64` (default) or `f32`.
+        #[arg(long)]
+        float: Option<String>,
+        /// The design block to export, 1-based (default: the first sound one).
+        #[arg(long)]
+        design: Option<usize>,
+        /// Export these gains (a `qpv design --json` report) instead of
+        /// solving; they are re-certified first.
+        #[arg(long)]
+        gains: Option<PathBuf>,
+        /// Which model of the file.
+        #[arg(long)]
+        model: Option<String>,
+        /// The directory the files are written to.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Simulate plant + observer with a design report's gains and plot it.
     ///
     /// Exit codes: 0 the run finished (inside the certified envelope when
@@ -317,6 +346,23 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
             },
             json.as_deref(),
         ),
+        Command::Codegen {
+            file,
+            lang,
+            float,
+            design,
+            gains,
+            model,
+            out,
+        } => codegen::run(codegen::Options {
+            file: &file,
+            model: model.as_deref(),
+            lang: &lang,
+            float: float.as_deref(),
+            design,
+            gains: gains.as_deref(),
+            out: &out,
+        }),
         Command::Simulate {
             file,
             design,

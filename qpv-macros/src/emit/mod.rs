@@ -21,16 +21,18 @@
 mod certificate;
 mod coefficients;
 mod design;
-mod equations;
 mod plant;
 mod tokens;
 mod weights;
 
-use coefficients::Coeffs;
-use equations::equations;
 use plant::Plant;
 use proc_macro2::{Ident, Span, TokenStream};
-use qpv_dsl::{Model, OutputFilter};
+use qpv_codegen::build::coeffs::Coeffs;
+use qpv_codegen::build::equations::equations;
+pub use qpv_codegen::{CertifiedDesign, Figures};
+use qpv_dsl::Model;
+#[cfg(test)]
+use qpv_dsl::OutputFilter;
 use quote::{format_ident, quote};
 use tokens::{lit, num, usize_lit};
 
@@ -53,61 +55,8 @@ impl EmitModel<'_> {
     /// Number of vertices: 2^s corners (s scheduling parameters and derived
     /// variables) per piece of the model's cover.
     pub fn nv(&self) -> usize {
-        let pieces = self.model.cover.as_ref().map_or(1, |c| c.len());
-        pieces << (self.scheduling.len() + self.model.derived.len())
+        qpv_codegen::design::vertex_count(self.model, &self.scheduling)
     }
-}
-
-/// The numbers of one certified design.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CertifiedDesign {
-    /// The request as the user wrote it, in words (`alpha = 10, gamma = 0.18, mode = sound`).
-    pub request: String,
-    /// `"sound"` or `"paper"`.
-    pub mode: String,
-    /// True for a certified sound-mode design: an `Observer` is generated.
-    /// False for a paper-mode reproduction: only its record is generated
-    /// (the printed conditions hold, but they certify nothing), no gain.
-    pub certifies: bool,
-    /// Certified decay rate α.
-    pub alpha: f64,
-    /// Certified region scaling γ.
-    pub gamma: f64,
-    /// The Lyapunov matrix P, nz × nz row-major (nz = nx, or nx + ny for a filter design).
-    pub p: Vec<f64>,
-    /// The vertex gains L_l, each nz × ny row-major, one per vertex.
-    pub l: Vec<Vec<f64>>,
-    /// Worst margin per condition family (positive = satisfied).
-    pub margins: Vec<(String, f64)>,
-    /// The solver's final status.
-    pub status: String,
-    /// Solver iterations of the accepted solve.
-    pub iterations: u32,
-    /// The output post-filter of a filter-route design (`output_route =
-    /// filter`): then P is (nx+ny)² and each L_l is (nx+ny) × ny, the
-    /// design being for the plant augmented by the filter. `None`: the
-    /// double-sum route, P is nx × nx, L_l is nx × ny.
-    pub filter: Option<OutputFilter>,
-    /// The noise and sampling figures computed on the baked numbers; `None`
-    /// where nothing could be certified (then the generated constants say
-    /// "no bound": an infinite σ and zero steps).
-    pub figures: Figures,
-}
-
-/// The noise bound and the sampling figures of a certified design, each
-/// present only if its own check passed on the baked P and L_l.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Figures {
-    /// σ in V' + αV ≤ σ(|v|² + |w|²) on the model's noise channels.
-    pub sigma: Option<f64>,
-    /// ‖e(∞)‖ per unit noise amplitude, √(σ/(α λ_min(P))).
-    pub error_bound: Option<f64>,
-    /// ν_max = √(α/σ): the noise amplitude up to which the certified set stays invariant.
-    pub max_amplitude: Option<f64>,
-    /// The largest certified explicit Euler step, and its contraction rate β.
-    pub euler: Option<(f64, f64)>,
-    /// The RK4 step estimate (frozen vertex dynamics; not a proof).
-    pub rk4: Option<f64>,
 }
 
 /// Emits the module for one model.
@@ -118,7 +67,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
     let mut coeffs = Coeffs::default();
     // The plant, then the designs, intern the θ-dependent coefficients; the
     // `Coeffs` struct built after them covers all of them.
-    let plant = Plant::render(&state_eqs, &out_eqs, &mut coeffs);
+    let plant = Plant::render(&state_eqs, &out_eqs, &mut coeffs, &em.libm);
     let primary_index = em.designs.iter().position(|d| d.certifies).unwrap_or(0) + 1;
     let primary = format_ident!("design{}", primary_index);
     let primary_filter = match em.designs.get(primary_index - 1).and_then(|d| d.filter) {
@@ -135,7 +84,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
     let constants = model_constants(m, em.nv());
     let certificate_types = certificate::types();
     let weights = weights::items(m, &em.scheduling, &em.libm);
-    let coefficients = coeffs.items(m.ntheta(), m.derived.len());
+    let coefficients = coefficients::items(&coeffs, m.ntheta(), m.derived.len(), &em.libm);
     let plant = plant.module(m.nx(), m.nu());
     let mod_doc = module_doc(em, primary_index);
     quote! {
@@ -287,8 +236,8 @@ fn module_doc(em: &EmitModel<'_>, primary_index: usize) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::tokens::Sum;
     use super::*;
+    use qpv_codegen::ir::Sum;
 
     const MODEL: &str = "model t {
         state x1, x2; input u1; output y1;
@@ -463,12 +412,17 @@ mod tests {
 
     #[test]
     fn sums_fold_signs_and_units() {
+        use qpv_codegen::ir::Expr;
         let mut s = Sum::default();
-        s.push(-1.0, Some(quote!(x)));
-        s.push(0.0, Some(quote!(y)));
-        s.push(1.0, Some(quote!(z)));
+        s.push(-1.0, Some(Expr::var("x")));
+        s.push(0.0, Some(Expr::var("y")));
+        s.push(1.0, Some(Expr::var("z")));
         s.push(-2.5, None);
-        assert_eq!(s.render().to_string(), "- x + z - 2.5");
-        assert_eq!(Sum::default().render().to_string(), "0.0");
+        let none = TokenStream::new();
+        assert_eq!(tokens::expr(&s.expr(), &none).to_string(), "- x + z - 2.5");
+        assert_eq!(
+            tokens::expr(&Sum::default().expr(), &none).to_string(),
+            "0.0"
+        );
     }
 }

@@ -2,10 +2,10 @@
 //! x' = A(θ)x + N(θ,x)x + B(θ)u and y = C(θ)x + M(θ,x)x, for simulation and
 //! tests.
 
-use super::coefficients::Coeffs;
-use super::equations::{product_lets, render_alone, Equation};
-use super::tokens::{destructure, uses};
+use super::tokens::{body_array, destructure, uses};
 use proc_macro2::TokenStream;
+use qpv_codegen::build::coeffs::Coeffs;
+use qpv_codegen::build::equations::Equation;
 use quote::{format_ident, quote};
 
 /// The rendered bodies of the plant's derivative and output.
@@ -21,17 +21,12 @@ impl Plant {
         state_eqs: &[Equation],
         out_eqs: &[Equation],
         coeffs: &mut Coeffs,
+        libm: &TokenStream,
     ) -> Self {
-        let f: Vec<TokenStream> = state_eqs
-            .iter()
-            .map(|eq| render_alone(eq, coeffs))
-            .collect();
-        let h: Vec<TokenStream> = out_eqs.iter().map(|eq| render_alone(eq, coeffs)).collect();
-        let state_products = product_lets(&state_eqs.iter().collect::<Vec<_>>());
-        let output_products = product_lets(&out_eqs.iter().collect::<Vec<_>>());
+        let (f, h) = qpv_codegen::build::observer::plant_bodies(state_eqs, out_eqs, coeffs);
         Plant {
-            derivative: quote! { #state_products [#(#f),*] },
-            output: quote! { #output_products [#(#h),*] },
+            derivative: body_array(&f, libm),
+            output: body_array(&h, libm),
         }
     }
 

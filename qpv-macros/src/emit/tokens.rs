@@ -3,7 +3,8 @@
 //! destructuring that binds only the names a body uses.
 
 use proc_macro2::{Ident, Literal, Span, TokenStream};
-use quote::quote;
+use qpv_codegen::ir::{Body, Expr, Let, Op, Ty};
+use quote::{format_ident, quote};
 
 /// A float literal; negative values become `-` followed by the magnitude.
 /// Callers guarantee finiteness (checked before emission).
@@ -26,45 +27,141 @@ pub(super) fn num(v: f64) -> String {
     format!("{v}")
 }
 
-/// A signed sum of `coefficient × factor` terms, rendered constant-folded:
-/// zero terms dropped, `1 ×` and `-1 ×` folded into the sign.
-#[derive(Default)]
-pub(super) struct Sum {
-    terms: Vec<(f64, Option<TokenStream>)>,
+/// An expression of the shared IR ([`qpv_codegen::ir`]) as Rust tokens;
+/// `libm` is the path of the math functions of scheduling functions.
+pub(super) fn expr(e: &Expr, libm: &TokenStream) -> TokenStream {
+    match e {
+        Expr::Num(v) => lit(*v),
+        Expr::Int(n) => {
+            let n = usize_lit(*n);
+            quote!(#n)
+        }
+        Expr::Var(name) => {
+            let id = Ident::new(name, Span::call_site());
+            quote!(#id)
+        }
+        Expr::Coef(i) => {
+            let k = format_ident!("k{}", i);
+            quote!(c.#k)
+        }
+        Expr::Neg(a) => {
+            let a = expr(a, libm);
+            quote!(-#a)
+        }
+        Expr::Paren(a) => {
+            let a = expr(a, libm);
+            quote!((#a))
+        }
+        Expr::Product(fs) => {
+            let mut out = TokenStream::new();
+            for (i, f) in fs.iter().enumerate() {
+                if i > 0 {
+                    out.extend(quote!(*));
+                }
+                out.extend(expr(f, libm));
+            }
+            out
+        }
+        Expr::Bin(op, a, b) => {
+            let (a, b) = (expr(a, libm), expr(b, libm));
+            match op {
+                Op::Add => quote!(#a + #b),
+                Op::Sub => quote!(#a - #b),
+                Op::Mul => quote!(#a * #b),
+                Op::Div => quote!(#a / #b),
+            }
+        }
+        Expr::Sum(terms) => sum(terms, libm),
+        Expr::Call(f, a) => {
+            let a = expr(a, libm);
+            let name = format_ident!("{}", qpv_codegen::ir::math_name(*f));
+            quote!(#libm::#name(#a))
+        }
+        Expr::PowI(a, n) => {
+            let a = expr(a, libm);
+            let mut acc = quote!(1.0);
+            for _ in 0..*n {
+                acc = quote!((#acc * b));
+            }
+            quote!({ let b: f64 = #a; #acc })
+        }
+        Expr::Clamp(a, lo, hi) => {
+            let (a, lo, hi) = (expr(a, libm), expr(lo, libm), expr(hi, libm));
+            quote!(if #a >= #lo { if #a <= #hi { #a } else { #hi } } else { #lo })
+        }
+        Expr::Ge(a, b) => {
+            let (a, b) = (expr(a, libm), expr(b, libm));
+            quote!(usize::from(#a >= #b))
+        }
+        Expr::Select(on, arms) => {
+            let on = Ident::new(on, Span::call_site());
+            let last = arms.len().saturating_sub(1);
+            if last == 0 {
+                return arms.first().map_or(quote!(0.0), |a| expr(a, libm));
+            }
+            let arms = arms.iter().enumerate().map(|(i, a)| {
+                let a = expr(a, libm);
+                if i == last {
+                    quote!(_ => #a,)
+                } else {
+                    let i = usize_lit(i);
+                    quote!(#i => #a,)
+                }
+            });
+            quote!(match #on { #(#arms)* })
+        }
+    }
 }
 
-impl Sum {
-    /// Adds `c × factor` (`c` alone without a factor); zero terms are dropped.
-    pub(super) fn push(&mut self, c: f64, factor: Option<TokenStream>) {
-        if c != 0.0 {
-            self.terms.push((c, factor));
-        }
+/// A folded sum: zero terms are never stored, `1 ×` and `-1 ×` fold into
+/// the sign; `0.0` when empty.
+fn sum(terms: &[(f64, Option<Expr>)], libm: &TokenStream) -> TokenStream {
+    if terms.is_empty() {
+        return quote!(0.0);
     }
+    let mut out = TokenStream::new();
+    for (i, (c, f)) in terms.iter().enumerate() {
+        let neg = *c < 0.0;
+        let a = c.abs();
+        let al = Literal::f64_unsuffixed(a);
+        let body = match f {
+            None => quote!(#al),
+            Some(f) if a == 1.0 => expr(f, libm),
+            Some(f) => {
+                let f = expr(f, libm);
+                quote!(#al * #f)
+            }
+        };
+        out.extend(match (i, neg) {
+            (0, false) => body,
+            (0, true) => quote!(-#body),
+            (_, false) => quote!(+ #body),
+            (_, true) => quote!(- #body),
+        });
+    }
+    out
+}
 
-    /// The sum as an expression (`0.0` when empty).
-    pub(super) fn render(&self) -> TokenStream {
-        if self.terms.is_empty() {
-            return quote!(0.0);
-        }
-        let mut out = TokenStream::new();
-        for (i, (c, f)) in self.terms.iter().enumerate() {
-            let neg = *c < 0.0;
-            let a = c.abs();
-            let al = Literal::f64_unsuffixed(a);
-            let body = match f {
-                None => quote!(#al),
-                Some(f) if a == 1.0 => f.clone(),
-                Some(f) => quote!(#al * #f),
-            };
-            out.extend(match (i, neg) {
-                (0, false) => body,
-                (0, true) => quote!(-#body),
-                (_, false) => quote!(+ #body),
-                (_, true) => quote!(- #body),
-            });
-        }
-        out
-    }
+/// The lets of a body: `let name = value;` (`let name: usize = ...;` for an index).
+pub(super) fn lets(lets: &[Let], libm: &TokenStream) -> TokenStream {
+    lets.iter()
+        .map(|l| {
+            let name = Ident::new(&l.name, Span::call_site());
+            let v = expr(&l.value, libm);
+            match l.ty {
+                Ty::Real => quote!(let #name = #v;),
+                Ty::Index => quote!(let #name: usize = #v;),
+            }
+        })
+        .collect()
+}
+
+/// A body as a block's statements and an array of its outputs:
+/// `let ...; [a, b, ...]`.
+pub(super) fn body_array(b: &Body, libm: &TokenStream) -> TokenStream {
+    let l = lets(&b.lets, libm);
+    let out = b.out.iter().map(|e| expr(e, libm));
+    quote!(#l [#(#out),*])
 }
 
 /// A `[[f64; C]; R]` constant from a row-major slice.

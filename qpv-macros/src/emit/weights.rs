@@ -5,9 +5,10 @@
 //! `no_std`), and the vertex weights `mu(θ)`, products of normalised
 //! positions built as a prefix tree.
 
-use super::tokens::{destructure, lit};
+use super::tokens::{body_array, destructure, lets, lit};
 use proc_macro2::{Ident, TokenStream};
-use qpv_dsl::{Func, Model, SchedExpr};
+use qpv_codegen::build::weights;
+use qpv_dsl::Model;
 use quote::{format_ident, quote};
 
 /// The generated `clamp_theta`, `mu` and `mu_clamped` of a model whose
@@ -17,7 +18,7 @@ pub(super) fn items(m: &Model, scheduling: &[usize], libm: &TokenStream) -> Toke
     let clamp = clamp_theta(m);
     let phi = phi_items(m, libm);
     let piece = piece_items(m);
-    let mu_body = mu_body(m, scheduling);
+    let mu_body = mu_body(m, scheduling, libm);
     let theta = format_ident!("theta");
     let mu_bind = destructure(&theta, "t", m.ntheta(), &mu_body);
     quote! {
@@ -82,215 +83,18 @@ fn clamp_theta(m: &Model) -> TokenStream {
     }
 }
 
-/// μ(θ) for a clamped θ: w_i = normalised position, v_i = 1 − w_i, vertex
-/// products built as a prefix tree (first parameter most significant).
-/// With a cover, the piece is located first and the weights are those of
-/// its box (see [`covered_mu_body`]).
-fn mu_body(m: &Model, scheduling: &[usize]) -> TokenStream {
-    if let Some(c) = &m.cover {
-        return covered_mu_body(m, c, scheduling);
-    }
-    let ns = scheduling.len() + m.derived.len();
-    let mut mu_lets = TokenStream::new();
+/// μ(θ) for a clamped θ (`t<i>`): the shared body
+/// ([`qpv_codegen::build::weights::mu_body`]) with φ(θ) bound to `f<j>`.
+fn mu_body(m: &Model, scheduling: &[usize], libm: &TokenStream) -> TokenStream {
+    let b = weights::mu_body(m, scheduling);
+    let mut out = TokenStream::new();
     if !m.derived.is_empty() {
         let f: Vec<Ident> = (0..m.derived.len())
             .map(|j| format_ident!("f{}", j))
             .collect();
-        mu_lets.extend(quote!(let [#(#f),*] = phi(theta);));
+        out.extend(quote!(let [#(#f),*] = phi(theta);));
     }
-    let params = scheduling.iter().map(|&pi| {
-        let (lo, hi) = m.params.get(pi).map_or((0.0, 1.0), |p| (p.lo, p.hi));
-        (format_ident!("t{}", pi), lo, hi, false)
-    });
-    // φ_j clamped into its range (which contains it up to rounding; NaN → lo)
-    let derived = m
-        .derived
-        .iter()
-        .enumerate()
-        .map(|(j, d)| (format_ident!("f{}", j), d.lo, d.hi, true));
-    for (i, (t, plo, phi, clamp)) in params.chain(derived).enumerate() {
-        if clamp {
-            let (l, h) = (lit(plo), lit(phi));
-            mu_lets.extend(quote! {
-                let #t = if #t >= #l { if #t <= #h { #t } else { #h } } else { #l };
-            });
-        }
-        let w = format_ident!("w{}", i);
-        let v = format_ident!("v{}", i);
-        let num_expr = if plo == 0.0 {
-            quote!(#t)
-        } else {
-            let l = lit(plo);
-            quote!((#t - (#l)))
-        };
-        let w_expr = if phi - plo == 1.0 {
-            num_expr
-        } else {
-            let inv = lit(1.0 / (phi - plo));
-            quote!(#num_expr * #inv)
-        };
-        mu_lets.extend(quote! { let #w = #w_expr; let #v = 1.0 - #w; });
-    }
-    let mu_exprs = products(ns, &mut mu_lets);
-    quote! { #mu_lets [#(#mu_exprs),*] }
-}
-
-/// The products of the prefix tree over `ns` weights `w<i>`/`v<i>` (first
-/// most significant), as `let` statements for the inner nodes and one
-/// expression per leaf, in vertex order.
-fn products(ns: usize, lets: &mut TokenStream) -> Vec<TokenStream> {
-    let mut level: Vec<(String, TokenStream)> = vec![(String::new(), quote!(1.0))];
-    for i in 0..ns {
-        let w = format_ident!("w{}", i);
-        let v = format_ident!("v{}", i);
-        let mut next = Vec::with_capacity(level.len() * 2);
-        for (bits, expr) in &level {
-            for (bit, f) in [("0", &v), ("1", &w)] {
-                let nb = format!("{bits}{bit}");
-                let e = if i == 0 {
-                    quote!(#f)
-                } else {
-                    quote!(#expr * #f)
-                };
-                if i > 0 && i + 1 < ns {
-                    let id = format_ident!("p{}", nb);
-                    lets.extend(quote!(let #id = #e;));
-                    next.push((nb, quote!(#id)));
-                } else {
-                    next.push((nb, e));
-                }
-            }
-        }
-        level = next;
-    }
-    level.into_iter().map(|(_, e)| e).collect()
-}
-
-/// μ(θ) for a clamped θ of a model with a cover: the piece index `k` (along
-/// each cut parameter, the number of inner breakpoints ≤ θ_i, first
-/// parameter most significant: the rule of `Cover::locate`), the ranges of
-/// that piece's box chosen by a `match` on `k`, the multilinear weights in
-/// it (φ clamped into the piece's range), and these written into the
-/// piece's slots of an otherwise zero array. No indexing, no allocation.
-fn covered_mu_body(m: &Model, c: &qpv_dsl::Cover, scheduling: &[usize]) -> TokenStream {
-    let nd = m.derived.len();
-    let ns = scheduling.len() + nd;
-    let per = 1usize << ns;
-    let mut lets = TokenStream::new();
-    if nd > 0 {
-        let f: Vec<Ident> = (0..nd).map(|j| format_ident!("f{}", j)).collect();
-        lets.extend(quote!(let [#(#f),*] = phi(theta);));
-    }
-    lets.extend(locate(c));
-    // per scheduling variable: lo, hi and 1/(hi − lo) on each piece
-    let lo_id: Vec<Ident> = (0..ns).map(|i| format_ident!("lo{}", i)).collect();
-    let hi_id: Vec<Ident> = (0..ns).map(|i| format_ident!("hi{}", i)).collect();
-    let inv_id: Vec<Ident> = (0..ns).map(|i| format_ident!("inv{}", i)).collect();
-    let pats: Vec<TokenStream> = (0..ns)
-        .flat_map(|i| {
-            let (l, h, r) = (&lo_id[i], &hi_id[i], &inv_id[i]);
-            let h = if i < scheduling.len() {
-                quote!(_)
-            } else {
-                quote!(#h)
-            };
-            [quote!(#l), h, quote!(#r)]
-        })
-        .collect();
-    let last = c.pieces.len().saturating_sub(1);
-    let arms: Vec<TokenStream> = c
-        .pieces
-        .iter()
-        .enumerate()
-        .map(|(k, piece)| {
-            let ranges = scheduling
-                .iter()
-                .map(|&pi| piece.theta.get(pi).copied().unwrap_or((0.0, 1.0)))
-                .chain(piece.phi.iter().copied());
-            let vals: Vec<TokenStream> = ranges
-                .flat_map(|(lo, hi)| [lit(lo), lit(hi), lit(1.0 / (hi - lo))])
-                .collect();
-            let pat = if k == last {
-                quote!(_)
-            } else {
-                let kl = super::tokens::usize_lit(k);
-                quote!(#kl)
-            };
-            quote! { #pat => [#(#vals),*], }
-        })
-        .collect();
-    lets.extend(quote! {
-        let [#(#pats),*] = match k { #(#arms)* };
-    });
-    let vars = scheduling
-        .iter()
-        .map(|&pi| (format_ident!("t{}", pi), false))
-        .chain((0..nd).map(|j| (format_ident!("f{}", j), true)));
-    for (i, (t, clamp)) in vars.enumerate() {
-        let (l, h, r) = (&lo_id[i], &hi_id[i], &inv_id[i]);
-        let w = format_ident!("w{}", i);
-        let v = format_ident!("v{}", i);
-        if clamp {
-            // φ clamped into the piece's range (contains it up to rounding)
-            lets.extend(quote! {
-                let #t = if #t >= #l { if #t <= #h { #t } else { #h } } else { #l };
-            });
-        }
-        lets.extend(quote! { let #w = (#t - #l) * #r; let #v = 1.0 - #w; });
-    }
-    let local = products(ns, &mut lets);
-    let q: Vec<Ident> = (0..per).map(|i| format_ident!("q{}", i)).collect();
-    lets.extend(quote!(#(let #q = #local;)*));
-    let o: Vec<Ident> = (0..c.pieces.len() * per)
-        .map(|i| format_ident!("o{}", i))
-        .collect();
-    let place: Vec<TokenStream> = (0..c.pieces.len())
-        .map(|k| {
-            let slots = &o[k * per..(k + 1) * per];
-            let pat = if k == last {
-                quote!(_)
-            } else {
-                let kl = super::tokens::usize_lit(k);
-                quote!(#kl)
-            };
-            quote! { #pat => { #(*#slots = #q;)* } }
-        })
-        .collect();
-    quote! {
-        #lets
-        let mut out = [0.0; NV];
-        {
-            let [#(#o),*] = &mut out;
-            match k { #(#place)* }
-        }
-        out
-    }
-}
-
-/// `let c<a>: usize = ...; let k: usize = ...;`: the piece of the cover
-/// that contains the clamped θ (`t<i>` bound by the caller): along each cut
-/// parameter the number of inner breakpoints ≤ θ_i, then the mixed-radix
-/// index, first parameter most significant.
-fn locate(c: &qpv_dsl::Cover) -> TokenStream {
-    let mut out = TokenStream::new();
-    let mut k = quote!(0usize);
-    for (a, axis) in c.axes.iter().enumerate() {
-        let t = format_ident!("t{}", axis.param);
-        let n = axis.breaks.len().saturating_sub(1).max(1);
-        let inner = axis.breaks.iter().skip(1).take(n - 1).map(|&b| {
-            let b = lit(b);
-            quote!(usize::from(#t >= #b))
-        });
-        let ci = format_ident!("c{}", a);
-        out.extend(quote!(let #ci: usize = 0usize #(+ #inner)*;));
-        let nl = super::tokens::usize_lit(n);
-        k = if a == 0 {
-            quote!(#ci)
-        } else {
-            quote!(#k * #nl + #ci)
-        };
-    }
-    out.extend(quote!(let k: usize = #k;));
+    out.extend(body_array(&b, libm));
     out
 }
 
@@ -300,7 +104,7 @@ fn piece_items(m: &Model) -> TokenStream {
         return TokenStream::new();
     };
     let n = super::tokens::usize_lit(c.len());
-    let body = locate(c);
+    let body = lets(&weights::locate(c), &TokenStream::new());
     let theta = format_ident!("theta");
     let full = quote!(#body k);
     let bind = destructure(&theta, "t", m.ntheta(), &full);
@@ -340,8 +144,7 @@ fn phi_items(m: &Model, libm: &TokenStream) -> TokenStream {
     let nphi = super::tokens::usize_lit(m.derived.len());
     let lo: Vec<TokenStream> = m.derived.iter().map(|d| lit(d.lo)).collect();
     let hi: Vec<TokenStream> = m.derived.iter().map(|d| lit(d.hi)).collect();
-    let values: Vec<TokenStream> = m.derived.iter().map(|d| expr(&d.expr, libm)).collect();
-    let body = quote!([#(#values),*]);
+    let body = body_array(&weights::phi_body(m), libm);
     let theta = format_ident!("theta");
     let bind = destructure(&theta, "t", m.ntheta(), &body);
     let list: Vec<String> = m
@@ -367,77 +170,6 @@ fn phi_items(m: &Model, libm: &TokenStream) -> TokenStream {
         pub fn phi(theta: &[f64; NTHETA]) -> [f64; NPHI] {
             #bind
             #body
-        }
-    }
-}
-
-/// A scheduling function as a Rust expression over `t0`, `t1`, ... (the
-/// parameters), in the evaluation order of [`SchedExpr::eval`], with the
-/// math functions called through the path `libm`.
-pub(super) fn expr(e: &SchedExpr, libm: &TokenStream) -> TokenStream {
-    match e {
-        SchedExpr::Num(c) => {
-            let l = lit(*c);
-            quote!((#l))
-        }
-        SchedExpr::Param(i) => {
-            let t = format_ident!("t{}", i);
-            quote!(#t)
-        }
-        SchedExpr::Named(_, e) => expr(e, libm),
-        SchedExpr::Neg(e) => {
-            let x = expr(e, libm);
-            quote!((-#x))
-        }
-        SchedExpr::Sum(terms) => {
-            let mut acc = quote!(0.0);
-            for (neg, t) in terms {
-                let x = expr(t, libm);
-                acc = if *neg {
-                    quote!((#acc - #x))
-                } else {
-                    quote!((#acc + #x))
-                };
-            }
-            acc
-        }
-        SchedExpr::Product(factors) => {
-            let mut acc = quote!(1.0);
-            for (div, f) in factors {
-                let x = expr(f, libm);
-                acc = if *div {
-                    quote!((#acc / #x))
-                } else {
-                    quote!((#acc * #x))
-                };
-            }
-            acc
-        }
-        SchedExpr::Pow(e, n) => {
-            let x = expr(e, libm);
-            let mut acc = quote!(1.0);
-            for _ in 0..*n {
-                acc = quote!((#acc * b));
-            }
-            quote!({ let b: f64 = #x; #acc })
-        }
-        SchedExpr::Call(f, e) => {
-            let x = expr(e, libm);
-            let name = format_ident!(
-                "{}",
-                match f {
-                    Func::Sqrt => "sqrt",
-                    Func::Exp => "exp",
-                    Func::Ln => "log",
-                    Func::Sin => "sin",
-                    Func::Cos => "cos",
-                    Func::Tan => "tan",
-                    Func::Tanh => "tanh",
-                    Func::Atan => "atan",
-                    Func::Abs => "fabs",
-                }
-            );
-            quote!(#libm::#name(#x))
         }
     }
 }

@@ -489,16 +489,7 @@ pub fn check_gamma(
         if let (Some(pz), Some(gz)) = (s.p_to_z(p), gammas_to_z(&s, gammas)) {
             let pn = pz.norm().max(f64::MIN_POSITIVE);
             let lnorm: Vec<f64> = gz.iter().map(|g| g.norm() / pn).collect();
-            return check_inner(
-                &zm,
-                mode,
-                alpha,
-                gamma,
-                &pz,
-                &gz,
-                &lnorm,
-                RateCheck::Vertex,
-            );
+            return check_inner(&zm, mode, alpha, gamma, &pz, &gz, &lnorm, RateCheck::Vertex);
         }
     }
     let pn = p.norm().max(f64::MIN_POSITIVE);

@@ -1,30 +1,23 @@
 //! The gain schedule of a certified design: `gain(θ)` = Σ_l μ_l(θ) L_l,
-//! unrolled entry by entry with the baked vertex gains as constants.
+//! unrolled entry by entry with the baked vertex gains as constants (the
+//! shared body of [`qpv_codegen::build::observer::gains_body`]).
 
-use super::{gain_entry, Shape};
-use crate::emit::tokens::{destructure, Sum};
+use super::Shape;
+use crate::emit::tokens::{destructure, expr};
 use crate::emit::CertifiedDesign;
 use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 
 /// The generated `gain` (θ clamped first) and `gains` (from given weights μ).
 pub(super) fn items(d: &CertifiedDesign, shape: Shape) -> TokenStream {
-    let Shape { ny, nv, nz, .. } = shape;
-    // gain entries g_ko(μ) = Σ_l μ_l L_l[k][o], k over the design's nz states
-    let g_rows: Vec<TokenStream> = (0..nz)
-        .map(|k| {
-            let row = (0..ny).map(|o| {
-                let mut s = Sum::default();
-                if nv == 1 {
-                    s.push(gain_entry(d, ny, 0, k, o), None);
-                } else {
-                    for l in 0..nv {
-                        let ml = format_ident!("m{}", l);
-                        s.push(gain_entry(d, ny, l, k, o), Some(quote!(#ml)));
-                    }
-                }
-                s.render()
-            });
+    let Shape { ny, nv, .. } = shape;
+    let b = qpv_codegen::build::observer::gains_body(d, shape);
+    let no_libm = TokenStream::new();
+    let g_rows: Vec<TokenStream> = b
+        .out
+        .chunks(ny.max(1))
+        .map(|row| {
+            let row = row.iter().map(|e| expr(e, &no_libm));
             quote!([#(#row),*])
         })
         .collect();

@@ -7,60 +7,14 @@ mod gain;
 mod observer;
 
 use super::certificate;
-use super::coefficients::Coeffs;
-use super::equations::Equation;
 use super::tokens::{lit, matrix_lit, num, usize_lit};
 use super::{CertifiedDesign, EmitModel};
 use proc_macro2::TokenStream;
-use qpv_dsl::OutputFilter;
+use qpv_codegen::build::coeffs::Coeffs;
+use qpv_codegen::build::equations::Equation;
 use quote::{format_ident, quote};
 
-/// The sizes of one design and of its observer.
-#[derive(Clone, Copy)]
-struct Shape {
-    /// Plant states.
-    nx: usize,
-    /// Measured outputs.
-    ny: usize,
-    /// Known inputs.
-    nu: usize,
-    /// Vertices of the parameter box.
-    nv: usize,
-    /// The design's state: the plant's (double sum), or the plant's and
-    /// one filter state per output (filter route).
-    nz: usize,
-    /// The observer's state: the design's, plus the filtered measurement
-    /// x_y for the filter route.
-    ns: usize,
-    /// The output post-filter of a filter-route design.
-    filter: Option<OutputFilter>,
-}
-
-impl Shape {
-    fn of(em: &EmitModel<'_>, d: &CertifiedDesign) -> Self {
-        let m = em.model;
-        let (nx, ny) = (m.nx(), m.ny());
-        let filter = d.filter;
-        Shape {
-            nx,
-            ny,
-            nu: m.nu(),
-            nv: em.nv(),
-            nz: if filter.is_some() { nx + ny } else { nx },
-            ns: if filter.is_some() { nx + 2 * ny } else { nx },
-            filter,
-        }
-    }
-
-    /// The output route's name, as `ROUTE` spells it.
-    fn route(&self) -> &'static str {
-        if self.filter.is_some() {
-            "filter"
-        } else {
-            "double_sum"
-        }
-    }
-}
+pub(super) use qpv_codegen::Shape;
 
 /// Emits `pub mod design<index>`: the certified constants, `gain` and
 /// `Observer`; for a design that certifies nothing (paper mode) only its
@@ -73,7 +27,7 @@ pub(super) fn emit_design(
     out_eqs: &[Equation],
     coeffs: &mut Coeffs,
 ) -> TokenStream {
-    let shape = Shape::of(em, d);
+    let shape = Shape::of(em.model, em.nv(), d);
     let certificate = certificate::constant(&em.model.name, shape.route(), d);
     if !d.certifies {
         return paper_record(&em.model.name, d, index, shape, &certificate);
@@ -235,12 +189,4 @@ fn noise_constants(d: &CertifiedDesign) -> TokenStream {
         /// polynomial on its eigenvalues). Zero if none could be estimated.
         pub const STEP_ESTIMATE_RK4: f64 = #rk4;
     }
-}
-
-/// Entry `[k][o]` of the vertex gain L_l (0 if missing).
-fn gain_entry(d: &CertifiedDesign, ny: usize, l: usize, k: usize, o: usize) -> f64 {
-    d.l.get(l)
-        .and_then(|lv| lv.get(k * ny + o))
-        .copied()
-        .unwrap_or(0.0)
 }

@@ -3,12 +3,12 @@
 //! route the filter rows), the per-evaluation `schedule`, and the
 //! `Observer` type with its constructors and Euler / RK4 steppers.
 
-use super::{docs, gain_entry, Shape};
-use crate::emit::coefficients::Coeffs;
-use crate::emit::equations::{product_lets, render_equation, Equation};
-use crate::emit::tokens::{destructure, destructure_names, uses, Sum};
+use super::{docs, Shape};
+use crate::emit::tokens::{body_array, destructure, destructure_names, uses};
 use crate::emit::CertifiedDesign;
 use proc_macro2::{Ident, Span, TokenStream};
+use qpv_codegen::build::coeffs::Coeffs;
+use qpv_codegen::build::equations::Equation;
 use quote::{format_ident, quote};
 
 /// `rhs`, `schedule`, `Observer` and its methods for design `index` of
@@ -22,7 +22,8 @@ pub(super) fn items(
     out_eqs: &[Equation],
     coeffs: &mut Coeffs,
 ) -> TokenStream {
-    let body = derivative_body(d, shape, state_eqs, out_eqs, coeffs);
+    let body = qpv_codegen::build::observer::rhs_body(d, shape, state_eqs, out_eqs, coeffs);
+    let body = body_array(&body, &TokenStream::new());
     let rhs = rhs_fn(shape, &body);
     let observer = observer_type(model_name, index, shape);
     quote! {
@@ -39,105 +40,6 @@ pub(super) fn items(
     }
 }
 
-/// The observer state's names: x̂ (x<i>), then for the filter route the
-/// filter estimate x̂_y (zh<k>) and the filtered measurement x_y (zm<k>).
-fn state_names(shape: Shape) -> Vec<String> {
-    let mut names: Vec<String> = (0..shape.nx).map(|i| format!("x{i}")).collect();
-    if shape.filter.is_some() {
-        names.extend((0..shape.ny).map(|k| format!("zh{k}")));
-        names.extend((0..shape.ny).map(|k| format!("zm{k}")));
-    }
-    names
-}
-
-/// The residual the gain multiplies, `let r<o> = ...;` per output:
-/// y − C(θ)x̂ − M(θ,x̂)x̂ (double sum), x_y − x̂_y (filter).
-fn residuals(shape: Shape, out_eqs: &[Equation], coeffs: &mut Coeffs) -> Vec<TokenStream> {
-    (0..shape.ny)
-        .map(|o| {
-            let r = format_ident!("r{}", o);
-            let mut s = Sum::default();
-            match (shape.filter, out_eqs.get(o)) {
-                (Some(_), _) => {
-                    let (zm, zh) = (format_ident!("zm{}", o), format_ident!("zh{}", o));
-                    s.push(1.0, Some(quote!(#zm)));
-                    s.push(-1.0, Some(quote!(#zh)));
-                }
-                (None, eq) => {
-                    let y = format_ident!("y{}", o);
-                    s.push(1.0, Some(quote!(#y)));
-                    if let Some(eq) = eq {
-                        render_equation(eq, coeffs, &mut s, -1.0);
-                    }
-                }
-            }
-            let e = s.render();
-            quote!(let #r = #e;)
-        })
-        .collect()
-}
-
-/// The body of `rhs`: state products, residuals, then one expression per
-/// observer state (plant rows with the gain injection; for the filter
-/// route the x̂_y and x_y rows).
-fn derivative_body(
-    d: &CertifiedDesign,
-    shape: Shape,
-    state_eqs: &[Equation],
-    out_eqs: &[Equation],
-    coeffs: &mut Coeffs,
-) -> TokenStream {
-    let Shape { nx, ny, nv, .. } = shape;
-    let resid = residuals(shape, out_eqs, coeffs);
-    // Σ_o g_ko r_o added to row k of the design state.
-    let inject = |s: &mut Sum, k: usize| {
-        for o in 0..ny {
-            let r = format_ident!("r{}", o);
-            if (0..nv).all(|l| gain_entry(d, ny, l, k, o) == 0.0) {
-                continue;
-            }
-            if nv == 1 {
-                s.push(gain_entry(d, ny, 0, k, o), Some(quote!(#r)));
-            } else {
-                let g = format_ident!("g{}_{}", k, o);
-                s.push(1.0, Some(quote!(#g * #r)));
-            }
-        }
-    };
-    let mut rows: Vec<TokenStream> = state_eqs
-        .iter()
-        .enumerate()
-        .map(|(k, eq)| {
-            let mut s = Sum::default();
-            render_equation(eq, coeffs, &mut s, 1.0);
-            inject(&mut s, k);
-            s.render()
-        })
-        .collect();
-    if let Some(f) = shape.filter {
-        // x̂_y' = −a x̂_y + b (C(θ)x̂ + M(θ,x̂)x̂) + L_y(θ)(x_y − x̂_y)
-        for (k, eq) in out_eqs.iter().enumerate() {
-            let zh = format_ident!("zh{}", k);
-            let mut s = Sum::default();
-            s.push(-f.pole, Some(quote!(#zh)));
-            render_equation(eq, coeffs, &mut s, f.gain);
-            inject(&mut s, nx + k);
-            rows.push(s.render());
-        }
-        // x_y' = −a x_y + b y: the observer filters the measurement itself.
-        for k in 0..ny {
-            let (zm, y) = (format_ident!("zm{}", k), format_ident!("y{}", k));
-            let mut s = Sum::default();
-            s.push(-f.pole, Some(quote!(#zm)));
-            s.push(f.gain, Some(quote!(#y)));
-            rows.push(s.render());
-        }
-    }
-    let all: Vec<&Equation> = state_eqs.iter().chain(out_eqs.iter()).collect();
-    let products = product_lets(&all);
-    quote! { #products #(#resid)* [#(#rows),*] }
-}
-
 /// `fn rhs(c, g, s, y, u)` around `body`, binding only the state, output,
 /// input and gain entries the body uses.
 fn rhs_fn(shape: Shape, body: &TokenStream) -> TokenStream {
@@ -148,7 +50,7 @@ fn rhs_fn(shape: Shape, body: &TokenStream) -> TokenStream {
         format_ident!("u"),
         format_ident!("g"),
     );
-    let bind_s = destructure_names(&s, &state_names(shape), body);
+    let bind_s = destructure_names(&s, &shape.state_names(), body);
     let bind_y = destructure(&y, "y", ny, body);
     let bind_u = destructure(&u, "u", nu, body);
     let g_pats: Vec<TokenStream> = (0..nz)

@@ -1,18 +1,16 @@
-//! The plant's polynomial equations in the form the emitter renders them:
+//! The plant's polynomial equations in the form the emitters print them:
 //! each row of x' = A(θ)x + N(θ,x)x + B(θ)u (and of y = C(θ)x + M(θ,x)x)
 //! as a map from state/input monomial to θ-polynomial coefficient.
 
-use super::coefficients::Coeffs;
-use super::tokens::Sum;
-use proc_macro2::TokenStream;
+use super::coeffs::Coeffs;
+use crate::ir::{Expr, Let, Sum};
 use qpv_dsl::{Model, PolyMatrix, ThetaPoly};
-use quote::{format_ident, quote};
 use std::collections::BTreeMap;
 
 /// A monomial of the state and input: the key under which θ-coefficients
 /// of one equation are collected.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-pub(super) enum Mono {
+pub enum Mono {
     /// x_j
     X(usize),
     /// x_i x_j with i ≤ j
@@ -22,7 +20,7 @@ pub(super) enum Mono {
 }
 
 /// The right-hand side of one polynomial equation: monomial → θ-polynomial.
-pub(super) type Equation = BTreeMap<Mono, ThetaPoly>;
+pub type Equation = BTreeMap<Mono, ThetaPoly>;
 
 /// Adds `p` to the coefficient of `key`, dropping it if the sum is zero.
 fn add_poly(eq: &mut Equation, key: Mono, p: &ThetaPoly) {
@@ -71,7 +69,7 @@ fn equation(
 }
 
 /// The plant's state equations (one per state) and output equations (one per output).
-pub(super) fn equations(m: &Model) -> (Vec<Equation>, Vec<Equation>) {
+pub fn equations(m: &Model) -> (Vec<Equation>, Vec<Equation>) {
     let nx = m.nx();
     let ny = m.ny();
     let states = (0..nx)
@@ -86,41 +84,32 @@ pub(super) fn equations(m: &Model) -> (Vec<Equation>, Vec<Equation>) {
     (states, outputs)
 }
 
-/// The factor a monomial stands for in generated code.
-fn mono_tokens(m: Mono) -> TokenStream {
+/// The name a monomial stands for in generated code.
+fn mono_expr(m: Mono) -> Expr {
     match m {
-        Mono::X(j) => {
-            let x = format_ident!("x{}", j);
-            quote!(#x)
-        }
-        Mono::XX(i, j) => {
-            let p = format_ident!("x{}x{}", i, j);
-            quote!(#p)
-        }
-        Mono::U(j) => {
-            let u = format_ident!("u{}", j);
-            quote!(#u)
-        }
+        Mono::X(j) => Expr::var(format!("x{j}")),
+        Mono::XX(i, j) => Expr::var(format!("x{i}x{j}")),
+        Mono::U(j) => Expr::var(format!("u{j}")),
     }
 }
 
 /// Adds `sign ×` one equation to a sum, monomial by monomial (θ-dependent
 /// coefficients are interned into `coeffs`).
-pub(super) fn render_equation(eq: &Equation, coeffs: &mut Coeffs, sum: &mut Sum, sign: f64) {
+pub fn push_equation(eq: &Equation, coeffs: &mut Coeffs, sum: &mut Sum, sign: f64) {
     for (&m, p) in eq {
-        coeffs.push_term(sum, p, mono_tokens(m), sign);
+        coeffs.push_term(sum, p, mono_expr(m), sign);
     }
 }
 
 /// One equation alone, as an expression.
-pub(super) fn render_alone(eq: &Equation, coeffs: &mut Coeffs) -> TokenStream {
+pub fn alone(eq: &Equation, coeffs: &mut Coeffs) -> Expr {
     let mut s = Sum::default();
-    render_equation(eq, coeffs, &mut s, 1.0);
-    s.render()
+    push_equation(eq, coeffs, &mut s, 1.0);
+    s.expr()
 }
 
 /// `let x0x1 = x0 * x1;` for every product the equations use.
-pub(super) fn product_lets(eqs: &[&Equation]) -> TokenStream {
+pub fn product_lets(eqs: &[&Equation]) -> Vec<Let> {
     let mut seen = std::collections::BTreeSet::new();
     for eq in eqs {
         for m in eq.keys() {
@@ -131,10 +120,10 @@ pub(super) fn product_lets(eqs: &[&Equation]) -> TokenStream {
     }
     seen.into_iter()
         .map(|(i, j)| {
-            let p = format_ident!("x{}x{}", i, j);
-            let a = format_ident!("x{}", i);
-            let b = format_ident!("x{}", j);
-            quote!(let #p = #a * #b;)
+            Let::real(
+                format!("x{i}x{j}"),
+                Expr::Product(vec![Expr::var(format!("x{i}")), Expr::var(format!("x{j}"))]),
+            )
         })
         .collect()
 }

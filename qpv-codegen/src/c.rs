@@ -1,0 +1,939 @@
+//! The C99 printer: `<model>.h` and `<model>.c` for one certified design,
+//! printing the same bodies ([`crate::build`]) as the `qpv!` Rust emitter.
+//!
+//! The generated C allocates nothing, has no global or static mutable
+//! state (every global is `const`), includes `<math.h>` only when a
+//! scheduling function calls a math function or a figure is infinite (and
+//! then only those calls need libm), and compiles cleanly with
+//! `cc -std=c99 -Wall -Wextra -Werror -pedantic` (and, for `float`,
+//! `-Wdouble-promotion -Wfloat-conversion`: every literal carries the `f`
+//! suffix and the math functions are the `f` ones). Constants are printed
+//! in the shortest form that parses back to the same bits of the chosen
+//! type (Rust's round-trip formatting; `f` suffix for `float`).
+
+use crate::build::coeffs::Coeffs;
+use crate::build::equations::equations;
+use crate::build::observer::{gains_body, plant_bodies, rhs_body};
+use crate::build::weights::{mu_body, phi_body};
+use crate::design::{vertex_count, CertifiedDesign, Shape};
+use crate::ir::{math_name, Body, Expr, Let, Op, Ty};
+use qpv_dsl::Model;
+use std::fmt::Write as _;
+
+/// The floating-point type of the generated C.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Float {
+    /// `double` (the default).
+    F64,
+    /// `float`: constants rounded to the nearest `float`, `f`-suffixed
+    /// literals and math functions.
+    F32,
+}
+
+impl Float {
+    /// The C type.
+    pub fn c_type(self) -> &'static str {
+        match self {
+            Float::F64 => "double",
+            Float::F32 => "float",
+        }
+    }
+
+    /// The name as `--float` spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Float::F64 => "f64",
+            Float::F32 => "f32",
+        }
+    }
+}
+
+/// The two generated files.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CFiles {
+    /// `<model>.h`: the API, sizes, constants' declarations, the
+    /// certificate as a comment.
+    pub header: String,
+    /// `<model>.c`: the constants and the unrolled observer.
+    pub source: String,
+}
+
+/// A literal of type `float`: the value rounded to f32, printed so that it
+/// parses back to the same bits, with the `f` suffix. f64: the shortest
+/// round-trip form. Both always have a `.` or an exponent (a floating
+/// constant in C).
+pub fn literal(v: f64, float: Float) -> String {
+    let text = match float {
+        Float::F64 => shortest(format!("{v}"), format!("{v:e}")),
+        Float::F32 => {
+            let f = v as f32;
+            shortest(format!("{f}"), format!("{f:e}"))
+        }
+    };
+    match float {
+        Float::F64 => text,
+        Float::F32 => format!("{text}f"),
+    }
+}
+
+/// The shorter of the plain and the exponent form, made a floating constant.
+fn shortest(plain: String, exp: String) -> String {
+    let plain = if plain.contains('.') || plain.contains("inf") || plain.contains("NaN") {
+        plain
+    } else {
+        format!("{plain}.0")
+    };
+    if exp.len() + 2 < plain.len() {
+        exp
+    } else {
+        plain
+    }
+}
+
+/// Prints IR expressions as C.
+struct Printer {
+    float: Float,
+}
+
+impl Printer {
+    fn num(&self, v: f64) -> String {
+        literal(v, self.float)
+    }
+
+    fn expr(&self, e: &Expr) -> String {
+        match e {
+            Expr::Num(v) => self.num(*v),
+            Expr::Int(n) => format!("{n}"),
+            Expr::Var(v) => v.clone(),
+            Expr::Coef(i) => format!("c->k{i}"),
+            Expr::Neg(a) => neg(&self.expr(a)),
+            Expr::Paren(a) => format!("({})", self.expr(a)),
+            Expr::Product(fs) => fs
+                .iter()
+                .map(|f| self.expr(f))
+                .collect::<Vec<_>>()
+                .join(" * "),
+            Expr::Bin(op, a, b) => {
+                let op = match op {
+                    Op::Add => "+",
+                    Op::Sub => "-",
+                    Op::Mul => "*",
+                    Op::Div => "/",
+                };
+                format!("{} {op} {}", self.expr(a), self.expr(b))
+            }
+            Expr::Sum(terms) => self.sum(terms),
+            Expr::Call(f, a) => {
+                let name = math_name(*f);
+                let suffix = if self.float == Float::F32 { "f" } else { "" };
+                format!("{name}{suffix}({})", self.expr(a))
+            }
+            Expr::PowI(a, n) => {
+                // ((1·b)·b)…, the base evaluated once per factor (pure)
+                let b = format!("({})", self.expr(a));
+                let mut acc = self.num(1.0);
+                for _ in 0..*n {
+                    acc = format!("({acc} * {b})");
+                }
+                acc
+            }
+            Expr::Clamp(a, lo, hi) => {
+                let (a, lo, hi) = (self.expr(a), self.expr(lo), self.expr(hi));
+                format!("({a} >= {lo} ? ({a} <= {hi} ? {a} : {hi}) : {lo})")
+            }
+            Expr::Ge(a, b) => format!("(unsigned)({} >= {})", self.expr(a), self.expr(b)),
+            Expr::Select(on, arms) => {
+                let last = arms.len().saturating_sub(1);
+                let mut out = arms.last().map_or(self.num(0.0), |a| self.expr(a));
+                for (i, a) in arms.iter().enumerate().take(last).rev() {
+                    out = format!("({on} == {i}u ? {} : {out})", self.expr(a));
+                }
+                out
+            }
+        }
+    }
+
+    fn sum(&self, terms: &[(f64, Option<Expr>)]) -> String {
+        if terms.is_empty() {
+            return self.num(0.0);
+        }
+        let mut out = String::new();
+        for (i, (c, f)) in terms.iter().enumerate() {
+            let a = c.abs();
+            let body = match f {
+                None => self.num(a),
+                Some(f) if a == 1.0 => self.expr(f),
+                Some(f) => format!("{} * {}", self.num(a), self.expr(f)),
+            };
+            match (i, *c < 0.0) {
+                (0, false) => out.push_str(&body),
+                (0, true) => out.push_str(&neg(&body)),
+                (_, false) => {
+                    out.push_str(" + ");
+                    out.push_str(&body);
+                }
+                (_, true) => {
+                    out.push_str(" - ");
+                    out.push_str(&body);
+                }
+            }
+        }
+        out
+    }
+
+    /// The lets of a body as `const` declarations.
+    fn lets(&self, lets: &[Let], real: &str, indent: &str) -> String {
+        let mut out = String::new();
+        for l in lets {
+            let ty = match l.ty {
+                Ty::Real => real,
+                Ty::Index => "unsigned",
+            };
+            let _ = writeln!(
+                out,
+                "{indent}const {ty} {} = {};",
+                l.name,
+                self.expr(&l.value)
+            );
+        }
+        out
+    }
+}
+
+/// `-e`, with a space where `e` starts with a minus (never `--`).
+fn neg(e: &str) -> String {
+    if e.starts_with('-') {
+        format!("- {e}")
+    } else {
+        format!("-{e}")
+    }
+}
+
+/// True if the identifier `name` occurs in the C text `code`.
+fn uses(code: &str, name: &str) -> bool {
+    let is_ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    code.match_indices(name).any(|(i, _)| {
+        let before = code[..i].chars().next_back();
+        let after = code[i + name.len()..].chars().next();
+        !before.is_some_and(|c| is_ident(c) || c == '>' || c == '.') && !after.is_some_and(is_ident)
+    })
+}
+
+/// `const real x0 = arr[0];` for the names `names` that `code` uses.
+fn bind(arr: &str, names: &[String], code: &str, real: &str) -> String {
+    let mut out = String::new();
+    for (i, n) in names.iter().enumerate() {
+        if uses(code, n) {
+            let _ = writeln!(out, "    const {real} {n} = {arr}[{i}];");
+        }
+    }
+    out
+}
+
+/// `prefix0, prefix1, ...`.
+fn names(prefix: &str, n: usize) -> Vec<String> {
+    (0..n).map(|i| format!("{prefix}{i}")).collect()
+}
+
+/// `(void)p;` for each parameter `code` does not use.
+fn unused(params: &[&str], code: &str) -> String {
+    params
+        .iter()
+        .filter(|p| !uses(code, p))
+        .map(|p| format!("    (void){p};\n"))
+        .collect()
+}
+
+/// Everything the C emitter needs for one model and one design.
+pub struct CModel<'a> {
+    /// The validated model.
+    pub model: &'a Model,
+    /// Indices into `model.params` of the parameters that generate vertices.
+    pub scheduling: &'a [usize],
+    /// The certified design to bake (`certifies` must be true).
+    pub design: &'a CertifiedDesign,
+    /// `double` or `float`.
+    pub float: Float,
+    /// Lines of text for the certificate comment block beyond the design's
+    /// own record (where the numbers came from, the f32 check, ...).
+    pub notes: Vec<String>,
+}
+
+/// Prints `<model>.h` and `<model>.c`.
+pub fn emit(cm: &CModel<'_>) -> CFiles {
+    let m = cm.model;
+    let d = cm.design;
+    let nv = vertex_count(m, cm.scheduling);
+    let shape = Shape::of(m, nv, d);
+    let p = Printer { float: cm.float };
+    let name = m.name.as_str();
+    let up = name.to_uppercase();
+    let real = format!("{name}_real");
+    let r = real.as_str();
+    let (nx, ny, nu, nth, nphi) = (m.nx(), m.ny(), m.nu(), m.ntheta(), m.derived.len());
+    let Shape { nz, ns, .. } = shape;
+
+    let (state_eqs, out_eqs) = equations(m);
+    let mut coeffs = Coeffs::default();
+    let (plant_f, plant_h) = plant_bodies(&state_eqs, &out_eqs, &mut coeffs);
+    let rhs = rhs_body(d, shape, &state_eqs, &out_eqs, &mut coeffs);
+    let gains = gains_body(d, shape);
+    let mu = mu_body(m, cm.scheduling);
+    let coeff_body = coeffs.body();
+    let phi = phi_body(m);
+    let uses_math = [&mu, &phi, &coeff_body]
+        .iter()
+        .any(|b| b.lets.iter().any(|l| has_call(&l.value)) || b.out.iter().any(has_call));
+    let f = &d.figures;
+    let finite = |v: Option<f64>| matches!(v, Some(x) if x.is_finite());
+    let infinite = !finite(f.sigma) || !finite(f.error_bound);
+
+    // ---------------------------------------------------------------- header
+    let mut h = String::new();
+    let cert_text = certificate_text(cm, shape);
+    let _ = writeln!(
+        h,
+        "/* {name}.h: certified QPV state observer for model `{name}`,\n * generated by `qpv codegen --lang c --float {}` (qpv {}). Do not edit: regenerate.\n *",
+        cm.float.name(),
+        env!("CARGO_PKG_VERSION")
+    );
+    for line in cert_text.lines() {
+        let _ = writeln!(h, " * {}", line.replace("*/", "* /"));
+    }
+    h.push_str(" */\n");
+    let _ = write!(
+        h,
+        "#ifndef {up}_H\n#define {up}_H\n\n#ifdef __cplusplus\nextern \"C\" {{\n#endif\n\n"
+    );
+    let _ = writeln!(
+        h,
+        "/** The number type of this observer ({}). */\ntypedef {} {r};\n",
+        cm.float.name(),
+        cm.float.c_type()
+    );
+    for (k, v, doc) in [
+        ("NX", nx, "plant states"),
+        ("NY", ny, "measured outputs"),
+        ("NU", nu, "known inputs (u may be NULL when 0)"),
+        ("NTHETA", nth, "parameters θ (theta may be NULL when 0)"),
+        ("NV", nv, "vertices of the gain schedule"),
+        ("NZ", nz, "rows of P and of each L_l"),
+        (
+            "NS",
+            ns,
+            "observer states (NX, plus 2·NY filter states for a filter design)",
+        ),
+    ] {
+        let _ = writeln!(h, "#define {up}_{k} {v} /* {doc} */");
+    }
+    if nphi > 0 {
+        let _ = writeln!(
+            h,
+            "#define {up}_NPHI {nphi} /* derived scheduling variables φ(θ) */"
+        );
+    }
+    let _ = writeln!(
+        h,
+        "#define {up}_CERTIFIES 1 /* only certified designs are exported */\n"
+    );
+    h.push_str("/* The certified design (see the comment above). */\n");
+    let scalars = [
+        (
+            "ALPHA",
+            "certified decay rate: V = e'Pe satisfies V' <= -ALPHA V",
+        ),
+        ("GAMMA", "certified region scaling"),
+        (
+            "MAX_STEP_EULER",
+            "largest certified explicit Euler step (0: none proven)",
+        ),
+        ("EULER_BETA", "contraction rate behind MAX_STEP_EULER"),
+        (
+            "STEP_ESTIMATE_RK4",
+            "estimated largest stable RK4 step (an estimate, not a proof; 0: none)",
+        ),
+        (
+            "NOISE_SIGMA",
+            "certified noise gain sigma (infinite: no bound certified)",
+        ),
+        (
+            "ERROR_BOUND_PER_NOISE",
+            "certified ultimate error bound per unit noise amplitude",
+        ),
+        (
+            "MAX_NOISE_AMPLITUDE",
+            "noise amplitude up to which the bounds apply (0: none)",
+        ),
+    ];
+    for (k, doc) in scalars {
+        let _ = writeln!(h, "extern const {r} {name}_{k}; /* {doc} */");
+    }
+    let _ = writeln!(
+        h,
+        "extern const {r} {name}_P[{up}_NZ][{up}_NZ]; /* the Lyapunov matrix P, as certified */"
+    );
+    let _ = writeln!(
+        h,
+        "extern const {r} {name}_L[{up}_NV][{up}_NZ][{up}_NY]; /* the vertex gains L_l, as certified */"
+    );
+    if nth > 0 {
+        let _ = writeln!(
+            h,
+            "extern const {r} {name}_THETA_MIN[{up}_NTHETA], {name}_THETA_MAX[{up}_NTHETA]; /* Θ */"
+        );
+    }
+    let _ = writeln!(
+        h,
+        "extern const char {name}_CERTIFICATE[]; /* the certificate, as text */\n"
+    );
+    let filter_field = if shape.filter.is_some() {
+        format!(
+            "    {r} filter[2 * {up}_NY]; /* the output filter: x̂_y, then the filtered measurement x_y */\n"
+        )
+    } else {
+        String::new()
+    };
+    let _ = write!(
+        h,
+        "/** The observer: x̂ and the number of steps whose θ was outside Θ (clamped). */\n\
+         typedef struct {{\n    {r} xhat[{up}_NX];\n{filter_field}    unsigned long clamped;\n}} {name}_observer;\n\n"
+    );
+    let api = [
+        (
+            format!("void {name}_init({name}_observer *o)"),
+            "x̂ = 0 (and filter states 0), clamped = 0.",
+        ),
+        (
+            format!("void {name}_step_euler({name}_observer *o, {r} h, const {r} *y, const {r} *u, const {r} *theta)"),
+            "One explicit Euler step of length h, y (NY), u (NU) and θ (NTHETA) held. Certified contraction for h <= MAX_STEP_EULER.",
+        ),
+        (
+            format!("void {name}_step_rk4({name}_observer *o, {r} h, const {r} *y, const {r} *u, const {r} *theta)"),
+            "One classical Runge-Kutta 4 step of length h, y, u and θ held.",
+        ),
+        (
+            format!("const {r} *{name}_estimate(const {name}_observer *o)"),
+            "The estimate x̂ (NX entries).",
+        ),
+        (
+            format!("void {name}_derivative(const {name}_observer *o, const {r} *y, const {r} *u, const {r} *theta, {r} *ds)"),
+            "The derivative of the whole observer state (NS entries: x̂, then the filter states) at θ clamped into Θ.",
+        ),
+        (
+            format!("void {name}_mu(const {r} *theta, {r} *mu)"),
+            "The scheduling weights μ_l(θ) (NV entries), θ clamped into Θ.",
+        ),
+        (
+            format!("void {name}_gain(const {r} *theta, {r} *g)"),
+            "The scheduled gain L(θ), NZ × NY row-major, θ clamped into Θ.",
+        ),
+        (
+            format!("void {name}_plant_derivative(const {r} *x, const {r} *u, const {r} *theta, {r} *dx)"),
+            "The plant x' = A(θ)x + N(θ,x)x + B(θ)u (θ as given).",
+        ),
+        (
+            format!("void {name}_plant_output(const {r} *x, const {r} *theta, {r} *y)"),
+            "The plant's output y = C(θ)x + M(θ,x)x (θ as given).",
+        ),
+    ];
+    for (sig, doc) in &api {
+        let _ = writeln!(h, "/** {doc} */\n{sig};\n");
+    }
+    let _ = write!(h, "#ifdef __cplusplus\n}}\n#endif\n\n#endif /* {up}_H */\n");
+
+    // ---------------------------------------------------------------- source
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "/* {name}.c: generated by `qpv codegen --lang c --float {}`; see {name}.h. Do not edit. */\n",
+        cm.float.name()
+    );
+    let _ = writeln!(s, "#include \"{name}.h\"\n#include <limits.h>");
+    if uses_math || infinite {
+        s.push_str("#include <math.h>\n");
+    }
+    s.push('\n');
+    let inf = "INFINITY";
+    let fig = |v: Option<f64>, none: &str| -> String {
+        match v {
+            Some(x) if x.is_finite() => p.num(x),
+            _ => none.to_string(),
+        }
+    };
+    let zero = p.num(0.0);
+    let values = [
+        ("ALPHA", p.num(d.alpha)),
+        ("GAMMA", p.num(d.gamma)),
+        ("MAX_STEP_EULER", fig(f.euler.map(|e| e.0), &zero)),
+        ("EULER_BETA", fig(f.euler.map(|e| e.1), &zero)),
+        ("STEP_ESTIMATE_RK4", fig(f.rk4, &zero)),
+        ("NOISE_SIGMA", fig(f.sigma, inf)),
+        ("ERROR_BOUND_PER_NOISE", fig(f.error_bound, inf)),
+        ("MAX_NOISE_AMPLITUDE", fig(f.max_amplitude, &zero)),
+    ];
+    for (k, v) in values {
+        let _ = writeln!(s, "const {r} {name}_{k} = {v};");
+    }
+    let matrix = |rows: usize, cols: usize, data: &[f64]| -> String {
+        let rs: Vec<String> = (0..rows)
+            .map(|i| {
+                let es: Vec<String> = (0..cols)
+                    .map(|j| p.num(data.get(i * cols + j).copied().unwrap_or(0.0)))
+                    .collect();
+                format!("{{{}}}", es.join(", "))
+            })
+            .collect();
+        format!("{{{}}}", rs.join(",\n    "))
+    };
+    let _ = writeln!(
+        s,
+        "const {r} {name}_P[{up}_NZ][{up}_NZ] = {};",
+        matrix(nz, nz, &d.p)
+    );
+    let ls: Vec<String> = (0..nv)
+        .map(|l| matrix(nz, ny, d.l.get(l).map_or(&[][..], |v| v.as_slice())))
+        .collect();
+    let _ = writeln!(
+        s,
+        "const {r} {name}_L[{up}_NV][{up}_NZ][{up}_NY] = {{\n    {}}};",
+        ls.join(",\n    ")
+    );
+    if nth > 0 {
+        let lo: Vec<String> = m.params.iter().map(|q| p.num(q.lo)).collect();
+        let hi: Vec<String> = m.params.iter().map(|q| p.num(q.hi)).collect();
+        let _ = writeln!(
+            s,
+            "const {r} {name}_THETA_MIN[{up}_NTHETA] = {{{}}};\nconst {r} {name}_THETA_MAX[{up}_NTHETA] = {{{}}};",
+            lo.join(", "),
+            hi.join(", ")
+        );
+    }
+    let _ = writeln!(
+        s,
+        "const char {name}_CERTIFICATE[] =\n{};\n",
+        cert_text
+            .lines()
+            .map(|l| format!("    \"{}\\n\"", c_escape(l)))
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+
+    // the θ-coefficients
+    let nk = coeff_body.out.len();
+    s.push_str("/* The θ-dependent coefficients of the equations, each computed once. */\ntypedef struct {\n");
+    if nk == 0 {
+        let _ = writeln!(
+            s,
+            "    {r} none; /* the equations have constant coefficients */"
+        );
+    }
+    for i in 0..nk {
+        let _ = writeln!(s, "    {r} k{i};");
+    }
+    let _ = writeln!(s, "}} {name}_coeffs;\n");
+
+    // clamp θ
+    let _ = writeln!(
+        s,
+        "/* θ clamped into Θ (NaN -> lower bound); returns 1 if any component changed. */\nstatic int {name}_clamp_theta(const {r} *theta, {r} *t) {{"
+    );
+    if nth == 0 {
+        s.push_str("    (void)theta;\n    (void)t;\n    return 0;\n}\n\n");
+    } else {
+        s.push_str("    int clamped = 0;\n");
+        for (i, q) in m.params.iter().enumerate() {
+            let (lo, hi) = (p.num(q.lo), p.num(q.hi));
+            let _ = writeln!(
+                s,
+                "    if (theta[{i}] >= {lo}) {{\n        if (theta[{i}] <= {hi}) {{ t[{i}] = theta[{i}]; }} else {{ clamped = 1; t[{i}] = {hi}; }}\n    }} else {{\n        clamped = 1;\n        t[{i}] = {lo};\n    }}"
+            );
+        }
+        s.push_str("    return clamped;\n}\n\n");
+    }
+
+    // φ(θ)
+    if nphi > 0 {
+        let code = body_assign(&p, &phi, "f", r);
+        let binds = bind("theta", &names("t", nth), &code, r);
+        let _ = write!(
+            s,
+            "/* The derived scheduling variables φ(θ) (θ as given). */\nstatic void {name}_phi(const {r} *theta, {r} *f) {{\n{}{binds}{code}}}\n\n",
+            unused(&["theta"], &format!("{binds}{code}")),
+        );
+    }
+
+    // μ(θ) for a clamped θ
+    {
+        let code = body_assign(&p, &mu, "mu", r);
+        let mut pre = String::new();
+        if (0..nphi).any(|j| uses(&code, &format!("f{j}"))) {
+            let _ = writeln!(
+                pre,
+                "    {r} phi_values[{up}_NPHI];\n    {name}_phi(theta, phi_values);"
+            );
+            pre.push_str(&bind("phi_values", &names("f", nphi), &code, r));
+        }
+        let theta_bind = bind("theta", &names("t", nth), &format!("{pre}{code}"), r);
+        let all = format!("{theta_bind}{pre}{code}");
+        let _ = write!(
+            s,
+            "/* The scheduling weights μ_l at a clamped θ. */\nstatic void {name}_mu_clamped(const {r} *theta, {r} *mu) {{\n{}{theta_bind}{pre}{code}}}\n\n",
+            unused(&["theta"], &all)
+        );
+    }
+
+    // coeffs(θ)
+    {
+        let mut code = p.lets(&coeff_body.lets, r, "    ");
+        for (i, e) in coeff_body.out.iter().enumerate() {
+            let _ = writeln!(code, "    c->k{i} = {};", p.expr(e));
+        }
+        if nk == 0 {
+            let _ = writeln!(code, "    c->none = {};", p.num(0.0));
+        }
+        let phis: Vec<String> = (nth..nth + nphi).map(|i| format!("t{i}")).collect();
+        let mut pre = String::new();
+        if phis.iter().any(|n| uses(&code, n)) {
+            let _ = writeln!(
+                pre,
+                "    {r} phi_values[{up}_NPHI];\n    {name}_phi(theta, phi_values);"
+            );
+            pre.push_str(&bind("phi_values", &phis, &code, r));
+        }
+        let binds = bind("theta", &names("t", nth), &code, r);
+        let all = format!("{binds}{pre}{code}");
+        let _ = write!(
+            s,
+            "/* The θ-dependent coefficients at θ. */\nstatic void {name}_coeffs_at(const {r} *theta, {name}_coeffs *c) {{\n{}{binds}{pre}{code}}}\n\n",
+            unused(&["theta"], &all),
+        );
+    }
+
+    // gains(μ)
+    {
+        let code = body_assign(&p, &gains, "g", r);
+        let binds = bind("mu", &names("m", nv), &code, r);
+        let _ = write!(
+            s,
+            "/* The scheduled gain Σ_l μ_l L_l, NZ × NY row-major. */\nstatic void {name}_gains(const {r} *mu, {r} *g) {{\n{}{binds}{code}}}\n\n",
+            unused(&["mu"], &format!("{binds}{code}")),
+        );
+    }
+
+    // rhs
+    {
+        let code = body_assign(&p, &rhs, "ds", r);
+        let gnames: Vec<String> = (0..nz)
+            .flat_map(|k| (0..ny).map(move |o| format!("g{k}_{o}")))
+            .collect();
+        let binds = [
+            bind("s", &shape.state_names(), &code, r),
+            bind("y", &names("y", ny), &code, r),
+            bind("u", &names("u", nu), &code, r),
+            bind("g", &gnames, &code, r),
+        ]
+        .concat();
+        let _ = write!(
+            s,
+            "/* The observer's right-hand side: the plant rows plus the gain times the residual. */\nstatic void {name}_rhs(const {name}_coeffs *c, const {r} *g, const {r} *s, const {r} *y, const {r} *u, {r} *ds) {{\n{}{binds}{code}}}\n\n",
+            unused(&["c", "g", "s", "y", "u"], &format!("{binds}{code}"))
+        );
+    }
+
+    // schedule, load and store
+    let _ = write!(
+        s,
+        "/* The θ-dependent data of one step; returns 1 if θ was clamped. */\n\
+         static int {name}_schedule(const {r} *theta, {name}_coeffs *c, {r} *g) {{\n\
+         \x20   {r} t[{tn}];\n\
+         \x20   {r} mu[{up}_NV];\n\
+         \x20   const int clamped = {name}_clamp_theta(theta, t);\n\
+         \x20   {name}_coeffs_at(t, c);\n\
+         \x20   {name}_mu_clamped(t, mu);\n\
+         \x20   {name}_gains(mu, g);\n\
+         \x20   return clamped;\n}}\n\n",
+        tn = nth.max(1)
+    );
+    let mut load = String::new();
+    let mut store = String::new();
+    for i in 0..nx {
+        let _ = writeln!(load, "    s[{i}] = o->xhat[{i}];");
+        let _ = writeln!(store, "    o->xhat[{i}] = s[{i}];");
+    }
+    for k in nx..ns {
+        let _ = writeln!(load, "    s[{k}] = o->filter[{}];", k - nx);
+        let _ = writeln!(store, "    o->filter[{}] = s[{k}];", k - nx);
+    }
+    let _ = write!(
+        s,
+        "static void {name}_load(const {name}_observer *o, {r} *s) {{\n{load}}}\n\n\
+         static void {name}_store({name}_observer *o, const {r} *s) {{\n{store}}}\n\n"
+    );
+
+    // the public API
+    let mut init = String::new();
+    for i in 0..nx {
+        let _ = writeln!(init, "    o->xhat[{i}] = {zero};");
+    }
+    for k in 0..ns - nx {
+        let _ = writeln!(init, "    o->filter[{k}] = {zero};");
+    }
+    let _ = write!(
+        s,
+        "void {name}_init({name}_observer *o) {{\n{init}    o->clamped = 0;\n}}\n\n\
+         const {r} *{name}_estimate(const {name}_observer *o) {{\n    return o->xhat;\n}}\n\n"
+    );
+    let stage = |dst: &str, coef: &str, k: &str| -> String {
+        (0..ns)
+            .map(|i| format!("    {dst}[{i}] = s[{i}] + {coef} * {k}[{i}];\n"))
+            .collect()
+    };
+    let count = "    if (clamped && o->clamped != ULONG_MAX) {\n        o->clamped += 1;\n    }\n";
+    let _ = write!(
+        s,
+        "void {name}_derivative(const {name}_observer *o, const {r} *y, const {r} *u, const {r} *theta, {r} *ds) {{\n\
+         \x20   {name}_coeffs c;\n    {r} g[{up}_NZ * {up}_NY];\n    {r} s[{up}_NS];\n\
+         \x20   (void){name}_schedule(theta, &c, g);\n    {name}_load(o, s);\n\
+         \x20   {name}_rhs(&c, g, s, y, u, ds);\n}}\n\n"
+    );
+    let _ = write!(
+        s,
+        "void {name}_step_euler({name}_observer *o, {r} h, const {r} *y, const {r} *u, const {r} *theta) {{\n\
+         \x20   {name}_coeffs c;\n    {r} g[{up}_NZ * {up}_NY];\n    {r} s[{up}_NS];\n    {r} a[{up}_NS];\n\
+         \x20   const int clamped = {name}_schedule(theta, &c, g);\n{count}\
+         \x20   {name}_load(o, s);\n    {name}_rhs(&c, g, s, y, u, a);\n{}\
+         \x20   {name}_store(o, s);\n}}\n\n",
+        stage("s", "h", "a")
+    );
+    let fin: String = (0..ns)
+        .map(|i| {
+            format!(
+                "    s[{i}] = s[{i}] + h6 * (a[{i}] + {two} * b[{i}] + {two} * c3[{i}] + d[{i}]);\n",
+                two = p.num(2.0)
+            )
+        })
+        .collect();
+    let _ = write!(
+        s,
+        "void {name}_step_rk4({name}_observer *o, {r} h, const {r} *y, const {r} *u, const {r} *theta) {{\n\
+         \x20   {name}_coeffs c;\n    {r} g[{up}_NZ * {up}_NY];\n    {r} s[{up}_NS], tmp[{up}_NS];\n\
+         \x20   {r} a[{up}_NS], b[{up}_NS], c3[{up}_NS], d[{up}_NS];\n\
+         \x20   const {r} h2 = {half} * h;\n    const {r} h6 = h / {six};\n\
+         \x20   const int clamped = {name}_schedule(theta, &c, g);\n{count}\
+         \x20   {name}_load(o, s);\n    {name}_rhs(&c, g, s, y, u, a);\n{}\
+         \x20   {name}_rhs(&c, g, tmp, y, u, b);\n{}\
+         \x20   {name}_rhs(&c, g, tmp, y, u, c3);\n{}\
+         \x20   {name}_rhs(&c, g, tmp, y, u, d);\n{fin}\
+         \x20   {name}_store(o, s);\n}}\n\n",
+        stage("tmp", "h2", "a"),
+        stage("tmp", "h2", "b"),
+        stage("tmp", "h", "c3"),
+        half = p.num(0.5),
+        six = p.num(6.0),
+    );
+    let _ = write!(
+        s,
+        "void {name}_mu(const {r} *theta, {r} *mu) {{\n    {r} t[{tn}];\n    (void){name}_clamp_theta(theta, t);\n    {name}_mu_clamped(t, mu);\n}}\n\n\
+         void {name}_gain(const {r} *theta, {r} *g) {{\n    {r} t[{tn}];\n    {r} mu[{up}_NV];\n    (void){name}_clamp_theta(theta, t);\n    {name}_mu_clamped(t, mu);\n    {name}_gains(mu, g);\n}}\n\n",
+        tn = nth.max(1)
+    );
+    for (fname, body, args, out, xs) in [
+        (
+            "plant_derivative",
+            &plant_f,
+            format!("const {r} *x, const {r} *u, const {r} *theta, {r} *dx"),
+            "dx",
+            true,
+        ),
+        (
+            "plant_output",
+            &plant_h,
+            format!("const {r} *x, const {r} *theta, {r} *y"),
+            "y",
+            false,
+        ),
+    ] {
+        let code = body_assign(&p, body, out, r);
+        let mut pre = String::new();
+        if uses(&code, "c") {
+            let _ = writeln!(pre, "    {name}_coeffs cs;\n    const {name}_coeffs *c = &cs;\n    {name}_coeffs_at(theta, &cs);");
+        }
+        let mut binds = bind("x", &names("x", nx), &code, r);
+        if xs {
+            binds.push_str(&bind("u", &names("u", nu), &code, r));
+        }
+        let params: &[&str] = if xs {
+            &["x", "u", "theta"]
+        } else {
+            &["x", "theta"]
+        };
+        let all = format!("{pre}{binds}{code}");
+        let _ = write!(
+            s,
+            "void {name}_{fname}({args}) {{\n{}{pre}{binds}{code}}}\n\n",
+            unused(params, &all)
+        );
+    }
+    CFiles {
+        header: h,
+        source: s,
+    }
+}
+
+/// A body's lets, then `out[i] = value;` per output.
+fn body_assign(p: &Printer, b: &Body, out: &str, real: &str) -> String {
+    let mut code = p.lets(&b.lets, real, "    ");
+    for (i, e) in b.out.iter().enumerate() {
+        let _ = writeln!(code, "    {out}[{i}] = {};", p.expr(e));
+    }
+    code
+}
+
+/// True if the expression calls a math function.
+fn has_call(e: &Expr) -> bool {
+    match e {
+        Expr::Call(..) => true,
+        Expr::Num(_) | Expr::Int(_) | Expr::Var(_) | Expr::Coef(_) => false,
+        Expr::Neg(a) | Expr::Paren(a) | Expr::PowI(a, _) => has_call(a),
+        Expr::Product(es) | Expr::Select(_, es) => es.iter().any(has_call),
+        Expr::Bin(_, a, b) | Expr::Ge(a, b) => has_call(a) || has_call(b),
+        Expr::Sum(ts) => ts.iter().any(|(_, f)| f.as_ref().is_some_and(has_call)),
+        Expr::Clamp(a, b, c) => has_call(a) || has_call(b) || has_call(c),
+    }
+}
+
+/// A string for a C string literal.
+fn c_escape(s: &str) -> String {
+    s.replace('\\', "\\\\").replace('"', "\\\"")
+}
+
+/// The certificate as text: the request, α, γ, the margins per family, the
+/// solver's status, the figures, and the caller's notes.
+fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
+    let d = cm.design;
+    let m = cm.model;
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "Certificate of model `{}`, design: {}",
+        m.name, d.request
+    );
+    let _ = writeln!(
+        t,
+        "states {}; outputs {}; inputs {}; parameters {}",
+        m.states.join(", "),
+        m.outputs.join(", "),
+        if m.inputs.is_empty() {
+            "none".to_string()
+        } else {
+            m.inputs.join(", ")
+        },
+        if m.params.is_empty() {
+            "none".to_string()
+        } else {
+            m.params
+                .iter()
+                .map(|p| format!("{} in [{}, {}]", p.name, p.lo, p.hi))
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    );
+    let _ = writeln!(
+        t,
+        "route {}; alpha = {}; gamma = {}; {} vertices",
+        shape.route(),
+        d.alpha,
+        d.gamma,
+        shape.nv
+    );
+    let _ = writeln!(
+        t,
+        "independent certificate (sound mode), worst margin per condition family (positive = holds):"
+    );
+    for (fam, margin) in &d.margins {
+        let _ = writeln!(t, "  {fam:<6} {margin:.6e}");
+    }
+    let _ = writeln!(t, "solver: {} ({} iterations)", d.status, d.iterations);
+    let f = &d.figures;
+    let opt = |v: Option<f64>| v.map_or("none certified".to_string(), |x| format!("{x:.6e}"));
+    let _ = writeln!(
+        t,
+        "noise: sigma {}, error bound per unit noise {}, up to amplitude {}",
+        opt(f.sigma),
+        opt(f.error_bound),
+        opt(f.max_amplitude)
+    );
+    let _ = writeln!(
+        t,
+        "steps: max certified Euler step {}, RK4 step estimate {} (not a proof)",
+        opt(f.euler.map(|e| e.0)),
+        opt(f.rk4)
+    );
+    let _ = writeln!(
+        t,
+        "theta outside its bounds is clamped into them (NaN -> lower bound) and counted in `clamped`;\nthe certificate covers theta in its bounds and the plant state in the model's state bound F."
+    );
+    for n in &cm.notes {
+        let _ = writeln!(t, "{n}");
+    }
+    t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn literals_parse_back_to_the_same_bits() {
+        for v in [
+            0.1,
+            -2.5e-300,
+            1.0 / 3.0,
+            123456.789,
+            1e22,
+            5e-324,
+            10.0,
+            -0.0,
+        ] {
+            let t = literal(v, Float::F64);
+            assert!(
+                t.contains('.') || t.contains('e'),
+                "{t} is a floating constant"
+            );
+            assert_eq!(t.parse::<f64>().map(f64::to_bits), Ok(v.to_bits()), "{t}");
+            let t = literal(v, Float::F32);
+            let body = t.strip_suffix('f').expect("f suffix");
+            assert!(body.contains('.') || body.contains('e'), "{t}");
+            assert_eq!(
+                body.parse::<f32>().map(f32::to_bits),
+                Ok((v as f32).to_bits()),
+                "{t}"
+            );
+        }
+    }
+
+    #[test]
+    fn selections_clamps_and_signs_print_as_c() {
+        let p = Printer { float: Float::F32 };
+        let sel = Expr::Select(
+            "k".into(),
+            vec![Expr::Num(1.0), Expr::Num(2.0), Expr::Num(3.0)],
+        );
+        assert_eq!(p.expr(&sel), "(k == 0u ? 1.0f : (k == 1u ? 2.0f : 3.0f))");
+        let clamp = Expr::Clamp(
+            Box::new(Expr::var("f0")),
+            Box::new(Expr::Num(-1.0)),
+            Box::new(Expr::Num(2.0)),
+        );
+        assert_eq!(
+            p.expr(&clamp),
+            "(f0 >= -1.0f ? (f0 <= 2.0f ? f0 : 2.0f) : -1.0f)"
+        );
+        // never `--` (a decrement)
+        let nn = Expr::Neg(Box::new(Expr::Num(-1.0)));
+        assert_eq!(p.expr(&nn), "- -1.0f");
+        let call = Expr::Call(qpv_dsl::Func::Sin, Box::new(Expr::var("t0")));
+        assert_eq!(p.expr(&call), "sinf(t0)");
+        assert_eq!(Printer { float: Float::F64 }.expr(&call), "sin(t0)");
+    }
+}

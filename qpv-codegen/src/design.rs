@@ -1,0 +1,132 @@
+//! The certified numbers an emitter bakes, and the sizes of one design.
+
+use qpv_dsl::OutputFilter;
+
+/// The numbers of one certified design.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CertifiedDesign {
+    /// The request as the user wrote it, in words (`alpha = 10, gamma = 0.18, mode = sound`).
+    pub request: String,
+    /// `"sound"` or `"paper"`.
+    pub mode: String,
+    /// True for a certified sound-mode design: an `Observer` is generated.
+    /// False for a paper-mode reproduction: only its record is generated
+    /// (the printed conditions hold, but they certify nothing), no gain.
+    pub certifies: bool,
+    /// Certified decay rate α.
+    pub alpha: f64,
+    /// Certified region scaling γ.
+    pub gamma: f64,
+    /// The Lyapunov matrix P, nz × nz row-major (nz = nx, or nx + ny for a filter design).
+    pub p: Vec<f64>,
+    /// The vertex gains L_l, each nz × ny row-major, one per vertex.
+    pub l: Vec<Vec<f64>>,
+    /// Worst margin per condition family (positive = satisfied).
+    pub margins: Vec<(String, f64)>,
+    /// The solver's final status.
+    pub status: String,
+    /// Solver iterations of the accepted solve.
+    pub iterations: u32,
+    /// The output post-filter of a filter-route design (`output_route =
+    /// filter`): then P is (nx+ny)² and each L_l is (nx+ny) × ny, the
+    /// design being for the plant augmented by the filter. `None`: the
+    /// double-sum route, P is nx × nx, L_l is nx × ny.
+    pub filter: Option<OutputFilter>,
+    /// The noise and sampling figures computed on the baked numbers; `None`
+    /// where nothing could be certified (then the generated constants say
+    /// "no bound": an infinite σ and zero steps).
+    pub figures: Figures,
+}
+
+/// The noise bound and the sampling figures of a certified design, each
+/// present only if its own check passed on the baked P and L_l.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Figures {
+    /// σ in V' + αV ≤ σ(|v|² + |w|²) on the model's noise channels.
+    pub sigma: Option<f64>,
+    /// ‖e(∞)‖ per unit noise amplitude, √(σ/(α λ_min(P))).
+    pub error_bound: Option<f64>,
+    /// ν_max = √(α/σ): the noise amplitude up to which the certified set stays invariant.
+    pub max_amplitude: Option<f64>,
+    /// The largest certified explicit Euler step, and its contraction rate β.
+    pub euler: Option<(f64, f64)>,
+    /// The RK4 step estimate (frozen vertex dynamics; not a proof).
+    pub rk4: Option<f64>,
+}
+
+impl CertifiedDesign {
+    /// Entry `[k][o]` of the vertex gain L_l (0 if missing).
+    pub fn gain_entry(&self, ny: usize, l: usize, k: usize, o: usize) -> f64 {
+        self.l
+            .get(l)
+            .and_then(|lv| lv.get(k * ny + o))
+            .copied()
+            .unwrap_or(0.0)
+    }
+}
+
+/// The sizes of one design and of its observer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shape {
+    /// Plant states.
+    pub nx: usize,
+    /// Measured outputs.
+    pub ny: usize,
+    /// Known inputs.
+    pub nu: usize,
+    /// Vertices of the parameter box (of every piece of a cover).
+    pub nv: usize,
+    /// The design's state: the plant's (double sum), or the plant's and
+    /// one filter state per output (filter route).
+    pub nz: usize,
+    /// The observer's state: the design's, plus the filtered measurement
+    /// x_y for the filter route.
+    pub ns: usize,
+    /// The output post-filter of a filter-route design.
+    pub filter: Option<OutputFilter>,
+}
+
+impl Shape {
+    /// The shape of design `d` of model `m` with `nv` vertices.
+    pub fn of(m: &qpv_dsl::Model, nv: usize, d: &CertifiedDesign) -> Self {
+        let (nx, ny) = (m.nx(), m.ny());
+        let filter = d.filter;
+        Shape {
+            nx,
+            ny,
+            nu: m.nu(),
+            nv,
+            nz: if filter.is_some() { nx + ny } else { nx },
+            ns: if filter.is_some() { nx + 2 * ny } else { nx },
+            filter,
+        }
+    }
+
+    /// The output route's name, as `ROUTE` spells it.
+    pub fn route(&self) -> &'static str {
+        if self.filter.is_some() {
+            "filter"
+        } else {
+            "double_sum"
+        }
+    }
+
+    /// The observer state's names: x̂ (`x<i>`), then for the filter route
+    /// the filter estimate x̂_y (`zh<k>`) and the filtered measurement x_y
+    /// (`zm<k>`).
+    pub fn state_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = (0..self.nx).map(|i| format!("x{i}")).collect();
+        if self.filter.is_some() {
+            names.extend((0..self.ny).map(|k| format!("zh{k}")));
+            names.extend((0..self.ny).map(|k| format!("zm{k}")));
+        }
+        names
+    }
+}
+
+/// Number of vertices of a model: 2^s corners (s scheduling parameters and
+/// derived variables) per piece of its cover.
+pub fn vertex_count(m: &qpv_dsl::Model, scheduling: &[usize]) -> usize {
+    let pieces = m.cover.as_ref().map_or(1, |c| c.len());
+    pieces << (scheduling.len() + m.derived.len())
+}

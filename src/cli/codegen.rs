@@ -1,0 +1,423 @@
+//! `qpv codegen`: a certified observer exported as C99 (`<model>.h`,
+//! `<model>.c`), printed from the same arithmetic as `qpv!`'s Rust
+//! ([`qpv_codegen`]).
+//!
+//! The numbers baked are always certified here, by the independent
+//! certificate, on exactly the values the C holds: either one of the
+//! model's `design` blocks is solved and checked, or a gains file (a `qpv
+//! design --json` report) is re-checked as `qpv check` does. With `--float
+//! f32` the constants are rounded to `float` first and the rounded P and
+//! L_l are what is certified; if they fail, nothing is written.
+
+use super::gains::{read_gains, Gains};
+use super::input::{exit, load_model, load_model_for, CliError};
+use nalgebra::DMatrix;
+use qpv_codegen::c::{CModel, Float};
+use qpv_codegen::{CertifiedDesign, Figures};
+use qpv_dsl::{Mode, Model, OutputFilter, OutputRoute, PolytopicModel};
+use qpv_solve::conditions::cube::CubeSlacks;
+use qpv_solve::model::{ObserverModel, ObserverOptions, StateBoundClaim};
+use qpv_solve::noise::NoiseChannels;
+use qpv_solve::report::{matrix_to_rows, rows_to_matrix, skew_matrices};
+use qpv_solve::Certificate;
+use std::path::Path;
+
+/// The options of `qpv codegen`.
+#[derive(Debug, Clone, Copy)]
+pub struct Options<'a> {
+    /// The model file.
+    pub file: &'a Path,
+    /// `--model`.
+    pub model: Option<&'a str>,
+    /// `--lang` (only `c`).
+    pub lang: &'a str,
+    /// `--float`: `f64` (default) or `f32`.
+    pub float: Option<&'a str>,
+    /// `--design N`: the 1-based design block (default: the first sound one).
+    pub design: Option<usize>,
+    /// `--gains`: a report whose P, L_l are re-certified instead of solving.
+    pub gains: Option<&'a Path>,
+    /// `--out`: the directory the files are written to.
+    pub out: &'a Path,
+}
+
+/// The numbers to bake before the f32 rounding: the model checked, α, γ,
+/// P, L_l, the cube slacks the solve certified with, the filter, words on
+/// where they came from, and the solver's record.
+struct Numbers {
+    checked: PolytopicModel,
+    plant: PolytopicModel,
+    alpha: f64,
+    gamma: f64,
+    p: DMatrix<f64>,
+    ls: Vec<DMatrix<f64>>,
+    slacks: Option<CubeSlacks>,
+    filter: Option<OutputFilter>,
+    request: String,
+    origin: String,
+    status: String,
+    iterations: u32,
+}
+
+/// Runs `qpv codegen`.
+pub fn run(o: Options<'_>) -> Result<i32, CliError> {
+    if o.lang != "c" {
+        return Err(CliError::Input(format!(
+            "--lang {}: the only target language is `c` (Rust observers come from the `qpv!` macro)",
+            o.lang
+        )));
+    }
+    let float = match o.float.unwrap_or("f64") {
+        "f64" => Float::F64,
+        "f32" => Float::F32,
+        other => {
+            return Err(CliError::Input(format!(
+                "--float {other}: expected `f64` or `f32`"
+            )))
+        }
+    };
+    let (model, numbers) = match o.gains {
+        Some(g) => from_gains(o.file, o.model, g, o.design)?,
+        None => {
+            let (_, model) = load_model(o.file, o.model)?;
+            let n = match solved(o.file, &model, o.design)? {
+                Ok(n) => n,
+                Err(msg) => {
+                    eprintln!("{msg}\nnothing written: only certified designs are exported");
+                    return Ok(exit::NOT_CERTIFIED);
+                }
+            };
+            (model, n)
+        }
+    };
+    let (p, ls, f32_note) = match float {
+        Float::F64 => (numbers.p.clone(), numbers.ls.clone(), None),
+        Float::F32 => {
+            let round = |m: &DMatrix<f64>| m.map(|v| f64::from(v as f32));
+            let p = round(&numbers.p);
+            let ls: Vec<_> = numbers.ls.iter().map(round).collect();
+            (p, ls, Some(()))
+        }
+    };
+    // The certificate on exactly the numbers the C holds (for f32 the
+    // rounded ones, each exactly representable in f64).
+    let mut cert = qpv_solve::certificate::check_with(
+        &numbers.checked,
+        Mode::Sound,
+        numbers.alpha,
+        numbers.gamma,
+        &p,
+        &ls,
+        numbers.slacks.as_ref(),
+    );
+    if !cert.passed && numbers.slacks.is_some() && f32_note.is_some() {
+        // The cube slacks were found for the f64 numbers: the rounded ones
+        // may still hold on the full vertex family.
+        cert = qpv_solve::certificate::check_with(
+            &numbers.checked,
+            Mode::Sound,
+            numbers.alpha,
+            numbers.gamma,
+            &p,
+            &ls,
+            None,
+        );
+    }
+    let finite = p.iter().chain(ls.iter().flatten()).all(|v| v.is_finite());
+    if !cert.passed || !finite {
+        eprintln!(
+            "{}: the {} P and L_l of {} do not pass the certificate ({}); nothing written: \
+             only certified designs are exported",
+            o.file.display(),
+            if f32_note.is_some() {
+                "f32-rounded"
+            } else {
+                "f64"
+            },
+            numbers.origin,
+            failing(&cert)
+        );
+        return Ok(exit::NOT_CERTIFIED);
+    }
+    let scheduling = numbers.plant.scheduling.clone();
+    let design = CertifiedDesign {
+        request: numbers.request.clone(),
+        mode: "sound".into(),
+        certifies: true,
+        alpha: numbers.alpha,
+        gamma: numbers.gamma,
+        p: matrix_to_rows(&p).concat(),
+        l: ls.iter().map(|l| matrix_to_rows(l).concat()).collect(),
+        margins: cert
+            .families
+            .iter()
+            .map(|f| (f.name.clone(), f.margin))
+            .collect(),
+        status: numbers.status.clone(),
+        iterations: numbers.iterations,
+        filter: numbers.filter,
+        figures: figures(&numbers, &p, &ls),
+    };
+    let mut notes = vec![format!("numbers: {}", numbers.origin)];
+    notes.push(match float {
+        Float::F64 => "float: f64; the certificate checked P and L_l as printed here".into(),
+        Float::F32 => "float: f32; P and L_l were rounded to float BEFORE the certificate, which \
+             checked the rounded values (as printed here). The f32 arithmetic's own rounding \
+             error is not yet bounded: no f32 error floor is certified"
+            .into(),
+    });
+    let files = qpv_codegen::c::emit(&CModel {
+        model: &model,
+        scheduling: &scheduling,
+        design: &design,
+        float,
+        notes,
+    });
+    std::fs::create_dir_all(o.out)
+        .map_err(|e| CliError::Input(format!("--out {}: {e}", o.out.display())))?;
+    let write = |name: String, text: &str| -> Result<std::path::PathBuf, CliError> {
+        let path = o.out.join(name);
+        std::fs::write(&path, text)
+            .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
+        Ok(path)
+    };
+    let h = write(format!("{}.h", model.name), &files.header)?;
+    let c = write(format!("{}.c", model.name), &files.source)?;
+    println!(
+        "certified ({}): alpha = {}, gamma = {}, {} vertices, float {}\nwrote {} and {}",
+        numbers.origin,
+        numbers.alpha,
+        numbers.gamma,
+        design.l.len(),
+        float.name(),
+        h.display(),
+        c.display()
+    );
+    Ok(exit::CERTIFIED)
+}
+
+/// The failing families of a certificate, in words.
+fn failing(cert: &Certificate) -> String {
+    let mut v: Vec<String> = cert.input_errors.clone();
+    v.extend(
+        cert.families
+            .iter()
+            .filter(|f| !f.passed)
+            .map(|f| format!("{} margin {:.3e}", f.name, f.margin)),
+    );
+    v.extend(
+        cert.data_checks
+            .iter()
+            .filter(|(_, c)| c.required && !c.passed)
+            .map(|(k, c)| format!("{k} {:.4} > {}", c.value, c.bound)),
+    );
+    if v.is_empty() {
+        "no family failed, but the certificate did not pass".into()
+    } else {
+        v.join(", ")
+    }
+}
+
+/// Solves design block `n` (1-based; default the first sound one) of the
+/// model: the macro's path (the observer's model, the solve, the
+/// independent check of the solver's point). `Ok(Err(msg))`: not certified.
+fn solved(
+    file: &Path,
+    model: &Model,
+    n: Option<usize>,
+) -> Result<Result<Numbers, String>, CliError> {
+    let index = match n {
+        Some(0) => {
+            return Err(CliError::Input(
+                "--design 0: design blocks are numbered from 1".into(),
+            ))
+        }
+        Some(i) if i > model.designs.len() => {
+            return Err(CliError::Input(format!(
+                "--design {i}: model `{}` in {} has {} design block(s)",
+                model.name,
+                file.display(),
+                model.designs.len()
+            )))
+        }
+        Some(i) => i - 1,
+        None => model
+            .designs
+            .iter()
+            .position(|d| d.mode == Mode::Sound)
+            .ok_or_else(|| {
+                CliError::Input(format!(
+                    "{}: model `{}` has no sound-mode design block to export (add e.g. \
+                     `design {{ alpha = max; gamma = search; }}`, or pass --gains REPORT.json)",
+                    file.display(),
+                    model.name
+                ))
+            })?,
+    };
+    let req = &model.designs[index];
+    let (line, _) = qpv_dsl::diagnostic::line_col(
+        &std::fs::read_to_string(file).unwrap_or_default(),
+        req.span.start,
+    );
+    let here = format!("{}:{line}: design block {}", file.display(), index + 1);
+    if req.mode == Mode::Paper {
+        return Err(CliError::Input(format!(
+            "{here} is a paper-mode reproduction: it certifies nothing and is never exported"
+        )));
+    }
+    let settings = qpv_solve::Settings::default();
+    let poly = model.polytopic();
+    let observer = match ObserverModel::prepare(
+        &poly,
+        &ObserverOptions::for_request(req),
+        StateBoundClaim::Compute(&settings),
+    ) {
+        Ok(o) => o,
+        Err(e) => return Ok(Err(format!("{here} cannot be attempted: {e}"))),
+    };
+    let design = match qpv_solve::design(&observer.plant, req, &settings) {
+        Ok(d) => d,
+        Err(e) => return Ok(Err(format!("{here} cannot be attempted: {e}"))),
+    };
+    if !(design.feasible && design.certifies) {
+        return Ok(Err(format!("{here}: NOT certified by the solve")));
+    }
+    let checked = match &design.skew {
+        Some(k) => match observer.with_skew(&skew_matrices(k)) {
+            Ok(m) => m,
+            Err(e) => return Ok(Err(format!("{here}: the solver's skew slack: {e}"))),
+        },
+        None => observer.model.clone(),
+    };
+    let filter = match req.output_route {
+        OutputRoute::Filter(f) => Some(f),
+        OutputRoute::DoubleSum => None,
+    };
+    Ok(Ok(Numbers {
+        checked,
+        plant: observer.plant.clone(),
+        alpha: design.alpha,
+        gamma: design.gamma,
+        p: design.p_matrix(),
+        ls: design.l_matrices(),
+        slacks: design.cube.as_ref().map(CubeSlacks::from_report),
+        filter,
+        request: describe(req),
+        origin: format!("{here}, solved and independently re-checked"),
+        status: design.solver.detail.clone(),
+        iterations: design.solver.iterations,
+    }))
+}
+
+/// The request in words (as `qpv!` describes it, in short).
+fn describe(req: &qpv_dsl::DesignRequest) -> String {
+    let alpha = match req.alpha {
+        qpv_dsl::AlphaSpec::Fixed(a) => format!("{a}"),
+        qpv_dsl::AlphaSpec::Max => "max".into(),
+    };
+    let gamma = match req.gamma {
+        qpv_dsl::GammaSpec::Fixed(g) => format!("{g}"),
+        qpv_dsl::GammaSpec::Search => "search".into(),
+    };
+    format!(
+        "alpha = {alpha}; gamma = {gamma}; mode = sound; conditions = {}",
+        req.conditions.name()
+    )
+}
+
+/// The numbers of a gains file (a design report), re-certified as `qpv
+/// check` does (sound mode; α and γ from the file).
+fn from_gains(
+    file: &Path,
+    model_flag: Option<&str>,
+    gains: &Path,
+    design: Option<usize>,
+) -> Result<(Model, Numbers), CliError> {
+    if design.is_some() {
+        return Err(CliError::Input(
+            "--design and --gains exclude each other: the gains file is the design".into(),
+        ));
+    }
+    let g: Gains = read_gains(gains)?;
+    let (_, model) = load_model_for(file, model_flag, gains, g.model.as_deref())?;
+    if g.mode.as_deref() == Some("paper") {
+        return Err(CliError::Input(format!(
+            "{}: a paper-mode report certifies nothing and is never exported",
+            gains.display()
+        )));
+    }
+    let need = |v: Option<f64>, key: &str| {
+        v.ok_or_else(|| {
+            CliError::Input(format!(
+                "{}: `{key}` missing: the gains file must say which alpha and gamma it certifies",
+                gains.display()
+            ))
+        })
+    };
+    let (alpha, gamma) = (need(g.alpha, "alpha")?, need(g.gamma, "gamma")?);
+    let split = g.split(Mode::Sound, gains)?;
+    let filter = match g
+        .output_route
+        .as_ref()
+        .map(|r| r.output_route())
+        .unwrap_or_default()
+    {
+        OutputRoute::Filter(f) => Some(f),
+        OutputRoute::DoubleSum => None,
+    };
+    let (p, ls) = (
+        rows_to_matrix(&g.p),
+        g.l.iter().map(|r| rows_to_matrix(r)).collect::<Vec<_>>(),
+    );
+    // The observer model the claim belongs to, built as `qpv check` builds
+    // it (split, verified state bound, output route, skew slack).
+    let design = g.design(&model.name, (Mode::Sound, alpha, gamma, split), gains)?;
+    let checked = design
+        .observer_model(&model.polytopic())
+        .map_err(|e| CliError::Input(format!("{}: {e}", gains.display())))?;
+    let plant = model.polytopic();
+    Ok((
+        model,
+        Numbers {
+            checked,
+            plant,
+            alpha,
+            gamma,
+            p,
+            ls,
+            slacks: None,
+            filter,
+            request: format!("gains from {}", gains.display()),
+            origin: format!("{}, re-certified", gains.display()),
+            status: "gains file".into(),
+            iterations: 0,
+        },
+    ))
+}
+
+/// The noise bound and sampling figures of the numbers about to be baked
+/// (as `qpv!` computes them): each present only if its own check passed.
+fn figures(n: &Numbers, p: &DMatrix<f64>, ls: &[DMatrix<f64>]) -> Figures {
+    let plant = &n.plant;
+    let channels = NoiseChannels::from_model(plant);
+    let channels = match n.filter {
+        Some(f) => channels.through_filter(plant.nx(), plant.ny(), plant.nv(), f.gain),
+        None => channels,
+    };
+    let noise = qpv_solve::noise::noise_bound(&n.checked, &channels, n.alpha, n.gamma, p, ls)
+        .filter(|b| b.check.passed);
+    let sampling = qpv_solve::sampling::sampling(&n.checked, n.alpha, n.gamma, p, ls);
+    Figures {
+        sigma: noise.as_ref().map(|b| b.sigma),
+        error_bound: noise.as_ref().map(|b| b.error_bound),
+        max_amplitude: noise.as_ref().map(|b| b.max_amplitude),
+        euler: sampling
+            .as_ref()
+            .filter(|s| s.max_step_euler > 0.0)
+            .map(|s| (s.max_step_euler, s.beta)),
+        rk4: sampling
+            .as_ref()
+            .map(|s| s.step_estimate_rk4)
+            .filter(|h| *h > 0.0),
+    }
+}

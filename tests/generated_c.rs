@@ -1,0 +1,360 @@
+//! The C export (`qpv codegen --lang c`) against the Rust observer `qpv!`
+//! generates from the same model and the same certified numbers.
+//!
+//! For the paper's example and the manipulator (scheduling functions and a
+//! cover), the Rust module's P, L_l, α and γ go into a gains file, `qpv
+//! codegen --gains` re-certifies them and writes the C, the system C
+//! compiler builds it with `-std=c99 -Wall -Wextra -Werror -pedantic` (and
+//! `-Wdouble-promotion -Wfloat-conversion` for `float`) together with a C
+//! driver, and the driver steps the C observer (RK4 and Euler) through a
+//! 2 s scenario whose measurements, inputs and θ(t) (leaving Θ at times,
+//! to exercise the clamp) come from the generated Rust plant. The C
+//! estimate must match the Rust observer's to 1e-12 of the state's scale
+//! (f64); the C constants P and L_l must parse back to the Rust ones bit
+//! for bit; the clamp counts must agree. With `float` the C observer must
+//! stay within 1e-4 of the state's scale of the f64 Rust one: an empirical
+//! tolerance, as no certified f32 rounding floor is computed yet.
+//!
+//! Without a C compiler (`$CC`, else `cc`) the tests say so on stderr and
+//! pass, except under CI (`$CI` set), where they fail.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The C compiler, or None (after saying so loudly; a failure under CI).
+fn c_compiler() -> Option<String> {
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    let found = Command::new(&cc)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if found {
+        return Some(cc);
+    }
+    let msg =
+        format!("no C compiler found (tried `{cc}`; set $CC): the C export tests did NOT run");
+    assert!(std::env::var_os("CI").is_none(), "{msg}");
+    eprintln!("SKIPPED: {msg}");
+    None
+}
+
+/// A fresh directory for one test.
+fn dir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("qpv-c-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+/// Runs `qpv` from the package root; panics with its output on failure.
+fn qpv(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_qpv"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the qpv binary runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(out.status.code(), Some(0), "qpv {args:?}:\n{text}");
+    text
+}
+
+/// The C driver: prints P and L, then reads steps `h y.. u.. θ..` from
+/// stdin and prints, after each, the RK4 and the Euler observer's x̂; at
+/// the end both clamp counts.
+fn driver(m: &str) -> String {
+    let up = m.to_uppercase();
+    format!(
+        r#"#include "{m}.h"
+#include <stdio.h>
+#include <stdlib.h>
+
+static {m}_real rd(void) {{
+    char buf[64];
+    if (scanf("%63s", buf) != 1) exit(3);
+    return ({m}_real)strtod(buf, NULL);
+}}
+
+int main(void) {{
+    {m}_observer rk, eu;
+    {m}_real y[{up}_NY], u[{up}_NU + 1], th[{up}_NTHETA + 1];
+    int i, j, k;
+    for (i = 0; i < {up}_NZ; i++)
+        for (j = 0; j < {up}_NZ; j++) printf("%.17g\n", (double){m}_P[i][j]);
+    for (k = 0; k < {up}_NV; k++)
+        for (i = 0; i < {up}_NZ; i++)
+            for (j = 0; j < {up}_NY; j++) printf("%.17g\n", (double){m}_L[k][i][j]);
+    {m}_init(&rk);
+    {m}_init(&eu);
+    for (;;) {{
+        char buf[64];
+        {m}_real h;
+        const {m}_real *e;
+        if (scanf("%63s", buf) != 1) break;
+        h = ({m}_real)strtod(buf, NULL);
+        for (i = 0; i < {up}_NY; i++) y[i] = rd();
+        for (i = 0; i < {up}_NU; i++) u[i] = rd();
+        for (i = 0; i < {up}_NTHETA; i++) th[i] = rd();
+        {m}_step_rk4(&rk, h, y, u, th);
+        {m}_step_euler(&eu, h, y, u, th);
+        e = {m}_estimate(&rk);
+        for (i = 0; i < {up}_NX; i++) printf("%.17g ", (double)e[i]);
+        e = {m}_estimate(&eu);
+        for (i = 0; i < {up}_NX; i++) printf("%.17g ", (double)e[i]);
+        printf("\n");
+    }}
+    printf("clamped %lu %lu\n", rk.clamped, eu.clamped);
+    return 0;
+}}
+"#
+    )
+}
+
+/// Writes the gains file of a generated module's design.
+fn gains_file(path: &Path, model: &str, alpha: f64, gamma: f64, p: String, l: String) {
+    let text = format!(
+        r#"{{"model": "{model}", "mode": "sound", "alpha": {alpha:e}, "gamma": {gamma:e}, "P": {p}, "L": {l}}}"#
+    );
+    std::fs::write(path, text).expect("gains file written");
+}
+
+/// Exports and compiles the C of `file` with the gains at `gains`, runs
+/// the driver on `steps` (one line per step) and returns its output lines.
+fn run_c(
+    cc: &str,
+    d: &Path,
+    file: &str,
+    model: &str,
+    gains: &Path,
+    float: &str,
+    steps: &str,
+) -> Vec<String> {
+    let out = d.join(float);
+    let text = qpv(&[
+        "codegen",
+        file,
+        "--lang",
+        "c",
+        "--float",
+        float,
+        "--gains",
+        gains.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
+    assert!(text.contains("certified"), "{text}");
+    let source = std::fs::read_to_string(out.join(format!("{model}.c"))).expect("C source");
+    assert!(!source.contains("malloc") && !source.contains("static int counter"));
+    std::fs::write(out.join("driver.c"), driver(model)).expect("driver");
+    let exe = out.join("driver");
+    let mut flags = vec![
+        "-std=c99",
+        "-Wall",
+        "-Wextra",
+        "-Werror",
+        "-pedantic",
+        "-O2",
+    ];
+    if float == "f32" {
+        flags.extend(["-Wdouble-promotion", "-Wfloat-conversion"]);
+    }
+    // the generated code alone, with every warning an error
+    let obj = out.join(format!("{model}.o"));
+    let c = Command::new(cc)
+        .args(&flags)
+        .arg("-c")
+        .arg(out.join(format!("{model}.c")))
+        .arg("-o")
+        .arg(&obj)
+        .output()
+        .expect("cc runs");
+    assert!(
+        c.status.success(),
+        "{model}.c ({float}) does not compile cleanly:\n{}",
+        String::from_utf8_lossy(&c.stderr)
+    );
+    let c = Command::new(cc)
+        .args(["-std=c99", "-O2"])
+        .arg(out.join("driver.c"))
+        .arg(&obj)
+        .arg("-o")
+        .arg(&exe)
+        .arg("-lm")
+        .output()
+        .expect("cc runs");
+    assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+    // the steps from a file: a pipe written while the driver's output
+    // fills the other pipe would deadlock
+    let steps_file = out.join("steps.txt");
+    std::fs::write(&steps_file, steps).expect("steps written");
+    let out = Command::new(&exe)
+        .stdin(std::fs::File::open(&steps_file).expect("steps file"))
+        .output()
+        .expect("driver runs");
+    assert!(out.status.success(), "driver failed");
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+/// Rust debug text of nested arrays as JSON (`[[1.0, 2.0], ...]` is both).
+fn json<T: std::fmt::Debug>(v: &T) -> String {
+    format!("{v:?}")
+}
+
+/// The Rust side of one comparison: the scenario and both observers.
+macro_rules! compare {
+    ($m:ident, $file:literal, $x0:expr, $theta:expr, $u:expr) => {{
+        let Some(cc) = c_compiler() else { return };
+        let name = stringify!($m);
+        let d = dir(name);
+        let gains = d.join("gains.json");
+        gains_file(&gains, name, $m::ALPHA, $m::GAMMA, json(&$m::P), json(&$m::L));
+        // the scenario: RK4 of the generated plant, h = 1 ms for 2 s
+        let h = 1e-3;
+        let mut x: [f64; $m::NX] = $x0;
+        let mut rk = $m::Observer::new();
+        let mut eu = $m::Observer::new();
+        let mut steps = String::new();
+        let mut rust = Vec::new();
+        let mut scale = 0.0f64;
+        for k in 0..2000 {
+            let t = k as f64 * h;
+            let theta: [f64; $m::NTHETA] = ($theta)(t);
+            let u: [f64; $m::NU] = ($u)(t);
+            let y = $m::plant::output(&x, &theta);
+            steps.push_str(&format!("{h:e}"));
+            for v in y.iter().chain(u.iter()).chain(theta.iter()) {
+                steps.push_str(&format!(" {v:e}"));
+            }
+            steps.push('\n');
+            rk.step_rk4(h, &y, &u, &theta);
+            eu.step_euler(h, &y, &u, &theta);
+            rust.push((rk.estimate(), eu.estimate()));
+            scale = x.iter().fold(scale, |s, v| s.max(v.abs()));
+            let f = |x: &[f64; $m::NX]| $m::plant::derivative(x, &u, &theta);
+            let k1 = f(&x);
+            let k2 = f(&core::array::from_fn(|i| x[i] + 0.5 * h * k1[i]));
+            let k3 = f(&core::array::from_fn(|i| x[i] + 0.5 * h * k2[i]));
+            let k4 = f(&core::array::from_fn(|i| x[i] + h * k3[i]));
+            x = core::array::from_fn(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+        }
+        assert!(rk.clamped() > 0, "the scenario leaves Θ at times");
+        for (float, tol) in [("f64", 1e-12), ("f32", 1e-4)] {
+            let lines = run_c(&cc, &d, $file, name, &gains, float, &steps);
+            let (nz, ny, nv) = ($m::NZ, $m::NY, $m::NV);
+            let consts: Vec<f64> = lines[..nz * nz + nv * nz * ny]
+                .iter()
+                .map(|l| l.parse().expect("a constant"))
+                .collect();
+            let rust_consts: Vec<f64> = $m::P
+                .iter()
+                .flatten()
+                .chain($m::L.iter().flatten().flatten())
+                .copied()
+                .collect();
+            for (c, r) in consts.iter().zip(&rust_consts) {
+                let want = if float == "f32" { f64::from(*r as f32) } else { *r };
+                assert_eq!(c.to_bits(), want.to_bits(), "{float}: constant {c} vs {want}");
+            }
+            let rows = &lines[nz * nz + nv * nz * ny..];
+            assert_eq!(rows.len(), rust.len() + 1, "one line per step and the clamp counts");
+            let mut worst = 0.0f64;
+            for (row, (r_rk, r_eu)) in rows.iter().zip(&rust) {
+                let c: Vec<f64> = row
+                    .split_whitespace()
+                    .map(|v| v.parse().expect("a number"))
+                    .collect();
+                for (cv, rv) in c.iter().zip(r_rk.iter().chain(r_eu.iter())) {
+                    worst = worst.max((cv - rv).abs() / scale);
+                }
+            }
+            eprintln!("{name} {float}: C vs Rust, worst difference {worst:.3e} of the state's scale {scale:.3e}");
+            assert!(worst <= tol, "{name} {float}: C differs from Rust by {worst:e} of the state's scale");
+            assert_eq!(
+                rows.last().map(String::as_str),
+                Some(format!("clamped {} {}", rk.clamped(), eu.clamped()).as_str())
+            );
+        }
+    }};
+}
+
+#[test]
+fn paper_example_c_matches_the_rust_observer() {
+    use super::paper_sound;
+    compare!(
+        paper_sound,
+        "tests/nostd/paper_sound.qpv",
+        [0.01, -0.005, 0.004],
+        |t: f64| [0.5 + 0.6 * (7.0 * t).sin(), 0.5 + 0.5 * (3.0 * t).cos()],
+        |_t: f64| []
+    );
+}
+
+#[test]
+fn manipulator_c_matches_the_rust_observer() {
+    use super::manipulator;
+    compare!(
+        manipulator,
+        "examples/manipulator.qpv",
+        [0.2, -0.1, 0.03, -0.02],
+        |t: f64| [1.1 + 1.0 * (2.0 * t).sin()],
+        |t: f64| [0.01 * (5.0 * t).sin(), -0.01 * (3.0 * t).cos()]
+    );
+}
+
+#[test]
+fn the_design_path_refuses_paper_mode_and_exports_the_sound_design() {
+    let Some(cc) = c_compiler() else { return };
+    let d = dir("design");
+    let out = d.to_str().expect("utf-8");
+    // examples/paper.qpv: block 1 is the paper-mode reproduction
+    let bad = Command::new(env!("CARGO_BIN_EXE_qpv"))
+        .args([
+            "codegen",
+            "examples/paper.qpv",
+            "--design",
+            "1",
+            "--out",
+            out,
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("qpv runs");
+    let text = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{text}");
+    assert!(
+        text.contains("examples/paper.qpv:26: design block 1 is a paper-mode"),
+        "{text}"
+    );
+    assert!(!d.join("paper_example.c").exists(), "nothing written");
+    let text = qpv(&["codegen", "tests/nostd/paper_sound.qpv", "--out", out]);
+    assert!(
+        text.contains("solved and independently re-checked"),
+        "{text}"
+    );
+    let source = std::fs::read_to_string(d.join("paper_sound.c")).expect("C source");
+    let header = std::fs::read_to_string(d.join("paper_sound.h")).expect("C header");
+    assert!(header.contains("typedef double paper_sound_real;"));
+    assert!(
+        header.contains("S1"),
+        "the certificate's margins in the comment block"
+    );
+    assert!(source.contains("const paper_sound_real paper_sound_ALPHA = 10.0;"));
+    assert!(
+        !source.contains("#include <math.h>"),
+        "no libm without scheduling functions"
+    );
+    let c = Command::new(&cc)
+        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c"])
+        .arg(d.join("paper_sound.c"))
+        .arg("-o")
+        .arg(d.join("p.o"))
+        .output()
+        .expect("cc runs");
+    assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+}
