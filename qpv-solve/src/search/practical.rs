@@ -12,10 +12,11 @@
 //!   γ and at the supremum's, the default regularised objective is solved
 //!   too, and the smallest actual gain kept (the surrogate bounds the gain;
 //!   it is not the gain).
-//! * High gain: when the γ search's walk below a cliff ended with α still
-//!   rising (the supremum lies at γ → 0) and the design at α_t has more
-//!   than [`KNEE_FACTOR`] times the smallest gain at the walk's start, the
-//!   supremum is approached only as ‖L‖ → ∞. The design returned is then
+//! * High gain: when the γ search reached α_sup by its walk below a cliff
+//!   (α rising only as γ falls) and the design at α_t (or, if none
+//!   certified, the fastest point) has more than [`KNEE_FACTOR`] times the
+//!   smallest gain at the walk's start, the supremum is approached only as
+//!   ‖L‖ → ∞. The design returned is then
 //!   the *knee*: the fastest walk point whose smallest-gain design at
 //!   (1 − within)·α has at most [`KNEE_FACTOR`] times the gain at the
 //!   walk's start (bisection over the walk's points, gains growing along it).
@@ -182,8 +183,10 @@ impl Ctx<'_, '_> {
         }
         let mut notes = Vec::new();
         let mut high_gain = false;
-        let rising = trace.still_rising || self.walk_stopped;
-        if let (true, Some(&(g0, a0))) = (rising, trace.walk.first()) {
+        // The walk below a cliff took α up only by going to smaller γ, where
+        // the gains grow: whether or not it ended rising, its points are
+        // the α–gain curve the knee is taken on.
+        if let (true, Some(&(g0, a0))) = (trace.walk.len() > 1, trace.walk.first()) {
             // The design at the tolerance, or (none certified) the fastest.
             let (b_gain, b_alpha) = best
                 .as_ref()
@@ -211,8 +214,10 @@ impl Ctx<'_, '_> {
                     "high gain: the certified α {} at the smallest γ searched while the gains grow (max ‖L_l‖₂ = {b_gain:.4e} at α = {b_alpha:.6}, against {g_ref:.4e} at α = {:.6}, where the walk to small γ started): the supremum is approached only as ‖L‖ → ∞, so the design returned is the knee of the α–gain curve (the fastest point of the walk whose smallest gain is within {KNEE_FACTOR}× that at its start); `max_gain = G` or a sample period sets the real limit",
                     if self.walk_stopped {
                         "was still rising where the walk stopped (a point's gain above 100× its start)"
-                    } else {
+                    } else if trace.still_rising {
                         "still rises"
+                    } else {
+                        "rose only by walking to small γ"
                     },
                     (1.0 - within) * a0
                 ));
