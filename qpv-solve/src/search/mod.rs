@@ -589,10 +589,23 @@ impl Ctx<'_, '_> {
         let out = out?;
         let mut samples: Vec<(f64, f64)> = found.iter().map(|p| (p.gamma, p.alpha)).collect();
         samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // The α search's certified point at each γ of the walk (the
+        // α–gain curve the knee is taken on).
+        let walk_points: Vec<Point> = out
+            .walk
+            .iter()
+            .filter_map(|&(g, _)| {
+                found
+                    .iter()
+                    .filter(|p| (p.gamma - g).abs() <= 1e-12 * g)
+                    .max_by(|a, b| a.alpha.total_cmp(&b.alpha))
+                    .cloned()
+            })
+            .collect();
         let trace = practical::Trace {
             samples,
-            walk: out.walk.clone(),
             still_rising: out.still_rising,
+            walk_points,
         };
         let mut info = out.info;
         let best = found

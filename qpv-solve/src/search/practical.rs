@@ -16,10 +16,11 @@
 //!   (α rising only as γ falls) and the design at α_t (or, if none
 //!   certified, the fastest point) has more than [`KNEE_FACTOR`] times the
 //!   smallest gain at the walk's start, the supremum is approached only as
-//!   ‖L‖ → ∞. The design returned is then
-//!   the *knee*: the fastest walk point whose smallest-gain design at
-//!   (1 − within)·α has at most [`KNEE_FACTOR`] times the gain at the
-//!   walk's start (bisection over the walk's points, gains growing along it).
+//!   ‖L‖ → ∞. The design returned is then the *knee*: the fastest walk
+//!   point whose certified design (the α search's point there) has at most
+//!   [`KNEE_FACTOR`] times the gain of the walk's starting point, or the
+//!   smallest-gain design at (1 − within) of its α if one certifies with a
+//!   smaller gain.
 
 use super::{Ctx, Point};
 use crate::error::SolveError;
@@ -45,10 +46,10 @@ pub const WALK_GAIN_LIMIT: f64 = 100.0;
 pub(super) struct Trace {
     /// Certified (γ, α) pairs, ascending in γ.
     pub samples: Vec<(f64, f64)>,
-    /// The walk's start and the points it took ([`super::gamma::GammaOutcome::walk`]).
-    pub walk: Vec<(f64, f64)>,
     /// The walk ended with α still rising.
     pub still_rising: bool,
+    /// The α search's certified point at each point of the walk, in order.
+    pub walk_points: Vec<Point>,
 }
 
 impl Trace {
@@ -56,8 +57,8 @@ impl Trace {
     pub fn at_fixed_gamma(gamma: f64, alpha: f64) -> Trace {
         Trace {
             samples: vec![(gamma, alpha)],
-            walk: Vec::new(),
             still_rising: false,
+            walk_points: Vec::new(),
         }
     }
 }
@@ -184,45 +185,44 @@ impl Ctx<'_, '_> {
         let mut notes = Vec::new();
         let mut high_gain = false;
         // The walk below a cliff took α up only by going to smaller γ, where
-        // the gains grow: whether or not it ended rising, its points are
-        // the α–gain curve the knee is taken on.
-        if let (true, Some(&(g0, a0))) = (trace.walk.len() > 1, trace.walk.first()) {
-            // The design at the tolerance, or (none certified) the fastest.
+        // the gains grow: the α search's certified points along it are the
+        // α–gain curve the knee is taken on (no solve needed; near the walk's
+        // small γ the smallest-gain solves from scratch often fail where the
+        // seeded α search certified).
+        if let Some(start) = trace.walk_points.first().filter(|_| trace.walk_points.len() > 1) {
+            let g_ref = max_gain(start);
             let (b_gain, b_alpha) = best
                 .as_ref()
                 .map_or((gain_sup, sup.alpha), |(b, gb)| (*gb, b.alpha));
-            let reference = self.min_gain_at((1.0 - within) * a0, g0)?;
-            if let Some(r) = reference.filter(|r| b_gain > KNEE_FACTOR * max_gain(r)) {
-                let g_ref = max_gain(&r);
-                // Bisection over the walk: index lo is within the factor
-                // (its design known), index hi is not.
-                let (mut lo, mut hi) = (0usize, trace.walk.len() - 1);
-                let mut knee = r;
-                while hi - lo > 1 {
-                    let mid = (lo + hi) / 2;
-                    let (g, a) = trace.walk[mid];
-                    match self.min_gain_at((1.0 - within) * a, g)? {
-                        Some(p) if max_gain(&p) <= KNEE_FACTOR * g_ref => {
-                            lo = mid;
-                            knee = p;
-                        }
-                        _ => hi = mid,
-                    }
-                }
+            if b_gain > KNEE_FACTOR * g_ref {
+                let k = trace
+                    .walk_points
+                    .iter()
+                    .rposition(|p| max_gain(p) <= KNEE_FACTOR * g_ref)
+                    .unwrap_or(0);
+                let on_curve = trace.walk_points[k].clone();
+                let (ka, kg) = (on_curve.alpha, on_curve.gamma);
+                // A smaller gain at the same point, if a smallest-gain solve
+                // certifies within the tolerance below it.
+                let knee = match self.min_gain_at((1.0 - within) * ka, kg)? {
+                    Some(p) if max_gain(&p) < max_gain(&on_curve) => p,
+                    _ => on_curve,
+                };
                 high_gain = true;
                 notes.push(format!(
-                    "high gain: the certified α {} at the smallest γ searched while the gains grow (max ‖L_l‖₂ = {b_gain:.4e} at α = {b_alpha:.6}, against {g_ref:.4e} at α = {:.6}, where the walk to small γ started): the supremum is approached only as ‖L‖ → ∞, so the design returned is the knee of the α–gain curve (the fastest point of the walk whose smallest gain is within {KNEE_FACTOR}× that at its start); `max_gain = G` or a sample period sets the real limit",
+                    "high gain: the certified α {} (max ‖L_l‖₂ = {b_gain:.4e} at α = {b_alpha:.6}, against {g_ref:.4e} at α = {:.6}, γ = {:.6}, where the walk to small γ started): the supremum is approached only as ‖L‖ → ∞, so the design returned is the knee of the α–gain curve (the fastest point of the walk whose certified design has at most {KNEE_FACTOR}× the gain at its start: α = {ka:.6}, γ = {kg:.6}); `max_gain = G` or a sample period sets the real limit",
                     if self.walk_stopped {
                         "was still rising where the walk stopped (a point's gain above 100× its start)"
                     } else if trace.still_rising {
-                        "still rises"
+                        "still rises at the smallest γ searched"
                     } else {
                         "rose only by walking to small γ"
                     },
-                    (1.0 - within) * a0
+                    start.alpha,
+                    start.gamma,
                 ));
-                let kg = max_gain(&knee);
-                best = Some((knee, kg));
+                let g = max_gain(&knee);
+                best = Some((knee, g));
             }
         }
         let solves = self.steps.len() - n0;
