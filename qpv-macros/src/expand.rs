@@ -164,6 +164,7 @@ fn figures(
             .as_ref()
             .map(|s| s.step_estimate_rk4)
             .filter(|h| *h > 0.0),
+        f32_floor: None,
     }
 }
 
@@ -294,6 +295,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 iterations: 0,
                 filter,
                 figures: Figures::default(),
+                float: req.float,
             }
         };
         emit::emit(&EmitModel {
@@ -496,6 +498,7 @@ impl DesignCtx<'_> {
             status,
             iterations,
             filter: self.filter,
+            float: self.req.float,
         }
     }
 

@@ -155,7 +155,8 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             .collect(),
         status: numbers.status.clone(),
         iterations: numbers.iterations,
-        filter: numbers.filter,
+        float: qpv_dsl::Float::F64,
+            filter: numbers.filter,
         figures: figures(&numbers, &p, &ls),
     };
     let mut notes = vec![format!("numbers: {}", numbers.origin)];
@@ -419,5 +420,6 @@ fn figures(n: &Numbers, p: &DMatrix<f64>, ls: &[DMatrix<f64>]) -> Figures {
             .as_ref()
             .map(|s| s.step_estimate_rk4)
             .filter(|h| *h > 0.0),
+        f32_floor: None,
     }
 }
