@@ -77,7 +77,10 @@ impl Val {
     /// True if the range and the error are finite and far from f32 overflow.
     pub fn finite(&self) -> bool {
         let lim = f64::from(f32::MAX) / 4.0;
-        self.lo.is_finite() && self.hi.is_finite() && self.err.is_finite() && self.mag() + self.err < lim
+        self.lo.is_finite()
+            && self.hi.is_finite()
+            && self.err.is_finite()
+            && self.mag() + self.err < lim
     }
 
     fn exact(c: f64) -> Val {
@@ -161,7 +164,11 @@ fn func_range(f: Func, lo: f64, hi: f64) -> Option<(f64, f64, f64)> {
         Func::Atan => mono(f64::atan, 1.0),
         Func::Abs => {
             let (a, b) = (lo.abs(), hi.abs());
-            let l = if lo <= 0.0 && hi >= 0.0 { 0.0 } else { a.min(b) };
+            let l = if lo <= 0.0 && hi >= 0.0 {
+                0.0
+            } else {
+                a.min(b)
+            };
             Some((l, a.max(b), 1.0))
         }
         Func::Tan => {
@@ -409,7 +416,10 @@ mod tests {
     #[test]
     fn sum_of_products_bound_holds() {
         let mut s = Sum::default();
-        s.push(0.1, Some(Expr::Product(vec![Expr::var("a"), Expr::var("b")])));
+        s.push(
+            0.1,
+            Some(Expr::Product(vec![Expr::var("a"), Expr::var("b")])),
+        );
         s.push(-3.7, Some(Expr::var("a")));
         s.push(1.0, Some(Expr::var("b")));
         s.push(2.3, None);

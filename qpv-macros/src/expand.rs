@@ -503,7 +503,8 @@ impl DesignCtx<'_> {
             float: self.req.float,
         };
         if d.float == qpv_dsl::Float::F32 {
-            d.figures.f32_floor = f32_floor(self.model, &poly.scheduling, &d, checked_model, p, ls).ok();
+            d.figures.f32_floor =
+                f32_floor(self.model, &poly.scheduling, &d, checked_model, p, ls).ok();
         }
         d
     }

@@ -156,7 +156,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         status: numbers.status.clone(),
         iterations: numbers.iterations,
         float: qpv_dsl::Float::F64,
-            filter: numbers.filter,
+        filter: numbers.filter,
         figures: figures(&numbers, &p, &ls),
     };
     let mut notes = vec![format!("numbers: {}", numbers.origin)];

@@ -280,7 +280,7 @@ mod tests {
             iterations: 7,
             figures: Figures::default(),
             filter,
-                float: qpv_dsl::Float::F64,
+            float: qpv_dsl::Float::F64,
         };
         emit(&EmitModel {
             model,

@@ -79,8 +79,7 @@ fn f32_design(
     let gain = gain::items(&d32, shape);
     let observer = observer::items(&m.name, index, &d32, shape, state_eqs, out_eqs, &mut local);
     let weights = super::weights::items(m, &em.scheduling, &em.libm);
-    let coefficients =
-        super::coefficients::items(&local, m.ntheta(), m.derived.len(), &em.libm);
+    let coefficients = super::coefficients::items(&local, m.ntheta(), m.derived.len(), &em.libm);
     let lo: Vec<TokenStream> = m.params.iter().map(|p| lit(p.lo)).collect();
     let hi: Vec<TokenStream> = m.params.iter().map(|p| lit(p.hi)).collect();
     let floor = figure(d32.figures.f32_floor, quote!(::core::f64::INFINITY));
