@@ -1493,6 +1493,9 @@ pub fn disturbance_floor(
     })
 }
 
+/// A box, one interval [lo, hi] per state.
+pub type Boxes = Vec<(f64, f64)>;
+
 /// Boxes of the plant state x and of the estimate x̂ = x − e over which a
 /// certified design's observer runs: x ∈ F (its state bound Q, |x_k| ≤
 /// √Q_kk) ⊂ P̃ (the region scaled by 1/γ), e ∈ E = {eᵀPe ≤ 1}, |e_k| ≤
@@ -1502,7 +1505,7 @@ pub fn observer_boxes(
     model: &PolytopicModel,
     gamma: f64,
     p: &DMatrix<f64>,
-) -> Option<(Vec<(f64, f64)>, Vec<(f64, f64)>)> {
+) -> Option<(Boxes, Boxes)> {
     let n = model.nx();
     let ps = (p + p.transpose()) * 0.5;
     let pinv = ps.cholesky()?.inverse();
