@@ -22,6 +22,7 @@ macro_rules! inline_model {
     };
 }
 
+mod generated_f32;
 mod generated_noise;
 mod generated_practical;
 

@@ -286,7 +286,9 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
         .any(|b| b.lets.iter().any(|l| has_call(&l.value)) || b.out.iter().any(has_call));
     let f = &d.figures;
     let finite = |v: Option<f64>| matches!(v, Some(x) if x.is_finite());
-    let infinite = !finite(f.sigma) || !finite(f.error_bound);
+    let infinite = !finite(f.sigma)
+        || !finite(f.error_bound)
+        || (cm.float == Float::F32 && !finite(f.f32_floor));
 
     // ---------------------------------------------------------------- header
     let mut h = String::new();
@@ -367,6 +369,14 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
     ];
     for (k, doc) in scalars {
         let _ = writeln!(h, "extern const {r} {name}_{k}; /* {doc} */");
+    }
+    if cm.float == Float::F32 {
+        let _ = writeln!(
+            h,
+            "extern const {r} {name}_F32_ERROR_FLOOR; /* certified f32 error floor: lim sup |e| \
+             from the float rounding of the right-hand side alone, even without noise \
+             (INFINITY: none certified) */"
+        );
     }
     let _ = writeln!(
         h,
@@ -473,6 +483,19 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
     ];
     for (k, v) in values {
         let _ = writeln!(s, "const {r} {name}_{k} = {v};");
+    }
+    if cm.float == Float::F32 {
+        // rounded up to float: the constant never understates the floor
+        let v = f.f32_floor.filter(|x| x.is_finite()).map(|x| {
+            let r = x as f32;
+            let r = if f64::from(r) < x {
+                f32::from_bits(r.to_bits() + 1)
+            } else {
+                r
+            };
+            f64::from(r)
+        });
+        let _ = writeln!(s, "const {r} {name}_F32_ERROR_FLOOR = {};", fig(v, inf));
     }
     let matrix = |rows: usize, cols: usize, data: &[f64]| -> String {
         let rs: Vec<String> = (0..rows)
@@ -869,6 +892,15 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
         opt(f.euler.map(|e| e.0)),
         opt(f.rk4)
     );
+    if cm.float == Float::F32 {
+        let _ = writeln!(
+            t,
+            "f32 error floor: lim sup |e| <= {} from the float rounding of one evaluation of the \
+             right-hand side (u = 2^-24, over F x Theta and the input ranges), even without \
+             noise; the rounding of the state update comes on top",
+            opt(f.f32_floor)
+        );
+    }
     let _ = writeln!(
         t,
         "theta outside its bounds is clamped into them (NaN -> lower bound) and counted in `clamped`;\nthe certificate covers theta in its bounds and the plant state in the model's state bound F."

@@ -32,6 +32,10 @@ pub struct CertifiedDesign {
     /// design being for the plant augmented by the filter. `None`: the
     /// double-sum route, P is nx × nx, L_l is nx × ny.
     pub filter: Option<OutputFilter>,
+    /// The float type of the generated observer (`float = f32` in the design
+    /// block): for f32, P and L_l here are already rounded to f32 and
+    /// certified as such.
+    pub float: qpv_dsl::Float,
     /// The noise and sampling figures computed on the baked numbers; `None`
     /// where nothing could be certified (then the generated constants say
     /// "no bound": an infinite σ and zero steps).
@@ -52,6 +56,10 @@ pub struct Figures {
     pub euler: Option<(f64, f64)>,
     /// The RK4 step estimate (frozen vertex dynamics; not a proof).
     pub rk4: Option<f64>,
+    /// The certified f32 error floor (f32 designs): lim sup ‖e(t)‖ caused by
+    /// the rounding of the right-hand side in f32 alone
+    /// ([`crate::rounding`], through the noise bound).
+    pub f32_floor: Option<f64>,
 }
 
 impl CertifiedDesign {

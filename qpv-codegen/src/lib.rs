@@ -12,11 +12,14 @@
 //! constant-folded sums in the same order. [`design`] holds the certified
 //! numbers the emitters bake.
 //!
-//! Layers: `ir` and `design` (0), `build` (1), `c` (2).
+//! [`rounding`] bounds the f32 rounding error of those bodies as generated.
+//!
+//! Layers: `ir` and `design` (0), `build` (1), `c` and `rounding` (2).
 
 pub mod build;
 pub mod c;
 pub mod design;
 pub mod ir;
+pub mod rounding;
 
 pub use design::{CertifiedDesign, Figures, Shape};

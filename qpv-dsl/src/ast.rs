@@ -37,8 +37,9 @@ pub struct ModelAst {
 pub enum Item {
     /// `state x1, x2;`
     States(Vec<Ident>),
-    /// `input u1;`
-    Inputs(Vec<Ident>),
+    /// `input u1;`, or `input u1, u2 in [lo, hi];` with the range (lower and
+    /// upper bound, and the interval's span) every listed input stays in.
+    Inputs(Vec<Ident>, Option<(Expr, Expr, Span)>),
     /// `output y1;`
     Outputs(Vec<Ident>),
     /// `param th1, th2 in [lo, hi];`

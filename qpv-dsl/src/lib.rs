@@ -18,8 +18,8 @@ pub use diagnostic::{Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
 pub use func::Func;
 pub use model::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, NoiseObjective, OutputFilter,
-    OutputRoute, Param, Split, StateBound, MAX_COEFFICIENT,
+    AlphaSpec, Conditions, DesignRequest, Float, GammaSpec, Mode, Model, NoiseObjective,
+    OutputFilter, OutputRoute, Param, Split, StateBound, MAX_COEFFICIENT,
 };
 pub use region::{Region, RegionError};
 pub use sched::{Derived, RangeInfo, SchedExpr};

@@ -177,7 +177,12 @@ fn parse_statement(pair: Pair<'_, Rule>) -> Result<Item> {
     let span = span_of(&pair);
     match pair.as_rule() {
         Rule::state_decl => Ok(Item::States(parse_decl(pair)?)),
-        Rule::input_decl => Ok(Item::Inputs(parse_decl(pair)?)),
+        Rule::input_decl => {
+            let mut it = children(pair);
+            let names = parse_name_list(next(&mut it, span, "input names")?);
+            let range = it.next().map(parse_interval).transpose()?;
+            Ok(Item::Inputs(names, range))
+        }
         Rule::output_decl => Ok(Item::Outputs(parse_decl(pair)?)),
         Rule::param_decl => Ok(Item::Params(parse_param_decl(pair)?)),
         Rule::matrix_def => Ok(Item::Matrix(parse_matrix_def(pair)?)),

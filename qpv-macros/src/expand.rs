@@ -164,6 +164,7 @@ fn figures(
             .as_ref()
             .map(|s| s.step_estimate_rk4)
             .filter(|h| *h > 0.0),
+        f32_floor: None,
     }
 }
 
@@ -294,6 +295,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 iterations: 0,
                 filter,
                 figures: Figures::default(),
+                float: req.float,
             }
         };
         emit::emit(&EmitModel {
@@ -361,6 +363,7 @@ fn one_design(
     let cached = cache.and_then(|dir| cache::load(dir, &key));
     let (observer, bound) = observer_model(poly, req, &settings, cached.as_ref())?;
     let ctx = DesignCtx {
+        model,
         request: describe(req),
         req,
         filter: filter_of(req),
@@ -435,6 +438,7 @@ fn observer_model(
 /// What one request's design needs beside the numbers: the request, its
 /// output route and sizes, and the observer's model.
 struct DesignCtx<'a> {
+    model: &'a Model,
     request: String,
     req: &'a DesignRequest,
     filter: Option<OutputFilter>,
@@ -479,7 +483,7 @@ impl DesignCtx<'_> {
         iterations: u32,
     ) -> CertifiedDesign {
         let poly = &self.observer.plant;
-        CertifiedDesign {
+        let mut d = CertifiedDesign {
             request: self.request.clone(),
             mode: mode_name(self.req.mode).into(),
             certifies: self.req.mode == Mode::Sound,
@@ -496,7 +500,13 @@ impl DesignCtx<'_> {
             status,
             iterations,
             filter: self.filter,
+            float: self.req.float,
+        };
+        if d.float == qpv_dsl::Float::F32 {
+            d.figures.f32_floor =
+                f32_floor(self.model, &poly.scheduling, &d, checked_model, p, ls).ok();
         }
+        d
     }
 
     /// A cache entry whose numbers pass the certificate again on the model
@@ -510,8 +520,11 @@ impl DesignCtx<'_> {
         if !fits {
             return None;
         }
-        let p = rows_to_matrix(&rows(&e.p, nz));
-        let ls: Vec<_> = e.l.iter().map(|l| rows_to_matrix(&rows(l, ny))).collect();
+        let p = self.rounded(rows_to_matrix(&rows(&e.p, nz)));
+        let ls: Vec<_> =
+            e.l.iter()
+                .map(|l| self.rounded(rows_to_matrix(&rows(l, ny))))
+                .collect();
         // Cube slacks are checked as the search checked them; an entry
         // without slacks is checked on the full vertex family.
         let slacks = match &e.cube {
@@ -544,7 +557,44 @@ impl DesignCtx<'_> {
     /// Solves the request, accepts only a certified design (or, in paper
     /// mode, a feasible reproduction), checks the numbers again itself, and
     /// returns them with the cache entry to store.
+    /// The matrix as the generated code holds it: rounded to f32 for an
+    /// f32 design (exactly representable in f64), as is for f64.
+    fn rounded(&self, m: DMatrix<f64>) -> DMatrix<f64> {
+        match self.req.float {
+            qpv_dsl::Float::F32 => m.map(|v| f64::from(v as f32)),
+            qpv_dsl::Float::F64 => m,
+        }
+    }
+
+    /// [`DesignCtx::solved_once`]; for an f32 design whose rounded gains
+    /// fail the certificate, solved again with the margin of the strict
+    /// inequalities ten and a hundred times larger (never baked uncertified).
     fn solved(
+        &self,
+        settings: &Settings,
+        bound: Option<cache::Bound>,
+    ) -> Result<(Outcome, cache::Entry), String> {
+        if self.req.float == qpv_dsl::Float::F64 {
+            return self.solved_once(settings, bound);
+        }
+        let mut last = String::new();
+        for k in 0..3 {
+            let s = Settings {
+                margin_rel: settings.margin_rel * 10f64.powi(k),
+                ..settings.clone()
+            };
+            match self.solved_once(&s, bound.clone()) {
+                Ok(x) => return Ok(x),
+                Err(e) if e.contains(ROUNDED_FAILED) => last = e,
+                Err(e) => return Err(e),
+            }
+        }
+        Err(format!(
+            "{last} (solved again with the margin 10 and 100 times larger: still failing)"
+        ))
+    }
+
+    fn solved_once(
         &self,
         settings: &Settings,
         bound: Option<cache::Bound>,
@@ -567,6 +617,10 @@ impl DesignCtx<'_> {
         let (nz, ny, nv) = (self.nz, self.ny, poly.nv());
         let p = design.p_matrix();
         let ls = design.l_matrices();
+        let (p, ls) = (
+            self.rounded(p),
+            ls.into_iter().map(|l| self.rounded(l)).collect::<Vec<_>>(),
+        );
         let shapes_ok = p.nrows() == nz
             && p.ncols() == nz
             && ls.len() == nv
@@ -599,7 +653,7 @@ impl DesignCtx<'_> {
         // A cube design is checked by its slacks (as the search did), not
         // on the 2^nx region vertices.
         let slacks = design.cube.as_ref().map(CubeSlacks::from_report);
-        let cert = qpv_solve::certificate::check_with(
+        let mut cert = qpv_solve::certificate::check_with(
             &checked_model,
             req.mode,
             alpha,
@@ -609,6 +663,20 @@ impl DesignCtx<'_> {
             slacks.as_ref(),
         )
         .with_gain_bound(&ls, req.max_gain);
+        if !cert.passed && slacks.is_some() && req.float == qpv_dsl::Float::F32 {
+            // the cube slacks were found for the f64 numbers: the rounded
+            // ones may still hold on the full vertex family
+            cert = qpv_solve::certificate::check_with(
+                &checked_model,
+                req.mode,
+                alpha,
+                gamma,
+                &p,
+                &ls,
+                None,
+            )
+            .with_gain_bound(&ls, req.max_gain);
+        }
         let finite = p
             .iter()
             .chain(ls.iter().flat_map(|l| l.iter()))
@@ -621,6 +689,11 @@ impl DesignCtx<'_> {
                 .map(|f| format!("{} margin {}", f.name, sig(f.margin)))
                 .collect::<Vec<_>>()
                 .join(", ");
+            if req.float == qpv_dsl::Float::F32 {
+                return Err(format!(
+                    "design `{request}`: {ROUNDED_FAILED} ({worst}); not baked"
+                ));
+            }
             return Err(format!(
                 "design `{request}`: the solver's point did not pass the macro's own \
                  certificate check ({worst}); not baked"
@@ -654,6 +727,39 @@ impl DesignCtx<'_> {
             entry,
         ))
     }
+}
+
+/// The message of an f32 design whose rounded P and L_l fail the certificate.
+const ROUNDED_FAILED: &str = "the f32-rounded P and L_l did not pass the certificate";
+
+/// The certified f32 error floor of design `d` (P, L_l the f32 values,
+/// certified on `checked`): the rounding of one evaluation of the generated
+/// right-hand side ([`qpv_codegen::rounding::rhs_error`], over x ∈ F, the
+/// estimate within E of it, θ ∈ Θ, the declared input ranges) as a
+/// disturbance entering every state, through the noise bound
+/// ([`qpv_solve::noise::disturbance_floor`]).
+pub fn f32_floor(
+    model: &Model,
+    scheduling: &[usize],
+    d: &CertifiedDesign,
+    checked: &PolytopicModel,
+    p: &DMatrix<f64>,
+    ls: &[DMatrix<f64>],
+) -> Result<f64, String> {
+    if d.filter.is_some() {
+        return Err("the f32 floor is not computed for the filter route".into());
+    }
+    let (plant_state, observer_state) = qpv_solve::noise::observer_boxes(checked, d.gamma, p)
+        .ok_or("P is not positive definite")?;
+    let nv = qpv_codegen::design::vertex_count(model, scheduling);
+    let shape = qpv_codegen::Shape::of(model, nv, d);
+    let boxes = qpv_codegen::rounding::Boxes {
+        plant_state,
+        observer_state,
+    };
+    let err = qpv_codegen::rounding::rhs_error(model, scheduling, d, shape, &boxes)?;
+    let f = qpv_solve::noise::disturbance_floor(checked, d.alpha, d.gamma, p, ls, &err)?;
+    Ok(f.error_bound)
 }
 
 /// Cube slacks flattened for the cache (per rate combination, per

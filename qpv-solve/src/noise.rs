@@ -1415,3 +1415,120 @@ pub fn falsify_noise(
     }
     Ok(out)
 }
+
+/// The certified ultimate error bound that a bounded disturbance entering
+/// every state causes, e.g. the f32 rounding of the observer's right-hand
+/// side: x̂' = f(x̂, …) + δ with |δ_k| ≤ d_k. It is a process disturbance
+/// B_w w with B_w = diag(d) (the states with d_k > 0) and |w_k| ≤ 1, so
+/// |w| ≤ ν = √(number of such states); [`noise_bound`] on those channels
+/// (no measurement noise) gives σ, and lim sup ‖e‖ ≤ ν·√(σ/(α λ_min(P))).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DisturbanceFloor {
+    /// The per-state disturbance bound d_k.
+    pub disturbance: Vec<f64>,
+    /// σ of V' + αV ≤ σ|w|² on these channels (0 if d = 0).
+    pub sigma: f64,
+    /// ν = √(number of disturbed states): the amplitude of w.
+    pub amplitude: f64,
+    /// The certified bound on lim sup ‖e(t)‖ (Euclidean norm).
+    pub error_bound: f64,
+    /// The certified bound on lim sup |e_k(t)|, per state.
+    pub per_state: Vec<f64>,
+}
+
+/// The [`DisturbanceFloor`] of a design (P, L_l certified at α, γ on
+/// `model`) for the per-state disturbance bound `d`; `Err` if the block
+/// LMI fails or ν exceeds the tolerated amplitude √(α/σ) (then the
+/// certified set need not stay invariant).
+pub fn disturbance_floor(
+    model: &PolytopicModel,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    l: &[DMatrix<f64>],
+    d: &[f64],
+) -> Result<DisturbanceFloor, String> {
+    let n = model.nx();
+    if d.len() != n || d.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+        return Err(format!(
+            "{} disturbance bounds for {n} states, or a negative or non-finite one",
+            d.len()
+        ));
+    }
+    let cols: Vec<usize> = (0..n).filter(|&k| d[k] > 0.0).collect();
+    if cols.is_empty() {
+        return Ok(DisturbanceFloor {
+            disturbance: d.to_vec(),
+            sigma: 0.0,
+            amplitude: 0.0,
+            error_bound: 0.0,
+            per_state: vec![0.0; n],
+        });
+    }
+    let mut bw = DMatrix::zeros(n, cols.len());
+    for (c, &k) in cols.iter().enumerate() {
+        bw[(k, c)] = d[k];
+    }
+    let channels = NoiseChannels {
+        outputs: Some(Vec::new()),
+        b_w: Some(vec![bw; model.nv()]),
+    };
+    let b = noise_bound(model, &channels, alpha, gamma, p, l)
+        .filter(|b| b.check.passed)
+        .ok_or("the disturbance's block LMI could not be certified")?;
+    let nu = (cols.len() as f64).sqrt();
+    if nu > b.max_amplitude {
+        return Err(format!(
+            "the disturbance (amplitude {nu:.3e} on channels of σ = {:.3e}) exceeds the \
+             tolerated amplitude {:.3e}: the certified set need not stay invariant",
+            b.sigma, b.max_amplitude
+        ));
+    }
+    Ok(DisturbanceFloor {
+        disturbance: d.to_vec(),
+        sigma: b.sigma,
+        amplitude: nu,
+        error_bound: b.error_bound * nu,
+        per_state: b.per_state.iter().map(|v| v * nu).collect(),
+    })
+}
+
+/// A box, one interval [lo, hi] per state.
+pub type Boxes = Vec<(f64, f64)>;
+
+/// Boxes of the plant state x and of the estimate x̂ = x − e over which a
+/// certified design's observer runs: x ∈ F (its state bound Q, |x_k| ≤
+/// √Q_kk) ⊂ P̃ (the region scaled by 1/γ), e ∈ E = {eᵀPe ≤ 1}, |e_k| ≤
+/// √((P⁻¹)_kk). Returns (box of x, box of x̂); None if P is not positive
+/// definite.
+pub fn observer_boxes(
+    model: &PolytopicModel,
+    gamma: f64,
+    p: &DMatrix<f64>,
+) -> Option<(Boxes, Boxes)> {
+    let n = model.nx();
+    let ps = (p + p.transpose()) * 0.5;
+    let pinv = ps.cholesky()?.inverse();
+    let vs = &model.region.vertices;
+    let q = match &model.state_bound {
+        qpv_dsl::StateBound::Given(q) if q.nrows() == n => Some(q),
+        _ => None,
+    };
+    let mut xs = Vec::with_capacity(n);
+    let mut xh = Vec::with_capacity(n);
+    for k in 0..n {
+        let lo = vs.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min) / gamma;
+        let hi = vs.iter().map(|v| v[k]).fold(f64::NEG_INFINITY, f64::max) / gamma;
+        let (lo, hi) = match q {
+            Some(q) => {
+                let r = q[(k, k)].max(0.0).sqrt();
+                (lo.max(-r), hi.min(r))
+            }
+            None => (lo, hi),
+        };
+        let e = pinv[(k, k)].max(0.0).sqrt();
+        xs.push((lo, hi));
+        xh.push((lo - e, hi + e));
+    }
+    Some((xs, xh))
+}

@@ -57,6 +57,8 @@ struct Numbers {
     origin: String,
     status: String,
     iterations: u32,
+    /// The design block's `float` (f64 for a gains file).
+    float: qpv_dsl::Float,
 }
 
 /// Runs `qpv codegen`.
@@ -67,10 +69,11 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             o.lang
         )));
     }
-    let float = match o.float.unwrap_or("f64") {
-        "f64" => Float::F64,
-        "f32" => Float::F32,
-        other => {
+    let flag = match o.float {
+        None => None,
+        Some("f64") => Some(Float::F64),
+        Some("f32") => Some(Float::F32),
+        Some(other) => {
             return Err(CliError::Input(format!(
                 "--float {other}: expected `f64` or `f32`"
             )))
@@ -90,6 +93,11 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             (model, n)
         }
     };
+    // --float, else the design block's `float = ...`, else f64
+    let float = flag.unwrap_or(match numbers.float {
+        qpv_dsl::Float::F32 => Float::F32,
+        qpv_dsl::Float::F64 => Float::F64,
+    });
     let (p, ls, f32_note) = match float {
         Float::F64 => (numbers.p.clone(), numbers.ls.clone(), None),
         Float::F32 => {
@@ -140,7 +148,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         return Ok(exit::NOT_CERTIFIED);
     }
     let scheduling = numbers.plant.scheduling.clone();
-    let design = CertifiedDesign {
+    let mut design = CertifiedDesign {
         request: numbers.request.clone(),
         mode: "sound".into(),
         certifies: true,
@@ -155,16 +163,28 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             .collect(),
         status: numbers.status.clone(),
         iterations: numbers.iterations,
+        float: match float {
+            Float::F32 => qpv_dsl::Float::F32,
+            Float::F64 => qpv_dsl::Float::F64,
+        },
         filter: numbers.filter,
         figures: figures(&numbers, &p, &ls),
     };
+    let mut floor_note = String::new();
+    if float == Float::F32 {
+        match f32_floor(&model, &scheduling, &design, &numbers.checked, &p, &ls) {
+            Ok(v) => design.figures.f32_floor = Some(v),
+            Err(e) => floor_note = format!(" No f32 error floor is certified: {e}."),
+        }
+    }
     let mut notes = vec![format!("numbers: {}", numbers.origin)];
     notes.push(match float {
         Float::F64 => "float: f64; the certificate checked P and L_l as printed here".into(),
-        Float::F32 => "float: f32; P and L_l were rounded to float BEFORE the certificate, which \
+        Float::F32 => format!(
+            "float: f32; P and L_l were rounded to float BEFORE the certificate, which \
              checked the rounded values (as printed here). The f32 arithmetic's own rounding \
-             error is not yet bounded: no f32 error floor is certified"
-            .into(),
+             is bounded by F32_ERROR_FLOOR (a zero-noise f32 design has a nonzero floor).{floor_note}"
+        ),
     });
     let files = qpv_codegen::c::emit(&CModel {
         model: &model,
@@ -304,6 +324,7 @@ fn solved(
         filter,
         request: describe(req),
         origin: format!("{here}, solved and independently re-checked"),
+        float: req.float,
         status: design.solver.detail.clone(),
         iterations: design.solver.iterations,
     }))
@@ -391,6 +412,7 @@ fn from_gains(
             origin: format!("{}, re-certified", gains.display()),
             status: "gains file".into(),
             iterations: 0,
+            float: qpv_dsl::Float::F64,
         },
     ))
 }
@@ -419,5 +441,34 @@ fn figures(n: &Numbers, p: &DMatrix<f64>, ls: &[DMatrix<f64>]) -> Figures {
             .as_ref()
             .map(|s| s.step_estimate_rk4)
             .filter(|h| *h > 0.0),
+        f32_floor: None,
     }
+}
+
+/// The certified f32 error floor of the baked numbers (as `qpv!` computes
+/// it): the rounding of one evaluation of the generated right-hand side
+/// ([`qpv_codegen::rounding::rhs_error`]) as a disturbance entering every
+/// state, through the noise bound ([`qpv_solve::noise::disturbance_floor`]).
+fn f32_floor(
+    model: &Model,
+    scheduling: &[usize],
+    d: &CertifiedDesign,
+    checked: &PolytopicModel,
+    p: &DMatrix<f64>,
+    ls: &[DMatrix<f64>],
+) -> Result<f64, String> {
+    if d.filter.is_some() {
+        return Err("the f32 floor is not computed for the filter route".into());
+    }
+    let (plant_state, observer_state) = qpv_solve::noise::observer_boxes(checked, d.gamma, p)
+        .ok_or("P is not positive definite")?;
+    let nv = qpv_codegen::design::vertex_count(model, scheduling);
+    let shape = qpv_codegen::Shape::of(model, nv, d);
+    let boxes = qpv_codegen::rounding::Boxes {
+        plant_state,
+        observer_state,
+    };
+    let err = qpv_codegen::rounding::rhs_error(model, scheduling, d, shape, &boxes)?;
+    let f = qpv_solve::noise::disturbance_floor(checked, d.alpha, d.gamma, p, ls, &err)?;
+    Ok(f.error_bound)
 }

@@ -59,6 +59,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
     b.declare()?;
     b.consts()?;
     let params = b.params()?;
+    let input_ranges = b.input_ranges()?;
     b.lets(&params)?;
     let (mut a, mut n, mut bm, mut b_w) = b.dynamics()?;
     let noise_outputs = b.noise_outputs()?;
@@ -72,6 +73,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         span: ast.name.span,
         states: b.names.states.clone(),
         inputs: b.names.inputs.clone(),
+        input_ranges,
         outputs: b.names.outputs.clone(),
         params,
         a,

@@ -248,8 +248,33 @@ pub struct DesignRequest {
     /// at the sample period"); α stays a rate per unit time. None: a
     /// continuous-time design.
     pub sample: Option<f64>,
+    /// `float = f32`: the generated observer computes in single precision
+    /// (constants rounded to f32 before the certificate checks them, and a
+    /// certified f32 error floor). Default f64.
+    pub float: Float,
     /// The `design` block in the source, for errors about this request.
     pub span: Span,
+}
+
+/// The floating-point type of a design's generated observer (`float = f32`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub enum Float {
+    /// Double precision (the default).
+    #[default]
+    F64,
+    /// Single precision: every value, literal and operation of the
+    /// generated observer is `f32`.
+    F32,
+}
+
+impl Float {
+    /// `"f64"` or `"f32"`, as written in a design block.
+    pub fn name(self) -> &'static str {
+        match self {
+            Float::F64 => "f64",
+            Float::F32 => "f32",
+        }
+    }
 }
 
 impl Default for DesignRequest {
@@ -265,6 +290,7 @@ impl Default for DesignRequest {
             within: DesignRequest::DEFAULT_WITHIN,
             max_gain: None,
             sample: None,
+            float: Float::F64,
             span: Span::default(),
         }
     }
@@ -278,7 +304,7 @@ impl DesignRequest {
 }
 
 /// The keys of a `design { ... }` block.
-const DESIGN_KEYS: [&str; 9] = [
+const DESIGN_KEYS: [&str; 10] = [
     "alpha",
     "gamma",
     "mode",
@@ -288,6 +314,7 @@ const DESIGN_KEYS: [&str; 9] = [
     "noise",
     "max_gain",
     "sample",
+    "float",
 ];
 
 impl Builder<'_> {
@@ -354,6 +381,7 @@ impl Builder<'_> {
                 "conditions" => req.conditions = self.conditions_value(&entry.value)?,
                 "output_route" => req.output_route = self.output_route_value(entry)?,
                 "noise" => req.noise = self.noise_value(&entry.value)?,
+                "float" => req.float = self.float_value(&entry.value)?,
                 _ => {
                     let hint = suggest(key, DESIGN_KEYS)
                         .map(|s| format!(" (did you mean `{s}`?)"))
@@ -362,7 +390,7 @@ impl Builder<'_> {
                         entry.key.span,
                         format!(
                             "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
-                             `split`, `conditions`, `output_route`, `noise`, `max_gain` or `sample`{hint}"
+                             `split`, `conditions`, `output_route`, `noise`, `max_gain`, `sample` or `float`{hint}"
                         ),
                     ));
                 }
@@ -574,6 +602,20 @@ impl Builder<'_> {
                 v.span,
                 "noise",
                 "`free` (the default) or `min`",
+                &self.found(v),
+            )),
+        }
+    }
+
+    /// `float = f64 | f32`.
+    fn float_value(&self, v: &Expr) -> R<Float> {
+        match word(v) {
+            Some("f64") => Ok(Float::F64),
+            Some("f32") => Ok(Float::F32),
+            _ => Err(bad_value(
+                v.span,
+                "float",
+                "`f64` (the default) or `f32`",
                 &self.found(v),
             )),
         }

@@ -17,7 +17,7 @@ mod validate;
 
 pub(crate) use build::build;
 pub use design::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, NoiseObjective, OutputFilter,
+    AlphaSpec, Conditions, DesignRequest, Float, GammaSpec, Mode, NoiseObjective, OutputFilter,
     OutputRoute, Split,
 };
 pub use names::{Param, MAX_DIM, MAX_PARAMS};
@@ -47,6 +47,9 @@ pub struct Model {
     pub states: Vec<String>,
     /// Input names u_1..u_nu (may be empty).
     pub inputs: Vec<String>,
+    /// The declared range [lo, hi] of each input (`input u in [lo, hi];`),
+    /// `None` where none was declared (the f32 error floor needs them).
+    pub input_ranges: Vec<Option<(f64, f64)>>,
     /// Output names y_1..y_ny.
     pub outputs: Vec<String>,
     /// Declared parameters in declaration order.

@@ -32,7 +32,7 @@ impl Builder<'_> {
         for item in &self.ast.items {
             let (list, kind): (&[ast::Ident], u8) = match item {
                 Item::States(l) => (l, 0),
-                Item::Inputs(l) => (l, 1),
+                Item::Inputs(l, _) => (l, 1),
                 Item::Outputs(l) => (l, 2),
                 Item::Params(p) => (&p.names, 3),
                 Item::Disturbances(l) => (l, 4),
@@ -227,6 +227,37 @@ impl Builder<'_> {
             k += 1;
         }
         Ok(())
+    }
+
+    /// The declared range of every input (`input u in [lo, hi];`), in
+    /// declaration order; `None` for an input declared without one.
+    pub(super) fn input_ranges(&self) -> R<Vec<Option<(f64, f64)>>> {
+        let mut out = Vec::new();
+        for item in &self.ast.items {
+            let Item::Inputs(names, range) = item else {
+                continue;
+            };
+            let range = match range {
+                None => None,
+                Some((lo, hi, at)) => {
+                    let lo = self.constant(lo, "an input bound")?;
+                    let hi = self.constant(hi, "an input bound")?;
+                    if !(lo <= hi && lo.is_finite() && hi.is_finite()) {
+                        return Err(Diag::new(
+                            *at,
+                            format!(
+                                "input range [{}, {}]: expected finite bounds, the lower one first",
+                                fmt_num(lo),
+                                fmt_num(hi)
+                            ),
+                        ));
+                    }
+                    Some((lo, hi))
+                }
+            };
+            out.extend(names.iter().map(|_| range));
+        }
+        Ok(out)
     }
 
     pub(super) fn params(&mut self) -> R<Vec<Param>> {

@@ -46,6 +46,12 @@ pub(super) fn types() -> TokenStream {
             pub solver_status: &'static str,
             /// Interior-point iterations of the accepted solve.
             pub iterations: u32,
+            /// The float type of the design's observer: `"f64"` or `"f32"`.
+            pub float: &'static str,
+            /// f32 designs: the certified error floor, lim sup ‖e(t)‖ caused by
+            /// the f32 rounding of the right-hand side alone (`None` for f64
+            /// designs, or if no floor could be certified).
+            pub f32_error_floor: ::core::option::Option<f64>,
         }
 
         impl ::core::fmt::Display for Certificate {
@@ -64,6 +70,10 @@ pub(super) fn types() -> TokenStream {
                 for m in self.margins {
                     ::core::writeln!(f, "  {:<24} margin {:.3e}", m.family, m.margin)?;
                 }
+                ::core::writeln!(f, "  float: {}", self.float)?;
+                if let ::core::option::Option::Some(v) = self.f32_error_floor {
+                    ::core::writeln!(f, "  f32 error floor: lim sup |e| <= {:.3e}", v)?;
+                }
                 ::core::write!(
                     f,
                     "  solver: {} after {} iterations",
@@ -77,6 +87,20 @@ pub(super) fn types() -> TokenStream {
 /// The `CERTIFICATE` constant of one design of model `model_name` with the
 /// output route `route` (its `ALPHA` and `GAMMA` are the design module's).
 pub(super) fn constant(model_name: &str, route: &str, d: &CertifiedDesign) -> TokenStream {
+    let (alpha, gamma) = if d.float == qpv_dsl::Float::F32 {
+        // the design module's ALPHA and GAMMA are f32: the record keeps the f64 values
+        (lit(d.alpha), lit(d.gamma))
+    } else {
+        (quote!(ALPHA), quote!(GAMMA))
+    };
+    let float = d.float.name();
+    let floor = match d.figures.f32_floor {
+        Some(v) => {
+            let v = lit(v);
+            quote!(::core::option::Option::Some(#v))
+        }
+        None => quote!(::core::option::Option::None),
+    };
     let fam: Vec<TokenStream> = d
         .margins
         .iter()
@@ -96,11 +120,13 @@ pub(super) fn constant(model_name: &str, route: &str, d: &CertifiedDesign) -> To
             mode: #mode,
             route: #route,
             certifies: #certifies,
-            alpha: ALPHA,
-            gamma: GAMMA,
+            alpha: #alpha,
+            gamma: #gamma,
             margins: &[#(#fam),*],
             solver_status: #status,
             iterations: #iterations,
+            float: #float,
+            f32_error_floor: #floor,
         };
     }
 }

@@ -256,6 +256,10 @@ mod tests {
     }
 
     fn generated_with(filter: Option<OutputFilter>) -> String {
+        generated_float(filter, qpv_dsl::Float::F64)
+    }
+
+    fn generated_float(filter: Option<OutputFilter>, float: qpv_dsl::Float) -> String {
         let nz = if filter.is_some() { 3 } else { 2 };
         let models = qpv_dsl::parse(MODEL).expect("test model parses");
         let model = &models[0];
@@ -280,6 +284,7 @@ mod tests {
             iterations: 7,
             figures: Figures::default(),
             filter,
+            float,
         };
         emit(&EmitModel {
             model,
@@ -382,6 +387,79 @@ mod tests {
             }
             _ => false,
         })
+    }
+
+    /// The tokens of `pub mod design1 { ... }` in the generated module.
+    fn design_module(ts: TokenStream) -> Option<TokenStream> {
+        let tts: Vec<proc_macro2::TokenTree> = ts.into_iter().collect();
+        for (i, tt) in tts.iter().enumerate() {
+            if let proc_macro2::TokenTree::Group(g) = tt {
+                let named = matches!(
+                    i.checked_sub(1).and_then(|j| tts.get(j)),
+                    Some(proc_macro2::TokenTree::Ident(id)) if id == "design1"
+                );
+                if named {
+                    return Some(g.stream());
+                }
+                if let Some(found) = design_module(g.stream()) {
+                    return Some(found);
+                }
+            }
+        }
+        None
+    }
+
+    /// Every `f64` identifier and every float literal that is not an f32
+    /// value, outside the `CERTIFICATE` record (which keeps the f64 α, γ
+    /// and margins in the model-level `Certificate` type).
+    fn f64_traces(ts: TokenStream, out: &mut Vec<String>) {
+        let mut skip = false;
+        for tt in ts {
+            match tt {
+                proc_macro2::TokenTree::Ident(i) if i == "CERTIFICATE" => skip = true,
+                proc_macro2::TokenTree::Punct(p) if p.as_char() == ';' => skip = false,
+                _ if skip => {}
+                proc_macro2::TokenTree::Ident(i) if i == "f64" => out.push("f64".into()),
+                proc_macro2::TokenTree::Literal(l) => {
+                    let s = l.to_string();
+                    if s.starts_with(|c: char| c.is_ascii_digit())
+                        && (s.contains('.') || s.contains('e'))
+                    {
+                        let v: f64 = s.parse().unwrap_or(f64::NAN);
+                        if f64::from(v as f32) != v {
+                            out.push(s);
+                        }
+                    }
+                }
+                proc_macro2::TokenTree::Group(g) => f64_traces(g.stream(), out),
+                _ => {}
+            }
+        }
+    }
+
+    #[test]
+    fn an_f32_design_module_has_no_f64_value_or_literal() {
+        let code = generated_float(None, qpv_dsl::Float::F32);
+        assert!(syn::parse_str::<syn::File>(&code).is_ok(), "{code}");
+        let module = design_module(code.parse().expect("tokens")).expect("design1");
+        let text = module.to_string();
+        for item in [
+            "pub fn step_euler (& mut self , dt : f32 , y : & [f32 ; NY]",
+            "pub const P : [[f32 ; NZ] ; NZ]",
+            "pub fn mu (theta : & [f32 ; NTHETA]) -> [f32 ; NV]",
+            "pub fn derivative (x : & [f32 ; NX] , u : & [f32 ; NU] , theta : & [f32 ; NTHETA]) -> [f32 ; NX]",
+            "pub const F32_ERROR_FLOOR : f32",
+        ] {
+            assert!(text.contains(item), "missing `{item}`");
+        }
+        let mut traces = Vec::new();
+        f64_traces(module, &mut traces);
+        assert!(traces.is_empty(), "f64 in the f32 design: {traces:?}");
+        // and the f64 design of the same model does use f64 (the scan sees it)
+        let f64_module = design_module(generated().parse().expect("tokens")).expect("design1");
+        let mut traces = Vec::new();
+        f64_traces(f64_module, &mut traces);
+        assert!(traces.iter().any(|t| t == "f64"));
     }
 
     #[test]

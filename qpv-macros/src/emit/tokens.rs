@@ -201,3 +201,70 @@ pub(super) fn destructure_names(arr: &Ident, names: &[String], body: &TokenStrea
     });
     quote!(let [#(#pats),*] = *#arr;)
 }
+
+/// The model-level helpers an f32 design module defines itself: a
+/// `super::` before them is dropped by [`to_f32`].
+const LOCAL: [&str; 3] = ["clamp_theta", "mu_clamped", "coeffs"];
+/// The libm functions of scheduling functions; `libm::sin(..)` becomes `libm::sinf(..)`.
+const MATH: [&str; 9] = [
+    "sqrt", "exp", "log", "sin", "cos", "tan", "tanh", "atan", "fabs",
+];
+
+/// The same code in single precision: the type `f64` becomes `f32`, every
+/// float literal is rounded to the nearest f32 (printed in the shortest
+/// form that parses back to it), a libm call gets its f32 name (`sinf`),
+/// and `super::clamp_theta`/`mu_clamped`/`coeffs` refer to the f32 copies
+/// in the same module. Integer and string literals are untouched.
+pub(super) fn to_f32(ts: TokenStream, local: bool) -> TokenStream {
+    use proc_macro2::{Group, TokenTree as T};
+    let tts: Vec<T> = ts.into_iter().collect();
+    let mut out: Vec<T> = Vec::with_capacity(tts.len());
+    let is_colon = |t: Option<&T>| matches!(t, Some(T::Punct(p)) if p.as_char() == ':');
+    let mut i = 0;
+    while i < tts.len() {
+        match &tts[i] {
+            T::Ident(id) if id == "f64" => out.push(T::Ident(Ident::new("f32", id.span()))),
+            T::Ident(id)
+                if local
+                    && id == "super"
+                    && is_colon(tts.get(i + 1))
+                    && is_colon(tts.get(i + 2))
+                    && matches!(tts.get(i + 3), Some(T::Ident(n)) if LOCAL.iter().any(|l| n == l)) =>
+            {
+                i += 3;
+                continue;
+            }
+            T::Ident(id)
+                if MATH.iter().any(|m| id == m)
+                    && i > 0
+                    && is_colon(tts.get(i - 1))
+                    && matches!(tts.get(i + 1), Some(T::Group(g)) if g.delimiter() == proc_macro2::Delimiter::Parenthesis) =>
+            {
+                out.push(T::Ident(Ident::new(&format!("{id}f"), id.span())));
+            }
+            T::Literal(l) => {
+                let s = l.to_string();
+                let float = s.starts_with(|c: char| c.is_ascii_digit())
+                    && !s.starts_with("0x")
+                    && (s.contains('.') || s.contains('e') || s.contains('E'));
+                match s.parse::<f64>() {
+                    Ok(v) if float && (v as f32).is_finite() => {
+                        out.push(T::Literal(Literal::f32_unsuffixed(v as f32)))
+                    }
+                    Ok(_) if float => {
+                        out.extend(quote!(::core::f32::MAX));
+                    }
+                    _ => out.push(T::Literal(l.clone())),
+                }
+            }
+            T::Group(g) => {
+                let mut ng = Group::new(g.delimiter(), to_f32(g.stream(), local));
+                ng.set_span(g.span());
+                out.push(T::Group(ng));
+            }
+            other => out.push(other.clone()),
+        }
+        i += 1;
+    }
+    out.into_iter().collect()
+}

@@ -34,6 +34,9 @@ pub(super) fn emit_design(
     }
     let modname = format_ident!("design{}", index);
     let doc = docs::design(&em.model.name, d, index, shape.filter);
+    if d.float == qpv_dsl::Float::F32 {
+        return f32_design(em, d, index, (state_eqs, out_eqs), &certificate);
+    }
     let constants = certified_constants(d, shape, &certificate);
     let gain = gain::items(d, shape);
     let observer = observer::items(&em.model.name, index, d, shape, state_eqs, out_eqs, coeffs);
@@ -46,6 +49,113 @@ pub(super) fn emit_design(
             #gain
             #observer
         }
+    }
+}
+
+/// An f32 design: the same items as an f64 one, plus its own copies of the
+/// model-level `THETA_MIN`, `THETA_MAX`, `clamp_theta`, `phi`, `piece`,
+/// `mu`, the coefficients and the `plant` module, all in `f32`
+/// ([`tokens::to_f32`]), and `F32_ERROR_FLOOR`. The figures are rounded
+/// to f32 on their safe side (rates and steps down, bounds up); the
+/// `CERTIFICATE` record keeps the f64 values.
+fn f32_design(
+    em: &EmitModel<'_>,
+    d: &CertifiedDesign,
+    index: usize,
+    (state_eqs, out_eqs): (&[Equation], &[Equation]),
+    certificate: &TokenStream,
+) -> TokenStream {
+    let m = em.model;
+    let shape = Shape::of(m, em.nv(), d);
+    let modname = format_ident!("design{}", index);
+    let doc = docs::design(&m.name, d, index, shape.filter)
+        + "\n\n Float: f32. Every value, literal and operation of this module is `f32`; \
+           P and the L_l are the f32 values the certificate checked. [`F32_ERROR_FLOOR`] \
+           bounds the error that f32 arithmetic alone leaves, even without noise.";
+    let d32 = safe_side(d);
+    let mut local = Coeffs::default();
+    let plant = super::plant::Plant::render(state_eqs, out_eqs, &mut local, &em.libm);
+    let constants = certified_constants(&d32, shape, &TokenStream::new());
+    let gain = gain::items(&d32, shape);
+    let observer = observer::items(&m.name, index, &d32, shape, state_eqs, out_eqs, &mut local);
+    let weights = super::weights::items(m, &em.scheduling, &em.libm);
+    let coefficients = super::coefficients::items(&local, m.ntheta(), m.derived.len(), &em.libm);
+    let lo: Vec<TokenStream> = m.params.iter().map(|p| lit(p.lo)).collect();
+    let hi: Vec<TokenStream> = m.params.iter().map(|p| lit(p.hi)).collect();
+    let floor = figure(d32.figures.f32_floor, quote!(::core::f64::INFINITY));
+    let body = super::tokens::to_f32(
+        quote! {
+            /// Lower bounds of θ (f32), in declaration order.
+            pub const THETA_MIN: [f64; NTHETA] = [#(#lo),*];
+            /// Upper bounds of θ (f32), in declaration order.
+            pub const THETA_MAX: [f64; NTHETA] = [#(#hi),*];
+            /// The certified f32 error floor: with x(t) in F, θ in Θ, the inputs
+            /// in their declared ranges and no noise, lim sup ‖e(t)‖ ≤ this,
+            /// caused by the f32 rounding of one evaluation of the right-hand
+            /// side (a bounded disturbance through the noise bound). The
+            /// rounding of the state update x̂ + h·k comes on top. Infinite if
+            /// no floor could be certified.
+            pub const F32_ERROR_FLOOR: f64 = #floor;
+            #constants
+            #gain
+            #observer
+            #weights
+            #coefficients
+        },
+        true,
+    );
+    let plant = super::tokens::to_f32(plant.module(m.nx(), m.nu()), false);
+    quote! {
+        #[doc = #doc]
+        pub mod #modname {
+            use super::{Certificate, NTHETA, NU, NV, NX, NY};
+
+            #body
+            #plant
+            #certificate
+        }
+    }
+}
+
+/// The figures rounded to f32 on their safe side: α and the steps and
+/// amplitudes down, σ and the bounds up (P and L_l are f32 values already).
+fn safe_side(d: &CertifiedDesign) -> CertifiedDesign {
+    let down = |v: f64| {
+        let r = v as f32;
+        if f64::from(r) > v {
+            f64::from(r.next_down_compat())
+        } else {
+            f64::from(r)
+        }
+    };
+    let up = |v: f64| -down(-v);
+    let mut out = d.clone();
+    out.alpha = down(d.alpha);
+    let f = &mut out.figures;
+    f.sigma = f.sigma.map(up);
+    f.error_bound = f.error_bound.map(up);
+    f.max_amplitude = f.max_amplitude.map(down);
+    f.euler = f.euler.map(|(h, b)| (down(h), down(b)));
+    f.rk4 = f.rk4.map(down);
+    f.f32_floor = f.f32_floor.map(up);
+    out
+}
+
+/// `f32::next_down` (stable only from Rust 1.86).
+trait NextDown {
+    fn next_down_compat(self) -> f32;
+}
+
+impl NextDown for f32 {
+    fn next_down_compat(self) -> f32 {
+        if self.is_nan() || self == f32::NEG_INFINITY {
+            return self;
+        }
+        if self == 0.0 {
+            return -f32::from_bits(1);
+        }
+        let b = self.to_bits();
+        f32::from_bits(if self > 0.0 { b - 1 } else { b + 1 })
     }
 }
 
