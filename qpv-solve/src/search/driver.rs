@@ -112,11 +112,11 @@ impl Setup {
             Some((zm, sc)) => (zm, Some(sc.clone())),
             None => (&self.model, None),
         };
-        Ok(Problem::new(model, ConditionSet::from_mode(request.mode))?
+        Problem::new(model, ConditionSet::from_mode(request.mode))?
             .with_conditions(request.conditions)?
             .with_max_gain(request.max_gain)
             .with_scaling(scaling)
-            .with_sample(request.sample)?)
+            .with_sample(request.sample)
     }
 
     /// The notes that follow from the setup alone: the size warning, the
