@@ -97,3 +97,65 @@ fn the_euler_plant_keeps_the_certified_decrease_per_step() {
         assert!(w <= 1.0, "from {x0:?}: ratio {w}");
     }
 }
+
+/// The continuous plant (RK4 at h/20) against the observer stepped at h
+/// with sampled y and θ: √V(e_k) stays below the bound of docs/method.md
+/// §16, ρ^k √V(e_0) + δ(1 − ρ^k)/(1 − ρ), ρ = √(1 − hα), with δ recomputed
+/// here from the model and the baked P. `rates`: the model declares
+/// θ's rates and θ(t) moves continuously; without, θ is held over each step
+/// (the stated assumption).
+fn continuous_plant_stays_in_the_bound(rates: bool) -> f64 {
+    let mut text = include_str!("fixtures/paper_sampled.qpv").to_string();
+    if rates {
+        // |θ1'| ≤ 0.5·4π, |θ2'| ≤ 0.5·π/5 for the paper's θ(t)
+        text = text
+            .replace("th1 in [0, 1];", "th1 in [0, 1] rate 6.3;")
+            .replace("th2 in [0, 1];", "th2 in [0, 1] rate 0.32;");
+    }
+    let model = super::polytopic(&text);
+    assert_eq!(model.params[0].rate, rates.then_some(6.3));
+    let p = nalgebra::DMatrix::from_fn(3, 3, |i, j| m::P[i][j]);
+    let h = m::SAMPLE_PERIOD;
+    let b = qpv::solve::sampled_plant::continuous_bound(&model, m::ALPHA, h, &p)
+        .expect("the bound is computed");
+    assert_eq!(b.rates_declared, rates);
+    assert!(b.invariant && b.truncation > 0.0);
+    let rho = (1.0 - h * m::ALPHA).sqrt();
+    let v = |e: &[f64; 3]| quad_form(&m::P, e).sqrt();
+    let mut x = [-0.02, 0.02, -0.02];
+    let mut obs = m::Observer::new();
+    let s0 = v(&x);
+    assert!(s0 <= 1.0, "e(0) in the certified set");
+    let (mut bound, mut worst, mut last) = (s0, 0.0f64, 0.0);
+    let fine = 20;
+    let dt = h / fine as f64;
+    for k in 0..3000 {
+        let t = k as f64 * h;
+        let th_k = paper_theta(t);
+        let y = m::plant::output(&x, &th_k);
+        obs.step(&y, &[], &th_k);
+        for n in 0..fine {
+            let tn = t + n as f64 * dt;
+            let th = |s: f64| if rates { paper_theta(s) } else { th_k };
+            x = super::rk4_step(|x, s| m::plant::derivative(x, &[], &th(s)), &x, tn, dt);
+        }
+        bound = rho * bound + b.delta;
+        let xh = obs.estimate();
+        let e: [f64; 3] = core::array::from_fn(|i| x[i] - xh[i]);
+        worst = worst.max(v(&e) / bound);
+        last = e.iter().map(|v| v * v).sum::<f64>().sqrt();
+    }
+    assert!(worst <= 1.0, "√V(e_k) / bound reached {worst}");
+    assert!(last <= b.ultimate_error, "{last} > {}", b.ultimate_error);
+    worst
+}
+
+#[test]
+fn the_continuous_plant_with_held_theta_stays_in_the_reported_bound() {
+    continuous_plant_stays_in_the_bound(false);
+}
+
+#[test]
+fn the_continuous_plant_with_rate_bounded_theta_stays_in_the_reported_bound() {
+    continuous_plant_stays_in_the_bound(true);
+}

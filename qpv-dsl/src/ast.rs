@@ -37,8 +37,9 @@ pub struct ModelAst {
 pub enum Item {
     /// `state x1, x2;`
     States(Vec<Ident>),
-    /// `input u1;`
-    Inputs(Vec<Ident>),
+    /// `input u1;`, `input u1 rate 10;` (the bound on |u'| and the
+    /// clause's span)
+    Inputs(Vec<Ident>, Option<(Expr, Span)>),
     /// `output y1;`
     Outputs(Vec<Ident>),
     /// `param th1, th2 in [lo, hi];`
@@ -100,6 +101,8 @@ pub struct ParamDecl {
     pub hi: Expr,
     /// The `[lo, hi]` interval.
     pub interval: Span,
+    /// `rate EXPR`: the bound on |θ'| and the clause's span.
+    pub rate: Option<(Expr, Span)>,
 }
 
 /// `NAME = value;`

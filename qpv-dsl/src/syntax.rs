@@ -74,6 +74,7 @@ fn is_token(rule: Rule) -> bool {
             | Rule::kw_const
             | Rule::kw_cover
             | Rule::kw_into
+            | Rule::kw_rate
             | Rule::EOI
     )
 }
@@ -177,7 +178,12 @@ fn parse_statement(pair: Pair<'_, Rule>) -> Result<Item> {
     let span = span_of(&pair);
     match pair.as_rule() {
         Rule::state_decl => Ok(Item::States(parse_decl(pair)?)),
-        Rule::input_decl => Ok(Item::Inputs(parse_decl(pair)?)),
+        Rule::input_decl => {
+            let mut it = children(pair);
+            let names = parse_name_list(next(&mut it, span, "name list")?);
+            let rate = it.next().map(parse_rate).transpose()?;
+            Ok(Item::Inputs(names, rate))
+        }
         Rule::output_decl => Ok(Item::Outputs(parse_decl(pair)?)),
         Rule::param_decl => Ok(Item::Params(parse_param_decl(pair)?)),
         Rule::matrix_def => Ok(Item::Matrix(parse_matrix_def(pair)?)),
@@ -260,12 +266,22 @@ fn parse_param_decl(pair: Pair<'_, Rule>) -> Result<ParamDecl> {
     let names = parse_name_list(next(&mut it, span, "parameter names")?);
     let interval = next(&mut it, span, "parameter interval")?;
     let (lo, hi, interval) = parse_interval(interval)?;
+    let rate = it.next().map(parse_rate).transpose()?;
     Ok(ParamDecl {
         names,
         lo,
         hi,
         interval,
+        rate,
     })
+}
+
+/// `rate EXPR`: the bound's expression and the clause's span.
+fn parse_rate(pair: Pair<'_, Rule>) -> Result<(Expr, Span)> {
+    let span = span_of(&pair);
+    let mut it = children(pair);
+    let e = parse_expr(next(&mut it, span, "rate bound")?)?;
+    Ok((e, span))
 }
 
 fn parse_interval(pair: Pair<'_, Rule>) -> Result<(Expr, Expr, Span)> {
@@ -596,6 +612,7 @@ fn want(rule: Rule) -> Option<Want> {
         Rule::rparen => Token("`)`"),
         Rule::kw_in => Token("`in`"),
         Rule::kw_into => Token("`into`"),
+        Rule::kw_rate | Rule::rate_clause => Token("`rate`"),
         Rule::cover_axis => Name,
         Rule::q_name | Rule::bound_given => Token("`Q` (write `state_bound Q = [...]`)"),
         Rule::kw_auto | Rule::bound_auto => Token("`auto`"),

@@ -72,6 +72,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         span: ast.name.span,
         states: b.names.states.clone(),
         inputs: b.names.inputs.clone(),
+        input_rates: b.input_rates()?,
         outputs: b.names.outputs.clone(),
         params,
         a,

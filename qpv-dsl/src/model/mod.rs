@@ -47,6 +47,9 @@ pub struct Model {
     pub states: Vec<String>,
     /// Input names u_1..u_nu (may be empty).
     pub inputs: Vec<String>,
+    /// `input u rate r`: the bound |u_k'| ≤ r of each input (None: not
+    /// declared), in input order.
+    pub input_rates: Vec<Option<f64>>,
     /// Output names y_1..y_ny.
     pub outputs: Vec<String>,
     /// Declared parameters in declaration order.
