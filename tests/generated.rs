@@ -25,6 +25,7 @@ macro_rules! inline_model {
 mod generated_f32;
 mod generated_noise;
 mod generated_practical;
+mod generated_sampled;
 
 // The C export against the Rust observers of this binary (runs `qpv codegen`).
 #[cfg(feature = "cli")]

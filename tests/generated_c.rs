@@ -358,3 +358,171 @@ fn the_design_path_refuses_paper_mode_and_exports_the_sound_design() {
         .expect("cc runs");
     assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
 }
+
+/// The C driver of a sampled design: reads samples `y.. u.. θ..` from stdin
+/// and prints x̂ after each call of the certified `<m>_step`.
+fn sampled_driver(m: &str) -> String {
+    let up = m.to_uppercase();
+    format!(
+        r#"#include "{m}.h"
+#include <stdio.h>
+#include <stdlib.h>
+
+int main(void) {{
+    {m}_observer o;
+    {m}_real y[{up}_NY], u[{up}_NU + 1], th[{up}_NTHETA + 1];
+    char buf[64];
+    int i;
+    printf("%.17g\n", (double){m}_SAMPLE_PERIOD);
+    {m}_init(&o);
+    for (;;) {{
+        const {m}_real *e;
+        for (i = 0; i < {up}_NY; i++) {{
+            if (scanf("%63s", buf) != 1) return 0;
+            y[i] = ({m}_real)strtod(buf, NULL);
+        }}
+        for (i = 0; i < {up}_NU; i++) {{ if (scanf("%63s", buf) != 1) return 3; u[i] = ({m}_real)strtod(buf, NULL); }}
+        for (i = 0; i < {up}_NTHETA; i++) {{ if (scanf("%63s", buf) != 1) return 3; th[i] = ({m}_real)strtod(buf, NULL); }}
+        {m}_step(&o, y, u, th);
+        e = {m}_estimate(&o);
+        for (i = 0; i < {up}_NX; i++) printf("%.17g ", (double)e[i]);
+        printf("\n");
+    }}
+}}
+"#
+    )
+}
+
+/// Issue 26: a `sample = h` design exported as C. The design path solves
+/// and certifies it at h (the certificate block says so); from the baked
+/// numbers of `qpv!` (a gains file with the report's `sample` key) the C
+/// `<m>_step` matches the Rust `Observer::step`, in f64 and in f32 (whose
+/// SAMPLE_PERIOD is the float nearest h, the period then certified).
+#[test]
+fn a_sampled_design_exports_its_period_and_certified_step() {
+    use super::generated_sampled::paper_sampled as m;
+    let Some(cc) = c_compiler() else { return };
+    let d = dir("sampled");
+    let file = "tests/fixtures/paper_sampled.qpv";
+    let design_out = d.join("design");
+    let text = qpv(&[
+        "codegen",
+        file,
+        "--out",
+        design_out.to_str().expect("utf-8"),
+    ]);
+    assert!(text.contains("certified at h = 1e-3 s (1 kHz)"), "{text}");
+    let header = std::fs::read_to_string(design_out.join("paper_sampled.h")).expect("C header");
+    assert!(
+        header.contains(" * certified at h = 1e-3 s (1 kHz): paper_sampled_step"),
+        "{header}"
+    );
+    assert!(
+        header.contains("extern const paper_sampled_real paper_sampled_SAMPLE_PERIOD;"),
+        "{header}"
+    );
+    assert!(header.contains(
+        "void paper_sampled_step(paper_sampled_observer *o, const paper_sampled_real *y"
+    ));
+    assert!(
+        header.contains("noise bound and Euler step figures: not computed for a sampled design")
+    );
+    assert!(
+        header.contains("S5d") && !header.contains("  S5 "),
+        "{header}"
+    );
+
+    let gains = d.join("gains.json");
+    let sample = format!(
+        r#""sample": {{"h": {h:e}, "alpha": {a:e}, "alpha_per_step": {s:e}, "decrease": {dec:e}}}"#,
+        h = m::SAMPLE_PERIOD,
+        a = m::ALPHA,
+        s = m::SAMPLE_PERIOD * m::ALPHA,
+        dec = 1.0 - m::SAMPLE_PERIOD * m::ALPHA
+    );
+    let text = format!(
+        r#"{{"model": "paper_sampled", "mode": "sound", "alpha": {:e}, "gamma": {:e}, {sample}, "P": {}, "L": {}}}"#,
+        m::ALPHA,
+        m::GAMMA,
+        json(&m::P),
+        json(&m::L)
+    );
+    std::fs::write(&gains, text).expect("gains file written");
+    // the scenario: the Euler plant from x(0) = (0.01, −0.005, 0.004), 1 s
+    let mut x = [0.01, -0.005, 0.004];
+    let mut obs = m::Observer::new();
+    let (mut steps, mut rust) = (String::new(), Vec::new());
+    for k in 0..1000 {
+        let th = super::paper_theta(k as f64 * m::SAMPLE_PERIOD);
+        let y = m::plant::output(&x, &th);
+        for v in y.iter().chain(th.iter()) {
+            steps.push_str(&format!("{v:e} "));
+        }
+        steps.push('\n');
+        obs.step(&y, &[], &th);
+        rust.push(obs.estimate());
+        let f = m::plant::derivative(&x, &[], &th);
+        x = core::array::from_fn(|i| x[i] + m::SAMPLE_PERIOD * f[i]);
+    }
+    for (float, tol, period) in [
+        ("f64", 1e-12, m::SAMPLE_PERIOD),
+        ("f32", 1e-4, f64::from(m::SAMPLE_PERIOD as f32)),
+    ] {
+        let out = d.join(float);
+        let text = qpv(&[
+            "codegen",
+            file,
+            "--float",
+            float,
+            "--gains",
+            gains.to_str().expect("utf-8"),
+            "--out",
+            out.to_str().expect("utf-8"),
+        ]);
+        assert!(text.contains("certified at h = "), "{text}");
+        std::fs::write(out.join("driver.c"), sampled_driver("paper_sampled")).expect("driver");
+        let exe = out.join("driver");
+        let c = Command::new(&cc)
+            .args([
+                "-std=c99",
+                "-Wall",
+                "-Wextra",
+                "-Werror",
+                "-pedantic",
+                "-O2",
+            ])
+            .arg(out.join("driver.c"))
+            .arg(out.join("paper_sampled.c"))
+            .arg("-o")
+            .arg(&exe)
+            .arg("-lm")
+            .output()
+            .expect("cc runs");
+        assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+        let steps_file = out.join("steps.txt");
+        std::fs::write(&steps_file, &steps).expect("steps written");
+        let run = Command::new(&exe)
+            .stdin(std::fs::File::open(&steps_file).expect("steps file"))
+            .output()
+            .expect("driver runs");
+        assert!(run.status.success(), "driver failed");
+        let lines: Vec<String> = String::from_utf8_lossy(&run.stdout)
+            .lines()
+            .map(str::to_string)
+            .collect();
+        let h: f64 = lines[0].parse().expect("the period");
+        assert_eq!(h.to_bits(), period.to_bits(), "{float}: SAMPLE_PERIOD {h}");
+        assert_eq!(lines.len(), rust.len() + 1);
+        let mut worst = 0.0f64;
+        for (row, r) in lines[1..].iter().zip(&rust) {
+            for (cv, rv) in row.split_whitespace().zip(r) {
+                let cv: f64 = cv.parse().expect("a number");
+                worst = worst.max((cv - rv).abs() / 0.01);
+            }
+        }
+        assert!(
+            worst <= tol,
+            "{float}: C step differs from Rust step by {worst:e}"
+        );
+    }
+}

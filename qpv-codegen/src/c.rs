@@ -378,6 +378,12 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
              (INFINITY: none certified) */"
         );
     }
+    if let Some(t) = d.sample_text() {
+        let _ = writeln!(
+            h,
+            "extern const {r} {name}_SAMPLE_PERIOD; /* the sample period the design is certified at, seconds: {t} */"
+        );
+    }
     let _ = writeln!(
         h,
         "extern const {r} {name}_P[{up}_NZ][{up}_NZ]; /* the Lyapunov matrix P, as certified */"
@@ -408,7 +414,7 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
         "/** The observer: x̂ and the number of steps whose θ was outside Θ (clamped). */\n\
          typedef struct {{\n    {r} xhat[{up}_NX];\n{filter_field}    unsigned long clamped;\n}} {name}_observer;\n\n"
     );
-    let api = [
+    let mut api = vec![
         (
             format!("void {name}_init({name}_observer *o)"),
             "x̂ = 0 (and filter states 0), clamped = 0.",
@@ -446,6 +452,15 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
             "The plant's output y = C(θ)x + M(θ,x)x (θ as given).",
         ),
     ];
+    if d.sample.is_some() {
+        api.insert(
+            1,
+            (
+                format!("void {name}_step({name}_observer *o, const {r} *y, const {r} *u, const {r} *theta)"),
+                "The certified step: one explicit Euler step of exactly SAMPLE_PERIOD with the samples y_k (NY), u_k (NU), θ_k (NTHETA); V(e_k+1) <= (1 - SAMPLE_PERIOD*ALPHA) V(e_k) against the plant stepped by the same Euler step (see the certificate above). Call it once per sample period.",
+            ),
+        );
+    }
     for (sig, doc) in &api {
         let _ = writeln!(h, "/** {doc} */\n{sig};\n");
     }
@@ -496,6 +511,9 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
             f64::from(r)
         });
         let _ = writeln!(s, "const {r} {name}_F32_ERROR_FLOOR = {};", fig(v, inf));
+    }
+    if let Some(period) = d.sample {
+        let _ = writeln!(s, "const {r} {name}_SAMPLE_PERIOD = {};", p.num(period));
     }
     let matrix = |rows: usize, cols: usize, data: &[f64]| -> String {
         let rs: Vec<String> = (0..rows)
@@ -728,6 +746,14 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
          \x20   {name}_store(o, s);\n}}\n\n",
         stage("s", "h", "a")
     );
+    if d.sample.is_some() {
+        // The certified step is step_euler at exactly SAMPLE_PERIOD.
+        let _ = write!(
+            s,
+            "void {name}_step({name}_observer *o, const {r} *y, const {r} *u, const {r} *theta) {{\n\
+             \x20   {name}_step_euler(o, {name}_SAMPLE_PERIOD, y, u, theta);\n}}\n\n"
+        );
+    }
     let fin: String = (0..ns)
         .map(|i| {
             format!(
@@ -869,6 +895,16 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
         d.gamma,
         shape.nv
     );
+    if let (Some(text), Some(period)) = (d.sample_text(), d.sample) {
+        let _ = writeln!(
+            t,
+            "certified at {text}: {name}_step (one explicit Euler step of exactly SAMPLE_PERIOD)\n\
+             gives V(e_k+1) <= {} V(e_k) (1 - h*alpha) against the plant stepped by the same Euler step;\n\
+             family S5d in place of S5 (docs/method.md section 16)",
+            1.0 - period * d.alpha,
+            name = m.name
+        );
+    }
     let _ = writeln!(
         t,
         "independent certificate (sound mode), worst margin per condition family (positive = holds):"
@@ -879,19 +915,15 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
     let _ = writeln!(t, "solver: {} ({} iterations)", d.status, d.iterations);
     let f = &d.figures;
     let opt = |v: Option<f64>| v.map_or("none certified".to_string(), |x| format!("{x:.6e}"));
-    let _ = writeln!(
-        t,
-        "noise: sigma {}, error bound per unit noise {}, up to amplitude {}",
-        opt(f.sigma),
-        opt(f.error_bound),
-        opt(f.max_amplitude)
-    );
-    let _ = writeln!(
-        t,
-        "steps: max certified Euler step {}, RK4 step estimate {} (not a proof)",
-        opt(f.euler.map(|e| e.0)),
-        opt(f.rk4)
-    );
+    if d.sample.is_some() {
+        let _ = writeln!(
+            t,
+            "noise bound and Euler step figures: not computed for a sampled design (the continuous\n\
+             noise bound and step figures say nothing about it; docs/method.md section 16)"
+        );
+    } else {
+        continuous_figures(&mut t, f, opt);
+    }
     if cm.float == Float::F32 {
         let _ = writeln!(
             t,
@@ -909,6 +941,23 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
         let _ = writeln!(t, "{n}");
     }
     t
+}
+
+/// The noise and step figures of a continuous design, for the certificate text.
+fn continuous_figures(t: &mut String, f: &crate::Figures, opt: impl Fn(Option<f64>) -> String) {
+    let _ = writeln!(
+        t,
+        "noise: sigma {}, error bound per unit noise {}, up to amplitude {}",
+        opt(f.sigma),
+        opt(f.error_bound),
+        opt(f.max_amplitude)
+    );
+    let _ = writeln!(
+        t,
+        "steps: max certified Euler step {}, RK4 step estimate {} (not a proof)",
+        opt(f.euler.map(|e| e.0)),
+        opt(f.rk4)
+    );
 }
 
 #[cfg(test)]

@@ -40,6 +40,12 @@ pub struct CertifiedDesign {
     /// where nothing could be certified (then the generated constants say
     /// "no bound": an infinite σ and zero steps).
     pub figures: Figures,
+    /// `sample = h`: the sample period (seconds) the design is certified at
+    /// (the discrete decrease S5d: the observer stepped by one explicit
+    /// Euler step of exactly h, V(e_{k+1}) ≤ (1 − hα)V(e_k)); then the
+    /// emitted observer has `SAMPLE_PERIOD` and a fixed-step `step`.
+    /// `None`: a continuous-time design.
+    pub sample: Option<f64>,
 }
 
 /// The noise bound and the sampling figures of a certified design, each
@@ -63,6 +69,12 @@ pub struct Figures {
 }
 
 impl CertifiedDesign {
+    /// "h = 1e-4 s (10 kHz)": the sample period of a sampled design and
+    /// its rate (the shortest round-tripping form of h), or `None`.
+    pub fn sample_text(&self) -> Option<String> {
+        self.sample.map(describe_period)
+    }
+
     /// Entry `[k][o]` of the vertex gain L_l (0 if missing).
     pub fn gain_entry(&self, ny: usize, l: usize, k: usize, o: usize) -> f64 {
         self.l
@@ -137,4 +149,22 @@ impl Shape {
 pub fn vertex_count(m: &qpv_dsl::Model, scheduling: &[usize]) -> usize {
     let pieces = m.cover.as_ref().map_or(1, |c| c.len());
     pieces << (scheduling.len() + m.derived.len())
+}
+
+/// "h = 1e-4 s (10 kHz)", "h = 2e-3 s (500 Hz)": a sample period and its
+/// rate, worded as the solver's report words it
+/// (`qpv_solve::sampling::describe_period`, which qpv-macros' tests compare
+/// with this one).
+pub fn describe_period(h: f64) -> String {
+    let f = 1.0 / h;
+    let (v, unit) = if f >= 1e6 {
+        (f / 1e6, "MHz")
+    } else if f >= 1e3 {
+        (f / 1e3, "kHz")
+    } else {
+        (f, "Hz")
+    };
+    let v = format!("{v:.4}");
+    let v = v.trim_end_matches('0').trim_end_matches('.');
+    format!("h = {h:e} s ({v} {unit})")
 }

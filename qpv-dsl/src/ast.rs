@@ -37,9 +37,10 @@ pub struct ModelAst {
 pub enum Item {
     /// `state x1, x2;`
     States(Vec<Ident>),
-    /// `input u1;`, or `input u1, u2 in [lo, hi];` with the range (lower and
-    /// upper bound, and the interval's span) every listed input stays in.
-    Inputs(Vec<Ident>, Option<(Expr, Expr, Span)>),
+    /// `input u1;`, `input u1, u2 in [lo, hi];` with the range (lower and
+    /// upper bound, and the interval's span) every listed input stays in,
+    /// and `rate r` (the bound on |u'| and the clause's span).
+    Inputs(Vec<Ident>, Option<(Expr, Expr, Span)>, Option<(Expr, Span)>),
     /// `output y1;`
     Outputs(Vec<Ident>),
     /// `param th1, th2 in [lo, hi];`
@@ -101,6 +102,8 @@ pub struct ParamDecl {
     pub hi: Expr,
     /// The `[lo, hi]` interval.
     pub interval: Span,
+    /// `rate EXPR`: the bound on |θ'| and the clause's span.
+    pub rate: Option<(Expr, Span)>,
 }
 
 /// `NAME = value;`

@@ -74,6 +74,7 @@ fn is_token(rule: Rule) -> bool {
             | Rule::kw_const
             | Rule::kw_cover
             | Rule::kw_into
+            | Rule::kw_rate
             | Rule::EOI
     )
 }
@@ -180,8 +181,14 @@ fn parse_statement(pair: Pair<'_, Rule>) -> Result<Item> {
         Rule::input_decl => {
             let mut it = children(pair);
             let names = parse_name_list(next(&mut it, span, "input names")?);
-            let range = it.next().map(parse_interval).transpose()?;
-            Ok(Item::Inputs(names, range))
+            let (mut range, mut rate) = (None, None);
+            for p in it {
+                match p.as_rule() {
+                    Rule::rate_clause => rate = Some(parse_rate(p)?),
+                    _ => range = Some(parse_interval(p)?),
+                }
+            }
+            Ok(Item::Inputs(names, range, rate))
         }
         Rule::output_decl => Ok(Item::Outputs(parse_decl(pair)?)),
         Rule::param_decl => Ok(Item::Params(parse_param_decl(pair)?)),
@@ -265,12 +272,22 @@ fn parse_param_decl(pair: Pair<'_, Rule>) -> Result<ParamDecl> {
     let names = parse_name_list(next(&mut it, span, "parameter names")?);
     let interval = next(&mut it, span, "parameter interval")?;
     let (lo, hi, interval) = parse_interval(interval)?;
+    let rate = it.next().map(parse_rate).transpose()?;
     Ok(ParamDecl {
         names,
         lo,
         hi,
         interval,
+        rate,
     })
+}
+
+/// `rate EXPR`: the bound's expression and the clause's span.
+fn parse_rate(pair: Pair<'_, Rule>) -> Result<(Expr, Span)> {
+    let span = span_of(&pair);
+    let mut it = children(pair);
+    let e = parse_expr(next(&mut it, span, "rate bound")?)?;
+    Ok((e, span))
 }
 
 fn parse_interval(pair: Pair<'_, Rule>) -> Result<(Expr, Expr, Span)> {
@@ -601,6 +618,7 @@ fn want(rule: Rule) -> Option<Want> {
         Rule::rparen => Token("`)`"),
         Rule::kw_in => Token("`in`"),
         Rule::kw_into => Token("`into`"),
+        Rule::kw_rate | Rule::rate_clause => Token("`rate`"),
         Rule::cover_axis => Name,
         Rule::q_name | Rule::bound_given => Token("`Q` (write `state_bound Q = [...]`)"),
         Rule::kw_auto | Rule::bound_auto => Token("`auto`"),

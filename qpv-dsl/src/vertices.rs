@@ -45,6 +45,10 @@ pub struct PolytopicModel {
     pub states: Vec<String>,
     /// Input names.
     pub inputs: Vec<String>,
+    /// The declared bound |u_k'| ≤ r of each input (`input u rate r`;
+    /// None: not declared). Empty is read as "none declared".
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub input_rates: Vec<Option<f64>>,
     /// Output names.
     pub outputs: Vec<String>,
     /// All declared parameters.
@@ -360,6 +364,7 @@ impl crate::model::Model {
             name: self.name.clone(),
             states: self.states.clone(),
             inputs: self.inputs.clone(),
+            input_rates: self.input_rates.clone(),
             outputs: self.outputs.clone(),
             params: self.params.clone(),
             scheduling,

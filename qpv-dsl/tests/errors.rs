@@ -61,6 +61,8 @@ fn cases() -> Vec<(
         ("nested brackets", r("[-1, th; 0, -2]", "[[-1, th], [0, -2]]"), 5, 10, "[", "matrix rows are separated by `;`"),
         ("non-ASCII name", r("[0, 1]", "[0, θ]"), 4, 21, "θ", "names use ASCII letters"),
         ("empty bounds", r("[0, 1]", "[1, 1]"), 4, 17, "[1, 1]", "empty parameter range [1, 1]"),
+        ("negative rate", r("[0, 1];", "[0, 1] rate -2;"), 4, 24, "rate -2", "parameter rate bound -2: expected a finite number ≥ 0"),
+        ("state in a rate", r("[0, 1];", "[0, 1] rate x1;"), 4, 29, "x1", "state `x1` cannot appear in a rate bound"),
         ("reversed bounds", r("[0, 1]", "[1, 0]"), 4, 17, "[1, 0]", "reversed parameter range [1, 0]: the lower bound comes first, write [0, 1]"),
         ("parameter in a bound", r("[0, 1]", "[0, th]"), 4, 21, "th", "parameter `th` cannot appear in a parameter bound: a constant number is expected"),
         ("huge number", r("[0, 1]", "[0, 1e999]"), 4, 21, "1e999", "the number `1e999` is too large"),
@@ -301,4 +303,22 @@ fn numbers_far_from_one_are_shown_in_scientific_form() {
     assert_eq!(fmt_num(0.25), "0.25");
     assert_eq!(fmt_num(1200.0), "1200");
     assert_eq!(fmt_num(0.0), "0");
+}
+
+#[test]
+fn rate_bounds_of_parameters_and_inputs_are_read() {
+    let text = BASE
+        .replace(
+            "param th in [0, 1];",
+            "param th in [0, 1] rate 2; input u1, u2 rate 10; input u3;",
+        )
+        .replace("C = [1, 0];", "C = [1, 0]; B = [1, 0, 0; 0, 1, 1];");
+    let models = parse(&text).expect("parses");
+    let m = &models[0];
+    assert_eq!(m.params[0].rate, Some(2.0));
+    assert_eq!(m.input_rates, vec![Some(10.0), Some(10.0), None]);
+    assert_eq!(m.polytopic().input_rates, m.input_rates);
+    // `rate` stays an ordinary name elsewhere
+    let named = BASE.replace("output y;", "output rate;");
+    assert!(parse(&named).is_ok());
 }

@@ -127,6 +127,9 @@ pub fn describe(req: &DesignRequest) -> String {
     if req.noise == NoiseObjective::Min {
         text.push_str("; noise = min");
     }
+    if let Some(h) = req.sample {
+        text.push_str(&format!("; sample = {h}"));
+    }
     text
 }
 
@@ -296,6 +299,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 filter,
                 figures: Figures::default(),
                 float: req.float,
+                sample: req.sample,
             }
         };
         emit::emit(&EmitModel {
@@ -315,13 +319,6 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 stub(),
             )
         };
-        if let Some(h) = req.sample {
-            return Err(fail(format!(
-                "`sample = {h}`: qpv! does not emit sampled designs yet (the generated observer \
-                 would need its SAMPLE_PERIOD and a fixed-step `step`, and the cache its \
-                 discrete re-check); design it with `qpv design`, which certifies it at h"
-            )));
-        }
         let start = std::time::Instant::now();
         let design = one_design(model, &poly, req, cache_dir.as_deref()).map_err(fail)?;
         timing(&model.name, &design.numbers.request, design.origin, start);
@@ -470,6 +467,31 @@ impl DesignCtx<'_> {
         self.observer.with_skew(&mats).ok()
     }
 
+    /// The macro's own certificate of P, L_l at (α, γ) on `checked_model`:
+    /// the discrete decrease S5d at h for a `sample = h` request
+    /// (`certificate::check_sampled`), else the family the design's
+    /// conditions call for (the cube by its slacks, or the full vertex one).
+    fn certify(
+        &self,
+        checked_model: &PolytopicModel,
+        (alpha, gamma): (f64, f64),
+        (p, ls): (&DMatrix<f64>, &[DMatrix<f64>]),
+        slacks: Option<&CubeSlacks>,
+    ) -> qpv_solve::Certificate {
+        match self.req.sample {
+            Some(h) => qpv_solve::certificate::check_sampled(checked_model, alpha, gamma, h, p, ls),
+            None => qpv_solve::certificate::check_with(
+                checked_model,
+                self.req.mode,
+                alpha,
+                gamma,
+                p,
+                ls,
+                slacks,
+            ),
+        }
+    }
+
     /// The numbers to emit for P, L_l that passed `cert` at (α, γ), with
     /// the noise and sampling figures computed on them.
     #[allow(clippy::too_many_arguments)]
@@ -496,10 +518,16 @@ impl DesignCtx<'_> {
                 .iter()
                 .map(|f| (f.name.clone(), f.margin))
                 .collect(),
-            figures: figures(poly, checked_model, self.filter, alpha, gamma, p, ls),
+            // §16: the continuous noise bound and Euler figures say nothing
+            // about a design certified at its sample period.
+            figures: match self.req.sample {
+                Some(_) => Figures::default(),
+                None => figures(poly, checked_model, self.filter, alpha, gamma, p, ls),
+            },
             status,
             iterations,
             filter: self.filter,
+            sample: self.req.sample,
             float: self.req.float,
         };
         if d.float == qpv_dsl::Float::F32 {
@@ -531,16 +559,14 @@ impl DesignCtx<'_> {
             Some(c) => Some(cube_slacks(c, nz)?),
             None => None,
         };
-        let cert = qpv_solve::certificate::check_with(
-            &checked_model,
-            self.req.mode,
-            e.alpha,
-            e.gamma,
-            &p,
-            &ls,
-            slacks.as_ref(),
-        )
-        .with_gain_bound(&ls, self.req.max_gain);
+        let cert = self
+            .certify(
+                &checked_model,
+                (e.alpha, e.gamma),
+                (&p, &ls),
+                slacks.as_ref(),
+            )
+            .with_gain_bound(&ls, self.req.max_gain);
         cert.passed.then(|| Outcome {
             origin: "cache hit, re-certified",
             numbers: self.numbers(
@@ -653,29 +679,15 @@ impl DesignCtx<'_> {
         // A cube design is checked by its slacks (as the search did), not
         // on the 2^nx region vertices.
         let slacks = design.cube.as_ref().map(CubeSlacks::from_report);
-        let mut cert = qpv_solve::certificate::check_with(
-            &checked_model,
-            req.mode,
-            alpha,
-            gamma,
-            &p,
-            &ls,
-            slacks.as_ref(),
-        )
-        .with_gain_bound(&ls, req.max_gain);
+        let mut cert = self
+            .certify(&checked_model, (alpha, gamma), (&p, &ls), slacks.as_ref())
+            .with_gain_bound(&ls, req.max_gain);
         if !cert.passed && slacks.is_some() && req.float == qpv_dsl::Float::F32 {
             // the cube slacks were found for the f64 numbers: the rounded
             // ones may still hold on the full vertex family
-            cert = qpv_solve::certificate::check_with(
-                &checked_model,
-                req.mode,
-                alpha,
-                gamma,
-                &p,
-                &ls,
-                None,
-            )
-            .with_gain_bound(&ls, req.max_gain);
+            cert = self
+                .certify(&checked_model, (alpha, gamma), (&p, &ls), None)
+                .with_gain_bound(&ls, req.max_gain);
         }
         let finite = p
             .iter()
@@ -1185,6 +1197,51 @@ mod tests {
             "{text}"
         );
         assert!(!text.contains("best certified"), "no search: {text}");
+    }
+
+    #[test]
+    fn sampled_designs_are_rechecked_on_the_discrete_family() {
+        let text = MODEL.replace(
+            "design { alpha = 0.5; gamma = 0.5; }",
+            "design { alpha = 0.5; gamma = 0.5; sample = 0.01; }",
+        );
+        let models = qpv_dsl::parse(&text).expect("test model parses");
+        let model = &models[0];
+        let poly = model.polytopic();
+        let req = &model.designs[0];
+        let dir = std::env::temp_dir().join(format!("qpv-expand-sampled-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let first = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(first.numbers.sample, Some(0.01));
+        let fams: Vec<&str> = first
+            .numbers
+            .margins
+            .iter()
+            .map(|(f, _)| f.as_str())
+            .collect();
+        assert!(fams.contains(&"S5d") && !fams.contains(&"S5"), "{fams:?}");
+        assert_eq!(first.numbers.figures, Figures::default());
+        assert!(first.numbers.request.ends_with("; sample = 0.01"));
+        let second = one_design(model, &poly, req, Some(&dir)).expect("certified");
+        assert_eq!(second.origin, "cache hit, re-certified");
+        assert_eq!(second.numbers, first.numbers);
+        // the continuous request of the same model is another cache entry
+        let continuous = DesignRequest {
+            sample: None,
+            ..req.clone()
+        };
+        assert_ne!(
+            cache::key(&poly, req, "s"),
+            cache::key(&poly, &continuous, "s")
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+        // the generated code's wording of h is the report's
+        for h in [1e-4, 1e-3, 2e-3, 0.05, 3e-7] {
+            assert_eq!(
+                qpv_codegen::design::describe_period(h),
+                qpv_solve::sampling::describe_period(h)
+            );
+        }
     }
 
     #[test]

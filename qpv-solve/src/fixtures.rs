@@ -16,6 +16,7 @@ pub fn param(name: &str, lo: f64, hi: f64) -> Param {
         lo,
         hi,
         span: Span::default(),
+        rate: None,
     }
 }
 
@@ -115,6 +116,7 @@ pub fn paper_model() -> PolytopicModel {
         name: "paper".to_string(),
         states: names("x", 3),
         inputs: vec![],
+        input_rates: vec![],
         outputs: names("y", 2),
         params: vec![param("theta1", 0.0, 1.0), param("theta2", 0.0, 1.0)],
         scheduling: vec![0, 1],
@@ -185,6 +187,7 @@ pub fn synthetic_model(nx: usize) -> PolytopicModel {
         name: format!("synthetic{nx}"),
         states: names("x", nx),
         inputs: vec![],
+        input_rates: vec![],
         outputs: names("y", ny),
         params: vec![param("theta1", 0.0, 1.0), param("theta2", 0.0, 1.0)],
         scheduling: vec![0, 1],

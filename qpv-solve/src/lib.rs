@@ -88,6 +88,7 @@ pub mod analysis;
 pub mod diagnosis;
 pub mod noise;
 pub mod report;
+pub mod sampled_plant;
 pub mod sampling;
 pub mod search;
 pub mod size;

@@ -66,6 +66,11 @@ pub struct SampleInfo {
     pub alpha_per_step: f64,
     /// 1 − hα: V(e_{k+1}) ≤ decrease · V(e_k).
     pub decrease: f64,
+    /// The bound for the *continuous* plant sampled at h (the Euler step's
+    /// local truncation error as a bounded disturbance; docs/method.md
+    /// §16), when it could be computed ([`crate::sampled_plant`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub continuous_bound: Option<crate::sampled_plant::ContinuousBound>,
 }
 
 impl SampleInfo {
@@ -76,6 +81,7 @@ impl SampleInfo {
             alpha,
             alpha_per_step: h * alpha,
             decrease: 1.0 - h * alpha,
+            continuous_bound: None,
         }
     }
 

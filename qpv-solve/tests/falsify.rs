@@ -21,6 +21,7 @@ fn stable_linear(nx: usize) -> PolytopicModel {
         name: "stable".to_string(),
         states: names("x", nx),
         inputs: vec![],
+        input_rates: vec![],
         outputs: names("y", nx),
         params: vec![param("unused", -1.0, 1.0)],
         scheduling: vec![],

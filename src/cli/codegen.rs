@@ -59,6 +59,8 @@ struct Numbers {
     iterations: u32,
     /// The design block's `float` (f64 for a gains file).
     float: qpv_dsl::Float,
+    /// `sample = h`: the period the numbers are certified at (S5d).
+    sample: Option<f64>,
 }
 
 /// Runs `qpv codegen`.
@@ -98,6 +100,11 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         qpv_dsl::Float::F32 => Float::F32,
         qpv_dsl::Float::F64 => Float::F64,
     });
+    // With f32 the C steps by the float nearest h: that h is certified.
+    let mut numbers = numbers;
+    if float == Float::F32 {
+        numbers.sample = numbers.sample.map(|h| f64::from(h as f32));
+    }
     let (p, ls, f32_note) = match float {
         Float::F64 => (numbers.p.clone(), numbers.ls.clone(), None),
         Float::F32 => {
@@ -109,15 +116,26 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     };
     // The certificate on exactly the numbers the C holds (for f32 the
     // rounded ones, each exactly representable in f64).
-    let mut cert = qpv_solve::certificate::check_with(
-        &numbers.checked,
-        Mode::Sound,
-        numbers.alpha,
-        numbers.gamma,
-        &p,
-        &ls,
-        numbers.slacks.as_ref(),
-    );
+    let mut cert = match numbers.sample {
+        // A sampled design: the discrete decrease S5d at its h.
+        Some(h) => qpv_solve::certificate::check_sampled(
+            &numbers.checked,
+            numbers.alpha,
+            numbers.gamma,
+            h,
+            &p,
+            &ls,
+        ),
+        None => qpv_solve::certificate::check_with(
+            &numbers.checked,
+            Mode::Sound,
+            numbers.alpha,
+            numbers.gamma,
+            &p,
+            &ls,
+            numbers.slacks.as_ref(),
+        ),
+    };
     if !cert.passed && numbers.slacks.is_some() && f32_note.is_some() {
         // The cube slacks were found for the f64 numbers: the rounded ones
         // may still hold on the full vertex family.
@@ -169,6 +187,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         },
         filter: numbers.filter,
         figures: figures(&numbers, &p, &ls),
+        sample: numbers.sample,
     };
     let mut floor_note = String::new();
     if float == Float::F32 {
@@ -203,8 +222,12 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     };
     let h = write(format!("{}.h", model.name), &files.header)?;
     let c = write(format!("{}.c", model.name), &files.source)?;
+    let at = design
+        .sample_text()
+        .map(|t| format!(" at {t}"))
+        .unwrap_or_default();
     println!(
-        "certified ({}): alpha = {}, gamma = {}, {} vertices, float {}\nwrote {} and {}",
+        "certified{at} ({}): alpha = {}, gamma = {}, {} vertices, float {}\nwrote {} and {}",
         numbers.origin,
         numbers.alpha,
         numbers.gamma,
@@ -327,6 +350,7 @@ fn solved(
         float: req.float,
         status: design.solver.detail.clone(),
         iterations: design.solver.iterations,
+        sample: req.sample,
     }))
 }
 
@@ -340,8 +364,12 @@ fn describe(req: &qpv_dsl::DesignRequest) -> String {
         qpv_dsl::GammaSpec::Fixed(g) => format!("{g}"),
         qpv_dsl::GammaSpec::Search => "search".into(),
     };
+    let sample = req
+        .sample
+        .map(|h| format!("; sample = {h}"))
+        .unwrap_or_default();
     format!(
-        "alpha = {alpha}; gamma = {gamma}; mode = sound; conditions = {}",
+        "alpha = {alpha}; gamma = {gamma}; mode = sound; conditions = {}{sample}",
         req.conditions.name()
     )
 }
@@ -392,6 +420,7 @@ fn from_gains(
     );
     // The observer model the claim belongs to, built as `qpv check` builds
     // it (split, verified state bound, output route, skew slack).
+    let sample = g.sample.as_ref().map(|s| s.h);
     let design = g.design(&model.name, (Mode::Sound, alpha, gamma, split), gains)?;
     let checked = design
         .observer_model(&model.polytopic())
@@ -413,13 +442,19 @@ fn from_gains(
             status: "gains file".into(),
             iterations: 0,
             float: qpv_dsl::Float::F64,
+            sample,
         },
     ))
 }
 
 /// The noise bound and sampling figures of the numbers about to be baked
 /// (as `qpv!` computes them): each present only if its own check passed.
+/// None for a sampled design (docs/method.md §16: the continuous figures
+/// say nothing about it).
 fn figures(n: &Numbers, p: &DMatrix<f64>, ls: &[DMatrix<f64>]) -> Figures {
+    if n.sample.is_some() {
+        return Figures::default();
+    }
     let plant = &n.plant;
     let channels = NoiseChannels::from_model(plant);
     let channels = match n.filter {

@@ -428,6 +428,38 @@ fn is_search_log_note(n: &str) -> bool {
         || n.starts_with("the solver stopped with")
 }
 
+/// The line on the continuous plant sampled at h (docs/method.md §16):
+/// the truncation error per step, the ultimate error bound and the
+/// assumptions; or nothing if it was not computed (the design's notes say
+/// why).
+pub(crate) fn continuous_line(
+    h: f64,
+    b: Option<&qpv_solve::sampled_plant::ContinuousBound>,
+) -> String {
+    let Some(b) = b else {
+        return String::new();
+    };
+    let verdict = if b.invariant {
+        format!(
+            "the certified set stays invariant and lim sup |e_k| <= {:.4e} (sqrt V <= {:.4e}; {:.4e} per unit h)",
+            b.ultimate_error,
+            b.ultimate_v_sqrt,
+            b.ultimate_error / h
+        )
+    } else {
+        format!(
+            "NOT bounded: the truncation error per step in sqrt V ({:.4e}) exceeds the contraction 1 - sqrt(1 - h alpha); a shorter h is needed",
+            b.delta
+        )
+    };
+    format!(
+        "  continuous plant sampled at h: Euler truncation error |r_k| <= {:.4e} per step (|x''| <= {:.4e} over F x Theta): {verdict}\n  assumes: {}\n",
+        b.truncation,
+        b.accel,
+        b.assumption()
+    )
+}
+
 /// The verdict line(s) of a design: what is certified and how, once.
 fn describe_verdict(d: &Design) -> String {
     let solved = d
@@ -452,7 +484,7 @@ fn describe_verdict(d: &Design) -> String {
                 s.decrease,
                 families.join(", "),
                 practical_line(d)
-            )
+            ) + &continuous_line(s.h, s.continuous_bound.as_ref())
         }
         (true, Mode::Sound) => format!(
             "  CERTIFIED: alpha = {:.6} at gamma = {:.6}: every sound condition family holds ({}) and the data check S4, \

@@ -74,6 +74,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         states: b.names.states.clone(),
         inputs: b.names.inputs.clone(),
         input_ranges,
+        input_rates: b.input_rates()?,
         outputs: b.names.outputs.clone(),
         params,
         a,

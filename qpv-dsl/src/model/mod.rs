@@ -50,6 +50,9 @@ pub struct Model {
     /// The declared range [lo, hi] of each input (`input u in [lo, hi];`),
     /// `None` where none was declared (the f32 error floor needs them).
     pub input_ranges: Vec<Option<(f64, f64)>>,
+    /// `input u rate r`: the bound |u_k'| ≤ r of each input (None: not
+    /// declared), in input order.
+    pub input_rates: Vec<Option<f64>>,
     /// Output names y_1..y_ny.
     pub outputs: Vec<String>,
     /// Declared parameters in declaration order.

@@ -20,6 +20,9 @@ pub struct Param {
     pub hi: f64,
     /// Where it was declared.
     pub span: Span,
+    /// `rate r`: the declared bound |θ_i'| ≤ r (None: no rate declared;
+    /// a sampled design then assumes θ constant over each step).
+    pub rate: Option<f64>,
 }
 
 /// Most states, inputs or outputs of a model.
@@ -32,7 +35,7 @@ impl Builder<'_> {
         for item in &self.ast.items {
             let (list, kind): (&[ast::Ident], u8) = match item {
                 Item::States(l) => (l, 0),
-                Item::Inputs(l, _) => (l, 1),
+                Item::Inputs(l, _, _) => (l, 1),
                 Item::Outputs(l) => (l, 2),
                 Item::Params(p) => (&p.names, 3),
                 Item::Disturbances(l) => (l, 4),
@@ -234,7 +237,7 @@ impl Builder<'_> {
     pub(super) fn input_ranges(&self) -> R<Vec<Option<(f64, f64)>>> {
         let mut out = Vec::new();
         for item in &self.ast.items {
-            let Item::Inputs(names, range) = item else {
+            let Item::Inputs(names, range, _) = item else {
                 continue;
             };
             let range = match range {
@@ -300,6 +303,7 @@ impl Builder<'_> {
                     ),
                 ));
             }
+            let rate = self.rate(&p.rate, "parameter")?;
             for id in &p.names {
                 self.param_reach.push(lo.abs().max(hi.abs()));
                 out.push(Param {
@@ -307,7 +311,39 @@ impl Builder<'_> {
                     lo,
                     hi,
                     span: id.span,
+                    rate,
                 });
+            }
+        }
+        Ok(out)
+    }
+
+    /// The value of a `rate` clause: a constant ≥ 0 and finite.
+    pub(super) fn rate(&self, clause: &Option<(ast::Expr, Span)>, what: &str) -> R<Option<f64>> {
+        let Some((e, span)) = clause else {
+            return Ok(None);
+        };
+        let r = self.constant(e, "a rate bound")?;
+        if !(r.is_finite() && r >= 0.0) {
+            return Err(Diag::new(
+                *span,
+                format!(
+                    "{what} rate bound {}: expected a finite number ≥ 0 (the bound on the \
+                     {what}'s time derivative, per second)",
+                    fmt_num(r)
+                ),
+            ));
+        }
+        Ok(Some(r))
+    }
+
+    /// The `rate` bound of every input, in declaration order.
+    pub(super) fn input_rates(&self) -> R<Vec<Option<f64>>> {
+        let mut out = Vec::new();
+        for item in &self.ast.items {
+            if let Item::Inputs(l, _, rate) = item {
+                let r = self.rate(rate, "input")?;
+                out.extend(l.iter().map(|_| r));
             }
         }
         Ok(out)

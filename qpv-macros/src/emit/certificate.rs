@@ -1,5 +1,5 @@
 //! The certificate that travels with the generated code: the `Margin` and
-//! `Certificate` types of the model module (with `Display`) and each
+//! `Certificate` types (and `Sampled`) of the model module (with `Display`) and each
 //! design's `CERTIFICATE` constant.
 
 use super::tokens::lit;
@@ -14,10 +14,23 @@ pub(super) fn types() -> TokenStream {
         /// The worst margin of one family of design conditions (positive = satisfied).
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct Margin {
-            /// The condition family: `S1`, `S2`, `S3`, `S5` (sound) or `S1`, `13`, `14`, `26` (paper).
+            /// The condition family: `S1`, `S2`, `S3`, `S5` (sound; `S5d` in place of `S5` for a sampled design) or `S1`, `13`, `14`, `26` (paper).
             pub family: &'static str,
             /// Its worst margin, recomputed independently of the solver.
             pub margin: f64,
+        }
+
+        /// The sample period a design is certified at (`sample = h`): the
+        /// observer stepped by one explicit Euler step of exactly `period`
+        /// (`Observer::step`), V(e_{k+1}) ≤ `decrease` · V(e_k).
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Sampled {
+            /// The sample period h, seconds.
+            pub period: f64,
+            /// 1 − hα, the certified decrease of V per step.
+            pub decrease: f64,
+            /// The period and its rate in words, e.g. `h = 1e-3 s (1 kHz)`.
+            pub text: &'static str,
         }
 
         /// The proof that travels with the code: what was requested, what was
@@ -39,6 +52,9 @@ pub(super) fn types() -> TokenStream {
             pub alpha: f64,
             /// Certified region scaling γ.
             pub gamma: f64,
+            /// The sample period of a design certified at it (family S5d in
+            /// place of S5); `None` for a continuous-time design.
+            pub sample: ::core::option::Option<Sampled>,
             /// Worst margin per condition family, all positive (recomputed by
             /// the macro from the baked P and L_l).
             pub margins: &'static [Margin],
@@ -65,6 +81,13 @@ pub(super) fn types() -> TokenStream {
                     self.alpha,
                     self.gamma
                 )?;
+                if let ::core::option::Option::Some(s) = self.sample {
+                    ::core::writeln!(
+                        f,
+                        "  certified at {}: V(e_k+1) <= {} V(e_k) per explicit Euler step",
+                        s.text, s.decrease
+                    )?;
+                }
                 ::core::writeln!(f, "  request: {}", self.request)?;
                 ::core::writeln!(f, "  output route: {}", self.route)?;
                 for m in self.margins {
@@ -112,6 +135,18 @@ pub(super) fn constant(model_name: &str, route: &str, d: &CertifiedDesign) -> To
     let (request, mode, status) = (&d.request, &d.mode, &d.status);
     let iterations = Literal::u32_unsuffixed(d.iterations);
     let certifies = d.certifies;
+    let sample = match d.sample {
+        Some(h) => {
+            let (period, decrease) = (lit(h), lit(1.0 - h * d.alpha));
+            let text = d.sample_text().unwrap_or_default();
+            quote!(::core::option::Option::Some(super::Sampled {
+                period: #period,
+                decrease: #decrease,
+                text: #text,
+            }))
+        }
+        None => quote!(::core::option::Option::None),
+    };
     quote! {
         /// The independent certificate of this design.
         pub const CERTIFICATE: Certificate = Certificate {
@@ -122,6 +157,7 @@ pub(super) fn constant(model_name: &str, route: &str, d: &CertifiedDesign) -> To
             certifies: #certifies,
             alpha: #alpha,
             gamma: #gamma,
+            sample: #sample,
             margins: &[#(#fam),*],
             solver_status: #status,
             iterations: #iterations,

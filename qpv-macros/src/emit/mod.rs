@@ -74,6 +74,10 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
         Some(_) => quote!(pub use self::#primary::{FILTER_GAIN, FILTER_POLE};),
         None => quote!(),
     };
+    let primary_sample = match em.designs.get(primary_index - 1).and_then(|d| d.sample) {
+        Some(_) => quote!(pub use self::#primary::SAMPLE_PERIOD;),
+        None => quote!(),
+    };
     let designs: Vec<TokenStream> = em
         .designs
         .iter()
@@ -115,6 +119,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
                 STEP_ESTIMATE_RK4,
             };
             #primary_filter
+            #primary_sample
 
             #(#designs)*
 
@@ -285,6 +290,7 @@ mod tests {
             figures: Figures::default(),
             filter,
             float,
+            sample: None,
         };
         emit(&EmitModel {
             model,

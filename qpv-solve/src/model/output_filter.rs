@@ -216,6 +216,7 @@ pub fn augment(model: &PolytopicModel, f: &OutputFilter) -> Result<PolytopicMode
         name: model.name.clone(),
         states,
         inputs: model.inputs.clone(),
+        input_rates: model.input_rates.clone(),
         outputs: filt,
         params: model.params.clone(),
         scheduling: model.scheduling.clone(),

@@ -748,6 +748,7 @@ pub fn design_with_progress(
         d.notes.push(
             "sample = h: the noise bound and the Euler-step figures are continuous-time analyses and are not computed for a sampled design".into(),
         );
+        crate::sampled_plant::attach(model, &mut d);
     }
     Ok(d)
 }

@@ -189,7 +189,11 @@ impl Ctx<'_, '_> {
         // α–gain curve the knee is taken on (no solve needed; near the walk's
         // small γ the smallest-gain solves from scratch often fail where the
         // seeded α search certified).
-        if let Some(start) = trace.walk_points.first().filter(|_| trace.walk_points.len() > 1) {
+        if let Some(start) = trace
+            .walk_points
+            .first()
+            .filter(|_| trace.walk_points.len() > 1)
+        {
             let g_ref = max_gain(start);
             let (b_gain, b_alpha) = best
                 .as_ref()

@@ -26,8 +26,19 @@ pub(super) fn design(
             b = num(f.gain)
         ),
     };
+    let sample_doc = match d.sample_text() {
+        Some(t) => format!(
+            " Certified at {t}: the observer stepped by one explicit Euler step of exactly \
+             [`SAMPLE_PERIOD`] ([`Observer::step`]) against the plant stepped by the same \
+             Euler step gives V(e_{{k+1}}) ≤ {} V(e_k) (1 − hα; family S5d of the certificate \
+             in place of S5, docs/method.md §16). A continuous plant between samples is not \
+             covered by this proof.\n\n",
+            num(1.0 - d.sample.unwrap_or(0.0) * d.alpha)
+        ),
+        None => String::new(),
+    };
     format!(
-        " Design {index} of model `{model_name}`: {}. Certified alpha = {}, gamma = {}.\n\n{route_doc}",
+        " Design {index} of model `{model_name}`: {}. Certified alpha = {}, gamma = {}.\n\n{sample_doc}{route_doc}",
         d.request,
         num(d.alpha),
         num(d.gamma)

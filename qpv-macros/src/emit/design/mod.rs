@@ -216,6 +216,28 @@ fn certified_constants(
     let noise_consts = noise_constants(d);
     let nz_doc = docs::nz(shape.filter);
     let ns_doc = docs::ns(shape.filter);
+    let alpha_doc = match d.sample {
+        Some(_) => " Certified decay rate per second: each `Observer::step` (one Euler step of \
+                     SAMPLE_PERIOD) gives V(e_{k+1}) ≤ (1 − SAMPLE_PERIOD·ALPHA) V(e_k), \
+                     V = eᵀPe."
+            .to_string(),
+        None => " Certified decay rate: V = eᵀPe satisfies V' ≤ −α V.".to_string(),
+    };
+    let sample_const = match d.sample {
+        Some(h) => {
+            let doc = format!(
+                " The sample period this design is certified at, seconds ({}): \
+                 `Observer::step` is one explicit Euler step of exactly this length.",
+                d.sample_text().unwrap_or_default()
+            );
+            let h = lit(h);
+            quote! {
+                #[doc = #doc]
+                pub const SAMPLE_PERIOD: f64 = #h;
+            }
+        }
+        None => quote!(),
+    };
     let filter_consts = match shape.filter {
         Some(f) => {
             let (a, b) = (lit(f.pole), lit(f.gain));
@@ -236,8 +258,9 @@ fn certified_constants(
         #[doc = #ns_doc]
         pub const NS: usize = #ns_l;
         #filter_consts
-        /// Certified decay rate: V = eᵀPe satisfies V' ≤ −α V.
+        #[doc = #alpha_doc]
         pub const ALPHA: f64 = #alpha;
+        #sample_const
         /// Certified region scaling γ.
         pub const GAMMA: f64 = #gamma;
         /// The Lyapunov matrix P (symmetric positive definite), NZ × NZ.

@@ -25,7 +25,7 @@ pub(super) fn items(
     let body = qpv_codegen::build::observer::rhs_body(d, shape, state_eqs, out_eqs, coeffs);
     let body = body_array(&body, &TokenStream::new());
     let rhs = rhs_fn(shape, &body);
-    let observer = observer_type(model_name, index, shape);
+    let observer = observer_type(model_name, index, shape, d.sample.is_some());
     quote! {
         #rhs
 
@@ -94,7 +94,7 @@ fn rhs_fn(shape: Shape, body: &TokenStream) -> TokenStream {
 
 /// The `Observer` struct, its `Default`, constructors, accessors,
 /// `derivative` and the steppers.
-fn observer_type(model_name: &str, index: usize, shape: Shape) -> TokenStream {
+fn observer_type(model_name: &str, index: usize, shape: Shape, sampled: bool) -> TokenStream {
     let Shape { nx, ns, .. } = shape;
     let xs: Vec<Ident> = (0..ns).map(|i| format_ident!("s{}", i)).collect();
     // estimate(): the first NX entries; with_state(x0): x0 then zeros.
@@ -109,6 +109,7 @@ fn observer_type(model_name: &str, index: usize, shape: Shape) -> TokenStream {
     let ns_doc = docs::ns(shape.filter);
     let from_state_doc = docs::from_state(shape.filter);
     let steppers = steppers(&xs);
+    let step = if sampled { fixed_step(&xs) } else { quote!() };
     quote! {
         #[doc = #obs_doc]
         #[derive(Clone, Copy, Debug, PartialEq)]
@@ -170,7 +171,34 @@ fn observer_type(model_name: &str, index: usize, shape: Shape) -> TokenStream {
                 rhs(&c, &g, &self.state, y, u)
             }
 
+            #step
+
             #steppers
+        }
+    }
+}
+
+/// `step`, the certified fixed step of a sampled design: one explicit Euler
+/// step of exactly `SAMPLE_PERIOD` (no step argument, no debug check: the
+/// step is the one certified).
+fn fixed_step(xs: &[Ident]) -> TokenStream {
+    let k1: Vec<Ident> = (0..xs.len()).map(|i| format_ident!("a{}", i)).collect();
+    quote! {
+        /// The certified step: one explicit Euler step of exactly
+        /// [`SAMPLE_PERIOD`] with the samples y_k, u_k, θ_k,
+        /// x̂_{k+1} = x̂_k + SAMPLE_PERIOD · f̂(x̂_k, y_k, u_k, θ_k).
+        ///
+        /// Against the plant stepped by the same Euler step, with θ_k in Θ,
+        /// the plant in the state bound F and e_0 in the certified set, the
+        /// design proves V(e_{k+1}) ≤ (1 − SAMPLE_PERIOD·ALPHA) V(e_k)
+        /// (see [`CERTIFICATE`]). Call it once per sample period.
+        #[inline]
+        pub fn step(&mut self, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
+            let (c, g, clamped) = schedule(theta);
+            self.clamped = self.clamped.saturating_add(clamped as u64);
+            let [#(#k1),*] = rhs(&c, &g, &self.state, y, u);
+            let [#(#xs),*] = self.state;
+            self.state = [#(#xs + SAMPLE_PERIOD * #k1),*];
         }
     }
 }
