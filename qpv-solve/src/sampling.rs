@@ -70,7 +70,7 @@ pub struct SampleInfo {
     /// local truncation error as a bounded disturbance; docs/method.md
     /// §16), when it could be computed ([`crate::sampled_plant`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub continuous_bound: Option<crate::sampled_plant::ContinuousBound>,
+    pub continuous_bound: Option<ContinuousBound>,
 }
 
 impl SampleInfo {
@@ -361,4 +361,39 @@ pub fn sampling(
         beta,
         step_estimate_rk4: if rk4.is_finite() { rk4 } else { 0.0 },
     })
+}
+
+/// The bound for the continuous plant sampled at h (the report's
+/// `sample.continuous_bound`), recomputed from the model and P by
+/// [`crate::sampled_plant`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ContinuousBound {
+    /// A bound on |ẍ| (2-norm of the componentwise bounds) over F × Θ and
+    /// the declared rates.
+    pub accel: f64,
+    /// |r̄| = (h²/2)·accel: the Euler step's local truncation error bound.
+    pub truncation: f64,
+    /// δ = √λ_max(P)·|r̄|: the disturbance per step in the norm √V.
+    pub delta: f64,
+    /// True if δ ≤ 1 − √(1 − hα): the certified set {V ≤ 1} stays
+    /// invariant for the continuous plant, and the bounds below hold.
+    pub invariant: bool,
+    /// The ultimate bound on √V(e_k): δ / (1 − √(1 − hα)).
+    pub ultimate_v_sqrt: f64,
+    /// The ultimate bound on ‖e_k‖ (2-norm): ultimate_v_sqrt / √λ_min(P).
+    pub ultimate_error: f64,
+    /// True if every scheduling parameter declares a `rate`; false: the
+    /// parameters without one are assumed constant over each step.
+    pub rates_declared: bool,
+}
+
+impl ContinuousBound {
+    /// The assumptions behind the bound, in words.
+    pub fn assumption(&self) -> &'static str {
+        if self.rates_declared {
+            "x(t) in F between samples, θ(t) in Θ within its declared rates, y and θ sampled at t_k"
+        } else {
+            "x(t) in F between samples; θ constant over each step where no `rate` is declared (a sample-and-hold parameter), y and θ sampled at t_k"
+        }
+    }
 }

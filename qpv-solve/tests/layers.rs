@@ -33,7 +33,8 @@
 //! ```
 //!
 //! qpv-codegen: the IR and the certified numbers (0), the builders of
-//! the observer's bodies (1), the C printer (2).
+//! the observer's bodies (1), the C printer and the f32 rounding bound of
+//! the built bodies (2).
 //! qpv-macros: the macro's input, the cache, the fallback and the slow-solve
 //! note (0), code emission (1), the expansion that drives them (2). The
 //! root package: plot (0); in the command line, file input (1), the JSON
@@ -76,6 +77,7 @@ const SOLVE: Crate = Crate {
         ("report", 4),
         ("search", 5),
         ("noise", 5),
+        ("sampled_plant", 5),
         ("analysis", 6),
     ],
     apart: &[("certificate", "lmi"), ("lmi", "certificate")],
@@ -118,7 +120,13 @@ const OTHERS: &[Crate] = &[
     },
     Crate {
         src: "qpv-codegen/src",
-        layers: &[("ir", 0), ("design", 0), ("build", 1), ("c", 2)],
+        layers: &[
+            ("ir", 0),
+            ("design", 0),
+            ("build", 1),
+            ("rounding", 2),
+            ("c", 2),
+        ],
         apart: &[],
         skip: &[],
     },
