@@ -1055,6 +1055,7 @@ fn noise_report(
         sampling: None,
         sample: None,
         gamma_search: None,
+        global: false,
     };
     if d.certifies {
         let (p, l) = (d.p_matrix(), d.l_matrices());

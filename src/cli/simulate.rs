@@ -171,8 +171,10 @@ fn claimed_design(g: Gains, model: &str, path: &Path) -> Result<Design, CliError
     let gamma = value(
         "gamma",
         g.gamma,
-        |v| v > 0.0 && v < 1.0,
-        "a number in (0, 1)",
+        // 1: a global design (LPV plant), whose γ is unused; the
+        // certificate refuses γ = 1 for any other.
+        |v| v > 0.0 && v <= 1.0,
+        "a number in (0, 1) (1 for the global observer of an LPV plant)",
     )?;
     let split = g.split(mode, path)?;
     g.design(model, (mode, alpha, gamma, split), path)
