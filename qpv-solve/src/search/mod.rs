@@ -716,16 +716,9 @@ pub fn design_with_progress(
     settings: &Settings,
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
-    if crate::model::is_global(model, request.mode)
-        && (request.noise == qpv_dsl::NoiseObjective::Min || request.split == Split::SkewSlack)
-    {
-        let what = if request.split == Split::SkewSlack {
-            "split = skew_slack (its slack reshapes N_k, which is zero)"
-        } else {
-            "noise = min"
-        };
+    if crate::model::is_global(model, request.mode) && request.split == Split::SkewSlack {
         return Err(SolveError::Unsupported(format!(
-            "model `{}`: {what} is not built for an LPV plant, whose observer is the global one (docs/method.md, \"The global observer\"); design with a fixed α or alpha = max",
+            "model `{}`: split = skew_slack (its slack reshapes N_k, which is zero) is not built for an LPV plant, whose observer is the global one (docs/method.md §17); design with the symmetric split",
             model.name
         )));
     }
