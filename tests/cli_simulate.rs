@@ -349,7 +349,14 @@ fn chain_model(nx: usize) -> PathBuf {
     );
     for (i, s) in states.iter().enumerate() {
         let next = &states[(i + 1) % nx];
-        src.push_str(&format!("  der {s} = -(2 + th)*{s} + 0.5*{next};\n"));
+        // One small quadratic term: a QPV plant (an LPV one would be the
+        // global observer, which has no region-vertex pairs to count).
+        let quad = if i == 0 {
+            format!(" + 0.01*{s}*{next}")
+        } else {
+            String::new()
+        };
+        src.push_str(&format!("  der {s} = -(2 + th)*{s} + 0.5*{next}{quad};\n"));
     }
     src.push_str("  out y = x1;\n  region box(0.1);\n  state_bound Q = [");
     let q = 2.0 * nx as f64 * 0.01;

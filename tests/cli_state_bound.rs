@@ -76,8 +76,8 @@ fn state_bound_auto_that_finds_nothing_exits_1() {
     std::fs::write(
         &model,
         "model unstable {\n    state x1, x2;\n    output y1;\n    param th in [0, 1];\n    \
-         A = [ 1 + th, 0 ; 0, 1 ];\n    C = [ 1, 0 ];\n    region box(0.1);\n    \
-         state_bound auto;\n    design { alpha = 1; gamma = 0.5; }\n}\n",
+         A = [ 1 + th, 0 ; 0, 1 ];\n    N1 = [ 0, 0 ; 0, 0.1 ];\n    N2 = 0;\n    C = [ 1, 0 ];\n    \
+         region box(0.1);\n    state_bound auto;\n    design { alpha = 1; gamma = 0.5; }\n}\n",
     )
     .unwrap();
     let out = qpv(&["design", model.to_str().unwrap(), "--json", "-"]);

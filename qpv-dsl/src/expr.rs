@@ -112,6 +112,11 @@ impl PolyMatrix {
         &mut self.entries[i * self.cols + j]
     }
 
+    /// Whether every entry is the zero polynomial.
+    pub fn is_zero(&self) -> bool {
+        self.entries.iter().all(ThetaPoly::is_zero)
+    }
+
     /// Union of the parameter masks of all entries.
     pub fn param_mask(&self) -> u64 {
         self.entries.iter().fold(0, |m, p| m | p.param_mask())

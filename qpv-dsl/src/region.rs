@@ -138,6 +138,21 @@ impl fmt::Display for RegionError {
 impl std::error::Error for RegionError {}
 
 impl Region {
+    /// No region: what an LPV plant written without `region` has (its
+    /// observer is global, docs/method.md). Every list is empty.
+    pub fn none() -> Region {
+        Region {
+            vertices: Vec::new(),
+            facets: Vec::new(),
+            generators: Vec::new(),
+        }
+    }
+
+    /// Whether this is [`Region::none`].
+    pub fn is_none(&self) -> bool {
+        self.vertices.is_empty() && self.facets.is_empty()
+    }
+
     /// Dimension of the space.
     pub fn dim(&self) -> usize {
         self.vertices.first().map_or(0, |v| v.len())

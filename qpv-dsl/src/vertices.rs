@@ -276,6 +276,21 @@ impl PolytopicModel {
         (&v.c, &v.m)
     }
 
+    /// Whether the plant is LPV: every N_{k,l} and M_{k,l} is zero, so the
+    /// error dynamics e' = (A(θ) − L(θ)C(θ))e are linear and the observer's
+    /// guarantee is global (no region, state bound or γ; docs/method.md,
+    /// "The global observer").
+    pub fn is_lpv(&self) -> bool {
+        self.vertices
+            .iter()
+            .all(|v| v.n.iter().chain(&v.m).all(|m| m.iter().all(|x| *x == 0.0)))
+    }
+
+    /// Whether the model has a region (an LPV plant may omit it).
+    pub fn has_region(&self) -> bool {
+        !self.region.vertices.is_empty()
+    }
+
     /// Whether C or some M_k differs between vertices (depends on θ).
     pub fn output_varies(&self) -> bool {
         let (c, m) = (&self.vertices[0].c, &self.vertices[0].m);

@@ -78,7 +78,8 @@ fn cases() -> Vec<(
         ("no states", r("state x1, x2;", ""), 1, 7, "m", "model `m` declares no states"),
         ("no outputs", r("output y;", ""), 1, 7, "m", "model `m` declares no outputs"),
         ("no dynamics", r("A = [-1, th; 0, -2];", ""), 1, 7, "m", "model `m` has no dynamics"),
-        ("no region", r("region box(1);", ""), 1, 7, "m", "model `m` has no region"),
+        // A QPV plant needs a region (an LPV one does not: its observer is global).
+        ("no region", r("region box(1);", "N1 = [0, 1; 0, 0]; N2 = 0;"), 1, 7, "m", "model `m` has no region"),
         ("two regions", r("region box(1);", "region box(1); region box(2);"), 7, 20, "region box(2);", "the region is given twice (first at 7:5)"),
         ("negative radius", r("box(1)", "box(-1)"), 7, 16, "-1", "a box radius must be positive, found -1"),
         ("wrong number of radii", r("box(1)", "box([1, 2, 3])"), 7, 16, "[1, 2, 3]", "box radii: expected 2 values (one per state), found 3"),
@@ -262,7 +263,14 @@ fn warnings_are_positioned() {
         .iter()
         .map(|w| (&src[w.span.start..w.span.end], w.message.as_str()))
         .collect();
-    assert_eq!(msgs.len(), 3, "{msgs:?}");
+    // The base plant is LPV: its region and state bound are reported unused.
+    assert_eq!(msgs.len(), 5, "{msgs:?}");
+    assert!(msgs
+        .iter()
+        .any(|(at, msg)| at.starts_with("region vertices") && msg.contains("region is not used")));
+    assert!(msgs
+        .iter()
+        .any(|(at, msg)| at.starts_with("state_bound") && msg.contains("state bound is not used")));
     assert!(msgs
         .iter()
         .any(|(at, msg)| *at == "0.1, 0.1" && msg.contains("vertex 4 is not a vertex")));

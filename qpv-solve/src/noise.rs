@@ -1055,6 +1055,7 @@ fn noise_report(
         sampling: None,
         sample: None,
         gamma_search: None,
+        global: false,
     };
     if d.certifies {
         let (p, l) = (d.p_matrix(), d.l_matrices());
@@ -1072,6 +1073,12 @@ pub fn design_noise_with_progress(
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
+    if crate::model::is_global(model, request.mode) {
+        return Err(SolveError::Unsupported(format!(
+            "model `{}`: noise = min is not built for an LPV plant, whose observer is the global one (docs/method.md §17); design with a fixed α or alpha = max",
+            model.name
+        )));
+    }
     let alpha = noise_request_alpha(request)?;
     let prepared = ObserverModel::prepare(
         model,

@@ -221,6 +221,12 @@ pub struct Design {
     /// family. Absent for continuous-time designs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sample: Option<crate::sampling::SampleInfo>,
+    /// The global observer of an LPV plant (every N_k and M_k zero, sound
+    /// mode): the conditions are P ⪰ I and He{P A_l − Γ_l C_m} + αP ≺ 0
+    /// (certificate family "G5"), with no region, state bound or γ, and the
+    /// decay V' ≤ −αV holds for every e(0) (`gamma` is 1 and unused).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub global: bool,
 }
 
 /// How a practical `alpha = max` chose its design: the fastest certified
@@ -556,6 +562,7 @@ impl Design {
             max_gain: None,
             practical: None,
             sample: None,
+            global: false,
         }
     }
 

@@ -125,6 +125,10 @@ named_enum! {
         /// The discrete decrease of a `sample = h` design (replaces S5):
         /// [(1 − hα)P, (P + hΦ)ᵀ; P + hΦ, P] ⪰ 0 per combination and pair.
         S5d = "S5d",
+        /// The global observer's rate conditions (an LPV plant, sound
+        /// mode): He{P A_l − Γ_l C_m} + αP ≺ 0 per rate combination, with
+        /// no region, state bound or γ.
+        G5 = "G5",
         /// The paper's printed vertex condition.
         Paper13 = "13",
         /// The paper's printed facet condition.

@@ -20,6 +20,7 @@ mod design;
 mod diagnosis_size;
 mod falsify;
 mod gamma_search;
+mod global;
 mod kkt_solver;
 mod lapack;
 mod layers;

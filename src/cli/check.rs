@@ -91,6 +91,11 @@ fn unit_interval(g: f64) -> bool {
     g > 0.0 && g < 1.0
 }
 
+/// γ of a global design (an LPV plant in sound mode): unused, reported as 1.
+fn unit_interval_or_one(g: f64) -> bool {
+    g > 0.0 && g <= 1.0
+}
+
 /// The certificate of `design` on `model` by [`Design::recheck_on`] (the
 /// re-check `qpv simulate` uses too), on the observer model
 /// [`Design::observer_model`] builds: the split, the state bound, the output
@@ -187,7 +192,14 @@ pub fn run(
             GammaSpec::Search => None,
         }),
         gains,
-        (unit_interval, "a number in (0, 1)"),
+        if model.is_lpv() && mode == Mode::Sound {
+            (
+                unit_interval_or_one as fn(f64) -> bool,
+                "a number in (0, 1] (unused by the global observer of an LPV plant)",
+            )
+        } else {
+            (unit_interval, "a number in (0, 1)")
+        },
     )?;
     // The same plant either way; the conditions are checked in the
     // representation the gains were designed with (default: the mode's).

@@ -486,6 +486,14 @@ fn describe_verdict(d: &Design) -> String {
                 practical_line(d)
             ) + &continuous_line(s.h, s.continuous_bound.as_ref())
         }
+        (true, Mode::Sound) if d.global => format!(
+            "  CERTIFIED, GLOBAL: alpha = {:.6} for every initial error (LPV plant: no region, state bound or gamma): \
+             P > 0 and the rate family hold ({}), by the independent eigenvalue check of the reported P and L_l; \
+             the search solved {solved} point(s), {rejected} of them rejected by that check and not used\n{}",
+            d.alpha,
+            families.join(", "),
+            practical_line(d)
+        ),
         (true, Mode::Sound) => format!(
             "  CERTIFIED: alpha = {:.6} at gamma = {:.6}: every sound condition family holds ({}) and the data check S4, \
              by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), \
@@ -501,7 +509,12 @@ fn describe_verdict(d: &Design) -> String {
         ),
         (false, _) => {
             let tested = d.search.iter().any(|s| s.phase == "final");
-            if tested {
+            if tested && d.global {
+                format!(
+                    "  no certified global observer at the requested alpha = {} (LPV plant)\n",
+                    d.alpha
+                )
+            } else if tested {
                 format!(
                     "  no certified observer at the requested alpha = {}, gamma = {:.6}\n",
                     d.alpha, d.gamma
@@ -687,7 +700,12 @@ pub fn describe_design(d: &Design) -> String {
     if let Some(r) = &d.output_route {
         s.push_str(&describe_route(r));
     }
-    if let Some(sb) = &d.state_bound {
+    if d.global {
+        s.push_str(
+            "  global observer (LPV plant): no region, state bound or gamma; \
+             the decay holds for every initial error\n",
+        );
+    } else if let Some(sb) = &d.state_bound {
         s.push_str(&describe_state_bound(sb));
     }
     if d.feasible && !d.p.is_empty() {

@@ -171,8 +171,10 @@ fn claimed_design(g: Gains, model: &str, path: &Path) -> Result<Design, CliError
     let gamma = value(
         "gamma",
         g.gamma,
-        |v| v > 0.0 && v < 1.0,
-        "a number in (0, 1)",
+        // 1: a global design (LPV plant), whose γ is unused; the
+        // certificate refuses γ = 1 for any other.
+        |v| v > 0.0 && v <= 1.0,
+        "a number in (0, 1) (1 for the global observer of an LPV plant)",
     )?;
     let split = g.split(mode, path)?;
     g.design(model, (mode, alpha, gamma, split), path)
@@ -364,6 +366,10 @@ fn claim_of(
     };
     match (reason, claim.envelope) {
         (None, None) if noisy => {}
+        (None, Some((k, a))) if qpv_solve::model::is_global(obs, design.mode) => println!(
+            "certified, global (independent re-check on this model, an LPV plant): V(t) <= V(0) e^(-alpha t) \
+             with alpha = {a:.6} for every e(0), ||e(t)|| <= {k:.4} ||e(0)|| e^(-alpha t/2)"
+        ),
         (None, Some((k, a))) => println!(
             "certified (independent re-check on this model): V(t) <= V(0) e^(-alpha t) with alpha = {a:.6}, \
              gamma = {:.6}; for e(0) in the region and x(t) in F, ||e(t)|| <= {k:.4} ||e(0)|| e^(-alpha t/2)",

@@ -65,8 +65,9 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
     let noise_outputs = b.noise_outputs()?;
     let (mut c, mut m) = b.outputs()?;
     let derived = b.derived(&mut a, &mut n, &mut bm, &mut b_w, &mut c, &mut m)?;
-    let region = b.region()?;
-    let state_bound = b.state_bound(&region)?;
+    let lpv = n.iter().chain(&m).all(crate::expr::PolyMatrix::is_zero);
+    let region = b.region(lpv)?;
+    let state_bound = b.state_bound(&region, lpv)?;
     let designs = b.designs(&region)?;
     let mut model = Model {
         name: ast.name.name.clone(),

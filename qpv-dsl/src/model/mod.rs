@@ -196,6 +196,12 @@ impl Model {
         self.cover.as_ref().map_or(1, |c| c.len()) << s
     }
 
+    /// Whether the plant is LPV (every N_k and M_k is zero): its observer
+    /// is global and needs no region or state bound.
+    pub fn is_lpv(&self) -> bool {
+        self.n.iter().chain(&self.m).all(PolyMatrix::is_zero)
+    }
+
     /// Whether C or some M_k depends on θ (such a model is
     /// designed by the double-sum relaxation or an output post-filter).
     pub fn output_varies(&self) -> bool {

@@ -59,7 +59,10 @@ impl Builder<'_> {
             .collect()
     }
 
-    pub(super) fn region(&mut self) -> R<Region> {
+    /// The region; `lpv`: the plant has N = 0 and M = 0, so its observer is
+    /// global and a missing region is [`Region::none`] (a given one is
+    /// kept, with a warning that the global design does not use it).
+    pub(super) fn region(&mut self, lpv: bool) -> R<Region> {
         let nx = self.names.states.len();
         let mut decl: Option<&ast::RegionDecl> = None;
         for item in &self.ast.items {
@@ -76,7 +79,19 @@ impl Builder<'_> {
                 decl = Some(r);
             }
         }
+        if let (true, Some(decl)) = (lpv, decl) {
+            self.warnings.push(Warning {
+                message: "the plant is LPV (every N_k and M_k is zero): its observer is global \
+                          (e' = (A(θ) − L(θ)C(θ))e is linear), so the region is not used by the \
+                          design (it is kept for simulation only)"
+                    .into(),
+                span: decl.span,
+            });
+        }
         let Some(decl) = decl else {
+            if lpv {
+                return Ok(Region::none());
+            }
             return Err(Diag::new(
                 self.ast.name.span,
                 format!(

@@ -33,7 +33,9 @@ pub enum StateBound {
 }
 
 impl Builder<'_> {
-    pub(super) fn state_bound(&mut self, region: &Region) -> R<StateBound> {
+    /// The state bound; `lpv`: the plant has N = 0 and M = 0, and a given
+    /// bound is kept with a warning that the global design does not use it.
+    pub(super) fn state_bound(&mut self, region: &Region, lpv: bool) -> R<StateBound> {
         let mut decl: Option<(&ast::BoundDecl, Span)> = None;
         for item in &self.ast.items {
             if let Item::StateBound(bound, span) = item {
@@ -52,6 +54,14 @@ impl Builder<'_> {
         let Some((bound, span)) = decl else {
             return Ok(StateBound::None);
         };
+        if lpv {
+            self.warnings.push(Warning {
+                message: "the plant is LPV (every N_k and M_k is zero): its observer is global, \
+                          so the state bound is not used by the design"
+                    .into(),
+                span,
+            });
+        }
         let lit = match bound {
             ast::BoundDecl::Given(lit) => lit,
             ast::BoundDecl::Auto(_) if !self.names.disturbances.is_empty() => {

@@ -267,7 +267,7 @@ pub fn check(
     p: &DMatrix<f64>,
     l: &[DMatrix<f64>],
 ) -> Certificate {
-    if let Some((zm, s)) = balanced(model, mode) {
+    if let Some((zm, s)) = balanced_for(model, mode, p) {
         if let (Some(pz), Some(lz)) = (s.p_to_z(p), l_to_z(&s, l)) {
             let (gammas, lnorm) = gammas_of(&pz, &lz);
             return check_inner(
@@ -314,6 +314,24 @@ enum RateCheck<'a> {
 /// margins are those of the balanced matrices.
 fn balanced(model: &PolytopicModel, mode: Mode) -> Option<(PolytopicModel, StateScaling)> {
     let s = StateScaling::of(model, mode)?;
+    Some((s.model(model)?, s))
+}
+
+/// [`balanced`], or for the global observer (which has no region to fix
+/// the units) the congruence that balances the P being checked
+/// ([`StateScaling::of_p`]: powers of two, exact like every other).
+fn balanced_for(
+    model: &PolytopicModel,
+    mode: Mode,
+    p: &DMatrix<f64>,
+) -> Option<(PolytopicModel, StateScaling)> {
+    if let Some(b) = balanced(model, mode) {
+        return Some(b);
+    }
+    if !crate::model::is_global(model, mode) || p.shape() != (model.nx(), model.nx()) {
+        return None;
+    }
+    let s = StateScaling::of_p(p)?;
     Some((s.model(model)?, s))
 }
 
@@ -485,7 +503,7 @@ pub fn check_gamma(
     p: &DMatrix<f64>,
     gammas: &[DMatrix<f64>],
 ) -> Certificate {
-    if let Some((zm, s)) = balanced(model, mode) {
+    if let Some((zm, s)) = balanced_for(model, mode, p) {
         if let (Some(pz), Some(gz)) = (s.p_to_z(p), gammas_to_z(&s, gammas)) {
             let pn = pz.norm().max(f64::MIN_POSITIVE);
             let lnorm: Vec<f64> = gz.iter().map(|g| g.norm() / pn).collect();
@@ -544,7 +562,9 @@ fn input_errors(
     if !(alpha.is_finite() && alpha > 0.0) {
         errs.push(format!("α = {alpha} is not a positive finite number"));
     }
-    if !(gamma.is_finite() && gamma > 0.0 && gamma < 1.0) {
+    let global = crate::model::is_global(model, Mode::Sound);
+    let gamma_ok = gamma.is_finite() && gamma > 0.0 && gamma < 1.0;
+    if !(global || gamma_ok) {
         errs.push(format!("γ = {gamma} is not in (0, 1)"));
     }
     errs
@@ -617,6 +637,15 @@ fn check_inner(
     rate: RateCheck<'_>,
 ) -> Certificate {
     let set = ConditionSet::from_mode(mode);
+    let global = crate::model::is_global(model, mode);
+    let global_model = crate::model::global_model(model);
+    // The global observer: the region is the point {0} (its one pair has
+    // no nonlinear terms), no state bound, and γ = 1 in the rate blocks.
+    let (model, gamma_blocks): (&PolytopicModel, f64) = if global {
+        (&global_model, 1.0)
+    } else {
+        (model, gamma)
+    };
     let cube = match rate {
         RateCheck::Cube(c) => Some(c),
         _ => None,
@@ -635,7 +664,9 @@ fn check_inner(
         },
         _ => Vec::new(),
     };
-    let data = if errs.is_empty() || p.nrows() == model.nx() {
+    let data = if global {
+        BTreeMap::new()
+    } else if errs.is_empty() || p.nrows() == model.nx() {
         data_checks(model, mode, gamma.clamp(0.0, 1.0))
     } else {
         BTreeMap::new()
@@ -655,8 +686,10 @@ fn check_inner(
     let [f1, fv, ff, fr] = set.families();
     let fr = match rate {
         RateCheck::Sampled(_) => Family::S5d,
+        _ if global => Family::G5,
         _ => fr,
     };
+    let gamma = gamma_blocks;
     let pn = p.norm();
     let xs = &model.region.vertices;
 
@@ -737,6 +770,20 @@ fn check_inner(
     }
     let vertex = matches!(rate, RateCheck::Vertex | RateCheck::Cube(_));
     for combo in rate_combos(model).into_iter().filter(|_| vertex) {
+        if !xs.is_empty() && combo_is_linear(model, &combo) {
+            // N and M vanish in every term: every pair (i, j) gives this
+            // same block (rows(0, x) = 0 exactly), so it is checked once.
+            let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, 0, 0);
+            let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
+            sr.add(-lambda_max(&m), guard, || {
+                if global {
+                    combo.label(double)
+                } else {
+                    format!("{} (every pair: N = M = 0)", combo.label(double))
+                }
+            });
+            continue;
+        }
         for i in 0..xs.len() {
             for j in 0..xs.len() {
                 let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, i, j);
@@ -748,10 +795,14 @@ fn check_inner(
         }
     }
 
-    let families = vec![s1.finish(), sv.finish(), sf.finish(), sr.finish()];
+    let families = if global {
+        vec![s1.finish(), sr.finish()]
+    } else {
+        vec![s1.finish(), sv.finish(), sf.finish(), sr.finish()]
+    };
     let passed = families.iter().all(|f| f.passed)
         && data.values().filter(|d| d.required).all(|d| d.passed)
-        && (!set.requires_s4() || data.contains_key(Family::S4.name()));
+        && (global || !set.requires_s4() || data.contains_key(Family::S4.name()));
     Certificate {
         mode,
         alpha,
@@ -928,6 +979,16 @@ impl<'a> CubeTerms<'a> {
         let w = linv * m0 * linv.transpose();
         -lambda_max(&w) / (self.gamma * c.weight())
     }
+}
+
+/// Whether every term (l, m) of `combo` has N_l = 0 and M_m = 0 exactly:
+/// then R_{l,i,j} and S_{m,i,j} vanish and the p² blocks are one.
+pub fn combo_is_linear(model: &PolytopicModel, combo: &Combo) -> bool {
+    let zero = |ms: &[DMatrix<f64>]| ms.iter().all(|m| m.iter().all(|v| *v == 0.0));
+    combo
+        .terms
+        .iter()
+        .all(|&(l, m, _)| zero(&model.vertices[l].n) && zero(&model.vertices[m].m))
 }
 
 fn sigma(set: ConditionSet) -> f64 {
@@ -1117,7 +1178,7 @@ pub fn alpha_capacity(
     p: &DMatrix<f64>,
     gammas: &[DMatrix<f64>],
 ) -> f64 {
-    if let Some((zm, s)) = balanced(model, mode) {
+    if let Some((zm, s)) = balanced_for(model, mode, p) {
         if let (Some(pz), Some(gz)) = (s.p_to_z(p), gammas_to_z(&s, gammas)) {
             return capacity_inner(&zm, mode, gamma, &pz, &gz);
         }
@@ -1133,6 +1194,12 @@ fn capacity_inner(
     gammas: &[DMatrix<f64>],
 ) -> f64 {
     let set = ConditionSet::from_mode(mode);
+    let global_model = crate::model::global_model(model);
+    let (model, gamma) = if crate::model::is_global(model, mode) {
+        (&*global_model, 1.0)
+    } else {
+        (model, gamma)
+    };
     let ps = (p + p.transpose()) * 0.5;
     let Some(ch) = ps.clone().cholesky() else {
         return 0.0;
@@ -1146,8 +1213,13 @@ fn capacity_inner(
     let terms = Terms::new(model, xs, &ps, gammas, &lnorm, gamma);
     let mut worst = f64::INFINITY;
     for combo in rate_combos(model) {
-        for i in 0..xs.len() {
-            for j in 0..xs.len() {
+        let n = if combo_is_linear(model, &combo) {
+            xs.len().min(1)
+        } else {
+            xs.len()
+        };
+        for i in 0..n {
+            for j in 0..n {
                 let (m0, _) = terms.combo0(&combo, sigma(set), gamma, i, j);
                 let w = &linv * m0 * linv.transpose();
                 let a = -lambda_max(&w) / (gamma * combo.weight());

@@ -59,6 +59,10 @@ use qpv_dsl::PolytopicModel;
 use std::sync::OnceLock;
 use std::time::Instant;
 
+/// The relative step above α at which the global observer's gain objective
+/// is solved (see [`Problem::solve_with_metric`]).
+pub const GLOBAL_BACKOFF: f64 = 1e-3;
+
 /// Number of entries of the upper triangle of an n × n matrix.
 #[inline]
 pub fn tri(n: usize) -> usize {
@@ -212,6 +216,13 @@ pub struct Problem<'m> {
     /// `sample = h`: the discrete decrease replaces the rate family (see
     /// [`Problem::with_sample`]).
     sample: Option<f64>,
+    /// The global observer ([`crate::model::is_global`]): no region rows,
+    /// P̂ ⪰ I as the normalisation, γ = 1 in the rate blocks.
+    global: bool,
+    /// Per rate combination: whether its nonlinear terms vanish (N_l = 0
+    /// and M_m = 0 for every term), so that its p² vertex-pair blocks are
+    /// one block, written once.
+    linear: Vec<bool>,
 }
 
 impl<'m> Problem<'m> {
@@ -220,8 +231,24 @@ impl<'m> Problem<'m> {
     pub fn new(model: &'m PolytopicModel, set: ConditionSet) -> Result<Self, SolveError> {
         validate(model)?;
         let nx = model.nx();
-        let rho = region_radius(model);
+        let global = crate::model::is_global(model, set.mode());
+        let rho = match region_radius(model) {
+            r if global || r <= 0.0 => 1.0,
+            r => r,
+        };
+        let combos = rate_combos(model);
+        let zero = |ms: &[DMatrix<f64>]| ms.iter().all(|m| m.iter().all(|v| *v == 0.0));
+        let linear = combos
+            .iter()
+            .map(|c| {
+                c.terms
+                    .iter()
+                    .all(|&(l, m, _)| zero(&model.vertices[l].n) && zero(&model.vertices[m].m))
+            })
+            .collect();
         Ok(Problem {
+            global,
+            linear,
             model,
             set,
             conditions: Conditions::Full,
@@ -234,7 +261,7 @@ impl<'m> Problem<'m> {
             xs_hat: model.region.vertices.iter().map(|x| x / rho).collect(),
             as_hat: model.region.facets.iter().map(|a| a * rho).collect(),
             terms: OnceLock::new(),
-            combos: rate_combos(model),
+            combos,
             max_a_fro: model
                 .vertices
                 .iter()
@@ -396,7 +423,7 @@ impl<'m> Problem<'m> {
     pub fn n_rate_blocks(&self) -> usize {
         let p = self.model.region.vertices.len();
         match self.conditions {
-            Conditions::Full | Conditions::Auto => self.combos.len() * p * p,
+            Conditions::Full | Conditions::Auto => self.n_full_rate_blocks(),
             Conditions::Decoupled => self.combos.len() * 2 * p,
             Conditions::Cube => self.combos.len() * (4 * self.gens.len() + 1),
         }
@@ -407,7 +434,29 @@ impl<'m> Problem<'m> {
     /// slack inequalities instead).
     pub fn n_full_rate_blocks(&self) -> usize {
         let p = self.model.region.vertices.len();
+        self.linear
+            .iter()
+            .map(|&lin| if lin { 1 } else { p * p })
+            .sum()
+    }
+
+    /// Number of blocks of the full family without the de-duplication of
+    /// linear combinations (c p²: what was assembled before a combination
+    /// whose N and M vanish was written once).
+    pub fn n_pair_rate_blocks(&self) -> usize {
+        let p = self.model.region.vertices.len();
         self.combos.len() * p * p
+    }
+
+    /// Whether this is the global observer of an LPV plant
+    /// ([`crate::model::is_global`]).
+    pub fn is_global(&self) -> bool {
+        self.global
+    }
+
+    /// Whether combination `c`'s nonlinear terms vanish (its blocks are one).
+    pub fn combo_is_linear(&self, c: usize) -> bool {
+        self.linear[c]
     }
 
     /// The rate family's combinations (see [`crate::conditions::Combo`]).
@@ -426,6 +475,7 @@ impl<'m> Problem<'m> {
             Conditions::Cube => self.cube_r_fro,
             _ => self.max_r_fro(),
         };
+        let gamma = if self.global { 1.0 } else { gamma };
         gamma * (alpha + self.max_a_fro) + r
     }
 
@@ -453,18 +503,36 @@ impl<'m> Problem<'m> {
         e: Option<usize>,
         x: Option<usize>,
     ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
+        self.combo_kh_parts(alpha, gamma, c, e.is_some(), e, x)
+    }
+
+    /// As [`Problem::combo_kh`] with the linear part (γA_l + (γα/2)I and
+    /// γC_m) added when `linear` holds, whether or not an e-vertex is given.
+    fn combo_kh_parts(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        c: usize,
+        linear: bool,
+        e: Option<usize>,
+        x: Option<usize>,
+    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
         let sigma = self.set.nonlinear_sign();
         let terms = self.terms();
         let mut k = DMatrix::zeros(self.nx, self.nx);
         let mut hs: Vec<(usize, DMatrix<f64>)> = Vec::new();
         for &(l, m, w) in &self.combos[c].terms {
             let mut h = DMatrix::zeros(self.ny, self.nx);
-            if let Some(i) = e {
-                k += (&self.model.vertices[l].a * gamma - &terms.nrw[l][i] * sigma) * w;
+            if linear {
+                k += &self.model.vertices[l].a * (gamma * w);
                 for d in 0..self.nx {
                     k[(d, d)] += 0.5 * gamma * alpha * w;
                 }
-                h += (&self.model.vertices[m].c * gamma - &terms.mrw[m][i]) * w;
+                h += &self.model.vertices[m].c * (gamma * w);
+            }
+            if let Some(i) = e {
+                k -= &terms.nrw[l][i] * (sigma * w);
+                h -= &terms.mrw[m][i] * w;
             }
             if let Some(j) = x {
                 k += &terms.nhe[l][j] * (sigma * w);
@@ -492,6 +560,18 @@ impl<'m> Problem<'m> {
         j: usize,
     ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
         self.combo_kh(alpha, gamma, c, Some(i), Some(j))
+    }
+
+    /// K and the gain terms of the one block of a linear combination c
+    /// ([`Problem::combo_is_linear`]): K = γA + (γα/2)I, H = γC, the block
+    /// every vertex pair of c shares.
+    pub fn linear_kh(
+        &self,
+        alpha: f64,
+        gamma: f64,
+        c: usize,
+    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
+        self.combo_kh_parts(alpha, gamma, c, true, None, None)
     }
 
     /// The e-vertex part F0_c + G_c(x_i) of the decoupled conditions (module
@@ -623,6 +703,8 @@ impl<'m> Problem<'m> {
     ) -> Assembled {
         let max_margin = objective == Objective::MaxMargin;
         let min_gain = objective == Objective::MinGain;
+        // The global observer's blocks are homogeneous: γ plays no role.
+        let gamma = if self.global { 1.0 } else { gamma };
         // Extra variables after the problem's: t̂ (max margin), or c and κ
         // (min gain).
         let n = self.n_vars() + usize::from(max_margin) + 2 * usize::from(min_gain);
@@ -639,12 +721,16 @@ impl<'m> Problem<'m> {
             b: Vec::new(),
             cones: Vec::new(),
         };
-        self.push_s1(&mut out, eps);
-        match self.conditions {
-            Conditions::Cube => self.push_cube_region(&mut out, eps),
-            _ => self.push_region_vertices(&mut out, eps),
+        if self.global {
+            self.push_global_normalisation(&mut out, eps, max_margin);
+        } else {
+            self.push_s1(&mut out, eps);
+            match self.conditions {
+                Conditions::Cube => self.push_cube_region(&mut out, eps),
+                _ => self.push_region_vertices(&mut out, eps),
+            }
+            self.push_region_facets(&mut out, gamma, eps);
         }
-        self.push_region_facets(&mut out, gamma, eps);
         let rate = RateMargins {
             eps: eps_rate,
             slack_eps: eps * kappa,
@@ -675,6 +761,25 @@ impl<'m> Problem<'m> {
         let a = cols.into_csc(b.len());
         let (p, q) = self.objective(n, settings, objective);
         Assembled { p, q, a, b, cones }
+    }
+
+    /// The global observer's normalisation in place of the region rows
+    /// (its conditions are homogeneous in (P, Γ_l)): P̂ − I ⪰ 0; for the
+    /// max-margin objective P̂ − εI ⪰ 0 and I − P̂ ⪰ 0 instead, which bound
+    /// P̂ so that the optimal margin measures the depth of the point rather
+    /// than the size of P̂ (any strictly feasible (P̂, Γ̂) scaled into
+    /// εI ⪯ P̂ ⪯ I is feasible for it).
+    fn push_global_normalisation(&self, out: &mut Rows, eps: f64, max_margin: bool) {
+        if !max_margin {
+            self.push_s1(out, 1.0);
+            return;
+        }
+        self.push_s1(out, eps);
+        // I − P̂ ⪰ 0: s = svec(I) − svec(P̂) ⇒ b = svec(I), A = svec(E_v).
+        let nx = self.nx;
+        let row0 = out.open(tri(nx), -1.0);
+        self.push_sym_var(&mut out.cols, row0, 0, 1.0);
+        out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
     }
 
     /// `max_gain = G`: P̂ − p̂I ⪰ 0, then [G'p̂ I_ny, Γ̂_lᵀ; Γ̂_l, G'p̂ I_nx] ⪰ 0
@@ -879,6 +984,15 @@ impl<'m> Problem<'m> {
         let p_reg = self.xs_hat.len();
         let mut df = vec![0.0; self.nx * self.nx];
         for c in 0..self.combos.len() {
+            if self.linear[c] {
+                // N and M vanish: every pair (i, j) has the same block.
+                let (k, hs) = self.linear_kh(alpha, gamma, c);
+                let row0 = out.open(tri(self.nx), rate.eps);
+                self.push_he_block(&mut out.cols, row0, &k, &hs, &mut df);
+                rate.push_column(&mut out.cols, row0);
+                out.cones.push(SupportedConeT::PSDTriangleConeT(self.nx));
+                continue;
+            }
             for i in 0..p_reg {
                 for j in 0..p_reg {
                     let (k, hs) = self.rate_kh(alpha, gamma, c, i, j);
@@ -1058,6 +1172,19 @@ impl<'m> Problem<'m> {
         metric: Option<&DMatrix<f64>>,
     ) -> Result<SolveResult, SolveError> {
         ensure_lapack();
+        // The global observer's conditions bound P̂ from below only (P̂ ⪰
+        // I): ½ Σ‖Γ̂_l‖² may be approached only as P̂ grows without bound
+        // along some direction, and the solver does not stop. Its gain
+        // objective is the min-gain one (homogeneous, normalised, bounded).
+        // The min-gain point lies on the boundary of the rate conditions
+        // (its margin ε κ is tiny against gains of the size this objective
+        // often has to accept), so it is solved at α(1 + GLOBAL_BACKOFF):
+        // at α it then holds with the margin of that step, γ-free.
+        let (objective, alpha) = if self.global && objective == Objective::Gains {
+            (Objective::MinGain, alpha * (1.0 + GLOBAL_BACKOFF))
+        } else {
+            (objective, alpha)
+        };
         let t0 = Instant::now();
         let metric_z = match (&self.scaling, metric) {
             (Some(s), Some(m)) if m.shape() == (self.nx, self.nx) => {

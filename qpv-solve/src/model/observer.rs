@@ -101,6 +101,14 @@ impl ObserverModel {
         bound: StateBoundClaim<'_>,
     ) -> Result<ObserverModel, SolveError> {
         validate(plant)?;
+        // An LPV plant written without a region: the global observer's
+        // model (region {0}, whose one pair carries the linear block).
+        let global = super::global_model(plant);
+        let plant = if plant.region.is_none() {
+            &*global
+        } else {
+            plant
+        };
         let (resolved, state_bound) = match (&plant.state_bound, bound) {
             (StateBound::Auto { .. }, StateBoundClaim::Claimed(claim)) => {
                 verify_claim(plant, claim)?

@@ -68,7 +68,8 @@ pub fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
     if model.vertices.is_empty() {
         return Err(SolveError::NoVertices);
     }
-    if model.region.vertices.is_empty() || model.region.facets.is_empty() {
+    let lpv = model.is_lpv();
+    if !lpv && (model.region.vertices.is_empty() || model.region.facets.is_empty()) {
         return Err(SolveError::EmptyRegion);
     }
     for (l, v) in model.vertices.iter().enumerate() {
@@ -125,8 +126,37 @@ pub fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
     if !all_finite {
         return bad("non-finite entries in the model data".into());
     }
-    if region_radius(model) <= 0.0 {
+    if !lpv && region_radius(model) <= 0.0 {
         return Err(SolveError::EmptyRegion);
     }
     Ok(())
+}
+
+/// Whether a design of `mode` on `model` is the global observer: an LPV
+/// plant (every N_k and M_k zero, [`PolytopicModel::is_lpv`]) in sound
+/// mode. Its conditions are P ⪰ I and He{P A_l − Γ_l C_m} + αP ≺ 0 over the
+/// rate combinations, with no region, state bound or γ (docs/method.md,
+/// "The global observer"); paper mode keeps the printed conditions.
+pub fn is_global(model: &PolytopicModel, mode: qpv_dsl::Mode) -> bool {
+    mode == qpv_dsl::Mode::Sound && model.is_lpv()
+}
+
+/// The model a global design is solved and analysed on: the plant with its
+/// region replaced by the single point {0} and no state bound. Every
+/// vertex-pair loop (rate family, noise, sampling) then visits exactly one
+/// pair, whose nonlinear terms vanish, so it computes the linear block
+/// He{P A_l − Γ_l C_m}; the region conditions are skipped by the global
+/// assembly and certificate. Other models are returned unchanged.
+pub fn global_model(model: &PolytopicModel) -> std::borrow::Cow<'_, PolytopicModel> {
+    if !model.is_lpv() {
+        return std::borrow::Cow::Borrowed(model);
+    }
+    let mut out = model.clone();
+    out.region = qpv_dsl::Region {
+        vertices: vec![nalgebra::DVector::zeros(model.nx())],
+        facets: Vec::new(),
+        generators: Vec::new(),
+    };
+    out.state_bound = StateBound::None;
+    std::borrow::Cow::Owned(out)
 }

@@ -112,6 +112,33 @@ impl StateScaling {
         })
     }
 
+    /// The scaling that balances a Lyapunov matrix: d_i = 2^round(log₂
+    /// P_ii^{−1/2}), so that P_z = DPD has a diagonal within a factor 2 of
+    /// 1 (used by the global observer, whose P has no region to fix its
+    /// units); None when every d_i is 1 or P's diagonal is not positive
+    /// and finite.
+    pub fn of_p(p: &DMatrix<f64>) -> Option<StateScaling> {
+        Self::of_p_relative(p, None)
+    }
+
+    /// [`StateScaling::of_p`] with the overall scale fixed at state `unit`
+    /// (d_unit = 1; only the ratios of the d_i matter to homogeneous
+    /// conditions, while the size of C D = the output map in z depends on
+    /// the overall scale).
+    pub fn of_p_relative(p: &DMatrix<f64>, unit: Option<usize>) -> Option<StateScaling> {
+        let mut d: Vec<f64> = (0..p.nrows())
+            .map(|i| {
+                let v = p[(i, i)];
+                (v.is_finite() && v > 0.0).then(|| pow2_near(1.0 / v.sqrt()))
+            })
+            .collect::<Option<_>>()?;
+        if let Some(k) = unit.filter(|&k| k < d.len()) {
+            let base = d[k];
+            d.iter_mut().for_each(|v| *v /= base);
+        }
+        d.iter().any(|&v| v != 1.0).then_some(StateScaling { d })
+    }
+
     /// The number of states.
     pub fn len(&self) -> usize {
         self.d.len()

@@ -53,6 +53,9 @@ impl Setup {
     ) -> Result<Setup, SolveError> {
         let set = ConditionSet::from_mode(request.mode);
         crate::model::validate(model)?;
+        let global = crate::model::is_global(model, request.mode);
+        let global_model = crate::model::global_model(model);
+        let model: &PolytopicModel = if global { &global_model } else { model };
         // Refuse before anything is assembled or solved.
         let size_note = match crate::size::guard(model, request) {
             crate::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
@@ -66,7 +69,7 @@ impl Setup {
         )?;
         let model = prepared.model;
         let has_q = matches!(model.state_bound, StateBound::Given(_));
-        if set.requires_s4() && !has_q {
+        if set.requires_s4() && !has_q && !global {
             return Err(SolveError::MissingStateBound(model.name.clone()));
         }
         if let AlphaSpec::Fixed(a) = request.alpha {
@@ -74,13 +77,14 @@ impl Setup {
                 return Err(SolveError::BadAlpha(a));
             }
         }
-        if let GammaSpec::Fixed(g) = request.gamma {
+        if let (GammaSpec::Fixed(g), false) = (request.gamma, global) {
             if !(g.is_finite() && g > 0.0 && g < 1.0) {
                 return Err(SolveError::BadGamma(g));
             }
         }
         let gmax = gamma_max(&model);
         let gamma_hi = match set {
+            ConditionSet::Sound if global => 1.0,
             ConditionSet::Sound => {
                 let gm = gmax.unwrap_or(f64::NAN);
                 let usable = gm.is_finite() && gm > 0.0;
@@ -125,7 +129,8 @@ impl Setup {
         let (bound_info, route_info) = (&self.bound_info, &self.route_info);
         let mut notes: Vec<String> = Vec::new();
         notes.extend(self.size_note.clone());
-        if let Some((_, sc)) = &self.scaled {
+        let global = crate::model::is_global(&self.model, request.mode);
+        if let Some((_, sc)) = self.scaled.as_ref().filter(|_| !global) {
             let d: Vec<String> = sc.d.iter().map(|v| format!("{v:e}")).collect();
             notes.push(format!(
                 "units: the region's extents per state are far from 1, so the conditions were solved in balanced coordinates x = D z, D = diag({}) (exact: powers of two), and P, L_l mapped back and certified in the model's own coordinates",
@@ -616,6 +621,81 @@ fn summary(
     s
 }
 
+/// The request of a global design (an LPV plant in sound mode,
+/// [`crate::model::is_global`]): γ is fixed at 1 (unused: the conditions are
+/// homogeneous), the conditions are the full family (one block per rate
+/// combination: decoupled and cube conditions have nothing to split), and
+/// what the plant's own statements asked for that the global observer does
+/// not use is noted. Refused: `sample = h` and the skew slack (not built for
+/// the global observer).
+fn global_request(
+    model: &PolytopicModel,
+    request: DesignRequest,
+    notes: &mut Vec<String>,
+) -> Result<DesignRequest, SolveError> {
+    if let Some(h) = request.sample {
+        return Err(SolveError::Unsupported(format!(
+            "model `{}`: sample = {h:e} is not built for an LPV plant (its observer is the global one, docs/method.md \"The global observer\"); design in continuous time and read the report's sampling figures",
+            model.name
+        )));
+    }
+    let mut used = vec!["the plant is LPV (every N_k and M_k is zero): the global observer, P ⪰ I and He{P A_l − Γ_l C_m} + αP ≺ 0 at every rate combination (certificate family G5), with no region, state bound or γ".to_string()];
+    if model.has_region() {
+        used.push("the model's region is not used".into());
+    }
+    if !matches!(model.state_bound, StateBound::None) {
+        used.push("its state bound is not used".into());
+    }
+    if let GammaSpec::Fixed(g) = request.gamma {
+        used.push(format!("γ = {g} is not used"));
+    }
+    if !matches!(request.conditions, Conditions::Full | Conditions::Auto) {
+        used.push(format!(
+            "conditions = {:?} is replaced by the full family (one block per rate combination)",
+            request.conditions
+        ));
+    }
+    notes.push(used.join("; "));
+    Ok(DesignRequest {
+        gamma: GammaSpec::Fixed(1.0),
+        conditions: Conditions::Full,
+        ..request
+    })
+}
+
+/// The summary of a global design: its verdict line, then every note.
+fn global_summary(
+    feasible: bool,
+    alpha: f64,
+    status: Status,
+    failed: &[String],
+    norms: &[f64],
+    notes: &[String],
+) -> String {
+    let max_norm = norms.iter().copied().fold(0.0, f64::max);
+    let head = if feasible {
+        format!(
+            "CERTIFIED, GLOBAL (LPV plant: P ≻ 0 and G5): V' ≤ −αV with α = {alpha:.6} for every e(0) and every θ(t) in the box; max ‖L_l‖₂ = {max_norm:.4}."
+        )
+    } else {
+        let failed = if failed.is_empty() {
+            String::new()
+        } else {
+            format!("; failed: {}", failed.join(", "))
+        };
+        format!("NOT CERTIFIED, GLOBAL (LPV plant) at α = {alpha:.6}: solver {status}{failed}.")
+    };
+    let mut s = head;
+    for n in notes {
+        s.push(' ');
+        s.push_str(n);
+        if !n.ends_with('.') {
+            s.push('.');
+        }
+    }
+    s
+}
+
 /// [`super::design_with_progress`] for every split but `skew_slack`,
 /// without the noise and sampling figures.
 pub(super) fn design_plain(
@@ -623,6 +703,114 @@ pub(super) fn design_plain(
     request: &DesignRequest,
     settings: &Settings,
     progress: &mut dyn FnMut(&SearchStep),
+) -> Result<Design, SolveError> {
+    if !(crate::model::is_global(model, request.mode) && request.alpha == AlphaSpec::Max) {
+        return design_plain_with(model, request, settings, progress, None);
+    }
+    // The global α = max: the units the first search balanced by (a pilot
+    // at a small α) need not suit its result, so the search runs once
+    // more in the units of the P it certified, and the better design is
+    // kept.
+    let t0 = Instant::now();
+    let first = design_plain_with(model, request, settings, progress, None)?;
+    if !first.certifies {
+        return Ok(first);
+    }
+    let hint = first.p_matrix();
+    let second = design_plain_with(model, request, settings, progress, Some(&hint))?;
+    let solves = first.search.len() + second.search.len();
+    let mut out = if second.certifies && second.alpha >= first.alpha {
+        second
+    } else {
+        first
+    };
+    out.notes.push(format!(
+        "global α = max: searched twice, the second time in the units of the first result's P ({solves} solves in all)"
+    ));
+    out.seconds_total = t0.elapsed().as_secs_f64();
+    Ok(out)
+}
+
+/// The balancing of a global design's units ([`StateScaling::of_p`]): the
+/// problem is posed in coordinates where P's diagonal is near 1, from the
+/// P of `hint` or of pilot solves at the requested α (a feasibility solve, then the gain objective in its units) (for
+/// α = max at 0.1·max_l ‖A_l‖_F), up to two rounds. Returns the number
+/// of pilot solves.
+fn global_balance(
+    setup: &mut Setup,
+    request: &DesignRequest,
+    settings: &Settings,
+    hint: Option<&nalgebra::DMatrix<f64>>,
+) -> Result<usize, SolveError> {
+    let alpha = match request.alpha {
+        AlphaSpec::Fixed(a) => a,
+        AlphaSpec::Max => {
+            0.1 * setup
+                .model
+                .vertices
+                .iter()
+                .map(|v| v.a.norm())
+                .fold(settings.alpha_floor, f64::max)
+        }
+    };
+    let mut p = hint.cloned();
+    let mut pilots = 0;
+    for _ in 0..2 {
+        let p_now = match p.take() {
+            Some(p) => p,
+            None => {
+                pilots += 1;
+                let prob = setup.problem(request)?;
+                // The first pilot only needs some feasible P; the next one
+                // the smallest-gain point in the units it gave.
+                let objective = if pilots == 1 {
+                    Objective::Feasibility
+                } else {
+                    Objective::Gains
+                };
+                // A pilot without a point is retried at smaller α (the
+                // units that suit a smaller α are a better start than none).
+                let mut found = None;
+                for k in 0..4 {
+                    let a = alpha * 0.5f64.powi(k);
+                    if let Some(p) = prob.solve(a, 1.0, settings, objective)?.p {
+                        found = Some(p);
+                        break;
+                    }
+                }
+                match found {
+                    Some(p) => p,
+                    None => break,
+                }
+            }
+        };
+        // The unit: the state the output map weighs most (C D keeps its size).
+        let c = &setup.model.vertices[0].c;
+        let unit = (0..c.ncols()).max_by(|&a, &b| {
+            let w = |i: usize| c.column(i).abs().sum();
+            w(a).total_cmp(&w(b))
+        });
+        let Some(sc) = StateScaling::of_p_relative(&p_now, unit) else {
+            break;
+        };
+        if setup.scaled.as_ref().is_some_and(|(_, s)| *s == sc) {
+            break;
+        }
+        match sc.model(&setup.model) {
+            Some(zm) => setup.scaled = Some((zm, sc)),
+            None => break,
+        }
+    }
+    Ok(pilots)
+}
+
+/// [`design_plain`] with a balancing hint for the global observer.
+fn design_plain_with(
+    model: &PolytopicModel,
+    request: &DesignRequest,
+    settings: &Settings,
+    progress: &mut dyn FnMut(&SearchStep),
+    hint: Option<&nalgebra::DMatrix<f64>>,
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
     let mode = request.mode;
@@ -641,14 +829,37 @@ pub(super) fn design_plain(
         conditions: chosen_conditions,
         ..request.clone()
     };
+    let global = crate::model::is_global(model, mode);
+    let mut global_notes = Vec::new();
+    let resolved = if global {
+        global_request(model, resolved, &mut global_notes)?
+    } else {
+        resolved
+    };
     let request = &resolved;
-    let setup = Setup::new(model, request, settings)?;
+    let mut setup = Setup::new(model, request, settings)?;
+    if global {
+        let pilots = global_balance(&mut setup, request, settings, hint)?;
+        if let Some((_, sc)) = &setup.scaled {
+            let d: Vec<String> = sc.d.iter().map(|v| format!("{v:e}")).collect();
+            global_notes.push(format!(
+                "global observer in balanced units x = D z, D = diag({}) (powers of two, from {}; exact)",
+                d.join(", "),
+                if hint.is_some() && pilots == 0 {
+                    "the first search's P".to_string()
+                } else {
+                    format!("{pilots} pilot solves")
+                }
+            ));
+        }
+    }
     let model: &PolytopicModel = &setup.model;
     let prob = setup.problem(request)?;
     let mut notes = Vec::new();
-    if !auto_note.is_empty() {
+    if !auto_note.is_empty() && !global {
         notes.push(auto_note);
     }
+    notes.extend(global_notes);
     notes.extend(setup.notes(request, &prob));
     let mut ctx = Ctx {
         model,
@@ -744,7 +955,20 @@ pub(super) fn design_plain(
         &shown_matrices.gain_norms,
         &notes,
     );
+    let summary = if global {
+        global_summary(
+            feasible,
+            alpha_r,
+            fin.status,
+            &failed,
+            &shown_matrices.gain_norms,
+            &notes,
+        )
+    } else {
+        summary
+    };
     Ok(Design {
+        global,
         model: model.name.clone(),
         mode,
         split: request.split,

@@ -729,6 +729,12 @@ pub fn design_with_progress(
     settings: &Settings,
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
+    if crate::model::is_global(model, request.mode) && request.split == Split::SkewSlack {
+        return Err(SolveError::Unsupported(format!(
+            "model `{}`: split = skew_slack (its slack reshapes N_k, which is zero) is not built for an LPV plant, whose observer is the global one (docs/method.md §17); design with the symmetric split",
+            model.name
+        )));
+    }
     if request.noise == qpv_dsl::NoiseObjective::Min {
         let channels = crate::noise::NoiseChannels::from_model(model);
         return crate::noise::design_noise_with_progress(

@@ -1,0 +1,246 @@
+//! The global observer of an LPV plant (docs/method.md, "The global
+//! observer"): no region or state bound, P ⪰ I and He{P A_l − Γ_l C_m} +
+//! αP ≺ 0 at every rate combination, certified as family G5; and the
+//! de-duplication of rate blocks whose nonlinear terms vanish.
+
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::{AlphaSpec, GammaSpec, Mode, PolytopicModel};
+use qpv_solve::certificate::{check, combo_lmi};
+use qpv_solve::conditions::reference::paper_model;
+use qpv_solve::conditions::{rate_combos, ConditionSet};
+use qpv_solve::lmi::Problem;
+use qpv_solve::model::StateScaling;
+use qpv_solve::{design, Design, Settings};
+
+fn three_tank() -> PolytopicModel {
+    qpv_dsl::parse(include_str!("../../examples/three_tank.qpv")).expect("parses")[0].polytopic()
+}
+
+fn run(m: &PolytopicModel, alpha: AlphaSpec) -> Design {
+    let r = qpv_solve::request(alpha, GammaSpec::Search, Mode::Sound);
+    design(m, &r, &Settings::default()).expect("design runs")
+}
+
+/// A small deterministic generator of θ in the box (no dependency).
+fn sample_thetas(m: &PolytopicModel, n: usize) -> Vec<Vec<f64>> {
+    let mut state: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    (0..n)
+        .map(|_| {
+            m.params
+                .iter()
+                .map(|p| p.lo + (p.hi - p.lo) * next())
+                .collect()
+        })
+        .collect()
+}
+
+/// max over sampled θ of λ_max(He{P(A(θ) − L(θ)C(θ))} + αP), evaluated
+/// after the exact congruence x = Dz that balances P (the sign of every
+/// eigenvalue is that of the user's matrix; the balanced one is formed
+/// without the cancellation huge gains cause in the user's units).
+fn sampled_worst(m: &PolytopicModel, d: &Design, thetas: &[Vec<f64>]) -> f64 {
+    let p = d.p_matrix();
+    let ls = d.l_matrices();
+    let dz = StateScaling::of_p(&p)
+        .map(|s| s.d)
+        .unwrap_or_else(|| vec![1.0; m.nx()]);
+    let dm = DMatrix::from_diagonal(&DVector::from_vec(dz.clone()));
+    let dinv = DMatrix::from_diagonal(&DVector::from_vec(dz.iter().map(|v| 1.0 / v).collect()));
+    let pz = &dm * &p * &dm;
+    let mut worst = f64::NEG_INFINITY;
+    for th in thetas {
+        let mu = m.mu(th);
+        let mut l = DMatrix::zeros(m.nx(), m.ny());
+        for (w, li) in mu.iter().zip(&ls) {
+            l += li * *w;
+        }
+        let az = &dinv * m.a_at(th) * &dm;
+        let lz = &dinv * l;
+        let cz = m.c_at(th) * &dm;
+        let f = &pz * (az - lz * cz);
+        let mat = &f + f.transpose() + &pz * d.alpha;
+        let lmax = mat.symmetric_eigenvalues().max();
+        worst = worst.max(lmax / pz.norm());
+    }
+    worst
+}
+
+#[test]
+fn lpv_plant_needs_no_region_and_is_global() {
+    let m = three_tank();
+    assert!(m.is_lpv());
+    assert!(!m.has_region());
+    assert_eq!(m.nv(), 32);
+    let prob = Problem::new(&m, ConditionSet::Sound).expect("no region needed");
+    assert!(prob.is_global());
+    // One block per θ-vertex: the region-vertex pairs are gone.
+    assert_eq!(prob.n_full_rate_blocks(), 32);
+}
+
+#[test]
+fn three_tank_certifies_alpha_0_9_and_0_99_globally() {
+    let m = three_tank();
+    let thetas = sample_thetas(&m, 400);
+    for alpha in [0.9, 0.99] {
+        let d = run(&m, AlphaSpec::Fixed(alpha));
+        assert!(d.certifies, "α = {alpha}: {}", d.summary);
+        assert!(d.global);
+        assert_eq!(d.alpha, alpha);
+        let families: Vec<&str> = d.margins.keys().map(String::as_str).collect();
+        assert_eq!(families, ["G5", "S1"]);
+        assert!(d.data_checks.is_empty(), "no S4 for a global design");
+        assert!(d.summary.contains("GLOBAL"));
+        // Re-checked from P and L alone, and by brute-force sampling of θ.
+        let cert = check(
+            &m,
+            Mode::Sound,
+            alpha,
+            d.gamma,
+            &d.p_matrix(),
+            &d.l_matrices(),
+        );
+        assert!(cert.passed);
+        let worst = sampled_worst(&m, &d, &thetas);
+        assert!(worst < 0.0, "α = {alpha}: sampled λ_max/‖P‖ = {worst:e}");
+    }
+}
+
+#[test]
+fn global_certificate_rejects_too_fast_a_claim() {
+    // The gains of α = 0.9 do not certify a claim of α ten times larger:
+    // the capacity bounds what the same (P, L) give.
+    let m = three_tank();
+    let d = run(&m, AlphaSpec::Fixed(0.9));
+    let (p, l) = (d.p_matrix(), d.l_matrices());
+    let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &p * li).collect();
+    let cap = qpv_solve::certificate::alpha_capacity(&m, Mode::Sound, 1.0, &p, &gammas);
+    assert!(cap >= 0.9, "capacity {cap}");
+    let over = check(&m, Mode::Sound, cap * 1.01, 1.0, &p, &l);
+    assert!(!over.passed);
+    let worst = sampled_worst(
+        &m,
+        &Design {
+            alpha: cap * 1.5,
+            ..d.clone()
+        },
+        &sample_thetas(&m, 2000)
+            .into_iter()
+            .chain(m.vertices.iter().map(|v| v.theta.clone()))
+            .collect::<Vec<_>>(),
+    );
+    assert!(worst > 0.0, "a claim at 1.5 × capacity must fail somewhere");
+}
+
+#[test]
+fn three_tank_alpha_max_certifies_beyond_the_fixed_requests() {
+    let m = three_tank();
+    let d = run(&m, AlphaSpec::Max);
+    assert!(d.certifies, "{}", d.summary);
+    assert!(d.global);
+    assert!(d.alpha > 0.99, "α = {}", d.alpha);
+    let worst = sampled_worst(&m, &d, &sample_thetas(&m, 400));
+    assert!(worst < 0.0, "sampled λ_max/‖P‖ = {worst:e}");
+}
+
+#[test]
+fn a_given_region_and_state_bound_are_reported_unused() {
+    let src = include_str!("../../examples/three_tank.qpv").replace(
+        "design { alpha = 0.9; }",
+        "region box(1); state_bound Q = [3,0,0;0,3,0;0,0,3]; design { alpha = 0.9; gamma = 0.3; }",
+    );
+    let model = &qpv_dsl::parse(&src).expect("parses")[0];
+    assert!(model
+        .warnings
+        .iter()
+        .any(|w| w.message.contains("region is not used")));
+    assert!(model
+        .warnings
+        .iter()
+        .any(|w| w.message.contains("state bound is not used")));
+    let m = model.polytopic();
+    let prob = Problem::new(&m, ConditionSet::Sound).unwrap();
+    // 8 region vertices, but every pair has the same block: 32, not 32 · 64.
+    assert_eq!(prob.n_pair_rate_blocks(), 32 * 64);
+    assert_eq!(prob.n_full_rate_blocks(), 32);
+    let d = design(&m, &m.designs[0], &Settings::default()).unwrap();
+    assert!(d.certifies && d.global, "{}", d.summary);
+    assert!(d.notes.iter().any(|n| n.contains("region is not used")
+        && n.contains("state bound is not used")
+        && n.contains("γ = 0.3 is not used")));
+}
+
+#[test]
+fn qpv_plant_without_region_is_still_refused() {
+    let src =
+        "model m { state x1; output y; der x1 = -x1 + x1*x1; out y = x1; state_bound Q = [1]; }";
+    let err = qpv_dsl::parse(src).unwrap_err().to_string();
+    assert!(err.contains("has no region"), "{err}");
+}
+
+/// The paper's plant with N_k and M_k zeroed at the first half of its
+/// θ-vertices: a partly linear plant (as data; the de-duplication acts on
+/// vertex data). Its output map then varies, so the rate family is the
+/// double sum.
+fn partly_linear() -> PolytopicModel {
+    let mut m = paper_model();
+    let half = m.nv() / 2;
+    for v in &mut m.vertices[..half] {
+        v.n.iter_mut().for_each(|n| n.fill(0.0));
+        v.m.iter_mut().for_each(|x| x.fill(0.0));
+    }
+    m
+}
+
+#[test]
+fn linear_vertices_are_written_once_and_certified_the_same() {
+    let m = partly_linear();
+    assert!(!m.is_lpv());
+    let prob = Problem::new(&m, ConditionSet::Sound).unwrap();
+    assert!(!prob.is_global());
+    let p = m.region.vertices.len();
+    let linear = (0..prob.combos().len())
+        .filter(|&c| prob.combo_is_linear(c))
+        .count();
+    // The combinations whose every term (l, m) lies in the linear half.
+    let half = m.nv() / 2;
+    let expected = rate_combos(&m)
+        .iter()
+        .filter(|c| c.terms.iter().all(|&(l, k, _)| l < half && k < half))
+        .count();
+    assert!(expected > 0);
+    assert_eq!(linear, expected);
+    assert_eq!(
+        prob.n_full_rate_blocks(),
+        linear + (prob.combos().len() - linear) * p * p
+    );
+    assert!(prob.n_full_rate_blocks() < prob.n_pair_rate_blocks());
+    let r = qpv_solve::request(AlphaSpec::Fixed(5.0), GammaSpec::Fixed(0.18), Mode::Sound);
+    let d = design(&m, &r, &Settings::default()).unwrap();
+    assert!(d.certifies, "{}", d.summary);
+    // The certificate's S5 margin is the minimum over every combination
+    // and every pair, recomputed here block by block without de-duplication
+    // (on the representation of N_k, M_k the design used).
+    let m = m.with_split(d.split);
+    let (pm, l) = (d.p_matrix(), d.l_matrices());
+    let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &pm * li).collect();
+    let mut worst = f64::INFINITY;
+    for c in rate_combos(&m) {
+        for i in 0..p {
+            for j in 0..p {
+                let b = combo_lmi(&m, Mode::Sound, d.alpha, d.gamma, &pm, &gammas, &c, i, j);
+                worst = worst.min(-b.symmetric_eigenvalues().max());
+            }
+        }
+    }
+    let s5 = d.margins["S5"];
+    assert!(
+        (s5 - worst).abs() <= 1e-9 * worst.abs().max(1e-12),
+        "{s5} vs {worst}"
+    );
+}
