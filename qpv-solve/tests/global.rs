@@ -244,3 +244,35 @@ fn linear_vertices_are_written_once_and_certified_the_same() {
         "{s5} vs {worst}"
     );
 }
+
+#[test]
+fn routes_not_built_for_lpv_plants_are_refused_by_name() {
+    let m = three_tank();
+    let base = qpv_solve::request(AlphaSpec::Fixed(0.9), GammaSpec::Search, Mode::Sound);
+    let noise = qpv_dsl::DesignRequest {
+        noise: qpv_dsl::NoiseObjective::Min,
+        ..base.clone()
+    };
+    let sampled = qpv_dsl::DesignRequest {
+        sample: Some(1e-3),
+        ..base.clone()
+    };
+    let skew = qpv_dsl::DesignRequest {
+        split: qpv_dsl::Split::SkewSlack,
+        ..base
+    };
+    for (what, r) in [
+        ("noise = min", noise),
+        ("sample", sampled),
+        ("skew_slack", skew),
+    ] {
+        let err = design(&m, &r, &Settings::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(what), "{what}: {err}");
+        assert!(
+            err.contains("three_tank") && err.contains("LPV"),
+            "{what}: {err}"
+        );
+    }
+}

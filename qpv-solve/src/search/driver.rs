@@ -54,6 +54,12 @@ impl Setup {
         let set = ConditionSet::from_mode(request.mode);
         crate::model::validate(model)?;
         let global = crate::model::is_global(model, request.mode);
+        if request.mode == Mode::Paper && !model.has_region() {
+            return Err(SolveError::Unsupported(format!(
+                "model `{}`: paper mode reproduces the printed conditions on a region, and this LPV plant has none; its sound design is the global observer (docs/method.md §17)",
+                model.name
+            )));
+        }
         let global_model = crate::model::global_model(model);
         let model: &PolytopicModel = if global { &global_model } else { model };
         // Refuse before anything is assembled or solved.
