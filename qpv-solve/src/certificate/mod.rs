@@ -267,32 +267,49 @@ pub fn check(
     p: &DMatrix<f64>,
     l: &[DMatrix<f64>],
 ) -> Certificate {
-    if let Some((zm, s)) = balanced_for(model, mode, p) {
-        if let (Some(pz), Some(lz)) = (s.p_to_z(p), l_to_z(&s, l)) {
-            let (gammas, lnorm) = gammas_of(&pz, &lz);
-            return check_inner(
-                &zm,
-                mode,
-                alpha,
-                gamma,
-                &pz,
-                &gammas,
-                &lnorm,
-                RateCheck::Vertex,
-            );
-        }
-    }
-    let (gammas, lnorm) = gammas_of(p, l);
-    check_inner(
+    check_in_units(
         model,
         mode,
         alpha,
         gamma,
         p,
-        &gammas,
-        &lnorm,
+        l,
+        balanced_for(model, mode, p),
         RateCheck::Vertex,
     )
+}
+
+/// [`check_inner`] in the balanced coordinates `balance` when given and
+/// every matrix transforms exactly (P, L_l and, for a cube check, its
+/// slacks), else in the model's own: the one place a check chooses its
+/// coordinates.
+#[allow(clippy::too_many_arguments)]
+fn check_in_units(
+    model: &PolytopicModel,
+    mode: Mode,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    l: &[DMatrix<f64>],
+    balance: Option<(PolytopicModel, StateScaling)>,
+    rate: RateCheck<'_>,
+) -> Certificate {
+    if let Some((zm, s)) = balance {
+        let cube_z = match rate {
+            RateCheck::Cube(c) => cube_to_z(&s, c).map(Some),
+            _ => Some(None),
+        };
+        if let (Some(pz), Some(lz), Some(cz)) = (s.p_to_z(p), l_to_z(&s, l), cube_z) {
+            let (gammas, lnorm) = gammas_of(&pz, &lz);
+            let rate_z = match (&cz, rate) {
+                (Some(c), _) => RateCheck::Cube(c),
+                (None, r) => r,
+            };
+            return check_inner(&zm, mode, alpha, gamma, &pz, &gammas, &lnorm, rate_z);
+        }
+    }
+    let (gammas, lnorm) = gammas_of(p, l);
+    check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, rate)
 }
 
 /// Which rate family [`check_inner`] checks.
@@ -379,31 +396,14 @@ pub fn check_cube(
     l: &[DMatrix<f64>],
     slacks: &CubeSlacks,
 ) -> Certificate {
-    if let Some((zm, s)) = balanced(model, mode) {
-        if let (Some(pz), Some(lz), Some(cz)) = (s.p_to_z(p), l_to_z(&s, l), cube_to_z(&s, slacks))
-        {
-            let (gammas, lnorm) = gammas_of(&pz, &lz);
-            return check_inner(
-                &zm,
-                mode,
-                alpha,
-                gamma,
-                &pz,
-                &gammas,
-                &lnorm,
-                RateCheck::Cube(&cz),
-            );
-        }
-    }
-    let (gammas, lnorm) = gammas_of(p, l);
-    check_inner(
+    check_in_units(
         model,
         mode,
         alpha,
         gamma,
         p,
-        &gammas,
-        &lnorm,
+        l,
+        balanced(model, mode),
         RateCheck::Cube(slacks),
     )
 }
@@ -422,30 +422,14 @@ pub fn check_sampled(
     p: &DMatrix<f64>,
     l: &[DMatrix<f64>],
 ) -> Certificate {
-    if let Some((zm, s)) = balanced(model, Mode::Sound) {
-        if let (Some(pz), Some(lz)) = (s.p_to_z(p), l_to_z(&s, l)) {
-            let (gammas, lnorm) = gammas_of(&pz, &lz);
-            return check_inner(
-                &zm,
-                Mode::Sound,
-                alpha,
-                gamma,
-                &pz,
-                &gammas,
-                &lnorm,
-                RateCheck::Sampled(h),
-            );
-        }
-    }
-    let (gammas, lnorm) = gammas_of(p, l);
-    check_inner(
+    check_in_units(
         model,
         Mode::Sound,
         alpha,
         gamma,
         p,
-        &gammas,
-        &lnorm,
+        l,
+        balanced_for(model, Mode::Sound, p),
         RateCheck::Sampled(h),
     )
 }
