@@ -63,6 +63,25 @@ use std::time::Instant;
 /// is solved (see [`Problem::solve_with_metric`]).
 pub const GLOBAL_BACKOFF: f64 = 1e-3;
 
+/// W = M/λ_min(M) (symmetrised) and W^{-1/2}, for a finite positive
+/// definite n × n metric M; None otherwise.
+fn normalised_metric(m: &DMatrix<f64>, n: usize) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    if m.shape() != (n, n) || !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let sym = (m + m.transpose()) * 0.5;
+    let eig = sym.clone().symmetric_eigen();
+    let lmin = eig.eigenvalues.min();
+    let lmax = eig.eigenvalues.max();
+    if !(lmin > 0.0 && lmax / lmin < 1e12) {
+        return None;
+    }
+    let w = &sym / lmin;
+    let d = DMatrix::from_diagonal(&eig.eigenvalues.map(|v| (lmin / v).sqrt()));
+    let w_inv_half = &eig.eigenvectors * d * eig.eigenvectors.transpose();
+    Some((w, w_inv_half))
+}
+
 /// Number of entries of the upper triangle of an n × n matrix.
 #[inline]
 pub fn tri(n: usize) -> usize {
@@ -748,7 +767,7 @@ impl<'m> Problem<'m> {
             self.push_gain_bound(&mut out, g);
         }
         if min_gain {
-            self.homogenise_for_min_gain(&mut out);
+            self.homogenise_for_min_gain(&mut out, metric);
         }
         if max_margin {
             // t̂ ≤ 1.
@@ -821,8 +840,14 @@ impl<'m> Problem<'m> {
 
     /// [`Objective::MinGain`]: every row so far becomes homogeneous (its
     /// right-hand side b moves into the column of c: A x − c b + s = 0),
-    /// then c ≥ 0, P̂ − I ⪰ 0 and the blocks ‖Γ̂_l‖₂ ≤ κ.
-    fn homogenise_for_min_gain(&self, out: &mut Rows) {
+    /// then c ≥ 0, P̂ − W ⪰ 0 and the blocks ‖W^{-1/2} Γ̂_l‖₂ ≤ κ, with
+    /// W = I or, given a usable `metric` P_ref (a certified point's P, in
+    /// the problem's coordinates), W = P_ref/λ_min(P_ref) ⪰ I: then
+    /// ‖P̂⁻¹Γ̂‖₂ ≤ ‖W^{-1/2}‖ ‖W^{-1/2}Γ̂‖₂ ≤ κ as well (Γ̂ᵀP̂⁻¹Γ̂ ⪯ Γ̂ᵀW⁻¹Γ̂),
+    /// and the normalisation follows the shape of a P that certifies,
+    /// where P̂ ⪰ I alone leaves the solver a badly scaled problem.
+    fn homogenise_for_min_gain(&self, out: &mut Rows, metric: Option<&DMatrix<f64>>) {
+        let (nx, ny) = (self.nx, self.ny);
         let (cvar, kvar) = (self.n_vars(), self.n_vars() + 1);
         for (r, b) in out.b.iter_mut().enumerate() {
             out.cols.push(r, cvar, -*b);
@@ -833,10 +858,44 @@ impl<'m> Problem<'m> {
         out.b.push(0.0);
         out.cols.push(row, cvar, -1.0);
         out.cones.push(SupportedConeT::NonnegativeConeT(1));
-        // P̂ − I ⪰ 0.
-        self.push_s1(out, 1.0);
+        let w = metric.and_then(|m| normalised_metric(m, nx));
+        let Some((w, w_inv_half)) = w else {
+            // P̂ − I ⪰ 0, ‖Γ̂_l‖₂ ≤ κ.
+            self.push_s1(out, 1.0);
+            for l in 0..self.nv {
+                self.push_gain_block(out, l, kvar, 1.0);
+            }
+            return;
+        };
+        // P̂ − W ⪰ 0: s = svec(P̂) − svec(W).
+        let row0 = out.open(tri(nx), 0.0);
+        for c in 0..nx {
+            for r in 0..=c {
+                let sc = if r == c { 1.0 } else { SQRT2 };
+                out.b[row0 + tri_idx(r, c)] = -sc * w[(r, c)];
+                out.cols.push(row0 + tri_idx(r, c), tri_idx(r, c), -sc);
+            }
+        }
+        out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+        // [κ I, Γ̂_lᵀ W^{-1/2}; W^{-1/2} Γ̂_l, κ I] ⪰ 0.
+        let d = nx + ny;
         for l in 0..self.nv {
-            self.push_gain_block(out, l, kvar, 1.0);
+            let row0 = out.open(tri(d), 0.0);
+            for k in 0..d {
+                out.cols.push(row0 + tri_idx(k, k), kvar, -1.0);
+            }
+            for k in 0..nx {
+                for c in 0..ny {
+                    for r in 0..nx {
+                        out.cols.push(
+                            row0 + tri_idx(c, ny + r),
+                            self.gvar(l, k, c),
+                            -SQRT2 * w_inv_half[(r, k)],
+                        );
+                    }
+                }
+            }
+            out.cones.push(SupportedConeT::PSDTriangleConeT(d));
         }
     }
 

@@ -27,6 +27,7 @@ use crate::error::SolveError;
 use crate::lmi::Objective;
 use crate::report::Practical;
 use crate::vocab::{Candidate, Phase};
+use nalgebra::DMatrix;
 
 /// Most γ values at which the smallest-gain design is solved before the
 /// refinement.
@@ -80,16 +81,31 @@ pub(super) fn max_gain(p: &Point) -> f64 {
 }
 
 impl Ctx<'_, '_> {
-    /// The certified smallest-gain design at (α, γ), if any. Near the
-    /// supremum the conditions may leave less room than the solves' default
-    /// margin (the max-margin optimum t̂ below `Settings::margin_rel`): then
-    /// the margin is measured (one max-margin solve, W = I) and the solve
-    /// repeated with half of it. The certificate is the same either way.
-    fn min_gain_at(&mut self, alpha: f64, gamma: f64) -> Result<Option<Point>, SolveError> {
+    /// The certified smallest-gain design at (α, γ), if any. From scratch
+    /// (P̂ ⪰ I) first; if that does not certify and a certified point's P
+    /// is given (`seed`), normalised by its shape (P̂ ⪰ P_seed/λ_min, see
+    /// [`Objective::MinGain`]), where the solver's scratch problem is
+    /// badly scaled (the elastic arm at small γ). Near the supremum the
+    /// conditions may also leave less room than the solves' default margin
+    /// (the max-margin optimum t̂ below `Settings::margin_rel`): then the
+    /// margin is measured (one max-margin solve) and the solve repeated
+    /// with half of it. The certificate is the same either way.
+    fn min_gain_at(
+        &mut self,
+        alpha: f64,
+        gamma: f64,
+        seed: Option<&DMatrix<f64>>,
+    ) -> Result<Option<Point>, SolveError> {
         let cand = Candidate::new(alpha, gamma);
         let at = self.attempt(cand, Objective::MinGain, None, Phase::Practical)?;
         if at.certified {
             return Ok(at.point);
+        }
+        if seed.is_some() {
+            let at = self.attempt(cand, Objective::MinGain, seed, Phase::Practical)?;
+            if at.certified {
+                return Ok(at.point);
+            }
         }
         let room = self.attempt(cand, Objective::MaxMargin, None, Phase::Practical)?;
         let t = room.margin;
@@ -97,7 +113,7 @@ impl Ctx<'_, '_> {
             return Ok(None);
         }
         self.margin_rel = Some(0.5 * t);
-        let at = self.attempt(cand, Objective::MinGain, None, Phase::Practical);
+        let at = self.attempt(cand, Objective::MinGain, seed, Phase::Practical);
         self.margin_rel = None;
         let at = at?;
         Ok(if at.certified { at.point } else { None })
@@ -118,7 +134,7 @@ impl Ctx<'_, '_> {
         let mut best: Option<(Point, f64)> = None;
         let mut tried: Vec<(f64, f64)> = Vec::new();
         for &g in &cands {
-            let gain = self.try_gamma(a_t, g, &mut best)?;
+            let gain = self.try_gamma(a_t, g, &sup.p, &mut best)?;
             tried.push((g, gain));
         }
         // Golden-section steps in ln γ inside the bracket of the best
@@ -144,7 +160,7 @@ impl Ctx<'_, '_> {
                 } else {
                     m - W * (m - a)
                 };
-                let fx = self.try_gamma(a_t, x.exp(), &mut best)?;
+                let fx = self.try_gamma(a_t, x.exp(), &sup.p, &mut best)?;
                 if fx < fm {
                     if right {
                         a = m;
@@ -208,12 +224,15 @@ impl Ctx<'_, '_> {
                 let (ka, kg) = (on_curve.alpha, on_curve.gamma);
                 // A smaller gain at the same point, if a smallest-gain solve
                 // certifies within the tolerance below it.
-                let knee = match self.min_gain_at((1.0 - within) * ka, kg)? {
+                let knee = match self.min_gain_at((1.0 - within) * ka, kg, Some(&on_curve.p))? {
                     Some(p) if max_gain(&p) < max_gain(&on_curve) => p,
                     _ => on_curve,
                 };
-                high_gain = true;
-                notes.push(format!(
+                let kg_gain = max_gain(&knee);
+                // The knee only where it buys a real cut in gain.
+                if kg_gain <= 0.5 * b_gain {
+                    high_gain = true;
+                    notes.push(format!(
                     "high gain: the certified α {} (max ‖L_l‖₂ = {b_gain:.4e} at α = {b_alpha:.6}, against {g_ref:.4e} at α = {:.6}, γ = {:.6}, where the walk to small γ started): the supremum is approached only as ‖L‖ → ∞, so the design returned is the knee of the α–gain curve (the fastest point of the walk whose certified design has at most {KNEE_FACTOR}× the gain at its start: α = {ka:.6}, γ = {kg:.6}); `max_gain = G` or a sample period sets the real limit",
                     if self.walk_stopped {
                         "was still rising where the walk stopped (a point's gain above 100× its start)"
@@ -225,8 +244,13 @@ impl Ctx<'_, '_> {
                     start.alpha,
                     start.gamma,
                 ));
-                let g = max_gain(&knee);
-                best = Some((knee, g));
+                    best = Some((knee, kg_gain));
+                } else {
+                    notes.push(format!(
+                        "the gains grow along the whole walk to small γ (max ‖L_l‖₂ = {g_ref:.4e} already at its start, α = {:.6}): no slower point of it has less than half the gain, so the design at the tolerance is kept; `max_gain = G` or a sample period sets the real limit",
+                        start.alpha
+                    ));
+                }
             }
         }
         let solves = self.steps.len() - n0;
@@ -276,9 +300,10 @@ impl Ctx<'_, '_> {
         &mut self,
         alpha: f64,
         gamma: f64,
+        seed: &DMatrix<f64>,
         best: &mut Option<(Point, f64)>,
     ) -> Result<f64, SolveError> {
-        Ok(match self.min_gain_at(alpha, gamma)? {
+        Ok(match self.min_gain_at(alpha, gamma, Some(seed))? {
             Some(p) => {
                 let g = max_gain(&p);
                 if best.as_ref().map_or(true, |(_, bg)| g < *bg) {
