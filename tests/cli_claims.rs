@@ -1,4 +1,4 @@
-//! Never a wrong claim (issue 24): `check` and `simulate` re-check a
+//! Never a wrong claim (docs/schema.md, "What a report may claim"): `check` and `simulate` re-check a
 //! report's claim on one path (`Design::recheck`, with its cube slacks and
 //! its size guard); outputs never overwrite inputs and are checked before
 //! the work; flag values and signals are bad input when they are, with

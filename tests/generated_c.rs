@@ -393,7 +393,7 @@ int main(void) {{
     )
 }
 
-/// Issue 26: a `sample = h` design exported as C. The design path solves
+/// A `sample = h` design (docs/method.md §16) exported as C. The design path solves
 /// and certifies it at h (the certificate block says so); from the baked
 /// numbers of `qpv!` (a gains file with the report's `sample` key) the C
 /// `<m>_step` matches the Rust `Observer::step`, in f64 and in f32 (whose

@@ -1,4 +1,4 @@
-//! `float = f32` designs (issue 27): an f64 and an f32 design of the paper
+//! `float = f32` designs (docs/embedded.md): an f64 and an f32 design of the paper
 //! example side by side in one model; the f32 observer against the f64 one
 //! within the certified f32 error floor; the f32 constants are what the
 //! certificate checked (and a tampered one fails).

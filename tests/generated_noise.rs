@@ -133,7 +133,7 @@ fn the_certified_euler_step_is_not_vacuous() {
 #[cfg(debug_assertions)]
 #[should_panic(expected = "exceeds MAX_STEP_EULER")]
 fn a_step_above_the_certified_euler_step_is_a_debug_assertion() {
-    // Issue 23 item 3: debug builds refuse an Euler step the design does not
+    // Debug builds refuse an Euler step the design does not
     // certify; the message names the constant. (Release builds do not check.)
     let mut obs = paper_noise::Observer::new();
     let th = paper_theta(0.0);

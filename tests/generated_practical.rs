@@ -1,4 +1,4 @@
-//! Issue 23's regression, as a user meets it: a crate bakes the default
+//! The practical `alpha = max` (docs/method.md §11a), as a user meets it: a crate bakes the default
 //! `alpha = max` design of the Lorenz plant (ρ scheduled, y = x; written
 //! from its equations, not tuned for the observer) and steps it at 1 ms.
 //! Before the practical α = max, its gains were 1.7·10⁶ with a certified

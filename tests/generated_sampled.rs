@@ -1,4 +1,4 @@
-//! Issue 26 part 3: a `sample = h` design baked by `qpv!`. The generated
+//! A `sample = h` design (docs/method.md §16) baked by `qpv!`. The generated
 //! `step` is exactly the certified Euler step at `SAMPLE_PERIOD`, the
 //! certificate says at which rate it holds, and against the plant stepped by
 //! the same Euler step V(e_k) ≤ (1 − hα)^k V(e_0) on the paper example.

@@ -1,5 +1,5 @@
-//! Bench: the practical `alpha = max` on every example plant (issue 23's
-//! table): the certified supremum α_sup, the design returned (its α,
+//! Bench: the practical `alpha = max` on every example plant (the table of
+//! docs/method.md §11a): the certified supremum α_sup, the design returned (its α,
 //! max ‖L_l‖₂, certified Euler step), the same with `within = 0` (the
 //! fastest point), solves and CPU seconds of each.
 //!

@@ -200,7 +200,7 @@ fn the_pbh_test_names_the_derived_scheduling_variables_of_the_corner() {
 
 /// The two-link arm of examples/manipulator.qpv with |q2| ≤ 1 rad, without
 /// its cover, velocities within 0.2 rad/s, α = max at γ = 0.45 under
-/// `conditions` (issue 24, item 14).
+/// `conditions` (the diagnosis of a failed design).
 fn natural_arm(conditions: &str) -> qpv_dsl::PolytopicModel {
     let src = include_str!("../../examples/manipulator.qpv")
         .replace("param  q2 in [0.2, 2.0]", "param  q2 in [-1, 1]")

@@ -1,5 +1,5 @@
-//! Results do not depend on the units a model is written in (issue 24,
-//! item 13): the same plant with its states rescaled (x_new = s_i x_i)
+//! Results do not depend on the units a model is written in
+//! (docs/method.md §5, "Units"): the same plant with its states rescaled (x_new = s_i x_i)
 //! certifies the same α.
 
 use nalgebra::{DMatrix, DVector};
@@ -57,7 +57,7 @@ fn gains_back(d: &Design, s: &[f64]) -> (DMatrix<f64>, Vec<DMatrix<f64>>) {
     (p, l)
 }
 
-/// The acceptance test of issue 24, item 13: the paper's example and two
+/// The acceptance test of the units section: the paper's example and two
 /// others, rescaled by 10^±6 (uniformly, and per state for the paper),
 /// certify the same α within 0.1 %; the gains designed in the new units,
 /// taken back to the original units, pass the certificate there (where
