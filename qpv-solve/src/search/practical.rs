@@ -199,60 +199,7 @@ impl Ctx<'_, '_> {
             }
         }
         let mut notes = Vec::new();
-        let mut high_gain = false;
-        // The walk below a cliff took α up only by going to smaller γ, where
-        // the gains grow: the α search's certified points along it are the
-        // α–gain curve the knee is taken on (no solve needed; near the walk's
-        // small γ the smallest-gain solves from scratch often fail where the
-        // seeded α search certified).
-        if let Some(start) = trace
-            .walk_points
-            .first()
-            .filter(|_| trace.walk_points.len() > 1)
-        {
-            let g_ref = max_gain(start);
-            let (b_gain, b_alpha) = best
-                .as_ref()
-                .map_or((gain_sup, sup.alpha), |(b, gb)| (*gb, b.alpha));
-            if b_gain > KNEE_FACTOR * g_ref {
-                let k = trace
-                    .walk_points
-                    .iter()
-                    .rposition(|p| max_gain(p) <= KNEE_FACTOR * g_ref)
-                    .unwrap_or(0);
-                let on_curve = trace.walk_points[k].clone();
-                let (ka, kg) = (on_curve.alpha, on_curve.gamma);
-                // A smaller gain at the same point, if a smallest-gain solve
-                // certifies within the tolerance below it.
-                let knee = match self.min_gain_at((1.0 - within) * ka, kg, Some(&on_curve.p))? {
-                    Some(p) if max_gain(&p) < max_gain(&on_curve) => p,
-                    _ => on_curve,
-                };
-                let kg_gain = max_gain(&knee);
-                // The knee only where it buys a real cut in gain.
-                if kg_gain <= 0.5 * b_gain {
-                    high_gain = true;
-                    notes.push(format!(
-                    "high gain: the certified α {} (max ‖L_l‖₂ = {b_gain:.4e} at α = {b_alpha:.6}, against {g_ref:.4e} at α = {:.6}, γ = {:.6}, where the walk to small γ started): the supremum is approached only as ‖L‖ → ∞, so the design returned is the knee of the α–gain curve (the fastest point of the walk whose certified design has at most {KNEE_FACTOR}× the gain at its start: α = {ka:.6}, γ = {kg:.6}); `max_gain = G` or a sample period sets the real limit",
-                    if self.walk_stopped {
-                        "was still rising where the walk stopped (a point's gain above 100× its start)"
-                    } else if trace.still_rising {
-                        "still rises at the smallest γ searched"
-                    } else {
-                        "rose only by walking to small γ"
-                    },
-                    start.alpha,
-                    start.gamma,
-                ));
-                    best = Some((knee, kg_gain));
-                } else {
-                    notes.push(format!(
-                        "the gains grow along the whole walk to small γ (max ‖L_l‖₂ = {g_ref:.4e} already at its start, α = {:.6}): no slower point of it has less than half the gain, so the design at the tolerance is kept; `max_gain = G` or a sample period sets the real limit",
-                        start.alpha
-                    ));
-                }
-            }
-        }
+        let high_gain = self.knee(sup, within, trace, gain_sup, &mut best, &mut notes)?;
         let solves = self.steps.len() - n0;
         let capped = sup.alpha >= self.settings.alpha_cap * (1.0 - 1e-9);
         let of = if capped {
@@ -292,6 +239,78 @@ impl Ctx<'_, '_> {
             },
             notes,
         })
+    }
+
+    /// The knee of the α–gain curve (module doc): when α_sup was reached by
+    /// the walk below a cliff and the design at the tolerance (`best`, or
+    /// the fastest point `sup`) has more than [`KNEE_FACTOR`] times the gain
+    /// at the walk's start, `best` becomes the fastest walk point within
+    /// that factor, if it at least halves the gain. Returns whether it did;
+    /// `notes` says why either way.
+    fn knee(
+        &mut self,
+        sup: &Point,
+        within: f64,
+        trace: &Trace,
+        gain_sup: f64,
+        best: &mut Option<(Point, f64)>,
+        notes: &mut Vec<String>,
+    ) -> Result<bool, SolveError> {
+        let mut high_gain = false;
+        // The walk below a cliff took α up only by going to smaller γ, where
+        // the gains grow: the α search's certified points along it are the
+        // α–gain curve the knee is taken on (no solve needed; near the walk's
+        // small γ the smallest-gain solves from scratch often fail where the
+        // seeded α search certified).
+        if let Some(start) = trace
+            .walk_points
+            .first()
+            .filter(|_| trace.walk_points.len() > 1)
+        {
+            let g_ref = max_gain(start);
+            let (b_gain, b_alpha) = best
+                .as_ref()
+                .map_or((gain_sup, sup.alpha), |(b, gb)| (*gb, b.alpha));
+            if b_gain > KNEE_FACTOR * g_ref {
+                let k = trace
+                    .walk_points
+                    .iter()
+                    .rposition(|p| max_gain(p) <= KNEE_FACTOR * g_ref)
+                    .unwrap_or(0);
+                let on_curve = trace.walk_points[k].clone();
+                let (ka, kg) = (on_curve.alpha, on_curve.gamma);
+                // A smaller gain at the same point, if a smallest-gain solve
+                // certifies within the tolerance below it.
+                let knee = match self.min_gain_at((1.0 - within) * ka, kg, Some(&on_curve.p))? {
+                    Some(p) if max_gain(&p) < max_gain(&on_curve) => p,
+                    _ => on_curve,
+                };
+                let kg_gain = max_gain(&knee);
+                // The knee only where it buys a real cut in gain.
+                if kg_gain <= 0.5 * b_gain {
+                    high_gain = true;
+                    notes.push(format!(
+                "high gain: the certified α {} (max ‖L_l‖₂ = {b_gain:.4e} at α = {b_alpha:.6}, against {g_ref:.4e} at α = {:.6}, γ = {:.6}, where the walk to small γ started): the supremum is approached only as ‖L‖ → ∞, so the design returned is the knee of the α–gain curve (the fastest point of the walk whose certified design has at most {KNEE_FACTOR}× the gain at its start: α = {ka:.6}, γ = {kg:.6}); `max_gain = G` or a sample period sets the real limit",
+                if self.walk_stopped {
+                    "was still rising where the walk stopped (a point's gain above 100× its start)"
+                } else if trace.still_rising {
+                    "still rises at the smallest γ searched"
+                } else {
+                    "rose only by walking to small γ"
+                },
+                start.alpha,
+                start.gamma,
+            ));
+                    *best = Some((knee, kg_gain));
+                } else {
+                    notes.push(format!(
+                    "the gains grow along the whole walk to small γ (max ‖L_l‖₂ = {g_ref:.4e} already at its start, α = {:.6}): no slower point of it has less than half the gain, so the design at the tolerance is kept; `max_gain = G` or a sample period sets the real limit",
+                    start.alpha
+                ));
+                }
+            }
+        }
+        Ok(high_gain)
     }
 
     /// The smallest-gain design at (α, γ): its gain (∞ if it did not
