@@ -944,7 +944,11 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
 }
 
 /// The noise and step figures of a continuous design, for the certificate text.
-fn continuous_figures(t: &mut String, f: &crate::Figures, opt: impl Fn(Option<f64>) -> String) {
+fn continuous_figures(
+    t: &mut String,
+    f: &crate::design::Figures,
+    opt: impl Fn(Option<f64>) -> String,
+) {
     let _ = writeln!(
         t,
         "noise: sigma {}, error bound per unit noise {}, up to amplitude {}",

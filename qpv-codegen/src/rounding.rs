@@ -337,8 +337,8 @@ pub struct Boxes {
 pub fn rhs_error(
     m: &qpv_dsl::Model,
     scheduling: &[usize],
-    d: &crate::CertifiedDesign,
-    shape: crate::Shape,
+    d: &crate::design::CertifiedDesign,
+    shape: crate::design::Shape,
     boxes: &Boxes,
 ) -> Result<Vec<f64>, String> {
     use crate::build::{coeffs::Coeffs, equations::equations, observer, weights};

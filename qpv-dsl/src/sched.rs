@@ -206,7 +206,7 @@ pub struct Derived {
     /// The matrix entries that use it (`A[1,2]`, `N1[2,3]`, ...).
     pub used_in: Vec<String>,
     /// Where it first appears in the model text.
-    pub span: crate::Span,
+    pub span: crate::diagnostic::Span,
 }
 
 /// How a range was computed.

@@ -40,7 +40,7 @@ pub enum SolveError {
     /// Clarabel refused the problem data (a bug here, reported as an error).
     #[error("solver setup failed: {0}")]
     Setup(String),
-    /// The problem would not fit the size budget ([`crate::size`]): what it
+    /// The problem would not fit the size budget ([`crate::model::size`]): what it
     /// needs, what would fit and which option helps. Nothing was solved.
     #[error("{0}")]
     TooLarge(String),

@@ -85,13 +85,23 @@ pub mod conditions;
 pub mod lmi;
 // Search, report, analysis.
 pub mod analysis;
-pub mod diagnosis;
-pub mod noise;
 pub mod report;
-pub mod sampled_plant;
-pub mod sampling;
 pub mod search;
-pub mod size;
+
+pub use certificate::sampling;
+pub use model::{diagnosis, size};
+pub use report::continuous as sampled_plant;
+
+/// Noise and disturbances: the channels (model), the bound σ and its check
+/// (certificate), the noise-optimal design and trade-off (search) and the
+/// falsification of a noise claim (analysis), gathered in one path.
+pub mod noise {
+    pub use crate::analysis::noise::*;
+    pub use crate::certificate::noise::*;
+    pub use crate::model::noise::*;
+    pub use crate::report::figures::attach;
+    pub use crate::search::noise::*;
+}
 
 pub use analysis::{falsify, simulate};
 pub use certificate::{check, Certificate, FamilyMargin};

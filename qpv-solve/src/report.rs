@@ -17,13 +17,17 @@
 //! ({`sigma`, `max_amplitude`, `error_bound`, `per_state`, `noisy_outputs`,
 //! `disturbances`, `check`}, see [`NoiseBound`]) and
 //! `sampling` ({`max_step_euler`, `beta`, `step_estimate_rk4`}, see
-//! [`crate::sampling::Sampling`]). A γ search adds `gamma_search`
+//! [`crate::certificate::sampling::Sampling`]). A γ search adds `gamma_search`
 //! ({`gamma_lo`, `gamma_hi`, `grid_points`, `points`, `solves`,
 //! `local_maxima` [{`gamma`, `alpha`, `refined`}], `continued`}, see
 //! [`GammaSearchInfo`]). Matrices are plain `Vec<Vec<f64>>` rows;
 //! serde_json writes the shortest round-tripping decimal of every `f64`, so
 //! a reloaded design certifies exactly as the written one.
 
+pub mod continuous;
+pub mod figures;
+
+use crate::certificate::noise::NoiseBound;
 use crate::certificate::Certificate;
 use crate::error::SolveError;
 use crate::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
@@ -182,20 +186,20 @@ pub struct Design {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub skew: Option<Vec<Vec<Vec<Vec<f64>>>>>,
     /// For a design that does not certify: cheap reasons and bounds
-    /// computed from the model and request alone ([`crate::diagnosis`]:
+    /// computed from the model and request alone ([`crate::model::diagnosis`]:
     /// detectability at the θ-vertices, the (S4) bound on γ, region vertices
     /// outside F). Absent for certified designs and older reports.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub diagnosis: Option<Vec<crate::diagnosis::Finding>>,
+    pub diagnosis: Option<Vec<crate::model::diagnosis::Finding>>,
     /// The certified noise bound σ of V' + αV ≤ σ(|w|² + |v|²) and what it
     /// guarantees ([`NoiseBound`]); only on certified
     /// sound-mode designs whose noise check passed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<NoiseBound>,
     /// The largest safe Euler step and the RK4 step estimate
-    /// ([`crate::sampling::Sampling`]); only on certified sound-mode designs.
+    /// ([`crate::certificate::sampling::Sampling`]); only on certified sound-mode designs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sampling: Option<crate::sampling::Sampling>,
+    pub sampling: Option<crate::certificate::sampling::Sampling>,
     /// What a γ search searched ([`GammaSearchInfo`]: the range, the points,
     /// the local maxima of α(γ)); only when γ = search.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -217,10 +221,10 @@ pub struct Design {
     pub practical: Option<Practical>,
     /// `sample = h`: the design is certified at the sample period h by the
     /// discrete decrease (family "S5d" in place of "S5";
-    /// [`crate::sampling::SampleInfo`]); [`Design::recheck`] checks that
+    /// [`crate::certificate::sampling::SampleInfo`]); [`Design::recheck`] checks that
     /// family. Absent for continuous-time designs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sample: Option<crate::sampling::SampleInfo>,
+    pub sample: Option<crate::certificate::sampling::SampleInfo>,
     /// The global observer of an LPV plant (every N_k and M_k zero, sound
     /// mode): the conditions are P ⪰ I and He{P A_l − Γ_l C_m} + αP ≺ 0
     /// (certificate family "G5"), with no region, state bound or γ, and the
@@ -460,7 +464,7 @@ impl Design {
     /// cube slacks (the `cube` key) the slack inequalities of
     /// [`crate::certificate::check_cube`], else every region-vertex pair.
     /// Refused (a failed certificate saying why, nothing computed) when
-    /// that is more than [`crate::size::CERTIFICATE_BUDGET`] rate blocks,
+    /// that is more than [`crate::model::size::CERTIFICATE_BUDGET`] rate blocks,
     /// the budget of a design's own certificate.
     pub fn recheck_on(&self, obs: &PolytopicModel) -> Certificate {
         let slacks = self
@@ -468,7 +472,7 @@ impl Design {
             .as_ref()
             .map(crate::conditions::cube::CubeSlacks::from_report);
         let blocks = recheck_blocks(obs, slacks.is_some());
-        if blocks > crate::size::CERTIFICATE_BUDGET {
+        if blocks > crate::model::size::CERTIFICATE_BUDGET {
             let combos = combinations(obs);
             return Certificate::refused(
                 self.mode,
@@ -478,7 +482,7 @@ impl Design {
                     "too large to re-check: {combos} rate combination(s) × {}² region-vertex pairs \
                      = {blocks:.3e} blocks, more than the certificate's budget of {:.3e}{}",
                     obs.region.vertices.len(),
-                    crate::size::CERTIFICATE_BUDGET,
+                    crate::model::size::CERTIFICATE_BUDGET,
                     if obs.region.zonotope_generators().is_some() {
                         "; a `conditions = cube` report carries slacks (its `cube` key) that are \
                          re-checked without enumerating the pairs"
@@ -605,39 +609,4 @@ pub fn skew_matrices(k: &[Vec<Vec<Vec<f64>>>]) -> Vec<Vec<DMatrix<f64>>> {
     k.iter()
         .map(|kl| kl.iter().map(|kk| rows_to_matrix(kk)).collect())
         .collect()
-}
-
-/// The independent check of the noise block LMI at every combination and
-/// region-vertex pair (positive margin = satisfied).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct NoiseCheck {
-    /// −λ_max of the worst block.
-    pub margin: f64,
-    /// The floating-point guard the margin must exceed.
-    pub guard: f64,
-    /// margin > guard at every block.
-    pub passed: bool,
-    /// Where the worst margin occurs (1-based, like the rate family).
-    pub worst_at: String,
-    /// Number of blocks checked.
-    pub count: usize,
-}
-
-/// The certified noise bound of a design (the report's `noise` key).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct NoiseBound {
-    /// σ of V' + αV ≤ σ(|w|² + |v|²), checked by [`crate::noise::check_noise`].
-    pub sigma: f64,
-    /// ν_max = √(α/σ): up to this noise amplitude E stays invariant.
-    pub max_amplitude: f64,
-    /// ‖e(∞)‖ per unit noise amplitude: √(σ/(α λ_min(P))).
-    pub error_bound: f64,
-    /// |e_k(∞)| per unit noise amplitude, per state: √(σ (P⁻¹)_kk / α).
-    pub per_state: Vec<f64>,
-    /// Names of the outputs with measurement noise.
-    pub noisy_outputs: Vec<String>,
-    /// Number of process-disturbance inputs.
-    pub disturbances: usize,
-    /// The independent check of the block LMI at `sigma`.
-    pub check: NoiseCheck,
 }

@@ -1,17 +1,17 @@
 //! The explicit Euler simulation of plant and observer at one step: what
-//! the sampling figures of a design ([`crate::sampling`]) claim about, run
+//! the sampling figures of a design ([`crate::certificate::sampling`]) claim about, run
 //! on a scenario.
 
-use crate::simulate::{check_gains, check_model, Frozen, Scenario, SimError, Trajectory};
+use crate::analysis::simulate::{check_gains, check_model, Frozen, Scenario, SimError, Trajectory};
 use nalgebra::DMatrix;
 use qpv_dsl::PolytopicModel;
 
 /// Simulates plant and observer both discretised by the same explicit Euler
-/// step `scenario.dt` (the setting [`crate::sampling::max_step_euler`] covers):
+/// step `scenario.dt` (the setting [`crate::certificate::sampling::max_step_euler`] covers):
 /// x_{k+1} = x_k + h f(x_k, θ_k, u_k),
 /// x̂_{k+1} = x̂_k + h (f(x̂_k, θ_k, u_k) + L(θ_k)(y_k − ŷ_k)).
 /// Input checks and the [`Trajectory`] are as for
-/// [`crate::simulate::simulate`].
+/// [`crate::analysis::simulate::simulate`].
 pub fn simulate_euler(
     model: &PolytopicModel,
     gains: &[DMatrix<f64>],
@@ -45,7 +45,7 @@ pub fn simulate_euler(
         )));
     }
     let steps = (scenario.t_end / scenario.dt - 1e-9).ceil().max(0.0);
-    if steps > crate::simulate::MAX_STEPS as f64 {
+    if steps > crate::analysis::simulate::MAX_STEPS as f64 {
         return Err(SimError::TimeGrid(format!("{steps} steps")));
     }
     let steps = steps as usize;

@@ -4,4 +4,5 @@
 
 pub mod euler;
 pub mod falsify;
+pub mod noise;
 pub mod simulate;

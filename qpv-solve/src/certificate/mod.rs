@@ -18,7 +18,9 @@
 //! in sound mode, reported as the violated assumption (15) in paper mode)
 //! and "region_in_F" max_i x_(i)ᵀQ⁻¹x_(i) ≤ 1 (reported).
 
+pub mod noise;
 mod sampled;
+pub mod sampling;
 
 pub use sampled::{alpha_capacity_sampled, sampled_block};
 

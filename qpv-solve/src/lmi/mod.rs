@@ -41,6 +41,7 @@
 //! by s > 0. The objective is ½ w Σ_l ‖Γ̂_l‖_F² (or 0 for pure feasibility).
 
 mod cube;
+pub(crate) mod noise;
 mod sampled;
 pub mod skew;
 
@@ -368,7 +369,7 @@ impl<'m> Problem<'m> {
     /// The same problem with the given family of rate conditions (the
     /// default of [`Problem::new`] is [`Conditions::Full`]). `Cube` needs a
     /// region that is a zonotope ([`crate::conditions::cube::generators`]);
-    /// `Auto` must be resolved first ([`crate::size::choose`]).
+    /// `Auto` must be resolved first ([`crate::model::size::choose`]).
     pub fn with_conditions(mut self, conditions: Conditions) -> Result<Self, SolveError> {
         match conditions {
             Conditions::Auto => {

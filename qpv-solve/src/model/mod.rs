@@ -2,10 +2,13 @@
 //! bound (given or computed), the output route, the split of N_k and M_k
 //! and the skew slack, each a transformation of the [`PolytopicModel`].
 
+pub mod diagnosis;
+pub mod noise;
 pub mod observer;
 pub mod output_filter;
 pub mod plant;
 pub mod scaling;
+pub mod size;
 pub mod skew;
 pub mod state_bound;
 

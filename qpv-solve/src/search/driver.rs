@@ -63,10 +63,10 @@ impl Setup {
         let global_model = crate::model::global_model(model);
         let model: &PolytopicModel = if global { &global_model } else { model };
         // Refuse before anything is assembled or solved.
-        let size_note = match crate::size::guard(model, request) {
-            crate::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
-            crate::size::Verdict::Slow(m) => Some(m),
-            crate::size::Verdict::Fits => None,
+        let size_note = match crate::model::size::guard(model, request) {
+            crate::model::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
+            crate::model::size::Verdict::Slow(m) => Some(m),
+            crate::model::size::Verdict::Fits => None,
         };
         let prepared = ObserverModel::prepare(
             model,
@@ -430,7 +430,7 @@ impl Ctx<'_, '_> {
     ) -> Result<String, SolveError> {
         let tol = (10.0 * self.settings.bisection_rel_tol).min(0.05);
         let best = self.alpha_max(gamma, None, tol, Phase::Diagnose)?;
-        let at = crate::sampling::describe_period(h);
+        let at = crate::certificate::sampling::describe_period(h);
         let asked = match requested {
             AlphaSpec::Fixed(a) => format!("α = {a}"),
             AlphaSpec::Max => "any α".to_string(),
@@ -596,13 +596,13 @@ fn summary(
             let h = sample.unwrap_or(f64::NAN);
             format!(
                 "CERTIFIED at {} (sound conditions S1-S4 and the discrete decrease S5d): the Euler-stepped observer has V(e_(k+1)) ≤ (1 − hα)V(e_k) = {:.6}·V(e_k) with α = {alpha:.6} per second, γ = {gamma:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {max_norm:.4}.",
-                crate::sampling::describe_period(h),
+                crate::certificate::sampling::describe_period(h),
                 1.0 - h * alpha
             )
         }
         (Mode::Sound, false) if sample.is_some() => format!(
             "NOT CERTIFIED at {} (sound conditions S1-S4 and the discrete decrease S5d) at α = {alpha:.6}, γ = {gamma:.6}: solver {final_status}{failed}.",
-            crate::sampling::describe_period(sample.unwrap_or(f64::NAN))
+            crate::certificate::sampling::describe_period(sample.unwrap_or(f64::NAN))
         ),
         (Mode::Sound, true) => format!(
             "CERTIFIED (sound conditions S1-S5): V' ≤ −αV with α = {alpha:.6}, γ = {gamma:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {max_norm:.4}."
@@ -820,7 +820,7 @@ fn design_plain_with(
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
     let mode = request.mode;
-    // `conditions = auto`: the choice by size (crate::size::choose), noted;
+    // `conditions = auto`: the choice by size (crate::model::size::choose), noted;
     // a sampled design has the full vertex family only.
     let (chosen_conditions, auto_note) = match request.sample {
         Some(h) if request.conditions == Conditions::Auto => (
@@ -829,7 +829,7 @@ fn design_plain_with(
                 "sample = {h:e}: the discrete decrease is solved and certified on the full vertex family (conditions = full)"
             ),
         ),
-        _ => crate::size::choose(model, request),
+        _ => crate::model::size::choose(model, request),
     };
     let resolved = DesignRequest {
         conditions: chosen_conditions,
@@ -911,7 +911,7 @@ fn design_plain_with(
         None => data_checks(model, mode, gamma_r),
     };
     let mut margins = shown.as_ref().map(|p| p.cert.margins()).unwrap_or_default();
-    // Failure diagnosis (crate::diagnosis): without any point, the margins
+    // Failure diagnosis (crate::model::diagnosis): without any point, the margins
     // of one attempt at the smallest α, then the cheap model tests.
     let diagnosis = if feasible {
         None
@@ -931,7 +931,7 @@ fn design_plain_with(
         if let Some(h) = request.sample {
             notes.push(ctx.sample_failure(h, request.alpha, gamma_r)?);
         }
-        let mut findings = crate::diagnosis::diagnose(model, request, settings.alpha_floor);
+        let mut findings = crate::model::diagnosis::diagnose(model, request, settings.alpha_floor);
         findings.extend(ctx.claims.finding(request.conditions));
         Some(findings)
     };
@@ -1009,7 +1009,7 @@ fn design_plain_with(
             .map(CubeSlacks::to_report),
         sample: request
             .sample
-            .map(|h| crate::sampling::SampleInfo::new(h, alpha_r)),
+            .map(|h| crate::certificate::sampling::SampleInfo::new(h, alpha_r)),
     })
 }
 
@@ -1041,7 +1041,7 @@ pub fn alpha_profile(
     let req = DesignRequest {
         alpha: AlphaSpec::Max,
         gamma: GammaSpec::Search,
-        conditions: crate::size::choose(model, request).0,
+        conditions: crate::model::size::choose(model, request).0,
         ..request.clone()
     };
     let setup = Setup::new(model, &req, settings)?;

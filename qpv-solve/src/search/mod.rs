@@ -51,6 +51,7 @@
 
 mod driver;
 pub mod gamma;
+pub mod noise;
 mod practical;
 pub mod skew;
 
@@ -182,9 +183,9 @@ pub(crate) struct Claims {
 impl Claims {
     /// The finding for a design that certified nothing, when every point
     /// that satisfied the decoupled conditions failed the full certificate.
-    pub fn finding(&self, conditions: Conditions) -> Option<crate::diagnosis::Finding> {
+    pub fn finding(&self, conditions: Conditions) -> Option<crate::model::diagnosis::Finding> {
         (conditions == Conditions::Decoupled && self.solved > 0 && self.rejected == self.solved)
-            .then(|| crate::diagnosis::Finding {
+            .then(|| crate::model::diagnosis::Finding {
                 kind: "conditions".into(),
                 blocking: false,
                 message: format!(
@@ -721,7 +722,7 @@ fn design_skew(
 }
 
 /// As [`design`], calling `progress` after every solve. A request with
-/// `noise = min` is the noise-optimal design of [`crate::noise::design_noise`]
+/// `noise = min` is the noise-optimal design of [`noise::design_noise`]
 /// on the model's declared channels.
 pub fn design_with_progress(
     model: &PolytopicModel,
@@ -736,10 +737,8 @@ pub fn design_with_progress(
         )));
     }
     if request.noise == qpv_dsl::NoiseObjective::Min {
-        let channels = crate::noise::NoiseChannels::from_model(model);
-        return crate::noise::design_noise_with_progress(
-            model, request, &channels, settings, progress,
-        );
+        let channels = crate::model::noise::NoiseChannels::from_model(model);
+        return noise::design_noise_with_progress(model, request, &channels, settings, progress);
     }
     let mut d = if request.split == Split::SkewSlack {
         design_skew(model, request, settings, progress)?
@@ -749,12 +748,12 @@ pub fn design_with_progress(
     // The noise bound and the sampling figures of a certified
     // continuous-time design (both are continuous-time analyses).
     if d.sample.is_none() {
-        crate::noise::attach(model, &mut d);
+        crate::report::figures::attach(model, &mut d);
     } else if d.certifies {
         d.notes.push(
             "sample = h: the noise bound and the Euler-step figures are continuous-time analyses and are not computed for a sampled design".into(),
         );
-        crate::sampled_plant::attach(model, &mut d);
+        crate::report::continuous::attach(model, &mut d);
     }
     Ok(d)
 }

@@ -31,7 +31,7 @@ use crate::report::Design;
 use nalgebra::DMatrix;
 use qpv_dsl::{PolytopicModel, StateBound};
 
-pub use crate::sampling::ContinuousBound;
+pub use crate::certificate::sampling::ContinuousBound;
 
 /// A closed interval.
 #[derive(Debug, Clone, Copy)]

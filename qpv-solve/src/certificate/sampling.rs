@@ -68,7 +68,7 @@ pub struct SampleInfo {
     pub decrease: f64,
     /// The bound for the *continuous* plant sampled at h (the Euler step's
     /// local truncation error as a bounded disturbance; docs/method.md
-    /// §16), when it could be computed ([`crate::sampled_plant`]).
+    /// §16), when it could be computed ([`crate::report::continuous`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub continuous_bound: Option<ContinuousBound>,
 }
@@ -365,7 +365,7 @@ pub fn sampling(
 
 /// The bound for the continuous plant sampled at h (the report's
 /// `sample.continuous_bound`), recomputed from the model and P by
-/// [`crate::sampled_plant`].
+/// [`crate::report::continuous`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct ContinuousBound {
     /// A bound on |ẍ| (2-norm of the componentwise bounds) over F × Θ and
