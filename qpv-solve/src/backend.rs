@@ -2,6 +2,8 @@
 //! [`Status`], the solver settings derived from [`Settings`], and the
 //! BLAS/LAPACK symbols its PSD cones need.
 
+pub mod builder;
+
 use crate::error::SolveError;
 use crate::settings::{KktSolver, Settings};
 use clarabel::solver::{DefaultSettings, SolverStatus};

@@ -13,8 +13,9 @@ use qpv_dsl::{Conditions, Mode, PolytopicModel};
 use qpv_solve::conditions::cube::CubeSlacks;
 use qpv_solve::conditions::reference::{paper_model, synthetic_model};
 use qpv_solve::conditions::{is_double_sum, rate_combos, rows, rows_he, ConditionSet};
+use qpv_solve::linalg::svec::svec_len as tri;
 use qpv_solve::linalg::svec::{svec_index, SQRT2};
-use qpv_solve::lmi::{tri, Objective, Problem};
+use qpv_solve::lmi::{Objective, Problem};
 use qpv_solve::Settings;
 
 /// Unpacks a √2-scaled upper triangle (column by column).

@@ -6,10 +6,10 @@ use super::svec::{svec_index, svec_scale};
 use clarabel::algebra::CscMatrix;
 use nalgebra::DMatrix;
 
-/// Column-wise builder of a sparse CSC matrix. Within every column, rows must
-/// arrive in increasing order (every assembly here fills one row block after
-/// the other, so they do); zeros are not stored.
-#[derive(Debug, Clone)]
+/// Column-wise builder of a sparse CSC matrix: entries may arrive in any
+/// row order and the same entry may be added more than once (the sum is
+/// kept); zeros are not stored.
+#[derive(Debug, Clone, Default)]
 pub struct Columns {
     cols: Vec<Vec<(usize, f64)>>,
 }
@@ -22,6 +22,13 @@ impl Columns {
         }
     }
 
+    /// Makes room for at least `n` columns.
+    pub fn grow(&mut self, n: usize) {
+        if self.cols.len() < n {
+            self.cols.resize(n, Vec::new());
+        }
+    }
+
     /// Number of columns.
     pub fn n(&self) -> usize {
         self.cols.len()
@@ -31,6 +38,9 @@ impl Columns {
     #[inline]
     pub fn push(&mut self, row: usize, col: usize, v: f64) {
         if v != 0.0 {
+            if col >= self.cols.len() {
+                self.grow(col + 1);
+            }
             self.cols[col].push((row, v));
         }
     }
@@ -51,7 +61,8 @@ impl Columns {
         }
     }
 
-    /// The CSC matrix with `m` rows.
+    /// The CSC matrix with `m` rows (each column's entries sorted by row,
+    /// repeated entries summed, zero sums dropped).
     pub fn into_csc(self, m: usize) -> CscMatrix<f64> {
         let n = self.cols.len();
         let nnz: usize = self.cols.iter().map(|c| c.len()).sum();
@@ -59,11 +70,30 @@ impl Columns {
         let mut rowval = Vec::with_capacity(nnz);
         let mut nzval = Vec::with_capacity(nnz);
         colptr.push(0);
-        for col in self.cols {
+        for mut col in self.cols {
+            // Assemblies fill one row block after the other, so a column is
+            // almost always sorted already (the sort then is one pass).
+            col.sort_by_key(|e| e.0);
+            let start = rowval.len();
             for (r, v) in col {
-                rowval.push(r);
-                nzval.push(v);
+                if rowval.len() > start && rowval.last() == Some(&r) {
+                    *nzval.last_mut().expect("an entry") += v;
+                } else {
+                    rowval.push(r);
+                    nzval.push(v);
+                }
             }
+            // Drop entries that summed to zero.
+            let mut k = start;
+            for i in start..rowval.len() {
+                if nzval[i] != 0.0 {
+                    rowval[k] = rowval[i];
+                    nzval[k] = nzval[i];
+                    k += 1;
+                }
+            }
+            rowval.truncate(k);
+            nzval.truncate(k);
             colptr.push(rowval.len());
         }
         CscMatrix::new(m, n, colptr, rowval, nzval)

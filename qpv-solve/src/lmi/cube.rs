@@ -33,10 +33,11 @@
 //! factorisation of the KKT system eliminates cheaply (about a quarter fewer
 //! operations per iteration at nx = 10..12 than with Ŷ, X̂ as variables).
 
-use super::{tri, tri_idx, Problem, RateMargins, Rows, SQRT2};
+use super::{Problem, RateMargins};
+use crate::backend::builder::SdpBuilder;
 use crate::conditions::cube::CubeSlacks;
 use crate::conditions::{rows, rows_he};
-use clarabel::solver::SupportedConeT;
+use crate::linalg::svec::svec_index;
 use nalgebra::{DMatrix, DVector};
 
 /// Which part of the rate matrix of a combination.
@@ -104,16 +105,16 @@ impl Problem<'_> {
     }
 
     /// The region's vertex condition through D (see the module doc).
-    pub(super) fn push_cube_region(&self, out: &mut Rows, eps: f64) {
+    pub(super) fn push_cube_region(&self, out: &mut SdpBuilder, eps: f64) {
         let (nx, r) = (self.nx, self.gens.len());
         let gh: Vec<DVector<f64>> = self.gens.iter().map(|g| g / self.rho).collect();
         let sound = self.set.nonlinear_sign() > 0.0;
         if sound {
             // D − ĜᵀP̂Ĝ − εI ⪰ 0: A[P̂_ij] = +sc ∂(ĝ_aᵀP̂ĝ_b)/∂P̂_ij, A[D_k] = −1.
-            let row0 = out.open(tri(r), eps);
+            let blk = out.psd(r, eps);
             for j in 0..nx {
                 for i in 0..=j {
-                    let v = tri_idx(i, j);
+                    let v = svec_index(i, j);
                     for bb in 0..r {
                         for a in 0..=bb {
                             let d = if i == j {
@@ -121,43 +122,37 @@ impl Problem<'_> {
                             } else {
                                 gh[a][i] * gh[bb][j] + gh[a][j] * gh[bb][i]
                             };
-                            let sc = if a == bb { 1.0 } else { SQRT2 };
-                            out.cols.push(row0 + tri_idx(a, bb), v, sc * d);
+                            out.entry(&blk, a, bb, v, d);
                         }
                     }
                 }
             }
             for k in 0..r {
-                out.cols.push(row0 + tri_idx(k, k), self.dvar(k), -1.0);
+                out.entry(&blk, k, k, self.dvar(k), -1.0);
             }
-            out.cones.push(SupportedConeT::PSDTriangleConeT(r));
         } else {
             // [D Ĝᵀ; Ĝ P̂] − εI ⪰ 0 (indices 0..r: D, r..: P̂).
-            let row0 = out.open(tri(r + nx), eps);
+            let blk = out.psd(r + nx, eps);
             for (a, g) in gh.iter().enumerate() {
                 for i in 0..nx {
-                    out.b[row0 + tri_idx(a, r + i)] = SQRT2 * g[i];
+                    out.rhs(&blk, a, r + i, g[i]);
                 }
             }
             for j in 0..nx {
                 for i in 0..=j {
-                    let sc = if i == j { 1.0 } else { SQRT2 };
-                    out.cols
-                        .push(row0 + tri_idx(r + i, r + j), tri_idx(i, j), -sc);
+                    out.entry(&blk, r + i, r + j, svec_index(i, j), -1.0);
                 }
             }
             for k in 0..r {
-                out.cols.push(row0 + tri_idx(k, k), self.dvar(k), -1.0);
+                out.entry(&blk, k, k, self.dvar(k), -1.0);
             }
-            out.cones.push(SupportedConeT::PSDTriangleConeT(r + nx));
         }
         // 1 − ε − Σ D_kk ≥ 0.
-        let row = out.b.len();
-        out.b.push(1.0 - eps);
+        let row = out.nonneg(1);
+        out.set_b(row, 1.0 - eps);
         for k in 0..r {
-            out.cols.push(row, self.dvar(k), 1.0);
+            out.a(row, self.dvar(k), 1.0);
         }
-        out.cones.push(SupportedConeT::NonnegativeConeT(1));
     }
 
     /// The cube rate family (see the module doc). The variables are the
@@ -169,21 +164,20 @@ impl Problem<'_> {
     /// factorisation: half of the slack blocks no longer couple to P̂ and Γ̂.
     pub(super) fn push_rate_cube(
         &self,
-        out: &mut Rows,
+        out: &mut SdpBuilder,
         alpha: f64,
         gamma: f64,
         rate: &RateMargins,
     ) {
         let nx = self.nx;
         let mut df = vec![0.0; nx * nx];
-        let mut block = |out: &mut Rows, kh: &Kh, eps: f64, vars: &[(usize, f64)]| -> usize {
-            let row0 = out.open(tri(nx), eps);
-            self.push_he_block(&mut out.cols, row0, &kh.0, &kh.1, &mut df);
+        let mut block = |out: &mut SdpBuilder, kh: &Kh, eps: f64, vars: &[(usize, f64)]| {
+            let blk = out.psd(nx, eps);
+            self.push_he_block(out, &blk, &kh.0, &kh.1, &mut df);
             for &(first, sign) in vars {
-                self.push_sym_var(&mut out.cols, row0, first, sign);
+                self.push_sym_var(out, &blk, first, sign);
             }
-            out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
-            row0
+            blk
         };
         for c in 0..self.combos.len() {
             let mut sum: Vec<(usize, f64)> = Vec::with_capacity(2 * self.gens.len());
@@ -192,9 +186,8 @@ impl Problem<'_> {
                 let (y, x) = (self.yvar(c, k), self.yvar(c, k) + self.np);
                 for (part, var) in [(Part::E(g), y), (Part::X(g), x)] {
                     // Ŷ − G = Ŝ ⪰ εκI: the variable alone.
-                    let row0 = out.open(tri(nx), rate.slack_eps);
-                    self.push_sym_var(&mut out.cols, row0, var, -1.0);
-                    out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+                    let blk = out.psd(nx, rate.slack_eps);
+                    self.push_sym_var(out, &blk, var, -1.0);
                     // Ŷ + G = Ŝ + 2G ⪰ εκI is −(−2G − Ŝ) ⪰ εκI.
                     let kh = self.cube_kh(alpha, gamma, c, part, -2.0);
                     block(out, &kh, rate.slack_eps, &[(var, -1.0)]);
@@ -203,8 +196,8 @@ impl Problem<'_> {
                     sum.push((var, 1.0));
                 }
             }
-            let row0 = block(out, &main, rate.eps, &sum);
-            rate.push_column(&mut out.cols, row0);
+            let blk = block(out, &main, rate.eps, &sum);
+            rate.push_column(out, &blk);
         }
     }
 
@@ -244,7 +237,7 @@ impl Problem<'_> {
             let mut m = DMatrix::zeros(self.nx, self.nx);
             for c in 0..self.nx {
                 for r in 0..=c {
-                    let v = s * x[first + tri_idx(r, c)];
+                    let v = s * x[first + svec_index(r, c)];
                     m[(r, c)] = v;
                     m[(c, r)] = v;
                 }
@@ -281,7 +274,7 @@ impl Problem<'_> {
         let mut put = |first: usize, m: &DMatrix<f64>| {
             for c in 0..self.nx {
                 for r in 0..=c {
-                    x[first + tri_idx(r, c)] = m[(r, c)] / self.scale;
+                    x[first + svec_index(r, c)] = m[(r, c)] / self.scale;
                 }
             }
         };

@@ -45,15 +45,14 @@ pub(crate) mod noise;
 mod sampled;
 pub mod skew;
 
+use crate::backend::builder::{Psd, SdpBuilder};
 use crate::backend::{clarabel_settings, ensure_lapack, run_sdp, Sdp, Status};
 use crate::conditions::{rate_combos, rows, rows_he, Combo, ConditionSet, PairTerms, RegionForm};
 use crate::error::SolveError;
-use crate::linalg::csc::Columns;
-use crate::linalg::svec::{svec_index, svec_len, SQRT2};
+use crate::linalg::svec::{svec_index, svec_len, svec_scale};
+use crate::model::noise::NoiseChannels;
 use crate::model::{region_radius, validate, StateScaling};
 use crate::settings::Settings;
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::SupportedConeT;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::Conditions;
 use qpv_dsl::PolytopicModel;
@@ -83,43 +82,6 @@ fn normalised_metric(m: &DMatrix<f64>, n: usize) -> Option<(DMatrix<f64>, DMatri
     Some((w, w_inv_half))
 }
 
-/// Number of entries of the upper triangle of an n × n matrix.
-#[inline]
-pub fn tri(n: usize) -> usize {
-    svec_len(n)
-}
-
-/// Position of (r, c), r ≤ c, in the upper triangle packed column by column.
-#[inline]
-fn tri_idx(r: usize, c: usize) -> usize {
-    debug_assert!(r <= c);
-    svec_index(r, c)
-}
-
-/// The rows of a problem under construction: the constraint columns, the
-/// right-hand side and the cones, in row order.
-struct Rows {
-    cols: Columns,
-    b: Vec<f64>,
-    cones: Vec<SupportedConeT<f64>>,
-}
-
-impl Rows {
-    /// Opens a block of `len` rows holding a d × d matrix (len = d(d+1)/2)
-    /// with margin `eps` on its diagonal (b = −ε svec(I)); returns its first row.
-    fn open(&mut self, len: usize, eps: f64) -> usize {
-        let row0 = self.b.len();
-        self.b.resize(row0 + len, 0.0);
-        if eps != 0.0 {
-            let d = crate::linalg::svec::svec_side(len).expect("a triangle length");
-            for c in 0..d {
-                self.b[row0 + tri_idx(c, c)] = -eps;
-            }
-        }
-        row0
-    }
-}
-
 /// The max-margin variable t̂ and its coefficients svec(κW) in a rate block.
 struct MarginColumn {
     var: usize,
@@ -136,14 +98,25 @@ struct RateMargins<'a> {
 }
 
 impl RateMargins<'_> {
-    /// Adds the max-margin column to the block starting at `row0`, if any.
-    fn push_column(&self, cols: &mut Columns, row0: usize) {
+    /// Adds the max-margin column to the block `blk`, if any.
+    fn push_column(&self, out: &mut SdpBuilder, blk: &Psd) {
         if let Some(m) = self.column {
             for (idx, &w) in m.coef.iter().enumerate() {
-                cols.push(row0 + idx, m.var, w);
+                out.a(blk.row0 + idx, m.var, w);
             }
         }
     }
+}
+
+/// The family of blocks that holds the rate of decay.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum RateFamily<'a> {
+    /// The decay conditions of the problem's conditions ((S5), its
+    /// decoupled or cube relaxation, or the discrete decrease).
+    Decay,
+    /// The noise blocks on these channels (the bounded-real form of the
+    /// rate block, docs/method.md "Noise and disturbances").
+    Noise(&'a NoiseChannels),
 }
 
 /// What the solve optimises.
@@ -275,7 +248,7 @@ impl<'m> Problem<'m> {
             nx,
             ny: model.ny(),
             nv: model.nv(),
-            np: tri(nx),
+            np: svec_len(nx),
             rho,
             scale: set.scale(rho),
             xs_hat: model.region.vertices.iter().map(|x| x / rho).collect(),
@@ -617,8 +590,8 @@ impl<'m> Problem<'m> {
     /// diagonal) into the block starting at `row0`; `df` is scratch of nx².
     fn push_he_block(
         &self,
-        cols: &mut Columns,
-        row0: usize,
+        out: &mut SdpBuilder,
+        blk: &Psd,
         k: &DMatrix<f64>,
         hs: &[(usize, DMatrix<f64>)],
         df: &mut [f64],
@@ -627,7 +600,7 @@ impl<'m> Problem<'m> {
         // P̂ variables.
         for pc in 0..nx {
             for pr in 0..=pc {
-                let v = tri_idx(pr, pc);
+                let v = svec_index(pr, pc);
                 // W = E K; ∂F = W + Wᵀ, computed on the upper triangle.
                 df.iter_mut().for_each(|x| *x = 0.0);
                 for cc in 0..nx {
@@ -654,14 +627,12 @@ impl<'m> Problem<'m> {
                                 w += k[(pr, rr)];
                             }
                         }
-                        df[tri_idx(rr, cc)] = w;
+                        df[svec_index(rr, cc)] = w;
                     }
                 }
                 for cc in 0..nx {
                     for rr in 0..=cc {
-                        let idx = tri_idx(rr, cc);
-                        let sc = if rr == cc { 1.0 } else { SQRT2 };
-                        cols.push(row0 + idx, v, sc * df[idx]);
+                        out.entry(blk, rr, cc, v, df[svec_index(rr, cc)]);
                     }
                 }
             }
@@ -669,12 +640,12 @@ impl<'m> Problem<'m> {
         // Γ̂_l variables: ∂F/∂Γ_rc = −(E_rc H + Hᵀ E_rcᵀ),
         // entry (a, b) = −([a==r] H[c,b] + [b==r] H[c,a]).
         for (l, h) in hs {
-            self.push_gain_columns(cols, row0, *l, h);
+            self.push_gain_columns(out, blk, *l, h);
         }
     }
 
     /// The Γ̂_l columns of one block: −He{Γ̂_l H}.
-    fn push_gain_columns(&self, cols: &mut Columns, row0: usize, l: usize, h: &DMatrix<f64>) {
+    fn push_gain_columns(&self, out: &mut SdpBuilder, blk: &Psd, l: usize, h: &DMatrix<f64>) {
         let (nx, ny) = (self.nx, self.ny);
         for gr in 0..nx {
             for gc in 0..ny {
@@ -689,8 +660,7 @@ impl<'m> Problem<'m> {
                             w += h[(gc, rr)];
                         }
                         if w != 0.0 {
-                            let sc = if rr == cc { 1.0 } else { SQRT2 };
-                            cols.push(row0 + tri_idx(rr, cc), v, -sc * w);
+                            out.entry(blk, rr, cc, v, -w);
                         }
                     }
                 }
@@ -721,6 +691,26 @@ impl<'m> Problem<'m> {
         objective: Objective,
         metric: Option<&DMatrix<f64>>,
     ) -> Assembled {
+        self.assemble_family(
+            (alpha, gamma),
+            settings,
+            objective,
+            metric,
+            RateFamily::Decay,
+        )
+    }
+
+    /// As [`Problem::assemble_with_metric`] with the rate family chosen:
+    /// the decay conditions of the problem's conditions, or the noise
+    /// blocks in their place (with σ̂ after the other variables, minimised).
+    pub(crate) fn assemble_family(
+        &self,
+        (alpha, gamma): (f64, f64),
+        settings: &Settings,
+        objective: Objective,
+        metric: Option<&DMatrix<f64>>,
+        family: RateFamily,
+    ) -> Assembled {
         let max_margin = objective == Objective::MaxMargin;
         let min_gain = objective == Objective::MinGain;
         // The global observer's blocks are homogeneous: γ plays no role.
@@ -736,11 +726,9 @@ impl<'m> Problem<'m> {
             var: tvar,
             coef: self.margin_column(metric, kappa),
         });
-        let mut out = Rows {
-            cols: Columns::new(n),
-            b: Vec::new(),
-            cones: Vec::new(),
-        };
+        let mut out = self.builder(max_margin, min_gain);
+        debug_assert_eq!(out.n_vars(), n);
+        let sigma = matches!(family, RateFamily::Noise(_)).then(|| out.var("sigma"));
         if self.global {
             self.push_global_normalisation(&mut out, eps, max_margin);
         } else {
@@ -756,13 +744,19 @@ impl<'m> Problem<'m> {
             slack_eps: eps * kappa,
             column: margin.as_ref(),
         };
-        match self.conditions {
-            Conditions::Full | Conditions::Auto => match self.sample {
-                Some(h) => self.push_rate_sampled(&mut out, alpha, gamma, h, &rate),
-                None => self.push_rate_full(&mut out, alpha, gamma, &rate),
+        match (family, sigma) {
+            (RateFamily::Noise(channels), Some(svar)) => {
+                self.push_rate_noise(&mut out, (alpha, gamma), channels, svar, rate.eps);
+                out.cost(svar, 1.0);
+            }
+            _ => match self.conditions {
+                Conditions::Full | Conditions::Auto => match self.sample {
+                    Some(h) => self.push_rate_sampled(&mut out, alpha, gamma, h, &rate),
+                    None => self.push_rate_full(&mut out, alpha, gamma, &rate),
+                },
+                Conditions::Decoupled => self.push_rate_decoupled(&mut out, alpha, gamma, &rate),
+                Conditions::Cube => self.push_rate_cube(&mut out, alpha, gamma, &rate),
             },
-            Conditions::Decoupled => self.push_rate_decoupled(&mut out, alpha, gamma, &rate),
-            Conditions::Cube => self.push_rate_cube(&mut out, alpha, gamma, &rate),
         }
         if let Some(g) = self.max_gain_z() {
             self.push_gain_bound(&mut out, g);
@@ -772,15 +766,77 @@ impl<'m> Problem<'m> {
         }
         if max_margin {
             // t̂ ≤ 1.
-            let row = out.b.len();
-            out.b.push(1.0);
-            out.cols.push(row, tvar, 1.0);
-            out.cones.push(SupportedConeT::NonnegativeConeT(1));
+            let row = out.nonneg(1);
+            out.set_b(row, 1.0);
+            out.a(row, tvar, 1.0);
         }
-        let Rows { cols, b, cones } = out;
-        let a = cols.into_csc(b.len());
-        let (p, q) = self.objective(n, settings, objective);
-        Assembled { p, q, a, b, cones }
+        self.objective(&mut out, settings, objective);
+        out.finish()
+    }
+
+    /// The noise block family in place of the rate family: one block per
+    /// rate combination and region-vertex pair (see [`noise::NoiseBlock`]),
+    /// with margin `eps` (ε κ) and σ̂ the variable `svar`.
+    fn push_rate_noise(
+        &self,
+        out: &mut SdpBuilder,
+        (alpha, gamma): (f64, f64),
+        channels: &NoiseChannels,
+        svar: usize,
+        eps: f64,
+    ) {
+        let outs = channels.noisy_outputs(self.ny);
+        let block = noise::NoiseBlock {
+            nx: self.nx,
+            ny: self.ny,
+            nw: channels.n_w(),
+            outs: &outs,
+            svar,
+            gamma,
+            eps,
+        };
+        let np = self.xs_hat.len();
+        for (c, combo) in self.combos.iter().enumerate() {
+            // B_w of the combination, and the weight of each Γ̂_l in −γΓ̂E.
+            let mut cn = noise::ComboNoise {
+                bw: DMatrix::zeros(block.nx, block.nw),
+                wl: vec![0.0; self.nv],
+                wsum: combo.weight(),
+            };
+            for &(l, _, w) in &combo.terms {
+                if let Some(bb) = &channels.b_w {
+                    cn.bw += &bb[l] * w;
+                }
+                cn.wl[l] += w;
+            }
+            for i in 0..np {
+                for j in 0..np {
+                    let (kk, hs) = self.rate_kh(alpha, gamma, c, i, j);
+                    block.push(out, (&kk, &hs), &cn, |l, r, c| self.gvar(l, r, c));
+                }
+            }
+        }
+    }
+
+    /// A builder with the problem's variables declared, in the order of
+    /// [`Problem::n_vars`]: P̂, Γ̂_l, the slacks of the conditions, the
+    /// gain bound's p̂; then t̂ (max margin) or c and κ (min gain).
+    fn builder(&self, max_margin: bool, min_gain: bool) -> SdpBuilder {
+        let mut out = SdpBuilder::new();
+        out.sym_var("P", self.nx);
+        out.vars("Gamma", self.nv * self.nx * self.ny);
+        out.vars("slacks", self.n_slack_vars());
+        if self.max_gain.is_some() {
+            out.var("gain_bound");
+        }
+        if max_margin {
+            out.var("margin");
+        }
+        if min_gain {
+            out.var("homogeniser");
+            out.var("gain_norm");
+        }
+        out
     }
 
     /// The global observer's normalisation in place of the region rows
@@ -789,31 +845,28 @@ impl<'m> Problem<'m> {
     /// P̂ so that the optimal margin measures the depth of the point rather
     /// than the size of P̂ (any strictly feasible (P̂, Γ̂) scaled into
     /// εI ⪯ P̂ ⪯ I is feasible for it).
-    fn push_global_normalisation(&self, out: &mut Rows, eps: f64, max_margin: bool) {
+    fn push_global_normalisation(&self, out: &mut SdpBuilder, eps: f64, max_margin: bool) {
         if !max_margin {
             self.push_s1(out, 1.0);
             return;
         }
         self.push_s1(out, eps);
         // I − P̂ ⪰ 0: s = svec(I) − svec(P̂) ⇒ b = svec(I), A = svec(E_v).
-        let nx = self.nx;
-        let row0 = out.open(tri(nx), -1.0);
-        self.push_sym_var(&mut out.cols, row0, 0, 1.0);
-        out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+        let blk = out.psd(self.nx, -1.0);
+        self.push_sym_var(out, &blk, 0, 1.0);
     }
 
     /// `max_gain = G`: P̂ − p̂I ⪰ 0, then [G'p̂ I_ny, Γ̂_lᵀ; Γ̂_l, G'p̂ I_nx] ⪰ 0
     /// per θ-vertex (see [`Problem::with_max_gain`]).
-    fn push_gain_bound(&self, out: &mut Rows, g: f64) {
+    fn push_gain_bound(&self, out: &mut SdpBuilder, g: f64) {
         let nx = self.nx;
         let pvar = self.gain_bound_var();
         // P̂ − p̂ I ⪰ 0.
-        let row0 = out.open(tri(nx), 0.0);
-        self.push_sym_var(&mut out.cols, row0, 0, -1.0);
+        let blk = out.psd(nx, 0.0);
+        self.push_sym_var(out, &blk, 0, -1.0);
         for d in 0..nx {
-            out.cols.push(row0 + tri_idx(d, d), pvar, 1.0);
+            out.entry(&blk, d, d, pvar, 1.0);
         }
-        out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
         let g = g * (1.0 - 1e-4);
         for l in 0..self.nv {
             self.push_gain_block(out, l, pvar, g);
@@ -823,20 +876,17 @@ impl<'m> Problem<'m> {
     /// [w·v I_ny, Γ̂_lᵀ; Γ̂_l, w·v I_nx] ⪰ 0 for the scalar variable v:
     /// s = −A x with A holding −w on the diagonal (column v) and −√2 at
     /// the Γ̂_l entries (row ny + r, column c < ny: packed at (c, ny + r)).
-    fn push_gain_block(&self, out: &mut Rows, l: usize, v: usize, w: f64) {
+    fn push_gain_block(&self, out: &mut SdpBuilder, l: usize, v: usize, w: f64) {
         let (nx, ny) = (self.nx, self.ny);
-        let d = nx + ny;
-        let row0 = out.open(tri(d), 0.0);
-        for k in 0..d {
-            out.cols.push(row0 + tri_idx(k, k), v, -w);
+        let blk = out.psd(nx + ny, 0.0);
+        for k in 0..nx + ny {
+            out.entry(&blk, k, k, v, -w);
         }
         for r in 0..nx {
             for c in 0..ny {
-                out.cols
-                    .push(row0 + tri_idx(c, ny + r), self.gvar(l, r, c), -SQRT2);
+                out.entry(&blk, c, ny + r, self.gvar(l, r, c), -1.0);
             }
         }
-        out.cones.push(SupportedConeT::PSDTriangleConeT(d));
     }
 
     /// [`Objective::MinGain`]: every row so far becomes homogeneous (its
@@ -847,18 +897,13 @@ impl<'m> Problem<'m> {
     /// ‖P̂⁻¹Γ̂‖₂ ≤ ‖W^{-1/2}‖ ‖W^{-1/2}Γ̂‖₂ ≤ κ as well (Γ̂ᵀP̂⁻¹Γ̂ ⪯ Γ̂ᵀW⁻¹Γ̂),
     /// and the normalisation follows the shape of a P that certifies,
     /// where P̂ ⪰ I alone leaves the solver a badly scaled problem.
-    fn homogenise_for_min_gain(&self, out: &mut Rows, metric: Option<&DMatrix<f64>>) {
+    fn homogenise_for_min_gain(&self, out: &mut SdpBuilder, metric: Option<&DMatrix<f64>>) {
         let (nx, ny) = (self.nx, self.ny);
         let (cvar, kvar) = (self.n_vars(), self.n_vars() + 1);
-        for (r, b) in out.b.iter_mut().enumerate() {
-            out.cols.push(r, cvar, -*b);
-            *b = 0.0;
-        }
+        out.homogenise(cvar);
         // c ≥ 0 (s = c).
-        let row = out.b.len();
-        out.b.push(0.0);
-        out.cols.push(row, cvar, -1.0);
-        out.cones.push(SupportedConeT::NonnegativeConeT(1));
+        let row = out.nonneg(1);
+        out.a(row, cvar, -1.0);
         let w = metric.and_then(|m| normalised_metric(m, nx));
         let Some((w, w_inv_half)) = w else {
             // P̂ − I ⪰ 0, ‖Γ̂_l‖₂ ≤ κ.
@@ -869,34 +914,27 @@ impl<'m> Problem<'m> {
             return;
         };
         // P̂ − W ⪰ 0: s = svec(P̂) − svec(W).
-        let row0 = out.open(tri(nx), 0.0);
+        let blk = out.psd(nx, 0.0);
         for c in 0..nx {
             for r in 0..=c {
-                let sc = if r == c { 1.0 } else { SQRT2 };
-                out.b[row0 + tri_idx(r, c)] = -sc * w[(r, c)];
-                out.cols.push(row0 + tri_idx(r, c), tri_idx(r, c), -sc);
+                out.rhs(&blk, r, c, -w[(r, c)]);
+                out.entry(&blk, r, c, svec_index(r, c), -1.0);
             }
         }
-        out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
         // [κ I, Γ̂_lᵀ W^{-1/2}; W^{-1/2} Γ̂_l, κ I] ⪰ 0.
         let d = nx + ny;
         for l in 0..self.nv {
-            let row0 = out.open(tri(d), 0.0);
+            let blk = out.psd(d, 0.0);
             for k in 0..d {
-                out.cols.push(row0 + tri_idx(k, k), kvar, -1.0);
+                out.entry(&blk, k, k, kvar, -1.0);
             }
             for k in 0..nx {
                 for c in 0..ny {
                     for r in 0..nx {
-                        out.cols.push(
-                            row0 + tri_idx(c, ny + r),
-                            self.gvar(l, k, c),
-                            -SQRT2 * w_inv_half[(r, k)],
-                        );
+                        out.entry(&blk, c, ny + r, self.gvar(l, k, c), -w_inv_half[(r, k)]);
                     }
                 }
             }
-            out.cones.push(SupportedConeT::PSDTriangleConeT(d));
         }
     }
 
@@ -905,7 +943,7 @@ impl<'m> Problem<'m> {
     /// for a usable `metric`, else I.
     fn margin_column(&self, metric: Option<&DMatrix<f64>>, kappa: f64) -> Vec<f64> {
         let nx = self.nx;
-        let mut w = vec![0.0; tri(nx)];
+        let mut w = vec![0.0; svec_len(nx)];
         let m = metric
             .filter(|m| m.shape() == (nx, nx) && m.iter().all(|v| v.is_finite()))
             .map(|m| (m + m.transpose()) * 0.5);
@@ -919,35 +957,28 @@ impl<'m> Problem<'m> {
                     Some(m) if lmax > 0.0 => m[(r, c)] / lmax,
                     _ => f64::from(u8::from(r == c)),
                 };
-                w[tri_idx(r, c)] = if r == c { v * kappa } else { SQRT2 * v * kappa };
+                w[svec_index(r, c)] = svec_scale(r, c) * v * kappa;
             }
         }
         w
     }
 
     /// (S1): P̂ − εI ⪰ 0: s = svec(P̂) − ε svec(I) ⇒ b = −ε svec(I), A = −svec(E_v).
-    fn push_s1(&self, out: &mut Rows, eps: f64) {
-        let nx = self.nx;
-        let row0 = out.open(tri(nx), eps);
-        for c in 0..nx {
-            for r in 0..=c {
-                let scale = if r == c { 1.0 } else { SQRT2 };
-                out.cols.push(row0 + tri_idx(r, c), tri_idx(r, c), -scale);
-            }
-        }
-        out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+    fn push_s1(&self, out: &mut SdpBuilder, eps: f64) {
+        let blk = out.psd(self.nx, eps);
+        self.push_sym_var(out, &blk, 0, -1.0);
     }
 
     /// The region vertices: (S2) 1 − ε − x̂ᵀP̂x̂ ≥ 0 per vertex (one
     /// nonnegative cone), or (13) [1 x̂ᵀ; x̂ P̂] − εI ⪰ 0 per vertex.
-    fn push_region_vertices(&self, out: &mut Rows, eps: f64) {
+    fn push_region_vertices(&self, out: &mut SdpBuilder, eps: f64) {
         let nx = self.nx;
         match self.set.vertex_form() {
             RegionForm::VertexQuadratic => {
                 // 1 − ε − x̂ᵀP̂x̂ ≥ 0: b = 1 − ε, A[v] = x̂ᵀ E_v x̂.
-                let row0 = out.b.len();
+                let row0 = out.nonneg(self.xs_hat.len());
                 for (i, x) in self.xs_hat.iter().enumerate() {
-                    out.b.push(1.0 - eps);
+                    out.set_b(row0 + i, 1.0 - eps);
                     for c in 0..nx {
                         for r in 0..=c {
                             let v = if r == c {
@@ -955,29 +986,24 @@ impl<'m> Problem<'m> {
                             } else {
                                 2.0 * x[r] * x[c]
                             };
-                            out.cols.push(row0 + i, tri_idx(r, c), v);
+                            out.a(row0 + i, svec_index(r, c), v);
                         }
                     }
                 }
-                out.cones
-                    .push(SupportedConeT::NonnegativeConeT(self.xs_hat.len()));
             }
             RegionForm::VertexSchur => {
                 // [1 x̂ᵀ; x̂ P̂] − εI ⪰ 0 (indices: 0 = the scalar, 1.. = P̂).
                 for x in &self.xs_hat {
-                    let row0 = out.open(tri(nx + 1), eps);
-                    out.b[row0] = 1.0 - eps;
+                    let blk = out.psd(nx + 1, eps);
+                    out.rhs(&blk, 0, 0, 1.0 - eps);
                     for c in 0..nx {
-                        out.b[row0 + tri_idx(0, c + 1)] = SQRT2 * x[c];
+                        out.rhs(&blk, 0, c + 1, x[c]);
                     }
                     for c in 0..nx {
                         for r in 0..=c {
-                            let scale = if r == c { 1.0 } else { SQRT2 };
-                            out.cols
-                                .push(row0 + tri_idx(r + 1, c + 1), tri_idx(r, c), -scale);
+                            out.entry(&blk, r + 1, c + 1, svec_index(r, c), -1.0);
                         }
                     }
-                    out.cones.push(SupportedConeT::PSDTriangleConeT(nx + 1));
                 }
             }
             _ => unreachable!("vertex form"),
@@ -986,22 +1012,20 @@ impl<'m> Problem<'m> {
 
     /// The region facets: (S3) [1 γâₖᵀ; γâₖ P̂] − εI ⪰ 0 or (14)
     /// [1 γâₖᵀP̂; γP̂âₖ P̂] − εI ⪰ 0 per facet.
-    fn push_region_facets(&self, out: &mut Rows, gamma: f64, eps: f64) {
+    fn push_region_facets(&self, out: &mut SdpBuilder, gamma: f64, eps: f64) {
         let nx = self.nx;
         let facet_form = self.set.facet_form();
         for a in &self.as_hat {
-            let row0 = out.open(tri(nx + 1), eps);
-            out.b[row0] = 1.0 - eps;
-            let cols = &mut out.cols;
+            let blk = out.psd(nx + 1, eps);
+            out.rhs(&blk, 0, 0, 1.0 - eps);
             match facet_form {
                 RegionForm::FacetSchur => {
                     for c in 0..nx {
-                        out.b[row0 + tri_idx(0, c + 1)] = SQRT2 * gamma * a[c];
+                        out.rhs(&blk, 0, c + 1, gamma * a[c]);
                     }
                     for c in 0..nx {
                         for r in 0..=c {
-                            let scale = if r == c { 1.0 } else { SQRT2 };
-                            cols.push(row0 + tri_idx(r + 1, c + 1), tri_idx(r, c), -scale);
+                            out.entry(&blk, r + 1, c + 1, svec_index(r, c), -1.0);
                         }
                     }
                 }
@@ -1010,56 +1034,43 @@ impl<'m> Problem<'m> {
                     // ∂(P̂â)_m/∂P̂_rc = [m==r] a_c + [m==c] a_r (r≠c); [m==r] a_r (r==c).
                     for c in 0..nx {
                         for r in 0..=c {
-                            let v = tri_idx(r, c);
-                            // Entries (0, m+1) for m ∈ {r, c}, increasing row order.
+                            let v = svec_index(r, c);
+                            // Entries (0, m+1) for m ∈ {r, c}, and (r+1, c+1).
                             if r == c {
-                                cols.push(row0 + tri_idx(0, r + 1), v, -SQRT2 * gamma * a[r]);
+                                out.entry(&blk, 0, r + 1, v, -gamma * a[r]);
                             } else {
-                                cols.push(row0 + tri_idx(0, r + 1), v, -SQRT2 * gamma * a[c]);
+                                out.entry(&blk, 0, r + 1, v, -gamma * a[c]);
+                                out.entry(&blk, 0, c + 1, v, -gamma * a[r]);
                             }
-                            // P̂ block entries come after column r+1's top entry in row order
-                            // only within the same column of the packed triangle; the packing
-                            // index increases with column, so push in increasing index order.
-                            let top_c = row0 + tri_idx(0, c + 1);
-                            let diag = row0 + tri_idx(r + 1, c + 1);
-                            if r == c {
-                                cols.push(diag, v, -1.0);
-                            } else {
-                                // index order: (0,r+1) < (0,c+1) < (r+1,c+1)
-                                cols.push(top_c, v, -SQRT2 * gamma * a[r]);
-                                cols.push(diag, v, -SQRT2);
-                            }
+                            out.entry(&blk, r + 1, c + 1, v, -1.0);
                         }
                     }
                 }
                 _ => unreachable!("facet form"),
             }
-            out.cones.push(SupportedConeT::PSDTriangleConeT(nx + 1));
         }
     }
 
     /// Full rate family: −He{P̂K − Γ̂H} − ε κ I ⪰ 0 per (combination, i, j):
     /// b = −ε_rate svec(I), A[v] = svec(∂F/∂v).
-    fn push_rate_full(&self, out: &mut Rows, alpha: f64, gamma: f64, rate: &RateMargins) {
+    fn push_rate_full(&self, out: &mut SdpBuilder, alpha: f64, gamma: f64, rate: &RateMargins) {
         let p_reg = self.xs_hat.len();
         let mut df = vec![0.0; self.nx * self.nx];
         for c in 0..self.combos.len() {
             if self.linear[c] {
                 // N and M vanish: every pair (i, j) has the same block.
                 let (k, hs) = self.linear_kh(alpha, gamma, c);
-                let row0 = out.open(tri(self.nx), rate.eps);
-                self.push_he_block(&mut out.cols, row0, &k, &hs, &mut df);
-                rate.push_column(&mut out.cols, row0);
-                out.cones.push(SupportedConeT::PSDTriangleConeT(self.nx));
+                let blk = out.psd(self.nx, rate.eps);
+                self.push_he_block(out, &blk, &k, &hs, &mut df);
+                rate.push_column(out, &blk);
                 continue;
             }
             for i in 0..p_reg {
                 for j in 0..p_reg {
                     let (k, hs) = self.rate_kh(alpha, gamma, c, i, j);
-                    let row0 = out.open(tri(self.nx), rate.eps);
-                    self.push_he_block(&mut out.cols, row0, &k, &hs, &mut df);
-                    rate.push_column(&mut out.cols, row0);
-                    out.cones.push(SupportedConeT::PSDTriangleConeT(self.nx));
+                    let blk = out.psd(self.nx, rate.eps);
+                    self.push_he_block(out, &blk, &k, &hs, &mut df);
+                    rate.push_column(out, &blk);
                 }
             }
         }
@@ -1068,24 +1079,28 @@ impl<'m> Problem<'m> {
     /// Decoupled rate family, per combination c: F0_c + G_c(x_i) + Ẑ_c ⪯ −ε κ I
     /// (the margin, and the max-margin column, sit here), then
     /// H_c(x_j) − Ẑ_c ⪯ 0.
-    fn push_rate_decoupled(&self, out: &mut Rows, alpha: f64, gamma: f64, rate: &RateMargins) {
+    fn push_rate_decoupled(
+        &self,
+        out: &mut SdpBuilder,
+        alpha: f64,
+        gamma: f64,
+        rate: &RateMargins,
+    ) {
         let p_reg = self.xs_hat.len();
         let mut df = vec![0.0; self.nx * self.nx];
         for c in 0..self.combos.len() {
             for i in 0..p_reg {
                 let (k, hs) = self.decoupled_e_kh(alpha, gamma, c, i);
-                let row0 = out.open(tri(self.nx), rate.eps);
-                self.push_he_block(&mut out.cols, row0, &k, &hs, &mut df);
-                self.push_sym_var(&mut out.cols, row0, self.zvar(c, 0), 1.0);
-                rate.push_column(&mut out.cols, row0);
-                out.cones.push(SupportedConeT::PSDTriangleConeT(self.nx));
+                let blk = out.psd(self.nx, rate.eps);
+                self.push_he_block(out, &blk, &k, &hs, &mut df);
+                self.push_sym_var(out, &blk, self.zvar(c, 0), 1.0);
+                rate.push_column(out, &blk);
             }
             for j in 0..p_reg {
                 let (k, hs) = self.decoupled_x_kh(c, j);
-                let row0 = out.open(tri(self.nx), 0.0);
-                self.push_he_block(&mut out.cols, row0, &k, &hs, &mut df);
-                self.push_sym_var(&mut out.cols, row0, self.zvar(c, 0), -1.0);
-                out.cones.push(SupportedConeT::PSDTriangleConeT(self.nx));
+                let blk = out.psd(self.nx, 0.0);
+                self.push_he_block(out, &blk, &k, &hs, &mut df);
+                self.push_sym_var(out, &blk, self.zvar(c, 0), -1.0);
             }
         }
     }
@@ -1093,46 +1108,28 @@ impl<'m> Problem<'m> {
     /// The columns of ±Ŝ in an nx-block, Ŝ a symmetric variable whose upper
     /// triangle starts at variable `first`: ∂(±Ŝ)/∂Ŝ_rc = ±E_rc, svec entry
     /// ±1 (diagonal) or ±√2.
-    fn push_sym_var(&self, cols: &mut Columns, row0: usize, first: usize, sign: f64) {
+    fn push_sym_var(&self, out: &mut SdpBuilder, blk: &Psd, first: usize, sign: f64) {
         for c in 0..self.nx {
             for r in 0..=c {
-                let sc = if r == c { 1.0 } else { SQRT2 };
-                cols.push(row0 + tri_idx(r, c), first + tri_idx(r, c), sign * sc);
+                out.entry(blk, r, c, first + svec_index(r, c), sign);
             }
         }
     }
 
     /// The objective: ½ w Σ Γ̂² (diagonal on the Γ̂ columns) for
-    /// [`Objective::Gains`], −t̂ for [`Objective::MaxMargin`].
-    fn objective(
-        &self,
-        n: usize,
-        settings: &Settings,
-        objective: Objective,
-    ) -> (CscMatrix<f64>, Vec<f64>) {
-        let p = if objective == Objective::Gains && settings.gain_weight > 0.0 {
-            let mut colptr = Vec::with_capacity(n + 1);
-            let mut rowval = Vec::new();
-            let mut nzval = Vec::new();
-            colptr.push(0);
-            for c in 0..n {
-                if c >= self.np && c < self.gains_end() {
-                    rowval.push(c);
-                    nzval.push(settings.gain_weight);
-                }
-                colptr.push(rowval.len());
+    /// [`Objective::Gains`], −t̂ for [`Objective::MaxMargin`], κ for
+    /// [`Objective::MinGain`].
+    fn objective(&self, out: &mut SdpBuilder, settings: &Settings, objective: Objective) {
+        if objective == Objective::Gains && settings.gain_weight > 0.0 {
+            for v in self.np..self.gains_end() {
+                out.quadratic(v, settings.gain_weight);
             }
-            CscMatrix::new(n, n, colptr, rowval, nzval)
-        } else {
-            CscMatrix::zeros((n, n))
-        };
-        let mut q = vec![0.0; n];
+        }
         match objective {
-            Objective::MaxMargin => q[self.n_vars()] = -1.0,
-            Objective::MinGain => q[self.n_vars() + 1] = 1.0,
+            Objective::MaxMargin => out.cost(self.n_vars(), -1.0),
+            Objective::MinGain => out.cost(self.n_vars() + 1, 1.0),
             Objective::Feasibility | Objective::Gains => {}
         }
-        (p, q)
     }
 
     /// Unpacks a solution vector into (P, Γ_l) in model units.
@@ -1142,7 +1139,7 @@ impl<'m> Problem<'m> {
         let mut p = DMatrix::zeros(nx, nx);
         for c in 0..nx {
             for r in 0..=c {
-                let v = s * x[tri_idx(r, c)];
+                let v = s * x[svec_index(r, c)];
                 p[(r, c)] = v;
                 p[(c, r)] = v;
             }
@@ -1159,7 +1156,7 @@ impl<'m> Problem<'m> {
         let mut x = vec![0.0; self.n_vars()];
         for c in 0..self.nx {
             for r in 0..=c {
-                x[tri_idx(r, c)] = p[(r, c)] / self.scale;
+                x[svec_index(r, c)] = p[(r, c)] / self.scale;
             }
         }
         for (l, g) in gammas.iter().enumerate() {
@@ -1184,7 +1181,7 @@ impl<'m> Problem<'m> {
                 let mut z = DMatrix::zeros(nx, nx);
                 for c in 0..nx {
                     for r in 0..=c {
-                        let v = self.scale * x[self.zvar(l, tri_idx(r, c))];
+                        let v = self.scale * x[self.zvar(l, svec_index(r, c))];
                         z[(r, c)] = v;
                         z[(c, r)] = v;
                     }
@@ -1205,7 +1202,7 @@ impl<'m> Problem<'m> {
         for (l, zl) in z.iter().enumerate() {
             for c in 0..self.nx {
                 for r in 0..=c {
-                    x[self.zvar(l, tri_idx(r, c))] = zl[(r, c)] / self.scale;
+                    x[self.zvar(l, svec_index(r, c))] = zl[(r, c)] / self.scale;
                 }
             }
         }

@@ -21,9 +21,10 @@
 //! [W(1 − hα)P̂ − t̂ c Ŵ, Mᵀ; M, WP̂] ⪰ 0 with c = t/(1 + t), Ŵ the metric
 //! of [`super::Objective::MaxMargin`]: t̂ > 0 leaves room for a larger α.
 
-use super::{tri_idx, Problem, RateMargins, Rows};
+use super::{Problem, RateMargins};
+use crate::backend::builder::SdpBuilder;
 use crate::error::SolveError;
-use clarabel::solver::SupportedConeT;
+use crate::linalg::svec::svec_index;
 use nalgebra::DMatrix;
 use qpv_dsl::Conditions;
 
@@ -64,7 +65,7 @@ impl Problem<'_> {
     /// The discrete family: one PSD(2nx) block per (combination, i, j).
     pub(super) fn push_rate_sampled(
         &self,
-        out: &mut Rows,
+        out: &mut SdpBuilder,
         alpha: f64,
         gamma: f64,
         h: f64,
@@ -87,7 +88,7 @@ impl Problem<'_> {
             for i in 0..p_reg {
                 for j in 0..p_reg {
                     let (k0, hs) = self.rate_kh(0.0, gamma, ci, i, j);
-                    let row0 = out.open(tri_len(d), delta);
+                    let blk = out.psd(d, delta);
                     // P̂ columns: −∂block/∂P̂_v.
                     for pc in 0..nx {
                         for pr in 0..=pc {
@@ -101,7 +102,7 @@ impl Problem<'_> {
                             dm.view_mut((nx, nx), (nx, nx)).copy_from(&(&e * w));
                             dm.view_mut((nx, 0), (nx, nx)).copy_from(&m);
                             dm.view_mut((0, nx), (nx, nx)).copy_from(&m.transpose());
-                            out.cols.push_svec(row0, tri_idx(pr, pc), &dm, -1.0);
+                            out.matrix(&blk, svec_index(pr, pc), &dm, -1.0);
                         }
                     }
                     // Γ̂_l columns: ∂M/∂Γ̂_l[gr, gc] = −(h/γ) E_{gr,gc} H_l.
@@ -114,7 +115,7 @@ impl Problem<'_> {
                                     dm[(nx + gr, b)] = v;
                                     dm[(b, nx + gr)] = v;
                                 }
-                                out.cols.push_svec(row0, self.gvar(*l, gr, gc), &dm, -1.0);
+                                out.matrix(&blk, self.gvar(*l, gr, gc), &dm, -1.0);
                             }
                         }
                     }
@@ -123,17 +124,11 @@ impl Problem<'_> {
                         // packed indices as an nx svec: coef = svec(κŴ).
                         let scale = if kappa > 0.0 { c / kappa } else { 0.0 };
                         for (idx, &v) in mc.coef.iter().enumerate() {
-                            out.cols.push(row0 + idx, mc.var, v * scale);
+                            out.a(blk.row0 + idx, mc.var, v * scale);
                         }
                     }
-                    out.cones.push(SupportedConeT::PSDTriangleConeT(d));
                 }
             }
         }
     }
-}
-
-/// Number of entries of the packed upper triangle of a d × d matrix.
-fn tri_len(d: usize) -> usize {
-    super::tri(d)
 }

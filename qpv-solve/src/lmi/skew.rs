@@ -1,15 +1,12 @@
 //! Step 1 of the skew-slack alternation: with P fixed, the largest α over
 //! the gains Γ_l and the skew slack K_{k,l} jointly (one SDP).
 
-use crate::backend::{clarabel_settings, run_sdp, Sdp, Status};
+use crate::backend::builder::{Psd, SdpBuilder};
+use crate::backend::{clarabel_settings, run_sdp, Status};
 use crate::conditions::rate_combos;
 use crate::error::SolveError;
-use crate::linalg::csc::Columns;
 use crate::linalg::rows::{rows, rows_he};
-use crate::linalg::svec::svec_into;
 use crate::settings::Settings;
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::SupportedConeT;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::PolytopicModel;
 
@@ -39,28 +36,28 @@ pub fn max_alpha_fixed_p(
             .map(|v| v.a.norm())
             .fold(0.0, f64::max)
         + 1.0;
-    let mut blocks = Blocks {
-        cols: Columns::new(vars.n),
-        b: Vec::new(),
-        cones: Vec::new(),
-    };
-    blocks.push_rate_blocks(model, &ph, &vars, gamma, settings.margin_rel * kappa);
+    let mut out = vars.builder();
+    push_rate_blocks(
+        &mut out,
+        model,
+        &ph,
+        &vars,
+        gamma,
+        settings.margin_rel * kappa,
+    );
     // α ≤ cap keeps the problem bounded.
-    let row = blocks.b.len();
-    blocks.b.push(settings.alpha_cap);
-    blocks.cols.push(row, vars.alpha, 1.0);
-    blocks.cones.push(SupportedConeT::NonnegativeConeT(1));
-    let a = blocks.cols.into_csc(blocks.b.len());
-    let mut q = vec![0.0; vars.n];
-    q[vars.alpha] = -1.0;
-    let sdp = Sdp {
-        p: regulariser(vars.n),
-        q,
-        a,
-        b: blocks.b,
-        cones: blocks.cones,
-    };
-    let run = run_sdp(sdp, clarabel_settings(settings))?;
+    let row = out.nonneg(1);
+    out.set_b(row, settings.alpha_cap);
+    out.a(row, vars.alpha, 1.0);
+    out.cost(vars.alpha, -1.0);
+    // ½ w (‖Γ̂‖² + ‖K‖²) with a tiny w only keeps the problem bounded in
+    // directions α does not care about (a weight like the design's gain
+    // regularisation costs α here: measured 10.6 → 4.9); α's own column
+    // has no quadratic term.
+    for v in 0..vars.alpha {
+        out.quadratic(v, 1e-9);
+    }
+    let run = run_sdp(out.finish(), clarabel_settings(settings))?;
     // Only a solved α is used here (the caller certifies it).
     let x = match run.x {
         Some(x) if run.status == Status::Solved => x,
@@ -84,10 +81,8 @@ struct Vars {
     nskew: usize,
     /// Where the K entries start (after all Γ̂_l).
     k0: usize,
-    /// α's column.
+    /// α's column (the last).
     alpha: usize,
-    /// All variables.
-    n: usize,
 }
 
 impl Vars {
@@ -103,8 +98,17 @@ impl Vars {
             nskew,
             k0,
             alpha,
-            n: alpha + 1,
         }
+    }
+
+    /// A builder with these variables declared, in this order.
+    fn builder(&self) -> SdpBuilder {
+        let mut out = SdpBuilder::new();
+        out.vars("Gamma", self.k0);
+        out.vars("K", self.nv * self.nx * self.nskew);
+        let alpha = out.var("alpha");
+        debug_assert_eq!(alpha, self.alpha);
+        out
     }
 
     /// Column of entry (r, c) of Γ̂_l.
@@ -146,90 +150,76 @@ impl Vars {
     }
 }
 
-/// The problem's constraint data, built one PSD(nx) block at a time.
-struct Blocks {
-    cols: Columns,
-    b: Vec<f64>,
-    cones: Vec<SupportedConeT<f64>>,
-}
-
 fn he(x: &DMatrix<f64>) -> DMatrix<f64> {
     x + x.transpose()
 }
 
-impl Blocks {
-    /// Adds `mat` (symmetrised) as variable `var`'s column of the block
-    /// starting at `row0`.
-    fn push(&mut self, row0: usize, var: usize, mat: &DMatrix<f64>) {
-        self.cols
-            .push_svec(row0, var, &((mat + mat.transpose()) * 0.5), 1.0)
-    }
+/// Adds `mat` (symmetrised) as variable `var`'s column of the block `blk`.
+fn push(out: &mut SdpBuilder, blk: &Psd, var: usize, mat: &DMatrix<f64>) {
+    out.matrix(blk, var, &((mat + mat.transpose()) * 0.5), 1.0)
+}
 
-    /// One block s = −F − εI ⪰ 0 per (rate combination, e-vertex x_i,
-    /// x-vertex x_j), F = F0 + Σ_v x_v F_v: b = svec(−F0 − εI) and variable
-    /// v's column svec(F_v). The problem is small (an experiment on small
-    /// models), so the blocks are built densely, one unit variable at a time.
-    fn push_rate_blocks(
-        &mut self,
-        model: &PolytopicModel,
-        ph: &DMatrix<f64>,
-        vars: &Vars,
-        gamma: f64,
-        eps: f64,
-    ) {
-        let (nx, ny) = (vars.nx, vars.ny);
-        let t = nx * (nx + 1) / 2;
-        let xs = &model.region.vertices;
-        let k_basis = skew_basis(ph, xs, nx);
-        for combo in rate_combos(model) {
-            for (i, xi) in xs.iter().enumerate() {
-                for xj in xs {
-                    let mut f0 = DMatrix::zeros(nx, nx);
-                    let mut fg: Vec<(usize, DMatrix<f64>)> = Vec::new(); // (l, Σ w H_m)
-                    let mut fk: Vec<(usize, f64)> = Vec::new(); // (l, Σ w)
-                    for &(l, m, w) in &combo.terms {
-                        let (vl, vm) = (&model.vertices[l], &model.vertices[m]);
-                        let r = rows_he(&vl.n, xj) - rows(&vl.n, xi);
-                        let h = &vm.c * gamma + (rows_he(&vm.m, xj) - rows(&vm.m, xi));
-                        f0 += he(&(ph * (&vl.a * gamma + &r))) * w;
-                        match fg.iter_mut().find(|(g, _)| *g == l) {
-                            Some((_, acc)) => *acc += h * w,
-                            None => fg.push((l, h * w)),
-                        }
-                        match fk.iter_mut().find(|(g, _)| *g == l) {
-                            Some((_, acc)) => *acc += w,
-                            None => fk.push((l, w)),
-                        }
+/// One block s = −F − εI ⪰ 0 per (rate combination, e-vertex x_i,
+/// x-vertex x_j), F = F0 + Σ_v x_v F_v: b = svec(−F0 − εI) and variable
+/// v's column svec(F_v). The problem is small (an experiment on small
+/// models), so the blocks are built densely, one unit variable at a time.
+fn push_rate_blocks(
+    out: &mut SdpBuilder,
+    model: &PolytopicModel,
+    ph: &DMatrix<f64>,
+    vars: &Vars,
+    gamma: f64,
+    eps: f64,
+) {
+    let (nx, ny) = (vars.nx, vars.ny);
+    let xs = &model.region.vertices;
+    let k_basis = skew_basis(ph, xs, nx);
+    for combo in rate_combos(model) {
+        for (i, xi) in xs.iter().enumerate() {
+            for xj in xs {
+                let mut f0 = DMatrix::zeros(nx, nx);
+                let mut fg: Vec<(usize, DMatrix<f64>)> = Vec::new(); // (l, Σ w H_m)
+                let mut fk: Vec<(usize, f64)> = Vec::new(); // (l, Σ w)
+                for &(l, m, w) in &combo.terms {
+                    let (vl, vm) = (&model.vertices[l], &model.vertices[m]);
+                    let r = rows_he(&vl.n, xj) - rows(&vl.n, xi);
+                    let h = &vm.c * gamma + (rows_he(&vm.m, xj) - rows(&vm.m, xi));
+                    f0 += he(&(ph * (&vl.a * gamma + &r))) * w;
+                    match fg.iter_mut().find(|(g, _)| *g == l) {
+                        Some((_, acc)) => *acc += h * w,
+                        None => fg.push((l, h * w)),
                     }
-                    let row0 = self.b.len();
-                    let mut rhs = -f0;
-                    for d in 0..nx {
-                        rhs[(d, d)] -= eps;
+                    match fk.iter_mut().find(|(g, _)| *g == l) {
+                        Some((_, acc)) => *acc += w,
+                        None => fk.push((l, w)),
                     }
-                    self.b.resize(row0 + t, 0.0);
-                    svec_into(&rhs, &mut self.b[row0..row0 + t]);
-                    fg.sort_by_key(|(l, _)| *l);
-                    fk.sort_by_key(|(l, _)| *l);
-                    // Γ_l entries: −He{E_rc H}.
-                    for (l, h) in &fg {
-                        for gr in 0..nx {
-                            for gc in 0..ny {
-                                let mut e = DMatrix::zeros(nx, ny);
-                                e[(gr, gc)] = 1.0;
-                                self.push(row0, vars.gamma_col(*l, gr, gc), &(-he(&(e * h))));
-                            }
-                        }
-                    }
-                    // K_{k,l} entries.
-                    for &(l, w) in &fk {
-                        for (idx, term) in k_basis[i].iter().enumerate() {
-                            self.push(row0, vars.k_col(l, idx), &(term * w));
-                        }
-                    }
-                    // α: (Σ w) γP̂.
-                    self.push(row0, vars.alpha, &(ph * (gamma * combo.weight())));
-                    self.cones.push(SupportedConeT::PSDTriangleConeT(nx));
                 }
+                let blk = out.psd(nx, 0.0);
+                let mut rhs = -f0;
+                for d in 0..nx {
+                    rhs[(d, d)] -= eps;
+                }
+                out.rhs_matrix(&blk, &rhs);
+                fg.sort_by_key(|(l, _)| *l);
+                fk.sort_by_key(|(l, _)| *l);
+                // Γ_l entries: −He{E_rc H}.
+                for (l, h) in &fg {
+                    for gr in 0..nx {
+                        for gc in 0..ny {
+                            let mut e = DMatrix::zeros(nx, ny);
+                            e[(gr, gc)] = 1.0;
+                            push(out, &blk, vars.gamma_col(*l, gr, gc), &(-he(&(e * h))));
+                        }
+                    }
+                }
+                // K_{k,l} entries.
+                for &(l, w) in &fk {
+                    for (idx, term) in k_basis[i].iter().enumerate() {
+                        push(out, &blk, vars.k_col(l, idx), &(term * w));
+                    }
+                }
+                // α: (Σ w) γP̂.
+                push(out, &blk, vars.alpha, &(ph * (gamma * combo.weight())));
             }
         }
     }
@@ -254,19 +244,4 @@ fn skew_basis(ph: &DMatrix<f64>, xs: &[DVector<f64>], nx: usize) -> Vec<Vec<DMat
             out
         })
         .collect()
-}
-
-/// The objective's quadratic part: ½ w (‖Γ̂‖² + ‖K‖²) with a tiny w, which
-/// only keeps the problem bounded in directions α does not care about (a
-/// weight like the design's gain regularisation costs α here: measured
-/// 10.6 → 4.9). α's own column has no quadratic term.
-fn regulariser(n: usize) -> CscMatrix<f64> {
-    let w = 1e-9;
-    CscMatrix::new(
-        n,
-        n,
-        (0..=n).map(|i| i.min(n - 1)).collect(),
-        (0..n - 1).collect(),
-        vec![w; n - 1],
-    )
 }

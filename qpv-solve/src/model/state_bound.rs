@@ -40,17 +40,15 @@
 //! re-checked by [`check`] with nalgebra eigenvalues in model units before
 //! it is used; an h whose solution does not pass counts as infeasible.
 
-use crate::backend::{clarabel_settings, run_sdp, Sdp, SdpRun, Status};
+use crate::backend::builder::SdpBuilder;
+use crate::backend::{clarabel_settings, run_sdp, SdpRun, Status};
 use crate::error::SolveError;
-use crate::linalg::csc::Columns;
 use crate::linalg::matrix_to_rows;
 use crate::linalg::rows::rows;
-use crate::linalg::svec::{svec_index, svec_scale};
+use crate::linalg::svec::svec_index;
 use crate::model::{gamma_max, gamma_max_for};
 use crate::settings::Settings;
 use crate::vocab::BoundSource;
-use clarabel::algebra::CscMatrix;
-use clarabel::solver::SupportedConeT;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{PolytopicModel, Split, StateBound};
 use serde::{Deserialize, Serialize};
@@ -307,56 +305,41 @@ pub fn check(model: &PolytopicModel, w: &DMatrix<f64>, h: f64) -> BoundCheck {
     }
 }
 
-/// Index of Ŵ_rc (r ≤ c) among the variables.
+/// Index of Ŵ_rc (either order) among the variables.
 #[inline]
 fn wvar(r: usize, c: usize) -> usize {
     let (r, c) = if r <= c { (r, c) } else { (c, r) };
-    c * (c + 1) / 2 + r
+    svec_index(r, c)
 }
 
-/// The SDP at one box size, in box coordinates z = D⁻¹x.
+/// The SDP at one box size, in box coordinates z = D⁻¹x: the variables
+/// Ŵ (svec order) and t, on the crate's one builder.
 struct Lmi {
-    cols: Columns,
-    b: Vec<f64>,
-    cones: Vec<SupportedConeT<f64>>,
+    out: SdpBuilder,
+    tvar: usize,
 }
 
 impl Lmi {
+    /// An empty problem with Ŵ (nx × nx) and t declared.
+    fn new(nx: usize) -> Self {
+        let mut out = SdpBuilder::new();
+        out.sym_var("W", nx);
+        let tvar = out.var("t");
+        Lmi { out, tvar }
+    }
+
     /// Appends a PSD block F(x) = F0 + Σ_k x_k F_k ⪰ 0 of size n, where
     /// `lin(r, c)` lists (variable, coefficient) of entry (r, c), r ≤ c.
-    fn psd(
-        &mut self,
-        f0: &DMatrix<f64>,
-        lin: impl Fn(usize, usize) -> Vec<(usize, f64)>,
-        nvars: usize,
-    ) {
-        let n = f0.nrows();
-        let base = self.b.len();
-        let mut entries: Vec<Vec<(usize, f64)>> = vec![Vec::new(); nvars];
-        for c in 0..n {
+    fn psd(&mut self, f0: &DMatrix<f64>, lin: impl Fn(usize, usize) -> Vec<(usize, f64)>) {
+        let blk = self.out.psd(f0.nrows(), 0.0);
+        self.out.rhs_matrix(&blk, f0);
+        for c in 0..f0.nrows() {
             for r in 0..=c {
-                let row = base + svec_index(r, c);
-                let scale = svec_scale(r, c);
-                self.b.push(scale * f0[(r, c)]);
                 for (k, coef) in lin(r, c) {
-                    entries[k].push((row, -scale * coef));
+                    self.out.entry(&blk, r, c, k, -coef);
                 }
             }
         }
-        for (k, list) in entries.into_iter().enumerate() {
-            // several terms may hit the same row: merge (rows are sorted)
-            let mut merged: Vec<(usize, f64)> = Vec::with_capacity(list.len());
-            for (row, v) in list {
-                match merged.last_mut() {
-                    Some((r0, v0)) if *r0 == row => *v0 += v,
-                    _ => merged.push((row, v)),
-                }
-            }
-            for (row, v) in merged {
-                self.cols.push(row, k, v);
-            }
-        }
-        self.cones.push(SupportedConeT::PSDTriangleConeT(n));
     }
 }
 
@@ -488,9 +471,10 @@ impl Lmi {
     /// Region: 1 − ε − zᵢᵀŴzᵢ ≥ 0 for every vertex zᵢ.
     fn region(&mut self, zs: &[DVector<f64>], eps: f64) {
         let nx = zs.first().map_or(0, |z| z.len());
-        for z in zs {
-            let row = self.b.len();
-            self.b.push(1.0 - eps);
+        let row0 = self.out.nonneg(zs.len());
+        for (i, z) in zs.iter().enumerate() {
+            let row = row0 + i;
+            self.out.set_b(row, 1.0 - eps);
             for c in 0..nx {
                 for r in 0..=c {
                     let coef = if r == c {
@@ -498,66 +482,42 @@ impl Lmi {
                     } else {
                         2.0 * z[r] * z[c]
                     };
-                    self.cols.push(row, wvar(r, c), coef);
+                    self.out.a(row, wvar(r, c), coef);
                 }
             }
         }
-        self.cones.push(SupportedConeT::NonnegativeConeT(zs.len()));
     }
 
     /// A block [s vᵀ; v Ŵ] + F0 ⪰ 0 bordered by Ŵ: `corner` is the variable
     /// s (t), or `None` when the corner is a constant held in `f0`.
-    fn bordered(&mut self, f0: &DMatrix<f64>, corner: Option<usize>, nvars: usize) {
-        self.psd(
-            f0,
-            |r, c| match (r, c, corner) {
-                (0, 0, Some(t)) => vec![(t, 1.0)],
-                (0, _, _) => vec![],
-                _ => vec![(wvar(r - 1, c - 1), 1.0)],
-            },
-            nvars,
-        );
+    fn bordered(&mut self, f0: &DMatrix<f64>, corner: Option<usize>) {
+        self.psd(f0, |r, c| match (r, c, corner) {
+            (0, 0, Some(t)) => vec![(t, 1.0)],
+            (0, _, _) => vec![],
+            _ => vec![(wvar(r - 1, c - 1), 1.0)],
+        });
     }
 
     /// Invariance: −He{Ŵ K̂} − ε κ I ⪰ 0; entry (r, c) of He{ŴK̂} is
     /// Σ_m Ŵ_rm K̂_mc + Σ_m Ŵ_cm K̂_mr.
-    fn invariance(&mut self, k: &DMatrix<f64>, eps_kappa: f64, nvars: usize) {
+    fn invariance(&mut self, k: &DMatrix<f64>, eps_kappa: f64) {
         let nx = k.nrows();
         let f0 = -DMatrix::identity(nx, nx) * eps_kappa;
-        self.psd(
-            &f0,
-            |r, c| {
-                let mut v = Vec::with_capacity(2 * nx);
-                for m in 0..nx {
-                    v.push((wvar(r, m), -k[(m, c)]));
-                    v.push((wvar(c, m), -k[(m, r)]));
-                }
-                v.sort_by_key(|e| e.0);
-                v
-            },
-            nvars,
-        );
+        self.psd(&f0, |r, c| {
+            let mut v = Vec::with_capacity(2 * nx);
+            for m in 0..nx {
+                v.push((wvar(r, m), -k[(m, c)]));
+                v.push((wvar(c, m), -k[(m, r)]));
+            }
+            v
+        });
     }
 
-    /// Minimises the variable `tvar` subject to the blocks (one solver call,
-    /// read by the crate's one rule, see [`run_sdp`]).
-    fn minimise(
-        self,
-        nvars: usize,
-        tvar: usize,
-        settings: &Settings,
-    ) -> Result<SdpRun, SolveError> {
-        let m = self.b.len();
-        let sdp = Sdp {
-            p: CscMatrix::zeros((nvars, nvars)),
-            q: (0..nvars)
-                .map(|v| if v == tvar { 1.0 } else { 0.0 })
-                .collect(),
-            a: self.cols.into_csc(m),
-            b: self.b,
-            cones: self.cones,
-        };
-        run_sdp(sdp, clarabel_settings(settings))
+    /// Minimises t subject to the blocks (one solver call, read by the
+    /// crate's one rule, see [`run_sdp`]).
+    fn minimise(mut self, settings: &Settings) -> Result<SdpRun, SolveError> {
+        self.out.cost(self.tvar, 1.0);
+        run_sdp(self.out.finish(), clarabel_settings(settings))
     }
 }
 
@@ -572,20 +532,14 @@ fn solve_lmi(
 ) -> Result<SdpRun, SolveError> {
     let nx = model.nx();
     let eps = settings.margin_rel;
-    let nw = nx * (nx + 1) / 2;
-    let tvar = nw;
-    let nvars = nw + 1;
     let data = BoxData::new(model, half, kind);
     let kappa = 1.0 + data.k_hat.iter().map(|k| k.norm()).fold(0.0, f64::max);
 
-    let mut lmi = Lmi {
-        cols: Columns::new(nvars),
-        b: Vec::new(),
-        cones: Vec::new(),
-    };
+    let mut lmi = Lmi::new(nx);
+    let tvar = lmi.tvar;
     // Ŵ − ε I ⪰ 0
     let w_entry = |r: usize, c: usize| vec![(wvar(r, c), 1.0)];
-    lmi.psd(&(-DMatrix::identity(nx, nx) * eps), w_entry, nvars);
+    lmi.psd(&(-DMatrix::identity(nx, nx) * eps), w_entry);
     lmi.region(&data.zs, eps);
     // in the box: [1 e_jᵀ; e_j Ŵ] − ε I ⪰ 0
     for j in (0..nx).filter(|_| kind == Kind::Full) {
@@ -593,17 +547,17 @@ fn solve_lmi(
         f0[(0, 0)] += 1.0;
         f0[(0, j + 1)] = 1.0;
         f0[(j + 1, 0)] = 1.0;
-        lmi.bordered(&f0, None, nvars);
+        lmi.bordered(&f0, None);
     }
     // smallest box: [t e_jᵀ; e_j Ŵ] ⪰ 0, i.e. Q̂_jj ≤ t
     for j in (0..nx).filter(|_| kind == Kind::MinBox) {
         let mut f0 = DMatrix::zeros(nx + 1, nx + 1);
         f0[(0, j + 1)] = 1.0;
         f0[(j + 1, 0)] = 1.0;
-        lmi.bordered(&f0, Some(tvar), nvars);
+        lmi.bordered(&f0, Some(tvar));
     }
     for k in &data.k_hat {
-        lmi.invariance(k, eps * kappa, nvars);
+        lmi.invariance(k, eps * kappa);
     }
     // objective epigraph: [t âₖᵀ; âₖ Ŵ] ⪰ 0
     for a in data.a_hat.iter().filter(|_| kind != Kind::MinBox) {
@@ -612,9 +566,9 @@ fn solve_lmi(
             f0[(0, j + 1)] = a[j];
             f0[(j + 1, 0)] = a[j];
         }
-        lmi.bordered(&f0, Some(tvar), nvars);
+        lmi.bordered(&f0, Some(tvar));
     }
-    lmi.minimise(nvars, tvar, settings)
+    lmi.minimise(settings)
 }
 
 /// Computes the state bound of `model` (N_k as represented in `model`):

@@ -56,14 +56,7 @@ impl NoiseCtx<'_, '_> {
     /// certified point, if any.
     fn at(&mut self, gamma: f64, phase: Phase) -> Result<Option<NoisePoint>, SolveError> {
         let t0 = Instant::now();
-        let res = solve_noise_sdp(
-            &self.prob,
-            self.model,
-            self.channels,
-            self.alpha,
-            gamma,
-            self.settings,
-        )?;
+        let res = solve_noise_sdp(&self.prob, self.channels, self.alpha, gamma, self.settings)?;
         let mut solver = SolverInfo {
             status: res.status,
             detail: res.detail.clone(),
