@@ -24,23 +24,11 @@
 //!
 //! # Layers
 //!
-//! The crate reads as its pipeline. A module imports only from layers
-//! above it in this list (lib.rs, the facade, re-exports from all); the
+//! The crate reads as its pipeline, in layers (listed once, in the
+//! workspace README, and checked against the code by its layer test): a
+//! module imports only from its own layer or those below it; the
 //! certificate never imports the assembly, so its independence is a
-//! structural fact:
-//!
-//! ```text
-//! 0 vocabulary   error, settings, vocab, backend (Clarabel), linalg/, fixtures
-//! 1 model/       validation, state bound, output route, split, skew → ObserverModel;
-//!                size (the size guard), diagnosis (why a model cannot be certified)
-//! 2 conditions/  the condition families as data (sets, combinations, vertex terms)
-//! 3 lmi/ | certificate/   assembly into the SDP | independent re-check (side by side);
-//!                sampling (the Euler-step certificate of a design)
-//! 4 report       Design, SearchStep, SolverInfo, NoiseBound (serde), notes and summary
-//! 5 search/      α bisection, γ search, retry rules, skew alternation;
-//!                noise (the noise bound, its check, the noise-optimal search)
-//! 6 analysis/    simulate, falsify, euler (one reference right-hand side)
-//! ```
+//! structural fact.
 //!
 //! Conventions: N_k and M_k are used as represented in the model handed in
 //! (a request's `split` may symmetrise them first); row k of rows(T, v) is vᵀT_k. Strict inequalities are

@@ -3,22 +3,11 @@
 //! modules never import each other, and no module imports itself through
 //! a circle.
 //!
-//! qpv-solve's layers (bottom to top; lib.rs, the facade, re-exports from
-//! all of them and is not checked; `mod.rs` re-exports of a folder's own
-//! files are part of that folder's facade):
-//!
-//! ```text
-//! 0 vocabulary   error, settings, vocab, backend, linalg, fixtures, lapack
-//! 1 model        the observer's model: state bound, output route, split, skew;
-//!                size (the size guard) and diagnosis (why a model fails)
-//! 2 conditions   the condition families as data
-//! 3 lmi | certificate   assembly into the SDP | independent re-check;
-//!                sampling (the Euler step certificate beside it)
-//! 4 report       Design and its parts (serde), filled in by the search
-//! 5 search       α bisection, γ search, retry rules, skew alternation;
-//!                noise (its bound, check and noise-optimal search)
-//! 6 analysis     simulate, falsify
-//! ```
+//! qpv-solve's layers are listed once, in the README ("Inside each crate
+//! the modules are layers"), and [`the_readme_lists_every_layer_of_the_table`]
+//! checks that list against the table below (lib.rs, the facade,
+//! re-exports from all of them and is not checked; `mod.rs` re-exports of
+//! a folder's own files are part of that folder's facade).
 //!
 //! qpv-dsl follows text → AST → model → polytopic model:
 //!
@@ -450,6 +439,66 @@ fn no_crate_has_an_import_circle_or_an_import_against_its_layers() {
         }
     }
     assert!(all.is_empty(), "structure violations:\n{}", all.join("\n"));
+}
+
+/// The README's list of qpv-solve's layers: the fenced block after the
+/// line that introduces it, one line per layer starting with its number.
+fn readme_layers() -> BTreeMap<usize, String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
+    let text = std::fs::read_to_string(path).unwrap();
+    let start = text
+        .find("qpv-solve's layers, bottom to top")
+        .expect("the README introduces qpv-solve's layers");
+    let block = &text[start..];
+    let open = block.find("```text\n").expect("a text block") + 8;
+    let close = open + block[open..].find("```").expect("its end");
+    let mut layers: BTreeMap<usize, String> = BTreeMap::new();
+    let mut current = None;
+    for line in block[open..close].lines() {
+        let first = line.split_whitespace().next().unwrap_or("");
+        if let Ok(n) = first.parse::<usize>() {
+            current = Some(n);
+        }
+        if let Some(n) = current {
+            let entry = layers.entry(n).or_default();
+            entry.push(' ');
+            entry.push_str(line);
+        }
+    }
+    layers
+}
+
+#[test]
+fn the_readme_lists_every_layer_of_the_table() {
+    let readme = readme_layers();
+    let mut missing = Vec::new();
+    for (module, layer) in SOLVE.layers {
+        if SOLVE.skip.contains(module) {
+            continue;
+        }
+        let words: Vec<String> = readme
+            .get(layer)
+            .map(|l| {
+                l.split(|c: char| !(c.is_alphanumeric() || c == '_'))
+                    .map(str::to_string)
+                    .collect()
+            })
+            .unwrap_or_default();
+        if !words.iter().any(|w| w == module) {
+            missing.push(format!("layer {layer}: `{module}`"));
+        }
+    }
+    let table: BTreeSet<usize> = SOLVE.layers.iter().map(|(_, l)| *l).collect();
+    let listed: BTreeSet<usize> = readme.keys().copied().collect();
+    assert_eq!(
+        table, listed,
+        "the README lists other layers than the table"
+    );
+    assert!(
+        missing.is_empty(),
+        "the README's layer list does not name these modules of the table:\n{}",
+        missing.join("\n")
+    );
 }
 
 #[test]
