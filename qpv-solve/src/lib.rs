@@ -39,7 +39,9 @@
 //! 4 report       Design, SearchStep, SolverInfo, NoiseBound (serde), notes and summary
 //! 5 search/      α bisection, γ search, retry rules, skew alternation;
 //!                noise (the noise bound, its check, the noise-optimal search)
-//! 6 analysis/    simulate, falsify, euler (one reference right-hand side)
+//! 6 analysis/    simulate, falsify, euler (one reference right-hand side);
+//!   export/      a design's numbers as generated code holds them, certified
+//!                and with their figures; why a design is not certified
 //! ```
 //!
 //! Conventions: N_k and M_k are used as represented in the model handed in
@@ -86,6 +88,7 @@ pub mod lmi;
 // Search, report, analysis.
 pub mod analysis;
 pub mod diagnosis;
+pub mod export;
 pub mod noise;
 pub mod report;
 pub mod sampled_plant;

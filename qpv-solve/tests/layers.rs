@@ -17,7 +17,8 @@
 //! 4 report       Design and its parts (serde), filled in by the search
 //! 5 search       α bisection, γ search, retry rules, skew alternation;
 //!                noise (its bound, check and noise-optimal search)
-//! 6 analysis     simulate, falsify
+//! 6 analysis     simulate, falsify; export (the numbers generated code
+//!                holds, and why a design is not certified)
 //! ```
 //!
 //! qpv-dsl follows text → AST → model → polytopic model:
@@ -79,6 +80,7 @@ const SOLVE: Crate = Crate {
         ("noise", 5),
         ("sampled_plant", 5),
         ("analysis", 6),
+        ("export", 6),
     ],
     apart: &[("certificate", "lmi"), ("lmi", "certificate")],
     skip: &["lapack"],
