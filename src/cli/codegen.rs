@@ -322,7 +322,7 @@ fn from_gains(
     };
     let (alpha, gamma) = (need(g.alpha, "alpha")?, need(g.gamma, "gamma")?);
     let split = g.split(Mode::Sound, gains)?;
-    let sample = g.sample.clone();
+    let sample = g.sample;
     let mut design = g.design(&model.name, (Mode::Sound, alpha, gamma, split), gains)?;
     design.sample = sample;
     // The observer model the claim belongs to, built as `qpv check` builds
