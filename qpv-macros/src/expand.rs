@@ -1,5 +1,8 @@
 //! The expansion pipeline: input → `qpv_dsl::parse` → polytopic model →
-//! for each design request: cache or solve → independent certificate → emit.
+//! for each design request: a cache hit or a solve → the library's baked,
+//! certified numbers ([`qpv_solve::export`]) → emit. The macro parses,
+//! calls and emits: the certificate, the figures and the explanation of a
+//! failure are the library's.
 //!
 //! The first error stops everything and becomes one `compile_error!` on the
 //! offending tokens (see [`crate::fallback`]). An expansion that took long
