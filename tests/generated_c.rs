@@ -526,3 +526,37 @@ fn a_sampled_design_exports_its_period_and_certified_step() {
         );
     }
 }
+
+#[test]
+fn an_uncertified_design_block_is_explained_as_qpv_explains_it() {
+    // The paper's example with γ above the (S4) limit of its state bound:
+    // `qpv codegen` writes nothing and says why in the library's words
+    // (qpv_solve::export::explain), as `qpv!` does.
+    let d = dir("explain");
+    let text = include_str!("nostd/paper_sound.qpv").replace("gamma = 0.1889", "gamma = 0.4");
+    assert!(
+        text.contains("gamma = 0.4"),
+        "the test edits the design block"
+    );
+    let model = d.join("too_wide.qpv");
+    std::fs::write(&model, text).expect("model written");
+    let out = Command::new(env!("CARGO_BIN_EXE_qpv"))
+        .arg("codegen")
+        .arg(&model)
+        .arg("--out")
+        .arg(&d)
+        .output()
+        .expect("qpv runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("design block 1 is not certified: failing: "),
+        "{err}"
+    );
+    assert!(
+        err.contains("this fails on the model's data alone: with this state bound, (S4) admits gamma up to 0.189 only"),
+        "{err}"
+    );
+    assert!(err.contains("nothing written"), "{err}");
+    assert!(!d.join("paper_sound.c").exists());
+}

@@ -406,6 +406,25 @@ pub fn rhs_error(
         .collect())
 }
 
+/// [`rhs_error`] of design `d` of model `m` (its vertex count and shape
+/// from the model), over the plant state's box `plant_state` and the
+/// observer state's box `observer_state`: the bound the certified f32
+/// error floor is computed from.
+pub fn design_error(
+    m: &qpv_dsl::Model,
+    scheduling: &[usize],
+    d: &crate::design::CertifiedDesign,
+    plant_state: &[(f64, f64)],
+    observer_state: &[(f64, f64)],
+) -> Result<Vec<f64>, String> {
+    let shape = crate::design::Shape::of(m, crate::design::vertex_count(m, scheduling), d);
+    let boxes = Boxes {
+        plant_state: plant_state.to_vec(),
+        observer_state: observer_state.to_vec(),
+    };
+    rhs_error(m, scheduling, d, shape, &boxes)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

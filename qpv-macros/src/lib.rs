@@ -3,9 +3,13 @@
 //! to a module of specialised, unrolled, `no_std` observer code.
 //!
 //! Pipeline: `input` (tokens → text + span table) → `qpv_dsl::parse` →
-//! polytopic model → `qpv_solve::design` + `qpv_solve::check` (with a
-//! `cache`) → `emit`. Any error becomes one `compile_error!` on the
-//! offending token (`fallback`). (These are the crate's private modules.)
+//! polytopic model → `qpv_solve::design`, or a `cache` hit (the design's
+//! JSON report) → `qpv_solve::export::Baked` (the numbers to bake,
+//! certified on exactly those values, with their figures; a hit re-checked
+//! by `Design::recheck`) → `emit`. A design that is not certified is
+//! explained by `qpv_solve::export::explain`. Any error becomes one
+//! `compile_error!` on the offending token (`fallback`). (These are the
+//! crate's private modules.)
 //!
 //! See the `qpv` crate's documentation of `qpv!` for the generated API.
 

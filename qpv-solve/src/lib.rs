@@ -73,6 +73,7 @@ pub mod conditions;
 pub mod lmi;
 // Search, report, analysis.
 pub mod analysis;
+pub mod export;
 pub mod report;
 pub mod search;
 

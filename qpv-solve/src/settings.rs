@@ -1,8 +1,10 @@
 //! The numerical settings of a design, with documented defaults.
 
 /// Numerical settings of a design. All fields have documented defaults
-/// ([`Settings::default`]).
-#[derive(Debug, Clone, PartialEq)]
+/// ([`Settings::default`]). Serialised with its field names (what `qpv!`
+/// keys its cache by); serde_json writes the infinite `time_limit` (no
+/// limit) as `null`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Settings {
     /// Relative margin ε_rel for the strict (and, for safety, the non-strict)
     /// inequalities. The LMIs are solved in scaled variables P̂ = P/s,
@@ -66,7 +68,7 @@ pub struct Settings {
 ///
 /// Without the `faer` feature only [`KktSolver::Qdldl`] exists. The enum is
 /// `non_exhaustive` because the feature adds variants.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[non_exhaustive]
 pub enum KktSolver {
     /// QDLDL: Clarabel's built-in simplicial, single-threaded LDLᵀ. Fast on

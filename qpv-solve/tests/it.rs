@@ -18,6 +18,7 @@ mod clarabel_psd;
 mod decoupled;
 mod design;
 mod diagnosis_size;
+mod export;
 mod falsify;
 mod gamma_search;
 mod global;

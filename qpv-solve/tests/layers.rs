@@ -63,6 +63,7 @@ const SOLVE: Crate = Crate {
         ("report", 4),
         ("search", 5),
         ("analysis", 6),
+        ("export", 6),
     ],
     apart: &[("certificate", "lmi"), ("lmi", "certificate")],
     skip: &["lapack"],

@@ -11,15 +11,11 @@
 
 use super::gains::{read_gains, Gains};
 use super::input::{exit, load_model, load_model_for, CliError};
-use nalgebra::DMatrix;
 use qpv_codegen::c::{CModel, Float};
 use qpv_codegen::{CertifiedDesign, Figures};
-use qpv_dsl::{Mode, Model, OutputFilter, OutputRoute, PolytopicModel};
-use qpv_solve::conditions::cube::CubeSlacks;
-use qpv_solve::model::{ObserverModel, ObserverOptions, StateBoundClaim};
-use qpv_solve::noise::NoiseChannels;
-use qpv_solve::report::{matrix_to_rows, rows_to_matrix, skew_matrices};
-use qpv_solve::Certificate;
+use qpv_dsl::{Mode, Model, OutputRoute};
+use qpv_solve::export::{self, BakeError, Baked};
+use qpv_solve::Design;
 use std::path::Path;
 
 /// The options of `qpv codegen`.
@@ -41,26 +37,19 @@ pub struct Options<'a> {
     pub out: &'a Path,
 }
 
-/// The numbers to bake before the f32 rounding: the model checked, α, γ,
-/// P, L_l, the cube slacks the solve certified with, the filter, words on
-/// where they came from, and the solver's record.
-struct Numbers {
-    checked: PolytopicModel,
-    plant: PolytopicModel,
-    alpha: f64,
-    gamma: f64,
-    p: DMatrix<f64>,
-    ls: Vec<DMatrix<f64>>,
-    slacks: Option<CubeSlacks>,
-    filter: Option<OutputFilter>,
+/// The design to export, before it is baked, with words on where it came
+/// from and the solver's record.
+struct Source {
+    design: Design,
+    /// Solved in this run (its own certificate holds for its f64 numbers),
+    /// rather than read from a gains file (a claim, re-checked).
+    solved: bool,
     request: String,
     origin: String,
     status: String,
     iterations: u32,
     /// The design block's `float` (f64 for a gains file).
     float: qpv_dsl::Float,
-    /// `sample = h`: the period the numbers are certified at (S5d).
-    sample: Option<f64>,
 }
 
 /// Runs `qpv codegen`.
@@ -81,7 +70,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             )))
         }
     };
-    let (model, numbers) = match o.gains {
+    let (model, source) = match o.gains {
         Some(g) => from_gains(o.file, o.model, g, o.design)?,
         None => {
             let (_, model) = load_model(o.file, o.model)?;
@@ -96,107 +85,82 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         }
     };
     // --float, else the design block's `float = ...`, else f64
-    let float = flag.unwrap_or(match numbers.float {
+    let float = flag.unwrap_or(match source.float {
         qpv_dsl::Float::F32 => Float::F32,
         qpv_dsl::Float::F64 => Float::F64,
     });
-    // With f32 the C steps by the float nearest h: that h is certified.
-    let mut numbers = numbers;
-    if float == Float::F32 {
-        numbers.sample = numbers.sample.map(|h| f64::from(h as f32));
-    }
-    let (p, ls, f32_note) = match float {
-        Float::F64 => (numbers.p.clone(), numbers.ls.clone(), None),
-        Float::F32 => {
-            let round = |m: &DMatrix<f64>| m.map(|v| f64::from(v as f32));
-            let p = round(&numbers.p);
-            let ls: Vec<_> = numbers.ls.iter().map(round).collect();
-            (p, ls, Some(()))
-        }
+    let held = match float {
+        Float::F32 => qpv_dsl::Float::F32,
+        Float::F64 => qpv_dsl::Float::F64,
     };
     // The certificate on exactly the numbers the C holds (for f32 the
-    // rounded ones, each exactly representable in f64).
-    let mut cert = match numbers.sample {
-        // A sampled design: the discrete decrease S5d at its h.
-        Some(h) => qpv_solve::certificate::check_sampled(
-            &numbers.checked,
-            numbers.alpha,
-            numbers.gamma,
-            h,
-            &p,
-            &ls,
-        ),
-        None => qpv_solve::certificate::check_with(
-            &numbers.checked,
-            Mode::Sound,
-            numbers.alpha,
-            numbers.gamma,
-            &p,
-            &ls,
-            numbers.slacks.as_ref(),
-        ),
+    // rounded P, L_l and sample period, each exactly representable in f64).
+    let plant = model.polytopic();
+    let baked = if source.solved {
+        Baked::solved(&plant, source.design, held)
+    } else {
+        Baked::claimed(&plant, source.design, held)
     };
-    if !cert.passed && numbers.slacks.is_some() && f32_note.is_some() {
-        // The cube slacks were found for the f64 numbers: the rounded ones
-        // may still hold on the full vertex family.
-        cert = qpv_solve::certificate::check_with(
-            &numbers.checked,
-            Mode::Sound,
-            numbers.alpha,
-            numbers.gamma,
-            &p,
-            &ls,
-            None,
-        );
-    }
-    let finite = p.iter().chain(ls.iter().flatten()).all(|v| v.is_finite());
-    if !cert.passed || !finite {
-        eprintln!(
-            "{}: the {} P and L_l of {} do not pass the certificate ({}); nothing written: \
-             only certified designs are exported",
-            o.file.display(),
-            if f32_note.is_some() {
-                "f32-rounded"
-            } else {
-                "f64"
-            },
-            numbers.origin,
-            failing(&cert)
-        );
-        return Ok(exit::NOT_CERTIFIED);
-    }
-    let scheduling = numbers.plant.scheduling.clone();
+    let baked = match baked {
+        Ok(b) => b,
+        Err(e) => {
+            let why = match &e {
+                BakeError::Failed(cert) => export::failing_families(cert),
+                other => other.to_string(),
+            };
+            eprintln!(
+                "{}: the {} P and L_l of {} do not pass the certificate ({why}); nothing written: \
+                 only certified designs are exported",
+                o.file.display(),
+                match float {
+                    Float::F32 => "f32-rounded",
+                    Float::F64 => "f64",
+                },
+                source.origin,
+            );
+            return Ok(exit::NOT_CERTIFIED);
+        }
+    };
+    let d = baked.design();
+    let f = baked.figures();
     let mut design = CertifiedDesign {
-        request: numbers.request.clone(),
+        request: source.request.clone(),
         mode: "sound".into(),
         certifies: true,
-        alpha: numbers.alpha,
-        gamma: numbers.gamma,
-        p: matrix_to_rows(&p).concat(),
-        l: ls.iter().map(|l| matrix_to_rows(l).concat()).collect(),
-        margins: cert
-            .families
-            .iter()
-            .map(|f| (f.name.clone(), f.margin))
-            .collect(),
-        status: numbers.status.clone(),
-        iterations: numbers.iterations,
-        float: match float {
-            Float::F32 => qpv_dsl::Float::F32,
-            Float::F64 => qpv_dsl::Float::F64,
+        alpha: d.alpha,
+        gamma: d.gamma,
+        p: d.p.concat(),
+        l: d.l.iter().map(|l| l.concat()).collect(),
+        margins: d.margins.iter().map(|(k, m)| (k.clone(), *m)).collect(),
+        status: source.status.clone(),
+        iterations: source.iterations,
+        float: held,
+        filter: match d.route() {
+            OutputRoute::Filter(f) => Some(f),
+            OutputRoute::DoubleSum => None,
         },
-        filter: numbers.filter,
-        figures: figures(&numbers, &p, &ls),
-        sample: numbers.sample,
+        figures: Figures {
+            sigma: f.sigma,
+            error_bound: f.error_bound,
+            max_amplitude: f.max_amplitude,
+            euler: f.euler,
+            rk4: f.rk4,
+            f32_floor: None,
+        },
+        sample: d.sample.map(|s| s.h),
     };
+    let scheduling = plant.scheduling.clone();
     let mut floor_note = String::new();
     if float == Float::F32 {
-        match f32_floor(&model, &scheduling, &design, &numbers.checked, &p, &ls) {
+        let floor = baked.f32_floor(|xs, xh| {
+            qpv_codegen::rounding::design_error(&model, &scheduling, &design, xs, xh)
+        });
+        match floor {
             Ok(v) => design.figures.f32_floor = Some(v),
             Err(e) => floor_note = format!(" No f32 error floor is certified: {e}."),
         }
     }
-    let mut notes = vec![format!("numbers: {}", numbers.origin)];
+    let mut notes = vec![format!("numbers: {}", source.origin)];
     notes.push(match float {
         Float::F64 => "float: f64; the certificate checked P and L_l as printed here".into(),
         Float::F32 => format!(
@@ -228,9 +192,9 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         .unwrap_or_default();
     println!(
         "certified{at} ({}): alpha = {}, gamma = {}, {} vertices, float {}\nwrote {} and {}",
-        numbers.origin,
-        numbers.alpha,
-        numbers.gamma,
+        source.origin,
+        design.alpha,
+        design.gamma,
         design.l.len(),
         float.name(),
         h.display(),
@@ -239,36 +203,14 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     Ok(exit::CERTIFIED)
 }
 
-/// The failing families of a certificate, in words.
-fn failing(cert: &Certificate) -> String {
-    let mut v: Vec<String> = cert.input_errors.clone();
-    v.extend(
-        cert.families
-            .iter()
-            .filter(|f| !f.passed)
-            .map(|f| format!("{} margin {:.3e}", f.name, f.margin)),
-    );
-    v.extend(
-        cert.data_checks
-            .iter()
-            .filter(|(_, c)| c.required && !c.passed)
-            .map(|(k, c)| format!("{k} {:.4} > {}", c.value, c.bound)),
-    );
-    if v.is_empty() {
-        "no family failed, but the certificate did not pass".into()
-    } else {
-        v.join(", ")
-    }
-}
-
 /// Solves design block `n` (1-based; default the first sound one) of the
-/// model: the macro's path (the observer's model, the solve, the
-/// independent check of the solver's point). `Ok(Err(msg))`: not certified.
+/// model, as `qpv!` does. `Ok(Err(msg))`: not certified, and why
+/// ([`export::explain`]).
 fn solved(
     file: &Path,
     model: &Model,
     n: Option<usize>,
-) -> Result<Result<Numbers, String>, CliError> {
+) -> Result<Result<Source, String>, CliError> {
     let index = match n {
         Some(0) => {
             return Err(CliError::Input(
@@ -310,47 +252,22 @@ fn solved(
     }
     let settings = qpv_solve::Settings::default();
     let poly = model.polytopic();
-    let observer = match ObserverModel::prepare(
-        &poly,
-        &ObserverOptions::for_request(req),
-        StateBoundClaim::Compute(&settings),
-    ) {
-        Ok(o) => o,
-        Err(e) => return Ok(Err(format!("{here} cannot be attempted: {e}"))),
-    };
-    let design = match qpv_solve::design(&observer.plant, req, &settings) {
+    let design = match qpv_solve::design(&poly, req, &settings) {
         Ok(d) => d,
         Err(e) => return Ok(Err(format!("{here} cannot be attempted: {e}"))),
     };
     if !(design.feasible && design.certifies) {
-        return Ok(Err(format!("{here}: NOT certified by the solve")));
+        let why = export::explain(&poly, req, &design, &settings);
+        return Ok(Err(format!("{here} {why}")));
     }
-    let checked = match &design.skew {
-        Some(k) => match observer.with_skew(&skew_matrices(k)) {
-            Ok(m) => m,
-            Err(e) => return Ok(Err(format!("{here}: the solver's skew slack: {e}"))),
-        },
-        None => observer.model.clone(),
-    };
-    let filter = match req.output_route {
-        OutputRoute::Filter(f) => Some(f),
-        OutputRoute::DoubleSum => None,
-    };
-    Ok(Ok(Numbers {
-        checked,
-        plant: observer.plant.clone(),
-        alpha: design.alpha,
-        gamma: design.gamma,
-        p: design.p_matrix(),
-        ls: design.l_matrices(),
-        slacks: design.cube.as_ref().map(CubeSlacks::from_report),
-        filter,
+    Ok(Ok(Source {
         request: describe(req),
         origin: format!("{here}, solved and independently re-checked"),
         float: req.float,
         status: design.solver.detail.clone(),
         iterations: design.solver.iterations,
-        sample: req.sample,
+        solved: true,
+        design,
     }))
 }
 
@@ -374,14 +291,14 @@ fn describe(req: &qpv_dsl::DesignRequest) -> String {
     )
 }
 
-/// The numbers of a gains file (a design report), re-certified as `qpv
-/// check` does (sound mode; α and γ from the file).
+/// The design a gains file (a design report) claims, to be re-certified as
+/// `qpv check` does (sound mode; α and γ from the file).
 fn from_gains(
     file: &Path,
     model_flag: Option<&str>,
     gains: &Path,
     design: Option<usize>,
-) -> Result<(Model, Numbers), CliError> {
+) -> Result<(Model, Source), CliError> {
     if design.is_some() {
         return Err(CliError::Input(
             "--design and --gains exclude each other: the gains file is the design".into(),
@@ -405,105 +322,25 @@ fn from_gains(
     };
     let (alpha, gamma) = (need(g.alpha, "alpha")?, need(g.gamma, "gamma")?);
     let split = g.split(Mode::Sound, gains)?;
-    let filter = match g
-        .output_route
-        .as_ref()
-        .map(|r| r.output_route())
-        .unwrap_or_default()
-    {
-        OutputRoute::Filter(f) => Some(f),
-        OutputRoute::DoubleSum => None,
-    };
-    let (p, ls) = (
-        rows_to_matrix(&g.p),
-        g.l.iter().map(|r| rows_to_matrix(r)).collect::<Vec<_>>(),
-    );
+    let sample = g.sample;
+    let mut design = g.design(&model.name, (Mode::Sound, alpha, gamma, split), gains)?;
+    design.sample = sample;
     // The observer model the claim belongs to, built as `qpv check` builds
-    // it (split, verified state bound, output route, skew slack).
-    let sample = g.sample.as_ref().map(|s| s.h);
-    let design = g.design(&model.name, (Mode::Sound, alpha, gamma, split), gains)?;
-    let checked = design
+    // it (split, verified state bound, output route, skew slack): a file
+    // that does not fit the model is bad input.
+    design
         .observer_model(&model.polytopic())
         .map_err(|e| CliError::Input(format!("{}: {e}", gains.display())))?;
-    let plant = model.polytopic();
     Ok((
         model,
-        Numbers {
-            checked,
-            plant,
-            alpha,
-            gamma,
-            p,
-            ls,
-            slacks: None,
-            filter,
+        Source {
+            design,
+            solved: false,
             request: format!("gains from {}", gains.display()),
             origin: format!("{}, re-certified", gains.display()),
             status: "gains file".into(),
             iterations: 0,
             float: qpv_dsl::Float::F64,
-            sample,
         },
     ))
-}
-
-/// The noise bound and sampling figures of the numbers about to be baked
-/// (as `qpv!` computes them): each present only if its own check passed.
-/// None for a sampled design (docs/method.md §16: the continuous figures
-/// say nothing about it).
-fn figures(n: &Numbers, p: &DMatrix<f64>, ls: &[DMatrix<f64>]) -> Figures {
-    if n.sample.is_some() {
-        return Figures::default();
-    }
-    let plant = &n.plant;
-    let channels = NoiseChannels::from_model(plant);
-    let channels = match n.filter {
-        Some(f) => channels.through_filter(plant.nx(), plant.ny(), plant.nv(), f.gain),
-        None => channels,
-    };
-    let noise = qpv_solve::noise::noise_bound(&n.checked, &channels, n.alpha, n.gamma, p, ls)
-        .filter(|b| b.check.passed);
-    let sampling = qpv_solve::sampling::sampling(&n.checked, n.alpha, n.gamma, p, ls);
-    Figures {
-        sigma: noise.as_ref().map(|b| b.sigma),
-        error_bound: noise.as_ref().map(|b| b.error_bound),
-        max_amplitude: noise.as_ref().map(|b| b.max_amplitude),
-        euler: sampling
-            .as_ref()
-            .filter(|s| s.max_step_euler > 0.0)
-            .map(|s| (s.max_step_euler, s.beta)),
-        rk4: sampling
-            .as_ref()
-            .map(|s| s.step_estimate_rk4)
-            .filter(|h| *h > 0.0),
-        f32_floor: None,
-    }
-}
-
-/// The certified f32 error floor of the baked numbers (as `qpv!` computes
-/// it): the rounding of one evaluation of the generated right-hand side
-/// ([`qpv_codegen::rounding::rhs_error`]) as a disturbance entering every
-/// state, through the noise bound ([`qpv_solve::noise::disturbance_floor`]).
-fn f32_floor(
-    model: &Model,
-    scheduling: &[usize],
-    d: &CertifiedDesign,
-    checked: &PolytopicModel,
-    p: &DMatrix<f64>,
-    ls: &[DMatrix<f64>],
-) -> Result<f64, String> {
-    if d.filter.is_some() {
-        return Err("the f32 floor is not computed for the filter route".into());
-    }
-    let (plant_state, observer_state) = qpv_solve::noise::observer_boxes(checked, d.gamma, p)
-        .ok_or("P is not positive definite")?;
-    let nv = qpv_codegen::design::vertex_count(model, scheduling);
-    let shape = qpv_codegen::Shape::of(model, nv, d);
-    let boxes = qpv_codegen::rounding::Boxes {
-        plant_state,
-        observer_state,
-    };
-    let err = qpv_codegen::rounding::rhs_error(model, scheduling, d, shape, &boxes)?;
-    let f = qpv_solve::noise::disturbance_floor(checked, d.alpha, d.gamma, p, ls, &err)?;
-    Ok(f.error_bound)
 }

@@ -1,0 +1,344 @@
+//! What a code generator takes from a design: the numbers as the generated
+//! code holds them (f64, or rounded to f32), certified on exactly those
+//! values ([`Baked`]); the figures computed on them ([`Figures`]: the noise
+//! bound and the sampling figures, under the size guard of
+//! [`crate::report::figures::attach`]); the certified f32 error floor
+//! ([`Baked::f32_floor`]); and for a design that is not certified, why
+//! ([`explain`]).
+//!
+//! `qpv!` and `qpv codegen` both bake through here, so an observer is
+//! generated from the same certificate whichever of them prints it
+//! (docs/method.md §12, what "certified" means; §15, the figures).
+
+pub mod explain;
+
+pub use explain::{best_sound_design, explain, Best, Explanation, Failing, SoundDesign, Tradeoff};
+
+use crate::certificate::sampling::SampleInfo;
+use crate::certificate::Certificate;
+use crate::error::SolveError;
+use crate::report::{Design, ReportedMatrices};
+use nalgebra::DMatrix;
+use qpv_dsl::{DesignRequest, Float, Mode, PolytopicModel};
+
+/// A design whose P and L_l, as generated code holds them, passed the
+/// independent certificate, with the figures computed on those numbers.
+///
+/// Only [`Baked::solved`] and [`Baked::claimed`] make one, so holding a
+/// `Baked` means the numbers were certified: a design returned by
+/// [`crate::design`] (its own certificate, on the f64 numbers) or, for
+/// anything else, [`Design::recheck_on`] on exactly the numbers baked.
+#[derive(Debug, Clone)]
+pub struct Baked {
+    design: Design,
+    observer: PolytopicModel,
+    float: Float,
+}
+
+/// Why a design was not baked.
+#[derive(Debug, Clone)]
+pub enum BakeError {
+    /// The design is not certified (sound mode) or does not satisfy the
+    /// printed conditions (paper mode): nothing to bake; [`explain`] says
+    /// why.
+    NotCertified,
+    /// The design cannot be applied to the model (a refused state bound, a
+    /// route or skew slack that does not fit).
+    Model(SolveError),
+    /// P and L_l do not have the sizes of the observer's model, or are not
+    /// finite.
+    Malformed(String),
+    /// The numbers as baked (rounded to f32 when asked) failed the
+    /// independent certificate, whose failing families it holds.
+    Failed(Box<Certificate>),
+}
+
+impl std::fmt::Display for BakeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BakeError::NotCertified => f.write_str("the design is not certified"),
+            BakeError::Model(e) => write!(f, "the design does not fit the model: {e}"),
+            BakeError::Malformed(m) => f.write_str(m),
+            BakeError::Failed(c) => write!(
+                f,
+                "the numbers did not pass the certificate ({})",
+                failing_families(c)
+            ),
+        }
+    }
+}
+
+/// What failed in a certificate, in words: its input errors, the failing
+/// families ("NAME margin M", three significant digits) and the failing
+/// required data checks ("NAME value > bound").
+pub fn failing_families(cert: &Certificate) -> String {
+    let mut v: Vec<String> = cert.input_errors.clone();
+    v.extend(
+        cert.families
+            .iter()
+            .filter(|f| !f.passed)
+            .map(|f| format!("{} margin {}", f.name, explain::sig(f.margin))),
+    );
+    v.extend(
+        cert.data_checks
+            .iter()
+            .filter(|(_, c)| c.required && !c.passed)
+            .map(|(k, c)| format!("{k} {:.4} > {}", c.value, c.bound)),
+    );
+    if v.is_empty() {
+        "no family failed, but the certificate did not pass".into()
+    } else {
+        v.join(", ")
+    }
+}
+
+impl Baked {
+    /// The numbers of a design [`crate::design`] returned, as a `float`
+    /// observer holds them. An f64 design is baked as it is (its own
+    /// certificate passed on exactly these numbers); for f32, P, L_l and
+    /// the sample period are rounded to f32 and the rounded values
+    /// re-checked ([`Design::recheck_on`]; where the cube slacks, found for
+    /// the f64 numbers, no longer fit, on the full vertex family).
+    pub fn solved(
+        plant: &PolytopicModel,
+        design: Design,
+        float: Float,
+    ) -> Result<Baked, BakeError> {
+        let accepted = match design.mode {
+            Mode::Sound => design.feasible && design.certifies,
+            Mode::Paper => design.feasible,
+        };
+        if !accepted {
+            return Err(BakeError::NotCertified);
+        }
+        let observer = design.observer_model(plant).map_err(BakeError::Model)?;
+        match float {
+            Float::F64 => Baked::finish(plant, design, observer, float),
+            Float::F32 => Baked::rechecked(plant, rounded_to_f32(&design), observer, float),
+        }
+    }
+
+    /// The numbers of a design read from somewhere (a cache, a gains file),
+    /// as a `float` observer holds them: a claim, so they are re-checked
+    /// whatever the design says of itself ([`Design::recheck_on`], its
+    /// cube slacks, skew slack, state bound and sample period included),
+    /// and its margins and figures are recomputed.
+    pub fn claimed(
+        plant: &PolytopicModel,
+        design: Design,
+        float: Float,
+    ) -> Result<Baked, BakeError> {
+        let observer = design.observer_model(plant).map_err(BakeError::Model)?;
+        let design = match float {
+            Float::F64 => design,
+            Float::F32 => rounded_to_f32(&design),
+        };
+        Baked::rechecked(plant, design, observer, float)
+    }
+
+    /// [`Baked::claimed`] for a design read back as the answer to `request`
+    /// (`qpv!`'s cache): the certificate is the one the request asks for
+    /// (its mode, sample period and gain bound replace the design's own),
+    /// the numbers are those of the request's `float`, and a design for
+    /// another output route is refused.
+    pub fn claimed_for(
+        plant: &PolytopicModel,
+        mut design: Design,
+        request: &DesignRequest,
+    ) -> Result<Baked, BakeError> {
+        if design.route() != request.output_route {
+            return Err(BakeError::Malformed(
+                "the design is for another output route than the request".into(),
+            ));
+        }
+        design.mode = request.mode;
+        design.max_gain = request.max_gain;
+        design.sample = request.sample.map(|h| SampleInfo::new(h, design.alpha));
+        Baked::claimed(plant, design, request.float)
+    }
+
+    /// The design with the baked P and L_l: its margins are those of the
+    /// certificate of exactly these numbers, and its `noise` and
+    /// `sampling` were computed on them.
+    pub fn design(&self) -> &Design {
+        &self.design
+    }
+
+    /// The float type the numbers are held in (f32: rounded, each exactly
+    /// representable in f64).
+    pub fn float(&self) -> Float {
+        self.float
+    }
+
+    /// The observer's model the numbers are certified on
+    /// ([`Design::observer_model`]).
+    pub fn observer(&self) -> &PolytopicModel {
+        &self.observer
+    }
+
+    /// The figures of the baked numbers, each present only if its own check
+    /// passed (none for a sampled design, whose continuous-time figures say
+    /// nothing, docs/method.md §16, nor for a cube design too large for
+    /// them).
+    pub fn figures(&self) -> Figures {
+        let noise = self.design.noise.as_ref();
+        let sampling = self.design.sampling.as_ref();
+        Figures {
+            sigma: noise.map(|b| b.sigma),
+            error_bound: noise.map(|b| b.error_bound),
+            max_amplitude: noise.map(|b| b.max_amplitude),
+            euler: sampling
+                .filter(|s| s.max_step_euler > 0.0)
+                .map(|s| (s.max_step_euler, s.beta)),
+            rk4: sampling.map(|s| s.step_estimate_rk4).filter(|h| *h > 0.0),
+        }
+    }
+
+    /// The certified f32 error floor of the baked numbers: `rhs_error`
+    /// bounds, per observer state, the rounding of one evaluation of the
+    /// generated right-hand side over the plant state's box and the
+    /// estimate's box (given in that order, from
+    /// [`crate::certificate::noise::observer_boxes`]); that bound enters every state as
+    /// a disturbance through the noise bound
+    /// ([`crate::certificate::noise::disturbance_floor`]). `Err` says why there is none.
+    pub fn f32_floor(
+        &self,
+        rhs_error: impl FnOnce(&[(f64, f64)], &[(f64, f64)]) -> Result<Vec<f64>, String>,
+    ) -> Result<f64, String> {
+        let d = &self.design;
+        if matches!(d.route(), qpv_dsl::OutputRoute::Filter(_)) {
+            return Err("the f32 floor is not computed for the filter route".into());
+        }
+        let p = d.p_matrix();
+        let (plant_state, observer_state) =
+            crate::certificate::noise::observer_boxes(&self.observer, d.gamma, &p)
+                .ok_or("P is not positive definite")?;
+        let err = rhs_error(&plant_state, &observer_state)?;
+        let l = d.l_matrices();
+        let f = crate::certificate::noise::disturbance_floor(
+            &self.observer,
+            d.alpha,
+            d.gamma,
+            &p,
+            &l,
+            &err,
+        )?;
+        Ok(f.error_bound)
+    }
+
+    /// Re-checks `design` on `observer`; for numbers rounded to f32 whose
+    /// cube slacks fail, again on the full vertex family.
+    fn rechecked(
+        plant: &PolytopicModel,
+        mut design: Design,
+        observer: PolytopicModel,
+        float: Float,
+    ) -> Result<Baked, BakeError> {
+        fits(&design, &observer)?;
+        let mut cert = design.recheck_on(&observer);
+        if !cert.passed && float == Float::F32 && design.cube.is_some() {
+            // The cube slacks were found for the f64 numbers: the rounded
+            // ones may still hold on the full vertex family.
+            design.cube = None;
+            cert = design.recheck_on(&observer);
+        }
+        if !cert.passed {
+            return Err(BakeError::Failed(Box::new(cert)));
+        }
+        design.margins = cert.margins();
+        design.data_checks = cert.data_checks;
+        design.feasible = true;
+        design.certifies = design.mode == Mode::Sound;
+        Baked::finish(plant, design, observer, float)
+    }
+
+    /// The certified numbers with their figures computed on them.
+    fn finish(
+        plant: &PolytopicModel,
+        mut design: Design,
+        observer: PolytopicModel,
+        float: Float,
+    ) -> Result<Baked, BakeError> {
+        fits(&design, &observer)?;
+        design.noise = None;
+        design.sampling = None;
+        if design.sample.is_none() {
+            crate::report::figures::attach(plant, &mut design);
+        }
+        Ok(Baked {
+            design,
+            observer,
+            float,
+        })
+    }
+}
+
+/// The noise bound and sampling figures of baked numbers
+/// ([`Baked::figures`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Figures {
+    /// σ in V' + αV ≤ σ(|v|² + |w|²) on the model's noise channels.
+    pub sigma: Option<f64>,
+    /// ‖e(∞)‖ per unit noise amplitude, √(σ/(α λ_min(P))).
+    pub error_bound: Option<f64>,
+    /// ν_max = √(α/σ): the noise amplitude up to which the certified set
+    /// stays invariant.
+    pub max_amplitude: Option<f64>,
+    /// The largest certified explicit Euler step (positive), and its
+    /// contraction rate β.
+    pub euler: Option<(f64, f64)>,
+    /// The RK4 step estimate (positive; frozen vertex dynamics, not a proof).
+    pub rk4: Option<f64>,
+}
+
+/// The design with P, L_l and the sample period rounded to f32 (each
+/// exactly representable in f64), Γ_l = P L_l and ‖L_l‖₂ recomputed from
+/// them; the claim to re-check for an f32 observer.
+fn rounded_to_f32(design: &Design) -> Design {
+    let round = |m: DMatrix<f64>| m.map(|v| f64::from(v as f32));
+    let p = round(design.p_matrix());
+    let l: Vec<DMatrix<f64>> = design.l_matrices().into_iter().map(round).collect();
+    let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &p * li).collect();
+    let m = ReportedMatrices::of(&p, &gammas, &l);
+    let mut out = design.clone();
+    out.p = m.p;
+    out.gamma_l = m.gamma_l;
+    out.l = m.l;
+    out.gain_norms = m.gain_norms;
+    // The f32 code steps by the float nearest h: that h is certified.
+    out.sample = design
+        .sample
+        .map(|s| SampleInfo::new(f64::from(s.h as f32), design.alpha));
+    out
+}
+
+/// Whether P is n × n and there is one finite n × ny gain per vertex of the
+/// observer's model (n its states).
+fn fits(design: &Design, observer: &PolytopicModel) -> Result<(), BakeError> {
+    let (n, ny, nv) = (observer.nx(), observer.ny(), observer.nv());
+    let p = &design.p;
+    let shapes = p.len() == n
+        && p.iter().all(|r| r.len() == n)
+        && design.l.len() == nv
+        && design
+            .l
+            .iter()
+            .all(|l| l.len() == n && l.iter().all(|r| r.len() == ny));
+    if !shapes {
+        return Err(BakeError::Malformed(format!(
+            "P and L_l do not have the sizes of the observer's model ({n} states, {ny} outputs, \
+             {nv} vertices)"
+        )));
+    }
+    let finite = p
+        .iter()
+        .chain(design.l.iter().flatten())
+        .flatten()
+        .all(|v| v.is_finite());
+    if !finite {
+        return Err(BakeError::Malformed(
+            "P or L_l has a non-finite entry".into(),
+        ));
+    }
+    Ok(())
+}
