@@ -16,6 +16,8 @@
 //! α = max / γ = search design (`design2`, re-exported as
 //! `paper_example::Observer`, `paper_example::CERTIFICATE`, ...).
 
+use qpv::solve::certificate::Gains;
+use qpv::solve::vocab::Candidate;
 use std::f64::consts::PI;
 
 qpv::qpv!(include "examples/paper.qpv");
@@ -71,7 +73,12 @@ fn main() {
         .iter()
         .map(|l| nalgebra::DMatrix::from_fn(model::NX, model::NY, |i, j| l[i][j]))
         .collect();
-    let cert = qpv::solve::check(&poly, request.mode, model::ALPHA, model::GAMMA, &p, &gains);
+    let cert = qpv::solve::check(
+        &poly,
+        &Gains::new(&p, &gains),
+        &Candidate::new(model::ALPHA, model::GAMMA),
+        request.mode,
+    );
     println!(
         "run-time re-check of the baked P, L_l: {}",
         if cert.passed {

@@ -9,7 +9,9 @@
 
 use nalgebra::DMatrix;
 use qpv::dsl::PolytopicModel;
+use qpv::solve::certificate::Gains;
 use qpv::solve::simulate;
+use qpv::solve::vocab::Candidate;
 
 qpv::qpv!(include "tests/nostd/paper_sound.qpv");
 
@@ -628,11 +630,9 @@ fn theta_dependent_output_filter_route_matches_reference() {
     let p = DMatrix::from_fn(5, 5, |i, j| theta_filt::P[i][j]);
     let cert = qpv::solve::check(
         &aug.with_split(poly.designs[0].split),
+        &Gains::new(&p, &ls),
+        &Candidate::new(theta_filt::ALPHA, theta_filt::GAMMA),
         qpv::dsl::Mode::Sound,
-        theta_filt::ALPHA,
-        theta_filt::GAMMA,
-        &p,
-        &ls,
     );
     assert!(cert.passed, "{cert:?}");
 

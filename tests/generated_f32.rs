@@ -8,7 +8,9 @@
 use super::{gains, paper_theta, polytopic};
 use nalgebra::DMatrix;
 use qpv::dsl::Mode;
+use qpv::solve::certificate::Gains;
 use qpv::solve::model::{ObserverModel, ObserverOptions, StateBoundClaim};
+use qpv::solve::vocab::Candidate;
 
 inline_model! {
     PAPER_F32_TEXT,
@@ -89,21 +91,33 @@ fn the_f32_constants_are_certified_and_a_tampered_one_fails() {
         paper_f32::design2::CERTIFICATE.alpha,
         paper_f32::design2::CERTIFICATE.gamma,
     );
-    let cert =
-        qpv::solve::certificate::check_with(&model, Mode::Sound, alpha, gamma, &p, &ls, None);
+    let cert = qpv::solve::certificate::check(
+        &model,
+        &Gains::new(&p, &ls).with_cube(None),
+        &Candidate::new(alpha, gamma),
+        Mode::Sound,
+    );
     assert!(cert.passed, "the baked f32 numbers must pass");
     // one gain entry off by a factor 50: fails
     let mut bad = ls.clone();
     bad[0][(0, 0)] *= 50.0;
-    let cert =
-        qpv::solve::certificate::check_with(&model, Mode::Sound, alpha, gamma, &p, &bad, None);
+    let cert = qpv::solve::certificate::check(
+        &model,
+        &Gains::new(&p, &bad).with_cube(None),
+        &Candidate::new(alpha, gamma),
+        Mode::Sound,
+    );
     assert!(!cert.passed, "a tampered L_1 passed the certificate");
     // P with a negated entry: fails
     let mut bad_p = p.clone();
     bad_p[(0, 1)] = -bad_p[(0, 1)] * 20.0;
     bad_p[(1, 0)] = bad_p[(0, 1)];
-    let cert =
-        qpv::solve::certificate::check_with(&model, Mode::Sound, alpha, gamma, &bad_p, &ls, None);
+    let cert = qpv::solve::certificate::check(
+        &model,
+        &Gains::new(&bad_p, &ls).with_cube(None),
+        &Candidate::new(alpha, gamma),
+        Mode::Sound,
+    );
     assert!(!cert.passed, "a tampered P passed the certificate");
 }
 

@@ -28,10 +28,11 @@ pub mod continuous;
 pub mod figures;
 
 use crate::certificate::noise::NoiseBound;
-use crate::certificate::Certificate;
+use crate::certificate::{Certificate, Gains};
 use crate::error::SolveError;
 use crate::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 use crate::settings::Settings;
+use crate::vocab::Candidate;
 use crate::vocab::Phase;
 use nalgebra::DMatrix;
 use qpv_dsl::{Conditions, Mode, PolytopicModel, Split, StateBound};
@@ -366,6 +367,11 @@ impl ReportedMatrices {
 }
 
 impl Design {
+    /// The candidate the design claims: (α, γ) and its sample period.
+    pub fn candidate(&self) -> Candidate {
+        Candidate::new(self.alpha, self.gamma).at_sample(self.sample.as_ref().map(|s| s.h))
+    }
+
     /// P as a matrix (0 × 0 if absent).
     pub fn p_matrix(&self) -> DMatrix<f64> {
         rows_to_matrix(&self.p)
@@ -493,32 +499,10 @@ impl Design {
             );
         }
         let l = self.l_matrices();
-        match &self.sample {
-            Some(s) if self.mode == Mode::Sound => crate::certificate::check_sampled(
-                obs,
-                self.alpha,
-                self.gamma,
-                s.h,
-                &self.p_matrix(),
-                &l,
-            ),
-            Some(_) => Certificate::refused(
-                self.mode,
-                self.alpha,
-                self.gamma,
-                "a sampled design (`sample` key) is checked in sound mode only".into(),
-            ),
-            None => crate::certificate::check_with(
-                obs,
-                self.mode,
-                self.alpha,
-                self.gamma,
-                &self.p_matrix(),
-                &l,
-                slacks.as_ref(),
-            ),
-        }
-        .with_gain_bound(&l, self.max_gain)
+        let p = self.p_matrix();
+        let gains = Gains::new(&p, &l).with_cube(slacks.as_ref());
+        crate::certificate::check(obs, &gains, &self.candidate(), self.mode)
+            .with_gain_bound(&l, self.max_gain)
     }
 
     /// A design that holds only the claim of a gains file: P and L_l (rows)

@@ -91,19 +91,32 @@ macro_rules! named_enum {
 }
 
 /// A point of the design space: the decay rate α and the region scaling
-/// γ, named so that the two cannot be swapped by position.
+/// γ, named so that the two cannot be swapped by position, and for a
+/// design at a sample period, that period (α is then still per unit time;
+/// V contracts by 1 − hα per step).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
     /// The decay rate α > 0 of V = eᵀPe.
     pub alpha: f64,
     /// The region scaling γ in (0, 1).
     pub gamma: f64,
+    /// `sample = h`: the sample period the discrete decrease is judged at.
+    pub sample: Option<f64>,
 }
 
 impl Candidate {
-    /// The candidate (α, γ).
+    /// The continuous-time candidate (α, γ).
     pub fn new(alpha: f64, gamma: f64) -> Candidate {
-        Candidate { alpha, gamma }
+        Candidate {
+            alpha,
+            gamma,
+            sample: None,
+        }
+    }
+
+    /// The same candidate at the sample period `h` (None: continuous time).
+    pub fn at_sample(self, h: Option<f64>) -> Candidate {
+        Candidate { sample: h, ..self }
     }
 }
 

@@ -5,8 +5,10 @@
 
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel};
+use qpv_solve::certificate::Gains;
 use qpv_solve::certificate::{alpha_capacity, rate_lmi};
 use qpv_solve::conditions::reference::{paper_model, synthetic_model};
+use qpv_solve::vocab::Candidate;
 use qpv_solve::{check, design, Design, Settings};
 use std::sync::OnceLock;
 
@@ -108,49 +110,108 @@ fn checker_rejects_broken_inputs() {
     let d = sound_design();
     let p = d.p_matrix();
     let ls = d.l_matrices();
-    let ok = check(&model, Mode::Sound, d.alpha, d.gamma, &p, &ls);
+    let ok = check(
+        &model,
+        &Gains::new(&p, &ls),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(ok.passed && ok.input_errors.is_empty());
     // Zero gains: no output injection, the rate LMIs fail.
     let zero: Vec<DMatrix<f64>> = ls.iter().map(|l| l * 0.0).collect();
-    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &p, &zero);
+    let c = check(
+        &model,
+        &Gains::new(&p, &zero),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.passed && !c.family("S5").unwrap().passed);
     assert!(c.family("S5").unwrap().worst_at.starts_with("l="));
     // −P: not positive definite.
-    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &(-&p), &ls);
+    let c = check(
+        &model,
+        &Gains::new(&(-&p), &ls),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.family("S1").unwrap().passed);
     // Non-symmetric P.
     let mut q = p.clone();
     q[(0, 1)] += 1e-3 * p.norm();
-    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &q, &ls);
+    let c = check(
+        &model,
+        &Gains::new(&q, &ls),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.family("S1").unwrap().passed);
     assert!(c.family("S1").unwrap().worst_at.contains("not symmetric"));
     // 2P: the region no longer lies in the ellipsoid (S2).
-    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &(&p * 2.0), &ls);
+    let c = check(
+        &model,
+        &Gains::new(&(&p * 2.0), &ls),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.family("S2").unwrap().passed);
     // P/100: the ellipsoid leaves P/γ (S3).
-    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &(&p / 100.0), &ls);
+    let c = check(
+        &model,
+        &Gains::new(&(&p / 100.0), &ls),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.family("S3").unwrap().passed);
     // γ beyond γ_max: (S4) fails and is required in sound mode.
-    let c = check(&model, Mode::Sound, d.alpha, 0.2, &p, &ls);
+    let c = check(
+        &model,
+        &Gains::new(&p, &ls),
+        &Candidate::new(d.alpha, 0.2),
+        Mode::Sound,
+    );
     assert!(!c.passed && !c.data_checks["S4"].passed);
     // Wrong shapes, NaN, bad α/γ: input errors, never a pass.
     let c = check(
         &model,
+        &Gains::new(&DMatrix::identity(2, 2), &ls),
+        &Candidate::new(d.alpha, d.gamma),
         Mode::Sound,
-        d.alpha,
-        d.gamma,
-        &DMatrix::identity(2, 2),
-        &ls,
     );
     assert!(!c.passed && !c.input_errors.is_empty());
-    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &p, &ls[..3]);
+    let c = check(
+        &model,
+        &Gains::new(&p, &ls[..3]),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.passed && !c.input_errors.is_empty());
     let mut nan = p.clone();
     nan[(1, 1)] = f64::NAN;
-    let c = check(&model, Mode::Sound, d.alpha, d.gamma, &nan, &ls);
+    let c = check(
+        &model,
+        &Gains::new(&nan, &ls),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.passed && !c.input_errors.is_empty());
-    assert!(!check(&model, Mode::Sound, 0.0, d.gamma, &p, &ls).passed);
-    assert!(!check(&model, Mode::Sound, d.alpha, 1.5, &p, &ls).passed);
+    assert!(
+        !check(
+            &model,
+            &Gains::new(&p, &ls),
+            &Candidate::new(0.0, d.gamma),
+            Mode::Sound
+        )
+        .passed
+    );
+    assert!(
+        !check(
+            &model,
+            &Gains::new(&p, &ls),
+            &Candidate::new(d.alpha, 1.5),
+            Mode::Sound
+        )
+        .passed
+    );
     // The certificate serialises (no NaN/∞ in JSON).
     let json = serde_json::to_string(&c).unwrap();
     assert!(json.contains("input_errors"));
@@ -165,8 +226,18 @@ fn capacity_is_the_exact_alpha_boundary() {
     let gs: Vec<DMatrix<f64>> = ls.iter().map(|l| &p * l).collect();
     let cap = alpha_capacity(&model, Mode::Sound, d.gamma, &p, &gs);
     assert!(cap > d.alpha, "capacity {cap} ≥ the designed α");
-    let below = check(&model, Mode::Sound, cap * (1.0 - 1e-7), d.gamma, &p, &ls);
-    let above = check(&model, Mode::Sound, cap * (1.0 + 1e-7), d.gamma, &p, &ls);
+    let below = check(
+        &model,
+        &Gains::new(&p, &ls),
+        &Candidate::new(cap * (1.0 - 1e-7), d.gamma),
+        Mode::Sound,
+    );
+    let above = check(
+        &model,
+        &Gains::new(&p, &ls),
+        &Candidate::new(cap * (1.0 + 1e-7), d.gamma),
+        Mode::Sound,
+    );
     assert!(below.family("S5").unwrap().passed);
     assert!(!above.family("S5").unwrap().passed);
 }
@@ -179,10 +250,20 @@ fn external_gains_can_be_checked() {
     let dp = design(&model, &fixed(10.0, 0.4, Mode::Paper), &Settings::default()).unwrap();
     let p = dp.p_matrix();
     let ls = dp.l_matrices();
-    let paper = check(&model, Mode::Paper, 10.0, 0.4, &p, &ls);
+    let paper = check(
+        &model,
+        &Gains::new(&p, &ls),
+        &Candidate::new(10.0, 0.4),
+        Mode::Paper,
+    );
     assert!(paper.families_passed());
     assert!(!paper.data_checks["S4"].passed && !paper.data_checks["S4"].required);
-    let sound = check(&model, Mode::Sound, 10.0, 0.1889, &p, &ls);
+    let sound = check(
+        &model,
+        &Gains::new(&p, &ls),
+        &Candidate::new(10.0, 0.1889),
+        Mode::Sound,
+    );
     assert!(!sound.passed);
     let keys: Vec<String> = paper.margins().keys().cloned().collect();
     assert_eq!(keys, ["13", "14", "26", "S1"]);

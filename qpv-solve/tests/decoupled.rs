@@ -14,9 +14,11 @@ use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Region, Split,
 };
 use qpv_solve::certificate::rate_lmi;
+use qpv_solve::certificate::Gains;
 use qpv_solve::conditions::reference::{box_region, paper_model};
 use qpv_solve::conditions::{gamma_max, ConditionSet};
 use qpv_solve::sdp::{Objective, Problem};
+use qpv_solve::vocab::Candidate;
 use qpv_solve::{check, design, Design, Settings};
 
 const TOL: f64 = 1e-3; // Settings::default().bisection_rel_tol
@@ -317,7 +319,12 @@ fn decoupled_solution_satisfies_the_full_family() {
             .iter()
             .map(|g| p.clone().cholesky().unwrap().solve(g))
             .collect();
-        let c = check(&model, mode, alpha, gamma, &p, &gains);
+        let c = check(
+            &model,
+            &Gains::new(&p, &gains),
+            &Candidate::new(alpha, gamma),
+            mode,
+        );
         assert!(c.families_passed(), "{mode:?}: {c:?}");
     }
 }
@@ -427,11 +434,9 @@ fn paper_example_cube_certifies_and_passes_the_full_family() {
     let sym = model.with_split(Split::Symmetric);
     let full = check(
         &sym,
+        &Gains::new(&d.p_matrix(), &d.l_matrices()),
+        &Candidate::new(d.alpha, d.gamma),
         Mode::Sound,
-        d.alpha,
-        d.gamma,
-        &d.p_matrix(),
-        &d.l_matrices(),
     );
     assert!(full.passed, "{:?}", full.families);
     assert_eq!(full.families[3].count, 4 * 8 * 8);
@@ -445,7 +450,7 @@ fn paper_example_cube_certifies_and_passes_the_full_family() {
 /// The cube certificate fails when a slack is lowered or a gain moved.
 #[test]
 fn cube_certificate_fails_for_perturbed_slacks_and_gains() {
-    use qpv_solve::certificate::check_cube;
+    use qpv_solve::certificate::check;
     use qpv_solve::conditions::cube::CubeSlacks;
     let model = paper_model().with_split(Split::Symmetric);
     let d = run(
@@ -460,14 +465,24 @@ fn cube_certificate_fails_for_perturbed_slacks_and_gains() {
     assert!(d.certifies, "{}", d.summary);
     let slacks = CubeSlacks::from_report(d.cube.as_ref().unwrap());
     let (p, l) = (d.p_matrix(), d.l_matrices());
-    let ok = check_cube(&model, Mode::Sound, d.alpha, d.gamma, &p, &l, &slacks);
+    let ok = check(
+        &model,
+        &Gains::new(&p, &l).with_cube(Some(&slacks)),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(ok.passed, "{:?}", ok.families);
     // Y_{1,1} lowered by its own size: Y ⪰ ±G(g_1) fails.
     let mut low = slacks.clone();
     let y = &low.y[0][0];
     let shift = y.norm() + 1.0;
     low.y[0][0] = y - DMatrix::identity(3, 3) * shift;
-    let c = check_cube(&model, Mode::Sound, d.alpha, d.gamma, &p, &l, &low);
+    let c = check(
+        &model,
+        &Gains::new(&p, &l).with_cube(Some(&low)),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.passed && !c.families[3].passed);
     assert!(
         c.families[3].worst_at.contains("Y k=1"),
@@ -477,16 +492,31 @@ fn cube_certificate_fails_for_perturbed_slacks_and_gains() {
     // X_{2,3} raised: the sum F0 + ΣY + ΣX ≺ 0 fails.
     let mut high = slacks.clone();
     high.x[1][2] += DMatrix::identity(3, 3) * (p.norm() * 1e3);
-    let c = check_cube(&model, Mode::Sound, d.alpha, d.gamma, &p, &l, &high);
+    let c = check(
+        &model,
+        &Gains::new(&p, &l).with_cube(Some(&high)),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.passed && c.families[3].worst_at.contains("F0"));
     // D with a trace above 1.
     let mut dd = slacks.clone();
     dd.d[0] += 1.0;
-    let c = check_cube(&model, Mode::Sound, d.alpha, d.gamma, &p, &l, &dd);
+    let c = check(
+        &model,
+        &Gains::new(&p, &l).with_cube(Some(&dd)),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.passed && !c.families[1].passed);
     // A gain moved: some slack inequality no longer holds.
     let mut l2 = l.clone();
     l2[0] *= 3.0;
-    let c = check_cube(&model, Mode::Sound, d.alpha, d.gamma, &p, &l2, &slacks);
+    let c = check(
+        &model,
+        &Gains::new(&p, &l2).with_cube(Some(&slacks)),
+        &Candidate::new(d.alpha, d.gamma),
+        Mode::Sound,
+    );
     assert!(!c.passed && !c.families[3].passed);
 }

@@ -10,7 +10,9 @@
 use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split, StateBound,
 };
+use qpv_solve::certificate::Gains;
 use qpv_solve::conditions::reference::paper_model;
+use qpv_solve::vocab::Candidate;
 use qpv_solve::{
     check, design, design_with_progress, Design, SearchStep, Settings, SolveError, Status,
 };
@@ -65,11 +67,9 @@ fn paper_mode_published_point_satisfies_printed_conditions() {
     // ... and the same gains fail the sound conditions.
     let s = check(
         &model,
+        &Gains::new(&d.p_matrix(), &d.l_matrices()),
+        &Candidate::new(10.0, 0.4),
         Mode::Sound,
-        10.0,
-        0.4,
-        &d.p_matrix(),
-        &d.l_matrices(),
     );
     assert!(!s.passed);
 }
@@ -113,11 +113,9 @@ fn sound_mode_certified_at_gamma_01889() {
     // checker is not vacuous.
     let c2 = check(
         &model,
+        &Gains::new(&d.p_matrix(), &d.l_matrices()),
+        &Candidate::new(10.0, 0.4),
         Mode::Sound,
-        10.0,
-        0.4,
-        &d.p_matrix(),
-        &d.l_matrices(),
     );
     assert!(!c2.passed);
 }
@@ -420,11 +418,9 @@ fn parsed_paper_example_matches_hand_built_model() {
     assert!(
         check(
             &parsed,
-            Mode::Sound,
-            10.0,
-            0.1889,
-            &d.p_matrix(),
-            &d.l_matrices()
+            &Gains::new(&d.p_matrix(), &d.l_matrices()),
+            &Candidate::new(10.0, 0.1889),
+            Mode::Sound
         )
         .passed
     );

@@ -5,11 +5,13 @@
 
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, PolytopicModel};
+use qpv_solve::certificate::Gains;
 use qpv_solve::certificate::{check, combo_lmi};
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::conditions::{rate_combos, ConditionSet};
 use qpv_solve::lmi::Problem;
 use qpv_solve::model::StateScaling;
+use qpv_solve::vocab::Candidate;
 use qpv_solve::{design, Design, Settings};
 
 fn three_tank() -> PolytopicModel {
@@ -99,11 +101,9 @@ fn three_tank_certifies_alpha_0_9_and_0_99_globally() {
         // Re-checked from P and L alone, and by brute-force sampling of θ.
         let cert = check(
             &m,
+            &Gains::new(&d.p_matrix(), &d.l_matrices()),
+            &Candidate::new(alpha, d.gamma),
             Mode::Sound,
-            alpha,
-            d.gamma,
-            &d.p_matrix(),
-            &d.l_matrices(),
         );
         assert!(cert.passed);
         let worst = sampled_worst(&m, &d, &thetas);
@@ -121,7 +121,12 @@ fn global_certificate_rejects_too_fast_a_claim() {
     let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &p * li).collect();
     let cap = qpv_solve::certificate::alpha_capacity(&m, Mode::Sound, 1.0, &p, &gammas);
     assert!(cap >= 0.9, "capacity {cap}");
-    let over = check(&m, Mode::Sound, cap * 1.01, 1.0, &p, &l);
+    let over = check(
+        &m,
+        &Gains::new(&p, &l),
+        &Candidate::new(cap * 1.01, 1.0),
+        Mode::Sound,
+    );
     assert!(!over.passed);
     let worst = sampled_worst(
         &m,

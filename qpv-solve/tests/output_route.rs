@@ -5,10 +5,12 @@
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, OutputFilter, OutputRoute, PolytopicModel};
 use qpv_solve::certificate::combo_lmi;
+use qpv_solve::certificate::Gains;
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::conditions::{rate_combos, rows, rows_he, Combo};
 use qpv_solve::falsify::falsify_design;
 use qpv_solve::simulate::{envelope_factor, simulate, Scenario, Trajectory};
+use qpv_solve::vocab::Candidate;
 use qpv_solve::{design, Design, Settings};
 
 /// The paper's plant with C_22(θ) = 1 + θ1 and M_1[2,3](θ) = 0.5 θ2 (also
@@ -147,11 +149,9 @@ fn filter_design_certifies_bounds_its_states_and_converges() {
     // input error, not a pass
     let plain = qpv_solve::check(
         &model,
+        &Gains::new(&d.p_matrix(), &d.l_matrices()),
+        &Candidate::new(d.alpha, d.gamma),
         Mode::Sound,
-        d.alpha,
-        d.gamma,
-        &d.p_matrix(),
-        &d.l_matrices(),
     );
     assert!(!plain.passed && !plain.input_errors.is_empty());
     let obs = d.observer_model(&model).unwrap();

@@ -4,9 +4,11 @@
 //! certified gain bound and its data check.
 
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
+use qpv_solve::certificate::Gains;
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::conditions::ConditionSet;
 use qpv_solve::lmi::{Objective, Problem};
+use qpv_solve::vocab::Candidate;
 use qpv_solve::{check, design, Design, Settings};
 
 fn max_gain(d: &Design) -> f64 {
@@ -105,7 +107,12 @@ fn min_gain_objective_bounds_the_gain_it_returns() {
         .iter()
         .map(|g| p.clone().cholesky().unwrap().solve(g))
         .collect();
-    let cert = check(&model, Mode::Sound, alpha, gamma, &p, &l);
+    let cert = check(
+        &model,
+        &Gains::new(&p, &l),
+        &Candidate::new(alpha, gamma),
+        Mode::Sound,
+    );
     assert!(cert.passed, "{:?}", cert.families);
     let gain = l
         .iter()

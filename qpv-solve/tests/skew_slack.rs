@@ -4,8 +4,10 @@
 
 use nalgebra::DVector;
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, Split};
+use qpv_solve::certificate::Gains;
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::falsify::falsify;
+use qpv_solve::vocab::Candidate;
 use qpv_solve::{check, design, request, skew_slack, Settings};
 
 #[test]
@@ -42,11 +44,9 @@ fn skew_slack_keeps_the_plant_and_raises_the_certified_alpha() {
     let d = &r.design;
     let c = check(
         &r.model,
+        &Gains::new(&d.p_matrix(), &d.l_matrices()),
+        &Candidate::new(d.alpha, d.gamma),
         Mode::Sound,
-        d.alpha,
-        d.gamma,
-        &d.p_matrix(),
-        &d.l_matrices(),
     );
     assert!(c.passed);
     let f = falsify(

@@ -4,6 +4,8 @@
 
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{PolytopicModel, Region, StateBound};
+use qpv_solve::certificate::Gains;
+use qpv_solve::vocab::Candidate;
 use qpv_solve::{check, design, Design, Settings};
 
 /// The plant in new units x_new,i = s_i x_i, written out independently of
@@ -112,7 +114,12 @@ fn rescaled_models_certify_the_same_alpha() {
             assert!(d.recheck(&scaled).passed, "{} at {s:?}", m.name);
             // ... and in the original units.
             let (p, l) = gains_back(&d, &s);
-            let c = check(&m.with_split(d.split), d.mode, d.alpha, d.gamma, &p, &l);
+            let c = check(
+                &m.with_split(d.split),
+                &Gains::new(&p, &l),
+                &Candidate::new(d.alpha, d.gamma),
+                d.mode,
+            );
             assert!(c.passed, "{} at {s:?}: {:?}", m.name, c.margins());
         }
     }
@@ -150,9 +157,19 @@ fn certificate_is_unit_independent() {
         let inv: Vec<f64> = s.iter().map(|v| 1.0 / v).collect();
         let (p, _) = gains_back(&d, &inv);
         let l: Vec<DMatrix<f64>> = d.l_matrices().iter().map(|l| l * s[0]).collect();
-        let ok = check(&scaled, d.mode, d.alpha, d.gamma, &p, &l);
+        let ok = check(
+            &scaled,
+            &Gains::new(&p, &l),
+            &Candidate::new(d.alpha, d.gamma),
+            d.mode,
+        );
         assert!(ok.passed, "1e{e}: {:?}", ok.margins());
-        let bad = check(&scaled, d.mode, 2.0 * cap, d.gamma, &p, &l);
+        let bad = check(
+            &scaled,
+            &Gains::new(&p, &l),
+            &Candidate::new(2.0 * cap, d.gamma),
+            d.mode,
+        );
         assert!(!bad.passed, "1e{e}: twice the capacity passes");
         assert!(bad.family("S5").is_some_and(|f| !f.passed));
     }

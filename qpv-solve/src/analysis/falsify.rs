@@ -555,7 +555,7 @@ fn run(
     samples: usize,
     seed: u64,
 ) -> Result<Falsification, SimError> {
-    let Candidate { alpha, gamma } = claim;
+    let Candidate { alpha, gamma, .. } = claim;
     check_model(model)?;
     check_gains(model, gains)?;
     let nx = model.nx();

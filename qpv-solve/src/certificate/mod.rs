@@ -28,7 +28,7 @@ use crate::conditions::cube::CubeSlacks;
 use crate::conditions::{rate_combos, Combo, ConditionSet};
 use crate::linalg::rows::{rows, rows_he};
 use crate::model::{is_double_sum, validate, StateScaling};
-use crate::vocab::Family;
+use crate::vocab::{Candidate, Family};
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{Mode, PolytopicModel, StateBound};
 use serde::{Deserialize, Serialize};
@@ -259,43 +259,78 @@ fn gammas_of(p: &DMatrix<f64>, l: &[DMatrix<f64>]) -> (Vec<DMatrix<f64>>, Vec<f6
     (gammas, l.iter().map(|li| li.norm()).collect())
 }
 
-/// Checks the conditions of `mode` for the given P and gains L_l (Γ_l = P L_l
-/// is recomputed), at decay rate `alpha` and region scaling `gamma`.
-pub fn check(
-    model: &PolytopicModel,
-    mode: Mode,
-    alpha: f64,
-    gamma: f64,
-    p: &DMatrix<f64>,
-    l: &[DMatrix<f64>],
-) -> Certificate {
-    check_in_units(
-        model,
-        mode,
-        alpha,
-        gamma,
-        p,
-        l,
-        balanced_for(model, mode, p),
-        RateCheck::Vertex,
-    )
+/// The gains a certificate judges: P, the gains L_l per θ-vertex (Γ_l =
+/// P L_l is recomputed) and, for a `conditions = cube` design, the slacks
+/// that witness its rate family.
+#[derive(Debug, Clone, Copy)]
+pub struct Gains<'a> {
+    /// The Lyapunov matrix P.
+    pub p: &'a DMatrix<f64>,
+    /// L_l, one nx × ny matrix per θ-vertex.
+    pub l: &'a [DMatrix<f64>],
+    /// The cube slacks (Y, X, D), if the design has them.
+    pub cube: Option<&'a CubeSlacks>,
+}
+
+impl<'a> Gains<'a> {
+    /// P and the L_l, without cube slacks.
+    pub fn new(p: &'a DMatrix<f64>, l: &'a [DMatrix<f64>]) -> Self {
+        Gains { p, l, cube: None }
+    }
+
+    /// The same gains with these cube slacks (None: none).
+    pub fn with_cube(self, cube: Option<&'a CubeSlacks>) -> Self {
+        Gains { cube, ..self }
+    }
+}
+
+/// The independent certificate of `gains` at the candidate `at` in `mode`:
+/// every condition family recomputed from the model and the gains alone
+/// ((S1)–(S5), or the paper's printed conditions), the data checks (S4)
+/// and P ⊂ F. The rate family is the one the gains call for: the cube's
+/// slack inequalities when they carry cube slacks, the discrete decrease
+/// S5d when the candidate has a sample period (sound mode), else the
+/// vertex family (S5)/(26) (G5 for the global observer).
+pub fn check(model: &PolytopicModel, gains: &Gains, at: &Candidate, mode: Mode) -> Certificate {
+    let (rate, balance) = match (gains.cube, at.sample) {
+        (Some(_), Some(h)) => {
+            return Certificate::refused(
+                mode,
+                at.alpha,
+                at.gamma,
+                format!("cube slacks at sample = {h}: a sampled design has no cube form"),
+            )
+        }
+        (Some(c), None) => (RateCheck::Cube(c), balanced(model, mode)),
+        (None, Some(h)) if mode == Mode::Sound => {
+            (RateCheck::Sampled(h), balanced_for(model, mode, gains.p))
+        }
+        (None, Some(h)) => {
+            return Certificate::refused(
+                mode,
+                at.alpha,
+                at.gamma,
+                format!("sample = {h} is a sound-mode condition, not one of the paper's"),
+            )
+        }
+        (None, None) => (RateCheck::Vertex, balanced_for(model, mode, gains.p)),
+    };
+    check_in_units(model, mode, at, gains, balance, rate)
 }
 
 /// [`check_inner`] in the balanced coordinates `balance` when given and
 /// every matrix transforms exactly (P, L_l and, for a cube check, its
 /// slacks), else in the model's own: the one place a check chooses its
 /// coordinates.
-#[allow(clippy::too_many_arguments)]
 fn check_in_units(
     model: &PolytopicModel,
     mode: Mode,
-    alpha: f64,
-    gamma: f64,
-    p: &DMatrix<f64>,
-    l: &[DMatrix<f64>],
+    at: &Candidate,
+    gains: &Gains,
     balance: Option<(PolytopicModel, StateScaling)>,
     rate: RateCheck<'_>,
 ) -> Certificate {
+    let (p, l) = (gains.p, gains.l);
     if let Some((zm, s)) = balance {
         let cube_z = match rate {
             RateCheck::Cube(c) => cube_to_z(&s, c).map(Some),
@@ -307,11 +342,29 @@ fn check_in_units(
                 (Some(c), _) => RateCheck::Cube(c),
                 (None, r) => r,
             };
-            return check_inner(&zm, mode, alpha, gamma, &pz, &gammas, &lnorm, rate_z);
+            let witness = Witness {
+                p: &pz,
+                gammas: &gammas,
+                lnorm: &lnorm,
+            };
+            return check_inner(&zm, mode, at, &witness, rate_z);
         }
     }
     let (gammas, lnorm) = gammas_of(p, l);
-    check_inner(model, mode, alpha, gamma, p, &gammas, &lnorm, rate)
+    let witness = Witness {
+        p,
+        gammas: &gammas,
+        lnorm: &lnorm,
+    };
+    check_inner(model, mode, at, &witness, rate)
+}
+
+/// What [`check_inner`] evaluates: P, Γ_l and the sizes ‖L_l‖ its guards
+/// use (‖Γ_l‖/‖P‖ when Γ_l is given directly).
+struct Witness<'a> {
+    p: &'a DMatrix<f64>,
+    gammas: &'a [DMatrix<f64>],
+    lnorm: &'a [f64],
 }
 
 /// Which rate family [`check_inner`] checks.
@@ -319,7 +372,18 @@ fn check_in_units(
 enum RateCheck<'a> {
     /// (S5)/(26) at every combination and region-vertex pair.
     Vertex,
-    /// The cube's slack inequalities with these slacks.
+    /// The cube's slack inequalities with these slacks: the rate family and
+    /// the region's vertex condition are the cube's slack inequalities with
+    /// the slacks given (docs/method.md), checked by eigenvalues at a cost
+    /// polynomial in nx (no vertex pair is enumerated):
+    /// * vertex family ("S2" / "13"): λ_min(D − GᵀPG) (sound) or
+    ///   λ_min([D Gᵀ; G P]) (paper), and 1 − Σ D_kk, with D = diag(d);
+    /// * rate family ("S5" / "26"): λ_min(Y_{c,k} ∓ G_c(g_k)),
+    ///   λ_min(X_{c,k} ∓ H_c(g_k)) and −λ_max(F0_c + Σ_k Y_{c,k} + Σ_k X_{c,k})
+    ///   for every rate combination c and generator k.
+    ///
+    /// The generators are the region's own ([`qpv_dsl::Region::zonotope_generators`]);
+    /// (S1), the facets and the data checks are as in [`check`].
     Cube(&'a CubeSlacks),
     /// The discrete decrease (S5d) at the sample period h ([`sampled`]).
     Sampled(f64),
@@ -377,83 +441,6 @@ fn cube_to_z(s: &StateScaling, c: &CubeSlacks) -> Option<CubeSlacks> {
     })
 }
 
-/// As [`check`] for a design of `conditions = cube`: the rate family and
-/// the region's vertex condition are the cube's slack inequalities with
-/// the slacks given (docs/method.md), checked by eigenvalues at a cost
-/// polynomial in nx (no vertex pair is enumerated):
-/// * vertex family ("S2" / "13"): λ_min(D − GᵀPG) (sound) or
-///   λ_min([D Gᵀ; G P]) (paper), and 1 − Σ D_kk, with D = diag(d);
-/// * rate family ("S5" / "26"): λ_min(Y_{c,k} ∓ G_c(g_k)),
-///   λ_min(X_{c,k} ∓ H_c(g_k)) and −λ_max(F0_c + Σ_k Y_{c,k} + Σ_k X_{c,k})
-///   for every rate combination c and generator k.
-///
-/// The generators are the region's own ([`qpv_dsl::Region::zonotope_generators`]);
-/// (S1), the facets and the data checks are as in [`check`].
-pub fn check_cube(
-    model: &PolytopicModel,
-    mode: Mode,
-    alpha: f64,
-    gamma: f64,
-    p: &DMatrix<f64>,
-    l: &[DMatrix<f64>],
-    slacks: &CubeSlacks,
-) -> Certificate {
-    check_in_units(
-        model,
-        mode,
-        alpha,
-        gamma,
-        p,
-        l,
-        balanced(model, mode),
-        RateCheck::Cube(slacks),
-    )
-}
-
-/// The certificate of a `sample = h` design (sound mode): (S1)–(S4) as in
-/// [`check`], and in place of (S5) the discrete decrease family "S5d",
-/// λ_min of [W(1 − hα)P, Mᵀ; M, WP] ⪰ 0 with M = WP + h Σ_t w_t Φ_t for
-/// every rate combination (weight W = Σ_t w_t) and region-vertex pair,
-/// Φ = PA_l − Γ_l C_m + (P R_{l,i,j} − Γ_l S_{m,i,j})/γ, Γ_l = P L_l
-/// recomputed (see [`sampled`]).
-pub fn check_sampled(
-    model: &PolytopicModel,
-    alpha: f64,
-    gamma: f64,
-    h: f64,
-    p: &DMatrix<f64>,
-    l: &[DMatrix<f64>],
-) -> Certificate {
-    check_in_units(
-        model,
-        Mode::Sound,
-        alpha,
-        gamma,
-        p,
-        l,
-        balanced_for(model, Mode::Sound, p),
-        RateCheck::Sampled(h),
-    )
-}
-
-/// [`check_cube`] when the design carries cube slacks, else [`check`]: the
-/// certificate a design's own conditions call for.
-#[allow(clippy::too_many_arguments)]
-pub fn check_with(
-    model: &PolytopicModel,
-    mode: Mode,
-    alpha: f64,
-    gamma: f64,
-    p: &DMatrix<f64>,
-    l: &[DMatrix<f64>],
-    cube: Option<&CubeSlacks>,
-) -> Certificate {
-    match cube {
-        Some(c) => check_cube(model, mode, alpha, gamma, p, l, c),
-        None => check(model, mode, alpha, gamma, p, l),
-    }
-}
-
 /// The generators of the model's zonotope region, if the slacks fit them.
 fn cube_input_errors(model: &PolytopicModel, c: &CubeSlacks) -> Result<Vec<DVector<f64>>, String> {
     let Some(gens) = model.region.zonotope_generators() else {
@@ -478,36 +465,6 @@ fn cube_input_errors(model: &PolytopicModel, c: &CubeSlacks) -> Result<Vec<DVect
         return Err(format!("cube slacks: expected {r} finite entries of D"));
     }
     Ok(gens)
-}
-
-/// As [`check`] but with Γ_l given directly (the guard then uses ‖Γ_l‖).
-pub fn check_gamma(
-    model: &PolytopicModel,
-    mode: Mode,
-    alpha: f64,
-    gamma: f64,
-    p: &DMatrix<f64>,
-    gammas: &[DMatrix<f64>],
-) -> Certificate {
-    if let Some((zm, s)) = balanced_for(model, mode, p) {
-        if let (Some(pz), Some(gz)) = (s.p_to_z(p), gammas_to_z(&s, gammas)) {
-            let pn = pz.norm().max(f64::MIN_POSITIVE);
-            let lnorm: Vec<f64> = gz.iter().map(|g| g.norm() / pn).collect();
-            return check_inner(&zm, mode, alpha, gamma, &pz, &gz, &lnorm, RateCheck::Vertex);
-        }
-    }
-    let pn = p.norm().max(f64::MIN_POSITIVE);
-    let lnorm: Vec<f64> = gammas.iter().map(|g| g.norm() / pn).collect();
-    check_inner(
-        model,
-        mode,
-        alpha,
-        gamma,
-        p,
-        gammas,
-        &lnorm,
-        RateCheck::Vertex,
-    )
 }
 
 fn input_errors(
@@ -611,17 +568,15 @@ pub fn data_checks(model: &PolytopicModel, mode: Mode, gamma: f64) -> BTreeMap<S
     out
 }
 
-#[allow(clippy::too_many_arguments)]
 fn check_inner(
     model: &PolytopicModel,
     mode: Mode,
-    alpha: f64,
-    gamma: f64,
-    p: &DMatrix<f64>,
-    gammas: &[DMatrix<f64>],
-    lnorm: &[f64],
+    at: &Candidate,
+    w: &Witness,
     rate: RateCheck<'_>,
 ) -> Certificate {
+    let (alpha, gamma) = (at.alpha, at.gamma);
+    let (p, gammas, lnorm) = (w.p, w.gammas, w.lnorm);
     let set = ConditionSet::from_mode(mode);
     let global = crate::model::is_global(model, mode);
     let global_model = crate::model::global_model(model);

@@ -60,8 +60,7 @@ pub use driver::{alpha_profile, ProfilePoint};
 
 use crate::backend::Status;
 use crate::certificate::{
-    alpha_capacity, alpha_capacity_cube, alpha_capacity_sampled, check_sampled, check_with,
-    Certificate,
+    alpha_capacity, alpha_capacity_cube, alpha_capacity_sampled, check, Certificate, Gains,
 };
 use crate::conditions::cube::CubeSlacks;
 use crate::error::SolveError;
@@ -212,11 +211,9 @@ impl Ctx<'_, '_> {
         l: &[DMatrix<f64>],
         cube: Option<&CubeSlacks>,
     ) -> Certificate {
-        match self.sample {
-            Some(h) => check_sampled(self.model, alpha, gamma, h, p, l),
-            None => check_with(self.model, self.mode, alpha, gamma, p, l, cube),
-        }
-        .with_gain_bound(l, self.max_gain)
+        let gains = Gains::new(p, l).with_cube(cube);
+        let at = Candidate::new(alpha, gamma).at_sample(self.sample);
+        check(self.model, &gains, &at, self.mode).with_gain_bound(l, self.max_gain)
     }
 
     /// The largest α at which the point's (P, Γ_l, L_l) certify at `gamma`
@@ -256,7 +253,7 @@ impl Ctx<'_, '_> {
         cand: Candidate,
         phase: Phase,
     ) -> Result<Attempt, SolveError> {
-        let Candidate { alpha, gamma } = cand;
+        let Candidate { alpha, gamma, .. } = cand;
         let mut at = self.attempt(cand, Objective::Gains, None, phase)?;
         if at.certified {
             if let Some(up) = at.point.as_ref().and_then(|p| self.lift(p, gamma)) {
@@ -277,7 +274,7 @@ impl Ctx<'_, '_> {
         metric: Option<&DMatrix<f64>>,
         phase: Phase,
     ) -> Result<Attempt, SolveError> {
-        let Candidate { alpha, gamma } = cand;
+        let Candidate { alpha, gamma, .. } = cand;
         let t0 = Instant::now();
         let relaxed = self.margin_rel.map(|m| Settings {
             margin_rel: m,

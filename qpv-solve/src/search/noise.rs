@@ -3,7 +3,7 @@
 
 use crate::backend::Status;
 use crate::certificate::noise::{bound_from, sigma_for, NoiseBound, NoiseCheck};
-use crate::certificate::{check, Certificate};
+use crate::certificate::{check, Certificate, Gains};
 use crate::conditions::ConditionSet;
 use crate::error::SolveError;
 use crate::lmi::noise::solve_noise_sdp;
@@ -14,7 +14,7 @@ use crate::model::state_bound::StateBoundInfo;
 use crate::model::{ObserverModel, ObserverOptions, StateBoundClaim};
 use crate::report::{Design, ReportedMatrices, SearchStep, SolverInfo};
 use crate::settings::Settings;
-use crate::vocab::{BoundSource, Phase};
+use crate::vocab::{BoundSource, Candidate, Phase};
 use nalgebra::DMatrix;
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Split};
 use serde::{Deserialize, Serialize};
@@ -70,7 +70,12 @@ impl NoiseCtx<'_, '_> {
         if let Some((p, gammas)) = res.point {
             let tc = Instant::now();
             if let Some(l) = gains_of(&p, &gammas) {
-                let cert = check(self.model, Mode::Sound, self.alpha, gamma, &p, &l);
+                let cert = check(
+                    self.model,
+                    &Gains::new(&p, &l),
+                    &Candidate::new(self.alpha, gamma),
+                    Mode::Sound,
+                );
                 let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &p * li).collect();
                 let bound = sigma_for(self.model, self.channels, self.alpha, gamma, &p, &gammas)
                     .and_then(|(s, c)| bound_from(self.model, self.channels, self.alpha, &p, s, c));

@@ -26,12 +26,13 @@
 //! at every region-vertex pair), step 2 the request's conditions. Used by
 //! `split = skew_slack` (the design driver) and the bench `skew_slack`.
 
-use crate::certificate::check;
+use crate::certificate::{check, Gains};
 use crate::error::SolveError;
 use crate::lmi::skew::max_alpha_fixed_p;
 use crate::model::skew::with_skew;
 use crate::report::Design;
 use crate::settings::Settings;
+use crate::vocab::Candidate;
 use nalgebra::DMatrix;
 use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, PolytopicModel, Split};
 
@@ -109,7 +110,12 @@ pub fn alternate(
             let next_model = with_skew(&cur_model, &dk);
             // certify slightly below the solver's α (its margin is relative)
             let a_c = a * (1.0 - 1e-6);
-            let cert = check(&next_model, Mode::Sound, a_c, gamma, &p, &gains);
+            let cert = check(
+                &next_model,
+                &Gains::new(&p, &gains),
+                &Candidate::new(a_c, gamma),
+                Mode::Sound,
+            );
             if cert.passed {
                 alpha_fixed_p = a_c;
                 cur_model = next_model;
