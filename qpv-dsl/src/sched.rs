@@ -534,102 +534,19 @@ pub(crate) fn range(
     let dims: Vec<usize> = crate::expr::bits(e.param_mask()).collect();
     let full: Vec<Iv> = theta.iter().map(|&(lo, hi)| Iv { lo, hi }).collect();
     let widths: Vec<f64> = theta.iter().map(|&(lo, hi)| hi - lo).collect();
-    let point = |b: &[Iv]| -> Vec<f64> { b.iter().map(|v| 0.5 * (v.lo + v.hi)).collect() };
-    let at = |p: &[f64]| -> String {
-        dims.iter()
-            .map(|&i| format!("{} = {}", names[i], p[i]))
-            .collect::<Vec<_>>()
-            .join(", ")
+    let mut samples = Samples {
+        e,
+        names,
+        dims: &dims,
+        lo: f64::INFINITY,
+        hi: f64::NEG_INFINITY,
     };
-    let (mut s_lo, mut s_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    let sample = |p: &[f64], s_lo: &mut f64, s_hi: &mut f64| -> Result<(), RangeError> {
-        let v = e.eval(p);
-        if !v.is_finite() {
-            return Err(RangeError {
-                message: format!("it is not finite at {} (its value there is {v})", at(p)),
-            });
-        }
-        *s_lo = s_lo.min(v);
-        *s_hi = s_hi.max(v);
-        Ok(())
-    };
-    // the corners of the box of the parameters it depends on, and the middle
-    for c in 0..1usize << dims.len().min(12) {
-        let mut p = point(&full);
-        for (k, &i) in dims.iter().enumerate() {
-            p[i] = if (c >> k) & 1 == 1 {
-                full[i].hi
-            } else {
-                full[i].lo
-            };
-        }
-        sample(&p, &mut s_lo, &mut s_hi)?;
-    }
-    sample(&point(&full), &mut s_lo, &mut s_hi)?;
+    samples.corners(&full)?;
     let mut cells = vec![Cell {
         enc: enclose(e, &full, names),
-        b: full.clone(),
+        b: full,
     }];
-    let mut boxes = 1usize;
-    let tol = |s_lo: f64, s_hi: f64| {
-        RANGE_TOLERANCE * (s_hi - s_lo) + 4.0 * f64::EPSILON * s_lo.abs().max(s_hi.abs())
-    };
-    let mut exhausted = false;
-    loop {
-        // the cell to split: an undefined one first, else the one that
-        // decides the worse of the two bounds
-        let undefined = cells.iter().position(|c| c.enc.is_err());
-        let (lo, hi) = bounds(&cells);
-        let t = tol(s_lo, s_hi);
-        let pick = match undefined {
-            Some(k) => Some(k),
-            None if s_lo - lo > t || hi - s_hi > t => {
-                let by_lo = s_lo - lo >= hi - s_hi;
-                let key = |c: &Cell| match &c.enc {
-                    Ok(v) if by_lo => v.lo,
-                    Ok(v) => -v.hi,
-                    Err(_) => f64::NEG_INFINITY,
-                };
-                (0..cells.len()).min_by(|&a, &b| key(&cells[a]).total_cmp(&key(&cells[b])))
-            }
-            None => None,
-        };
-        let Some(k) = pick else { break };
-        if boxes >= MAX_BOXES {
-            exhausted = true;
-            break;
-        }
-        let cell = cells.swap_remove(k);
-        // split the widest dimension (relative to Θ)
-        let Some(&d) = dims.iter().max_by(|&&a, &&b| {
-            ((cell.b[a].hi - cell.b[a].lo) / widths[a])
-                .total_cmp(&((cell.b[b].hi - cell.b[b].lo) / widths[b]))
-        }) else {
-            // a constant function: its enclosure cannot be refined
-            cells.push(cell);
-            exhausted = true;
-            break;
-        };
-        let mid = 0.5 * (cell.b[d].lo + cell.b[d].hi);
-        if (cell.b[d].hi - cell.b[d].lo) <= 1e-12 * widths[d] || mid <= cell.b[d].lo {
-            cells.push(cell);
-            exhausted = true;
-            break;
-        }
-        for half in [(cell.b[d].lo, mid), (mid, cell.b[d].hi)] {
-            let mut b = cell.b.clone();
-            b[d] = Iv {
-                lo: half.0,
-                hi: half.1,
-            };
-            sample(&point(&b), &mut s_lo, &mut s_hi)?;
-            boxes += 1;
-            cells.push(Cell {
-                enc: enclose(e, &b, names),
-                b,
-            });
-        }
-    }
+    let (boxes, exhausted) = bisect(&mut cells, &mut samples, &widths)?;
     if let Some(c) = cells.iter().find(|c| c.enc.is_err()) {
         let why = match &c.enc {
             Err(u) => u.what.clone(),
@@ -639,29 +556,12 @@ pub(crate) fn range(
             message: format!(
                 "it cannot be shown to be defined and bounded on the whole parameter box: {why} \
                  (near {})",
-                at(&point(&c.b))
+                samples.at(&midpoint(&c.b))
             ),
         });
     }
     let (lo, hi) = bounds(&cells);
-    let method = if exhausted {
-        format!(
-            "interval arithmetic with outward rounding, Θ bisected into {boxes} boxes (budget \
-             reached: the range exceeds the sampled values by {:.3e} below and {:.3e} above)",
-            s_lo - lo,
-            hi - s_hi
-        )
-    } else if boxes == 1 {
-        format!(
-            "interval arithmetic with outward rounding (within {RANGE_TOLERANCE:e} of the sampled \
-             range)"
-        )
-    } else {
-        format!(
-            "interval arithmetic with outward rounding, Θ bisected into {boxes} boxes (within \
-             {RANGE_TOLERANCE:e} of the sampled range)"
-        )
-    };
+    let method = range_method(boxes, exhausted, samples.lo - lo, hi - samples.hi);
     let (lo, hi) = if lo < hi {
         (lo, hi)
     } else {
@@ -673,12 +573,176 @@ pub(crate) fn range(
         RangeInfo {
             method,
             boxes,
-            sampled_lo: s_lo,
-            sampled_hi: s_hi,
+            sampled_lo: samples.lo,
+            sampled_hi: samples.hi,
         },
     ))
 }
 
+/// The values of `e` sampled on Θ so far: the range must reach them, and
+/// the bisection stops once its bounds are within the tolerance of them.
+struct Samples<'a> {
+    e: &'a SchedExpr,
+    names: &'a [String],
+    /// The parameters `e` depends on.
+    dims: &'a [usize],
+    /// The smallest value sampled.
+    lo: f64,
+    /// The largest value sampled.
+    hi: f64,
+}
+
+impl Samples<'_> {
+    /// `name = value, ...` of the parameters `e` depends on, at `p`.
+    fn at(&self, p: &[f64]) -> String {
+        self.dims
+            .iter()
+            .map(|&i| format!("{} = {}", self.names[i], p[i]))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// Evaluates `e` at `p` into the sampled range; an error where the value
+    /// is not finite.
+    fn sample(&mut self, p: &[f64]) -> Result<(), RangeError> {
+        let v = self.e.eval(p);
+        if !v.is_finite() {
+            return Err(RangeError {
+                message: format!(
+                    "it is not finite at {} (its value there is {v})",
+                    self.at(p)
+                ),
+            });
+        }
+        self.lo = self.lo.min(v);
+        self.hi = self.hi.max(v);
+        Ok(())
+    }
+
+    /// Samples the corners of the box of the parameters `e` depends on (the
+    /// first 12 of them vary), then the middle of Θ.
+    fn corners(&mut self, full: &[Iv]) -> Result<(), RangeError> {
+        for c in 0..1usize << self.dims.len().min(12) {
+            let mut p = midpoint(full);
+            for (k, &i) in self.dims.iter().enumerate() {
+                p[i] = if (c >> k) & 1 == 1 {
+                    full[i].hi
+                } else {
+                    full[i].lo
+                };
+            }
+            self.sample(&p)?;
+        }
+        self.sample(&midpoint(full))
+    }
+
+    /// How far a bound may lie outside the sampled range when the
+    /// bisection stops.
+    fn tolerance(&self) -> f64 {
+        RANGE_TOLERANCE * (self.hi - self.lo)
+            + 4.0 * f64::EPSILON * self.lo.abs().max(self.hi.abs())
+    }
+}
+
+/// The middle of a box.
+fn midpoint(b: &[Iv]) -> Vec<f64> {
+    b.iter().map(|v| 0.5 * (v.lo + v.hi)).collect()
+}
+
+/// Splits the deciding cell in two (sampling each half's middle) until the
+/// enclosure is within the tolerance of the samples or no cell can be split;
+/// returns the number of boxes and whether it stopped short (budget spent,
+/// or a cell that cannot be split).
+fn bisect(
+    cells: &mut Vec<Cell>,
+    samples: &mut Samples<'_>,
+    widths: &[f64],
+) -> Result<(usize, bool), RangeError> {
+    let mut boxes = 1usize;
+    while let Some(k) = cell_to_split(cells, samples) {
+        if boxes >= MAX_BOXES {
+            return Ok((boxes, true));
+        }
+        let cell = cells.swap_remove(k);
+        let Some((d, mid)) = split_point(&cell, samples.dims, widths) else {
+            cells.push(cell);
+            return Ok((boxes, true));
+        };
+        for half in [(cell.b[d].lo, mid), (mid, cell.b[d].hi)] {
+            let mut b = cell.b.clone();
+            b[d] = Iv {
+                lo: half.0,
+                hi: half.1,
+            };
+            samples.sample(&midpoint(&b))?;
+            boxes += 1;
+            cells.push(Cell {
+                enc: enclose(samples.e, &b, samples.names),
+                b,
+            });
+        }
+    }
+    Ok((boxes, false))
+}
+
+/// The cell to split: an undefined one first, else the one that decides
+/// the worse of the two bounds; none when both bounds are within the
+/// tolerance of the samples.
+fn cell_to_split(cells: &[Cell], samples: &Samples<'_>) -> Option<usize> {
+    if let Some(k) = cells.iter().position(|c| c.enc.is_err()) {
+        return Some(k);
+    }
+    let (lo, hi) = bounds(cells);
+    let t = samples.tolerance();
+    if !(samples.lo - lo > t || hi - samples.hi > t) {
+        return None;
+    }
+    let by_lo = samples.lo - lo >= hi - samples.hi;
+    let key = |c: &Cell| match &c.enc {
+        Ok(v) if by_lo => v.lo,
+        Ok(v) => -v.hi,
+        Err(_) => f64::NEG_INFINITY,
+    };
+    (0..cells.len()).min_by(|&a, &b| key(&cells[a]).total_cmp(&key(&cells[b])))
+}
+
+/// The dimension of `cell` to split (the widest relative to Θ) and its
+/// middle; none for a constant function (its enclosure cannot be refined)
+/// or a cell already as narrow as f64 resolves.
+fn split_point(cell: &Cell, dims: &[usize], widths: &[f64]) -> Option<(usize, f64)> {
+    let &d = dims.iter().max_by(|&&a, &&b| {
+        ((cell.b[a].hi - cell.b[a].lo) / widths[a])
+            .total_cmp(&((cell.b[b].hi - cell.b[b].lo) / widths[b]))
+    })?;
+    let mid = 0.5 * (cell.b[d].lo + cell.b[d].hi);
+    if (cell.b[d].hi - cell.b[d].lo) <= 1e-12 * widths[d] || mid <= cell.b[d].lo {
+        return None;
+    }
+    Some((d, mid))
+}
+
+/// How a range was computed, in words; `below`/`above`: how far it
+/// exceeds the sampled values.
+fn range_method(boxes: usize, exhausted: bool, below: f64, above: f64) -> String {
+    if exhausted {
+        format!(
+            "interval arithmetic with outward rounding, Θ bisected into {boxes} boxes (budget \
+             reached: the range exceeds the sampled values by {below:.3e} below and {above:.3e} above)"
+        )
+    } else if boxes == 1 {
+        format!(
+            "interval arithmetic with outward rounding (within {RANGE_TOLERANCE:e} of the sampled \
+             range)"
+        )
+    } else {
+        format!(
+            "interval arithmetic with outward rounding, Θ bisected into {boxes} boxes (within \
+             {RANGE_TOLERANCE:e} of the sampled range)"
+        )
+    }
+}
+
+/// The hull of the cells' enclosures (the whole line if one is undefined).
 fn bounds(cells: &[Cell]) -> (f64, f64) {
     cells
         .iter()

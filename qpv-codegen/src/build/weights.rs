@@ -56,16 +56,7 @@ pub fn mu_body(m: &Model, scheduling: &[usize]) -> Body {
         .map(|(j, d)| (format!("f{j}"), d.lo, d.hi, true));
     for (i, (t, lo, hi, clamp)) in params.chain(derived).enumerate() {
         let t = if clamp {
-            let name = format!("{t}c");
-            lets.push(Let::real(
-                &name,
-                Expr::Clamp(
-                    Box::new(Expr::var(t)),
-                    Box::new(Expr::Num(lo)),
-                    Box::new(Expr::Num(hi)),
-                ),
-            ));
-            name
+            clamp_let(&t, Expr::Num(lo), Expr::Num(hi), &mut lets)
         } else {
             t
         };
@@ -84,6 +75,17 @@ pub fn mu_body(m: &Model, scheduling: &[usize]) -> Body {
     let ns = scheduling.len() + m.derived.len();
     let out = products(ns, &mut lets);
     Body { lets, out }
+}
+
+/// `let <t>c = clamp(t, lo, hi);`: a derived variable clamped into its
+/// range before its weight is taken; returns the clamped variable's name.
+fn clamp_let(t: &str, lo: Expr, hi: Expr, lets: &mut Vec<Let>) -> String {
+    let name = format!("{t}c");
+    lets.push(Let::real(
+        &name,
+        Expr::Clamp(Box::new(Expr::var(t)), Box::new(lo), Box::new(hi)),
+    ));
+    name
 }
 
 /// `let w<i> = w; let v<i> = 1.0 - w<i>;`
@@ -160,16 +162,7 @@ fn covered_mu(m: &Model, c: &Cover, scheduling: &[usize]) -> Body {
         }
         lets.push(Let::real(&inv, select(&|r| 1.0 / (r.1 - r.0), i)));
         let t = if clamp {
-            let name = format!("{t}c");
-            lets.push(Let::real(
-                &name,
-                Expr::Clamp(
-                    Box::new(Expr::var(t)),
-                    Box::new(Expr::var(&lo)),
-                    Box::new(Expr::var(&hi)),
-                ),
-            ));
-            name
+            clamp_let(&t, Expr::var(&lo), Expr::var(&hi), &mut lets)
         } else {
             t
         };

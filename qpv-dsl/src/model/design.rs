@@ -329,166 +329,107 @@ impl Builder<'_> {
     }
 
     /// One design block: each key at most once, then the split default of
-    /// its mode and the mode/split consistency.
+    /// its mode and the settings it cannot combine.
     fn design_block(&self, block: &ast::DesignBlock, region: &Region) -> R<DesignRequest> {
         let mut req = DesignRequest {
             span: block.span,
             ..Default::default()
         };
         let mut split: Option<Split> = None;
-        let mut seen: Vec<(&str, Span)> = Vec::new();
+        let mut seen = Seen {
+            keys: Vec::new(),
+            block: block.span,
+        };
         for entry in &block.entries {
-            let key = entry.key.name.as_str();
-            if let Some((_, prev)) = seen.iter().find(|(k, _)| *k == key) {
-                return Err(Diag::new(
-                    entry.key.span,
-                    format!(
-                        "`{key}` is set twice in this design block (first at {})",
-                        pos(self.src, *prev)
-                    ),
-                ));
-            }
-            if let (Some((_, ospan)), false) =
-                (&entry.options, key == "output_route" || key == "alpha")
-            {
-                return Err(Diag::new(
-                    *ospan,
-                    format!(
-                        "`{key}` takes no options in parentheses (only `alpha = max(within = ..)` \
-                         and `output_route = filter(...)` do)"
-                    ),
-                ));
-            }
-            match key {
-                "alpha" => {
-                    req.alpha = self.alpha_value(&entry.value)?;
-                    if let Some((opts, ospan)) = &entry.options {
-                        if req.alpha != AlphaSpec::Max {
-                            return Err(Diag::new(
-                                *ospan,
-                                "only `alpha = max` takes options (`max(within = 0.01)`): a \
-                                 fixed alpha is designed as given",
-                            ));
-                        }
-                        req.within = self.within_option(opts)?;
-                    }
-                }
-                "max_gain" => req.max_gain = Some(self.max_gain_value(&entry.value)?),
-                "sample" => req.sample = Some(self.sample_value(&entry.value)?),
-                "gamma" => req.gamma = self.gamma_value(&entry.value)?,
-                "mode" => req.mode = self.mode_value(&entry.value)?,
-                "split" => split = Some(self.split_value(&entry.value)?),
-                "conditions" => req.conditions = self.conditions_value(&entry.value)?,
-                "output_route" => req.output_route = self.output_route_value(entry)?,
-                "noise" => req.noise = self.noise_value(&entry.value)?,
-                "float" => req.float = self.float_value(&entry.value)?,
-                _ => {
-                    let hint = suggest(key, DESIGN_KEYS)
-                        .map(|s| format!(" (did you mean `{s}`?)"))
-                        .unwrap_or_default();
-                    return Err(Diag::new(
-                        entry.key.span,
-                        format!(
-                            "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
-                             `split`, `conditions`, `output_route`, `noise`, `max_gain`, `sample` or `float`{hint}"
-                        ),
-                    ));
-                }
-            }
-            seen.push((key, entry.key.span));
+            self.design_entry(entry, &seen, &mut req, &mut split)?;
+            seen.keys.push((entry.key.name.as_str(), entry.key.span));
         }
         req.split = split.unwrap_or(Split::default_for(req.mode));
-        if req.split == Split::SkewSlack && req.mode == Mode::Paper {
-            let (_, at) = seen
-                .iter()
-                .find(|(k, _)| *k == "split")
-                .copied()
-                .unwrap_or(("", block.span));
-            return Err(Diag::new(
-                at,
-                "`split = skew_slack` needs `mode = sound`: the paper's printed conditions \
-                 are reproduced as written, with no slack",
-            ));
-        }
-        if req.conditions == Conditions::Cube && region.zonotope_generators().is_none() {
-            let at = seen
-                .iter()
-                .find(|(k, _)| *k == "conditions")
-                .map_or(block.span, |(_, s)| *s);
-            return Err(Diag::new(
-                at,
-                format!(
-                    "`conditions = cube` needs a region that is a box, a parallelotope or a \
-                     zonotope (`region zonotope [...]`); this region has {} vertices and {} \
-                     facets and is none of them: use `conditions = full` or `decoupled`",
-                    region.vertices.len(),
-                    region.facets.len()
-                ),
-            ));
-        }
+        combination_clashes(&req, region, &seen)?;
         if req.noise == NoiseObjective::Min {
-            let at = |key: &str| {
-                seen.iter()
-                    .find(|(k, _)| *k == key)
-                    .map_or(block.span, |(_, s)| *s)
-            };
-            if req.alpha == AlphaSpec::Max {
-                return Err(Diag::new(
-                    at("noise"),
-                    "`noise = min` needs a fixed `alpha` (e.g. `alpha = 5;`): `alpha = max` is \
-                     the fastest certified design, not a noise trade-off; pick a rate below it",
-                ));
-            }
-            if req.mode == Mode::Paper {
-                return Err(Diag::new(
-                    at("mode"),
-                    "`noise = min` needs `mode = sound`: the paper's printed conditions certify \
-                     nothing, so they give no noise bound",
-                ));
-            }
-            if req.split == Split::SkewSlack {
-                return Err(Diag::new(
-                    at("split"),
-                    "`noise = min` does not search the skew slack: use `split = symmetric` or \
-                     `split = as_written`",
-                ));
-            }
+            noise_min_clashes(&req, &seen)?;
         }
         if req.max_gain.is_some() {
-            let at = seen
-                .iter()
-                .find(|(k, _)| *k == "max_gain")
-                .map_or(block.span, |(_, s)| *s);
-            let clash = if req.noise == NoiseObjective::Min {
-                Some("`noise = min` (its SDP has no gain bound)")
-            } else if req.split == Split::SkewSlack {
-                Some("`split = skew_slack` (the slack search has no gain bound)")
-            } else if req.mode == Mode::Paper {
-                Some("`mode = paper` (the printed conditions certify nothing)")
-            } else {
-                None
-            };
-            if let Some(what) = clash {
-                return Err(Diag::new(
-                    at,
-                    format!("`max_gain` cannot be combined with {what}"),
-                ));
-            }
+            max_gain_clashes(&req, &seen)?;
         }
         if req.sample.is_some() {
-            self.sample_clashes(&req, &seen, block.span)?;
+            self.sample_clashes(&req, &seen)?;
         }
         Ok(req)
     }
 
+    /// One `key = value` of a design block into `req` (`split` aside: its
+    /// default depends on the mode); an error for a key set twice, options
+    /// on a key that takes none, or an unknown key.
+    fn design_entry(
+        &self,
+        entry: &ast::DesignEntry,
+        seen: &Seen<'_>,
+        req: &mut DesignRequest,
+        split: &mut Option<Split>,
+    ) -> R<()> {
+        let key = entry.key.name.as_str();
+        if let Some((_, prev)) = seen.keys.iter().find(|(k, _)| *k == key) {
+            return Err(Diag::new(
+                entry.key.span,
+                format!(
+                    "`{key}` is set twice in this design block (first at {})",
+                    pos(self.src, *prev)
+                ),
+            ));
+        }
+        if let (Some((_, ospan)), false) = (&entry.options, key == "output_route" || key == "alpha")
+        {
+            return Err(Diag::new(
+                *ospan,
+                format!(
+                    "`{key}` takes no options in parentheses (only `alpha = max(within = ..)` \
+                     and `output_route = filter(...)` do)"
+                ),
+            ));
+        }
+        match key {
+            "alpha" => {
+                req.alpha = self.alpha_value(&entry.value)?;
+                if let Some((opts, ospan)) = &entry.options {
+                    if req.alpha != AlphaSpec::Max {
+                        return Err(Diag::new(
+                            *ospan,
+                            "only `alpha = max` takes options (`max(within = 0.01)`): a \
+                             fixed alpha is designed as given",
+                        ));
+                    }
+                    req.within = self.within_option(opts)?;
+                }
+            }
+            "max_gain" => req.max_gain = Some(self.max_gain_value(&entry.value)?),
+            "sample" => req.sample = Some(self.sample_value(&entry.value)?),
+            "gamma" => req.gamma = self.gamma_value(&entry.value)?,
+            "mode" => req.mode = self.mode_value(&entry.value)?,
+            "split" => *split = Some(self.split_value(&entry.value)?),
+            "conditions" => req.conditions = self.conditions_value(&entry.value)?,
+            "output_route" => req.output_route = self.output_route_value(entry)?,
+            "noise" => req.noise = self.noise_value(&entry.value)?,
+            "float" => req.float = self.float_value(&entry.value)?,
+            _ => {
+                let hint = suggest(key, DESIGN_KEYS)
+                    .map(|s| format!(" (did you mean `{s}`?)"))
+                    .unwrap_or_default();
+                return Err(Diag::new(
+                    entry.key.span,
+                    format!(
+                        "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
+                         `split`, `conditions`, `output_route`, `noise`, `max_gain`, `sample` or `float`{hint}"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The settings a `sample = h` design cannot be combined with (yet), each
     /// an error at the clashing key saying why.
-    fn sample_clashes(&self, req: &DesignRequest, seen: &[(&str, Span)], block: Span) -> R<()> {
-        let at = |key: &str| {
-            seen.iter()
-                .find(|(k, _)| *k == key)
-                .map_or(block, |(_, s)| *s)
-        };
+    fn sample_clashes(&self, req: &DesignRequest, seen: &Seen<'_>) -> R<()> {
         let clash: Option<(&str, &str)> = if req.mode == Mode::Paper {
             Some((
                 "mode",
@@ -525,7 +466,7 @@ impl Builder<'_> {
             None
         };
         match clash {
-            Some((key, msg)) => Err(Diag::new(at(key), msg)),
+            Some((key, msg)) => Err(Diag::new(seen.at(key), msg)),
             None => Ok(()),
         }
     }
@@ -784,6 +725,97 @@ impl Builder<'_> {
             pole,
             gain: gain.map(|g| g.0).unwrap_or(pole),
         })
+    }
+}
+
+/// The keys of one design block read so far, with their spans: an error
+/// about a combination of settings points at the key that clashes.
+struct Seen<'a> {
+    keys: Vec<(&'a str, Span)>,
+    /// The whole block, where such an error points when the key is absent.
+    block: Span,
+}
+
+impl Seen<'_> {
+    /// Where `key` was set, else the block.
+    fn at(&self, key: &str) -> Span {
+        self.keys
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map_or(self.block, |(_, s)| *s)
+    }
+}
+
+/// The skew slack with the paper's conditions, and the cube conditions on
+/// a region that is no zonotope: errors at the clashing key.
+fn combination_clashes(req: &DesignRequest, region: &Region, seen: &Seen<'_>) -> R<()> {
+    if req.split == Split::SkewSlack && req.mode == Mode::Paper {
+        return Err(Diag::new(
+            seen.at("split"),
+            "`split = skew_slack` needs `mode = sound`: the paper's printed conditions \
+             are reproduced as written, with no slack",
+        ));
+    }
+    if req.conditions == Conditions::Cube && region.zonotope_generators().is_none() {
+        return Err(Diag::new(
+            seen.at("conditions"),
+            format!(
+                "`conditions = cube` needs a region that is a box, a parallelotope or a \
+                 zonotope (`region zonotope [...]`); this region has {} vertices and {} \
+                 facets and is none of them: use `conditions = full` or `decoupled`",
+                region.vertices.len(),
+                region.facets.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The settings `noise = min` cannot be combined with, each an error at the
+/// clashing key saying why.
+fn noise_min_clashes(req: &DesignRequest, seen: &Seen<'_>) -> R<()> {
+    if req.alpha == AlphaSpec::Max {
+        return Err(Diag::new(
+            seen.at("noise"),
+            "`noise = min` needs a fixed `alpha` (e.g. `alpha = 5;`): `alpha = max` is \
+             the fastest certified design, not a noise trade-off; pick a rate below it",
+        ));
+    }
+    if req.mode == Mode::Paper {
+        return Err(Diag::new(
+            seen.at("mode"),
+            "`noise = min` needs `mode = sound`: the paper's printed conditions certify \
+             nothing, so they give no noise bound",
+        ));
+    }
+    if req.split == Split::SkewSlack {
+        return Err(Diag::new(
+            seen.at("split"),
+            "`noise = min` does not search the skew slack: use `split = symmetric` or \
+             `split = as_written`",
+        ));
+    }
+    Ok(())
+}
+
+/// The settings `max_gain` cannot be combined with: an error at `max_gain`
+/// naming the first.
+fn max_gain_clashes(req: &DesignRequest, seen: &Seen<'_>) -> R<()> {
+    let clash = if req.noise == NoiseObjective::Min {
+        Some("`noise = min` (its SDP has no gain bound)")
+    } else if req.split == Split::SkewSlack {
+        Some("`split = skew_slack` (the slack search has no gain bound)")
+    } else if req.mode == Mode::Paper {
+        Some("`mode = paper` (the printed conditions certify nothing)")
+    } else {
+        None
+    };
+    match clash {
+        Some(what) => Err(Diag::new(
+            seen.at("max_gain"),
+            format!("`max_gain` cannot be combined with {what}"),
+        )),
+        None => Ok(()),
     }
 }
 

@@ -11,7 +11,9 @@ use crate::region::{
 };
 use nalgebra::DVector;
 
-impl Builder<'_> {
+impl<'a> Builder<'a> {
+    /// The rows of a constant matrix of the region (`what` names a row):
+    /// at most [`MAX_REGION_VERTICES`] of them, each with one entry per state.
     pub(super) fn constant_rows(
         &self,
         lit: &MatrixLit,
@@ -64,21 +66,7 @@ impl Builder<'_> {
     /// kept, with a warning that the global design does not use it).
     pub(super) fn region(&mut self, lpv: bool) -> R<Region> {
         let nx = self.names.states.len();
-        let mut decl: Option<&ast::RegionDecl> = None;
-        for item in &self.ast.items {
-            if let Item::Region(r) = item {
-                if let Some(prev) = decl {
-                    return Err(Diag::new(
-                        r.span,
-                        format!(
-                            "the region is given twice (first at {})",
-                            pos(self.src, prev.span)
-                        ),
-                    ));
-                }
-                decl = Some(r);
-            }
-        }
+        let decl = self.region_decl()?;
         if let (true, Some(decl)) = (lpv, decl) {
             self.warnings.push(Warning {
                 message: "the plant is LPV (every N_k and M_k is zero): its observer is global \
@@ -102,33 +90,10 @@ impl Builder<'_> {
             ));
         };
         let ctx = "the region";
-        let radius = |e: &Expr| -> R<f64> {
-            let r = self.constant(e, ctx)?;
-            if r > 0.0 {
-                Ok(r)
-            } else {
-                Err(Diag::new(
-                    e.span,
-                    format!("a box radius must be positive, found {}", fmt_num(r)),
-                ))
-            }
-        };
-        let boxed = |radii: &[f64]| {
-            Region::from_box(radii).map_err(|e| match e {
-                RegionError::TooComplex => Diag::new(
-                    decl.span,
-                    format!(
-                        "a box in {nx} dimensions has 2^{nx} vertices; at most \
-                         {MAX_PARALLELOTOPE_VERTICES} (16 states) are supported"
-                    ),
-                ),
-                e => Diag::new(decl.span, e.to_string()),
-            })
-        };
-        let (result, lit, what) = match &decl.shape {
+        match &decl.shape {
             ast::RegionShape::BoxScalar(e) => {
-                let r = radius(e)?;
-                return boxed(&vec![r; nx]);
+                let r = self.box_radius(e)?;
+                self.box_region(decl, &vec![r; nx])
             }
             ast::RegionShape::BoxVector(v, span) => {
                 if v.len() != nx {
@@ -140,41 +105,110 @@ impl Builder<'_> {
                         ),
                     ));
                 }
-                let r = v.iter().map(radius).collect::<R<Vec<f64>>>()?;
-                return boxed(&r);
+                let r = v
+                    .iter()
+                    .map(|e| self.box_radius(e))
+                    .collect::<R<Vec<f64>>>()?;
+                self.box_region(decl, &r)
             }
             ast::RegionShape::Vertices(lit) => {
                 let pts = self.constant_rows(lit, "vertex", ctx)?;
-                (hull_from_vertices(&pts), lit, "vertex")
+                self.hull_region(hull_from_vertices(&pts), lit, "vertex")
             }
             ast::RegionShape::Halfspaces(lit) => {
                 let rows = self.constant_rows(lit, "halfspace", ctx)?;
-                (hull_from_halfspaces(&rows), lit, "halfspace")
+                self.hull_region(hull_from_halfspaces(&rows), lit, "halfspace")
             }
             ast::RegionShape::Zonotope(lit) => {
                 let gens = self.constant_rows(lit, "generator", ctx)?;
-                let r = gens.len();
-                return Region::from_zonotope(&gens).map_err(|e| match e {
-                    RegionError::TooComplex => Diag::new(
-                        lit.span,
-                        format!(
-                            "a zonotope with {r} generators has up to 2^{r} vertices; at most \
-                             {nx} generators (a parallelotope, up to 16 states) or \
-                             {} generators are supported",
-                            MAX_REGION_VERTICES.trailing_zeros()
-                        ),
-                    ),
-                    RegionError::Degenerate { .. } if r < nx => Diag::new(
-                        lit.span,
-                        format!(
-                            "a zonotope in {nx} dimensions needs at least {nx} generators (one \
-                             per state, spanning the space), found {r}"
-                        ),
-                    ),
-                    e => Diag::new(lit.span, e.to_string()),
-                });
+                self.zonotope_region(&gens, lit)
             }
-        };
+        }
+    }
+
+    /// The model's one `region` statement, if any; an error if there are two.
+    fn region_decl(&self) -> R<Option<&'a ast::RegionDecl>> {
+        let mut decl: Option<&'a ast::RegionDecl> = None;
+        for item in &self.ast.items {
+            if let Item::Region(r) = item {
+                if let Some(prev) = decl {
+                    return Err(Diag::new(
+                        r.span,
+                        format!(
+                            "the region is given twice (first at {})",
+                            pos(self.src, prev.span)
+                        ),
+                    ));
+                }
+                decl = Some(r);
+            }
+        }
+        Ok(decl)
+    }
+
+    /// A box radius: a positive constant.
+    fn box_radius(&self, e: &Expr) -> R<f64> {
+        let r = self.constant(e, "the region")?;
+        if r > 0.0 {
+            Ok(r)
+        } else {
+            Err(Diag::new(
+                e.span,
+                format!("a box radius must be positive, found {}", fmt_num(r)),
+            ))
+        }
+    }
+
+    /// The box with these radii; an error at the statement if it has too
+    /// many vertices.
+    fn box_region(&self, decl: &ast::RegionDecl, radii: &[f64]) -> R<Region> {
+        let nx = self.names.states.len();
+        Region::from_box(radii).map_err(|e| match e {
+            RegionError::TooComplex => Diag::new(
+                decl.span,
+                format!(
+                    "a box in {nx} dimensions has 2^{nx} vertices; at most \
+                     {MAX_PARALLELOTOPE_VERTICES} (16 states) are supported"
+                ),
+            ),
+            e => Diag::new(decl.span, e.to_string()),
+        })
+    }
+
+    /// The zonotope of these generators; an error at the matrix if it has
+    /// too many vertices or does not span the state space.
+    fn zonotope_region(&self, gens: &[DVector<f64>], lit: &MatrixLit) -> R<Region> {
+        let nx = self.names.states.len();
+        let r = gens.len();
+        Region::from_zonotope(gens).map_err(|e| match e {
+            RegionError::TooComplex => Diag::new(
+                lit.span,
+                format!(
+                    "a zonotope with {r} generators has up to 2^{r} vertices; at most \
+                     {nx} generators (a parallelotope, up to 16 states) or \
+                     {} generators are supported",
+                    MAX_REGION_VERTICES.trailing_zeros()
+                ),
+            ),
+            RegionError::Degenerate { .. } if r < nx => Diag::new(
+                lit.span,
+                format!(
+                    "a zonotope in {nx} dimensions needs at least {nx} generators (one \
+                     per state, spanning the space), found {r}"
+                ),
+            ),
+            e => Diag::new(lit.span, e.to_string()),
+        })
+    }
+
+    /// The hull of a `vertices` or `halfspaces` matrix (`what` names its
+    /// rows), with a warning for every row it drops.
+    fn hull_region(
+        &mut self,
+        result: Result<(Region, Vec<usize>), RegionError>,
+        lit: &MatrixLit,
+        what: &str,
+    ) -> R<Region> {
         match result {
             Ok((region, dropped)) => {
                 for i in dropped {
