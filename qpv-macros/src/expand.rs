@@ -424,7 +424,7 @@ fn observer_model(
     ) {
         (StateBound::Auto { .. }, StateBound::Given(q), Some(h)) => Some(cache::Bound {
             h,
-            symmetric: observer.state_bound.split.as_deref() == Some("symmetric"),
+            symmetric: observer.state_bound.split == Some(qpv_dsl::Split::Symmetric),
             q: matrix_to_rows(q).concat(),
         }),
         _ => None,

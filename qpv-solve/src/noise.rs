@@ -1041,7 +1041,7 @@ fn noise_report(
         solver,
         seconds_total: 0.0,
         search: std::mem::take(&mut ctx.steps),
-        notes,
+        notes: notes.into(),
         summary,
         state_bound: None,
         output_route: None,

@@ -53,10 +53,15 @@ fn paper_mode_published_point_satisfies_printed_conditions() {
     let s4 = &d.data_checks["S4"];
     assert!((s4.value - 4.48).abs() < 1e-9, "S4 value {}", s4.value);
     assert!(!s4.passed && !s4.required);
-    assert!(d.notes.iter().any(|n| n.contains("certifies nothing")));
     assert!(d
         .notes
         .iter()
+        .map(ToString::to_string)
+        .any(|n| n.contains("certifies nothing")));
+    assert!(d
+        .notes
+        .iter()
+        .map(ToString::to_string)
         .any(|n| n.contains("violated assumption (15)/(S4)") && n.contains("4.48")));
     assert!(d.summary.contains("certifies nothing"));
     // The independent checker agrees from the JSON alone.
@@ -219,7 +224,7 @@ fn sound_mode_gamma_search_optimum() {
         (g.local_maxima[0].gamma - d.gamma).abs() <= 1e-12,
         "the best local maximum is the reported γ"
     );
-    assert!(d.notes.contains(&g.statement()), "{:?}", d.notes);
+    assert!(d.notes.contains(&g.statement().into()), "{:?}", d.notes);
     let v: serde_json::Value = serde_json::from_str(&d.to_json()).unwrap();
     assert_eq!(v["gamma_search"]["grid_points"], g.grid_points);
     println!(
@@ -259,6 +264,7 @@ fn fixed_alpha_with_gamma_search() {
     assert!(d
         .notes
         .iter()
+        .map(ToString::to_string)
         .any(|n| n.contains("exceeds the best certified")));
 }
 
@@ -274,7 +280,11 @@ fn unknown_solver_status_counts_only_through_the_certificate() {
         let d = design(&model, &fixed(10.0, 0.1889, Mode::Sound), &settings).unwrap();
         assert_eq!(d.solver.status, Status::Unknown, "{:?}", d.solver);
         assert_eq!(d.solver.detail, "MaxIterations");
-        assert!(d.notes.iter().any(|n| n.contains("unknown status")));
+        assert!(d
+            .notes
+            .iter()
+            .map(ToString::to_string)
+            .any(|n| n.contains("unknown status")));
         // An unfinished solve may still return a point that passes the
         // independent certificate; feasible is exactly "the certificate passed".
         let passed = !d.p.is_empty() && recheck_json(&model, &d).passed;
@@ -328,7 +338,11 @@ fn request_errors() {
     // Paper mode runs without Q; (S4) is then reported as not checked.
     let d = design(&no_q, &fixed(10.0, 0.4, Mode::Paper), &s).unwrap();
     assert!(d.feasible && d.data_checks.is_empty());
-    assert!(d.notes.iter().any(|n| n.contains("not checked")));
+    assert!(d
+        .notes
+        .iter()
+        .map(ToString::to_string)
+        .any(|n| n.contains("not checked")));
     // Decoupled conditions validate the request the same way.
     let mut dec = fixed(10.0, 1.5, Mode::Sound);
     dec.conditions = Conditions::Decoupled;
@@ -474,6 +488,10 @@ fn a_fixed_request_falls_back_to_the_alpha_search_at_its_gamma() {
         "the regularised solve itself fails here"
     );
     assert!(d.search.iter().any(|s| s.phase == "bisect" && s.certified));
-    assert!(d.notes.iter().any(|n| n.contains("the α search at this γ")));
+    assert!(d
+        .notes
+        .iter()
+        .map(ToString::to_string)
+        .any(|n| n.contains("the α search at this γ")));
     assert!(recheck_json(&model, &d).passed);
 }

@@ -9,7 +9,7 @@
 //! f32` the constants are rounded to `float` first and the rounded P and
 //! L_l are what is certified; if they fail, nothing is written.
 
-use super::gains::{read_gains, Gains};
+use super::gains::read_claim;
 use super::input::{exit, load_model, load_model_for, CliError};
 use nalgebra::DMatrix;
 use qpv_codegen::c::{CModel, Float};
@@ -18,27 +18,34 @@ use qpv_dsl::{Mode, Model, OutputFilter, OutputRoute, PolytopicModel};
 use qpv_solve::conditions::cube::CubeSlacks;
 use qpv_solve::model::{ObserverModel, ObserverOptions, StateBoundClaim};
 use qpv_solve::noise::NoiseChannels;
-use qpv_solve::report::{matrix_to_rows, rows_to_matrix, skew_matrices};
+use qpv_solve::report::{matrix_to_rows, skew_matrices};
 use qpv_solve::Certificate;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The options of `qpv codegen`.
-#[derive(Debug, Clone, Copy)]
-pub struct Options<'a> {
-    /// The model file.
-    pub file: &'a Path,
-    /// `--model`.
-    pub model: Option<&'a str>,
-    /// `--lang` (only `c`).
-    pub lang: &'a str,
-    /// `--float`: `f64` (default) or `f32`.
-    pub float: Option<&'a str>,
-    /// `--design N`: the 1-based design block (default: the first sound one).
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// The model file (.qpv).
+    pub file: PathBuf,
+    /// Target language: `c`.
+    #[arg(long, default_value = "c")]
+    pub lang: String,
+    /// Number type of the generated code: `f64` (default) or `f32`.
+    #[arg(long)]
+    pub float: Option<String>,
+    /// The design block to export, 1-based (default: the first sound one).
+    #[arg(long)]
     pub design: Option<usize>,
-    /// `--gains`: a report whose P, L_l are re-certified instead of solving.
-    pub gains: Option<&'a Path>,
-    /// `--out`: the directory the files are written to.
-    pub out: &'a Path,
+    /// Export these gains (a `qpv design --json` report) instead of
+    /// solving; they are re-certified first.
+    #[arg(long)]
+    pub gains: Option<PathBuf>,
+    /// Which model of the file.
+    #[arg(long)]
+    pub model: Option<String>,
+    /// The directory the files are written to.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// The numbers to bake before the f32 rounding: the model checked, α, γ,
@@ -64,14 +71,14 @@ struct Numbers {
 }
 
 /// Runs `qpv codegen`.
-pub fn run(o: Options<'_>) -> Result<i32, CliError> {
+pub fn run(o: &Options) -> Result<i32, CliError> {
     if o.lang != "c" {
         return Err(CliError::Input(format!(
             "--lang {}: the only target language is `c` (Rust observers come from the `qpv!` macro)",
             o.lang
         )));
     }
-    let flag = match o.float {
+    let flag = match o.float.as_deref() {
         None => None,
         Some("f64") => Some(Float::F64),
         Some("f32") => Some(Float::F32),
@@ -81,11 +88,11 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             )))
         }
     };
-    let (model, numbers) = match o.gains {
-        Some(g) => from_gains(o.file, o.model, g, o.design)?,
+    let (model, numbers) = match &o.gains {
+        Some(g) => from_gains(&o.file, o.model.as_deref(), g, o.design)?,
         None => {
-            let (_, model) = load_model(o.file, o.model)?;
-            let n = match solved(o.file, &model, o.design)? {
+            let (_, model) = load_model(&o.file, o.model.as_deref())?;
+            let n = match solved(&o.file, &model, o.design)? {
                 Ok(n) => n,
                 Err(msg) => {
                     eprintln!("{msg}\nnothing written: only certified designs are exported");
@@ -168,7 +175,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     let scheduling = numbers.plant.scheduling.clone();
     let mut design = CertifiedDesign {
         request: numbers.request.clone(),
-        mode: "sound".into(),
+        mode: Mode::Sound.name().into(),
         certifies: true,
         alpha: numbers.alpha,
         gamma: numbers.gamma,
@@ -212,7 +219,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         float,
         notes,
     });
-    std::fs::create_dir_all(o.out)
+    std::fs::create_dir_all(&o.out)
         .map_err(|e| CliError::Input(format!("--out {}: {e}", o.out.display())))?;
     let write = |name: String, text: &str| -> Result<std::path::PathBuf, CliError> {
         let path = o.out.join(name);
@@ -387,9 +394,9 @@ fn from_gains(
             "--design and --gains exclude each other: the gains file is the design".into(),
         ));
     }
-    let g: Gains = read_gains(gains)?;
-    let (_, model) = load_model_for(file, model_flag, gains, g.model.as_deref())?;
-    if g.mode.as_deref() == Some("paper") {
+    let claim = read_claim(gains, "gains file")?;
+    let (_, model) = load_model_for(file, model_flag, gains, claim.model())?;
+    if claim.mode == Some(Mode::Paper) {
         return Err(CliError::Input(format!(
             "{}: a paper-mode report certifies nothing and is never exported",
             gains.display()
@@ -403,25 +410,16 @@ fn from_gains(
             ))
         })
     };
-    let (alpha, gamma) = (need(g.alpha, "alpha")?, need(g.gamma, "gamma")?);
-    let split = g.split(Mode::Sound, gains)?;
-    let filter = match g
-        .output_route
-        .as_ref()
-        .map(|r| r.output_route())
-        .unwrap_or_default()
-    {
+    let (alpha, gamma) = (need(claim.alpha, "alpha")?, need(claim.gamma, "gamma")?);
+    // The observer model the claim belongs to, built as `qpv check` builds
+    // it (split, verified state bound, output route, skew slack).
+    let design = claim.at(Mode::Sound, alpha, gamma);
+    let filter = match design.route() {
         OutputRoute::Filter(f) => Some(f),
         OutputRoute::DoubleSum => None,
     };
-    let (p, ls) = (
-        rows_to_matrix(&g.p),
-        g.l.iter().map(|r| rows_to_matrix(r)).collect::<Vec<_>>(),
-    );
-    // The observer model the claim belongs to, built as `qpv check` builds
-    // it (split, verified state bound, output route, skew slack).
-    let sample = g.sample.as_ref().map(|s| s.h);
-    let design = g.design(&model.name, (Mode::Sound, alpha, gamma, split), gains)?;
+    let (p, ls) = (design.p_matrix(), design.l_matrices());
+    let sample = design.sample.as_ref().map(|s| s.h);
     let checked = design
         .observer_model(&model.polytopic())
         .map_err(|e| CliError::Input(format!("{}: {e}", gains.display())))?;
