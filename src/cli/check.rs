@@ -6,8 +6,8 @@
 //! `design` blocks; a paper-mode check whose conditions hold exits 3
 //! (a reproduction, not a certificate).
 
-use super::by_name;
 use super::gains::read_claim;
+use super::input::by_name;
 use super::input::{check_json_target, emit_json, exit, load_model_for, print_text, CliError};
 use super::schema::CheckOutput;
 use qpv_dsl::diagnostic::fmt_num;

@@ -1,10 +1,10 @@
 //! `qpv design`: parse, derive, solve, certify, and report.
 
+use super::input::{by_name, parse_alpha, parse_gamma};
 use super::input::{
     check_json_target, emit_json, exit, fmt_matrix, load_model, print_text, CliError,
 };
 use super::schema::{DesignOutput, NotRun};
-use super::{by_name, parse_alpha, parse_gamma};
 use qpv_dsl::{
     AlphaSpec, Clash, Conditions, DesignRequest, GammaSpec, Mode, Model, NoiseObjective,
     OutputFilter, OutputRoute, Split,

@@ -300,7 +300,7 @@ fn check_mode(stated: &Stated, path: &Path, what: &str) -> Result<Option<Mode>, 
             CliError::Input(format!(
                 "{}: the {what}'s `mode` is {v}: expected {}",
                 path.display(),
-                super::one_of(Mode::ALL.map(Mode::name), "\"")
+                super::input::one_of(Mode::ALL.map(Mode::name), "\"")
             ))
         })
 }

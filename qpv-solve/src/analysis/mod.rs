@@ -4,4 +4,5 @@
 
 pub mod euler;
 pub mod falsify;
+pub(crate) mod rng;
 pub mod simulate;

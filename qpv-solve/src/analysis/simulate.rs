@@ -815,7 +815,7 @@ pub struct Row<'a> {
 /// every platform.
 #[derive(Debug, Clone)]
 pub struct MeasurementNoise {
-    rng: crate::analysis::falsify::Rng,
+    rng: crate::analysis::rng::Rng,
     amplitude: f64,
     outputs: Vec<usize>,
 }
@@ -825,7 +825,7 @@ impl MeasurementNoise {
     /// from `seed`.
     pub fn new(seed: u64, amplitude: f64, outputs: Vec<usize>) -> Self {
         MeasurementNoise {
-            rng: crate::analysis::falsify::Rng(seed ^ 0x9E37_79B9_7F4A_7C15),
+            rng: crate::analysis::rng::Rng(seed ^ 0x9E37_79B9_7F4A_7C15),
             amplitude,
             outputs,
         }
