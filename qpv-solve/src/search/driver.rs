@@ -825,13 +825,13 @@ fn design_plain_with(
     let (chosen_conditions, auto_note) = match request.sample {
         Some(h) if request.conditions == Conditions::Auto => (
             Conditions::Full,
-            Note::Text(format!(
+            Some(Note::Text(format!(
                 "sample = {h:e}: the discrete decrease is solved and certified on the full vertex family (conditions = full)"
-            )),
+            ))),
         ),
         _ => {
             let (c, why) = crate::size::choose(model, request);
-            (c, Note::ConditionsChosen(why))
+            (c, (!why.is_empty()).then(|| Note::ConditionsChosen(why)))
         }
     };
     let resolved = DesignRequest {
@@ -865,8 +865,8 @@ fn design_plain_with(
     let model: &PolytopicModel = &setup.model;
     let prob = setup.problem(request)?;
     let mut notes = Notes::default();
-    if !auto_note.to_string().is_empty() && !global {
-        notes.push(auto_note);
+    if let Some(n) = auto_note.filter(|_| !global) {
+        notes.push(n);
     }
     notes.extend(global_notes);
     notes.extend(setup.notes(request, &prob));
