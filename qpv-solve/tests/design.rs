@@ -495,3 +495,33 @@ fn a_fixed_request_falls_back_to_the_alpha_search_at_its_gamma() {
         .any(|n| n.contains("the α search at this γ")));
     assert!(recheck_json(&model, &d).passed);
 }
+
+/// Notes are data: a structured note is written as its sentence (the
+/// report keeps its form), read back as that sentence, and equal to it.
+#[test]
+fn notes_are_written_as_their_sentences_and_read_back_equal() {
+    use qpv_solve::report::Note;
+    let mut d = Design::claimed("m", Mode::Sound, 1.0, 0.5, vec![vec![1.0]], vec![]);
+    d.notes.push(Note::Rejected { count: 2 });
+    d.notes.push(Note::UnknownStatus {
+        count: 1,
+        solves: 7,
+        kinds: vec!["MaxIterations".into()],
+    });
+    d.notes.push("a remark");
+    assert!(d.notes[0].is_search_log() && !d.notes[2].is_search_log());
+    let v: serde_json::Value = serde_json::from_str(&d.to_json()).unwrap();
+    assert_eq!(
+        v["notes"][0],
+        "2 solved points failed the independent certificate and were rejected"
+    );
+    assert_eq!(
+        v["notes"][1],
+        "1 of 7 solves ended with an unknown status (MaxIterations): neither feasible nor \
+         infeasible, counted as not certified"
+    );
+    assert_eq!(v["notes"][2], "a remark");
+    let back = Design::from_json(&d.to_json()).unwrap();
+    assert_eq!(back.notes, d.notes);
+    assert!(matches!(back.notes[0], Note::Text(_)));
+}
