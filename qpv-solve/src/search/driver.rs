@@ -831,7 +831,7 @@ fn design_plain_with(
         ),
         _ => {
             let (c, why) = crate::size::choose(model, request);
-            (c, (!why.is_empty()).then(|| Note::ConditionsChosen(why)))
+            (c, (!why.is_empty()).then_some(Note::ConditionsChosen(why)))
         }
     };
     let resolved = DesignRequest {
