@@ -6,10 +6,8 @@
 
 mod cli;
 
-use clap::Parser;
-
 fn main() {
-    let args = cli::Cli::parse();
+    let args = cli::Cli::from_args();
     let code = match cli::run(args) {
         Ok(code) => code,
         Err(e) => {

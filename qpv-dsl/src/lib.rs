@@ -18,7 +18,7 @@ pub use diagnostic::{Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
 pub use func::Func;
 pub use model::{
-    AlphaSpec, Conditions, DesignRequest, Float, GammaSpec, Mode, Model, NoiseObjective,
+    AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Mode, Model, NoiseObjective,
     OutputFilter, OutputRoute, Param, Split, StateBound, MAX_COEFFICIENT,
 };
 pub use region::{Region, RegionError};

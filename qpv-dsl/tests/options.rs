@@ -220,3 +220,58 @@ fn sample_parses_as_a_period_in_seconds() {
     assert_eq!(samples, vec![None, Some(1e-4), Some(0.01)]);
     assert_eq!(m.designs[2].conditions, Conditions::Full);
 }
+
+/// `DesignRequest::validate` is the table the language checks: a request
+/// built in code meets the same refusals (with the language's words), and
+/// its `Display` reads back as the block's settings.
+#[test]
+fn requests_are_validated_and_written_as_their_settings() {
+    use qpv_dsl::{AlphaSpec, Clash, GammaSpec, NoiseObjective};
+    let base = DesignRequest {
+        alpha: AlphaSpec::Fixed(5.0),
+        gamma: GammaSpec::Fixed(0.25),
+        ..DesignRequest::default()
+    };
+    assert_eq!(base.validate(), Ok(()));
+    assert_eq!(
+        base.to_string(),
+        "alpha = 5; gamma = 0.25; mode = sound; split = symmetric; conditions = auto"
+    );
+    let noise_max = DesignRequest {
+        alpha: AlphaSpec::Max,
+        noise: NoiseObjective::Min,
+        ..base.clone()
+    };
+    assert_eq!(noise_max.validate(), Err(Clash::NoiseMinAlphaMax));
+    assert_eq!(Clash::NoiseMinAlphaMax.key(), "noise");
+    // The language refuses the same block at the same key, in the same words.
+    let src = BASE.replace("EXTRA", "design { alpha = max; noise = min; }");
+    let err = parse(&src).unwrap_err().to_string();
+    assert!(err.contains(&Clash::NoiseMinAlphaMax.to_string()), "{err}");
+    let sampled = DesignRequest {
+        sample: Some(1e-3),
+        conditions: Conditions::Cube,
+        ..base.clone()
+    };
+    assert_eq!(sampled.validate(), Err(Clash::SampleCube));
+    let paper_skew = DesignRequest {
+        mode: Mode::Paper,
+        split: Split::SkewSlack,
+        noise: NoiseObjective::Min,
+        ..base.clone()
+    };
+    assert_eq!(paper_skew.validate(), Err(Clash::SkewSlackPaper));
+    let gained = DesignRequest {
+        max_gain: Some(20.0),
+        sample: Some(1e-4),
+        within: 0.05,
+        alpha: AlphaSpec::Max,
+        ..base
+    };
+    assert_eq!(gained.validate(), Ok(()));
+    assert_eq!(
+        gained.to_string(),
+        "alpha = max(within = 0.05); gamma = 0.25; mode = sound; split = symmetric; \
+         conditions = auto; max_gain = 20; sample = 0.0001"
+    );
+}

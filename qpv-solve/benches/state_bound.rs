@@ -51,7 +51,7 @@ fn main() {
         info.gamma_max.unwrap_or(f64::NAN),
         info.gamma_upper.unwrap_or(f64::NAN),
         info.h.unwrap_or(f64::NAN),
-        info.split.as_deref().unwrap_or("-"),
+        info.split.map_or("-", |s| s.name()),
         info.solves,
         walls[2]
     );
@@ -68,7 +68,7 @@ fn main() {
                 info.gamma_max.unwrap_or(f64::NAN),
                 info.gamma_upper.unwrap_or(f64::NAN),
                 info.h.unwrap_or(f64::NAN),
-                info.split.as_deref().unwrap_or("-"),
+                info.split.map_or("-", |s| s.name()),
                 info.solves,
                 t0.elapsed().as_secs_f64()
             ),

@@ -108,18 +108,184 @@ fn full_conditions() -> Conditions {
     Conditions::Full
 }
 
+/// α or γ of a gains file that does not state it.
+fn unstated() -> f64 {
+    f64::NAN
+}
+
+/// One note of a design report: a remark on what the design did or
+/// assumed. Serialised as its sentence (`Display`), so a report reads as
+/// it always has; a report read back holds each note as [`Note::Text`],
+/// and two notes are equal when they say the same.
+#[derive(Debug, Clone)]
+pub enum Note {
+    /// `conditions = auto`: the conditions the size estimate chose, and why
+    /// ([`crate::size::choose`]).
+    ConditionsChosen(String),
+    /// What the γ search searched ([`GammaSearchInfo::statement`]).
+    GammaSearch(GammaSearchInfo),
+    /// Solves that ended with an unknown status (neither feasible nor
+    /// infeasible; counted as not certified).
+    UnknownStatus {
+        /// How many.
+        count: usize,
+        /// Of how many solves.
+        solves: usize,
+        /// The solver's names of those statuses, sorted, each once.
+        kinds: Vec<String>,
+    },
+    /// The solver stopped with a status short of solved (`detail`, its
+    /// name), but its point passes the independent certificate.
+    StoppedShort {
+        /// The solver's status name.
+        detail: String,
+    },
+    /// Solved points the independent certificate rejected (not used).
+    Rejected {
+        /// How many.
+        count: usize,
+    },
+    /// Any other remark, and every note of a report read back.
+    Text(String),
+}
+
+impl Note {
+    /// Whether the note belongs to the search log only: routine for a
+    /// design that certifies (points the certificate rejected were never
+    /// used), so a text report may leave it to the JSON's `notes`.
+    pub fn is_search_log(&self) -> bool {
+        matches!(
+            self,
+            Note::UnknownStatus { .. } | Note::StoppedShort { .. } | Note::Rejected { .. }
+        )
+    }
+}
+
+impl std::fmt::Display for Note {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Note::ConditionsChosen(s) | Note::Text(s) => f.write_str(s),
+            Note::GammaSearch(info) => f.write_str(&info.statement()),
+            Note::UnknownStatus {
+                count,
+                solves,
+                kinds,
+            } => write!(
+                f,
+                "{count} of {solves} solves ended with an unknown status ({}): neither feasible nor infeasible, counted as not certified",
+                kinds.join(", ")
+            ),
+            Note::StoppedShort { detail } => write!(
+                f,
+                "the solver stopped with {detail} but its point passes the independent certificate"
+            ),
+            Note::Rejected { count } => write!(
+                f,
+                "{count} solved points failed the independent certificate and were rejected"
+            ),
+        }
+    }
+}
+
+impl PartialEq for Note {
+    fn eq(&self, other: &Note) -> bool {
+        self.to_string() == other.to_string()
+    }
+}
+
+impl From<String> for Note {
+    fn from(s: String) -> Note {
+        Note::Text(s)
+    }
+}
+
+impl From<&str> for Note {
+    fn from(s: &str) -> Note {
+        Note::Text(s.to_string())
+    }
+}
+
+impl Serialize for Note {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for Note {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Note, D::Error> {
+        String::deserialize(d).map(Note::Text)
+    }
+}
+
+/// The notes of a design, in order (the report's `notes`: a list of
+/// sentences). Anything that converts into a [`Note`] can be pushed, so a
+/// plain sentence is a [`Note::Text`].
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(transparent)]
+pub struct Notes(pub Vec<Note>);
+
+impl Notes {
+    /// Appends a note.
+    pub fn push(&mut self, note: impl Into<Note>) {
+        self.0.push(note.into());
+    }
+
+    /// Inserts a note at `index`.
+    pub fn insert(&mut self, index: usize, note: impl Into<Note>) {
+        self.0.insert(index, note.into());
+    }
+}
+
+impl std::ops::Deref for Notes {
+    type Target = [Note];
+    fn deref(&self) -> &[Note] {
+        &self.0
+    }
+}
+
+impl<T: Into<Note>> Extend<T> for Notes {
+    fn extend<I: IntoIterator<Item = T>>(&mut self, iter: I) {
+        self.0.extend(iter.into_iter().map(Into::into));
+    }
+}
+
+impl<T: Into<Note>> From<Vec<T>> for Notes {
+    fn from(v: Vec<T>) -> Notes {
+        Notes(v.into_iter().map(Into::into).collect())
+    }
+}
+
+impl<'a> IntoIterator for &'a Notes {
+    type Item = &'a Note;
+    type IntoIter = std::slice::Iter<'a, Note>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.0.iter()
+    }
+}
+
+impl IntoIterator for Notes {
+    type Item = Note;
+    type IntoIter = std::vec::IntoIter<Note>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.0.into_iter()
+    }
+}
+
 /// A finished design: the certified observer (or why there is none).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Design {
-    /// Model name.
+    /// Model name ("" when a gains file does not name it).
+    #[serde(default)]
     pub model: String,
-    /// Condition set used ("sound" or "paper").
-    #[serde(with = "mode_serde")]
+    /// Condition set used ("sound" or "paper"; sound when absent).
+    #[serde(default, with = "mode_serde")]
     pub mode: Mode,
     /// Representation of N_k, M_k used in the LMIs and the certificate
     /// ("as_written" or "symmetric"; the same plant either way). Re-check a
-    /// reloaded design with [`Design::recheck`], which applies it.
-    #[serde(with = "split_serde")]
+    /// reloaded design with [`Design::recheck`], which applies it. Absent
+    /// in a gains file: read as symmetric, which a re-check of a gains file
+    /// replaces by the default of the mode it checks.
+    #[serde(default, with = "split_serde")]
     pub split: Split,
     /// Rate conditions solved ("full": all N p² vertex pairs; "decoupled":
     /// N·2p blocks with one slack Z per rate combination — per θ-vertex, or
@@ -131,41 +297,56 @@ pub struct Design {
     /// True only if the independent certificate passed for every condition
     /// family (and, in sound mode, the data check (S4)). In paper mode this
     /// means "satisfies the paper's printed conditions", which certifies nothing.
+    #[serde(default)]
     pub feasible: bool,
     /// True only for a feasible *sound-mode* design: the convergence claim
     /// V' ≤ −αV on the certified set is proven. Always false in paper mode.
+    #[serde(default)]
     pub certifies: bool,
-    /// Decay rate α of the reported point.
+    /// Decay rate α of the reported point (NaN when a gains file does not
+    /// say: the re-check takes it from elsewhere).
+    #[serde(default = "unstated")]
     pub alpha: f64,
-    /// Region scaling γ of the reported point.
+    /// Region scaling γ of the reported point (NaN when a gains file does
+    /// not say).
+    #[serde(default = "unstated")]
     pub gamma: f64,
     /// Lyapunov matrix P (rows); empty if the solver returned no point.
     #[serde(rename = "P")]
     pub p: Vec<Vec<f64>>,
     /// Γ_l = P L_l per vertex (rows).
-    #[serde(rename = "Gamma")]
+    #[serde(rename = "Gamma", default)]
     pub gamma_l: Vec<Vec<Vec<f64>>>,
     /// Observer gains L_l = P⁻¹ Γ_l per vertex (nx rows of ny; nx + ny rows
     /// for the filter route, see `output_route`).
     #[serde(rename = "L")]
     pub l: Vec<Vec<Vec<f64>>>,
     /// Spectral norms ‖L_l‖₂ per vertex.
+    #[serde(default)]
     pub gain_norms: Vec<f64>,
     /// Worst margin per condition family (positive = satisfied), from the
     /// independent certificate: "S1","S2","S3","S5" (sound) or
     /// "S1","13","14","26" (paper).
+    #[serde(default)]
     pub margins: BTreeMap<String, f64>,
     /// Data checks: "S4" (γ² a_kᵀ Q a_k ≤ 1) and "region_in_F" (P ⊂ F).
+    #[serde(default)]
     pub data_checks: BTreeMap<String, DataCheck>,
     /// Statistics of the solve that produced the reported point.
+    #[serde(default)]
     pub solver: SolverInfo,
     /// Wall time of the whole design call, seconds.
+    #[serde(default)]
     pub seconds_total: f64,
     /// Every solve tried, in order.
+    #[serde(default)]
     pub search: Vec<SearchStep>,
-    /// Warnings and labels (e.g. the paper-mode disclaimer, violated assumptions).
-    pub notes: Vec<String>,
+    /// Warnings and labels (e.g. the paper-mode disclaimer, violated
+    /// assumptions), each one sentence ([`Note`]).
+    #[serde(default)]
+    pub notes: Notes,
     /// A human-readable summary.
+    #[serde(default)]
     pub summary: String,
     /// The state bound the design used: its source ("given", "auto" or
     /// "none"), Q, and for a computed bound h, γ_max and its check
@@ -406,11 +587,7 @@ impl Design {
         Some(ClaimedBound {
             q: rows_to_matrix(info.q.as_ref()?),
             h: info.h,
-            split: info.split.as_deref().and_then(|s| {
-                [Split::AsWritten, Split::Symmetric]
-                    .into_iter()
-                    .find(|v| v.name() == s)
-            }),
+            split: info.split,
         })
     }
 
@@ -537,7 +714,7 @@ impl Design {
             solver: SolverInfo::default(),
             seconds_total: 0.0,
             search: Vec::new(),
-            notes: Vec::new(),
+            notes: Notes::default(),
             summary: String::new(),
             state_bound: None,
             output_route: None,
@@ -552,6 +729,51 @@ impl Design {
             sample: None,
             global: false,
         }
+    }
+
+    /// The part of a report a re-check reads: P, L_l, α, γ, the mode, the
+    /// model's name and the representation the gains were designed in
+    /// (split, conditions, skew and cube slacks, the state bound's Q with
+    /// its h and split, output route, `max_gain`, the sample period).
+    /// Everything the report says about itself (verdict, margins, data
+    /// checks, σ and sampling figures, search, notes) is dropped, to be
+    /// recomputed from the model as it is now (docs/schema.md, "What a
+    /// report may claim").
+    pub fn into_claim(self) -> Design {
+        let sample = self
+            .sample
+            .map(|s| crate::certificate::sampling::SampleInfo::new(s.h, self.alpha));
+        let mut d = Design::claimed(
+            &self.model,
+            self.mode,
+            self.alpha,
+            self.gamma,
+            self.p,
+            self.l,
+        );
+        d.split = self.split;
+        d.conditions = self.conditions;
+        d.skew = self.skew;
+        d.cube = self.cube;
+        d.max_gain = self.max_gain;
+        d.output_route = self.output_route;
+        d.sample = sample;
+        d.state_bound = self
+            .state_bound
+            .map(|b| crate::model::state_bound::StateBoundInfo {
+                source: crate::vocab::BoundSource::Auto,
+                q: b.q,
+                h: b.h,
+                h_fixed: false,
+                gamma_max: None,
+                gamma_upper: None,
+                split: b.split,
+                check: None,
+                solves: 0,
+                seconds: 0.0,
+                notes: Vec::new(),
+            });
+        d
     }
 
     /// JSON text (pretty-printed).

@@ -281,3 +281,36 @@ pub mod mode_serde {
             })
     }
 }
+
+/// (De)serialises the split of a state bound's invariance check (a
+/// report's `state_bound.split`): `null`, "as_written" or "symmetric".
+pub mod bound_split_serde {
+    use qpv_dsl::Split;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Writes the split's name, or `null`.
+    pub fn serialize<S: Serializer>(m: &Option<Split>, s: S) -> Result<S::Ok, S::Error> {
+        match m {
+            Some(m) => s.serialize_str(m.name()),
+            None => s.serialize_none(),
+        }
+    }
+
+    /// Reads `null`, "as_written" or "symmetric" (the only representations
+    /// a bound's invariance is certified with).
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Split>, D::Error> {
+        let Some(s) = Option::<String>::deserialize(d)? else {
+            return Ok(None);
+        };
+        [Split::AsWritten, Split::Symmetric]
+            .into_iter()
+            .find(|v| v.name() == s)
+            .map(Some)
+            .ok_or_else(|| {
+                serde::de::Error::custom(format!(
+                    "`state_bound.split` is {s:?}: expected \"as_written\" or \"symmetric\" (the \
+                     representation of N_k the bound's invariance was certified with)"
+                ))
+            })
+    }
+}

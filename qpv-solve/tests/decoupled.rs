@@ -72,6 +72,7 @@ fn compare(
     assert!(
         dec.notes
             .iter()
+            .map(ToString::to_string)
             .any(|n| n.contains("conditions = decoupled")),
         "{:?}",
         dec.notes

@@ -55,10 +55,15 @@ fn paper_mode_published_point_satisfies_printed_conditions() {
     let s4 = &d.data_checks["S4"];
     assert!((s4.value - 4.48).abs() < 1e-9, "S4 value {}", s4.value);
     assert!(!s4.passed && !s4.required);
-    assert!(d.notes.iter().any(|n| n.contains("certifies nothing")));
     assert!(d
         .notes
         .iter()
+        .map(ToString::to_string)
+        .any(|n| n.contains("certifies nothing")));
+    assert!(d
+        .notes
+        .iter()
+        .map(ToString::to_string)
         .any(|n| n.contains("violated assumption (15)/(S4)") && n.contains("4.48")));
     assert!(d.summary.contains("certifies nothing"));
     // The independent checker agrees from the JSON alone.
@@ -217,7 +222,7 @@ fn sound_mode_gamma_search_optimum() {
         (g.local_maxima[0].gamma - d.gamma).abs() <= 1e-12,
         "the best local maximum is the reported γ"
     );
-    assert!(d.notes.contains(&g.statement()), "{:?}", d.notes);
+    assert!(d.notes.contains(&g.statement().into()), "{:?}", d.notes);
     let v: serde_json::Value = serde_json::from_str(&d.to_json()).unwrap();
     assert_eq!(v["gamma_search"]["grid_points"], g.grid_points);
     println!(
@@ -257,6 +262,7 @@ fn fixed_alpha_with_gamma_search() {
     assert!(d
         .notes
         .iter()
+        .map(ToString::to_string)
         .any(|n| n.contains("exceeds the best certified")));
 }
 
@@ -272,7 +278,11 @@ fn unknown_solver_status_counts_only_through_the_certificate() {
         let d = design(&model, &fixed(10.0, 0.1889, Mode::Sound), &settings).unwrap();
         assert_eq!(d.solver.status, Status::Unknown, "{:?}", d.solver);
         assert_eq!(d.solver.detail, "MaxIterations");
-        assert!(d.notes.iter().any(|n| n.contains("unknown status")));
+        assert!(d
+            .notes
+            .iter()
+            .map(ToString::to_string)
+            .any(|n| n.contains("unknown status")));
         // An unfinished solve may still return a point that passes the
         // independent certificate; feasible is exactly "the certificate passed".
         let passed = !d.p.is_empty() && recheck_json(&model, &d).passed;
@@ -326,7 +336,11 @@ fn request_errors() {
     // Paper mode runs without Q; (S4) is then reported as not checked.
     let d = design(&no_q, &fixed(10.0, 0.4, Mode::Paper), &s).unwrap();
     assert!(d.feasible && d.data_checks.is_empty());
-    assert!(d.notes.iter().any(|n| n.contains("not checked")));
+    assert!(d
+        .notes
+        .iter()
+        .map(ToString::to_string)
+        .any(|n| n.contains("not checked")));
     // Decoupled conditions validate the request the same way.
     let mut dec = fixed(10.0, 1.5, Mode::Sound);
     dec.conditions = Conditions::Decoupled;
@@ -470,6 +484,40 @@ fn a_fixed_request_falls_back_to_the_alpha_search_at_its_gamma() {
         "the regularised solve itself fails here"
     );
     assert!(d.search.iter().any(|s| s.phase == "bisect" && s.certified));
-    assert!(d.notes.iter().any(|n| n.contains("the α search at this γ")));
+    assert!(d
+        .notes
+        .iter()
+        .map(ToString::to_string)
+        .any(|n| n.contains("the α search at this γ")));
     assert!(recheck_json(&model, &d).passed);
+}
+
+/// Notes are data: a structured note is written as its sentence (the
+/// report keeps its form), read back as that sentence, and equal to it.
+#[test]
+fn notes_are_written_as_their_sentences_and_read_back_equal() {
+    use qpv_solve::report::Note;
+    let mut d = Design::claimed("m", Mode::Sound, 1.0, 0.5, vec![vec![1.0]], vec![]);
+    d.notes.push(Note::Rejected { count: 2 });
+    d.notes.push(Note::UnknownStatus {
+        count: 1,
+        solves: 7,
+        kinds: vec!["MaxIterations".into()],
+    });
+    d.notes.push("a remark");
+    assert!(d.notes[0].is_search_log() && !d.notes[2].is_search_log());
+    let v: serde_json::Value = serde_json::from_str(&d.to_json()).unwrap();
+    assert_eq!(
+        v["notes"][0],
+        "2 solved points failed the independent certificate and were rejected"
+    );
+    assert_eq!(
+        v["notes"][1],
+        "1 of 7 solves ended with an unknown status (MaxIterations): neither feasible nor \
+         infeasible, counted as not certified"
+    );
+    assert_eq!(v["notes"][2], "a remark");
+    let back = Design::from_json(&d.to_json()).unwrap();
+    assert_eq!(back.notes, d.notes);
+    assert!(matches!(back.notes[0], Note::Text(_)));
 }

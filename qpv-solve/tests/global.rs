@@ -175,9 +175,13 @@ fn a_given_region_and_state_bound_are_reported_unused() {
     assert_eq!(prob.n_full_rate_blocks(), 32);
     let d = design(&m, &m.designs[0], &Settings::default()).unwrap();
     assert!(d.certifies && d.global, "{}", d.summary);
-    assert!(d.notes.iter().any(|n| n.contains("region is not used")
-        && n.contains("state bound is not used")
-        && n.contains("γ = 0.3 is not used")));
+    assert!(d
+        .notes
+        .iter()
+        .map(ToString::to_string)
+        .any(|n| n.contains("region is not used")
+            && n.contains("state bound is not used")
+            && n.contains("γ = 0.3 is not used")));
 }
 
 #[test]

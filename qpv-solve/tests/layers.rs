@@ -123,7 +123,6 @@ const OTHERS: &[Crate] = &[
             ("cli::input", 1),
             ("cli::schema", 2),
             ("cli::signal", 2),
-            ("cli::noisy", 2),
             ("cli::vertices", 3),
             ("cli::design", 3),
             ("cli::simulate", 3),

@@ -60,6 +60,7 @@ fn default_alpha_max_is_within_one_percent_with_a_smaller_gain() {
     assert!(d
         .notes
         .iter()
+        .map(ToString::to_string)
         .any(|n| n.contains("of the certified supremum")));
     assert!(d
         .search
@@ -180,6 +181,7 @@ fn an_unreachable_gain_bound_says_the_smallest_certified_gain() {
     let note = d
         .notes
         .iter()
+        .map(ToString::to_string)
         .find(|n| n.contains("max_gain = 0.001 is not reachable"))
         .unwrap_or_else(|| panic!("{:?}", d.notes));
     assert!(note.contains("max ‖L_l‖₂ ="), "{note}");

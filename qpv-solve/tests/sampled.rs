@@ -193,6 +193,7 @@ fn a_rate_beyond_the_sample_period_says_what_certifies_there() {
     let note = d
         .notes
         .iter()
+        .map(ToString::to_string)
         .find(|n| n.starts_with("not certified at h = 3e-2 s"))
         .unwrap_or_else(|| panic!("{:?}", d.notes));
     let key = "the largest α certified at this h and γ = 0.188980 is ";

@@ -5,7 +5,8 @@ use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{PolytopicModel, StateBound, Vertex};
 use qpv_solve::conditions::reference::{box_region, names, paper_a, paper_model, paper_n, param};
 use qpv_solve::simulate::{
-    observer_derivative, plant_derivative, plant_output, simulate, Scenario, Signal, SimError,
+    observer_derivative, plant_derivative, plant_output, simulate, simulate_each, MeasurementNoise,
+    NoiseEnvelope, Scenario, Signal, SimError,
 };
 
 /// A scalar model x' = a(θ) x + b u, y = x, with θ ∈ [0, 1] and
@@ -413,4 +414,101 @@ fn every_example_model_runs_its_default_scenario() {
             }
         }
     }
+}
+
+/// The streamed run hands out exactly the rows `simulate` records, and a
+/// callback that says stop ends the run there.
+#[test]
+fn the_streamed_run_is_the_recorded_one() {
+    let model = paper_model();
+    let gains = vec![DMatrix::from_element(3, 2, 0.5); model.nv()];
+    let mut sc = Scenario::paper(&model);
+    sc.t_end = 0.3;
+    let traj = simulate(&model, &gains, &sc).unwrap();
+    let mut rows = Vec::new();
+    let diverged = simulate_each(&model, &gains, &sc, None, &mut |r| {
+        rows.push((
+            r.t,
+            r.x.to_vec(),
+            r.xhat.to_vec(),
+            r.mu.to_vec(),
+            r.error_norm,
+        ));
+        true
+    })
+    .unwrap();
+    assert_eq!(diverged, traj.diverged_at);
+    assert_eq!(rows.len(), traj.len());
+    for (i, (t, x, xhat, mu, e)) in rows.iter().enumerate() {
+        assert_eq!(*t, traj.t[i]);
+        assert_eq!(x, &traj.x[i]);
+        assert_eq!(xhat, &traj.xhat[i]);
+        assert_eq!(mu, &traj.mu[i]);
+        assert_eq!(*e, traj.error_norm[i]);
+    }
+    let mut seen = 0;
+    simulate_each(&model, &gains, &sc, None, &mut |_| {
+        seen += 1;
+        seen < 5
+    })
+    .unwrap();
+    assert_eq!(seen, 5);
+}
+
+/// Measurement noise has norm ν on its outputs and is zero elsewhere; the
+/// same seed gives the same noise, and the observer feels it.
+#[test]
+fn measurement_noise_has_its_amplitude_on_its_outputs() {
+    let mut a = MeasurementNoise::new(7, 0.3, vec![1, 2]);
+    let mut b = MeasurementNoise::new(7, 0.3, vec![1, 2]);
+    for _ in 0..100 {
+        let v = a.sample(4);
+        assert_eq!(v, b.sample(4));
+        assert!(v[0] == 0.0 && v[3] == 0.0, "{v:?}");
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        assert!((norm - 0.3).abs() < 1e-12, "{norm}");
+    }
+    let model = paper_model();
+    let gains = vec![DMatrix::from_element(3, 2, 0.5); model.nv()];
+    let mut sc = Scenario::paper(&model);
+    sc.t_end = 0.1;
+    let clean = simulate(&model, &gains, &sc).unwrap();
+    let mut last = 0.0;
+    let mut noise = MeasurementNoise::new(1, 1e-2, vec![0, 1]);
+    simulate_each(&model, &gains, &sc, Some(&mut noise), &mut |r| {
+        last = r.error_norm;
+        true
+    })
+    .unwrap();
+    let clean_last = *clean.error_norm.last().unwrap();
+    assert!(last != clean_last, "{last} vs {clean_last}");
+}
+
+/// The certified bound under noise starts at √(V(0)/λ_min(P)) and tends to
+/// ν times the bound's error bound per unit amplitude.
+#[test]
+fn the_noise_envelope_runs_from_v0_to_the_ultimate_bound() {
+    let p = DMatrix::from_diagonal(&DVector::from_vec(vec![2.0, 4.0]));
+    let bound = qpv_solve::certificate::noise::NoiseBound {
+        sigma: 1.0,
+        max_amplitude: 1.0,
+        error_bound: 0.5,
+        per_state: vec![0.5, 0.25],
+        noisy_outputs: vec!["y".into()],
+        disturbances: 0,
+        check: qpv_solve::certificate::noise::NoiseCheck {
+            margin: 1.0,
+            guard: 0.0,
+            passed: true,
+            worst_at: String::new(),
+            count: 1,
+        },
+    };
+    let env = NoiseEnvelope::new(&p, &[0.0, 1.0], 3.0, &bound, 0.2).unwrap();
+    // V(0) = 4, λ_min = 2: √2 at t = 0; ν · 0.5 = 0.1 at the end.
+    assert!((env.at(0.0) - 2f64.sqrt()).abs() < 1e-15);
+    assert!((env.ultimate() - 0.1).abs() < 1e-15);
+    assert!((env.at(50.0) - 0.1).abs() < 1e-12);
+    assert!(env.at(0.1) < env.at(0.0) && env.at(0.1) > env.at(1.0));
+    assert!(NoiseEnvelope::new(&(-p), &[0.0, 1.0], 3.0, &bound, 0.2).is_none());
 }

@@ -43,7 +43,7 @@ fn paper_auto_bound_beats_the_papers_q() {
     assert!((qpv_solve::conditions::gamma_max(&model).unwrap() - g).abs() <= 1e-12 * g);
     // re-check independently from Q alone
     let w = q.clone().cholesky().unwrap().inverse();
-    let split = if info.split.as_deref() == Some("symmetric") {
+    let split = if info.split == Some(qpv_dsl::Split::Symmetric) {
         Split::Symmetric
     } else {
         Split::AsWritten
@@ -209,7 +209,11 @@ fn design_uses_and_reports_the_computed_bound() {
     assert_eq!(sb.source, "auto");
     assert!(sb.gamma_max.unwrap() > 0.23 && sb.check.as_ref().unwrap().passed);
     assert!(d.data_checks["S4"].passed);
-    assert!(d.notes.iter().any(|n| n.contains("state_bound auto")));
+    assert!(d
+        .notes
+        .iter()
+        .map(ToString::to_string)
+        .any(|n| n.contains("state_bound auto")));
     let with_paper_q = design(&paper_model(), &req, &Settings::default()).unwrap();
     assert!(!with_paper_q.feasible && !with_paper_q.data_checks["S4"].passed);
     // re-check and falsify against the auto model use the design's Q

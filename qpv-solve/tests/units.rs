@@ -83,6 +83,7 @@ fn rescaled_models_certify_the_same_alpha() {
             !base
                 .notes
                 .iter()
+                .map(ToString::to_string)
                 .any(|n| n.contains("balanced coordinates")),
             "{}: a well-scaled model is solved as written",
             m.name
@@ -105,7 +106,10 @@ fn rescaled_models_certify_the_same_alpha() {
                 base.alpha
             );
             assert!(
-                d.notes.iter().any(|n| n.contains("balanced coordinates")),
+                d.notes
+                    .iter()
+                    .map(ToString::to_string)
+                    .any(|n| n.contains("balanced coordinates")),
                 "{} at {s:?}: {:?}",
                 m.name,
                 d.notes

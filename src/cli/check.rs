@@ -6,43 +6,48 @@
 //! `design` blocks; a paper-mode check whose conditions hold exits 3
 //! (a reproduction, not a certificate).
 
-use super::gains::{parse_mode_name, read_gains, Gains};
+use super::gains::read_claim;
+use super::input::by_name;
 use super::input::{check_json_target, emit_json, exit, load_model_for, print_text, CliError};
 use super::schema::CheckOutput;
 use qpv_dsl::diagnostic::fmt_num;
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Model, OutputRoute, StateBound};
 use qpv_solve::report::Design;
 use qpv_solve::{Certificate, SolveError};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// The flags of `qpv check` (each `None` when not given).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Flags<'a> {
-    /// `--mode`.
-    pub mode: Option<&'a str>,
-    /// `--alpha`.
+/// The options of `qpv check`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// The model file (.qpv).
+    pub file: PathBuf,
+    /// JSON file with `P` (rows) and `L` (per vertex, NX rows of NY).
+    #[arg(long)]
+    pub gains: PathBuf,
+    /// Which model of the file.
+    #[arg(long)]
+    pub model: Option<String>,
+    /// Condition set to check: sound or paper (default: the gains
+    /// file's `mode`, else sound; never the model's design blocks).
+    /// Paper mode certifies nothing: it exits 3 when its conditions hold.
+    #[arg(long, value_parser = by_name(&Mode::ALL, Mode::name))]
+    pub mode: Option<Mode>,
+    /// Decay rate to check (default: the gains file's `alpha`, else the
+    /// first of the model's design blocks of the checked mode that fixes it).
+    #[arg(long, allow_negative_numbers = true)]
     pub alpha: Option<f64>,
-    /// `--gamma`.
+    /// Region scaling to check (default: the gains file's `gamma`, else
+    /// the first of the model's design blocks of the checked mode that fixes it).
+    #[arg(long, allow_negative_numbers = true)]
     pub gamma: Option<f64>,
-    /// `--sample`: check the discrete decrease at this period.
+    /// Check the gains at the sample period H seconds: the discrete
+    /// decrease S5d of the Euler-stepped observer in place of S5
+    /// (default: the gains file's `sample.h`, else continuous time).
+    #[arg(long, allow_negative_numbers = true)]
     pub sample: Option<f64>,
-}
-
-/// The mode to check and where it came from: `--mode`, else the gains
-/// file's `mode`, else sound.
-fn choose_mode(
-    flag: Option<&str>,
-    g: &Gains,
-    path: &Path,
-) -> Result<(Mode, &'static str), CliError> {
-    if let Some(m) = flag {
-        return parse_mode_name(m, "--mode").map(|m| (m, "--mode"));
-    }
-    match g.mode.as_deref() {
-        Some(m) => parse_mode_name(m, &format!("{}: the gains file's `mode`", path.display()))
-            .map(|m| (m, "gains file")),
-        None => Ok((Mode::Sound, "default")),
-    }
+    /// Write the JSON report to this file (`-` for stdout).
+    #[arg(long)]
+    pub json: Option<String>,
 }
 
 /// A value of α or γ to check and where it came from: the flag, else the
@@ -161,21 +166,20 @@ fn from_blocks(
 }
 
 /// Runs `qpv check`.
-pub fn run(
-    file: &Path,
-    gains: &Path,
-    model_name: Option<&str>,
-    flags: Flags,
-    json: Option<&str>,
-) -> Result<i32, CliError> {
-    check_json_target(json, &[file, gains])?;
-    let g = read_gains(gains)?;
-    let (_, model) = load_model_for(file, model_name, gains, g.model.as_deref())?;
-    let (mode, mode_source) = choose_mode(flags.mode, &g, gains)?;
+pub fn run(o: &Options) -> Result<i32, CliError> {
+    let (gains, json) = (o.gains.as_path(), o.json.as_deref());
+    check_json_target(json, &[&o.file, gains])?;
+    let claim = read_claim(gains, "gains file")?;
+    let (_, model) = load_model_for(&o.file, o.model.as_deref(), gains, claim.model())?;
+    let (mode, mode_source) = match (o.mode, claim.mode) {
+        (Some(m), _) => (m, "--mode"),
+        (None, Some(m)) => (m, "gains file"),
+        (None, None) => (Mode::Sound, "default"),
+    };
     let (alpha, alpha_source) = choose_value(
         "alpha",
-        flags.alpha,
-        g.alpha,
+        o.alpha,
+        claim.alpha,
         from_blocks(&model, mode, |d| match d.alpha {
             AlphaSpec::Fixed(a) => Some(a),
             AlphaSpec::Max => None,
@@ -185,8 +189,8 @@ pub fn run(
     )?;
     let (gamma, gamma_source) = choose_value(
         "gamma",
-        flags.gamma,
-        g.gamma,
+        o.gamma,
+        claim.gamma,
         from_blocks(&model, mode, |d| match d.gamma {
             GammaSpec::Fixed(g) => Some(g),
             GammaSpec::Search => None,
@@ -203,10 +207,10 @@ pub fn run(
     )?;
     // The same plant either way; the conditions are checked in the
     // representation the gains were designed with (default: the mode's).
-    let split = g.split(mode, gains)?;
-    let claimed_h = g.sample.as_ref().map(|s| s.h);
-    let mut design = g.design(&model.name, (mode, alpha, gamma, split), gains)?;
-    let sample = match (flags.sample, claimed_h) {
+    let mut design = claim.at(mode, alpha, gamma);
+    let split = design.split;
+    let claimed_h = design.sample.as_ref().map(|s| s.h);
+    let sample = match (o.sample, claimed_h) {
         (Some(h), _) if !positive(h) => {
             return Err(CliError::Input(format!(
                 "--sample {}: expected a positive sample period in seconds",
@@ -243,8 +247,8 @@ pub fn run(
         "check of {} against {} mode ({}) at alpha = {} ({alpha_source}), gamma = {} ({gamma_source}):\n",
         gains.display(),
         match mode {
-            Mode::Sound => "sound",
-            Mode::Paper => "paper (reproduction: certifies nothing)",
+            Mode::Sound => mode.name().to_string(),
+            Mode::Paper => format!("{} (reproduction: certifies nothing)", mode.name()),
         },
         match mode_source {
             "default" => "the default; --mode paper checks a reproduction",

@@ -9,32 +9,39 @@
 //! f32` the constants are rounded to `float` first and the rounded P and
 //! L_l are what is certified; if they fail, nothing is written.
 
-use super::gains::{read_gains, Gains};
+use super::gains::read_claim;
 use super::input::{exit, load_model, load_model_for, CliError};
 use qpv_codegen::c::{CModel, Float};
 use qpv_codegen::{CertifiedDesign, Figures};
 use qpv_dsl::{Mode, Model, OutputRoute};
 use qpv_solve::export::{self, BakeError, Baked};
 use qpv_solve::Design;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The options of `qpv codegen`.
-#[derive(Debug, Clone, Copy)]
-pub struct Options<'a> {
-    /// The model file.
-    pub file: &'a Path,
-    /// `--model`.
-    pub model: Option<&'a str>,
-    /// `--lang` (only `c`).
-    pub lang: &'a str,
-    /// `--float`: `f64` (default) or `f32`.
-    pub float: Option<&'a str>,
-    /// `--design N`: the 1-based design block (default: the first sound one).
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// The model file (.qpv).
+    pub file: PathBuf,
+    /// Target language: `c`.
+    #[arg(long, default_value = "c")]
+    pub lang: String,
+    /// Number type of the generated code: `f64` (default) or `f32`.
+    #[arg(long)]
+    pub float: Option<String>,
+    /// The design block to export, 1-based (default: the first sound one).
+    #[arg(long)]
     pub design: Option<usize>,
-    /// `--gains`: a report whose P, L_l are re-certified instead of solving.
-    pub gains: Option<&'a Path>,
-    /// `--out`: the directory the files are written to.
-    pub out: &'a Path,
+    /// Export these gains (a `qpv design --json` report) instead of
+    /// solving; they are re-certified first.
+    #[arg(long)]
+    pub gains: Option<PathBuf>,
+    /// Which model of the file.
+    #[arg(long)]
+    pub model: Option<String>,
+    /// The directory the files are written to.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 /// The design to export, before it is baked, with words on where it came
@@ -53,14 +60,14 @@ struct Source {
 }
 
 /// Runs `qpv codegen`.
-pub fn run(o: Options<'_>) -> Result<i32, CliError> {
+pub fn run(o: &Options) -> Result<i32, CliError> {
     if o.lang != "c" {
         return Err(CliError::Input(format!(
             "--lang {}: the only target language is `c` (Rust observers come from the `qpv!` macro)",
             o.lang
         )));
     }
-    let flag = match o.float {
+    let flag = match o.float.as_deref() {
         None => None,
         Some("f64") => Some(Float::F64),
         Some("f32") => Some(Float::F32),
@@ -70,11 +77,11 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             )))
         }
     };
-    let (model, source) = match o.gains {
-        Some(g) => from_gains(o.file, o.model, g, o.design)?,
+    let (model, source) = match &o.gains {
+        Some(g) => from_gains(&o.file, o.model.as_deref(), g, o.design)?,
         None => {
-            let (_, model) = load_model(o.file, o.model)?;
-            let n = match solved(o.file, &model, o.design)? {
+            let (_, model) = load_model(&o.file, o.model.as_deref())?;
+            let n = match solved(&o.file, &model, o.design)? {
                 Ok(n) => n,
                 Err(msg) => {
                     eprintln!("{msg}\nnothing written: only certified designs are exported");
@@ -125,7 +132,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     let f = baked.figures();
     let mut design = CertifiedDesign {
         request: source.request.clone(),
-        mode: "sound".into(),
+        mode: Mode::Sound.name().into(),
         certifies: true,
         alpha: d.alpha,
         gamma: d.gamma,
@@ -176,7 +183,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         float,
         notes,
     });
-    std::fs::create_dir_all(o.out)
+    std::fs::create_dir_all(&o.out)
         .map_err(|e| CliError::Input(format!("--out {}: {e}", o.out.display())))?;
     let write = |name: String, text: &str| -> Result<std::path::PathBuf, CliError> {
         let path = o.out.join(name);
@@ -304,9 +311,9 @@ fn from_gains(
             "--design and --gains exclude each other: the gains file is the design".into(),
         ));
     }
-    let g: Gains = read_gains(gains)?;
-    let (_, model) = load_model_for(file, model_flag, gains, g.model.as_deref())?;
-    if g.mode.as_deref() == Some("paper") {
+    let claim = read_claim(gains, "gains file")?;
+    let (_, model) = load_model_for(file, model_flag, gains, claim.model())?;
+    if claim.mode == Some(Mode::Paper) {
         return Err(CliError::Input(format!(
             "{}: a paper-mode report certifies nothing and is never exported",
             gains.display()
@@ -320,14 +327,11 @@ fn from_gains(
             ))
         })
     };
-    let (alpha, gamma) = (need(g.alpha, "alpha")?, need(g.gamma, "gamma")?);
-    let split = g.split(Mode::Sound, gains)?;
-    let sample = g.sample;
-    let mut design = g.design(&model.name, (Mode::Sound, alpha, gamma, split), gains)?;
-    design.sample = sample;
+    let (alpha, gamma) = (need(claim.alpha, "alpha")?, need(claim.gamma, "gamma")?);
     // The observer model the claim belongs to, built as `qpv check` builds
     // it (split, verified state bound, output route, skew slack): a file
     // that does not fit the model is bad input.
+    let design = claim.at(Mode::Sound, alpha, gamma);
     design
         .observer_model(&model.polytopic())
         .map_err(|e| CliError::Input(format!("{}: {e}", gains.display())))?;

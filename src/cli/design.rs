@@ -1,64 +1,92 @@
 //! `qpv design`: parse, derive, solve, certify, and report.
 
+use super::input::{by_name, parse_alpha, parse_gamma};
 use super::input::{
     check_json_target, emit_json, exit, fmt_matrix, load_model, print_text, CliError,
 };
 use super::schema::{DesignOutput, NotRun};
 use qpv_dsl::{
-    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, Model, OutputFilter, OutputRoute, Split,
+    AlphaSpec, Clash, Conditions, DesignRequest, GammaSpec, Mode, Model, NoiseObjective,
+    OutputFilter, OutputRoute, Split,
 };
-use qpv_solve::noise::NoiseChannels;
 use qpv_solve::output_filter::OutputRouteInfo;
-use qpv_solve::report::Design;
+use qpv_solve::report::{Design, Note};
 use qpv_solve::state_bound::StateBoundInfo;
-use std::path::Path;
+use qpv_solve::vocab::{BoundSource, Phase};
+use std::path::PathBuf;
 
-/// Parses `--mode`.
-pub fn parse_mode(s: &str) -> Result<Mode, CliError> {
-    match s {
-        "sound" => Ok(Mode::Sound),
-        "paper" => Ok(Mode::Paper),
-        _ => Err(CliError::Input(format!(
-            "--mode {s:?}: expected `sound` or `paper`"
-        ))),
-    }
-}
-
-fn parse_alpha(s: &str) -> Result<AlphaSpec, CliError> {
-    if s == "max" {
-        return Ok(AlphaSpec::Max);
-    }
-    match s.parse::<f64>() {
-        Ok(a) if a.is_finite() && a > 0.0 => Ok(AlphaSpec::Fixed(a)),
-        _ => Err(CliError::Input(format!(
-            "--alpha {s:?}: expected a positive number or `max`"
-        ))),
-    }
-}
-
-/// Parses `--gamma`.
-pub(super) fn parse_gamma(s: &str) -> Result<GammaSpec, CliError> {
-    if s == "search" {
-        return Ok(GammaSpec::Search);
-    }
-    match s.parse::<f64>() {
-        Ok(g) if g > 0.0 && g < 1.0 => Ok(GammaSpec::Fixed(g)),
-        _ => Err(CliError::Input(format!(
-            "--gamma {s:?}: expected a number in (0, 1) or `search`"
-        ))),
-    }
-}
-
-/// Parses `--split`.
-pub(super) fn parse_split(s: &str) -> Result<Split, CliError> {
-    [Split::AsWritten, Split::Symmetric, Split::SkewSlack]
-        .into_iter()
-        .find(|v| v.name() == s)
-        .ok_or_else(|| {
-            CliError::Input(format!(
-                "--split {s:?}: expected `as_written`, `symmetric` or `skew_slack`"
-            ))
-        })
+/// The options of `qpv design`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// The model file (.qpv).
+    pub file: PathBuf,
+    /// Which model of the file (default: the only one, or the first).
+    #[arg(long)]
+    pub model: Option<String>,
+    /// Condition set: sound (default, certifies) or paper (reproduction only).
+    #[arg(long, value_parser = by_name(&Mode::ALL, Mode::name))]
+    pub mode: Option<Mode>,
+    /// Decay rate: a number or `max`.
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_alpha)]
+    pub alpha: Option<AlphaSpec>,
+    /// Region scaling: a number in (0,1) or `search`.
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_gamma)]
+    pub gamma: Option<GammaSpec>,
+    /// Representation of N_k, M_k: `as_written`, `symmetric` or
+    /// `skew_slack` (symmetric plus a searched skew-symmetric slack;
+    /// sound mode) (default: symmetric in sound mode, as_written in
+    /// paper mode). Overrides the model's design blocks.
+    #[arg(long, value_parser = by_name(&Split::ALL, Split::name))]
+    pub split: Option<Split>,
+    /// Rate conditions solved: `full` (all p² vertex pairs),
+    /// `decoupled` (one slack per θ-vertex, 2p blocks; the certificate
+    /// still checks all pairs), `cube` (box or zonotope regions: one
+    /// pair of slacks per generator, certified on the slack
+    /// inequalities) or `auto` (chosen by size; the default, the report
+    /// says which). Overrides the model's design blocks.
+    #[arg(long, value_parser = by_name(&Conditions::ALL, Conditions::name))]
+    pub conditions: Option<Conditions>,
+    /// How a θ-dependent output map is handled: `double_sum` (the
+    /// double-sum relaxation) or `filter` (output post-filter
+    /// augmentation). Overrides the model's design blocks.
+    #[arg(long = "output-route", value_parser = ["double_sum", "filter"])]
+    pub output_route: Option<String>,
+    /// Pole a of the output filter x_y' = −a x_y + b y (implies
+    /// `--output-route filter`; default 50).
+    #[arg(long = "filter-pole", allow_negative_numbers = true)]
+    pub filter_pole: Option<f64>,
+    /// Gain b of the output filter (implies `--output-route filter`;
+    /// default: the pole, unit DC gain).
+    #[arg(long = "filter-gain", allow_negative_numbers = true)]
+    pub filter_gain: Option<f64>,
+    /// Design objective for sensor noise: `min` minimises the certified
+    /// noise gain σ at the requested (fixed) alpha and gamma (sound
+    /// mode); `free` (default) is the ordinary design. Every certified
+    /// sound design reports its noise bound either way.
+    #[arg(long, value_parser = by_name(&NoiseObjective::ALL, NoiseObjective::name))]
+    pub noise: Option<NoiseObjective>,
+    /// With alpha = max: return the smallest-gain design certified at
+    /// alpha >= (1 - WITHIN) x the certified supremum (a fraction, 0 to
+    /// 0.5; default 0.01; 0 returns the fastest point found).
+    #[arg(long, allow_negative_numbers = true)]
+    pub within: Option<f64>,
+    /// Bound every gain: ||L_l||_2 <= G at every vertex, imposed in the
+    /// SDP and checked by the certificate from the reported gains.
+    #[arg(long = "max-gain", allow_negative_numbers = true)]
+    pub max_gain: Option<f64>,
+    /// Design at the sample period H seconds (e.g. 1e-4 for 10 kHz):
+    /// the observer stepped by explicit Euler at H is certified by the
+    /// discrete decrease V(e_k+1) <= (1 - H alpha) V(e_k) in place of
+    /// the continuous rate condition (sound mode, full conditions).
+    #[arg(long, allow_negative_numbers = true)]
+    pub sample: Option<f64>,
+    /// The largest alpha the search tries (default 1e6): a design that
+    /// reaches it says so.
+    #[arg(long = "alpha-cap", allow_negative_numbers = true)]
+    pub alpha_cap: Option<f64>,
+    /// Write the JSON report to this file (`-` for stdout).
+    #[arg(long)]
+    pub json: Option<String>,
 }
 
 /// Parses `--output-route`, `--filter-pole` and `--filter-gain` (either
@@ -74,7 +102,8 @@ fn parse_route(
             "--filter-pole/--filter-gain need --output-route filter (not double_sum)".into(),
         )),
         Some("double_sum") => Ok(Some(OutputRoute::DoubleSum)),
-        Some("filter") | None if filter || route.is_some() => {
+        None if !filter => Ok(None),
+        _ => {
             let pole = pole.unwrap_or(OutputFilter::DEFAULT_POLE);
             let gain = gain.unwrap_or(pole);
             if !(pole.is_finite() && pole > 0.0) {
@@ -89,64 +118,6 @@ fn parse_route(
             }
             Ok(Some(OutputRoute::Filter(OutputFilter { pole, gain })))
         }
-        None => Ok(None),
-        Some(other) => Err(CliError::Input(format!(
-            "--output-route {other:?}: expected `double_sum` or `filter`"
-        ))),
-    }
-}
-
-/// Parses `--conditions`.
-fn parse_conditions(s: &str) -> Result<Conditions, CliError> {
-    Conditions::ALL
-        .into_iter()
-        .find(|c| c.name() == s)
-        .ok_or_else(|| {
-            CliError::Input(format!(
-                "--conditions {s:?}: expected `full`, `decoupled`, `cube` or `auto`"
-            ))
-        })
-}
-
-/// The design flags of `qpv design` (each `None` when not given).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Flags<'a> {
-    /// `--mode`.
-    pub mode: Option<&'a str>,
-    /// `--alpha`.
-    pub alpha: Option<&'a str>,
-    /// `--gamma`.
-    pub gamma: Option<&'a str>,
-    /// `--split`.
-    pub split: Option<&'a str>,
-    /// `--conditions`.
-    pub conditions: Option<&'a str>,
-    /// `--output-route`.
-    pub output_route: Option<&'a str>,
-    /// `--filter-pole`.
-    pub filter_pole: Option<f64>,
-    /// `--filter-gain`.
-    pub filter_gain: Option<f64>,
-    /// `--noise` (`min` or `free`).
-    pub noise: Option<&'a str>,
-    /// `--within`: the practical α = max's tolerance.
-    pub within: Option<f64>,
-    /// `--max-gain`: the bound on every ‖L_l‖₂.
-    pub max_gain: Option<f64>,
-    /// `--sample`: the sample period h of a sampled design.
-    pub sample: Option<f64>,
-    /// `--alpha-cap`: the largest α the search tries.
-    pub alpha_cap: Option<f64>,
-}
-
-/// Parses `--noise`: whether the design minimises the certified noise gain.
-pub(super) fn parse_noise(s: Option<&str>) -> Result<bool, CliError> {
-    match s {
-        None | Some("free") => Ok(false),
-        Some("min") => Ok(true),
-        Some(other) => Err(CliError::Input(format!(
-            "--noise {other:?}: expected `min` or `free`"
-        ))),
     }
 }
 
@@ -157,41 +128,11 @@ struct Planned {
     skip: Option<String>,
 }
 
-/// The requests to run: without `--mode`, `--alpha`, `--gamma`, the model's
-/// own `design` blocks (or α = max, γ = search, sound if it has none); with
-/// any of them, one request built from the flags alone, the unspecified
-/// ones taking those same defaults. `--split`, `--conditions` and the
-/// output-route flags then override that setting in every request they
-/// apply to; a request one does not apply to (`--split skew_slack` on a
-/// paper-mode request) is skipped, and it is an error if that leaves
-/// nothing to run.
-fn requests(model: &Model, f: Flags) -> Result<Vec<Planned>, CliError> {
-    let split = f.split.map(parse_split).transpose()?;
-    let conditions = f.conditions.map(parse_conditions).transpose()?;
-    let default = DesignRequest::default();
-    let reqs = if f.mode.is_none() && f.alpha.is_none() && f.gamma.is_none() {
-        if model.designs.is_empty() {
-            vec![default]
-        } else {
-            model.designs.clone()
-        }
-    } else {
-        let mut r = default;
-        if let Some(m) = f.mode {
-            r.mode = parse_mode(m)?;
-            r.split = Split::default_for(r.mode);
-        }
-        if let Some(a) = f.alpha {
-            r.alpha = parse_alpha(a)?;
-        }
-        if let Some(g) = f.gamma {
-            r.gamma = parse_gamma(g)?;
-        }
-        vec![r]
-    };
-    let route = parse_route(f.output_route, f.filter_pole, f.filter_gain)?;
-    let noise_min = parse_noise(f.noise)?;
-    if let Some(w) = f.within {
+/// The values of the flags that are numbers in a range, checked, and the
+/// two flags that exclude each other whatever the request.
+fn check_flags(o: &Options) -> Result<(), CliError> {
+    let noise_min = o.noise == Some(NoiseObjective::Min);
+    if let Some(w) = o.within {
         if !(0.0..=DesignRequest::MAX_WITHIN).contains(&w) {
             return Err(CliError::Input(format!(
                 "--within {w}: expected a fraction from 0 (the fastest point found) to {} (e.g. 0.01 for 1 %)",
@@ -199,7 +140,7 @@ fn requests(model: &Model, f: Flags) -> Result<Vec<Planned>, CliError> {
             )));
         }
     }
-    if let Some(g) = f.max_gain {
+    if let Some(g) = o.max_gain {
         if !(g.is_finite() && g > 0.0) {
             return Err(CliError::Input(format!(
                 "--max-gain {g}: expected a positive number (the bound on every ||L_l||_2)"
@@ -211,7 +152,7 @@ fn requests(model: &Model, f: Flags) -> Result<Vec<Planned>, CliError> {
             ));
         }
     }
-    if let Some(h) = f.sample {
+    if let Some(h) = o.sample {
         if !(h.is_finite() && h > 0.0) {
             return Err(CliError::Input(format!(
                 "--sample {h}: expected a positive sample period in seconds (e.g. 1e-4 for 10 kHz)"
@@ -223,112 +164,143 @@ fn requests(model: &Model, f: Flags) -> Result<Vec<Planned>, CliError> {
             ));
         }
     }
-    let plan: Vec<Planned> = reqs
-        .into_iter()
-        .map(|mut r| {
-            if noise_min && r.mode != Mode::Sound {
-                let skip = Some(
-                    "--noise min applies to sound-mode requests only (this one is paper mode)"
-                        .to_string(),
-                );
-                return Planned { request: r, skip };
-            }
-            if split == Some(Split::SkewSlack) && r.mode != Mode::Sound {
-                let skip = Some(
-                    "--split skew_slack applies to sound-mode requests only (this one is paper mode)"
-                        .to_string(),
-                );
-                return Planned { request: r, skip };
-            }
-            if let Some(s) = split {
-                r.split = s;
-            }
-            if let Some(c) = conditions {
-                r.conditions = c;
-            }
-            if let Some(o) = route {
-                r.output_route = o;
-            }
-            if let Some(g) = f.max_gain {
-                if r.mode != Mode::Sound || r.noise == qpv_dsl::NoiseObjective::Min {
-                    let skip = Some(
-                        "--max-gain applies to sound-mode requests without noise = min only"
-                            .to_string(),
-                    );
-                    return Planned { request: r, skip };
-                }
-                if r.split == Split::SkewSlack {
-                    let skip =
-                        Some("--max-gain does not apply to split = skew_slack".to_string());
-                    return Planned { request: r, skip };
-                }
-                r.max_gain = Some(g);
-            }
-            if let Some(w) = f.within {
-                if r.alpha != AlphaSpec::Max {
-                    let skip = Some(
-                        "--within applies to alpha = max requests only (this one has a fixed alpha)"
-                            .to_string(),
-                    );
-                    return Planned { request: r, skip };
-                }
-                r.within = w;
-            }
-            if let Some(h) = f.sample {
-                if let Some(why) = sample_clash(&r) {
-                    let skip = Some(format!("--sample does not apply here: {why}"));
-                    return Planned { request: r, skip };
-                }
-                r.sample = Some(h);
-            }
-            Planned {
-                request: r,
-                skip: None,
-            }
-        })
-        .collect();
-    if noise_min {
-        if let Some(p) = plan
-            .iter()
-            .find(|p| p.skip.is_none() && p.request.alpha == AlphaSpec::Max)
-        {
+    if let Some(cap) = o.alpha_cap {
+        if !(cap.is_finite() && cap > 0.0) {
             return Err(CliError::Input(format!(
-                "--noise min needs a fixed alpha ({}): alpha = max is the fastest design, not a \
-                 noise trade-off; give --alpha below the maximum, or sweep with `qpv tradeoff`",
-                describe_request(&p.request)
-            )));
-        }
-        if let Some(p) = plan
-            .iter()
-            .find(|p| p.skip.is_none() && p.request.split == Split::SkewSlack)
-        {
-            return Err(CliError::Input(format!(
-                "--noise min with split = skew_slack ({}): use --split symmetric or as_written",
-                describe_request(&p.request)
+                "--alpha-cap {cap}: expected a positive number (the largest alpha the search tries)"
             )));
         }
     }
+    Ok(())
+}
+
+/// The flag of `o` that made a request clash ([`DesignRequest::validate`]):
+/// the clash's first setting if a flag set it, else its second.
+fn culprit(clash: Clash, o: &Options) -> &'static str {
+    let noise = ("--noise min", o.noise == Some(NoiseObjective::Min));
+    let skew = ("--split skew_slack", o.split == Some(Split::SkewSlack));
+    let paper = ("--mode paper", o.mode == Some(Mode::Paper));
+    let (first, second) = match clash {
+        Clash::SkewSlackPaper => (skew, paper),
+        Clash::NoiseMinAlphaMax => (noise, ("--alpha max", o.alpha == Some(AlphaSpec::Max))),
+        Clash::NoiseMinPaper => (noise, paper),
+        Clash::NoiseMinSkewSlack => (noise, skew),
+        Clash::MaxGainNoiseMin => (("--max-gain", o.max_gain.is_some()), noise),
+        Clash::MaxGainSkewSlack => (("--max-gain", o.max_gain.is_some()), skew),
+        Clash::MaxGainPaper => (("--max-gain", o.max_gain.is_some()), paper),
+        Clash::SamplePaper
+        | Clash::SampleDecoupled
+        | Clash::SampleCube
+        | Clash::SampleNoiseMin
+        | Clash::SampleSkewSlack => (("--sample", o.sample.is_some()), noise),
+    };
+    if first.1 || !second.1 {
+        first.0
+    } else {
+        second.0
+    }
+}
+
+/// One request with the overrides of the flags applied: to run, or to
+/// skip (an override that does not apply to it), or an error (`--noise
+/// min` on a request it cannot answer).
+fn plan(
+    mut r: DesignRequest,
+    o: &Options,
+    route: Option<OutputRoute>,
+) -> Result<Planned, CliError> {
+    let skip = |r: DesignRequest, why: String| {
+        Ok(Planned {
+            request: r,
+            skip: Some(why),
+        })
+    };
+    if let Some(w) = o.within {
+        if r.alpha != AlphaSpec::Max {
+            return skip(
+                r,
+                "--within applies to alpha = max requests only (this one has a fixed alpha)".into(),
+            );
+        }
+        r.within = w;
+    }
+    if let Some(s) = o.split {
+        r.split = s;
+    }
+    if let Some(c) = o.conditions {
+        r.conditions = c;
+    }
+    if let Some(x) = route {
+        r.output_route = x;
+    }
+    if let Some(n) = o.noise {
+        r.noise = n;
+    }
+    if let Some(g) = o.max_gain {
+        r.max_gain = Some(g);
+    }
+    if let Some(h) = o.sample {
+        r.sample = Some(h);
+    }
+    match r.validate() {
+        Ok(()) => Ok(Planned {
+            request: r,
+            skip: None,
+        }),
+        Err(Clash::NoiseMinAlphaMax) => Err(CliError::Input(format!(
+            "--noise min needs a fixed alpha ({r}): alpha = max is the fastest design, not a \
+             noise trade-off; give --alpha below the maximum, or sweep with `qpv tradeoff`"
+        ))),
+        Err(Clash::NoiseMinSkewSlack) => Err(CliError::Input(format!(
+            "--noise min with split = skew_slack ({r}): use --split symmetric or as_written"
+        ))),
+        Err(clash) => {
+            let why = format!("{} does not apply here: {clash}", culprit(clash, o));
+            skip(r, why)
+        }
+    }
+}
+
+/// The requests to run: without `--mode`, `--alpha`, `--gamma`, the model's
+/// own `design` blocks (or α = max, γ = search, sound if it has none); with
+/// any of them, one request built from the flags alone, the unspecified
+/// ones taking those same defaults. The other flags then override their
+/// setting in every request; a request one does not apply to (the rules of
+/// [`DesignRequest::validate`]: `--split skew_slack` on a paper-mode
+/// request) is skipped, and it is an error if that leaves nothing to run.
+fn requests(model: &Model, o: &Options) -> Result<Vec<Planned>, CliError> {
+    check_flags(o)?;
+    let default = DesignRequest::default();
+    let reqs = if o.mode.is_none() && o.alpha.is_none() && o.gamma.is_none() {
+        if model.designs.is_empty() {
+            vec![default]
+        } else {
+            model.designs.clone()
+        }
+    } else {
+        let mut r = default;
+        if let Some(m) = o.mode {
+            r.mode = m;
+            r.split = Split::default_for(m);
+        }
+        if let Some(a) = o.alpha {
+            r.alpha = a;
+        }
+        if let Some(g) = o.gamma {
+            r.gamma = g;
+        }
+        vec![r]
+    };
+    let route = parse_route(o.output_route.as_deref(), o.filter_pole, o.filter_gain)?;
+    let plan: Vec<Planned> = reqs
+        .into_iter()
+        .map(|r| plan(r, o, route))
+        .collect::<Result<_, _>>()?;
     if plan.iter().all(|p| p.skip.is_some()) {
         let reason = plan.iter().find_map(|p| p.skip.as_deref()).unwrap_or("");
         return Err(CliError::Input(format!("nothing to run: {reason}")));
     }
     Ok(plan)
-}
-
-/// Why a request cannot be designed at a sample period (the same rules as
-/// the language's `sample = h`), if it cannot.
-fn sample_clash(r: &DesignRequest) -> Option<&'static str> {
-    if r.mode != Mode::Sound {
-        Some("the request is paper mode (the printed conditions have no discrete-time form)")
-    } else if matches!(r.conditions, Conditions::Decoupled | Conditions::Cube) {
-        Some("the request uses decoupled or cube conditions; a sampled design is solved on the full vertex family")
-    } else if r.noise == qpv_dsl::NoiseObjective::Min {
-        Some("the request has noise = min, which has no discrete-time form in qpv yet")
-    } else if r.split == Split::SkewSlack {
-        Some("the request uses split = skew_slack, whose slack search is continuous-time")
-    } else {
-        None
-    }
 }
 
 /// Whether a design error is an outcome about the plant rather than bad
@@ -337,33 +309,6 @@ fn sample_clash(r: &DesignRequest) -> Option<&'static str> {
 /// exactly that class; refused inputs are `StateBoundInput`.
 fn is_outcome(e: &qpv_solve::SolveError) -> bool {
     matches!(e, qpv_solve::SolveError::StateBound(_))
-}
-
-fn describe_request(r: &DesignRequest) -> String {
-    let a = match r.alpha {
-        AlphaSpec::Fixed(a) => format!("alpha = {a}"),
-        AlphaSpec::Max => "alpha = max".into(),
-    };
-    let g = match r.gamma {
-        GammaSpec::Fixed(g) => format!("gamma = {g}"),
-        GammaSpec::Search => "gamma = search".into(),
-    };
-    let m = match r.mode {
-        Mode::Sound => "sound",
-        Mode::Paper => "paper",
-    };
-    let split = r.split.name();
-    let conditions = r.conditions.name();
-    let route = match r.output_route {
-        OutputRoute::DoubleSum => String::new(),
-        OutputRoute::Filter(f) => {
-            format!(
-                "; output_route = filter(pole = {}, gain = {})",
-                f.pole, f.gain
-            )
-        }
-    };
-    format!("{a}; {g}; mode = {m}; split = {split}; conditions = {conditions}{route}")
 }
 
 /// The output-route line of a design report (nothing for a constant
@@ -391,8 +336,8 @@ fn describe_route(r: &OutputRouteInfo) -> String {
 /// The state bound lines of a design report.
 fn describe_state_bound(sb: &StateBoundInfo) -> String {
     let gmax = sb.gamma_max.map_or("-".to_string(), |g| format!("{g:.6}"));
-    let mut s = match sb.source.as_str() {
-        "auto" => format!(
+    let mut s = match sb.source {
+        BoundSource::Auto => format!(
             "  state bound: computed (state_bound auto): h = {:.6}{}, gamma_max = {gmax} \
              (solver estimate for any ellipsoid around the region: {:.6}), invariance with N_k {}, \
              {} solves, {:.3} s\n",
@@ -403,29 +348,20 @@ fn describe_state_bound(sb: &StateBoundInfo) -> String {
                 " (searched)"
             },
             sb.gamma_upper.unwrap_or(f64::NAN),
-            sb.split.as_deref().unwrap_or("as_written"),
+            sb.split.unwrap_or(Split::AsWritten).name(),
             sb.solves,
             sb.seconds
         ),
-        "given" => format!("  state bound: given, gamma_max = {gmax}\n"),
-        _ => "  state bound: none\n".to_string(),
+        BoundSource::Given => format!("  state bound: given, gamma_max = {gmax}\n"),
+        BoundSource::None => "  state bound: none\n".to_string(),
     };
-    if let (Some(q), "auto") = (&sb.q, sb.source.as_str()) {
+    if let (Some(q), BoundSource::Auto) = (&sb.q, sb.source) {
         s.push_str(&format!(
             "  Q:\n{}",
             fmt_matrix(&qpv_solve::report::rows_to_matrix(q), "    ")
         ));
     }
     s
-}
-
-/// Whether a note belongs to the search log only: for a certified design
-/// these are routine (points the certificate rejected were never used), so
-/// the text report leaves them to the JSON's `notes` and `search`.
-fn is_search_log_note(n: &str) -> bool {
-    n.contains("solved points failed the independent certificate")
-        || n.contains("ended with an unknown status")
-        || n.starts_with("the solver stopped with")
 }
 
 /// The line on the continuous plant sampled at h (docs/method.md §16):
@@ -508,7 +444,7 @@ fn describe_verdict(d: &Design) -> String {
             d.alpha, d.gamma
         ),
         (false, _) => {
-            let tested = d.search.iter().any(|s| s.phase == "final");
+            let tested = d.search.iter().any(|s| s.phase == Phase::Final);
             if tested && d.global {
                 format!(
                     "  no certified global observer at the requested alpha = {} (LPV plant)\n",
@@ -600,7 +536,7 @@ fn describe_failure_margins(d: &Design) -> String {
         .search
         .iter()
         .rev()
-        .find(|st| st.phase == "diagnose" || st.phase == "final")
+        .find(|st| st.phase == Phase::Diagnose || st.phase == Phase::Final)
         .map(|st| format!(" (tried at alpha {}, gamma {:.6})", st.alpha, st.gamma))
         .unwrap_or_default();
     s.push_str(&format!(
@@ -675,10 +611,7 @@ pub fn describe_design(d: &Design) -> String {
     s.push_str(&format!(
         "model {} ({} mode): {verdict}\n",
         d.model,
-        match d.mode {
-            Mode::Sound => "sound",
-            Mode::Paper => "paper",
-        }
+        d.mode.name()
     ));
     s.push_str(&describe_verdict(d));
     s.push_str(&format!(
@@ -693,7 +626,7 @@ pub fn describe_design(d: &Design) -> String {
     if let Some(why) = d
         .notes
         .iter()
-        .find(|n| n.starts_with("conditions = auto chose"))
+        .find(|n| matches!(n, Note::ConditionsChosen(_)))
     {
         s.push_str(&format!("  {why}\n"));
     }
@@ -780,7 +713,7 @@ pub fn describe_design(d: &Design) -> String {
         .notes
         .iter()
         // the γ search's statement has its own line above
-        .filter(|n| !(n.starts_with("γ search: ") || (d.feasible && is_search_log_note(n))))
+        .filter(|n| !(matches!(n, Note::GammaSearch(_)) || (d.feasible && n.is_search_log())))
     {
         s.push_str(&format!("  note: {n}\n"));
     }
@@ -788,24 +721,14 @@ pub fn describe_design(d: &Design) -> String {
 }
 
 /// Runs `qpv design`.
-pub fn run(
-    file: &Path,
-    model_name: Option<&str>,
-    flags: Flags,
-    json: Option<&str>,
-) -> Result<i32, CliError> {
-    check_json_target(json, &[file])?;
-    let (_, model) = load_model(file, model_name)?;
-    let plan = requests(&model, flags)?;
-    let noise_min = parse_noise(flags.noise)?;
+pub fn run(o: &Options) -> Result<i32, CliError> {
+    let json = o.json.as_deref();
+    check_json_target(json, &[&o.file])?;
+    let (_, model) = load_model(&o.file, o.model.as_deref())?;
+    let plan = requests(&model, o)?;
     let poly = model.polytopic();
     let mut settings = qpv_solve::Settings::default();
-    if let Some(cap) = flags.alpha_cap {
-        if !(cap.is_finite() && cap > 0.0) {
-            return Err(CliError::Input(format!(
-                "--alpha-cap {cap}: expected a positive number (the largest alpha the search tries)"
-            )));
-        }
+    if let Some(cap) = o.alpha_cap {
         settings.alpha_cap = cap;
     }
     let mut designs = Vec::new();
@@ -814,16 +737,13 @@ pub fn run(
     for (number, Planned { request: r, skip }) in (1..).zip(&plan) {
         let not_run = |reason: String| NotRun {
             request: number,
-            settings: describe_request(r),
+            settings: r.to_string(),
             reason,
         };
         if let Some(reason) = skip {
             print_text(
                 json,
-                &format!(
-                    "skipping design request {number} ({}): {reason}\n",
-                    describe_request(r)
-                ),
+                &format!("skipping design request {number} ({r}): {reason}\n"),
             );
             skipped.push(not_run(reason.clone()));
             continue;
@@ -833,11 +753,7 @@ pub fn run(
             indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
                 .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
         );
-        bar.set_message(format!(
-            "designing {} ({})",
-            model.name,
-            describe_request(r)
-        ));
+        bar.set_message(format!("designing {} ({r})", model.name));
         let mut n = 0usize;
         let mut progress = |step: &qpv_solve::SearchStep| {
             n += 1;
@@ -851,17 +767,7 @@ pub fn run(
             ));
             bar.tick();
         };
-        let result = if noise_min {
-            qpv_solve::noise::design_noise_with_progress(
-                &poly,
-                r,
-                &NoiseChannels::from_model(&poly),
-                &settings,
-                &mut progress,
-            )
-        } else {
-            qpv_solve::design_with_progress(&poly, r, &settings, &mut progress)
-        };
+        let result = qpv_solve::design_with_progress(&poly, r, &settings, &mut progress);
         bar.finish_and_clear();
         match result {
             Ok(d) => {
@@ -878,7 +784,7 @@ pub fn run(
                 );
                 failures.push(not_run(e.to_string()));
             }
-            Err(e) => return Err(CliError::Input(format!("{}: {e}", file.display()))),
+            Err(e) => return Err(CliError::Input(format!("{}: {e}", o.file.display()))),
         }
     }
     emit_json(

@@ -1,125 +1,113 @@
-//! The gains a report or gains file claims, read the same way by `qpv
-//! check` and `qpv simulate`, and turned into the [`Design`] whose
-//! [`Design::recheck`] judges them (the one re-check path of both).
+//! A report or gains file read as the [`Design`] it claims, the same way by
+//! `qpv check`, `qpv simulate` and `qpv codegen --gains`; its
+//! [`Design::recheck`] judges it (the one re-check path of all three).
 //!
-//! Only what a claim is made of is read: P, L_l, α, γ, the mode, the
-//! model's name, the representation of N_k (split and skew slack), the
-//! state bound's Q, the output route and the cube slacks. A report's own
-//! margins, data checks, verdict, σ or sampling figures are never read:
-//! they are recomputed from the model as it is now (docs/schema.md, "What
-//! a report may claim").
+//! The file is parsed straight into [`Design`] (serde: the keys a gains
+//! file may leave out take defaults), then cut down to its claim by
+//! [`Design::into_claim`]: a report's own margins, data checks, verdict, σ
+//! or sampling figures are never read; they are recomputed from the model
+//! as it is now (docs/schema.md, "What a report may claim"). Only its
+//! `certifies: false` is respected (a report may claim less than its
+//! gains achieve).
 
-use super::design::parse_split;
 use super::input::{read_bounded, CliError, JSON_LIMIT};
 use super::schema::SCHEMA;
-use qpv_dsl::{Conditions, Mode, Split};
-use qpv_solve::conditions::cube::CubeReport;
-use qpv_solve::output_filter::OutputRouteInfo;
+use qpv_dsl::{Mode, Split};
 use qpv_solve::report::Design;
-use qpv_solve::state_bound::StateBoundInfo;
+use serde::de::{DeserializeSeed, IgnoredAny};
+use serde_json::Value;
+use std::marker::PhantomData;
 use std::path::Path;
 
-/// The claim of a gains file: `P` (rows), `L` (per vertex, NX rows of NY),
-/// and optionally what they were designed for (a `qpv design --json`
-/// report is such a file).
-#[derive(serde::Deserialize)]
-pub struct Gains {
-    /// P (rows).
-    #[serde(rename = "P")]
-    pub p: Vec<Vec<f64>>,
-    /// L_l (per vertex, rows).
-    #[serde(rename = "L")]
-    pub l: Vec<Vec<Vec<f64>>>,
-    /// The decay rate claimed.
+/// A report or gains file read: the design it claims and which of the keys
+/// with defaults it states itself (a missing `mode`, `alpha`, `gamma` or
+/// `split` is taken from a flag, the model or the mode).
+pub struct Claim {
+    /// P, L_l and the representation they were designed in
+    /// ([`Design::into_claim`]); its α, γ, mode and split are the file's or
+    /// their defaults until [`Claim::at`] fixes them.
+    pub design: Design,
+    /// The file's `mode`.
+    pub mode: Option<Mode>,
+    /// The file's `alpha`.
     pub alpha: Option<f64>,
-    /// The region scaling claimed.
+    /// The file's `gamma`.
     pub gamma: Option<f64>,
-    /// "sound" or "paper".
-    pub mode: Option<String>,
-    /// The model the gains were designed for (a design report names it).
-    pub model: Option<String>,
-    /// Representation of N_k, M_k the gains were designed with.
-    pub split: Option<String>,
-    /// The conditions the design was solved with (a report carries it).
-    pub conditions: Option<String>,
-    /// A report's own verdict: `false` is respected (a report may claim
-    /// less than its gains achieve); `true` is never taken on trust.
+    /// Whether the file names its split.
+    split: bool,
+    /// The file's own verdict: `false` is respected, `true` never trusted.
     pub certifies: Option<bool>,
-    /// The state bound the design used (its Q is needed to check a model
-    /// with `state_bound auto`).
-    pub state_bound: Option<GainsBound>,
-    /// The output route the design used (a filter-route design is checked
-    /// against the augmented plant).
-    pub output_route: Option<OutputRouteInfo>,
-    /// `split = skew_slack`: the skew-symmetric slack K_{k,l}.
-    pub skew: Option<Vec<Vec<Vec<Vec<f64>>>>>,
-    /// `conditions = cube`: the slacks Y, X and D.
-    pub cube: Option<CubeReport>,
-    /// `max_gain = G`: the bound on every ‖L_l‖₂ the design claims, checked
-    /// from `L` (a required data check of the re-check).
-    pub max_gain: Option<f64>,
-    /// `sample = h`: the sample period the design is certified at (a
-    /// report's `sample` key); checked on the discrete decrease S5d.
-    pub sample: Option<qpv_solve::sampling::SampleInfo>,
 }
 
-/// The part of a design report's `state_bound` entry a check uses.
+impl Claim {
+    /// The model the file names (a design report does), if any.
+    pub fn model(&self) -> Option<&str> {
+        Some(self.design.model.as_str()).filter(|m| !m.is_empty())
+    }
+
+    /// The design to re-check in `mode` at (`alpha`, `gamma`): the split
+    /// the file names, else the mode's default; a sample period the file
+    /// claims is checked at `alpha`.
+    pub fn at(self, mode: Mode, alpha: f64, gamma: f64) -> Design {
+        let mut d = self.design;
+        d.mode = mode;
+        d.alpha = alpha;
+        d.gamma = gamma;
+        if !self.split {
+            d.split = Split::default_for(mode);
+        }
+        d.sample = d
+            .sample
+            .map(|s| qpv_solve::sampling::SampleInfo::new(s.h, alpha));
+        d
+    }
+}
+
+/// The keys of one design a reader needs before its matrices: the verdict
+/// (to choose among several designs; never trusted for a claim) and which
+/// keys with defaults it states.
 #[derive(serde::Deserialize)]
-pub struct GainsBound {
-    /// Q (rows).
-    #[serde(rename = "Q")]
-    pub q: Option<Vec<Vec<f64>>>,
-    /// The box size of a computed bound.
-    pub h: Option<f64>,
-    /// The split of N_k its invariance was certified with.
-    pub split: Option<String>,
-}
-
-fn rectangular(rows: &[Vec<f64>]) -> bool {
-    rows.iter()
-        .all(|r| r.len() == rows.first().map_or(0, Vec::len))
-}
-
-/// What picking a design of a report needs to know of each: its verdict
-/// (only to choose; never trusted for a claim).
-#[derive(serde::Deserialize)]
-struct Verdict {
-    certifies: Option<serde_json::Value>,
-    feasible: Option<serde_json::Value>,
+struct Stated {
+    certifies: Option<Value>,
+    feasible: Option<Value>,
+    mode: Option<Value>,
+    alpha: Option<Value>,
+    gamma: Option<Value>,
+    split: Option<IgnoredAny>,
 }
 
 /// The envelope of a JSON object, read without its matrices (skipped, not
 /// built: a 60 MiB report must not become gigabytes of JSON values).
 #[derive(serde::Deserialize)]
 struct Head {
-    schema: Option<serde_json::Value>,
-    command: Option<serde_json::Value>,
-    designs: Option<serde::de::IgnoredAny>,
+    schema: Option<Value>,
+    command: Option<Value>,
+    designs: Option<IgnoredAny>,
     #[serde(rename = "P")]
-    p: Option<serde::de::IgnoredAny>,
+    p: Option<IgnoredAny>,
     #[serde(rename = "L")]
-    l: Option<serde::de::IgnoredAny>,
+    l: Option<IgnoredAny>,
 }
 
-/// `{"designs": [...]}` of a versioned report: only the verdicts.
+/// `{"designs": [...]}` of a versioned report: what each design states.
 #[derive(serde::Deserialize)]
-struct Verdicts {
-    designs: Vec<Verdict>,
+struct Designs {
+    designs: Vec<Stated>,
 }
 
-/// Deserialises element `n` of a JSON array as [`Gains`], skipping the
-/// others without building them; `None` if the array is shorter.
-struct Nth(usize);
+/// Deserialises element `n` of a JSON array as `T`, skipping the others
+/// without building them; `None` if the array is shorter.
+struct Nth<T>(usize, PhantomData<T>);
 
-impl<'de> serde::de::DeserializeSeed<'de> for Nth {
-    type Value = Option<Gains>;
+impl<'de, T: serde::Deserialize<'de>> DeserializeSeed<'de> for Nth<T> {
+    type Value = Option<T>;
     fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
         d.deserialize_seq(self)
     }
 }
 
-impl<'de> serde::de::Visitor<'de> for Nth {
-    type Value = Option<Gains>;
+impl<'de, T: serde::Deserialize<'de>> serde::de::Visitor<'de> for Nth<T> {
+    type Value = Option<T>;
     fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
         f.write_str("an array of design reports")
     }
@@ -128,11 +116,11 @@ impl<'de> serde::de::Visitor<'de> for Nth {
         let mut i = 0;
         loop {
             if i == self.0 {
-                match seq.next_element::<Gains>()? {
+                match seq.next_element::<T>()? {
                     Some(g) => out = Some(g),
                     None => break,
                 }
-            } else if seq.next_element::<serde::de::IgnoredAny>()?.is_none() {
+            } else if seq.next_element::<IgnoredAny>()?.is_none() {
                 break;
             }
             i += 1;
@@ -144,15 +132,15 @@ impl<'de> serde::de::Visitor<'de> for Nth {
 /// Deserialises design `n` of the `designs` key of a report object.
 struct DesignsNth(usize);
 
-impl<'de> serde::de::DeserializeSeed<'de> for DesignsNth {
-    type Value = Option<Gains>;
+impl<'de> DeserializeSeed<'de> for DesignsNth {
+    type Value = Option<Design>;
     fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
         d.deserialize_map(self)
     }
 }
 
 impl<'de> serde::de::Visitor<'de> for DesignsNth {
-    type Value = Option<Gains>;
+    type Value = Option<Design>;
     fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
         f.write_str("a design report document")
     }
@@ -160,9 +148,9 @@ impl<'de> serde::de::Visitor<'de> for DesignsNth {
         let mut out = None;
         while let Some(key) = map.next_key::<String>()? {
             if key == "designs" {
-                out = map.next_value_seed(Nth(self.0))?;
+                out = map.next_value_seed(Nth(self.0, PhantomData))?;
             } else {
-                map.next_value::<serde::de::IgnoredAny>()?;
+                map.next_value::<IgnoredAny>()?;
             }
         }
         Ok(out)
@@ -171,14 +159,14 @@ impl<'de> serde::de::Visitor<'de> for DesignsNth {
 
 /// Of several designs the first certified one (else the first feasible
 /// one, else the first), and stderr says which.
-fn pick(verdicts: &[Verdict], path: &Path) -> usize {
-    let yes = |v: &Option<serde_json::Value>| v == &Some(serde_json::Value::Bool(true));
-    let i = verdicts
+fn pick(stated: &[Stated], path: &Path) -> usize {
+    let yes = |v: &Option<Value>| v == &Some(Value::Bool(true));
+    let i = stated
         .iter()
         .position(|v| yes(&v.certifies))
-        .or_else(|| verdicts.iter().position(|v| yes(&v.feasible)))
+        .or_else(|| stated.iter().position(|v| yes(&v.feasible)))
         .unwrap_or(0);
-    if verdicts.len() > 1 {
+    if stated.len() > 1 {
         eprintln!(
             "note: {} holds several reports; using report {} (the first certified one, else the first feasible one)",
             path.display(),
@@ -188,35 +176,45 @@ fn pick(verdicts: &[Verdict], path: &Path) -> usize {
     i
 }
 
-/// Reads the gains file or report at `path`, in any of its forms:
+fn rectangular(rows: &[Vec<f64>]) -> bool {
+    rows.iter()
+        .all(|r| r.len() == rows.first().map_or(0, Vec::len))
+}
+
+/// Reads the report or gains file at `path` (`what` names it in messages:
+/// "gains file", "report"), in any of its forms:
 ///
 /// * a `qpv design --json` document (`"schema": "qpv/1"`, `designs`);
 /// * the unversioned forms older versions wrote: one report object, or an
 ///   array of reports for several requests;
-/// * a plain gains object written by hand (`P`, `L`, ...).
+/// * a plain gains object written by hand (`P`, `L`, optionally `alpha`,
+///   `gamma`, `mode` and the other keys of a report).
 ///
 /// Of several designs the first certified one is used (else the first
 /// feasible one, else the first), and stderr says which. The file is read
-/// bounded ([`JSON_LIMIT`]) and parsed straight into [`Gains`], the other
-/// designs and keys skipped; errors name the file and what was expected.
-pub fn read_gains(path: &Path) -> Result<Gains, CliError> {
+/// bounded ([`JSON_LIMIT`]) and only the chosen design is built; errors
+/// name the file and what was expected.
+pub fn read_claim(path: &Path, what: &str) -> Result<Claim, CliError> {
     let bad = |m: String| CliError::Input(format!("{}: {m}", path.display()));
     let json = |e: serde_json::Error| bad(e.to_string());
     let text = read_bounded(path, JSON_LIMIT, "JSON files")?;
     let none = || bad("the report holds no design".to_string());
-    let g: Gains = match text.trim_start().chars().next() {
+    let (stated, design): (Stated, Design) = match text.trim_start().chars().next() {
         Some('[') => {
-            let verdicts: Vec<Verdict> = serde_json::from_str(&text).map_err(json)?;
-            let i = pick(&verdicts, path);
+            let mut all: Vec<Stated> = serde_json::from_str(&text).map_err(json)?;
+            let i = pick(&all, path);
+            check_mode(&all[i], path, what)?;
             let mut de = serde_json::Deserializer::from_str(&text);
-            serde::de::DeserializeSeed::deserialize(Nth(i), &mut de)
+            let d = Nth(i, PhantomData)
+                .deserialize(&mut de)
                 .map_err(json)?
-                .ok_or_else(none)?
+                .ok_or_else(none)?;
+            (all.swap_remove(i), d)
         }
         Some('{') => {
             let head: Head = serde_json::from_str(&text).map_err(json)?;
             match &head.schema {
-                Some(serde_json::Value::String(v)) if v == SCHEMA => {
+                Some(Value::String(v)) if v == SCHEMA => {
                     match head.command.as_ref().and_then(|c| c.as_str()) {
                         Some("design") => {}
                         Some(other) => {
@@ -226,16 +224,19 @@ pub fn read_gains(path: &Path) -> Result<Gains, CliError> {
                         }
                         None => return Err(bad("`command` is missing".into())),
                     }
-                    let verdicts: Verdicts = serde_json::from_str(&text).map_err(|e| {
+                    let mut all: Designs = serde_json::from_str(&text).map_err(|e| {
                         bad(format!(
                             "`designs` must be an array of design reports ({e})"
                         ))
                     })?;
-                    let i = pick(&verdicts.designs, path);
+                    let i = pick(&all.designs, path);
+                    check_mode(&all.designs[i], path, what)?;
                     let mut de = serde_json::Deserializer::from_str(&text);
-                    serde::de::DeserializeSeed::deserialize(DesignsNth(i), &mut de)
+                    let d = DesignsNth(i)
+                        .deserialize(&mut de)
                         .map_err(|e| bad(format!("design {}: {e}", i + 1)))?
-                        .ok_or_else(none)?
+                        .ok_or_else(none)?;
+                    (all.designs.swap_remove(i), d)
                 }
                 Some(other) => {
                     return Err(bad(format!(
@@ -255,7 +256,11 @@ pub fn read_gains(path: &Path) -> Result<Gains, CliError> {
                         }
                     )))
                 }
-                None => serde_json::from_str(&text).map_err(json)?,
+                None => {
+                    let stated: Stated = serde_json::from_str(&text).map_err(json)?;
+                    check_mode(&stated, path, what)?;
+                    (stated, serde_json::from_str(&text).map_err(json)?)
+                }
             }
         }
         _ => {
@@ -266,93 +271,36 @@ pub fn read_gains(path: &Path) -> Result<Gains, CliError> {
             ))
         }
     };
-    if !rectangular(&g.p) || g.l.iter().any(|l| !rectangular(l)) {
+    let mode = check_mode(&stated, path, what)?;
+    if !rectangular(&design.p) || design.l.iter().any(|l| !rectangular(l)) {
         return Err(bad("P and every L_l must have rows of equal length".into()));
     }
-    if let Some(s) = g.state_bound.as_ref().and_then(|b| b.split.as_deref()) {
-        if !matches!(s, "as_written" | "symmetric") {
-            return Err(bad(format!(
-                "`state_bound.split` is {s:?}: expected \"as_written\" or \"symmetric\" (the \
-                 representation of N_k the bound's invariance was certified with)"
-            )));
-        }
-    }
-    Ok(g)
+    Ok(Claim {
+        mode,
+        alpha: stated.alpha.is_some().then_some(design.alpha),
+        gamma: stated.gamma.is_some().then_some(design.gamma),
+        split: stated.split.is_some(),
+        certifies: stated.certifies.is_some().then_some(design.certifies),
+        design: design.into_claim(),
+    })
 }
 
-/// Parses a mode name (`what` says where it came from, for the error).
-pub fn parse_mode_name(s: &str, what: &str) -> Result<Mode, CliError> {
-    match s {
-        "sound" => Ok(Mode::Sound),
-        "paper" => Ok(Mode::Paper),
-        _ => Err(CliError::Input(format!(
-            "{what} is {s:?}: expected \"sound\" or \"paper\""
-        ))),
-    }
-}
-
-impl Gains {
-    /// The split the gains were designed with, else the mode's default.
-    pub fn split(&self, mode: Mode, path: &Path) -> Result<Split, CliError> {
-        match self.split.as_deref() {
-            Some(name) => parse_split(name).map_err(|_| {
-                CliError::Input(format!(
-                    "{}: `split` is {name:?}: expected \"as_written\", \"symmetric\" or \"skew_slack\"",
-                    path.display()
-                ))
-            }),
-            None => Ok(Split::default_for(mode)),
-        }
-    }
-
-    /// The conditions the design was solved with (full when absent).
-    fn conditions(&self, path: &Path) -> Result<Conditions, CliError> {
-        match self.conditions.as_deref() {
-            None => Ok(Conditions::Full),
-            Some(name) => Conditions::ALL
-                .into_iter()
-                .find(|c| c.name() == name)
-                .ok_or_else(|| {
-                    CliError::Input(format!(
-                        "{}: `conditions` is {name:?}: expected \"full\", \"decoupled\", \"cube\" \
-                         or \"auto\"",
-                        path.display()
-                    ))
-                }),
-        }
-    }
-
-    /// The design whose [`Design::recheck`] judges these gains for model
-    /// `model` in `mode` at (`alpha`, `gamma`) with `split`: everything the
-    /// file claims about the representation (skew slack, state bound,
-    /// output route, cube slacks) and nothing it says about its verdict.
-    pub fn design(
-        self,
-        model: &str,
-        (mode, alpha, gamma, split): (Mode, f64, f64, Split),
-        path: &Path,
-    ) -> Result<Design, CliError> {
-        let conditions = self.conditions(path)?;
-        let mut d = Design::claimed(model, mode, alpha, gamma, self.p, self.l);
-        d.split = split;
-        d.conditions = conditions;
-        d.skew = self.skew;
-        d.cube = self.cube;
-        d.max_gain = self.max_gain;
-        d.output_route = self.output_route;
-        d.state_bound = self.state_bound.map(|b| StateBoundInfo {
-            source: qpv_solve::vocab::BoundSource::Auto,
-            q: b.q,
-            h: b.h,
-            h_fixed: false,
-            gamma_max: None,
-            gamma_upper: None,
-            split: b.split,
-            check: None,
-            solves: 0,
-            seconds: 0.0,
-            notes: Vec::new(),
-        });
-        Ok(d)
-    }
+/// The file's `mode`, if it states one: a mode name, else an error saying
+/// which names there are.
+fn check_mode(stated: &Stated, path: &Path, what: &str) -> Result<Option<Mode>, CliError> {
+    let Some(v) = &stated.mode else {
+        return Ok(None);
+    };
+    let name = v.as_str();
+    Mode::ALL
+        .into_iter()
+        .find(|m| Some(m.name()) == name)
+        .map(Some)
+        .ok_or_else(|| {
+            CliError::Input(format!(
+                "{}: the {what}'s `mode` is {v}: expected {}",
+                path.display(),
+                super::input::one_of(Mode::ALL.map(Mode::name), "\"")
+            ))
+        })
 }

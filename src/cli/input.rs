@@ -282,3 +282,54 @@ pub fn fmt_matrix(m: &nalgebra::DMatrix<f64>, indent: &str) -> String {
     }
     s
 }
+
+/// `names` as a list for a message: `a`, `b` or `c`, each between `quote`.
+pub fn one_of<'a>(names: impl IntoIterator<Item = &'a str>, quote: &str) -> String {
+    let names: Vec<String> = names
+        .into_iter()
+        .map(|n| format!("{quote}{n}{quote}"))
+        .collect();
+    match names.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        Some((last, _)) => last.clone(),
+        None => String::new(),
+    }
+}
+
+/// A flag parser (for clap) of one of `all` by its name in the vocabulary
+/// (`Mode::name`, `Split::name`, ...): the names are the enum's own table,
+/// never written here.
+pub fn by_name<T: Copy + Send + Sync + 'static>(
+    all: &'static [T],
+    name: fn(T) -> &'static str,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static {
+    move |s: &str| {
+        all.iter()
+            .copied()
+            .find(|v| name(*v) == s)
+            .ok_or_else(|| format!("expected {}", one_of(all.iter().map(|v| name(*v)), "`")))
+    }
+}
+
+/// `--alpha` of `qpv design`: a positive number or `max`.
+pub fn parse_alpha(s: &str) -> Result<qpv_dsl::AlphaSpec, String> {
+    match s {
+        "max" => Ok(qpv_dsl::AlphaSpec::Max),
+        _ => match s.parse::<f64>() {
+            Ok(a) if a.is_finite() && a > 0.0 => Ok(qpv_dsl::AlphaSpec::Fixed(a)),
+            _ => Err("expected a positive number or `max`".into()),
+        },
+    }
+}
+
+/// `--gamma` of `qpv design` and `qpv tradeoff`: a number in (0, 1) or
+/// `search`.
+pub fn parse_gamma(s: &str) -> Result<qpv_dsl::GammaSpec, String> {
+    match s {
+        "search" => Ok(qpv_dsl::GammaSpec::Search),
+        _ => match s.parse::<f64>() {
+            Ok(g) if g > 0.0 && g < 1.0 => Ok(qpv_dsl::GammaSpec::Fixed(g)),
+            _ => Err("expected a number in (0, 1) or `search`".into()),
+        },
+    }
+}

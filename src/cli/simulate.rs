@@ -11,27 +11,26 @@
 //! when there is one); 1 the simulation diverged, or it left the certified
 //! envelope although e(0) was in the region and x stayed in F; 2 bad input.
 //!
-//! The integration streams: the CSV is written row by row (every
-//! [`Options::every`] seconds of simulated time) and the figures keep at
-//! most [`PLOT_POINTS`] points per curve, so memory does not grow with the
-//! number of steps.
+//! The integration streams ([`simulate_each`]): the CSV is written row by
+//! row (every [`Options::every`] seconds of simulated time) and the figures
+//! keep at most [`PLOT_POINTS`] points per curve, so memory does not grow
+//! with the number of steps (at most [`MAX_STEPS`]).
 
-use super::gains::{parse_mode_name, read_gains, Gains};
+use super::gains::read_claim;
 use super::input::{load_model_for, prepare_plot_dir, CliError};
-use super::noisy::{simulate_noisy, NoiseBoundCurve, NoiseGen};
 use super::signal::{expr_signal, parse_assignment, table_signal, Table, TimeFn};
 use nalgebra::DMatrix;
 use qpv::plot::{line_chart, Series, PALETTE};
 use qpv_dsl::diagnostic::fmt_num;
 use qpv_dsl::{PolytopicModel, StateBound};
 use qpv_solve::report::Design;
-use qpv_solve::simulate::{envelope_factor, plant_output, simulate, Scenario, Signal};
+use qpv_solve::simulate::{
+    envelope_factor, plant_output, simulate_each, MeasurementNoise, NoiseEnvelope, Scenario,
+    Signal, MAX_STEPS,
+};
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
-
-/// Largest number of RK4 steps `qpv simulate` runs (t_end / dt).
-pub const MAX_STEPS: f64 = 1e8;
 
 /// Most points kept per curve of a figure (the CSV has every output row).
 pub const PLOT_POINTS: usize = 5000;
@@ -48,9 +47,6 @@ pub const MAX_CSV_BYTES: f64 = 1024.0 * 1024.0 * 1024.0;
 /// its comma).
 pub const CSV_CELL_BYTES: f64 = 24.0;
 
-/// Steps integrated per call of the library integrator (bounds memory).
-const CHUNK_STEPS: usize = 20_000;
-
 /// Relative slack of the envelope comparison (RK4 and rounding errors).
 const ENVELOPE_SLACK: f64 = 1e-6;
 
@@ -58,35 +54,56 @@ const ENVELOPE_SLACK: f64 = 1e-6;
 /// input jumps at every step).
 const NOISE_SLACK: f64 = 1e-4;
 
-/// Options of `qpv simulate`.
-pub struct Options<'a> {
-    /// Model file.
-    pub file: &'a Path,
-    /// Design report (JSON).
-    pub design: &'a Path,
-    /// Model name.
-    pub model: Option<&'a str>,
-    /// End time.
+/// The options of `qpv simulate`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// The model file (.qpv).
+    pub file: PathBuf,
+    /// A design report written by `qpv design --json`.
+    #[arg(long)]
+    pub design: PathBuf,
+    /// Which model of the file.
+    #[arg(long)]
+    pub model: Option<String>,
+    /// End time [s].
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
     pub t_end: f64,
-    /// Step.
+    /// RK4 step [s].
+    #[arg(long, default_value_t = 1e-3, allow_negative_numbers = true)]
     pub dt: f64,
-    /// Initial state override.
+    /// Initial plant state, comma-separated (default: the scenario's).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub x0: Option<Vec<f64>>,
-    /// `paper` or `default`.
-    pub scenario: &'a str,
-    /// Output directory for figures and CSV.
-    pub plot: Option<&'a Path>,
-    /// `--input NAME=EXPR`: inputs as expressions of t.
+    /// Ready-made scenario: `paper` (the published example's θ(t)) or `default`.
+    #[arg(long, default_value = "default", value_parser = ["paper", "default"])]
+    pub scenario: String,
+    /// Directory for the SVG figures and the CSV of trajectories.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// An input as an expression of t: `NAME=EXPR` with numbers, t, pi,
+    /// + - * / ^, sin, cos, exp, sqrt (repeatable; default 0).
+    #[arg(long = "input", value_name = "NAME=EXPR")]
     pub inputs: Vec<String>,
-    /// `--param NAME=EXPR`: parameters θ(t) as expressions of t.
+    /// A parameter θ(t) as an expression of t, like `--input`
+    /// (repeatable; default: the scenario's).
+    #[arg(long = "param", value_name = "NAME=EXPR")]
     pub params: Vec<String>,
-    /// `--input-csv FILE`: columns t, then input or parameter names.
-    pub input_csv: Option<&'a Path>,
-    /// `--every DT`: output interval of the CSV (simulated seconds).
+    /// Inputs and/or parameters from a CSV file: a header `t,NAME,...`,
+    /// rows with increasing t; linear interpolation, held at the ends.
+    #[arg(long = "input-csv", value_name = "FILE")]
+    pub input_csv: Option<PathBuf>,
+    /// Output interval of the CSV [s] (default: max(dt, t_end/10000));
+    /// the figures keep at most 5000 points per curve.
+    #[arg(long, value_name = "DT", allow_negative_numbers = true)]
     pub every: Option<f64>,
-    /// `--noise NU`: amplitude of the measurement noise (none if `None`).
+    /// Bounded measurement noise: |v(t)| = NU on the report's noisy
+    /// outputs (every output by default), a random direction held over
+    /// each step. With a certified noise bound and NU <= nu_max the
+    /// error is checked against the certified bound.
+    #[arg(long, value_name = "NU", allow_negative_numbers = true)]
     pub noise: Option<f64>,
-    /// `--seed S`: seed of the noise.
+    /// Seed of the noise.
+    #[arg(long, default_value_t = 1)]
     pub seed: u64,
 }
 
@@ -100,7 +117,7 @@ struct Claim {
     facets: Vec<nalgebra::DVector<f64>>,
     /// The certified bound on ‖e(t)‖ under noise, when the design certifies,
     /// carries a noise bound and ν ≤ ν_max.
-    noise_bound: Option<NoiseBoundCurve>,
+    noise_bound: Option<NoiseEnvelope>,
 }
 
 /// Why the design is not certified here, or `None` if it is: its own
@@ -144,12 +161,9 @@ fn not_certified_reason(
 
 /// The design a report's gains are simulated and re-checked with: its
 /// mode (sound if absent), α and γ (required: the claim is made at them),
-/// split and the rest of its claim ([`Gains::design`]).
-fn claimed_design(g: Gains, model: &str, path: &Path) -> Result<Design, CliError> {
-    let mode = match g.mode.as_deref() {
-        Some(m) => parse_mode_name(m, &format!("{}: the report's `mode`", path.display()))?,
-        None => qpv_dsl::Mode::Sound,
-    };
+/// split and the rest of its claim ([`super::gains::Claim::at`]).
+fn claimed_design(claim: super::gains::Claim, path: &Path) -> Result<Design, CliError> {
+    let mode = claim.mode.unwrap_or(qpv_dsl::Mode::Sound);
     let value = |name: &str, v: Option<f64>, ok: fn(f64) -> bool, expected: &str| match v {
         Some(v) if ok(v) => Ok(v),
         Some(v) => Err(CliError::Input(format!(
@@ -164,20 +178,19 @@ fn claimed_design(g: Gains, model: &str, path: &Path) -> Result<Design, CliError
     };
     let alpha = value(
         "alpha",
-        g.alpha,
+        claim.alpha,
         |a| a.is_finite() && a > 0.0,
         "a positive finite number",
     )?;
     let gamma = value(
         "gamma",
-        g.gamma,
+        claim.gamma,
         // 1: a global design (LPV plant), whose γ is unused; the
         // certificate refuses γ = 1 for any other.
         |v| v > 0.0 && v <= 1.0,
         "a number in (0, 1) (1 for the global observer of an LPV plant)",
     )?;
-    let split = g.split(mode, path)?;
-    g.design(model, (mode, alpha, gamma, split), path)
+    Ok(claim.at(mode, alpha, gamma))
 }
 
 /// A signal given on the command line: where it came from (`--param
@@ -196,7 +209,7 @@ struct Given {
 fn apply_signals(
     sc: &mut Scenario,
     poly: &PolytopicModel,
-    o: &Options<'_>,
+    o: &Options,
 ) -> Result<Vec<Given>, CliError> {
     let mut given: Vec<Given> = Vec::new();
     let mut set = |name: &str, f: TimeFn, source: String, flag: &str| -> Result<(), CliError> {
@@ -243,7 +256,7 @@ fn apply_signals(
         });
         Ok(())
     };
-    if let Some(path) = o.input_csv {
+    if let Some(path) = &o.input_csv {
         let table = Arc::new(Table::read(path)?);
         for (k, name) in table.names.iter().enumerate() {
             let flag = format!("--input-csv {}", path.display());
@@ -308,6 +321,7 @@ fn check_signals(given: &[Given], steps: usize, dt: f64, t_end: f64) -> Result<(
 }
 
 /// The recorded sample of one time instant.
+#[derive(Clone)]
 struct Row {
     t: f64,
     x: Vec<f64>,
@@ -349,7 +363,7 @@ fn claim_of(
     obs: &PolytopicModel,
     reason: &Option<String>,
     e0: &[f64],
-    noise_bound: Option<NoiseBoundCurve>,
+    noise_bound: Option<NoiseEnvelope>,
     noisy: bool,
 ) -> (Claim, bool) {
     let claim = Claim {
@@ -416,7 +430,7 @@ fn open_csv(
 
 /// The RK4 step count, the CSV row stride and the plot stride of a run,
 /// after checking `--t-end`, `--dt` and `--every`.
-fn step_counts(o: &Options<'_>) -> Result<(usize, usize, usize), CliError> {
+fn step_counts(o: &Options) -> Result<(usize, usize, usize), CliError> {
     if !(o.t_end.is_finite() && o.t_end >= 0.0) {
         return Err(CliError::Input(format!(
             "--t-end {}: expected a non-negative number of seconds",
@@ -430,12 +444,13 @@ fn step_counts(o: &Options<'_>) -> Result<(usize, usize, usize), CliError> {
         )));
     }
     let steps_f = (o.t_end / o.dt - 1e-9).ceil().max(0.0);
-    if steps_f > MAX_STEPS {
+    if steps_f > MAX_STEPS as f64 {
         return Err(CliError::Input(format!(
-            "--t-end {} with --dt {} needs {steps_f:.3e} RK4 steps; at most {MAX_STEPS:.0e} are run: \
+            "--t-end {} with --dt {} needs {steps_f:.3e} RK4 steps; at most {:.0e} are run: \
              increase --dt or shorten --t-end",
             fmt_num(o.t_end),
-            fmt_num(o.dt)
+            fmt_num(o.dt),
+            MAX_STEPS as f64
         )));
     }
     let steps = steps_f as usize;
@@ -454,7 +469,7 @@ fn step_counts(o: &Options<'_>) -> Result<(usize, usize, usize), CliError> {
 /// Refuses a CSV larger than [`MAX_CSV_BYTES`] before the run (the step
 /// limit alone allowed about 19 GB with a small `--every`).
 fn csv_size_guard(
-    o: &Options<'_>,
+    o: &Options,
     obs: &PolytopicModel,
     steps: usize,
     stride: usize,
@@ -478,15 +493,10 @@ fn csv_size_guard(
 
 /// The scenario of `--scenario`, with the run's horizon and step, the
 /// signals and initial state given on the command line.
-fn scenario(o: &Options<'_>, poly: &PolytopicModel) -> Result<Scenario, CliError> {
-    let mut sc = match o.scenario {
+fn scenario(o: &Options, poly: &PolytopicModel) -> Result<Scenario, CliError> {
+    let mut sc = match o.scenario.as_str() {
         "paper" => Scenario::paper(poly),
-        "default" => Scenario::default_for(poly),
-        other => {
-            return Err(CliError::Input(format!(
-                "--scenario {other:?}: expected `paper` or `default`"
-            )))
-        }
+        _ => Scenario::default_for(poly),
     };
     sc.t_end = o.t_end;
     sc.dt = o.dt;
@@ -530,12 +540,12 @@ fn scenario(o: &Options<'_>, poly: &PolytopicModel) -> Result<Scenario, CliError
 /// outputs) and, when the design is certified for that amplitude, the
 /// certified bound to compare the run with; prints what is claimed.
 fn noise_setup(
-    o: &Options<'_>,
+    o: &Options,
     design: &Design,
     obs: &PolytopicModel,
     reason: &Option<String>,
     e0: &[f64],
-) -> Result<(Option<NoiseGen>, Option<NoiseBoundCurve>), CliError> {
+) -> Result<(Option<MeasurementNoise>, Option<NoiseEnvelope>), CliError> {
     if let Some(nu) = o.noise {
         if !(nu.is_finite() && nu >= 0.0) {
             return Err(CliError::Input(format!(
@@ -562,16 +572,20 @@ fn noise_setup(
         } else {
             named
         };
-        NoiseGen::new(o.seed, nu, outputs)
+        MeasurementNoise::new(o.seed, nu, outputs)
     });
     let noise_bound = match (o.noise, reason, &design.noise) {
         (Some(nu), None, Some(nb)) if nu <= nb.max_amplitude => {
-            NoiseBoundCurve::new(&design.p_matrix(), e0, design.alpha, nb.sigma, nu)
+            NoiseEnvelope::new(&design.p_matrix(), e0, design.alpha, nb, nu)
         }
         _ => None,
     };
     if let (Some(nu), Some(g)) = (o.noise, &noise_gen) {
-        let names: Vec<&str> = g.outputs.iter().map(|&i| obs.outputs[i].as_str()).collect();
+        let names: Vec<&str> = g
+            .outputs()
+            .iter()
+            .map(|&i| obs.outputs[i].as_str())
+            .collect();
         println!(
             "measurement noise: |v(t)| = {} on {} (random direction, seed {}, held over each step)",
             fmt_num(nu),
@@ -602,11 +616,11 @@ fn noise_setup(
 }
 
 /// Runs `qpv simulate`.
-pub fn run(o: Options<'_>) -> Result<i32, CliError> {
-    let g = read_gains(o.design)?;
-    let (_, model) = load_model_for(o.file, o.model, o.design, g.model.as_deref())?;
-    let claims = g.certifies;
-    let mut design = claimed_design(g, &model.name, o.design)?;
+pub fn run(o: &Options) -> Result<i32, CliError> {
+    let claim = read_claim(&o.design, "report")?;
+    let (_, model) = load_model_for(&o.file, o.model.as_deref(), &o.design, claim.model())?;
+    let claims = claim.certifies;
+    let mut design = claimed_design(claim, &o.design)?;
     let poly = model.polytopic();
     if design.l.is_empty() {
         return Err(CliError::Input(format!(
@@ -614,9 +628,9 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
             o.design.display()
         )));
     }
-    let (steps, stride, plot_stride) = step_counts(&o)?;
+    let (steps, stride, plot_stride) = step_counts(o)?;
 
-    let mut sc = scenario(&o, &poly)?;
+    let mut sc = scenario(o, &poly)?;
     // The gains belong to the design's observer model: for the filter route
     // the plant augmented by the output filter, whose states start at 0
     // (and the observer's filter estimate exactly there).
@@ -643,15 +657,15 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     }
 
     if o.plot.is_some() {
-        csv_size_guard(&o, &obs, steps, stride)?;
+        csv_size_guard(o, &obs, steps, stride)?;
     }
-    if let Some(dir) = o.plot {
+    if let Some(dir) = &o.plot {
         let mut files: Vec<String> = ["trajectories.csv", "mu.svg", "error.svg"]
             .map(String::from)
             .to_vec();
         files.extend((1..=obs.nx()).map(|k| format!("x{k}.svg")));
-        let mut inputs = vec![o.file, o.design];
-        inputs.extend(o.input_csv);
+        let mut inputs = vec![o.file.as_path(), o.design.as_path()];
+        inputs.extend(o.input_csv.as_deref());
         prepare_plot_dir(dir, &files, &inputs)?;
     }
 
@@ -679,18 +693,16 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
         );
     }
     let e0: Vec<f64> = sc.x0.iter().zip(&sc.xhat0).map(|(a, b)| a - b).collect();
-    let (mut noise_gen, noise_bound) = noise_setup(&o, &design, &obs, &reason, &e0)?;
+    let (mut noise_gen, noise_bound) = noise_setup(o, &design, &obs, &reason, &e0)?;
     let (claim, e0_inside) = claim_of(&design, &obs, &reason, &e0, noise_bound, o.noise.is_some());
 
-    let mut csv = open_csv(o.plot, &obs)?;
+    let mut csv = open_csv(o.plot.as_deref(), &obs)?;
 
     let gains = design.l_matrices();
     let mut found = Findings::default();
     run_streamed(
         &obs,
-        &gains,
-        &sc,
-        steps,
+        (&gains, &sc),
         &claim,
         (stride, plot_stride),
         &mut csv,
@@ -703,7 +715,7 @@ pub fn run(o: Options<'_>) -> Result<i32, CliError> {
     }
     println!("{}", describe(&found, &claim));
 
-    if let Some(dir) = o.plot {
+    if let Some(dir) = &o.plot {
         write_figures(dir, &obs, &found, &claim)?;
         println!(
             "figures and trajectories.csv ({} rows, every {} s) written to {}",
@@ -756,127 +768,117 @@ fn write_row(
     writeln!(w, "{}", text.join(","))
 }
 
-/// The scenario shifted to start at `t0`, from (x0, x̂0), for `t_end` seconds.
-fn shifted(sc: &Scenario, t0: f64, x0: &[f64], xhat0: &[f64], t_end: f64) -> Scenario {
-    let shift = |s: &Signal| {
-        let s = s.clone();
-        Signal::custom(move |t| s.at(t + t0))
-    };
-    Scenario {
-        theta: sc.theta.iter().map(shift).collect(),
-        u: sc.u.iter().map(shift).collect(),
-        x0: x0.to_vec(),
-        xhat0: xhat0.to_vec(),
-        t_end,
-        dt: sc.dt,
-    }
-}
-
-/// Integrates in chunks of [`CHUNK_STEPS`] steps with the library's RK4,
-/// handing every step to the checks and every `stride`-th to the CSV.
-#[allow(clippy::too_many_arguments)]
+/// Integrates with the library's RK4 ([`simulate_each`], with the noise
+/// of `--noise` if any), handing every step to the checks and every
+/// `stride`-th to the CSV.
 fn run_streamed(
     obs: &PolytopicModel,
-    gains: &[DMatrix<f64>],
-    sc: &Scenario,
-    steps: usize,
+    (gains, sc): (&[DMatrix<f64>], &Scenario),
     claim: &Claim,
     (stride, plot_stride): (usize, usize),
     csv: &mut Option<impl Write>,
     found: &mut Findings,
-    mut noise: Option<&mut NoiseGen>,
+    noise: Option<&mut MeasurementNoise>,
 ) -> Result<(), CliError> {
-    let nx = obs.nx();
-    let (mut x, mut xhat) = (sc.x0.clone(), sc.xhat0.clone());
-    let mut k0 = 0usize;
+    let mut k = 0usize;
     let mut next_target = 0usize;
-    loop {
-        let n = (steps - k0).min(CHUNK_STEPS);
-        let t0 = k0 as f64 * sc.dt;
-        let last = k0 + n == steps;
-        let t_end = if last {
-            (sc.t_end - t0).max(0.0)
-        } else {
-            n as f64 * sc.dt
+    let mut failed = None;
+    let mut last: Option<(Row, bool, bool)> = None;
+    let mut each = |row: &qpv_solve::simulate::Row<'_>| {
+        let r = Row {
+            t: row.t,
+            x: row.x.to_vec(),
+            xhat: row.xhat.to_vec(),
+            theta: row.theta.to_vec(),
+            mu: row.mu.to_vec(),
+            err: row.error_norm,
         };
-        let part = shifted(sc, t0, &x, &xhat, t_end);
-        let traj = match noise.as_deref_mut() {
-            Some(g) => simulate_noisy(obs, gains, &part, n, g),
-            None => simulate(obs, gains, &part).map_err(|e| e.to_string()),
+        if k == 0 {
+            found.e0 = r.err;
         }
+        // The certificate's premises and claim.
+        if let Some(qi) = &claim.q_inv {
+            let xs = nalgebra::DVector::from_column_slice(&r.x);
+            let s = xs.dot(&(qi * &xs));
+            if s > 1.0 + 1e-9 {
+                let e = found.left_f.get_or_insert((r.t, s));
+                e.1 = e.1.max(s);
+            }
+        }
+        if let Some((kf, alpha)) = claim.envelope {
+            let env = kf * found.e0 * (-alpha * r.t / 2.0).exp();
+            if r.err > env * (1.0 + ENVELOPE_SLACK) + 1e-300 {
+                let ratio = r.err / env;
+                let e = found.envelope_exceeded.get_or_insert((r.t, ratio));
+                e.1 = e.1.max(ratio);
+            }
+        }
+        if let Some(b) = &claim.noise_bound {
+            let bound = b.at(r.t);
+            if r.err > bound * (1.0 + NOISE_SLACK) + 1e-300 {
+                let ratio = r.err / bound;
+                let e = found.noise_exceeded.get_or_insert((r.t, ratio));
+                e.1 = e.1.max(ratio);
+            }
+        }
+        if r.err.is_nan() || r.err >= 1e-6 {
+            found.below_from = None;
+        } else if found.below_from.is_none() {
+            found.below_from = Some(r.t);
+        }
+        while next_target < SUMMARY_TIMES.len() && r.t >= SUMMARY_TIMES[next_target] - 1e-12 {
+            found.table.push((r.t, r.err));
+            next_target += 1;
+        }
+        let end = r.t >= sc.t_end;
+        let to_csv = k % stride == 0 || end;
+        if to_csv {
+            if let Err(e) = write_csv_row(csv, obs, sc, &r, found) {
+                failed = Some(e);
+                return false;
+            }
+        }
+        found.t_last = r.t;
+        let to_plot = k % plot_stride == 0 || end;
+        if to_plot {
+            found.plot.push(r.clone());
+        }
+        last = Some((r, to_csv, to_plot));
+        k += 1;
+        true
+    };
+    let diverged = simulate_each(obs, gains, sc, noise, &mut each)
         .map_err(|e| CliError::Input(format!("simulation: {e}")))?;
-        let first = usize::from(k0 > 0);
-        for i in first..traj.len() {
-            let k = k0 + i;
-            let r = Row {
-                t: t0 + traj.t[i],
-                x: traj.x[i].clone(),
-                xhat: traj.xhat[i].clone(),
-                theta: traj.theta[i].clone(),
-                mu: traj.mu[i].clone(),
-                err: traj.error_norm[i],
-            };
-            if k == 0 {
-                found.e0 = r.err;
-            }
-            // The certificate's premises and claim.
-            if let Some(qi) = &claim.q_inv {
-                let xs = nalgebra::DVector::from_column_slice(&r.x);
-                let s = xs.dot(&(qi * &xs));
-                if s > 1.0 + 1e-9 {
-                    let e = found.left_f.get_or_insert((r.t, s));
-                    e.1 = e.1.max(s);
-                }
-            }
-            if let Some((kf, alpha)) = claim.envelope {
-                let env = kf * found.e0 * (-alpha * r.t / 2.0).exp();
-                if r.err > env * (1.0 + ENVELOPE_SLACK) + 1e-300 {
-                    let ratio = r.err / env;
-                    let e = found.envelope_exceeded.get_or_insert((r.t, ratio));
-                    e.1 = e.1.max(ratio);
-                }
-            }
-            if let Some(b) = &claim.noise_bound {
-                let bound = b.at(r.t);
-                if r.err > bound * (1.0 + NOISE_SLACK) + 1e-300 {
-                    let ratio = r.err / bound;
-                    let e = found.noise_exceeded.get_or_insert((r.t, ratio));
-                    e.1 = e.1.max(ratio);
-                }
-            }
-            if r.err.is_nan() || r.err >= 1e-6 {
-                found.below_from = None;
-            } else if found.below_from.is_none() {
-                found.below_from = Some(r.t);
-            }
-            while next_target < SUMMARY_TIMES.len() && r.t >= SUMMARY_TIMES[next_target] - 1e-12 {
-                found.table.push((r.t, r.err));
-                next_target += 1;
-            }
-            let end = last && i + 1 == traj.len();
-            if k % stride == 0 || end {
-                if let Some(w) = csv.as_mut() {
-                    write_row(w, obs, sc, &r)
-                        .map_err(|e| CliError::Io(format!("cannot write trajectories.csv: {e}")))?;
-                    found.rows_written += 1;
-                }
-            }
-            found.t_last = r.t;
-            if k % plot_stride == 0 || end {
-                found.plot.push(r);
-            }
+    if let Some(e) = failed {
+        return Err(e);
+    }
+    found.diverged_at = diverged;
+    // A run that stopped early: its last row closes the CSV and the figures.
+    if let Some((r, to_csv, to_plot)) = last {
+        if !to_csv {
+            write_csv_row(csv, obs, sc, &r, found)?;
         }
-        if let Some(d) = traj.diverged_at {
-            found.diverged_at = Some(t0 + d);
-            return Ok(());
-        }
-        x = traj.x.last().cloned().unwrap_or_else(|| vec![0.0; nx]);
-        xhat = traj.xhat.last().cloned().unwrap_or_else(|| vec![0.0; nx]);
-        k0 += n;
-        if last {
-            return Ok(());
+        if !to_plot {
+            found.plot.push(r);
         }
     }
+    Ok(())
+}
+
+/// Writes `r` to the CSV of `--plot`, if there is one, and counts it.
+fn write_csv_row(
+    csv: &mut Option<impl Write>,
+    obs: &PolytopicModel,
+    sc: &Scenario,
+    r: &Row,
+    found: &mut Findings,
+) -> Result<(), CliError> {
+    if let Some(w) = csv.as_mut() {
+        write_row(w, obs, sc, r)
+            .map_err(|e| CliError::Io(format!("cannot write trajectories.csv: {e}")))?;
+        found.rows_written += 1;
+    }
+    Ok(())
 }
 
 fn describe(f: &Findings, claim: &Claim) -> String {

@@ -4,7 +4,6 @@
 //! noise amplitude and the largest gain; the knee is the fastest point
 //! whose error bound is within twice the sweep's smallest.
 
-use super::design::parse_gamma;
 use super::input::{
     check_json_target, emit_json, exit, load_model, prepare_plot_dir, print_text, CliError,
 };
@@ -13,7 +12,7 @@ use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec};
 use qpv_solve::noise::{default_alphas, knee_of, tradeoff, NoiseChannels, TradeoffPoint};
 use qpv_solve::report::Design;
 use serde::Serialize;
-use std::path::Path;
+use std::path::PathBuf;
 
 /// How many times the knee design's largest gain a design's gain may reach
 /// before the report says its gains are far above what the knee needs.
@@ -26,19 +25,25 @@ const GAIN_FALL: f64 = 2.0;
 const EXTEND: usize = 3;
 
 /// The options of `qpv tradeoff`.
-pub struct Options<'a> {
-    /// The model file.
-    pub file: &'a Path,
-    /// `--model`.
-    pub model: Option<&'a str>,
-    /// `--points`: number of α values.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// The model file (.qpv).
+    pub file: PathBuf,
+    /// Which model of the file.
+    #[arg(long)]
+    pub model: Option<String>,
+    /// Number of alpha values in the sweep (at least 2).
+    #[arg(long, default_value_t = 8)]
     pub points: usize,
-    /// `--gamma` (default: search).
-    pub gamma: Option<&'a str>,
-    /// `--json`.
-    pub json: Option<&'a str>,
-    /// `--plot`: directory of the SVG.
-    pub plot: Option<&'a Path>,
+    /// Region scaling: a number in (0,1) or `search` (default: search).
+    #[arg(long, allow_negative_numbers = true, value_parser = super::input::parse_gamma)]
+    pub gamma: Option<GammaSpec>,
+    /// Write the table as JSON to this file (`-` for stdout).
+    #[arg(long)]
+    pub json: Option<String>,
+    /// Directory for the SVG figure (tradeoff.svg).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
 }
 
 /// One row of the JSON table.
@@ -212,7 +217,7 @@ fn json_view<'a>(
 }
 
 /// Runs `qpv tradeoff`.
-pub fn run(o: Options) -> Result<i32, CliError> {
+pub fn run(o: &Options) -> Result<i32, CliError> {
     if o.points < 2 {
         return Err(CliError::Input(format!(
             "--points {}: expected at least 2",
@@ -225,17 +230,14 @@ pub fn run(o: Options) -> Result<i32, CliError> {
             o.points
         )));
     }
-    let gamma = o
-        .gamma
-        .map(parse_gamma)
-        .transpose()?
-        .unwrap_or(GammaSpec::Search);
+    let gamma = o.gamma.unwrap_or(GammaSpec::Search);
     // Every output is checked before the sweep (which can take minutes).
-    check_json_target(o.json, &[o.file])?;
-    if let Some(dir) = o.plot {
-        prepare_plot_dir(dir, &["tradeoff.svg".to_string()], &[o.file])?;
+    let json = o.json.as_deref();
+    check_json_target(json, &[&o.file])?;
+    if let Some(dir) = &o.plot {
+        prepare_plot_dir(dir, &["tradeoff.svg".to_string()], &[&o.file])?;
     }
-    let (_, model) = load_model(o.file, o.model)?;
+    let (_, model) = load_model(&o.file, o.model.as_deref())?;
     let poly = model.polytopic();
     let settings = qpv_solve::Settings::default();
     let t0 = std::time::Instant::now();
@@ -265,7 +267,7 @@ pub fn run(o: Options) -> Result<i32, CliError> {
     if !fastest.certifies {
         bar.finish_and_clear();
         print_text(
-            o.json,
+            json,
             &format!(
                 "model {}: NOT CERTIFIED: no certified alpha > 0 (alpha = max), so there is no trade-off to sweep\n",
                 model.name
@@ -349,7 +351,7 @@ pub fn run(o: Options) -> Result<i32, CliError> {
         )),
         None => s.push_str("  no point of the sweep certified: no knee\n"),
     }
-    if let Some(dir) = o.plot {
+    if let Some(dir) = &o.plot {
         s.push_str(&write_figure(dir, &model.name, &points, knee)?);
     }
     let seconds_total = t0.elapsed().as_secs_f64();
@@ -357,7 +359,7 @@ pub fn run(o: Options) -> Result<i32, CliError> {
         "  {} designs in {seconds_total:.2} s\n",
         points.len() + 1
     ));
-    print_text(o.json, &s);
+    print_text(json, &s);
     let out = json_view(
         &model.name,
         gamma,
@@ -367,7 +369,7 @@ pub fn run(o: Options) -> Result<i32, CliError> {
         knee,
         seconds_total,
     );
-    emit_json(o.json, &out)?;
+    emit_json(json, &out)?;
     Ok(if knee.is_some() {
         exit::CERTIFIED
     } else {

@@ -4,12 +4,26 @@ use super::input::{check_json_target, emit_json, fmt_matrix, load_model, print_t
 use super::schema::{count_warning, VerticesOutput};
 use nalgebra::DMatrix;
 use qpv_dsl::PolytopicModel;
-use std::path::Path;
+use std::path::PathBuf;
+
+/// The options of `qpv vertices`.
+#[derive(clap::Args, Debug)]
+pub struct Options {
+    /// The model file (.qpv).
+    pub file: PathBuf,
+    /// Which model of the file.
+    #[arg(long)]
+    pub model: Option<String>,
+    /// Write the JSON to this file (`-` for stdout).
+    #[arg(long)]
+    pub json: Option<String>,
+}
 
 /// Runs `qpv vertices`.
-pub fn run(file: &Path, model_name: Option<&str>, json: Option<&str>) -> Result<i32, CliError> {
-    check_json_target(json, &[file])?;
-    let (_, m) = load_model(file, model_name)?;
+pub fn run(o: &Options) -> Result<i32, CliError> {
+    let json = o.json.as_deref();
+    check_json_target(json, &[&o.file])?;
+    let (_, m) = load_model(&o.file, o.model.as_deref())?;
     let poly = m.polytopic();
     emit_json(json, &VerticesOutput::new(&poly))?;
     print_text(json, &describe_vertices(&poly));

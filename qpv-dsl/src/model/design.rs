@@ -74,6 +74,19 @@ pub enum NoiseObjective {
     Min,
 }
 
+impl NoiseObjective {
+    /// Every objective: `min` first, the one that changes the design.
+    pub const ALL: [NoiseObjective; 2] = [NoiseObjective::Min, NoiseObjective::Free];
+
+    /// The name used in the language and the CLI ("free" or "min").
+    pub fn name(self) -> &'static str {
+        match self {
+            NoiseObjective::Free => "free",
+            NoiseObjective::Min => "min",
+        }
+    }
+}
+
 /// How N_k (and M_k) are represented in the design LMIs.
 ///
 /// Only the symmetric part of N_k moves the plant, but the matrix
@@ -301,6 +314,196 @@ impl DesignRequest {
     pub const DEFAULT_WITHIN: f64 = 0.01;
     /// The largest tolerance accepted (half the supremum).
     pub const MAX_WITHIN: f64 = 0.5;
+
+    /// The first pair of settings of this request that cannot be combined,
+    /// if any: the one table of these rules, checked by the language (at
+    /// the key [`Clash::key`] names), the solver and the command line (a
+    /// request its flags were applied to).
+    pub fn validate(&self) -> Result<(), Clash> {
+        let sound = self.mode == Mode::Sound;
+        let skew = self.split == Split::SkewSlack;
+        let noise_min = self.noise == NoiseObjective::Min;
+        let clash = if skew && !sound {
+            Some(Clash::SkewSlackPaper)
+        } else if noise_min && !sound {
+            Some(Clash::NoiseMinPaper)
+        } else if noise_min && self.alpha == AlphaSpec::Max {
+            Some(Clash::NoiseMinAlphaMax)
+        } else if noise_min && skew {
+            Some(Clash::NoiseMinSkewSlack)
+        } else if self.max_gain.is_some() && noise_min {
+            Some(Clash::MaxGainNoiseMin)
+        } else if self.max_gain.is_some() && skew {
+            Some(Clash::MaxGainSkewSlack)
+        } else if self.max_gain.is_some() && !sound {
+            Some(Clash::MaxGainPaper)
+        } else if self.sample.is_none() {
+            None
+        } else if !sound {
+            Some(Clash::SamplePaper)
+        } else if self.conditions == Conditions::Decoupled {
+            Some(Clash::SampleDecoupled)
+        } else if self.conditions == Conditions::Cube {
+            Some(Clash::SampleCube)
+        } else if noise_min {
+            Some(Clash::SampleNoiseMin)
+        } else if skew {
+            Some(Clash::SampleSkewSlack)
+        } else {
+            None
+        };
+        clash.map_or(Ok(()), Err)
+    }
+}
+
+/// Two settings of a design request that cannot be combined
+/// ([`DesignRequest::validate`]). `Display` says why, in the language's
+/// words (`noise = min`, `alpha = max`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Clash {
+    /// `split = skew_slack` in paper mode.
+    SkewSlackPaper,
+    /// `noise = min` with `alpha = max`.
+    NoiseMinAlphaMax,
+    /// `noise = min` in paper mode.
+    NoiseMinPaper,
+    /// `noise = min` with `split = skew_slack`.
+    NoiseMinSkewSlack,
+    /// `max_gain` with `noise = min`.
+    MaxGainNoiseMin,
+    /// `max_gain` with `split = skew_slack`.
+    MaxGainSkewSlack,
+    /// `max_gain` in paper mode.
+    MaxGainPaper,
+    /// `sample` in paper mode.
+    SamplePaper,
+    /// `sample` with `conditions = decoupled`.
+    SampleDecoupled,
+    /// `sample` with `conditions = cube`.
+    SampleCube,
+    /// `sample` with `noise = min`.
+    SampleNoiseMin,
+    /// `sample` with `split = skew_slack`.
+    SampleSkewSlack,
+}
+
+impl Clash {
+    /// The setting a message about the clash points at (a key of the
+    /// `design` block).
+    pub fn key(self) -> &'static str {
+        match self {
+            Clash::SkewSlackPaper => "split",
+            Clash::NoiseMinAlphaMax => "noise",
+            Clash::NoiseMinPaper | Clash::SamplePaper => "mode",
+            Clash::NoiseMinSkewSlack | Clash::SampleSkewSlack => "split",
+            Clash::MaxGainNoiseMin | Clash::MaxGainSkewSlack | Clash::MaxGainPaper => "max_gain",
+            Clash::SampleDecoupled | Clash::SampleCube => "conditions",
+            Clash::SampleNoiseMin => "noise",
+        }
+    }
+}
+
+impl std::fmt::Display for Clash {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Clash::SkewSlackPaper => {
+                "`split = skew_slack` needs `mode = sound`: the paper's printed conditions \
+                 are reproduced as written, with no slack"
+            }
+            Clash::NoiseMinAlphaMax => {
+                "`noise = min` needs a fixed `alpha` (e.g. `alpha = 5;`): `alpha = max` is \
+                 the fastest certified design, not a noise trade-off; pick a rate below it"
+            }
+            Clash::NoiseMinPaper => {
+                "`noise = min` needs `mode = sound`: the paper's printed conditions certify \
+                 nothing, so they give no noise bound"
+            }
+            Clash::NoiseMinSkewSlack => {
+                "`noise = min` does not search the skew slack: use `split = symmetric` or \
+                 `split = as_written`"
+            }
+            Clash::MaxGainNoiseMin => {
+                "`max_gain` cannot be combined with `noise = min` (its SDP has no gain bound)"
+            }
+            Clash::MaxGainSkewSlack => {
+                "`max_gain` cannot be combined with `split = skew_slack` (the slack search \
+                 has no gain bound)"
+            }
+            Clash::MaxGainPaper => {
+                "`max_gain` cannot be combined with `mode = paper` (the printed conditions \
+                 certify nothing)"
+            }
+            Clash::SamplePaper => {
+                "`sample` needs `mode = sound`: the paper's printed conditions have no \
+                 discrete-time form and certify nothing"
+            }
+            Clash::SampleDecoupled => {
+                "`sample` is designed with the full vertex family (`conditions = full` or \
+                 `auto`): the decoupled split bounds the e- and x-vertex terms of a sum, and \
+                 the discrete decrease is not a sum of them (its h² term couples e and x)"
+            }
+            Clash::SampleCube => {
+                "`sample` is designed with the full vertex family (`conditions = full` or \
+                 `auto`): the matrix-cube relaxation of `conditions = cube` has no \
+                 discrete-time form in qpv yet"
+            }
+            Clash::SampleNoiseMin => {
+                "`noise = min` has no discrete-time form in qpv yet: drop `sample` for the \
+                 continuous noise-optimal design, or `noise = min` for the sampled one"
+            }
+            Clash::SampleSkewSlack => {
+                "`split = skew_slack` searches its slack with the continuous rate \
+                 conditions: use `split = symmetric` or `as_written` with `sample`"
+            }
+        })
+    }
+}
+
+impl std::fmt::Display for DesignRequest {
+    /// The request as the settings of a `design` block: `alpha = 5; gamma =
+    /// search; mode = sound; split = symmetric; conditions = auto`, then
+    /// the output route, `noise`, `alpha = max`'s `within`, `max_gain`,
+    /// `sample` and `float` where they differ from the default.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.alpha {
+            AlphaSpec::Fixed(a) => write!(f, "alpha = {a}")?,
+            AlphaSpec::Max => f.write_str("alpha = max")?,
+        }
+        if self.alpha == AlphaSpec::Max && self.within != DesignRequest::DEFAULT_WITHIN {
+            write!(f, "(within = {})", self.within)?;
+        }
+        match self.gamma {
+            GammaSpec::Fixed(g) => write!(f, "; gamma = {g}")?,
+            GammaSpec::Search => f.write_str("; gamma = search")?,
+        }
+        write!(
+            f,
+            "; mode = {}; split = {}; conditions = {}",
+            self.mode.name(),
+            self.split.name(),
+            self.conditions.name()
+        )?;
+        if let OutputRoute::Filter(o) = self.output_route {
+            write!(
+                f,
+                "; output_route = filter(pole = {}, gain = {})",
+                o.pole, o.gain
+            )?;
+        }
+        if self.noise == NoiseObjective::Min {
+            f.write_str("; noise = min")?;
+        }
+        if let Some(g) = self.max_gain {
+            write!(f, "; max_gain = {g}")?;
+        }
+        if let Some(h) = self.sample {
+            write!(f, "; sample = {h}")?;
+        }
+        if self.float != Float::F64 {
+            write!(f, "; float = {}", self.float.name())?;
+        }
+        Ok(())
+    }
 }
 
 /// The keys of a `design { ... }` block.
@@ -345,15 +548,20 @@ impl Builder<'_> {
             seen.keys.push((entry.key.name.as_str(), entry.key.span));
         }
         req.split = split.unwrap_or(Split::default_for(req.mode));
-        combination_clashes(&req, region, &seen)?;
-        if req.noise == NoiseObjective::Min {
-            noise_min_clashes(&req, &seen)?;
+        if req.conditions == Conditions::Cube && region.zonotope_generators().is_none() {
+            return Err(Diag::new(
+                seen.at("conditions"),
+                format!(
+                    "`conditions = cube` needs a region that is a box, a parallelotope or a \
+                     zonotope (`region zonotope [...]`); this region has {} vertices and {} \
+                     facets and is none of them: use `conditions = full` or `decoupled`",
+                    region.vertices.len(),
+                    region.facets.len()
+                ),
+            ));
         }
-        if req.max_gain.is_some() {
-            max_gain_clashes(&req, &seen)?;
-        }
-        if req.sample.is_some() {
-            self.sample_clashes(&req, &seen)?;
+        if let Err(clash) = req.validate() {
+            return Err(Diag::new(seen.at(clash.key()), clash.to_string()));
         }
         Ok(req)
     }
@@ -427,50 +635,6 @@ impl Builder<'_> {
         Ok(())
     }
 
-    /// The settings a `sample = h` design cannot be combined with (yet), each
-    /// an error at the clashing key saying why.
-    fn sample_clashes(&self, req: &DesignRequest, seen: &Seen<'_>) -> R<()> {
-        let clash: Option<(&str, &str)> = if req.mode == Mode::Paper {
-            Some((
-                "mode",
-                "`sample` needs `mode = sound`: the paper's printed conditions have no \
-                 discrete-time form and certify nothing",
-            ))
-        } else if req.conditions == Conditions::Decoupled {
-            Some((
-                "conditions",
-                "`sample` is designed with the full vertex family (`conditions = full` or \
-                 `auto`): the decoupled split bounds the e- and x-vertex terms of a sum, and \
-                 the discrete decrease is not a sum of them (its h² term couples e and x)",
-            ))
-        } else if req.conditions == Conditions::Cube {
-            Some((
-                "conditions",
-                "`sample` is designed with the full vertex family (`conditions = full` or \
-                 `auto`): the matrix-cube relaxation of `conditions = cube` has no \
-                 discrete-time form in qpv yet",
-            ))
-        } else if req.noise == NoiseObjective::Min {
-            Some((
-                "noise",
-                "`noise = min` has no discrete-time form in qpv yet: drop `sample` for the \
-                 continuous noise-optimal design, or `noise = min` for the sampled one",
-            ))
-        } else if req.split == Split::SkewSlack {
-            Some((
-                "split",
-                "`split = skew_slack` searches its slack with the continuous rate \
-                 conditions: use `split = symmetric` or `as_written` with `sample`",
-            ))
-        } else {
-            None
-        };
-        match clash {
-            Some((key, msg)) => Err(Diag::new(seen.at(key), msg)),
-            None => Ok(()),
-        }
-    }
-
     /// `sample = h`: the sample period in seconds, positive and finite.
     fn sample_value(&self, v: &Expr) -> R<f64> {
         let h = self.constant(v, "the sample period `sample`")?;
@@ -536,10 +700,13 @@ impl Builder<'_> {
 
     /// `noise = free | min`.
     fn noise_value(&self, v: &Expr) -> R<NoiseObjective> {
-        match word(v) {
-            Some("free") => Ok(NoiseObjective::Free),
-            Some("min") => Ok(NoiseObjective::Min),
-            _ => Err(bad_value(
+        let w = word(v);
+        match NoiseObjective::ALL
+            .into_iter()
+            .find(|x| Some(x.name()) == w)
+        {
+            Some(x) => Ok(x),
+            None => Err(bad_value(
                 v.span,
                 "noise",
                 "`free` (the default) or `min`",
@@ -743,79 +910,6 @@ impl Seen<'_> {
             .iter()
             .find(|(k, _)| *k == key)
             .map_or(self.block, |(_, s)| *s)
-    }
-}
-
-/// The skew slack with the paper's conditions, and the cube conditions on
-/// a region that is no zonotope: errors at the clashing key.
-fn combination_clashes(req: &DesignRequest, region: &Region, seen: &Seen<'_>) -> R<()> {
-    if req.split == Split::SkewSlack && req.mode == Mode::Paper {
-        return Err(Diag::new(
-            seen.at("split"),
-            "`split = skew_slack` needs `mode = sound`: the paper's printed conditions \
-             are reproduced as written, with no slack",
-        ));
-    }
-    if req.conditions == Conditions::Cube && region.zonotope_generators().is_none() {
-        return Err(Diag::new(
-            seen.at("conditions"),
-            format!(
-                "`conditions = cube` needs a region that is a box, a parallelotope or a \
-                 zonotope (`region zonotope [...]`); this region has {} vertices and {} \
-                 facets and is none of them: use `conditions = full` or `decoupled`",
-                region.vertices.len(),
-                region.facets.len()
-            ),
-        ));
-    }
-    Ok(())
-}
-
-/// The settings `noise = min` cannot be combined with, each an error at the
-/// clashing key saying why.
-fn noise_min_clashes(req: &DesignRequest, seen: &Seen<'_>) -> R<()> {
-    if req.alpha == AlphaSpec::Max {
-        return Err(Diag::new(
-            seen.at("noise"),
-            "`noise = min` needs a fixed `alpha` (e.g. `alpha = 5;`): `alpha = max` is \
-             the fastest certified design, not a noise trade-off; pick a rate below it",
-        ));
-    }
-    if req.mode == Mode::Paper {
-        return Err(Diag::new(
-            seen.at("mode"),
-            "`noise = min` needs `mode = sound`: the paper's printed conditions certify \
-             nothing, so they give no noise bound",
-        ));
-    }
-    if req.split == Split::SkewSlack {
-        return Err(Diag::new(
-            seen.at("split"),
-            "`noise = min` does not search the skew slack: use `split = symmetric` or \
-             `split = as_written`",
-        ));
-    }
-    Ok(())
-}
-
-/// The settings `max_gain` cannot be combined with: an error at `max_gain`
-/// naming the first.
-fn max_gain_clashes(req: &DesignRequest, seen: &Seen<'_>) -> R<()> {
-    let clash = if req.noise == NoiseObjective::Min {
-        Some("`noise = min` (its SDP has no gain bound)")
-    } else if req.split == Split::SkewSlack {
-        Some("`split = skew_slack` (the slack search has no gain bound)")
-    } else if req.mode == Mode::Paper {
-        Some("`mode = paper` (the printed conditions certify nothing)")
-    } else {
-        None
-    };
-    match clash {
-        Some(what) => Err(Diag::new(
-            seen.at("max_gain"),
-            format!("`max_gain` cannot be combined with {what}"),
-        )),
-        None => Ok(()),
     }
 }
 

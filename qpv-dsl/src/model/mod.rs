@@ -17,8 +17,8 @@ mod validate;
 
 pub(crate) use build::build;
 pub use design::{
-    AlphaSpec, Conditions, DesignRequest, Float, GammaSpec, Mode, NoiseObjective, OutputFilter,
-    OutputRoute, Split,
+    AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Mode, NoiseObjective,
+    OutputFilter, OutputRoute, Split,
 };
 pub use names::{Param, MAX_DIM, MAX_PARAMS};
 pub use state_bound::StateBound;

@@ -45,7 +45,7 @@ pub fn simulate_euler(
         )));
     }
     let steps = (scenario.t_end / scenario.dt - 1e-9).ceil().max(0.0);
-    if steps > crate::analysis::simulate::MAX_STEPS as f64 {
+    if steps > crate::analysis::simulate::MAX_RECORDED_STEPS as f64 {
         return Err(SimError::TimeGrid(format!("{steps} steps")));
     }
     let steps = steps as usize;

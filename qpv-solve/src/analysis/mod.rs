@@ -5,4 +5,5 @@
 pub mod euler;
 pub mod falsify;
 pub mod noise;
+pub(crate) mod rng;
 pub mod simulate;

@@ -51,8 +51,15 @@ use std::fmt;
 use std::io::{self, Write};
 use std::sync::Arc;
 
-/// Largest number of RK4 steps [`simulate`] accepts (every step is recorded).
-pub const MAX_STEPS: usize = 10_000_000;
+/// Largest number of RK4 steps of one run ([`simulate_each`] hands every
+/// step out and keeps none, so memory does not grow with the run).
+pub const MAX_STEPS: usize = 100_000_000;
+
+/// Largest number of steps a recorded [`Trajectory`] holds ([`simulate`],
+/// [`crate::analysis::euler::simulate_euler`]): every row stays in memory
+/// (a few hundred bytes each), so a longer run streams through
+/// [`simulate_each`].
+pub const MAX_RECORDED_STEPS: usize = MAX_STEPS / 10;
 
 /// Largest number of scheduling parameters accepted (2^20 vertices).
 const MAX_SCHEDULING: usize = 20;
@@ -582,7 +589,7 @@ impl Scenario {
         }
     }
 
-    /// Number of RK4 steps, checking the time grid.
+    /// Number of RK4 steps, checking the time grid (at most [`MAX_STEPS`]).
     fn steps(&self) -> Result<usize, SimError> {
         if !(self.t_end.is_finite() && self.t_end >= 0.0) {
             return Err(SimError::TimeGrid(format!("t_end = {}", self.t_end)));
@@ -710,6 +717,8 @@ struct Closed<'a> {
     u: Vec<f64>,
     y: Vec<f64>,
     yhat: Vec<f64>,
+    /// Measurement noise added to y over the current step, if any.
+    v: Option<Vec<f64>>,
 }
 
 impl<'a> Closed<'a> {
@@ -723,6 +732,7 @@ impl<'a> Closed<'a> {
             u: vec![0.0; model.nu()],
             y: vec![0.0; model.ny()],
             yhat: vec![0.0; model.ny()],
+            v: None,
         }
     }
 
@@ -740,8 +750,13 @@ impl<'a> Closed<'a> {
         // plant
         self.frozen.drift(x, dx);
         self.frozen.add_input(&self.u, dx);
-        // observer, eq. (9)
+        // observer, eq. (9), fed the measurement y + v
         self.frozen.output(x, &mut self.y);
+        if let Some(v) = &self.v {
+            for (y, v) in self.y.iter_mut().zip(v) {
+                *y += v;
+            }
+        }
         self.frozen.output(xhat, &mut self.yhat);
         for (y, yh) in self.y.iter_mut().zip(&self.yhat) {
             *y -= yh;
@@ -752,28 +767,110 @@ impl<'a> Closed<'a> {
         true
     }
 
-    /// Appends the row for time `t` (θ(t) is evaluated again for the record).
-    fn record(&mut self, traj: &mut Trajectory, t: f64, z: &[f64]) {
+    /// Hands the row for time `t` to `each` (θ(t) is evaluated again for
+    /// the row); `each`'s answer: whether the run goes on.
+    fn emit(&mut self, t: f64, z: &[f64], each: &mut dyn FnMut(&Row<'_>) -> bool) -> bool {
         let nx = self.model.nx();
         self.scenario.theta_into(t, &mut self.theta);
-        let err = z[..nx]
+        let error_norm = z[..nx]
             .iter()
             .zip(&z[nx..])
             .map(|(a, b)| (a - b) * (a - b))
             .sum::<f64>()
             .sqrt();
-        traj.t.push(t);
-        traj.x.push(z[..nx].to_vec());
-        traj.xhat.push(z[nx..].to_vec());
-        traj.theta.push(self.theta.clone());
-        traj.mu.push(self.model.mu(&self.theta));
-        traj.error_norm.push(err);
+        let mu = self.model.mu(&self.theta);
+        each(&Row {
+            t,
+            x: &z[..nx],
+            xhat: &z[nx..],
+            theta: &self.theta,
+            mu: &mu,
+            error_norm,
+        })
+    }
+}
+
+/// One instant of a run, as [`simulate_each`] hands it out (the columns
+/// of a [`Trajectory`] row).
+#[derive(Debug, Clone, Copy)]
+pub struct Row<'a> {
+    /// Time.
+    pub t: f64,
+    /// Plant state x(t).
+    pub x: &'a [f64],
+    /// Observer state x̂(t).
+    pub xhat: &'a [f64],
+    /// Parameters θ(t) as given by the scenario (before clamping).
+    pub theta: &'a [f64],
+    /// Vertex weights μ_l(θ(t)).
+    pub mu: &'a [f64],
+    /// ‖x(t) − x̂(t)‖.
+    pub error_norm: f64,
+}
+
+/// Bounded measurement noise for [`simulate_each`]: at every step a random
+/// direction on the noisy outputs, scaled to the amplitude ν (the largest
+/// a noise bound allows), zero on the other outputs, held over the step.
+/// Seeded (splitmix64, the falsifier's generator), so a run is the same on
+/// every platform.
+#[derive(Debug, Clone)]
+pub struct MeasurementNoise {
+    rng: crate::analysis::rng::Rng,
+    amplitude: f64,
+    outputs: Vec<usize>,
+}
+
+impl MeasurementNoise {
+    /// Noise of amplitude `amplitude` on the outputs `outputs` (indices),
+    /// from `seed`.
+    pub fn new(seed: u64, amplitude: f64, outputs: Vec<usize>) -> Self {
+        MeasurementNoise {
+            rng: crate::analysis::rng::Rng(seed ^ 0x9E37_79B9_7F4A_7C15),
+            amplitude,
+            outputs,
+        }
+    }
+
+    /// The amplitude ν: every noise vector has Euclidean norm ν.
+    pub fn amplitude(&self) -> f64 {
+        self.amplitude
+    }
+
+    /// The indices of the outputs the noise enters.
+    pub fn outputs(&self) -> &[usize] {
+        &self.outputs
+    }
+
+    /// The next noise vector on all `ny` outputs: a direction uniform in
+    /// the unit ball (by rejection), normalised and scaled to ν on the
+    /// noisy outputs, zero on the others.
+    pub fn sample(&mut self, ny: usize) -> Vec<f64> {
+        let mut v = vec![0.0; ny];
+        if self.outputs.is_empty() {
+            return v;
+        }
+        let dir: Vec<f64> = loop {
+            let d: Vec<f64> = (0..self.outputs.len())
+                .map(|_| self.rng.uniform() * 2.0 - 1.0)
+                .collect();
+            let n = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if n > 1e-3 && n <= 1.0 {
+                break d.iter().map(|x| x / n).collect();
+            }
+        };
+        for (k, &i) in self.outputs.iter().enumerate() {
+            if i < ny {
+                v[i] = self.amplitude * dir[k];
+            }
+        }
+        v
     }
 }
 
 /// Simulates plant and observer (spec eq. 9) with classical fixed-step RK4;
 /// θ and u are sampled at the RK4 stage times and y = C x + M(x) x is taken
-/// from the plant's stage state.
+/// from the plant's stage state. Every step is recorded (at most
+/// [`MAX_RECORDED_STEPS`]; [`simulate_each`] streams longer runs).
 ///
 /// Returns an error for inconsistent input (sizes, non-finite data, time
 /// grid). If the state or the estimate becomes non-finite, the simulation
@@ -783,6 +880,48 @@ pub fn simulate(
     gains: &[DMatrix<f64>],
     scenario: &Scenario,
 ) -> Result<Trajectory, SimError> {
+    // A bad grid is reported by simulate_each, after the model's checks.
+    let steps = scenario.steps().unwrap_or(0);
+    if steps > MAX_RECORDED_STEPS {
+        return Err(SimError::TimeGrid(format!(
+            "t_end / dt = {steps} steps (at most {MAX_RECORDED_STEPS} are recorded; \
+             simulate_each streams up to {MAX_STEPS})"
+        )));
+    }
+    let mut traj = Trajectory {
+        t: Vec::with_capacity(steps + 1),
+        x: Vec::with_capacity(steps + 1),
+        xhat: Vec::with_capacity(steps + 1),
+        theta: Vec::with_capacity(steps + 1),
+        mu: Vec::with_capacity(steps + 1),
+        error_norm: Vec::with_capacity(steps + 1),
+        diverged_at: None,
+    };
+    traj.diverged_at = simulate_each(model, gains, scenario, None, &mut |r| {
+        traj.t.push(r.t);
+        traj.x.push(r.x.to_vec());
+        traj.xhat.push(r.xhat.to_vec());
+        traj.theta.push(r.theta.to_vec());
+        traj.mu.push(r.mu.to_vec());
+        traj.error_norm.push(r.error_norm);
+        true
+    })?;
+    Ok(traj)
+}
+
+/// The run of [`simulate`], optionally with measurement noise (`noise`:
+/// the observer is fed y + v, v drawn once per step and held over it),
+/// each row handed to `each` instead of recorded, so memory does not grow
+/// with the run (at most [`MAX_STEPS`] steps). `each` returns whether the
+/// run goes on. Returns the time a non-finite value appeared (in x, x̂, θ
+/// or u at an RK4 stage), if one did; the rows before it were handed out.
+pub fn simulate_each(
+    model: &PolytopicModel,
+    gains: &[DMatrix<f64>],
+    scenario: &Scenario,
+    mut noise: Option<&mut MeasurementNoise>,
+    each: &mut dyn FnMut(&Row<'_>) -> bool,
+) -> Result<Option<f64>, SimError> {
     check_model(model)?;
     check_gains(model, gains)?;
     let nx = model.nx();
@@ -805,15 +944,6 @@ pub fn simulate(
     let steps = scenario.steps()?;
 
     let mut sys = Closed::new(model, gains, scenario);
-    let mut traj = Trajectory {
-        t: Vec::with_capacity(steps + 1),
-        x: Vec::with_capacity(steps + 1),
-        xhat: Vec::with_capacity(steps + 1),
-        theta: Vec::with_capacity(steps + 1),
-        mu: Vec::with_capacity(steps + 1),
-        error_norm: Vec::with_capacity(steps + 1),
-        diverged_at: None,
-    };
     let mut z: Vec<f64> = scenario.x0.iter().chain(&scenario.xhat0).copied().collect();
     let dim = z.len();
     let (mut k1, mut k2, mut k3, mut k4, mut stage) = (
@@ -824,10 +954,11 @@ pub fn simulate(
         vec![0.0; dim],
     );
     if !sys.scenario.theta.iter().all(|s| s.at(0.0).is_finite()) {
-        traj.diverged_at = Some(0.0);
-        return Ok(traj);
+        return Ok(Some(0.0));
     }
-    sys.record(&mut traj, 0.0, &z);
+    if !sys.emit(0.0, &z, each) {
+        return Ok(None);
+    }
 
     for k in 0..steps {
         let t = k as f64 * scenario.dt;
@@ -837,6 +968,9 @@ pub fn simulate(
             (k + 1) as f64 * scenario.dt
         };
         let h = t_next - t;
+        if let Some(n) = noise.as_deref_mut() {
+            sys.v = Some(n.sample(model.ny()));
+        }
         let mut ok = sys.rhs(t, &z, &mut k1);
         let axpy = |dst: &mut Vec<f64>, c: f64, kv: &[f64]| {
             for ((d, zi), ki) in dst.iter_mut().zip(&z).zip(kv) {
@@ -850,20 +984,20 @@ pub fn simulate(
         axpy(&mut stage, h, &k3);
         ok = ok && sys.rhs(t_next, &stage, &mut k4);
         if !ok {
-            traj.diverged_at = Some(t);
-            break;
+            return Ok(Some(t));
         }
         for i in 0..dim {
             z[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
         }
         let theta_ok = sys.scenario.theta.iter().all(|s| s.at(t_next).is_finite());
         if !theta_ok || z.iter().any(|v| !v.is_finite()) {
-            traj.diverged_at = Some(t_next);
-            break;
+            return Ok(Some(t_next));
         }
-        sys.record(&mut traj, t_next, &z);
+        if !sys.emit(t_next, &z, each) {
+            return Ok(None);
+        }
     }
-    Ok(traj)
+    Ok(None)
 }
 
 /// √cond(P) = √(λ_max/λ_min) of a Lyapunov matrix: V(t) ≤ V(0)e^{−αt} with
@@ -876,4 +1010,64 @@ pub fn envelope_factor(p: &DMatrix<f64>) -> Option<f64> {
     let eig = nalgebra::SymmetricEigen::new(p.clone()).eigenvalues;
     let (lo, hi) = (eig.min(), eig.max());
     (lo > 0.0).then(|| (hi / lo).sqrt())
+}
+
+/// The certified bound on ‖e(t)‖ of a design with a noise bound
+/// ([`crate::report::NoiseBound`]: V' + αV ≤ σ|v|²) under measurement
+/// noise of amplitude ν ≤ ν_max: V(t) ≤ e^{−αt}V(0) + (σν²/α)(1 − e^{−αt})
+/// and ‖e‖ ≤ √(V/λ_min(P)), which tends to ν times the bound's
+/// `error_bound` per unit amplitude.
+#[derive(Debug, Clone, Copy)]
+pub struct NoiseEnvelope {
+    /// V(0) = e(0)ᵀ P e(0).
+    v0: f64,
+    /// Decay rate α.
+    alpha: f64,
+    /// λ_min(P).
+    lambda_min: f64,
+    /// The ultimate bound lim sup ‖e‖ ≤ ν · error_bound.
+    ultimate: f64,
+}
+
+impl NoiseEnvelope {
+    /// The envelope of P (the design's, as its noise bound was computed
+    /// with), e(0), α and the bound at amplitude ν; `None` if P is not
+    /// positive definite or does not fit e(0).
+    pub fn new(
+        p: &DMatrix<f64>,
+        e0: &[f64],
+        alpha: f64,
+        bound: &crate::certificate::noise::NoiseBound,
+        nu: f64,
+    ) -> Option<Self> {
+        if p.is_empty() || !p.is_square() || e0.len() != p.nrows() {
+            return None;
+        }
+        if !p.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let ps = (p + p.transpose()) * 0.5;
+        let lambda_min = ps.symmetric_eigenvalues().min();
+        if lambda_min.is_nan() || lambda_min <= 0.0 {
+            return None;
+        }
+        let e = nalgebra::DVector::from_column_slice(e0);
+        Some(NoiseEnvelope {
+            v0: e.dot(&(p * &e)),
+            alpha,
+            lambda_min,
+            ultimate: nu * bound.error_bound,
+        })
+    }
+
+    /// The bound on ‖e(t)‖.
+    pub fn at(&self, t: f64) -> f64 {
+        let d = (-self.alpha * t).exp();
+        (d * self.v0 / self.lambda_min + (1.0 - d) * self.ultimate * self.ultimate).sqrt()
+    }
+
+    /// The ultimate bound lim sup ‖e(t)‖ ≤ ν √(σ/(α λ_min(P))).
+    pub fn ultimate(&self) -> f64 {
+        self.ultimate
+    }
 }

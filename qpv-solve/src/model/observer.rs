@@ -318,7 +318,7 @@ fn verify_claim(
         h_fixed: false,
         gamma_max: Some(gamma_max_for(plant, q)),
         gamma_upper: None,
-        split: Some(split.name().to_string()),
+        split: Some(split),
         check: Some(chk),
         solves: 0,
         seconds: 0.0,

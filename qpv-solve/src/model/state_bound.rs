@@ -167,7 +167,8 @@ pub struct StateBoundInfo {
     pub gamma_upper: Option<f64>,
     /// Representation of N_k used by the invariance LMIs of a computed bound
     /// ("as_written" or "symmetric").
-    pub split: Option<String>,
+    #[serde(default, with = "crate::vocab::bound_split_serde")]
+    pub split: Option<Split>,
     /// The independent check of a computed bound.
     pub check: Option<BoundCheck>,
     /// Solves of the h search of a computed bound (0 otherwise); each
@@ -178,10 +179,6 @@ pub struct StateBoundInfo {
     pub seconds: f64,
     /// Remarks (e.g. invariance only for u = 0).
     pub notes: Vec<String>,
-}
-
-fn split_name(s: Split) -> &'static str {
-    s.name()
 }
 
 /// The half-widths r_j of the region's bounding box.
@@ -764,7 +761,7 @@ pub fn resolve(
             info.h_fixed = h.is_some();
             info.gamma_max = Some(b.gamma_max);
             info.gamma_upper = b.gamma_upper;
-            info.split = Some(split_name(b.split).to_string());
+            info.split = Some(b.split);
             info.check = Some(b.check.clone());
             info.solves = solves;
             info.seconds = t0.elapsed().as_secs_f64();

@@ -12,7 +12,9 @@ use crate::lmi::{Objective, Problem};
 use crate::model::output_filter::OutputRouteInfo;
 use crate::model::state_bound::StateBoundInfo;
 use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim, StateScaling};
-use crate::report::{Design, GammaSearchInfo, ReportedMatrices, SearchStep, SolverInfo};
+use crate::report::{
+    Design, GammaSearchInfo, Note, Notes, ReportedMatrices, SearchStep, SolverInfo,
+};
 use crate::settings::Settings;
 use crate::vocab::{BoundSource, Candidate, Family, Phase};
 use qpv_dsl::{
@@ -231,7 +233,7 @@ impl Ctx<'_, '_> {
         &mut self,
         request: &DesignRequest,
         gamma_hi: f64,
-        notes: &mut Vec<String>,
+        notes: &mut Notes,
     ) -> Result<Target, SolveError> {
         let tol = self.settings.bisection_rel_tol;
         Ok(match (request.alpha, request.gamma) {
@@ -263,7 +265,7 @@ impl Ctx<'_, '_> {
             }
             (alpha, GammaSpec::Search) => {
                 let (pt, info, trace) = self.gamma_search(gamma_hi)?;
-                notes.push(info.statement());
+                notes.push(Note::GammaSearch(info.clone()));
                 let g = pt.as_ref().map(|p| p.gamma).unwrap_or(gamma_hi);
                 let (alpha, searched) = match alpha {
                     AlphaSpec::Max => (pt.as_ref().map(|p| p.alpha), pt),
@@ -302,7 +304,7 @@ impl Ctx<'_, '_> {
         request: &DesignRequest,
         t: &mut Target,
         trace: &super::practical::Trace,
-        notes: &mut Vec<String>,
+        notes: &mut Notes,
     ) -> Result<(), SolveError> {
         let Some(sup) = t.searched.clone() else {
             return Ok(());
@@ -332,7 +334,7 @@ impl Ctx<'_, '_> {
     /// (re-certified at exactly that α) is reported instead, with a note. A
     /// fixed request has no search point: if its solve returned a point that
     /// fails the certificate, the α search at its γ supplies one covering α.
-    fn final_solve(&mut self, t: Target, notes: &mut Vec<String>) -> Result<Final, SolveError> {
+    fn final_solve(&mut self, t: Target, notes: &mut Notes) -> Result<Final, SolveError> {
         let Some(a) = t.alpha else {
             let (status, solver) = match self.steps.last() {
                 Some(s) => (
@@ -450,7 +452,7 @@ impl Ctx<'_, '_> {
 
     /// Notes on the solves: unknown statuses, a certified point from an
     /// unsolved status, points the certificate rejected.
-    fn solve_notes(&self, feasible: bool, final_solver: &SolverInfo, notes: &mut Vec<String>) {
+    fn solve_notes(&self, feasible: bool, final_solver: &SolverInfo, notes: &mut Notes) {
         let unknown: Vec<&SearchStep> = self
             .steps
             .iter()
@@ -460,18 +462,16 @@ impl Ctx<'_, '_> {
             let mut kinds: Vec<String> = unknown.iter().map(|s| s.detail.clone()).collect();
             kinds.sort();
             kinds.dedup();
-            notes.push(format!(
-                "{} of {} solves ended with an unknown status ({}): neither feasible nor infeasible, counted as not certified",
-                unknown.len(),
-                self.steps.len(),
-                kinds.join(", ")
-            ));
+            notes.push(Note::UnknownStatus {
+                count: unknown.len(),
+                solves: self.steps.len(),
+                kinds,
+            });
         }
         if feasible && final_solver.status != Status::Solved {
-            notes.push(format!(
-                "the solver stopped with {} but its point passes the independent certificate",
-                final_solver.detail
-            ));
+            notes.push(Note::StoppedShort {
+                detail: final_solver.detail.clone(),
+            });
         }
         let uncert = self
             .steps
@@ -479,9 +479,7 @@ impl Ctx<'_, '_> {
             .filter(|s| s.status == Status::Solved && !s.certified)
             .count();
         if uncert > 0 {
-            notes.push(format!(
-                "{uncert} solved points failed the independent certificate and were rejected"
-            ));
+            notes.push(Note::Rejected { count: uncert });
         }
     }
 }
@@ -493,7 +491,7 @@ fn data_notes(
     dchecks: &BTreeMap<String, DataCheck>,
     gamma: f64,
     gmax: Option<f64>,
-    notes: &mut Vec<String>,
+    notes: &mut Notes,
 ) {
     let s4 = dchecks.get(Family::S4.name());
     if mode == Mode::Paper {
@@ -507,7 +505,7 @@ fn data_notes(
                 d.value, gamma
             )),
             Some(_) => {}
-            None => notes.push("(15)/(S4) not checked: the model has no state bound Q".into()),
+            None => notes.push("(15)/(S4) not checked: the model has no state bound Q"),
         }
     } else if let Some(d) = s4.filter(|d| !d.passed) {
         notes.push(format!(
@@ -583,7 +581,7 @@ fn summary(
     final_status: Status,
     failed: &[String],
     norms: &[f64],
-    notes: &[String],
+    notes: &Notes,
 ) -> String {
     let max_norm = norms.iter().copied().fold(0.0, f64::max);
     let failed = if failed.is_empty() {
@@ -618,8 +616,9 @@ fn summary(
         ),
     };
     for n in notes {
+        let n = n.to_string();
         s.push(' ');
-        s.push_str(n);
+        s.push_str(&n);
         if !n.ends_with('.') {
             s.push('.');
         }
@@ -676,7 +675,7 @@ fn global_summary(
     status: Status,
     failed: &[String],
     norms: &[f64],
-    notes: &[String],
+    notes: &Notes,
 ) -> String {
     let max_norm = norms.iter().copied().fold(0.0, f64::max);
     let head = if feasible {
@@ -693,8 +692,9 @@ fn global_summary(
     };
     let mut s = head;
     for n in notes {
+        let n = n.to_string();
         s.push(' ');
-        s.push_str(n);
+        s.push_str(&n);
         if !n.ends_with('.') {
             s.push('.');
         }
@@ -825,11 +825,14 @@ fn design_plain_with(
     let (chosen_conditions, auto_note) = match request.sample {
         Some(h) if request.conditions == Conditions::Auto => (
             Conditions::Full,
-            format!(
+            Some(Note::Text(format!(
                 "sample = {h:e}: the discrete decrease is solved and certified on the full vertex family (conditions = full)"
-            ),
+            ))),
         ),
-        _ => crate::model::size::choose(model, request),
+        _ => {
+            let (c, why) = crate::model::size::choose(model, request);
+            (c, (!why.is_empty()).then_some(Note::ConditionsChosen(why)))
+        }
     };
     let resolved = DesignRequest {
         conditions: chosen_conditions,
@@ -861,9 +864,9 @@ fn design_plain_with(
     }
     let model: &PolytopicModel = &setup.model;
     let prob = setup.problem(request)?;
-    let mut notes = Vec::new();
-    if !auto_note.is_empty() && !global {
-        notes.push(auto_note);
+    let mut notes = Notes::default();
+    if let Some(n) = auto_note.filter(|_| !global) {
+        notes.push(n);
     }
     notes.extend(global_notes);
     notes.extend(setup.notes(request, &prob));

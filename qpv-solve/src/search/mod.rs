@@ -664,8 +664,7 @@ fn design_skew(
     }
     if !d.certifies {
         d.notes.push(
-            "split = skew_slack: the symmetric design did not certify, so no slack was searched"
-                .into(),
+            "split = skew_slack: the symmetric design did not certify, so no slack was searched",
         );
         return Ok(d);
     }
@@ -705,7 +704,7 @@ fn design_skew(
             return Ok(out);
         }
         d.notes.push(
-            "split = skew_slack: the slack's design did not pass the re-check through the report, so the symmetric design is reported".into(),
+            "split = skew_slack: the slack's design did not pass the re-check through the report, so the symmetric design is reported",
         );
     } else {
         d.notes.push(format!(
@@ -748,7 +747,7 @@ pub fn design_with_progress(
         crate::report::figures::attach(model, &mut d);
     } else if d.certifies {
         d.notes.push(
-            "sample = h: the noise bound and the Euler-step figures are continuous-time analyses and are not computed for a sampled design".into(),
+            "sample = h: the noise bound and the Euler-step figures are continuous-time analyses and are not computed for a sampled design",
         );
         crate::report::continuous::attach(model, &mut d);
     }

@@ -239,23 +239,21 @@ pub fn design_noise(
 /// is one the noise SDP can answer (sound mode, no skew slack, fixed α, γ in
 /// (0, 1) if fixed).
 fn noise_request_alpha(request: &DesignRequest) -> Result<f64, SolveError> {
-    if request.mode != Mode::Sound {
-        return Err(SolveError::Unsupported(
-            "noise = min needs mode = sound (the paper's printed conditions certify nothing)"
-                .into(),
-        ));
-    }
-    if request.split == Split::SkewSlack {
-        return Err(SolveError::Unsupported(
-            "noise = min with split = skew_slack: use split = symmetric or as_written".into(),
-        ));
-    }
+    // The combinations `noise = min` refuses are the language's
+    // (DesignRequest::validate); the request asks for σ either way.
+    let request = &DesignRequest {
+        noise: qpv_dsl::NoiseObjective::Min,
+        ..request.clone()
+    };
+    request
+        .validate()
+        .map_err(|c| SolveError::Unsupported(c.to_string()))?;
     let alpha = match request.alpha {
         AlphaSpec::Fixed(a) if a.is_finite() && a > 0.0 => a,
         AlphaSpec::Fixed(a) => return Err(SolveError::BadAlpha(a)),
         AlphaSpec::Max => {
             return Err(SolveError::Unsupported(
-                "noise = min needs a fixed α (α = max is the fastest design; pick α below it, or sweep with tradeoff)".into(),
+                qpv_dsl::Clash::NoiseMinAlphaMax.to_string(),
             ))
         }
     };
@@ -387,7 +385,7 @@ fn noise_report(
         solver,
         seconds_total: 0.0,
         search: std::mem::take(&mut ctx.steps),
-        notes,
+        notes: notes.into(),
         summary,
         state_bound: None,
         output_route: None,
