@@ -40,6 +40,7 @@
 //!
 //! ```no_run
 //! use qpv_dsl::{AlphaSpec, GammaSpec, Mode};
+//! use qpv_solve::certificate::Gains;
 //! use qpv_solve::{check, design, request, Settings};
 //!
 //! let model = qpv_solve::conditions::reference::paper_model();
@@ -47,7 +48,8 @@
 //! let d = design(&model, &req, &Settings::default()).unwrap();
 //! assert!(d.feasible && d.certifies);
 //! // Anyone can re-check the gains without the solver:
-//! let c = check(&model, d.mode, d.alpha, d.gamma, &d.p_matrix(), &d.l_matrices());
+//! let (p, l) = (d.p_matrix(), d.l_matrices());
+//! let c = check(&model, &Gains::new(&p, &l), &d.candidate(), d.mode);
 //! assert!(c.passed);
 //! println!("{}", d.to_json());
 //! ```
