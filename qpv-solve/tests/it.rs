@@ -24,6 +24,7 @@ mod global;
 mod kkt_solver;
 mod lapack;
 mod layers;
+mod line_search;
 mod linalg;
 mod lmi_assembly;
 mod noise;

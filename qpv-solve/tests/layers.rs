@@ -8,7 +8,8 @@
 //! files are part of that folder's facade):
 //!
 //! ```text
-//! 0 vocabulary   error, settings, vocab, backend, linalg, fixtures, lapack
+//! 0 vocabulary   error, settings, vocab, backend, linalg, line_search,
+//!                fixtures, lapack
 //! 1 model        the observer's model: state bound, output route, split, skew;
 //!                size (the size guard) and diagnosis (why a model fails)
 //! 2 conditions   the condition families as data
@@ -65,6 +66,7 @@ const SOLVE: Crate = Crate {
         ("vocab", 0),
         ("backend", 0),
         ("linalg", 0),
+        ("line_search", 0),
         ("fixtures", 0),
         ("lapack", 0),
         ("model", 1),
