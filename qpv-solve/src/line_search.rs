@@ -1,7 +1,7 @@
 //! The one-dimensional search behind every search over a scalar: the γ
 //! search of α (`search::gamma`), the noise-optimal design's γ, the
-//! practical design's γ and the state bound's box size h
-//! (docs/method.md, "The γ search"; docs/method.md, "The state bound").
+//! practical design's γ and the state bound's box size h (docs/method.md
+//! §11, the α and γ search; §9, `state_bound auto`).
 //!
 //! A function x ↦ f(x) (None: nothing at x, e.g. nothing certified) is
 //! maximised ([`Line::maximise`]) or minimised ([`Line::minimise`]):
@@ -195,13 +195,6 @@ pub struct Found {
     /// The walk ended with the value still rising (by its evaluation limit
     /// or the stop predicate, not because the value fell).
     pub still_rising: bool,
-}
-
-impl Found {
-    /// The value found at `x` (None: not evaluated, or nothing there).
-    pub fn at(&self, x: f64) -> Option<f64> {
-        find(&self.samples, x).flatten()
-    }
 }
 
 /// The value memoised at x (relative tolerance 1e-12): Some(None) when x
@@ -416,7 +409,8 @@ impl Line {
     /// `probe_first` the bracket's golden point replaces it): each
     /// evaluation probes the larger side of mid at the golden ratio and
     /// shrinks the bracket. `refine` evaluations, more with `extra`
-    /// (field doc). Returns the best (x, f) seen, f = −∞ for nothing.
+    /// (field doc). Returns the best (x, f) of mid and the probes, f = −∞
+    /// for nothing.
     fn golden<E>(
         &self,
         lo: f64,
@@ -473,7 +467,8 @@ impl Line {
             }
             history.push(fb);
         }
-        Ok((s.from(b), fb))
+        // (With `probe_first` the grid point may still be the best.)
+        Ok(if fb >= mid.1 { (s.from(b), fb) } else { mid })
     }
 
     /// Step 4 (module doc): from the best point `start`, while the point

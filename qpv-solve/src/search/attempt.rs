@@ -321,7 +321,7 @@ pub(super) struct Shown<'p> {
 }
 
 /// The report around the point shown, the one place a [`Design`] is built
-/// from a search's point: its matrices, margins, data checks (the model's
+/// from a search's point ([`Design::claimed`] filled in): its matrices, margins, data checks (the model's
 /// own at γ when there is no point), cube slacks and noise bound, the
 /// request's mode, split, conditions, gain bound and sample period, and
 /// every search step. Notes, summary, time and the figures of a
@@ -343,46 +343,35 @@ pub(super) fn design_of(
     let matrices = point
         .map(|pt| ReportedMatrices::of(&pt.p, &pt.gammas, &pt.l))
         .unwrap_or_default();
-    Design {
-        model: model.name.clone(),
+    let mut d = Design::claimed(
+        &model.name,
         mode,
-        split: request.split,
-        conditions: request.conditions,
-        feasible,
-        certifies: feasible && mode == Mode::Sound,
-        alpha: at.alpha,
-        gamma: at.gamma,
-        p: matrices.p,
-        gamma_l: matrices.gamma_l,
-        l: matrices.l,
-        gain_norms: matrices.gain_norms,
-        margins: point.map(|pt| pt.cert.margins()).unwrap_or_default(),
-        data_checks: match point {
-            Some(pt) => pt.cert.data_checks.clone(),
-            None => data_checks(model, mode, at.gamma),
-        },
-        solver,
-        seconds_total: 0.0,
-        search: steps,
-        notes: Vec::new(),
-        summary: String::new(),
-        state_bound: None,
-        output_route: None,
-        skew: None,
-        diagnosis: None,
-        noise: point.filter(|_| feasible).and_then(|pt| pt.noise.clone()),
-        max_gain: request.max_gain,
-        practical: None,
-        sampling: None,
-        gamma_search: None,
-        cube: point
-            .and_then(|pt| pt.cube.as_ref())
-            .map(CubeSlacks::to_report),
-        sample: request
-            .sample
-            .map(|h| crate::certificate::sampling::SampleInfo::new(h, at.alpha)),
-        global: false,
-    }
+        at.alpha,
+        at.gamma,
+        matrices.p,
+        matrices.l,
+    );
+    d.split = request.split;
+    d.conditions = request.conditions;
+    d.feasible = feasible;
+    d.certifies = feasible && mode == Mode::Sound;
+    d.gamma_l = matrices.gamma_l;
+    d.gain_norms = matrices.gain_norms;
+    d.solver = solver;
+    d.search = steps;
+    d.max_gain = request.max_gain;
+    d.sample = request
+        .sample
+        .map(|h| crate::certificate::sampling::SampleInfo::new(h, at.alpha));
+    let Some(pt) = point else {
+        d.data_checks = data_checks(model, mode, at.gamma);
+        return d;
+    };
+    d.margins = pt.cert.margins();
+    d.data_checks = pt.cert.data_checks.clone();
+    d.cube = pt.cube.as_ref().map(CubeSlacks::to_report);
+    d.noise = pt.noise.clone().filter(|_| feasible);
+    d
 }
 
 /// Appends every note to a summary, each as a sentence of its own.
