@@ -118,7 +118,7 @@ pub struct Line {
     pub extend: usize,
     /// Golden-section evaluations per refined local maximum (0: none).
     pub refine: usize,
-    /// A refinement may take up to [`EXTRA_REFINE`] times `refine`
+    /// A refinement may take up to three times `refine`
     /// evaluations while its last two raised the best by more than 0.5 %
     /// (sharp peaks; a positive objective).
     pub extra: bool,

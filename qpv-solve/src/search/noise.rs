@@ -92,10 +92,10 @@ fn error_bound(pt: &Point) -> f64 {
 /// minimise the certified σ over (P, Γ_l, σ) subject to (S1)–(S4) and the
 /// block LMI at every vertex pair — one SDP at a fixed γ; with γ = search,
 /// the γ whose σ-minimal point has the smallest error bound per unit noise
-/// is chosen (σ itself is not comparable across γ; [`NoiseSearch::search`]: a grid and a
-/// golden-section refinement). The result is `feasible`/`certifies` only if
-/// the independent certificate of (S1)–(S5) and [`check_noise`] at the
-/// reported σ both pass; the report's `noise` key carries σ and its bounds.
+/// is chosen (σ itself is not comparable across γ; a grid and a
+/// golden-section refinement, [`crate::line_search`]). The result is
+/// `feasible`/`certifies` only if the independent certificate of (S1)–(S5)
+/// and [`crate::certificate::noise::check_noise`] at the reported σ both pass; the report's `noise` key carries σ and its bounds.
 ///
 /// Needs sound mode, a fixed α (α = max is the fastest design, not a noise
 /// trade-off) and a split other than `skew_slack`. `conditions = decoupled`
