@@ -65,6 +65,7 @@ pub mod error;
 #[doc(hidden)]
 pub mod fixtures;
 pub mod linalg;
+pub mod line_search;
 pub mod settings;
 pub mod vocab;
 // Model preparation.

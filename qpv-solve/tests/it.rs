@@ -26,6 +26,7 @@ mod kkt_solver;
 mod lapack;
 mod layers;
 mod linalg;
+mod line_search;
 mod lmi_assembly;
 mod noise;
 mod observer_model;

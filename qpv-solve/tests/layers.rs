@@ -54,6 +54,7 @@ const SOLVE: Crate = Crate {
         ("vocab", 0),
         ("backend", 0),
         ("linalg", 0),
+        ("line_search", 0),
         ("fixtures", 0),
         ("lapack", 0),
         ("model", 1),

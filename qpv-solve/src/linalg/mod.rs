@@ -30,3 +30,15 @@ pub fn sqrtm(q: &DMatrix<f64>) -> DMatrix<f64> {
     let d = DMatrix::from_diagonal(&e.eigenvalues.map(|v| v.max(0.0).sqrt()));
     &e.eigenvectors * d * e.eigenvectors.transpose()
 }
+
+/// The observer gains L_l = P⁻¹Γ_l of a Lyapunov matrix P and its
+/// Γ_l = P L_l: the one place they are computed (a Cholesky factor of P's
+/// symmetric part, else its LU). None if P is singular.
+pub fn gains(p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Option<Vec<DMatrix<f64>>> {
+    let ps = (p + p.transpose()) * 0.5;
+    if let Some(ch) = ps.clone().cholesky() {
+        return Some(gammas.iter().map(|g| ch.solve(g)).collect());
+    }
+    let lu = ps.lu();
+    gammas.iter().map(|g| lu.solve(g)).collect()
+}

@@ -63,11 +63,7 @@ pub fn max_alpha_fixed_p(
         Some(x) if run.status == Status::Solved => x,
         _ => return Ok(None),
     };
-    let pinv = match p.clone().cholesky() {
-        Some(ch) => ch.inverse(),
-        None => return Ok(None),
-    };
-    Ok(Some(vars.unpack(&x, &pinv, lmax)))
+    Ok(vars.unpack(&x, p, lmax))
 }
 
 /// The variables of the fixed-P problem: Γ̂_l (nx × ny per θ-vertex, row
@@ -121,12 +117,14 @@ impl Vars {
         self.k0 + l * self.nx * self.nskew + idx
     }
 
-    /// (α, L_l = P⁻¹Γ_l, K_{k,l}) from the solver's point (Γ = λ_max Γ̂).
-    fn unpack(&self, x: &[f64], pinv: &DMatrix<f64>, lmax: f64) -> FixedP {
+    /// (α, L_l = P⁻¹Γ_l, K_{k,l}) from the solver's point (Γ = λ_max Γ̂);
+    /// None if P is singular.
+    fn unpack(&self, x: &[f64], p: &DMatrix<f64>, lmax: f64) -> Option<FixedP> {
         let (nx, ny) = (self.nx, self.ny);
-        let gains = (0..self.nv)
-            .map(|l| pinv * DMatrix::from_fn(nx, ny, |r, c| x[self.gamma_col(l, r, c)] * lmax))
+        let gammas: Vec<DMatrix<f64>> = (0..self.nv)
+            .map(|l| DMatrix::from_fn(nx, ny, |r, c| x[self.gamma_col(l, r, c)] * lmax))
             .collect();
+        let gains = crate::linalg::gains(p, &gammas)?;
         let k = (0..self.nv)
             .map(|l| {
                 (0..nx)
@@ -146,7 +144,7 @@ impl Vars {
                     .collect()
             })
             .collect();
-        (x[self.alpha], gains, k)
+        Some((x[self.alpha], gains, k))
     }
 }
 

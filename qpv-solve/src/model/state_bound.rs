@@ -46,6 +46,7 @@ use crate::error::SolveError;
 use crate::linalg::matrix_to_rows;
 use crate::linalg::rows::rows;
 use crate::linalg::svec::svec_index;
+use crate::line_search::{Line, Scale, Stage};
 use crate::model::{gamma_max, gamma_max_for};
 use crate::settings::Settings;
 use crate::vocab::BoundSource;
@@ -609,66 +610,28 @@ pub fn compute(
             eval(h, &mut steps)?;
         }
         None => {
-            let n = search.grid.max(2);
             // start just above the smallest box any ellipsoid around the region fits in
             let floor = smallest_box(model, settings)?.unwrap_or(0.0) / rmax * (1.0 + 1e-3);
             let lo_factor = search.lo_factor.max(1.0 + 1e-9).max(floor);
             let hi_factor = search.hi_factor.max(lo_factor * 2.0);
-            let (lo, hi) = (lo_factor.ln(), hi_factor.ln());
-            let hs: Vec<f64> = (0..n)
-                .map(|i| rmax * (lo + (hi - lo) * i as f64 / (n - 1) as f64).exp())
-                .collect();
-            let mut gs = Vec::with_capacity(n);
-            for &hv in &hs {
-                gs.push(eval(hv, &mut steps)?);
-                if gs.last().is_some_and(|g| *g >= enough) {
-                    break;
-                }
-            }
-            let n = gs.len();
-            let (ib, gb) = gs
-                .iter()
-                .copied()
-                .enumerate()
-                .fold((0, 0.0), |acc, (i, g)| if g > acc.1 { (i, g) } else { acc });
-            if gb > 0.0 && gb < enough && search.refine > 0 {
-                // golden section on log h between the neighbours of the best point
-                let mut a = if ib > 0 {
-                    hs[ib - 1]
+            let hs = Scale::Log.grid(rmax * lo_factor, rmax * hi_factor, search.grid);
+            // golden section on ln h between the neighbours of the best point,
+            // the classic two-point start (at least two evaluations)
+            let line = Line {
+                refine: if search.refine > 0 {
+                    search.refine.max(2)
                 } else {
-                    rmax * lo_factor / (1.0 + 1e-3)
-                }
-                .ln();
-                let mut b = if ib + 1 < n {
-                    hs[ib + 1]
-                } else {
-                    hs[n - 1] * 1.5
-                }
-                .ln();
-                let phi = 0.5 * (5f64.sqrt() - 1.0);
-                let mut c = b - phi * (b - a);
-                let mut d = a + phi * (b - a);
-                let mut gc = eval(c.exp(), &mut steps)?;
-                let mut gd = eval(d.exp(), &mut steps)?;
-                for _ in 2..search.refine {
-                    if gc.max(gd) >= enough {
-                        break;
-                    }
-                    if gc >= gd {
-                        b = d;
-                        d = c;
-                        gd = gc;
-                        c = b - phi * (b - a);
-                        gc = eval(c.exp(), &mut steps)?;
-                    } else {
-                        a = c;
-                        c = d;
-                        gc = gd;
-                        d = a + phi * (b - a);
-                        gd = eval(d.exp(), &mut steps)?;
-                    }
-                }
-            }
+                    0
+                },
+                probe_first: true,
+                below: Some(rmax * lo_factor / (1.0 + 1e-3)),
+                above: hs.last().map(|h| h * 1.5),
+                goal: Some(enough),
+                ..Line::default()
+            };
+            let mut gamma_at =
+                |hv: f64, _: Stage| eval(hv, &mut steps).map(|g| (g > 0.0).then_some(g));
+            line.maximise(&hs, &mut gamma_at, &|| false)?;
         }
     }
     let Some(mut bound) = best else {

@@ -2,19 +2,17 @@
 //! requested α/γ search, the final regularised solve, the notes and the
 //! summary, each a function of its own.
 
-use super::{Claims, Ctx, Point};
+use super::attempt::{append_notes, design_of, Point, Shown, Solve};
+use super::Ctx;
 use crate::backend::Status;
-use crate::certificate::{data_checks, DataCheck};
-use crate::conditions::cube::CubeSlacks;
+use crate::certificate::DataCheck;
 use crate::conditions::ConditionSet;
 use crate::error::SolveError;
 use crate::lmi::{Objective, Problem};
 use crate::model::output_filter::OutputRouteInfo;
 use crate::model::state_bound::StateBoundInfo;
 use crate::model::{gamma_max, ObserverModel, ObserverOptions, StateBoundClaim, StateScaling};
-use crate::report::{
-    Design, GammaSearchInfo, Note, Notes, ReportedMatrices, SearchStep, SolverInfo,
-};
+use crate::report::{Design, GammaSearchInfo, Note, Notes, SearchStep, SolverInfo};
 use crate::settings::Settings;
 use crate::vocab::{BoundSource, Candidate, Family, Phase};
 use qpv_dsl::{
@@ -37,6 +35,8 @@ pub(super) struct Setup {
     pub gmax: Option<f64>,
     /// The top of the γ search's range.
     pub gamma_hi: f64,
+    /// The global observer of an LPV plant ([`crate::model::is_global`]).
+    pub global: bool,
     /// A badly scaled model in balanced coordinates x = D z, with D
     /// ([`StateScaling`]): the problem is solved there, its points mapped
     /// back, and certified on `model`.
@@ -107,6 +107,7 @@ impl Setup {
             .and_then(|sc| sc.model(&model).map(|zm| (zm, sc)));
         Ok(Setup {
             scaled,
+            global,
             model,
             bound_info: prepared.state_bound,
             route_info: prepared.output_route,
@@ -364,12 +365,8 @@ impl Ctx<'_, '_> {
                 last: None,
             });
         }
-        let at = self.attempt(
-            Candidate::new(a, t.gamma),
-            Objective::Gains,
-            None,
-            Phase::Final,
-        )?;
+        let solve = Solve::Lmi(Objective::Gains, None);
+        let at = self.attempt(Candidate::new(a, t.gamma), solve, Phase::Final)?;
         let mut out = Final {
             chosen: None,
             last: None,
@@ -538,28 +535,12 @@ fn gain_bound_failure(
         ..request.clone()
     };
     let mut quiet = |_: &SearchStep| {};
-    let mut ctx = Ctx {
-        model: &setup.model,
-        mode: request.mode,
-        settings,
-        prob: setup.problem(&free)?,
-        steps: Vec::new(),
-        progress: &mut quiet,
-        lean: false,
-        max_gain: None,
-        margin_rel: None,
-        within: 0.0,
-        walk_stopped: false,
-        claims: Claims::default(),
-        sample: request.sample,
-    };
+    let prob = setup.problem(&free)?;
+    let mut ctx = Ctx::new(&setup.model, request.mode, settings, prob, &mut quiet);
+    ctx.sample = request.sample;
     let a = settings.alpha_floor;
-    let at = ctx.attempt(
-        Candidate::new(a, gamma),
-        Objective::MinGain,
-        None,
-        Phase::Diagnose,
-    )?;
+    let solve = Solve::Lmi(Objective::MinGain, None);
+    let at = ctx.attempt(Candidate::new(a, gamma), solve, Phase::Diagnose)?;
     Ok(match at.point.filter(|_| at.certified) {
         Some(p) => format!(
             "max_gain = {bound} is not reachable: the smallest gain certified without the bound at α = {a}, γ = {gamma:.6} is max ‖L_l‖₂ = {:.4e} (a design with that gain exists; raise max_gain to at least it)",
@@ -615,14 +596,7 @@ fn summary(
             "PAPER MODE (certifies nothing): the printed conditions are not satisfied at α = {alpha:.6}, γ = {gamma:.6}: solver {final_status}{failed}."
         ),
     };
-    for n in notes {
-        let n = n.to_string();
-        s.push(' ');
-        s.push_str(&n);
-        if !n.ends_with('.') {
-            s.push('.');
-        }
-    }
+    append_notes(&mut s, notes);
     s
 }
 
@@ -636,7 +610,7 @@ fn summary(
 fn global_request(
     model: &PolytopicModel,
     request: DesignRequest,
-    notes: &mut Vec<String>,
+    notes: &mut Notes,
 ) -> Result<DesignRequest, SolveError> {
     if let Some(h) = request.sample {
         return Err(SolveError::Unsupported(format!(
@@ -691,14 +665,7 @@ fn global_summary(
         format!("NOT CERTIFIED, GLOBAL (LPV plant) at α = {alpha:.6}: solver {status}{failed}.")
     };
     let mut s = head;
-    for n in notes {
-        let n = n.to_string();
-        s.push(' ');
-        s.push_str(&n);
-        if !n.ends_with('.') {
-            s.push('.');
-        }
-    }
+    append_notes(&mut s, notes);
     s
 }
 
@@ -810,7 +777,9 @@ fn global_balance(
     Ok(pilots)
 }
 
-/// [`design_plain`] with a balancing hint for the global observer.
+/// [`design_plain`] with a balancing hint for the global observer: the
+/// request prepared ([`prepare`]), the α/γ search and the final solve, then
+/// the report ([`Ctx::report`]).
 fn design_plain_with(
     model: &PolytopicModel,
     request: &DesignRequest,
@@ -819,9 +788,38 @@ fn design_plain_with(
     hint: Option<&nalgebra::DMatrix<f64>>,
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
+    let (resolved, setup, mut notes) = prepare(model, request, settings, hint)?;
+    let request = &resolved;
     let mode = request.mode;
-    // `conditions = auto`: the choice by size (crate::model::size::choose), noted;
-    // a sampled design has the full vertex family only.
+    let prob = setup.problem(request)?;
+    notes.extend(setup.notes(request, &prob));
+    let mut ctx = Ctx::new(&setup.model, mode, settings, prob, progress);
+    ctx.max_gain = request.max_gain;
+    ctx.sample = request.sample;
+    if request.alpha == AlphaSpec::Max && mode == Mode::Sound {
+        ctx.within = request.within;
+    }
+    let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
+    let requested = (target.alpha, target.gamma);
+    let (gamma_search, practical) = (target.gamma_search.clone(), target.practical.clone());
+    let fin = ctx.final_solve(target, &mut notes)?;
+    let mut d = ctx.report(&setup, request, fin, requested, notes)?;
+    d.gamma_search = gamma_search;
+    d.practical = practical;
+    d.seconds_total = t_start.elapsed().as_secs_f64();
+    Ok(d)
+}
+
+/// The request as it is solved, its setup and the notes so far:
+/// `conditions = auto` chosen by size (crate::model::size::choose; a
+/// sampled design has the full vertex family only), the global observer's
+/// request ([`global_request`]) and its units ([`global_balance`]).
+fn prepare(
+    model: &PolytopicModel,
+    request: &DesignRequest,
+    settings: &Settings,
+    hint: Option<&nalgebra::DMatrix<f64>>,
+) -> Result<(DesignRequest, Setup, Notes), SolveError> {
     let (chosen_conditions, auto_note) = match request.sample {
         Some(h) if request.conditions == Conditions::Auto => (
             Conditions::Full,
@@ -838,182 +836,133 @@ fn design_plain_with(
         conditions: chosen_conditions,
         ..request.clone()
     };
-    let global = crate::model::is_global(model, mode);
-    let mut global_notes = Vec::new();
-    let resolved = if global {
-        global_request(model, resolved, &mut global_notes)?
-    } else {
-        resolved
-    };
-    let request = &resolved;
-    let mut setup = Setup::new(model, request, settings)?;
-    if global {
-        let pilots = global_balance(&mut setup, request, settings, hint)?;
-        if let Some((_, sc)) = &setup.scaled {
-            let d: Vec<String> = sc.d.iter().map(|v| format!("{v:e}")).collect();
-            global_notes.push(format!(
-                "global observer in balanced units x = D z, D = diag({}) (powers of two, from {}; exact)",
-                d.join(", "),
-                if hint.is_some() && pilots == 0 {
-                    "the first search's P".to_string()
-                } else {
-                    format!("{pilots} pilot solves")
-                }
-            ));
-        }
-    }
-    let model: &PolytopicModel = &setup.model;
-    let prob = setup.problem(request)?;
+    let global = crate::model::is_global(model, request.mode);
     let mut notes = Notes::default();
     if let Some(n) = auto_note.filter(|_| !global) {
         notes.push(n);
     }
-    notes.extend(global_notes);
-    notes.extend(setup.notes(request, &prob));
-    let mut ctx = Ctx {
-        model,
-        mode,
-        settings,
-        prob,
-        steps: Vec::new(),
-        progress,
-        lean: false,
-        max_gain: request.max_gain,
-        margin_rel: None,
-        within: if request.alpha == AlphaSpec::Max && mode == Mode::Sound {
-            request.within
-        } else {
-            0.0
-        },
-        walk_stopped: false,
-        claims: Claims::default(),
-        sample: request.sample,
-    };
-    let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
-    let (alpha_t, gamma_t) = (target.alpha, target.gamma);
-    let gamma_search = target.gamma_search.clone();
-    let practical = target.practical.clone();
-    let fin = ctx.final_solve(target, &mut notes)?;
+    if !global {
+        let setup = Setup::new(model, &resolved, settings)?;
+        return Ok((resolved, setup, notes));
+    }
+    let resolved = global_request(model, resolved, &mut notes)?;
+    let mut setup = Setup::new(model, &resolved, settings)?;
+    let pilots = global_balance(&mut setup, &resolved, settings, hint)?;
+    if let Some((_, sc)) = &setup.scaled {
+        let d: Vec<String> = sc.d.iter().map(|v| format!("{v:e}")).collect();
+        notes.push(format!(
+            "global observer in balanced units x = D z, D = diag({}) (powers of two, from {}; exact)",
+            d.join(", "),
+            if hint.is_some() && pilots == 0 {
+                "the first search's P".to_string()
+            } else {
+                format!("{pilots} pilot solves")
+            }
+        ));
+    }
+    Ok((resolved, setup, notes))
+}
 
-    let feasible = fin.chosen.is_some();
-    let shown = fin.chosen.or(fin.last);
-    let alpha_r = shown
-        .as_ref()
-        .map(|p| p.alpha)
-        .or(alpha_t)
-        .unwrap_or_else(|| {
-            ctx.steps
+impl Ctx<'_, '_> {
+    /// The report of the final solve's outcome ([`design_of`]): the point
+    /// shown (the certified one, else the final solve's for diagnosis), at
+    /// its (α, γ) or else the `requested` one (α: else the smallest tried);
+    /// for a design that does not certify, the diagnosis ([`Ctx::diagnose`]);
+    /// the notes on the solves and the data checks; the summary.
+    fn report(
+        mut self,
+        setup: &Setup,
+        request: &DesignRequest,
+        fin: Final,
+        requested: (Option<f64>, f64),
+        mut notes: Notes,
+    ) -> Result<Design, SolveError> {
+        let mode = request.mode;
+        let feasible = fin.chosen.is_some();
+        let shown = fin.chosen.or(fin.last);
+        let alpha_r = shown.as_ref().map(|p| p.alpha).or(requested.0);
+        let alpha_r = alpha_r.unwrap_or_else(|| {
+            self.steps
                 .iter()
                 .map(|s| s.alpha)
                 .fold(f64::INFINITY, f64::min)
-                .min(settings.alpha_floor)
+                .min(self.settings.alpha_floor)
         });
-    let gamma_r = shown.as_ref().map(|p| p.gamma).unwrap_or(gamma_t);
-    let dchecks: BTreeMap<String, DataCheck> = match &shown {
-        Some(p) => p.cert.data_checks.clone(),
-        None => data_checks(model, mode, gamma_r),
-    };
-    let mut margins = shown.as_ref().map(|p| p.cert.margins()).unwrap_or_default();
-    // Failure diagnosis (crate::model::diagnosis): without any point, the margins
-    // of one attempt at the smallest α, then the cheap model tests.
-    let diagnosis = if feasible {
-        None
-    } else {
+        let at = Candidate::new(alpha_r, shown.as_ref().map_or(requested.1, |p| p.gamma));
+        let mut margins = shown.as_ref().map(|p| p.cert.margins()).unwrap_or_default();
+        let diagnosis = match feasible {
+            true => None,
+            false => Some(self.diagnose(setup, request, at.gamma, &mut margins, &mut notes)?),
+        };
+        self.solve_notes(feasible, &fin.solver, &mut notes);
+        let failed: Vec<String> = shown.as_ref().map(failures).unwrap_or_default();
+        let steps = std::mem::take(&mut self.steps);
+        let shown = Shown {
+            point: shown.as_ref(),
+            feasible,
+            at,
+            solver: fin.solver,
+        };
+        let mut d = design_of(&setup.model, request, shown, steps);
+        d.margins = margins;
+        d.diagnosis = diagnosis;
+        data_notes(mode, &d.data_checks, at.gamma, setup.gmax, &mut notes);
+        let norms = &d.gain_norms;
+        d.summary = match setup.global {
+            true => global_summary(feasible, at.alpha, fin.status, &failed, norms, &notes),
+            false => {
+                let at = (at.alpha, at.gamma, request.sample);
+                summary(mode, feasible, at, fin.status, &failed, norms, &notes)
+            }
+        };
+        d.notes = notes;
+        d.global = setup.global;
+        d.state_bound = Some(setup.bound_info.clone());
+        d.output_route = Some(setup.route_info.clone());
+        Ok(d)
+    }
+
+    /// Why a design certified nothing: without any margins, those of one
+    /// attempt at the smallest α (into `margins`); the gain bound's and the
+    /// sample period's reasons (noted); then the cheap model tests and the
+    /// decoupled conditions' finding (crate::model::diagnosis).
+    fn diagnose(
+        &mut self,
+        setup: &Setup,
+        request: &DesignRequest,
+        gamma: f64,
+        margins: &mut BTreeMap<String, f64>,
+        notes: &mut Notes,
+    ) -> Result<Vec<crate::model::diagnosis::Finding>, SolveError> {
+        let settings = self.settings;
         if margins.is_empty() {
-            let (a, obj) = (settings.alpha_floor, Objective::MaxMargin);
-            if let Some(p) = ctx
-                .attempt(Candidate::new(a, gamma_r), obj, None, Phase::Diagnose)?
-                .point
-            {
-                margins = p.cert.margins();
+            let cand = Candidate::new(settings.alpha_floor, gamma);
+            let solve = Solve::Lmi(Objective::MaxMargin, None);
+            if let Some(p) = self.attempt(cand, solve, Phase::Diagnose)?.point {
+                *margins = p.cert.margins();
             }
         }
         if let Some(g) = request.max_gain {
-            notes.push(gain_bound_failure(&setup, request, settings, g, gamma_r)?);
+            notes.push(gain_bound_failure(setup, request, settings, g, gamma)?);
         }
         if let Some(h) = request.sample {
-            notes.push(ctx.sample_failure(h, request.alpha, gamma_r)?);
+            notes.push(self.sample_failure(h, request.alpha, gamma)?);
         }
-        let mut findings = crate::model::diagnosis::diagnose(model, request, settings.alpha_floor);
-        findings.extend(ctx.claims.finding(request.conditions));
-        Some(findings)
-    };
-    ctx.solve_notes(feasible, &fin.solver, &mut notes);
-    data_notes(mode, &dchecks, gamma_r, setup.gmax, &mut notes);
-    let failed: Vec<String> = shown
-        .as_ref()
-        .map(|p| {
-            p.cert
-                .families
-                .iter()
-                .filter(|f| !f.passed)
-                .map(|f| format!("{} ({:.3e} at {})", f.name, f.margin, f.worst_at))
-                .collect()
-        })
-        .unwrap_or_default();
-    let shown_matrices = shown
-        .as_ref()
-        .map(|pt| ReportedMatrices::of(&pt.p, &pt.gammas, &pt.l))
-        .unwrap_or_default();
-    let summary = summary(
-        mode,
-        feasible,
-        (alpha_r, gamma_r, request.sample),
-        fin.status,
-        &failed,
-        &shown_matrices.gain_norms,
-        &notes,
-    );
-    let summary = if global {
-        global_summary(
-            feasible,
-            alpha_r,
-            fin.status,
-            &failed,
-            &shown_matrices.gain_norms,
-            &notes,
-        )
-    } else {
-        summary
-    };
-    Ok(Design {
-        global,
-        model: model.name.clone(),
-        mode,
-        split: request.split,
-        conditions: request.conditions,
-        feasible,
-        certifies: feasible && mode == Mode::Sound,
-        alpha: alpha_r,
-        gamma: gamma_r,
-        p: shown_matrices.p,
-        gamma_l: shown_matrices.gamma_l,
-        l: shown_matrices.l,
-        gain_norms: shown_matrices.gain_norms,
-        margins,
-        data_checks: dchecks,
-        solver: fin.solver,
-        seconds_total: t_start.elapsed().as_secs_f64(),
-        search: ctx.steps,
-        notes,
-        summary,
-        state_bound: Some(setup.bound_info.clone()),
-        output_route: Some(setup.route_info.clone()),
-        skew: None,
-        diagnosis,
-        noise: None,
-        max_gain: request.max_gain,
-        practical,
-        sampling: None,
-        gamma_search,
-        cube: shown
-            .as_ref()
-            .and_then(|p| p.cube.as_ref())
-            .map(CubeSlacks::to_report),
-        sample: request
-            .sample
-            .map(|h| crate::certificate::sampling::SampleInfo::new(h, alpha_r)),
-    })
+        let mut findings =
+            crate::model::diagnosis::diagnose(&setup.model, request, settings.alpha_floor);
+        findings.extend(self.claims.finding(request.conditions));
+        Ok(findings)
+    }
+}
+
+/// The condition families a point fails, with their worst margins.
+fn failures(p: &Point) -> Vec<String> {
+    p.cert
+        .families
+        .iter()
+        .filter(|f| !f.passed)
+        .map(|f| format!("{} ({:.3e} at {})", f.name, f.margin, f.worst_at))
+        .collect()
 }
 
 /// One point of [`alpha_profile`].
@@ -1049,21 +998,10 @@ pub fn alpha_profile(
     };
     let setup = Setup::new(model, &req, settings)?;
     let mut quiet = |_: &SearchStep| {};
-    let mut ctx = Ctx {
-        model: &setup.model,
-        mode: req.mode,
-        settings,
-        prob: setup.problem(&req)?,
-        steps: Vec::new(),
-        progress: &mut quiet,
-        lean: false,
-        max_gain: req.max_gain,
-        margin_rel: None,
-        within: 0.0,
-        walk_stopped: false,
-        claims: Claims::default(),
-        sample: req.sample,
-    };
+    let prob = setup.problem(&req)?;
+    let mut ctx = Ctx::new(&setup.model, req.mode, settings, prob, &mut quiet);
+    ctx.max_gain = req.max_gain;
+    ctx.sample = req.sample;
     let mut prev: Option<Point> = None;
     let mut out = Vec::with_capacity(gammas.len());
     for &g in gammas {

@@ -49,24 +49,22 @@
 //! once more with the default objective; if that point does not certify,
 //! the search's certified point at the same (α, γ) is reported instead.
 
+mod attempt;
 mod driver;
 pub mod gamma;
 pub mod noise;
 mod practical;
 pub mod skew;
 
+use attempt::{Attempt, Point, Solve};
 use driver::design_plain;
 pub use driver::{alpha_profile, ProfilePoint};
 
 use crate::backend::Status;
-use crate::certificate::{
-    alpha_capacity, alpha_capacity_cube, alpha_capacity_sampled, check, Certificate, Gains,
-};
-use crate::conditions::cube::CubeSlacks;
 use crate::error::SolveError;
 use crate::linalg::matrix_to_rows;
 use crate::lmi::{Objective, Problem};
-use crate::report::{Design, GammaSearchInfo, SearchStep, SolverInfo};
+use crate::report::{Design, GammaSearchInfo, SearchStep};
 use crate::settings::Settings;
 use crate::vocab::{Candidate, Phase};
 use nalgebra::DMatrix;
@@ -96,43 +94,8 @@ pub fn design(
     design_with_progress(model, request, settings, &mut |_| {})
 }
 
-/// A candidate observer: P, Γ_l, L_l and its certificate at (α, γ).
-#[derive(Debug, Clone)]
-struct Point {
-    alpha: f64,
-    gamma: f64,
-    p: DMatrix<f64>,
-    gammas: Vec<DMatrix<f64>>,
-    l: Vec<DMatrix<f64>>,
-    cert: Certificate,
-    solver: SolverInfo,
-    /// The slacks of cube conditions (checked with the point).
-    cube: Option<CubeSlacks>,
-}
-
-/// The result of one attempt at (α, γ).
-struct Attempt {
-    status: Status,
-    /// The returned point (certified or not), if any.
-    point: Option<Point>,
-    /// Whether `point` passed the certificate at the tested α.
-    certified: bool,
-    /// The max-margin optimum t̂ (NaN for other objectives / no point).
-    margin: f64,
-    /// Solver statistics of this attempt.
-    solver: SolverInfo,
-}
-
-/// L_l = P⁻¹ Γ_l (Cholesky, else LU); None if P is singular.
-fn gains(p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Option<Vec<DMatrix<f64>>> {
-    let ps = (p + p.transpose()) * 0.5;
-    if let Some(ch) = ps.clone().cholesky() {
-        return Some(gammas.iter().map(|g| ch.solve(g)).collect());
-    }
-    let lu = ps.lu();
-    gammas.iter().map(|g| lu.solve(g)).collect()
-}
-
+/// The search's working state: the problem, its solves so far, and the
+/// rules of the current search.
 struct Ctx<'a, 'm> {
     model: &'m PolytopicModel,
     mode: Mode,
@@ -196,172 +159,6 @@ impl Claims {
 }
 
 impl Ctx<'_, '_> {
-    /// Whether a certificate counts: every family and, in sound mode, (S4).
-    fn accepts(&self, cert: &Certificate) -> bool {
-        cert.passed
-    }
-
-    /// The certificate of (P, L_l) at (α, γ): the full family, or the cube's
-    /// slack inequalities when the point carries cube slacks.
-    fn certify(
-        &self,
-        alpha: f64,
-        gamma: f64,
-        p: &DMatrix<f64>,
-        l: &[DMatrix<f64>],
-        cube: Option<&CubeSlacks>,
-    ) -> Certificate {
-        let gains = Gains::new(p, l).with_cube(cube);
-        let at = Candidate::new(alpha, gamma).at_sample(self.sample);
-        check(self.model, &gains, &at, self.mode).with_gain_bound(l, self.max_gain)
-    }
-
-    /// The largest α at which the point's (P, Γ_l, L_l) certify at `gamma`
-    /// (exact capacity, times 1 − 1e-4, re-certified); None if they do not
-    /// certify at any α > 0 there.
-    fn lift(&self, base: &Point, gamma: f64) -> Option<Point> {
-        let cap = match (&base.cube, self.sample) {
-            (_, Some(h)) => alpha_capacity_sampled(self.model, gamma, h, &base.p, &base.gammas),
-            (Some(c), None) => {
-                alpha_capacity_cube(self.model, self.mode, gamma, &base.p, &base.gammas, c)
-            }
-            (None, None) => alpha_capacity(self.model, self.mode, gamma, &base.p, &base.gammas),
-        };
-        let a = cap * (1.0 - 1e-4);
-        if !(a > 0.0 && a.is_finite()) {
-            return None;
-        }
-        let a = a.min(self.settings.alpha_cap);
-        let cert = self.certify(a, gamma, &base.p, &base.l, base.cube.as_ref());
-        if self.accepts(&cert) {
-            Some(Point {
-                alpha: a,
-                gamma,
-                cert,
-                ..base.clone()
-            })
-        } else {
-            None
-        }
-    }
-
-    /// [`Ctx::attempt`] with the regularised objective ([`Objective::Gains`]),
-    /// its certified point lifted to its capacity like a max-margin point:
-    /// the fall-back of the α searches where max-margin answers are unreliable.
-    fn attempt_regularised(
-        &mut self,
-        cand: Candidate,
-        phase: Phase,
-    ) -> Result<Attempt, SolveError> {
-        let Candidate { alpha, gamma, .. } = cand;
-        let mut at = self.attempt(cand, Objective::Gains, None, phase)?;
-        if at.certified {
-            if let Some(up) = at.point.as_ref().and_then(|p| self.lift(p, gamma)) {
-                if up.alpha > alpha {
-                    at.point = Some(up);
-                }
-            }
-        }
-        Ok(at)
-    }
-
-    /// One solve at (α, γ), certified. With [`Objective::MaxMargin`] a
-    /// certified point is lifted to its capacity (its α may exceed `alpha`).
-    fn attempt(
-        &mut self,
-        cand: Candidate,
-        objective: Objective,
-        metric: Option<&DMatrix<f64>>,
-        phase: Phase,
-    ) -> Result<Attempt, SolveError> {
-        let Candidate { alpha, gamma, .. } = cand;
-        let t0 = Instant::now();
-        let relaxed = self.margin_rel.map(|m| Settings {
-            margin_rel: m,
-            ..self.settings.clone()
-        });
-        let res = self.prob.solve_with_metric(
-            alpha,
-            gamma,
-            relaxed.as_ref().unwrap_or(self.settings),
-            objective,
-            metric,
-        )?;
-        let mut solver = SolverInfo {
-            status: res.status,
-            detail: res.detail.clone(),
-            iterations: res.iterations,
-            seconds: res.solve_seconds,
-            assembly_seconds: res.assembly_seconds,
-            certify_seconds: 0.0,
-        };
-        let mut point = None;
-        let mut certified = false;
-        let mut alpha_certified = 0.0;
-        if let Some(p) = res.p {
-            if let Some(l) = gains(&p, &res.gammas) {
-                let tc = Instant::now();
-                let cert = self.certify(alpha, gamma, &p, &l, res.cube.as_ref());
-                solver.certify_seconds = tc.elapsed().as_secs_f64();
-                certified = self.accepts(&cert);
-                if res.status == Status::Solved {
-                    self.claims.solved += 1;
-                    self.claims.rejected += usize::from(!certified);
-                }
-                // Γ_l as the certificate sees them (P L_l).
-                let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &p * li).collect();
-                let mut pt = Point {
-                    alpha,
-                    gamma,
-                    p,
-                    gammas,
-                    l,
-                    cert,
-                    solver: solver.clone(),
-                    cube: res.cube.clone(),
-                };
-                if certified {
-                    alpha_certified = alpha;
-                    if objective == Objective::MaxMargin {
-                        if let Some(up) = self.lift(&pt, gamma) {
-                            if up.alpha > alpha {
-                                pt = up;
-                                alpha_certified = pt.alpha;
-                            }
-                        }
-                        pt.solver.certify_seconds = tc.elapsed().as_secs_f64();
-                    }
-                }
-                point = Some(pt);
-            }
-        }
-        let mut detail = res.detail;
-        if objective == Objective::MaxMargin && res.margin.is_finite() {
-            detail = format!("{detail} (max margin t = {:.3e})", res.margin);
-        }
-        let step = SearchStep {
-            gamma,
-            alpha,
-            status: res.status,
-            detail,
-            certified,
-            alpha_certified,
-            iterations: res.iterations,
-            seconds: t0.elapsed().as_secs_f64(),
-            solver_seconds: res.solve_seconds,
-            phase,
-        };
-        (self.progress)(&step);
-        self.steps.push(step);
-        Ok(Attempt {
-            status: res.status,
-            point,
-            certified,
-            margin: res.margin,
-            solver,
-        })
-    }
-
     /// Largest certified α at this γ, to relative tolerance `tol`. `seed`: a
     /// point found elsewhere (its capacity at this γ is a free lower bound;
     /// its α the first guess).
@@ -408,30 +205,8 @@ impl Ctx<'_, '_> {
         let mut retried = 0i32;
         loop {
             let metric = lo.as_ref().or(seed).map(|p| p.p.clone());
-            let mut at = self.attempt(
-                Candidate::new(a, gamma),
-                Objective::MaxMargin,
-                metric.as_ref(),
-                phase,
-            )?;
-            let clear_no = self.lean && at.status == Status::Solved && at.margin < 0.0;
-            if !at.certified && !clear_no {
-                // A max-margin answer without a certified point (solved but
-                // rejected by the certificate, unknown, or even reported
-                // infeasible) can be numerical trouble — e.g. an unbounded
-                // optimal face, as P's filter block of an output-filter
-                // design — rather than infeasibility: retry this α with the
-                // regularised objective before counting it as a failure.
-                let retry = self.attempt_regularised(Candidate::new(a, gamma), Phase::Retry)?;
-                if retry.certified {
-                    at = retry;
-                    retried += 1;
-                } else {
-                    retried = 0;
-                }
-            } else {
-                retried = 0;
-            }
+            let (at, by_retry) = self.trial(Candidate::new(a, gamma), metric.as_ref(), phase)?;
+            retried = if by_retry { retried + 1 } else { 0 };
             let t = at.margin;
             if at.certified {
                 last_ok = true;
@@ -506,6 +281,35 @@ impl Ctx<'_, '_> {
             .min(cap);
         }
         Ok(lo)
+    }
+
+    /// One trial of [`Ctx::alpha_max`]: the max-margin solve at α (metric
+    /// P_ref), and where it certified nothing without a clear "no" (a solved
+    /// negative margin in the lean γ search), the regularised retry at the
+    /// same α. Returns the attempt that counts and whether it is the retry.
+    fn trial(
+        &mut self,
+        cand: Candidate,
+        metric: Option<&DMatrix<f64>>,
+        phase: Phase,
+    ) -> Result<(Attempt, bool), SolveError> {
+        let at = self.attempt(cand, Solve::Lmi(Objective::MaxMargin, metric), phase)?;
+        let clear_no = self.lean && at.status == Status::Solved && at.margin < 0.0;
+        if at.certified || clear_no {
+            return Ok((at, false));
+        }
+        // A max-margin answer without a certified point (solved but
+        // rejected by the certificate, unknown, or even reported
+        // infeasible) can be numerical trouble — e.g. an unbounded
+        // optimal face, as P's filter block of an output-filter
+        // design — rather than infeasibility: retry this α with the
+        // regularised objective before counting it as a failure.
+        let retry = self.attempt_regularised(cand, Phase::Retry)?;
+        Ok(if retry.certified {
+            (retry, true)
+        } else {
+            (at, false)
+        })
     }
 
     /// The largest certified α at `gamma` to relative tolerance `tol`

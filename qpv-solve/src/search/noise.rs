@@ -1,227 +1,101 @@
 //! The noise-optimal design (`noise = min`) and the rate–noise trade-off:
 //! a γ search of noise-optimal SDPs at fixed α, and a sweep of α.
 
+use super::attempt::{append_notes, design_of, Point, Shown, Solve};
+use super::Ctx;
 use crate::backend::Status;
-use crate::certificate::noise::{bound_from, sigma_for, NoiseBound, NoiseCheck};
-use crate::certificate::{check, Certificate, Gains};
 use crate::conditions::ConditionSet;
 use crate::error::SolveError;
-use crate::lmi::noise::solve_noise_sdp;
+use crate::line_search::{Line, Scale, Stage};
 use crate::lmi::Problem;
 use crate::model::noise::NoiseChannels;
 use crate::model::output_filter::OutputRouteInfo;
 use crate::model::state_bound::StateBoundInfo;
 use crate::model::{ObserverModel, ObserverOptions, StateBoundClaim};
-use crate::report::{Design, ReportedMatrices, SearchStep, SolverInfo};
+use crate::report::{Design, Notes, SearchStep, SolverInfo};
 use crate::settings::Settings;
 use crate::vocab::{BoundSource, Candidate, Phase};
-use nalgebra::DMatrix;
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel, Split};
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-/// L_l = P⁻¹ Γ_l (Cholesky of the symmetric part); None if P is not
-/// positive definite.
-fn gains_of(p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Option<Vec<DMatrix<f64>>> {
-    let ch = ((p + p.transpose()) * 0.5).cholesky()?;
-    Some(gammas.iter().map(|g| ch.solve(g)).collect())
-}
-
-/// One certified noise-optimal point.
-#[derive(Debug, Clone)]
-struct NoisePoint {
-    gamma: f64,
-    p: DMatrix<f64>,
-    gammas: Vec<DMatrix<f64>>,
-    l: Vec<DMatrix<f64>>,
-    cert: Certificate,
-    bound: NoiseBound,
-    solver: SolverInfo,
-}
-
-struct NoiseCtx<'a, 'm> {
-    model: &'m PolytopicModel,
+/// The noise-optimal search at a fixed α: the attempts of a [`Ctx`] on
+/// the noise SDP, and the last point that did not certify (shown, for
+/// diagnosis, when none does).
+struct NoiseSearch<'a, 'm> {
+    ctx: Ctx<'a, 'm>,
     channels: &'a NoiseChannels,
     alpha: f64,
-    settings: &'a Settings,
-    prob: Problem<'m>,
-    steps: Vec<SearchStep>,
-    progress: &'a mut dyn FnMut(&SearchStep),
-    last_uncertified: Option<NoisePoint>,
-    last_status: Status,
+    last_uncertified: Option<Point>,
 }
 
-impl NoiseCtx<'_, '_> {
-    /// Solves at γ and certifies (S1)–(S5) and the noise block LMI; the
-    /// certified point, if any.
-    fn at(&mut self, gamma: f64, phase: Phase) -> Result<Option<NoisePoint>, SolveError> {
-        let t0 = Instant::now();
-        let res = solve_noise_sdp(&self.prob, self.channels, self.alpha, gamma, self.settings)?;
-        let mut solver = SolverInfo {
-            status: res.status,
-            detail: res.detail.clone(),
-            iterations: res.iterations,
-            seconds: res.solve_seconds,
-            assembly_seconds: res.assembly_seconds,
-            certify_seconds: 0.0,
-        };
-        self.last_status = res.status;
-        let mut out = None;
-        if let Some((p, gammas)) = res.point {
-            let tc = Instant::now();
-            if let Some(l) = gains_of(&p, &gammas) {
-                let cert = check(
-                    self.model,
-                    &Gains::new(&p, &l),
-                    &Candidate::new(self.alpha, gamma),
-                    Mode::Sound,
-                );
-                let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &p * li).collect();
-                let bound = sigma_for(self.model, self.channels, self.alpha, gamma, &p, &gammas)
-                    .and_then(|(s, c)| bound_from(self.model, self.channels, self.alpha, &p, s, c));
-                solver.certify_seconds = tc.elapsed().as_secs_f64();
-                match bound {
-                    Some(bound) if cert.passed => {
-                        out = Some(NoisePoint {
-                            gamma,
-                            p,
-                            gammas,
-                            l,
-                            cert,
-                            bound,
-                            solver: solver.clone(),
-                        })
-                    }
-                    _ => {
-                        let bound = bound.unwrap_or(NoiseBound {
-                            sigma: f64::NAN,
-                            max_amplitude: f64::NAN,
-                            error_bound: f64::NAN,
-                            per_state: vec![],
-                            noisy_outputs: vec![],
-                            disturbances: 0,
-                            check: NoiseCheck {
-                                margin: -f64::MAX,
-                                guard: 0.0,
-                                passed: false,
-                                worst_at: String::new(),
-                                count: 0,
-                            },
-                        });
-                        self.last_uncertified = Some(NoisePoint {
-                            gamma,
-                            p,
-                            gammas,
-                            l,
-                            cert,
-                            bound,
-                            solver: solver.clone(),
-                        });
-                    }
-                }
-            }
+impl NoiseSearch<'_, '_> {
+    /// Solves the noise SDP at γ and certifies (S1)–(S5) and the noise
+    /// block LMI; the certified point, if any.
+    fn at(&mut self, gamma: f64, phase: Phase) -> Result<Option<Point>, SolveError> {
+        let cand = Candidate::new(self.alpha, gamma);
+        let at = self.ctx.attempt(cand, Solve::Noise(self.channels), phase)?;
+        if at.certified {
+            return Ok(at.point);
         }
-        let step = SearchStep {
-            gamma,
-            alpha: self.alpha,
-            status: res.status,
-            detail: match &out {
-                Some(pt) => format!("{} (σ = {:.6e})", res.detail, pt.bound.sigma),
-                None => res.detail.clone(),
-            },
-            certified: out.is_some(),
-            alpha_certified: if out.is_some() { self.alpha } else { 0.0 },
-            iterations: res.iterations,
-            seconds: t0.elapsed().as_secs_f64(),
-            solver_seconds: res.solve_seconds,
-            phase,
-        };
-        (self.progress)(&step);
-        self.steps.push(step);
-        Ok(out)
+        if at.point.is_some() {
+            self.last_uncertified = at.point;
+        }
+        Ok(None)
     }
 
     /// γ with the smallest certified error bound per unit noise
     /// √(σ/(α λ_min(P))), each γ's point minimising σ: a grid γ_hi·k/4
-    /// (k = 1..4), then golden-section refinement between the neighbours of
-    /// the best grid point (`refine` evaluations). A search, not a proof of
+    /// (k = 1..4), then golden-section refinement in γ between the
+    /// neighbours of the best grid point (`refine` evaluations; below the
+    /// lowest, γ_hi/16), by [`Line::minimise`]. A search, not a proof of
     /// optimality in γ. Across γ the error bound is ranked, not σ: σ scales
     /// with P (V = eᵀPe), and a small γ allows a small P, hence a small σ,
     /// with a larger error (on the paper example σ falls from 590 at γ_max
     /// to 138 at γ ≈ 0.05 while ‖e(∞)‖/ν grows from 1.27 to 2.28).
-    fn search(&mut self, gamma_hi: f64, refine: usize) -> Result<Option<NoisePoint>, SolveError> {
+    fn search(&mut self, gamma_hi: f64, refine: usize) -> Result<Option<Point>, SolveError> {
         let grid: Vec<f64> = (1..=4).map(|k| gamma_hi * k as f64 / 4.0).collect();
-        let mut best: Option<NoisePoint> = None;
-        let mut memo: Vec<(f64, f64)> = Vec::new();
-        let keep = |best: &mut Option<NoisePoint>, pt: Option<NoisePoint>| -> f64 {
-            match pt {
-                Some(p) => {
-                    let s = p.bound.error_bound;
-                    if best.as_ref().map_or(true, |b| s < b.bound.error_bound) {
-                        *best = Some(p);
-                    }
-                    s
-                }
-                None => f64::INFINITY,
+        let line = Line {
+            scale: Scale::Linear,
+            descending: true,
+            refine,
+            below: Some(grid[0] * 0.25),
+            probe_first: true,
+            ..Line::default()
+        };
+        let mut best: Option<Point> = None;
+        let mut bound_at = |g: f64, stage: Stage| -> Result<Option<f64>, SolveError> {
+            let phase = match stage {
+                Stage::Grid => Phase::NoiseGrid,
+                Stage::Refine | Stage::Walk => Phase::NoiseRefine,
+            };
+            let Some(pt) = self.at(g, phase)? else {
+                return Ok(None);
+            };
+            let e = error_bound(&pt);
+            if best.as_ref().map_or(true, |b| e < error_bound(b)) {
+                best = Some(pt);
             }
+            Ok(Some(e))
         };
-        for &g in grid.iter().rev() {
-            let pt = self.at(g, Phase::NoiseGrid)?;
-            let s = keep(&mut best, pt);
-            memo.push((g, s));
-        }
-        let Some(b) = best.as_ref() else {
-            return Ok(None);
-        };
-        let kb = grid.iter().position(|&g| g == b.gamma).unwrap_or(0);
-        let mut a = if kb == 0 {
-            grid[0] * 0.25
-        } else {
-            grid[kb - 1]
-        };
-        let mut c = if kb + 1 < grid.len() {
-            grid[kb + 1]
-        } else {
-            gamma_hi
-        };
-        let phi = (5f64.sqrt() - 1.0) / 2.0;
-        if c > a && refine >= 2 {
-            let mut x1 = c - phi * (c - a);
-            let mut x2 = a + phi * (c - a);
-            let pt = self.at(x1, Phase::NoiseRefine)?;
-            let mut f1 = keep(&mut best, pt);
-            let pt = self.at(x2, Phase::NoiseRefine)?;
-            let mut f2 = keep(&mut best, pt);
-            for _ in 2..refine {
-                if f1 <= f2 {
-                    c = x2;
-                    x2 = x1;
-                    f2 = f1;
-                    x1 = c - phi * (c - a);
-                    let pt = self.at(x1, Phase::NoiseRefine)?;
-                    f1 = keep(&mut best, pt);
-                } else {
-                    a = x1;
-                    x1 = x2;
-                    f1 = f2;
-                    x2 = a + phi * (c - a);
-                    let pt = self.at(x2, Phase::NoiseRefine)?;
-                    f2 = keep(&mut best, pt);
-                }
-            }
-        }
+        line.minimise(&grid, &mut bound_at, &|| false)?;
         Ok(best)
     }
+}
+
+/// The certified error bound per unit noise of a noise-optimal point.
+fn error_bound(pt: &Point) -> f64 {
+    pt.noise.as_ref().map_or(f64::INFINITY, |nb| nb.error_bound)
 }
 
 /// The noise-optimal design (`noise = min`): at the request's fixed α,
 /// minimise the certified σ over (P, Γ_l, σ) subject to (S1)–(S4) and the
 /// block LMI at every vertex pair — one SDP at a fixed γ; with γ = search,
 /// the γ whose σ-minimal point has the smallest error bound per unit noise
-/// is chosen (σ itself is not comparable across γ; [`NoiseCtx::search`]: a grid and a
-/// golden-section refinement). The result is `feasible`/`certifies` only if
-/// the independent certificate of (S1)–(S5) and [`check_noise`] at the
-/// reported σ both pass; the report's `noise` key carries σ and its bounds.
+/// is chosen (σ itself is not comparable across γ; a grid and a
+/// golden-section refinement, [`crate::line_search`]). The result is
+/// `feasible`/`certifies` only if the independent certificate of (S1)–(S5)
+/// and [`crate::certificate::noise::check_noise`] at the reported σ both pass; the report's `noise` key carries σ and its bounds.
 ///
 /// Needs sound mode, a fixed α (α = max is the fastest design, not a noise
 /// trade-off) and a split other than `skew_slack`. `conditions = decoupled`
@@ -310,46 +184,48 @@ fn noise_notes(
 }
 
 /// The report of a `noise = min` design: the certified point (`feasible`),
-/// else the last uncertified one for diagnosis, else the data checks only.
+/// else the last uncertified one for diagnosis, else the data checks only
+/// ([`design_of`] builds it; the full family is what the noise SDP solves).
 fn noise_report(
-    ctx: &mut NoiseCtx<'_, '_>,
-    split: Split,
+    search: NoiseSearch<'_, '_>,
+    request: &DesignRequest,
     gamma_req: f64,
-    best: Option<NoisePoint>,
+    best: Option<Point>,
     notes: Vec<String>,
 ) -> Design {
-    let (obs, alpha, status) = (ctx.model, ctx.alpha, ctx.last_status);
+    let NoiseSearch {
+        ctx,
+        alpha,
+        last_uncertified,
+        ..
+    } = search;
+    let status = ctx.steps.last().map_or(Status::NotRun, |s| s.status);
+    let obs = ctx.model;
     let feasible = best.is_some();
-    let shown = best.or(ctx.last_uncertified.take());
-    let shown_matrices = shown
-        .as_ref()
-        .map(|pt| ReportedMatrices::of(&pt.p, &pt.gammas, &pt.l))
-        .unwrap_or_default();
-    let (margins, dchecks, solver, gamma_r, noise) = match &shown {
-        Some(pt) => (
-            pt.cert.margins(),
-            pt.cert.data_checks.clone(),
-            pt.solver.clone(),
-            pt.gamma,
-            feasible.then(|| pt.bound.clone()),
-        ),
-        None => (
-            Default::default(),
-            crate::certificate::data_checks(obs, Mode::Sound, gamma_req),
-            SolverInfo {
-                status,
-                ..SolverInfo::default()
-            },
-            gamma_req,
-            None,
-        ),
+    let shown = best.or(last_uncertified);
+    let solver = match &shown {
+        Some(pt) => pt.solver.clone(),
+        None => SolverInfo {
+            status,
+            ..SolverInfo::default()
+        },
     };
-    let max_gain = shown_matrices
-        .gain_norms
-        .iter()
-        .copied()
-        .fold(0.0, f64::max);
-    let summary = match &noise {
+    let solved = DesignRequest {
+        conditions: qpv_dsl::Conditions::Full,
+        max_gain: None,
+        sample: None,
+        ..request.clone()
+    };
+    let at = Candidate::new(alpha, shown.as_ref().map_or(gamma_req, |pt| pt.gamma));
+    let shown = Shown {
+        point: shown.as_ref(),
+        feasible,
+        at,
+        solver,
+    };
+    let mut d = design_of(obs, &solved, shown, ctx.steps);
+    let (gamma_r, max_gain) = (d.gamma, d.gain_norms.iter().copied().fold(0.0, f64::max));
+    let mut summary = match &d.noise {
         Some(nb) => format!(
             "CERTIFIED (sound conditions S1-S5 and the noise block LMI): V' + αV ≤ σ(|w|² + |v|²) with α = {alpha:.6}, γ = {gamma_r:.6}, σ = {:.6e}; E stays invariant for noise amplitude up to ν_max = {:.4e}; ‖e(∞)‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
             nb.sigma, nb.max_amplitude, nb.error_bound
@@ -358,47 +234,10 @@ fn noise_report(
             "NOT CERTIFIED (noise = min) at α = {alpha:.6}, γ = {gamma_r:.6}: solver {status}."
         ),
     };
-    let mut summary = summary;
-    for n in &notes {
-        summary.push(' ');
-        summary.push_str(n);
-        if !n.ends_with('.') {
-            summary.push('.');
-        }
-    }
-    let mut d = Design {
-        model: obs.name.clone(),
-        mode: Mode::Sound,
-        split,
-        conditions: qpv_dsl::Conditions::Full,
-        cube: None,
-        feasible,
-        certifies: feasible,
-        alpha,
-        gamma: gamma_r,
-        p: shown_matrices.p,
-        gamma_l: shown_matrices.gamma_l,
-        l: shown_matrices.l,
-        gain_norms: shown_matrices.gain_norms,
-        margins,
-        data_checks: dchecks,
-        solver,
-        seconds_total: 0.0,
-        search: std::mem::take(&mut ctx.steps),
-        notes: notes.into(),
-        summary,
-        state_bound: None,
-        output_route: None,
-        skew: None,
-        diagnosis: None,
-        noise,
-        max_gain: None,
-        practical: None,
-        sampling: None,
-        sample: None,
-        gamma_search: None,
-        global: false,
-    };
+    let notes: Notes = notes.into();
+    append_notes(&mut summary, &notes);
+    d.summary = summary;
+    d.notes = notes;
     if d.certifies {
         let (p, l) = (d.p_matrix(), d.l_matrices());
         d.sampling = crate::certificate::sampling::sampling(obs, alpha, d.gamma, &p, &l);
@@ -442,27 +281,21 @@ pub fn design_noise_with_progress(
     }
     let gamma_hi = gmax.min(1.0) * (1.0 - 1e-6);
     let prob = Problem::new(obs, ConditionSet::Sound)?;
-    let mut ctx = NoiseCtx {
-        model: obs,
+    let mut search = NoiseSearch {
+        ctx: Ctx::new(obs, Mode::Sound, settings, prob, progress),
         channels: &ch,
         alpha,
-        settings,
-        prob,
-        steps: Vec::new(),
-        progress,
         last_uncertified: None,
-        last_status: Status::NotRun,
     };
-    let best = match request.gamma {
-        GammaSpec::Fixed(g) => ctx.at(g, Phase::Noise)?,
-        GammaSpec::Search => ctx.search(gamma_hi, settings.gamma_refine.max(2))?,
-    };
-    let gamma_req = match request.gamma {
-        GammaSpec::Fixed(g) => g,
-        GammaSpec::Search => gamma_hi,
+    let (best, gamma_req) = match request.gamma {
+        GammaSpec::Fixed(g) => (search.at(g, Phase::Noise)?, g),
+        GammaSpec::Search => {
+            let refine = settings.gamma_refine.max(2);
+            (search.search(gamma_hi, refine)?, gamma_hi)
+        }
     };
     let notes = noise_notes(request, alpha, channels, &ch, obs, &route_info, &bound_info);
-    let mut d = noise_report(&mut ctx, request.split, gamma_req, best, notes);
+    let mut d = noise_report(search, request, gamma_req, best, notes);
     d.state_bound = Some(bound_info);
     d.output_route = Some(route_info);
     d.seconds_total = t_start.elapsed().as_secs_f64();

@@ -22,8 +22,9 @@
 //!   smallest-gain design at (1 − within) of its α if one certifies with a
 //!   smaller gain.
 
-use super::{Ctx, Point};
+use super::{Ctx, Point, Solve};
 use crate::error::SolveError;
+use crate::line_search::Line;
 use crate::lmi::Objective;
 use crate::report::Practical;
 use crate::vocab::{Candidate, Phase};
@@ -97,23 +98,27 @@ impl Ctx<'_, '_> {
         seed: Option<&DMatrix<f64>>,
     ) -> Result<Option<Point>, SolveError> {
         let cand = Candidate::new(alpha, gamma);
-        let at = self.attempt(cand, Objective::MinGain, None, Phase::Practical)?;
+        let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, None), Phase::Practical)?;
         if at.certified {
             return Ok(at.point);
         }
         if seed.is_some() {
-            let at = self.attempt(cand, Objective::MinGain, seed, Phase::Practical)?;
+            let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, seed), Phase::Practical)?;
             if at.certified {
                 return Ok(at.point);
             }
         }
-        let room = self.attempt(cand, Objective::MaxMargin, None, Phase::Practical)?;
+        let room = self.attempt(
+            cand,
+            Solve::Lmi(Objective::MaxMargin, None),
+            Phase::Practical,
+        )?;
         let t = room.margin;
         if !(t.is_finite() && t > 0.0 && t < self.settings.margin_rel) {
             return Ok(None);
         }
         self.margin_rel = Some(0.5 * t);
-        let at = self.attempt(cand, Objective::MinGain, seed, Phase::Practical);
+        let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, seed), Phase::Practical);
         self.margin_rel = None;
         let at = at?;
         Ok(if at.certified { at.point } else { None })
@@ -132,49 +137,19 @@ impl Ctx<'_, '_> {
         let gain_sup = max_gain(sup);
         let cands = candidates(trace, sup.gamma, a_t);
         let mut best: Option<(Point, f64)> = None;
-        let mut tried: Vec<(f64, f64)> = Vec::new();
-        for &g in &cands {
-            let gain = self.try_gamma(a_t, g, &sup.p, &mut best)?;
-            tried.push((g, gain));
-        }
-        // Golden-section steps in ln γ inside the bracket of the best
-        // candidate's neighbours (a side without a neighbour is not probed).
-        if let Some(k) = best
-            .as_ref()
-            .and_then(|(b, _)| cands.iter().position(|&g| g == b.gamma))
-        {
-            let (mut a, mut m, mut c) = (
-                cands[k.saturating_sub(1)].ln(),
-                cands[k].ln(),
-                cands[(k + 1).min(cands.len() - 1)].ln(),
-            );
-            let mut fm = tried[k].1;
-            const W: f64 = 0.381_966_011_250_105_1;
-            for _ in 0..REFINE {
-                if c - a < 1e-3 {
-                    break;
-                }
-                let right = c - m >= m - a;
-                let x = if right {
-                    m + W * (c - m)
-                } else {
-                    m - W * (m - a)
-                };
-                let fx = self.try_gamma(a_t, x.exp(), &sup.p, &mut best)?;
-                if fx < fm {
-                    if right {
-                        a = m;
-                    } else {
-                        c = m;
-                    }
-                    (m, fm) = (x, fx);
-                } else if right {
-                    c = x;
-                } else {
-                    a = x;
-                }
-            }
-        }
+        // Every candidate, then golden-section steps in ln γ inside the
+        // bracket of the best one's neighbours (a side without a neighbour
+        // is not probed).
+        let line = Line {
+            refine: REFINE,
+            min_width: 1e-3,
+            ..Line::default()
+        };
+        line.minimise(
+            &cands,
+            &mut |g, _| self.try_gamma(a_t, g, &sup.p, &mut best),
+            &|| false,
+        )?;
         // The surrogate bounds the gain, it is not the gain: the default
         // regularised objective (½ w Σ‖Γ̂_l‖²) at the same point sometimes
         // does better (and solves where the homogenised problem's scaling
@@ -185,12 +160,8 @@ impl Ctx<'_, '_> {
             at_gammas.push(sup.gamma);
         }
         for g in at_gammas {
-            let at = self.attempt(
-                Candidate::new(a_t, g),
-                Objective::Gains,
-                None,
-                Phase::Practical,
-            )?;
+            let solve = Solve::Lmi(Objective::Gains, None);
+            let at = self.attempt(Candidate::new(a_t, g), solve, Phase::Practical)?;
             if let Some(p) = at.point.filter(|_| at.certified) {
                 let gain = max_gain(&p);
                 if best.as_ref().map_or(true, |(_, bg)| gain < *bg) {
@@ -219,7 +190,7 @@ impl Ctx<'_, '_> {
                     sup.alpha,
                     sup.gamma,
                     p.gamma,
-                    tried.len()
+                    cands.len()
                 ),
             ),
             None => notes.push(format!(
@@ -313,7 +284,7 @@ impl Ctx<'_, '_> {
         Ok(high_gain)
     }
 
-    /// The smallest-gain design at (α, γ): its gain (∞ if it did not
+    /// The smallest-gain design at (α, γ): its gain (None if it did not
     /// certify), kept in `best` if smaller.
     fn try_gamma(
         &mut self,
@@ -321,17 +292,14 @@ impl Ctx<'_, '_> {
         gamma: f64,
         seed: &DMatrix<f64>,
         best: &mut Option<(Point, f64)>,
-    ) -> Result<f64, SolveError> {
-        Ok(match self.min_gain_at(alpha, gamma, Some(seed))? {
-            Some(p) => {
-                let g = max_gain(&p);
-                if best.as_ref().map_or(true, |(_, bg)| g < *bg) {
-                    *best = Some((p, g));
-                }
-                g
+    ) -> Result<Option<f64>, SolveError> {
+        Ok(self.min_gain_at(alpha, gamma, Some(seed))?.map(|p| {
+            let g = max_gain(&p);
+            if best.as_ref().map_or(true, |(_, bg)| g < *bg) {
+                *best = Some((p, g));
             }
-            None => f64::INFINITY,
-        })
+            g
+        }))
     }
 }
 
