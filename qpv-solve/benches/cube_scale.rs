@@ -37,6 +37,9 @@
 //! zonotope regions without vertex enumeration", has the tables and the
 //! profile).
 
+#[path = "cube_reference.rs"]
+mod cube_reference;
+
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel};
 use qpv_solve::conditions::gamma_max;
 use qpv_solve::conditions::reference::{paper_model, synthetic_model};
@@ -101,6 +104,12 @@ fn settings() -> Settings {
         s.kkt_solver = k;
     }
     s.verbose = args.iter().any(|a| a == "verbose");
+    if let Some(w) = args
+        .iter()
+        .find_map(|a| a.strip_prefix("weight=").and_then(|v| v.parse().ok()))
+    {
+        s.gain_weight = w;
+    }
     s
 }
 
@@ -222,6 +231,111 @@ fn profile_child(nx: usize) {
     }
 }
 
+/// Size of one problem: variables, rows, nnz(A) and its cones by size.
+fn describe(sdp: &qpv_solve::backend::Sdp) -> String {
+    use qpv_clarabel::clarabel::solver::SupportedConeT;
+    let mut sizes: Vec<(String, usize)> = Vec::new();
+    for c in &sdp.cones {
+        let key = match c {
+            SupportedConeT::PSDTriangleConeT(d) => format!("PSD({d})"),
+            SupportedConeT::NonnegativeConeT(d) => format!("R+^{d}"),
+            other => format!("{other:?}"),
+        };
+        match sizes.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, n)) => *n += 1,
+            None => sizes.push((key, 1)),
+        }
+    }
+    let cones: Vec<String> = sizes.iter().map(|(k, n)| format!("{n} × {k}")).collect();
+    format!(
+        "{} variables, {} rows, nnz(A) = {}, cones: {}",
+        sdp.a.n,
+        sdp.a.m,
+        sdp.a.nzval.len(),
+        cones.join(", ")
+    )
+}
+
+/// The library's fixed cube design against the reference formulation
+/// (`cube_reference.rs`) of the same relaxation on the same (split) model,
+/// in this process: the design's wall and CPU time and its problem's size,
+/// then the reference's assembly and Clarabel solve with the same settings,
+/// and whether the reference's point passes the independent certificate.
+fn compare_child(nx: usize) {
+    use cube_reference::Reference;
+    use qpv_solve::backend::{clarabel_settings, ensure_lapack};
+    use qpv_solve::conditions::cube::CubeSlacks;
+    use qpv_solve::conditions::ConditionSet;
+    use qpv_solve::lmi::{Objective, Problem};
+    let model = synthetic_model(nx);
+    let gamma = gamma_for(&model);
+    let alpha = fixed_alpha();
+    let settings = settings();
+    let cpu0 = cpu_seconds();
+    let (d, wall) = run(&model, AlphaSpec::Fixed(alpha), gamma, Conditions::Cube);
+    let cpu = cpu_seconds() - cpu0;
+    let obs = d.observer_model(&model).expect("the design's own model");
+    let builder = Problem::new(&obs, ConditionSet::Sound)
+        .and_then(|p| p.with_conditions(Conditions::Cube))
+        .expect("a box region")
+        .assemble(alpha, gamma, &settings, Objective::Gains);
+    println!("nx = {nx}, α = {alpha}, γ = {gamma:.4}");
+    println!("  library  problem: {}", describe(&builder));
+    println!(
+        "  library  design: wall {wall:.2} s, cpu {cpu:.2} s (Clarabel {:.2} s, {} iterations, {}), {}",
+        d.solver.seconds,
+        d.solver.iterations,
+        d.solver.detail,
+        if d.certifies { "certified" } else { "NOT certified" }
+    );
+    drop(builder);
+    let t = Instant::now();
+    let (reference, sdp) = Reference::new(
+        &obs,
+        alpha,
+        gamma,
+        settings.margin_rel,
+        settings.gain_weight,
+    );
+    let asm = t.elapsed().as_secs_f64();
+    println!(
+        "  reference problem: {} (assembly {asm:.2} s)",
+        describe(&sdp)
+    );
+    ensure_lapack();
+    let (cpu0, t) = (cpu_seconds(), Instant::now());
+    let solved = qpv_clarabel::solve(sdp, clarabel_settings(&settings)).expect("solver setup");
+    let (rwall, rcpu) = (t.elapsed().as_secs_f64(), cpu_seconds() - cpu0);
+    let point = reference.unpack(&solved.solution.x);
+    let ls: Vec<_> = point
+        .gammas
+        .iter()
+        .map(|g| point.p.clone().lu().solve(g).expect("P invertible"))
+        .collect();
+    let slacks = CubeSlacks {
+        y: point.y,
+        x: point.x,
+        d: point.d,
+    };
+    let cert =
+        qpv_solve::certificate::check_cube(&obs, Mode::Sound, alpha, gamma, &point.p, &ls, &slacks);
+    let li = &solved.info.linsolver;
+    println!(
+        "  reference solve: wall {rwall:.2} s, cpu {rcpu:.2} s (Clarabel {:.2} s, {} iterations, {:?}; KKT nnz {}, nnz(L) {}), its point {}",
+        solved.solution.solve_time,
+        solved.solution.iterations,
+        solved.solution.status,
+        li.nnzA,
+        li.nnzL,
+        if cert.passed { "certified" } else { "NOT certified" }
+    );
+    println!(
+        "  design / reference solve: wall {:.2}×, cpu {:.2}×",
+        wall / rwall,
+        cpu / rcpu
+    );
+}
+
 /// One row of the loss table, in this process.
 fn loss_child(nx: usize) {
     let (model, gamma, name) = if nx == 0 {
@@ -265,14 +379,16 @@ fn main() {
             "scale" => scale_child(nx, true),
             "fixed" => scale_child(nx, false),
             "profile" => profile_child(nx),
+            "compare" => compare_child(nx),
             _ => loss_child(nx),
         }
         return;
     }
     let loss = args.iter().any(|a| a == "loss");
     let profile = args.iter().any(|a| a == "profile");
+    let compare = args.iter().any(|a| a == "compare");
     let fixed = args.iter().any(|a| a == "fixed");
-    let scale = args.iter().any(|a| a == "scale") || fixed || !(loss || profile);
+    let scale = args.iter().any(|a| a == "scale") || fixed || !(loss || profile || compare);
     let given: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
     let exe = std::env::current_exe().unwrap();
     let passed: Vec<&String> = args
@@ -283,6 +399,7 @@ fn main() {
             ]
             .contains(&a.as_str())
                 || a.starts_with("alpha=")
+                || a.starts_with("weight=")
         })
         .collect();
     println!(
@@ -340,6 +457,17 @@ fn main() {
         };
         for nx in nxs {
             child("profile", nx);
+        }
+    }
+    if compare {
+        println!("bench cube_scale (compare): the fixed cube design against the reference formulation of the same relaxation, same settings");
+        let nxs = if given.is_empty() {
+            vec![10, 12]
+        } else {
+            given.clone()
+        };
+        for nx in nxs {
+            child("compare", nx);
         }
     }
     if loss {
