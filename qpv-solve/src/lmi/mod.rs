@@ -226,6 +226,10 @@ pub struct Problem<'m> {
     gens: Vec<DVector<f64>>,
     /// Cube conditions: a bound on ‖R‖_F over the region, from the generators.
     cube_r_fro: f64,
+    /// Cube conditions with every N_l and M_m symmetric: H_c(g) = −2G_c(g),
+    /// so one slack per combination and generator stands for the pair
+    /// (see [`Problem::cube_one_slack`]).
+    cube_one_slack: bool,
     /// `max_gain = G`: the bound imposed on every ‖L_l‖₂ (see
     /// [`Problem::with_max_gain`]).
     max_gain: Option<f64>,
@@ -289,6 +293,7 @@ impl<'m> Problem<'m> {
             max_r_fro: OnceLock::new(),
             gens: Vec::new(),
             cube_r_fro: 0.0,
+            cube_one_slack: false,
             max_gain: None,
             scaling: None,
             sample: None,
@@ -396,6 +401,8 @@ impl<'m> Problem<'m> {
                     })
                     .fold(0.0, f64::max);
                 self.gens = gens;
+                self.cube_one_slack = self.cube_pairs_fold();
+                self.as_hat = cube::one_of_each_opposite_pair(&self.as_hat);
             }
             Conditions::Full | Conditions::Decoupled => {}
         }
@@ -432,19 +439,22 @@ impl<'m> Problem<'m> {
         match self.conditions {
             Conditions::Full | Conditions::Auto => 0,
             Conditions::Decoupled => self.combos.len() * self.np,
-            Conditions::Cube => self.combos.len() * 2 * self.gens.len() * self.np + self.gens.len(),
+            Conditions::Cube => self.cube_slack_vars(),
         }
     }
 
     /// Number of rate LMI blocks assembled: c p² (full), c·2p (decoupled)
-    /// or c(4r + 1) (cube, r generators), with c combinations (c = N for a
-    /// constant output map, N² for the double sum).
+    /// or c(4r + 1) (cube, r generators; c(2r + 1) with one slack per
+    /// generator, [`Problem::cube_one_slack`]), with c combinations (c = N
+    /// for a constant output map, N² for the double sum).
     pub fn n_rate_blocks(&self) -> usize {
         let p = self.model.region.vertices.len();
         match self.conditions {
             Conditions::Full | Conditions::Auto => self.n_full_rate_blocks(),
             Conditions::Decoupled => self.combos.len() * 2 * p,
-            Conditions::Cube => self.combos.len() * (4 * self.gens.len() + 1),
+            Conditions::Cube => {
+                self.combos.len() * (2 * self.cube_slacks_per_generator() * self.gens.len() + 1)
+            }
         }
     }
 
