@@ -25,6 +25,13 @@
 //! (sound mode, σ = +1); objective ½ w Σ_l ‖Γ̂_l‖_F², as the design's.
 //! Only models with a constant output map (C and M_k the same at every
 //! θ-vertex: one rate combination per θ-vertex) are written.
+//!
+//! The lean form ([`Form::Lean`], for N_k and M_k symmetric, so that
+//! H(g) = −2G(g)) has one slack Ŵ = Ŷ + X̂ per θ-vertex and generator,
+//! Ŵ ∓ 3G_l(g_k) ⪰ 2εκI and −(F0_l + Σ_k Ŵ_{l,k}) ⪰ εκI, and one facet block
+//! per pair of opposite facets: the same relaxation, written as small as
+//! its mathematics allows. Its Y and X are W/3 + aI and 2W/3 − aI, a = m/6
+//! with m the smaller of λ_min(W ∓ 3G).
 
 use nalgebra::{DMatrix, DVector};
 use qpv_clarabel::clarabel::algebra::CscMatrix;
@@ -33,8 +40,21 @@ use qpv_clarabel::Sdp;
 use qpv_dsl::PolytopicModel;
 use std::f64::consts::SQRT_2;
 
+/// Which formulation of the relaxation.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Form {
+    /// Four slack blocks per θ-vertex and generator, every facet.
+    Pairs,
+    /// One slack per θ-vertex and generator, one facet per opposite pair.
+    Lean,
+}
+
 /// What it takes to read a solution of the reference problem.
 pub struct Reference {
+    /// Symmetric slack matrices per θ-vertex and generator: 2 or 1.
+    per: usize,
+    /// Lean form: (K, H) of G_l(g_k) = He{PK − Γ_l H}, per l and k.
+    g_parts: Vec<Vec<(DMatrix<f64>, DMatrix<f64>)>>,
     nx: usize,
     ny: usize,
     nv: usize,
@@ -125,10 +145,11 @@ impl Reference {
         tri(self.nx) + (l * self.nx + r) * self.ny + c
     }
 
-    /// First variable of Ŷ_{l,k} (`x = false`) or X̂_{l,k} (`x = true`).
+    /// First variable of Ŷ_{l,k} (`x = false`) or X̂_{l,k} (`x = true`);
+    /// of Ŵ_{l,k} in the lean form.
     fn slack(&self, l: usize, k: usize, x: bool) -> usize {
         let base = tri(self.nx) + self.nv * self.nx * self.ny;
-        base + ((l * self.r + k) * 2 + usize::from(x)) * tri(self.nx)
+        base + ((l * self.r + k) * self.per + usize::from(x)) * tri(self.nx)
     }
 
     fn dvar(&self, k: usize) -> usize {
@@ -183,10 +204,10 @@ impl Reference {
     /// in Clarabel's standard form.
     pub fn new(
         model: &PolytopicModel,
-        alpha: f64,
-        gamma: f64,
+        (alpha, gamma): (f64, f64),
         eps: f64,
         w: f64,
+        form: Form,
     ) -> (Reference, Sdp) {
         let gens = model
             .region
@@ -202,7 +223,23 @@ impl Reference {
             .iter()
             .fold(DVector::zeros(nx), |acc: DVector<f64>, g| acc + g.abs());
         let rho = abs_sum.norm();
+        let lean = form == Form::Lean;
+        let sym = |ms: &[DMatrix<f64>]| ms.iter().all(|m| m == &m.transpose());
+        assert!(
+            !lean || model.vertices.iter().all(|v| sym(&v.n) && sym(&v.m)),
+            "the lean form needs N_k and M_k symmetric"
+        );
         let me = Reference {
+            per: if lean { 1 } else { 2 },
+            g_parts: model
+                .vertices
+                .iter()
+                .map(|v| {
+                    gens.iter()
+                        .map(|g| (-rows_of(&v.n, g), -rows_of(&v.m, g)))
+                        .collect()
+                })
+                .collect(),
             nx,
             ny,
             nv,
@@ -245,8 +282,12 @@ impl Reference {
             out.v.push(1.0);
         }
         out.cones.push(SupportedConeT::NonnegativeConeT(1));
-        // Facets: [1 γâᵀ; γâ P̂] ⪰ εI.
-        for a in &model.region.facets {
+        // Facets: [1 γâᵀ; γâ P̂] ⪰ εI (lean: not for −a after a).
+        let facets = &model.region.facets;
+        for (fi, a) in facets.iter().enumerate() {
+            if lean && facets[..fi].iter().any(|b| b == &(-a)) {
+                continue;
+            }
             let mut c = -id(nx + 1) * eps;
             c[(0, 0)] += 1.0;
             for i in 0..nx {
@@ -285,6 +326,18 @@ impl Reference {
             let k0 = &v.a * gamma + id(nx) * (0.5 * gamma * alpha);
             let mut main = me.he_terms(l, &k0, &(&v.c * gamma));
             for (k, g) in gens.iter().enumerate() {
+                if lean {
+                    // Ŵ ∓ 3G ⪰ 2εκI.
+                    let (kk, hh) = &me.g_parts[l][k];
+                    let first = me.slack(l, k, false);
+                    for sign in [1.0, -1.0] {
+                        let mut t = me.sym_terms(first, 1.0);
+                        t.extend(me.he_terms(l, &(kk * (-3.0 * sign)), &(hh * (-3.0 * sign))));
+                        out.psd(&(-id(nx) * (2.0 * eps_rate)), &t);
+                    }
+                    main.extend(me.sym_terms(first, 1.0));
+                    continue;
+                }
                 let parts = [
                     (-rows_of(&v.n, g), -rows_of(&v.m, g), false),
                     (rows_he_of(&v.n, g), rows_he_of(&v.m, g), true),
@@ -330,14 +383,43 @@ impl Reference {
                 .map(|l| (0..self.r).map(|k| sym(self.slack(l, k, is_x))).collect())
                 .collect()
         };
+        let p = sym(0);
+        let gammas: Vec<DMatrix<f64>> = (0..self.nv)
+            .map(|l| DMatrix::from_fn(nx, ny, |r, c| s * x[self.gvar(l, r, c)]))
+            .collect();
+        let d = (0..self.r).map(|k| x[self.dvar(k)]).collect();
+        if self.per == 2 {
+            return Point {
+                p,
+                gammas,
+                y: per(false),
+                x: per(true),
+                d,
+            };
+        }
+        // Lean: Y = W/3 + aI, X = 2W/3 − aI, a = m/6.
+        let lmin = |m: &DMatrix<f64>| ((m + m.transpose()) * 0.5).symmetric_eigenvalues().min();
+        let (mut y, mut xs) = (Vec::new(), Vec::new());
+        for (l, ws) in per(false).into_iter().enumerate() {
+            let (mut yl, mut xl) = (Vec::new(), Vec::new());
+            for (k, w) in ws.into_iter().enumerate() {
+                let (kk, hh) = &self.g_parts[l][k];
+                let g = &p * kk - &gammas[l] * hh;
+                let g3 = (&g + g.transpose()) * 3.0;
+                let a = lmin(&(&w - &g3)).min(lmin(&(&w + &g3))) / 6.0;
+                let shift = DMatrix::identity(nx, nx) * a;
+                yl.push(&w / 3.0 + &shift);
+                xl.push(&w * (2.0 / 3.0) - shift);
+            }
+            y.push(yl);
+            xs.push(xl);
+        }
         Point {
-            p: sym(0),
-            gammas: (0..self.nv)
-                .map(|l| DMatrix::from_fn(nx, ny, |r, c| s * x[self.gvar(l, r, c)]))
-                .collect(),
-            y: per(false),
-            x: per(true),
-            d: (0..self.r).map(|k| x[self.dvar(k)]).collect(),
+            p,
+            gammas,
+            y,
+            x: xs,
+            d,
         }
     }
 }

@@ -256,15 +256,66 @@ fn describe(sdp: &qpv_solve::backend::Sdp) -> String {
     )
 }
 
-/// The library's fixed cube design against the reference formulation
-/// (`cube_reference.rs`) of the same relaxation on the same (split) model,
-/// in this process: the design's wall and CPU time and its problem's size,
-/// then the reference's assembly and Clarabel solve with the same settings,
-/// and whether the reference's point passes the independent certificate.
-fn compare_child(nx: usize) {
+/// One solve of the reference formulation (`cube_reference.rs`) of `obs`
+/// with gain weight `w` in the given form, in this process: its size, its
+/// wall and CPU time, Clarabel's iterations, status and KKT fill, and
+/// whether its point passes the independent certificate. Returns (wall, cpu).
+fn reference_solve(
+    obs: &PolytopicModel,
+    (alpha, gamma): (f64, f64),
+    w: f64,
+    form: cube_reference::Form,
+) -> (f64, f64) {
     use cube_reference::Reference;
     use qpv_solve::backend::{clarabel_settings, ensure_lapack};
     use qpv_solve::conditions::cube::CubeSlacks;
+    let settings = settings();
+    let t = Instant::now();
+    let (reference, sdp) = Reference::new(obs, (alpha, gamma), settings.margin_rel, w, form);
+    let asm = t.elapsed().as_secs_f64();
+    let what = format!(
+        "reference {form:?}{}",
+        if w > 0.0 { "" } else { " (feasibility)" }
+    );
+    println!("  {what} problem: {} (assembly {asm:.2} s)", describe(&sdp));
+    ensure_lapack();
+    let (cpu0, t) = (cpu_seconds(), Instant::now());
+    let solved = qpv_clarabel::solve(sdp, clarabel_settings(&settings)).expect("solver setup");
+    let (wall, cpu) = (t.elapsed().as_secs_f64(), cpu_seconds() - cpu0);
+    let point = reference.unpack(&solved.solution.x);
+    let ls: Vec<_> = point
+        .gammas
+        .iter()
+        .map(|g| point.p.clone().lu().solve(g).expect("P invertible"))
+        .collect();
+    let slacks = CubeSlacks {
+        y: point.y,
+        x: point.x,
+        d: point.d,
+    };
+    let cert =
+        qpv_solve::certificate::check_cube(obs, Mode::Sound, alpha, gamma, &point.p, &ls, &slacks);
+    let li = &solved.info.linsolver;
+    println!(
+        "  {what} solve: wall {wall:.2} s, cpu {cpu:.2} s ({} iterations, {:?}; KKT nnz {}, nnz(L) {}), its point {}",
+        solved.solution.iterations,
+        solved.solution.status,
+        li.nnzA,
+        li.nnzL,
+        if cert.passed { "certified" } else { "NOT certified" }
+    );
+    (wall, cpu)
+}
+
+/// The library's fixed cube design against the reference formulation
+/// (`cube_reference.rs`) of the same relaxation on the same (split) model,
+/// in this process: the design's wall and CPU time and its problem's size
+/// (and, with `kkt`, its KKT fill, from one more solve of that problem),
+/// then the reference with four slack blocks per generator (with the
+/// design's objective and as a pure feasibility problem) and in its lean
+/// form, each with the same settings.
+fn compare_child(nx: usize) {
+    use cube_reference::Form;
     use qpv_solve::conditions::ConditionSet;
     use qpv_solve::lmi::{Objective, Problem};
     let model = synthetic_model(nx);
@@ -280,59 +331,38 @@ fn compare_child(nx: usize) {
         .expect("a box region")
         .assemble(alpha, gamma, &settings, Objective::Gains);
     println!("nx = {nx}, α = {alpha}, γ = {gamma:.4}");
-    println!("  library  problem: {}", describe(&builder));
+    println!("  library problem: {}", describe(&builder));
     println!(
-        "  library  design: wall {wall:.2} s, cpu {cpu:.2} s (Clarabel {:.2} s, {} iterations, {}), {}",
+        "  library design: wall {wall:.2} s, cpu {cpu:.2} s (Clarabel {:.2} s, {} iterations, {}), {}",
         d.solver.seconds,
         d.solver.iterations,
         d.solver.detail,
         if d.certifies { "certified" } else { "NOT certified" }
     );
-    drop(builder);
-    let t = Instant::now();
-    let (reference, sdp) = Reference::new(
-        &obs,
-        alpha,
-        gamma,
-        settings.margin_rel,
-        settings.gain_weight,
-    );
-    let asm = t.elapsed().as_secs_f64();
+    if std::env::args().any(|a| a == "kkt") {
+        qpv_solve::backend::ensure_lapack();
+        let cs = qpv_solve::backend::clarabel_settings(&settings);
+        let solved = qpv_clarabel::solve(builder, cs).expect("solver setup");
+        let li = &solved.info.linsolver;
+        println!(
+            "  library problem's KKT: nnz {}, nnz(L) {} ({} iterations)",
+            li.nnzA, li.nnzL, solved.solution.iterations
+        );
+    } else {
+        drop(builder);
+    }
+    let w = settings.gain_weight;
+    let (rwall, rcpu) = reference_solve(&obs, (alpha, gamma), w, Form::Pairs);
+    let (fwall, fcpu) = reference_solve(&obs, (alpha, gamma), 0.0, Form::Pairs);
+    let (lwall, lcpu) = reference_solve(&obs, (alpha, gamma), w, Form::Lean);
     println!(
-        "  reference problem: {} (assembly {asm:.2} s)",
-        describe(&sdp)
-    );
-    ensure_lapack();
-    let (cpu0, t) = (cpu_seconds(), Instant::now());
-    let solved = qpv_clarabel::solve(sdp, clarabel_settings(&settings)).expect("solver setup");
-    let (rwall, rcpu) = (t.elapsed().as_secs_f64(), cpu_seconds() - cpu0);
-    let point = reference.unpack(&solved.solution.x);
-    let ls: Vec<_> = point
-        .gammas
-        .iter()
-        .map(|g| point.p.clone().lu().solve(g).expect("P invertible"))
-        .collect();
-    let slacks = CubeSlacks {
-        y: point.y,
-        x: point.x,
-        d: point.d,
-    };
-    let cert =
-        qpv_solve::certificate::check_cube(&obs, Mode::Sound, alpha, gamma, &point.p, &ls, &slacks);
-    let li = &solved.info.linsolver;
-    println!(
-        "  reference solve: wall {rwall:.2} s, cpu {rcpu:.2} s (Clarabel {:.2} s, {} iterations, {:?}; KKT nnz {}, nnz(L) {}), its point {}",
-        solved.solution.solve_time,
-        solved.solution.iterations,
-        solved.solution.status,
-        li.nnzA,
-        li.nnzL,
-        if cert.passed { "certified" } else { "NOT certified" }
-    );
-    println!(
-        "  design / reference solve: wall {:.2}×, cpu {:.2}×",
+        "  design / reference solve (wall, cpu): {:.2}×, {:.2}× (feasibility: {:.2}×, {:.2}×; lean: {:.2}×, {:.2}×)",
         wall / rwall,
-        cpu / rcpu
+        cpu / rcpu,
+        wall / fwall,
+        cpu / fcpu,
+        wall / lwall,
+        cpu / lcpu
     );
 }
 
@@ -395,7 +425,7 @@ fn main() {
         .iter()
         .filter(|a| {
             [
-                "qdldl", "faer", "faer1", "faer2", "auto", "verbose", "chordal",
+                "qdldl", "faer", "faer1", "faer2", "auto", "verbose", "chordal", "kkt",
             ]
             .contains(&a.as_str())
                 || a.starts_with("alpha=")
