@@ -366,6 +366,54 @@ fn compare_child(nx: usize) {
     );
 }
 
+/// A fixed cube design and the re-check of its report, in this process:
+/// the design (wall and CPU time), its report through JSON and back, and
+/// [`Design::recheck`] on the model, the one re-certification `qpv check`
+/// runs (on the observer model the report describes, with its cube
+/// slacks); the families it checked and how many conditions each.
+fn check_child(nx: usize) {
+    let model = synthetic_model(nx);
+    let gamma = gamma_for(&model);
+    let cpu0 = cpu_seconds();
+    let (d, wall) = run(
+        &model,
+        AlphaSpec::Fixed(fixed_alpha()),
+        gamma,
+        Conditions::Cube,
+    );
+    let cpu = cpu_seconds() - cpu0;
+    let (cpu0, t) = (cpu_seconds(), Instant::now());
+    let back = Design::from_json(&d.to_json()).expect("the report reads back");
+    let cert = back.recheck(&model);
+    let (cwall, ccpu) = (t.elapsed().as_secs_f64(), cpu_seconds() - cpu0);
+    let families: Vec<String> = cert
+        .families
+        .iter()
+        .map(|f| {
+            format!(
+                "{} {} ({})",
+                f.name,
+                f.count,
+                if f.passed { "pass" } else { "FAIL" }
+            )
+        })
+        .collect();
+    println!(
+        "{:>3} {:>6} {:>8.2} {:>7.2} {:>9} | {:>8.3} {:>7.3} {:>9} | {:>6.3} {:>6.3}  {}",
+        nx,
+        model.region.vertices.len(),
+        wall,
+        cpu,
+        if d.certifies { "yes" } else { "NO" },
+        cwall,
+        ccpu,
+        if cert.passed { "yes" } else { "NO" },
+        cwall / wall,
+        ccpu / cpu,
+        families.join(", ")
+    );
+}
+
 /// One row of the loss table, in this process.
 fn loss_child(nx: usize) {
     let (model, gamma, name) = if nx == 0 {
@@ -410,6 +458,7 @@ fn main() {
             "fixed" => scale_child(nx, false),
             "profile" => profile_child(nx),
             "compare" => compare_child(nx),
+            "check" => check_child(nx),
             _ => loss_child(nx),
         }
         return;
@@ -417,8 +466,10 @@ fn main() {
     let loss = args.iter().any(|a| a == "loss");
     let profile = args.iter().any(|a| a == "profile");
     let compare = args.iter().any(|a| a == "compare");
+    let check = args.iter().any(|a| a == "check");
     let fixed = args.iter().any(|a| a == "fixed");
-    let scale = args.iter().any(|a| a == "scale") || fixed || !(loss || profile || compare);
+    let scale =
+        args.iter().any(|a| a == "scale") || fixed || !(loss || profile || compare || check);
     let given: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).collect();
     let exe = std::env::current_exe().unwrap();
     let passed: Vec<&String> = args
@@ -498,6 +549,21 @@ fn main() {
         };
         for nx in nxs {
             child("compare", nx);
+        }
+    }
+    if check {
+        println!("bench cube_scale (check): a fixed cube design, then its report re-checked (JSON → Design::recheck, the path of `qpv check`)");
+        println!(
+            "{:>3} {:>6} {:>8} {:>7} {:>9} | {:>8} {:>7} {:>9} | {:>6} {:>6}  families (conditions)",
+            "nx", "verts", "wall s", "cpu s", "certified", "check s", "cpu s", "passes", "wall ×", "cpu ×"
+        );
+        let nxs = if given.is_empty() {
+            vec![10]
+        } else {
+            given.clone()
+        };
+        for nx in nxs {
+            child("check", nx);
         }
     }
     if loss {
