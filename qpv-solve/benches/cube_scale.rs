@@ -12,24 +12,37 @@
 //! * `loss` (nx = 3..8): α_max at γ = min(0.3, 0.95 γ_max) with cube,
 //!   decoupled and (nx ≤ 4) full conditions, and the paper example at
 //!   γ = 0.18898; loss = 1 − α_cube/α_ref against the vertex family
-//!   (full where solved, else decoupled).
+//!   (full where solved, else decoupled). `cube-only` leaves the vertex
+//!   families out (their α does not depend on the cube's formulation).
 //!
 //! * `profile` (default nx = 10): where one fixed-(α = 1, γ) cube solve
 //!   spends its time: the problem's size, the KKT system's and its LDL
 //!   factor's nonzeros, and Clarabel's own timers (cone scaling, KKT update,
 //!   which is the numerical factorisation, and KKT solves). The problem is
-//!   assembled from the synthetic model as given, without the design's
-//!   symmetric split of N_k, so its iteration count can differ from the
-//!   design's by a few.
+//!   assembled from the synthetic model with the design's symmetric split
+//!   of N_k and M_k (so with one slack per generator, as the design).
+//! * `compare` (default nx = 10, 12): the fixed-(α = 1, γ) cube design
+//!   against an independent formulation of the same relaxation written
+//!   directly on Clarabel's standard form (`cube_reference.rs`), in the same
+//!   process with the same settings: with four slack blocks per θ-vertex and
+//!   generator (with the design's objective, then as a pure feasibility
+//!   problem) and in its lean form (one slack per generator). Sizes (nnz(A),
+//!   cones, KKT nonzeros and LDL fill), times, iterations, and whether each
+//!   reference point passes the independent certificate; `kkt` solves the
+//!   library's problem once more to print its KKT fill.
+//! * `check` (default nx = 10): the fixed cube design against the re-check
+//!   of its report (JSON, then `Design::recheck`: what `qpv check` runs),
+//!   with the families and condition counts the re-check went through.
 //!
 //! The KKT solver is `Settings::default()`'s unless one of `qdldl`, `faer`
 //! (one thread per core), `faer1`, `faer2` (1 or 2 threads) or `auto` is
 //! given; all but `qdldl` need `--features faer`. `verbose` prints
 //! Clarabel's iteration log; `alpha=A` fixes α = A instead of 1 (`fixed`,
-//! `scale` and `profile`); `chordal` turns Clarabel's chordal decomposition
-//! on (`profile` only).
+//! `scale`, `profile`, `compare`, `check`); `weight=W` sets the gain
+//! weight of the objective (0: feasibility); `chordal` turns Clarabel's
+//! chordal decomposition on (`profile` only).
 //!
-//! `cargo bench --bench cube_scale [--features faer] -- [scale|fixed|loss|profile] [qdldl|faer|faer1|faer2|auto] [verbose] [alpha=A] [chordal] [NX...]`
+//! `cargo bench --bench cube_scale [--features faer] -- [scale|fixed|loss|profile|compare|check] [qdldl|faer|faer1|faer2|auto] [verbose] [alpha=A] [weight=W] [chordal] [kkt] [cube-only] [NX...]`
 //! (`fixed`: the scale table without the α search). Times are wall-clock and,
 //! because the machine may be shared, the process's CPU time too.
 //!
@@ -116,6 +129,9 @@ fn settings() -> Settings {
 fn run(model: &PolytopicModel, alpha: AlphaSpec, gamma: f64, c: Conditions) -> (Design, f64) {
     let mut req = request(alpha, GammaSpec::Fixed(gamma), Mode::Sound);
     req.conditions = c;
+    // α = max means the certified supremum here, not the practical point
+    // within 1 % of it (the default `within`).
+    req.within = 0.0;
     let t = Instant::now();
     let d = design(model, &req, &settings()).expect("design");
     (d, t.elapsed().as_secs_f64())
@@ -161,12 +177,14 @@ fn scale_child(nx: usize, search: bool) {
         }
         return;
     }
+    let cpu0 = cpu_seconds();
     let (m, wall_max) = run(&model, AlphaSpec::Max, gamma, Conditions::Cube);
+    let cpu_max = cpu_seconds() - cpu0;
     let solves = m.search.len() + 1;
     let solver_total: f64 =
         m.search.iter().map(|s| s.solver_seconds).sum::<f64>() + m.solver.seconds;
     println!(
-        "{:>3} {:>6} {:>6.4} {:>8.2} {:>7.2} {:>8.2} {:>6.2} {:>6.3} {:>5} {:>9} | {:>8.4} {:>8.2} {:>8.2} {:>6} {:>9.0} {:>9.0}",
+        "{:>3} {:>6} {:>6.4} {:>8.2} {:>7.2} {:>8.2} {:>6.2} {:>6.3} {:>5} {:>9} | {:>8.4} {:>8.2} {:>7.2} {:>8.2} {:>6} {:>9.0} {:>9.0}",
         nx,
         model.region.vertices.len(),
         gamma,
@@ -179,6 +197,7 @@ fn scale_child(nx: usize, search: bool) {
         if d.certifies { "yes" } else { "NO" },
         if m.certifies { m.alpha } else { f64::NAN },
         wall_max,
+        cpu_max,
         solver_total,
         solves,
         peak_fixed,
@@ -192,7 +211,7 @@ fn profile_child(nx: usize) {
     use qpv_solve::backend::{clarabel_settings, ensure_lapack};
     use qpv_solve::conditions::ConditionSet;
     use qpv_solve::lmi::{Objective, Problem};
-    let model = synthetic_model(nx);
+    let model = synthetic_model(nx).with_split(qpv_dsl::Split::Symmetric);
     let gamma = gamma_for(&model);
     let prob = Problem::new(&model, ConditionSet::Sound)
         .and_then(|p| p.with_conditions(Conditions::Cube))
@@ -428,8 +447,15 @@ fn loss_child(nx: usize) {
         (if d.certifies { d.alpha } else { f64::NAN }, wall)
     };
     let (cube, tc) = alpha(Conditions::Cube);
-    let (dec, td) = alpha(Conditions::Decoupled);
-    let (full, tf) = if nx <= 4 {
+    // `cube-only`: the vertex families are left out (their α does not
+    // depend on the cube's formulation, and they take minutes from nx = 6).
+    let cube_only = std::env::args().any(|a| a == "cube-only");
+    let (dec, td) = if cube_only {
+        (f64::NAN, f64::NAN)
+    } else {
+        alpha(Conditions::Decoupled)
+    };
+    let (full, tf) = if nx <= 4 && !cube_only {
         alpha(Conditions::Full)
     } else {
         (f64::NAN, f64::NAN)
@@ -476,7 +502,15 @@ fn main() {
         .iter()
         .filter(|a| {
             [
-                "qdldl", "faer", "faer1", "faer2", "auto", "verbose", "chordal", "kkt",
+                "qdldl",
+                "faer",
+                "faer1",
+                "faer2",
+                "auto",
+                "verbose",
+                "chordal",
+                "kkt",
+                "cube-only",
             ]
             .contains(&a.as_str())
                 || a.starts_with("alpha=")
@@ -503,7 +537,7 @@ fn main() {
             fixed_alpha()
         );
         println!(
-            "{:>3} {:>6} {:>6} {:>8} {:>7} {:>8} {:>6} {:>6} {:>5} {:>9} | {:>8} {:>8} {:>8} {:>6} {:>9} {:>9}",
+            "{:>3} {:>6} {:>6} {:>8} {:>7} {:>8} {:>6} {:>6} {:>5} {:>9} | {:>8} {:>8} {:>7} {:>8} {:>6} {:>9} {:>9}",
             "nx",
             "verts",
             "γ",
@@ -516,6 +550,7 @@ fn main() {
             "certified",
             "α max",
             "wall s",
+            "cpu s",
             "solver s",
             "solves",
             "peak MiB",
