@@ -347,7 +347,7 @@ impl Reference {
                     for sign in [1.0, -1.0] {
                         // Ŷ − sign·G ⪰ εκI.
                         let mut t = me.sym_terms(first, 1.0);
-                        t.extend(me.he_terms(l, &(&kk * -sign), &(&hh * -sign)).into_iter());
+                        t.extend(me.he_terms(l, &(&kk * -sign), &(&hh * -sign)));
                         out.psd(&(-id(nx) * eps_rate), &t);
                     }
                     main.extend(me.sym_terms(first, 1.0));

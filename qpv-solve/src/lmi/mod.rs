@@ -416,7 +416,8 @@ impl<'m> Problem<'m> {
     }
 
     /// Number of decision variables (P̂, Γ̂_l and, for decoupled conditions,
-    /// Ẑ_l, for cube ones Ŷ_{c,k}, X̂_{c,k} and D; the margin variable of [`Objective::MaxMargin`] comes after them).
+    /// Ẑ_l, for cube ones the slacks of [`Problem::n_slack_vars`] and D; the
+    /// margin variable of [`Objective::MaxMargin`] comes after them).
     pub fn n_vars(&self) -> usize {
         self.gains_end() + self.n_slack_vars() + usize::from(self.max_gain.is_some())
     }
@@ -433,8 +434,9 @@ impl<'m> Problem<'m> {
 
     /// Number of slack variables: Ẑ_c, one per rate combination
     /// ([`crate::conditions::Combo`]) of nx(nx+1)/2 entries when decoupled;
-    /// Ŷ_{c,k}, X̂_{c,k} per combination and generator, and the r entries of
-    /// D, for cube conditions; else 0.
+    /// for cube conditions the lower slacks Ŝ_{c,k}, Ŝ'_{c,k} per combination
+    /// and generator (one Ŝ_{c,k} with [`Problem::cube_one_slack`]) and the
+    /// r entries of D; else 0.
     pub fn n_slack_vars(&self) -> usize {
         match self.conditions {
             Conditions::Full | Conditions::Auto => 0,
