@@ -44,7 +44,7 @@
 //!     Y ⪰ ±G, X ⪰ ±H, F0 + ΣY + ΣX ≺ 0   ⟺   W ⪰ ±3G, F0 + ΣW ≺ 0
 //! ```
 //!
-//! (⇒: W ∓ 3G = (Y ∓ G) + (X ∓ H); ⇐: Y = W/3 + aI, X = 2W/3 − aI), with
+//! (⇒: W ∓ 3G = (Y ∓ G) + (X ± H); ⇐: Y = W/3 + aI, X = 2W/3 − aI), with
 //! the margins: Y ∓ G ⪰ εκI and X ∓ H ⪰ εκI give W ∓ 3G ⪰ 2εκI, and from
 //! W ∓ 3G ⪰ mI (m ≥ 2εκ) the split a = m/6 gives Y ∓ G ⪰ (m/2)I and
 //! X ∓ H ⪰ (m/2)I. So the rows per combination and generator are
