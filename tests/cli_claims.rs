@@ -81,6 +81,36 @@ fn check_and_simulate_recheck_the_cube_slacks_alike() {
     assert!(t.contains("NOT certified") && t.contains("D ⪰ GᵀPG"), "{t}");
 }
 
+/// `qpv check` of a cube report re-checks the report's slack inequalities,
+/// never the vertex pairs: per θ-vertex 4r + 1 rate conditions (paper
+/// example: 4 θ-vertices, r = 3 generators, so 52 instead of 4 · 8² = 256
+/// pairs), and for the region's vertices the two conditions on D instead
+/// of the 8 vertices.
+#[test]
+fn check_of_a_cube_report_takes_the_slack_path() {
+    let report = paper_cube();
+    let out = qpv(&[
+        "check",
+        "examples/paper.qpv",
+        "--gains",
+        s(&report),
+        "--json",
+        "-",
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let j = common::json_stdout(&out);
+    let fam = &j["families"];
+    assert_eq!(fam["S5"]["count"], 4 * (4 * 3 + 1), "{fam}");
+    assert_eq!(fam["S2"]["count"], 2, "{fam}");
+    let s2 = fam["S2"]["worst_at"].as_str().expect("S2 worst_at");
+    assert!(s2 == "D ⪰ GᵀPG" || s2 == "trace D ≤ 1", "{fam}");
+    let s5 = fam["S5"]["worst_at"].as_str().expect("S5 worst_at");
+    assert!(
+        s5.contains(" Y k=") || s5.contains(" X k=") || s5.contains("F0 + ΣY + ΣX"),
+        "{fam}"
+    );
+}
+
 /// A chain of `n` decoupled states observed through x1, over box(0.1)
 /// (2^n region vertices), with the gains P = I, L = 0.
 fn chain(n: usize) -> (PathBuf, PathBuf) {

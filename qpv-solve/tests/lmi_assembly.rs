@@ -408,8 +408,13 @@ fn assembly_matches_direct_matrices_synthetic4() {
 /// matrix of the module doc of `lmi::cube`, built here in model units:
 /// the region's D-block and trace row, then per combination and
 /// generator (Y ∓ G(g))/s − εκI, (X ∓ H(g))/s − εκI, and
-/// −(F0 + ΣY + ΣX)/s − εκI; (S1) and the facets equal the full assembly's.
-fn check_cube_assembly(model: &PolytopicModel, mode: Mode) {
+/// −(F0 + ΣY + ΣX)/s − εκI; (S1) equals the full assembly's, and so does
+/// every facet block, one per pair of opposite facets. With one slack per
+/// generator (`one_slack`: every N_l, M_m symmetric, so H = −2G) the pair
+/// of a generator is (W ∓ 3G(g))/s − 2εκI with W = Y + X, the main block
+/// −(F0 + ΣW)/s − εκI, and the slacks read back keep Y + X and split W's
+/// margin evenly.
+fn check_cube_assembly(model: &PolytopicModel, mode: Mode, one_slack: bool) {
     let set = ConditionSet::from_mode(mode);
     let full = Problem::new(model, set).unwrap();
     let cube = Problem::new(model, set)
@@ -420,8 +425,10 @@ fn check_cube_assembly(model: &PolytopicModel, mode: Mode) {
     let (nx, ny, r) = (model.nx(), model.ny(), gens.len());
     let combos = rate_combos(model);
     let nc = combos.len();
-    assert_eq!(cube.n_rate_blocks(), nc * (4 * r + 1));
-    assert_eq!(cube.n_vars(), full.n_vars() + nc * 2 * r * tri(nx) + r);
+    assert_eq!(cube.cube_one_slack(), one_slack);
+    let per_k = if one_slack { 1 } else { 2 };
+    assert_eq!(cube.n_rate_blocks(), nc * (2 * per_k * r + 1));
+    assert_eq!(cube.n_vars(), full.n_vars() + nc * per_k * r * tri(nx) + r);
     let (alpha, gamma) = (3.7, 0.35);
     let settings = Settings::default();
     let s = cube.scale;
@@ -446,7 +453,15 @@ fn check_cube_assembly(model: &PolytopicModel, mode: Mode) {
     let mut xv = cube.pack(&p, &gammas);
     cube.pack_cube(&mut xv, &slacks);
     let back = cube.unpack_cube(&xv).unwrap();
-    assert!((&back.y[0][1] - &slacks.y[0][1]).norm() < 1e-12 * slacks.y[0][1].norm());
+    if one_slack {
+        let (w, wb) = (
+            &slacks.y[0][1] + &slacks.x[0][1],
+            &back.y[0][1] + &back.x[0][1],
+        );
+        assert!((&wb - &w).norm() < 1e-12 * w.norm());
+    } else {
+        assert!((&back.y[0][1] - &slacks.y[0][1]).norm() < 1e-12 * slacks.y[0][1].norm());
+    }
     assert_eq!(back.d, slacks.d);
     let asm = cube.assemble(alpha, gamma, &settings, Objective::Gains);
     let a = &asm.a;
@@ -495,15 +510,27 @@ fn check_cube_assembly(model: &PolytopicModel, mode: Mode) {
     let trace: f64 = slacks.d.iter().sum();
     assert!((sl[row] - (1.0 - eps - trace)).abs() < 1e-12, "trace row");
     row += 1;
-    // Facets as in the full assembly.
-    let nf = model.region.facets.len() * tri(nx + 1);
+    // Facets as in the full assembly, one of each opposite pair: the
+    // first of every pair is kept, the second is its negative.
+    let facets = &model.region.facets;
+    let kept: Vec<usize> = (0..facets.len())
+        .filter(|&i| !(0..i).any(|j| facets[j] == -&facets[i]))
+        .collect();
+    assert!(kept.len() < facets.len());
+    assert!((0..facets.len()).all(|i| kept
+        .iter()
+        .any(|&j| facets[j] == facets[i] || facets[j] == -&facets[i])));
+    let nf = tri(nx + 1);
     let f0 = tri(nx)
         + match set {
             ConditionSet::Sound => model.region.vertices.len(),
             ConditionSet::Paper => model.region.vertices.len() * tri(nx + 1),
         };
-    assert!((0..nf).all(|i| (sl[row + i] - fsl[f0 + i]).abs() < 1e-12));
-    row += nf;
+    for &i in &kept {
+        let full_row = f0 + i * nf;
+        assert!((0..nf).all(|t| (sl[row + t] - fsl[full_row + t]).abs() < 1e-12));
+        row += nf;
+    }
     // Rate blocks.
     let sigma = set.nonlinear_sign();
     let eps_rate = eps * cube.rate_scale(alpha, gamma);
@@ -529,6 +556,31 @@ fn check_cube_assembly(model: &PolytopicModel, mode: Mode) {
         };
         let mut sum = part(0, &DVector::zeros(nx));
         for (k, gk) in gens.iter().enumerate() {
+            if one_slack {
+                let w = &slacks.y[c][k] + &slacks.x[c][k];
+                let g3 = part(1, gk) * 3.0;
+                assert!(
+                    (part(2, gk) + part(1, gk) * 2.0).norm() < tol(&g3),
+                    "H = −2G"
+                );
+                for sign in [1.0, -1.0] {
+                    let want = (&w - &g3 * sign) / s - &eye * (2.0 * eps_rate);
+                    let got = next(&mut row);
+                    assert!((&got - &want).norm() < tol(&want), "c={c} k={k} W");
+                }
+                // Read back: Y + X = W, and each of Y ∓ G, X ∓ H keeps half
+                // of W's smaller margin m.
+                let lmin = |m: &DMatrix<f64>| m.clone().symmetric_eigenvalues().min();
+                let m = lmin(&(&w - &g3)).min(lmin(&(&w + &g3)));
+                let (yb, xb) = (&back.y[c][k], &back.x[c][k]);
+                let (g, h) = (part(1, gk), part(2, gk));
+                for sign in [1.0, -1.0] {
+                    assert!(lmin(&(yb - &g * sign)) >= m / 2.0 - tol(&w));
+                    assert!(lmin(&(xb - &h * sign)) >= m / 2.0 - tol(&w));
+                }
+                sum += w;
+                continue;
+            }
             for (which, sk) in [(1u8, &slacks.y[c][k]), (2u8, &slacks.x[c][k])] {
                 let pk = part(which, gk);
                 for sign in [1.0, -1.0] {
@@ -548,8 +600,27 @@ fn check_cube_assembly(model: &PolytopicModel, mode: Mode) {
 
 #[test]
 fn cube_assembly_matches_direct_matrices() {
-    check_cube_assembly(&paper_model(), Mode::Sound);
-    check_cube_assembly(&paper_model(), Mode::Paper);
-    check_cube_assembly(&synthetic_model(4), Mode::Sound);
-    check_cube_assembly(&varying_output_model(), Mode::Sound);
+    check_cube_assembly(&paper_model(), Mode::Sound, false);
+    check_cube_assembly(&paper_model(), Mode::Paper, false);
+    check_cube_assembly(&synthetic_model(4), Mode::Sound, false);
+    check_cube_assembly(&varying_output_model(), Mode::Sound, false);
+}
+
+/// N_k and M_k replaced by their symmetric parts (T + Tᵀ)/2, as the
+/// symmetric split does.
+fn symmetrised(mut m: PolytopicModel) -> PolytopicModel {
+    let sym = |t: &mut DMatrix<f64>| *t = (&*t + t.transpose()) * 0.5;
+    for v in &mut m.vertices {
+        v.n.iter_mut().for_each(sym);
+        v.m.iter_mut().for_each(sym);
+    }
+    m
+}
+
+#[test]
+fn cube_assembly_with_one_slack_per_generator_matches_direct_matrices() {
+    check_cube_assembly(&symmetrised(paper_model()), Mode::Sound, true);
+    check_cube_assembly(&symmetrised(paper_model()), Mode::Paper, true);
+    check_cube_assembly(&symmetrised(synthetic_model(4)), Mode::Sound, true);
+    check_cube_assembly(&symmetrised(varying_output_model()), Mode::Sound, true);
 }

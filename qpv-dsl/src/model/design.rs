@@ -147,9 +147,10 @@ pub enum Conditions {
     Decoupled,
     /// The matrix-cube relaxation for a box or zonotope region with r
     /// generators: one pair of slacks per generator, 4r + 1 blocks per
-    /// θ-vertex whatever the number of region vertices, and (S2) through a
-    /// diagonal bound on GᵀPG (sufficient; the certificate checks the slack
-    /// inequalities themselves).
+    /// θ-vertex whatever the number of region vertices (2r + 1 solved when
+    /// N_k and M_k are symmetric: the pair folds into one slack), and (S2)
+    /// through a diagonal bound on GᵀPG (sufficient; the certificate checks
+    /// the slack inequalities themselves).
     Cube,
     /// Not chosen by the user: the solver picks full, decoupled or cube from
     /// the problem's size (docs/method.md) and says which in the report.

@@ -15,7 +15,10 @@
 //!
 //! imply F0_c + G_c(e) + H_c(x) ≺ 0 for every e, x in P (t G(g) ⪯ Y for
 //! |t| ≤ 1), hence the full vertex family: 4r + 1 blocks of size nx per
-//! combination instead of p² or 2p. The region condition "every vertex in
+//! combination instead of p² or 2p (2r + 1 solved when N_k and M_k are
+//! symmetric, where H_c = −2G_c folds the pair into one slack: see
+//! docs/method.md, "Cube conditions: zonotope regions without vertex
+//! enumeration"). The region condition "every vertex in
 //! E" becomes a diagonal D with trace D ≤ 1 and D ⪰ GᵀPG (sound (S2)) or
 //! [D Gᵀ; G P] ⪰ 0 (the printed (13), GᵀP⁻¹G ⪯ D): xᵀPx = tᵀGᵀPGt ≤ tᵀDt ≤ Σ D_kk.
 //! The facet family (S3)/(14) is unchanged.

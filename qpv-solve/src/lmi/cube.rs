@@ -12,6 +12,8 @@
 //!     sound (S2):  D − ĜᵀP̂Ĝ − εI ⪰ 0           PSD(r)       (Ĝ = G/ρ)
 //!     paper (13):  [D Ĝᵀ; Ĝ P̂] − εI ⪰ 0         PSD(r + nx)
 //!                  1 − ε − Σ_k D_kk ≥ 0          Nonnegative(1)
+//!   facets (S3)/(14): one block per pair of opposite facets (a and −a
+//!     give the same block up to the congruence diag(−1, I))
 //!   rate, per combination c and generator k (Ŷ − G = Ŝ, Ŷ + G = Ŝ + 2G):
 //!     Ŝ_{c,k} − εκ I ⪰ 0,  Ŝ_{c,k} + 2G_c(g_k) − εκ I ⪰ 0             2r × PSD(nx)
 //!     Ŝ'_{c,k} − εκ I ⪰ 0, Ŝ'_{c,k} + 2H_c(g_k) − εκ I ⪰ 0            2r × PSD(nx)
@@ -32,6 +34,30 @@
 //! pair a block on its own variable only, which the solver's sparse LDL
 //! factorisation of the KKT system eliminates cheaply (about a quarter fewer
 //! operations per iteration at nx = 10..12 than with Ŷ, X̂ as variables).
+//!
+//! One slack per generator ([`Problem::cube_one_slack`]): when every N_l
+//! and M_m is symmetric (the symmetric split of sound mode), rowsHe(T, g) =
+//! 2 rows(T, g) exactly, so H_c(g) = −2G_c(g) and the pair (Y, X) enters
+//! only through W = Y + X. Then
+//!
+//! ```text
+//!     Y ⪰ ±G, X ⪰ ±H, F0 + ΣY + ΣX ≺ 0   ⟺   W ⪰ ±3G, F0 + ΣW ≺ 0
+//! ```
+//!
+//! (⇒: W ∓ 3G = (Y ∓ G) + (X ± H); ⇐: Y = W/3 + aI, X = 2W/3 − aI), with
+//! the margins: Y ∓ G ⪰ εκI and X ∓ H ⪰ εκI give W ∓ 3G ⪰ 2εκI, and from
+//! W ∓ 3G ⪰ mI (m ≥ 2εκ) the split a = m/6 gives Y ∓ G ⪰ (m/2)I and
+//! X ∓ H ⪰ (m/2)I. So the rows per combination and generator are
+//!
+//! ```text
+//!     Ŝ_{c,k} − 2εκ I ⪰ 0,  Ŝ_{c,k} + 6G_c(g_k) − 2εκ I ⪰ 0      (Ŝ = Ŵ − 3G)
+//! ```
+//!
+//! and the last block −(F0_c + Σ_k (Ŝ_{c,k} + 3G_c(g_k))) − ε_rate I ⪰ 0:
+//! the same relaxation with half the slack variables and blocks
+//! (c(2r + 1) instead of c(4r + 1)). The report still carries Y and X
+//! (recomputed by that split), and the certificate checks all 4r + 1
+//! inequalities per combination.
 
 use super::{Problem, RateMargins};
 use crate::backend::builder::SdpBuilder;
@@ -59,14 +85,45 @@ impl Problem<'_> {
         self.gens.len()
     }
 
-    /// First variable of Ŷ_{c,k} (X̂_{c,k} follows it).
+    /// Whether the cube slacks of a combination and generator are one
+    /// (W = Y + X, see the module doc): every N_l and M_m is symmetric, so
+    /// that H_c(g) = −2G_c(g) exactly. Otherwise a pair Y, X.
+    pub fn cube_one_slack(&self) -> bool {
+        self.cube_one_slack
+    }
+
+    /// Whether every N_l and M_m of the model is symmetric (entry for
+    /// entry), which makes H_c(g) = −2G_c(g) in floating point too.
+    pub(super) fn cube_pairs_fold(&self) -> bool {
+        let sym = |ms: &[DMatrix<f64>]| ms.iter().all(|m| m == &m.transpose());
+        self.model.vertices.iter().all(|v| sym(&v.n) && sym(&v.m))
+    }
+
+    /// Number of symmetric slack variables per combination and generator.
+    pub(super) fn cube_slacks_per_generator(&self) -> usize {
+        if self.cube_one_slack {
+            1
+        } else {
+            2
+        }
+    }
+
+    /// Number of cube slack variables (the slacks' upper triangles and D).
+    pub(super) fn cube_slack_vars(&self) -> usize {
+        let r = self.gens.len();
+        self.combos.len() * r * self.cube_slacks_per_generator() * self.np + r
+    }
+
+    /// First variable of Ŝ_{c,k} (Ŝ'_{c,k} follows it, unless the
+    /// slacks are one).
     fn yvar(&self, c: usize, k: usize) -> usize {
-        self.gains_end() + (c * self.gens.len() + k) * 2 * self.np
+        let per = self.cube_slacks_per_generator() * self.np;
+        self.gains_end() + (c * self.gens.len() + k) * per
     }
 
     /// Variable of D_kk.
     fn dvar(&self, k: usize) -> usize {
-        self.gains_end() + self.combos.len() * self.gens.len() * 2 * self.np + k
+        self.gains_end() + self.cube_slack_vars() - self.gens.len() + k
     }
 
     /// K and the gain terms of one part of combination c's rate matrix, so
@@ -182,6 +239,24 @@ impl Problem<'_> {
         for c in 0..self.combos.len() {
             let mut sum: Vec<(usize, f64)> = Vec::with_capacity(2 * self.gens.len());
             let mut main = self.cube_kh(alpha, gamma, c, Part::Constant, 1.0);
+            if self.cube_one_slack {
+                for (k, g) in self.gens.iter().enumerate() {
+                    let var = self.yvar(c, k);
+                    // Ŵ − 3G = Ŝ ⪰ 2εκI: the variable alone.
+                    let row0 = out.open(tri(nx), 2.0 * rate.slack_eps);
+                    self.push_sym_var(&mut out.cols, row0, var, -1.0);
+                    out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+                    // Ŵ + 3G = Ŝ + 6G ⪰ 2εκI is −(−6G − Ŝ) ⪰ 2εκI.
+                    let kh = self.cube_kh(alpha, gamma, c, Part::E(g), -6.0);
+                    block(out, &kh, 2.0 * rate.slack_eps, &[(var, -1.0)]);
+                    // Ŵ = Ŝ + 3G in the main block.
+                    add_kh(&mut main, &self.cube_kh(alpha, gamma, c, Part::E(g), 3.0));
+                    sum.push((var, 1.0));
+                }
+                let row0 = block(out, &main, rate.eps, &sum);
+                rate.push_column(&mut out.cols, row0);
+                continue;
+            }
             for (k, g) in self.gens.iter().enumerate() {
                 let (y, x) = (self.yvar(c, k), self.yvar(c, k) + self.np);
                 for (part, var) in [(Part::E(g), y), (Part::X(g), x)] {
@@ -226,7 +301,10 @@ impl Problem<'_> {
 
     /// The cube slacks of a solution vector, in model units (None unless
     /// the conditions are cube): Y = sŜ + G(g_k), X = sŜ' + H(g_k) at the
-    /// solution's (P, Γ_l).
+    /// solution's (P, Γ_l); with one slack, W = sŜ + 3G(g_k) split as
+    /// Y = W/3 + aI, X = 2W/3 − aI with a = m/6, m the smaller of
+    /// λ_min(W ∓ 3G(g_k)) (so that every Y ∓ G and X ∓ H keeps half of W's
+    /// margin, see the module doc).
     pub fn unpack_cube(&self, x: &[f64]) -> Option<CubeSlacks> {
         if self.gens.is_empty() {
             return None;
@@ -244,6 +322,24 @@ impl Problem<'_> {
             }
             m
         };
+        let d = (0..self.gens.len()).map(|k| x[self.dvar(k)]).collect();
+        if self.cube_one_slack {
+            let (mut ys, mut xs) = (Vec::new(), Vec::new());
+            for c in 0..self.combos.len() {
+                let (mut yc, mut xc) = (Vec::new(), Vec::new());
+                for k in 0..self.gens.len() {
+                    let g3 = self.cube_part(c, k, true, &p, &gs) * 3.0;
+                    let w = sym(self.yvar(c, k)) + &g3;
+                    let m = lambda_min(&(&w - &g3)).min(lambda_min(&(&w + &g3)));
+                    let shift = DMatrix::identity(self.nx, self.nx) * (m / 6.0);
+                    yc.push(&w / 3.0 + &shift);
+                    xc.push(&w * (2.0 / 3.0) - shift);
+                }
+                ys.push(yc);
+                xs.push(xc);
+            }
+            return Some(CubeSlacks { y: ys, x: xs, d });
+        }
         let per = |off: usize| -> Vec<Vec<DMatrix<f64>>> {
             (0..self.combos.len())
                 .map(|c| {
@@ -258,13 +354,14 @@ impl Problem<'_> {
         Some(CubeSlacks {
             y: per(0),
             x: per(self.np),
-            d: (0..self.gens.len()).map(|k| x[self.dvar(k)]).collect(),
+            d,
         })
     }
 
     /// Writes cube slacks (model units; upper triangles used) into a
     /// variable vector from [`Problem::pack`], which must hold P and Γ_l
-    /// already (the variables are Ŝ = (Y − G)/s; cube conditions only; tests).
+    /// already (the variables are Ŝ = (Y − G)/s, or with one slack
+    /// Ŝ = (Y + X − 3G)/s; cube conditions only; tests).
     pub fn pack_cube(&self, x: &mut [f64], slacks: &CubeSlacks) {
         assert!(
             !self.gens.is_empty(),
@@ -280,6 +377,11 @@ impl Problem<'_> {
         };
         for c in 0..self.combos.len() {
             for k in 0..self.gens.len() {
+                if self.cube_one_slack {
+                    let g3 = self.cube_part(c, k, true, &p, &gs) * 3.0;
+                    put(self.yvar(c, k), &(&slacks.y[c][k] + &slacks.x[c][k] - g3));
+                    continue;
+                }
                 put(
                     self.yvar(c, k),
                     &(&slacks.y[c][k] - self.cube_part(c, k, true, &p, &gs)),
@@ -306,4 +408,24 @@ fn add_kh(acc: &mut Kh, kh: &Kh) {
         }
     }
     acc.1.sort_by_key(|(g, _)| *g);
+}
+
+/// λ_min of the symmetric part of `m`.
+fn lambda_min(m: &DMatrix<f64>) -> f64 {
+    ((m + m.transpose()) * 0.5).symmetric_eigenvalues().min()
+}
+
+/// The facet normals with one of each pair of opposite facets (a_j = −a_i
+/// entry for entry) left out: the (S3)/(14) blocks of a and −a are the same
+/// up to the congruence diag(−1, I), so the second of a pair adds nothing.
+/// A zonotope's facets come in such pairs, so its blocks halve.
+pub(super) fn one_of_each_opposite_pair(facets: &[DVector<f64>]) -> Vec<DVector<f64>> {
+    let mut kept: Vec<DVector<f64>> = Vec::with_capacity(facets.len());
+    for a in facets {
+        let opposite = |b: &DVector<f64>| b.iter().zip(a.iter()).all(|(x, y)| *x == -*y);
+        if !kept.iter().any(opposite) {
+            kept.push(a.clone());
+        }
+    }
+    kept
 }

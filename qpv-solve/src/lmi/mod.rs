@@ -200,6 +200,10 @@ pub struct Problem<'m> {
     gens: Vec<DVector<f64>>,
     /// Cube conditions: a bound on ‖R‖_F over the region, from the generators.
     cube_r_fro: f64,
+    /// Cube conditions with every N_l and M_m symmetric: H_c(g) = −2G_c(g),
+    /// so one slack per combination and generator stands for the pair
+    /// (see [`Problem::cube_one_slack`]).
+    cube_one_slack: bool,
     /// `max_gain = G`: the bound imposed on every ‖L_l‖₂ (see
     /// [`Problem::with_max_gain`]).
     max_gain: Option<f64>,
@@ -263,6 +267,7 @@ impl<'m> Problem<'m> {
             max_r_fro: OnceLock::new(),
             gens: Vec::new(),
             cube_r_fro: 0.0,
+            cube_one_slack: false,
             max_gain: None,
             scaling: None,
             sample: None,
@@ -370,6 +375,8 @@ impl<'m> Problem<'m> {
                     })
                     .fold(0.0, f64::max);
                 self.gens = gens;
+                self.cube_one_slack = self.cube_pairs_fold();
+                self.as_hat = cube::one_of_each_opposite_pair(&self.as_hat);
             }
             Conditions::Full | Conditions::Decoupled => {}
         }
@@ -383,7 +390,8 @@ impl<'m> Problem<'m> {
     }
 
     /// Number of decision variables (P̂, Γ̂_l and, for decoupled conditions,
-    /// Ẑ_l, for cube ones Ŷ_{c,k}, X̂_{c,k} and D; the margin variable of [`Objective::MaxMargin`] comes after them).
+    /// Ẑ_l, for cube ones the slacks of [`Problem::n_slack_vars`] and D; the
+    /// margin variable of [`Objective::MaxMargin`] comes after them).
     pub fn n_vars(&self) -> usize {
         self.gains_end() + self.n_slack_vars() + usize::from(self.max_gain.is_some())
     }
@@ -400,25 +408,29 @@ impl<'m> Problem<'m> {
 
     /// Number of slack variables: Ẑ_c, one per rate combination
     /// ([`crate::conditions::Combo`]) of nx(nx+1)/2 entries when decoupled;
-    /// Ŷ_{c,k}, X̂_{c,k} per combination and generator, and the r entries of
-    /// D, for cube conditions; else 0.
+    /// for cube conditions the lower slacks Ŝ_{c,k}, Ŝ'_{c,k} per combination
+    /// and generator (one Ŝ_{c,k} with [`Problem::cube_one_slack`]) and the
+    /// r entries of D; else 0.
     pub fn n_slack_vars(&self) -> usize {
         match self.conditions {
             Conditions::Full | Conditions::Auto => 0,
             Conditions::Decoupled => self.combos.len() * self.np,
-            Conditions::Cube => self.combos.len() * 2 * self.gens.len() * self.np + self.gens.len(),
+            Conditions::Cube => self.cube_slack_vars(),
         }
     }
 
     /// Number of rate LMI blocks assembled: c p² (full), c·2p (decoupled)
-    /// or c(4r + 1) (cube, r generators), with c combinations (c = N for a
-    /// constant output map, N² for the double sum).
+    /// or c(4r + 1) (cube, r generators; c(2r + 1) with one slack per
+    /// generator, [`Problem::cube_one_slack`]), with c combinations (c = N
+    /// for a constant output map, N² for the double sum).
     pub fn n_rate_blocks(&self) -> usize {
         let p = self.model.region.vertices.len();
         match self.conditions {
             Conditions::Full | Conditions::Auto => self.n_full_rate_blocks(),
             Conditions::Decoupled => self.combos.len() * 2 * p,
-            Conditions::Cube => self.combos.len() * (4 * self.gens.len() + 1),
+            Conditions::Cube => {
+                self.combos.len() * (2 * self.cube_slacks_per_generator() * self.gens.len() + 1)
+            }
         }
     }
 

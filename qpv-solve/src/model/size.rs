@@ -33,7 +33,7 @@
 //! it is accepted with a warning that it will be slow (a search runs tens
 //! of solves).
 
-use qpv_dsl::{Conditions, DesignRequest, Mode, OutputRoute, PolytopicModel};
+use qpv_dsl::{Conditions, DesignRequest, Mode, OutputRoute, PolytopicModel, Split};
 
 /// Bytes per unit of [`SizeEstimate::units`] (the measurements in the
 /// module documentation give 12–18; rounded up).
@@ -109,7 +109,6 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     let c = if double { nv * nv } else { nv };
     let terms = if double { 3.0 } else { 1.0 };
     let p = model.region.vertices.len() as f64;
-    let q = model.region.facets.len() as f64;
     let t = tri(nx);
     let t1 = tri(nx + 1.0);
     let conditions = match request.conditions {
@@ -121,15 +120,27 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
         .zonotope_generators()
         .map_or(0.0, |g| g.len() as f64);
     let cube = conditions == Conditions::Cube;
+    // Cube conditions solve one slack per generator when N_k and M_k are
+    // symmetric (H = −2G; the symmetric split makes them so), else a pair,
+    // and one facet block per pair of opposite facets (a zonotope's come in
+    // pairs); the certificate checks all 4r + 1 inequalities per combination.
+    let symmetric = |ms: &[nalgebra::DMatrix<f64>]| ms.iter().all(|m| m == &m.transpose());
+    let one_slack = request.split == Split::Symmetric
+        || model
+            .vertices
+            .iter()
+            .all(|v| symmetric(&v.n) && symmetric(&v.m));
+    let per_k = if one_slack { 1.0 } else { 2.0 };
+    let q = model.region.facets.len() as f64 / if cube { 2.0 } else { 1.0 };
     let rate_blocks = match conditions {
         Conditions::Full | Conditions::Auto => c * p * p,
         Conditions::Decoupled => c * 2.0 * p,
-        Conditions::Cube => c * (4.0 * r + 1.0),
+        Conditions::Cube => c * (2.0 * per_k * r + 1.0),
     };
     let slack = match conditions {
         Conditions::Full | Conditions::Auto => 0.0,
         Conditions::Decoupled => c * t,
-        Conditions::Cube => c * 2.0 * r * t + r,
+        Conditions::Cube => c * per_k * r * t + r,
     };
     let variables = t + nv * nx * ny + slack + 1.0;
     // The region's vertex rows: p scalars (sound) or p blocks of nx + 1
@@ -177,7 +188,7 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
         units,
         bytes: units * BYTES_PER_UNIT,
         seconds_per_solve: units * SECONDS_PER_UNIT,
-        certificate_blocks: if cube { rate_blocks } else { c * p * p },
+        certificate_blocks: if cube { c * (4.0 * r + 1.0) } else { c * p * p },
     }
 }
 

@@ -187,11 +187,17 @@ impl Setup {
             ));
         }
         if request.conditions == Conditions::Cube {
+            let r = prob.n_generators();
             notes.push(format!(
-                "conditions = cube: the region as a zonotope with {} generators; solved and certified with {} rate blocks (one pair of slacks Y, X per generator, sufficient) and D ⪰ GᵀPG, trace D ≤ 1 for the region's vertices, instead of {} vertex-pair blocks; the report's `cube` key carries the slacks",
-                prob.n_generators(),
+                "conditions = cube: the region as a zonotope with {r} generators; certified with {} rate blocks (one pair of slacks Y, X per generator, sufficient) and D ⪰ GᵀPG, trace D ≤ 1 for the region's vertices, instead of {} vertex-pair blocks; solved with {} rate blocks{}; the report's `cube` key carries the slacks",
+                prob.combos().len() * (4 * r + 1),
+                prob.n_full_rate_blocks(),
                 prob.n_rate_blocks(),
-                prob.n_full_rate_blocks()
+                if prob.cube_one_slack() {
+                    " (N_k, M_k symmetric: H = −2G, one slack W = Y + X per generator)"
+                } else {
+                    ""
+                }
             ));
         }
         notes
