@@ -54,8 +54,10 @@
 mod cube_reference;
 
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel};
+use qpv_solve::certificate::Gains;
 use qpv_solve::conditions::gamma_max;
 use qpv_solve::conditions::reference::{paper_model, synthetic_model};
+use qpv_solve::vocab::Candidate;
 use qpv_solve::{design, request, Design, KktSolver, Settings};
 use std::process::Command;
 use std::time::Instant;
@@ -312,8 +314,12 @@ fn reference_solve(
         x: point.x,
         d: point.d,
     };
-    let cert =
-        qpv_solve::certificate::check_cube(obs, Mode::Sound, alpha, gamma, &point.p, &ls, &slacks);
+    let cert = qpv_solve::certificate::check(
+        obs,
+        &Gains::new(&point.p, &ls).with_cube(Some(&slacks)),
+        &Candidate::new(alpha, gamma),
+        Mode::Sound,
+    );
     let li = &solved.info.linsolver;
     println!(
         "  {what} solve: wall {wall:.2} s, cpu {cpu:.2} s ({} iterations, {:?}; KKT nnz {}, nnz(L) {}), its point {}",

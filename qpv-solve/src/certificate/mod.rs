@@ -568,6 +568,185 @@ pub fn data_checks(model: &PolytopicModel, mode: Mode, gamma: f64) -> BTreeMap<S
     out
 }
 
+/// The conditions of one check: the model and γ the blocks use (for the
+/// global observer its region-free model and γ = 1), the condition set, the
+/// witness, the rate family and the cube's generators.
+struct Stage<'a> {
+    model: &'a PolytopicModel,
+    set: ConditionSet,
+    global: bool,
+    alpha: f64,
+    gamma: f64,
+    w: &'a Witness<'a>,
+    ps: DMatrix<f64>,
+    rate: RateCheck<'a>,
+    gens: Vec<DVector<f64>>,
+}
+
+impl Stage<'_> {
+    fn cube(&self) -> Option<&CubeSlacks> {
+        match self.rate {
+            RateCheck::Cube(c) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// (S1) P ≻ 0, P symmetric.
+    fn s1(&self, family: Family) -> FamilyMargin {
+        let (p, nx) = (self.w.p, self.model.nx());
+        let pn = p.norm();
+        let mut s1 = Acc::new(family);
+        let asym = (p - p.transpose()).norm();
+        if asym > 4.0 * f64::EPSILON * pn {
+            s1.add(-asym, 0.0, || {
+                format!("P is not symmetric (‖P − Pᵀ‖_F = {asym:e})")
+            });
+        } else {
+            s1.add(
+                lambda_min(&self.ps),
+                GUARD_C * (nx as f64 + 1.0) * pn,
+                || "P".into(),
+            );
+        }
+        s1.finish()
+    }
+
+    /// The region's vertex family (for cube slacks: through D).
+    fn vertices(&self, family: Family) -> FamilyMargin {
+        let (nx, pn, ps) = (self.model.nx(), self.w.p.norm(), &self.ps);
+        let mut sv = Acc::new(family);
+        if let Some(c) = self.cube() {
+            cube_region(&mut sv, self.set, ps, &self.gens, &c.d);
+        }
+        let xs: &[DVector<f64>] = match self.cube() {
+            Some(_) => &[],
+            None => &self.model.region.vertices,
+        };
+        for (i, x) in xs.iter().enumerate() {
+            match self.set {
+                ConditionSet::Sound => {
+                    let v = 1.0 - x.dot(&(ps * x));
+                    let g = GUARD_C * (nx as f64 + 1.0) * (1.0 + pn * x.norm_squared());
+                    sv.add(v, g, || format!("i={}", i + 1));
+                }
+                ConditionSet::Paper => {
+                    let m = bordered(1.0, x, ps);
+                    let g = GUARD_C * (nx as f64 + 2.0) * m.norm();
+                    sv.add(lambda_min(&m), g, || format!("i={}", i + 1));
+                }
+            }
+        }
+        sv.finish()
+    }
+
+    /// The region's facet family.
+    fn facets(&self, family: Family) -> FamilyMargin {
+        let (nx, pn, ps, gamma) = (self.model.nx(), self.w.p.norm(), &self.ps, self.gamma);
+        let mut sf = Acc::new(family);
+        for (k, a) in self.model.region.facets.iter().enumerate() {
+            let off: DVector<f64> = match self.set {
+                ConditionSet::Sound => a * gamma,
+                ConditionSet::Paper => (ps * a) * gamma,
+            };
+            let m = bordered(1.0, &off, ps);
+            let g = GUARD_C * (nx as f64 + 2.0) * (m.norm() + gamma * pn * a.norm());
+            sf.add(lambda_min(&m), g, || format!("k={}", k + 1));
+        }
+        sf.finish()
+    }
+
+    /// The rate family: Σ_t w_t Ξ_{l_t m_t}(i, j) ≺ 0 for every combination
+    /// (conditions::Combo), Ξ_{lm} = He{γ(PA_l − Γ_lC_m) + σP R_l − Γ_l S_m}
+    /// + γαP; or the cube's slack inequalities; or the discrete decrease.
+    fn rate(&self, family: Family) -> FamilyMargin {
+        let (model, nx, set) = (self.model, self.model.nx(), self.set);
+        let (alpha, gamma) = (self.alpha, self.gamma);
+        let double = is_double_sum(model);
+        let mut sr = Acc::new(family);
+        if let Some(c) = self.cube() {
+            let ct = CubeTerms::new(model, &self.ps, self.w.gammas, self.w.lnorm, set, gamma);
+            for (ci, combo) in rate_combos(model).iter().enumerate() {
+                ct.check(&mut sr, combo, ci, double, alpha, &self.gens, c);
+            }
+        }
+        let xs: &[DVector<f64>] = match self.cube() {
+            Some(_) => &[],
+            None => &model.region.vertices,
+        };
+        let terms = Terms::new(model, xs, &self.ps, self.w.gammas, self.w.lnorm, gamma);
+        if let RateCheck::Sampled(h) = self.rate {
+            sampled::check_family(&mut sr, &terms, model, alpha, gamma, h);
+        }
+        let vertex = matches!(self.rate, RateCheck::Vertex | RateCheck::Cube(_));
+        for combo in rate_combos(model).into_iter().filter(|_| vertex) {
+            if !xs.is_empty() && combo_is_linear(model, &combo) {
+                // N and M vanish in every term: every pair (i, j) gives this
+                // same block (rows(0, x) = 0 exactly), so it is checked once.
+                let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, 0, 0);
+                let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
+                sr.add(-lambda_max(&m), guard, || {
+                    if self.global {
+                        combo.label(double)
+                    } else {
+                        format!("{} (every pair: N = M = 0)", combo.label(double))
+                    }
+                });
+                continue;
+            }
+            for i in 0..xs.len() {
+                for j in 0..xs.len() {
+                    let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, i, j);
+                    let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
+                    sr.add(-lambda_max(&m), guard, || {
+                        format!("{} i={} j={}", combo.label(double), i + 1, j + 1)
+                    });
+                }
+            }
+        }
+        sr.finish()
+    }
+}
+
+/// [s vᵀ; v M]: the bordered matrices of the region's vertex and facet
+/// conditions.
+fn bordered(s: f64, v: &DVector<f64>, m: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = m.nrows();
+    let mut out = DMatrix::zeros(n + 1, n + 1);
+    out[(0, 0)] = s;
+    for r in 0..n {
+        out[(0, r + 1)] = v[r];
+        out[(r + 1, 0)] = v[r];
+    }
+    out.view_mut((1, 1), (n, n)).copy_from(m);
+    out
+}
+
+/// The input errors of a check (shapes, finiteness, α, γ, the sample
+/// period, the cube slacks), and the cube's generators when they fit.
+fn check_inputs(
+    model: &PolytopicModel,
+    set: ConditionSet,
+    at: &Candidate,
+    w: &Witness,
+    rate: RateCheck<'_>,
+) -> (Vec<String>, Vec<DVector<f64>>) {
+    let mut errs = input_errors(model, at.alpha, at.gamma, w.p, w.gammas);
+    if let RateCheck::Sampled(h) = rate {
+        errs.extend(sampled::input_errors(set, at.alpha, h));
+    }
+    let gens = match rate {
+        RateCheck::Cube(c) if errs.is_empty() => match cube_input_errors(model, c) {
+            Ok(g) => g,
+            Err(e) => {
+                errs.push(e);
+                Vec::new()
+            }
+        },
+        _ => Vec::new(),
+    };
+    (errs, gens)
+}
+
 fn check_inner(
     model: &PolytopicModel,
     mode: Mode,
@@ -576,7 +755,6 @@ fn check_inner(
     rate: RateCheck<'_>,
 ) -> Certificate {
     let (alpha, gamma) = (at.alpha, at.gamma);
-    let (p, gammas, lnorm) = (w.p, w.gammas, w.lnorm);
     let set = ConditionSet::from_mode(mode);
     let global = crate::model::is_global(model, mode);
     let global_model = crate::model::global_model(model);
@@ -587,27 +765,10 @@ fn check_inner(
     } else {
         (model, gamma)
     };
-    let cube = match rate {
-        RateCheck::Cube(c) => Some(c),
-        _ => None,
-    };
-    let mut errs = input_errors(model, alpha, gamma, p, gammas);
-    if let RateCheck::Sampled(h) = rate {
-        errs.extend(sampled::input_errors(set, alpha, h));
-    }
-    let gens = match cube {
-        Some(c) if errs.is_empty() => match cube_input_errors(model, c) {
-            Ok(g) => g,
-            Err(e) => {
-                errs.push(e);
-                Vec::new()
-            }
-        },
-        _ => Vec::new(),
-    };
+    let (errs, gens) = check_inputs(model, set, at, w, rate);
     let data = if global {
         BTreeMap::new()
-    } else if errs.is_empty() || p.nrows() == model.nx() {
+    } else if errs.is_empty() || w.p.nrows() == model.nx() {
         data_checks(model, mode, gamma.clamp(0.0, 1.0))
     } else {
         BTreeMap::new()
@@ -623,123 +784,32 @@ fn check_inner(
             input_errors: errs,
         };
     }
-    let nx = model.nx();
     let [f1, fv, ff, fr] = set.families();
     let fr = match rate {
         RateCheck::Sampled(_) => Family::S5d,
         _ if global => Family::G5,
         _ => fr,
     };
-    let gamma = gamma_blocks;
-    let pn = p.norm();
-    let xs = &model.region.vertices;
-
-    // (S1) P ≻ 0, P symmetric.
-    let mut s1 = Acc::new(f1);
-    let asym = (p - p.transpose()).norm();
-    let ps = (p + p.transpose()) * 0.5;
-    if asym > 4.0 * f64::EPSILON * pn {
-        s1.add(-asym, 0.0, || {
-            format!("P is not symmetric (‖P − Pᵀ‖_F = {asym:e})")
-        });
-    } else {
-        s1.add(lambda_min(&ps), GUARD_C * (nx as f64 + 1.0) * pn, || {
-            "P".into()
-        });
-    }
-
-    // Region vertices (for cube slacks: through D).
-    let mut sv = Acc::new(fv);
-    if let Some(c) = cube {
-        cube_region(&mut sv, set, &ps, &gens, &c.d);
-    }
-    let xs_vertex: &[DVector<f64>] = if cube.is_some() { &[] } else { xs };
-    for (i, x) in xs_vertex.iter().enumerate() {
-        match set {
-            ConditionSet::Sound => {
-                let v = 1.0 - x.dot(&(&ps * x));
-                let g = GUARD_C * (nx as f64 + 1.0) * (1.0 + pn * x.norm_squared());
-                sv.add(v, g, || format!("i={}", i + 1));
-            }
-            ConditionSet::Paper => {
-                let mut m = DMatrix::zeros(nx + 1, nx + 1);
-                m[(0, 0)] = 1.0;
-                for r in 0..nx {
-                    m[(0, r + 1)] = x[r];
-                    m[(r + 1, 0)] = x[r];
-                }
-                m.view_mut((1, 1), (nx, nx)).copy_from(&ps);
-                let g = GUARD_C * (nx as f64 + 2.0) * m.norm();
-                sv.add(lambda_min(&m), g, || format!("i={}", i + 1));
-            }
-        }
-    }
-
-    // Region facets.
-    let mut sf = Acc::new(ff);
-    for (k, a) in model.region.facets.iter().enumerate() {
-        let off: DVector<f64> = match set {
-            ConditionSet::Sound => a * gamma,
-            ConditionSet::Paper => (&ps * a) * gamma,
-        };
-        let mut m = DMatrix::zeros(nx + 1, nx + 1);
-        m[(0, 0)] = 1.0;
-        for r in 0..nx {
-            m[(0, r + 1)] = off[r];
-            m[(r + 1, 0)] = off[r];
-        }
-        m.view_mut((1, 1), (nx, nx)).copy_from(&ps);
-        let g = GUARD_C * (nx as f64 + 2.0) * (m.norm() + gamma * pn * a.norm());
-        sf.add(lambda_min(&m), g, || format!("k={}", k + 1));
-    }
-
-    // Rate LMIs: Σ_t w_t Ξ_{l_t m_t}(i, j) ≺ 0 for every combination
-    // (conditions::Combo), Ξ_{lm} = He{γ(PA_l − Γ_lC_m) + σP R_l − Γ_l S_m} + γαP.
-    let double = is_double_sum(model);
-    let mut sr = Acc::new(fr);
-    if let Some(c) = cube {
-        let ct = CubeTerms::new(model, &ps, gammas, lnorm, set, gamma);
-        for (ci, combo) in rate_combos(model).iter().enumerate() {
-            ct.check(&mut sr, combo, ci, double, alpha, &gens, c);
-        }
-    }
-    let xs_pairs: &[DVector<f64>] = if cube.is_some() { &[] } else { xs };
-    let terms = Terms::new(model, xs_pairs, &ps, gammas, lnorm, gamma);
-    let xs = xs_pairs;
-    if let RateCheck::Sampled(h) = rate {
-        sampled::check_family(&mut sr, &terms, model, alpha, gamma, h);
-    }
-    let vertex = matches!(rate, RateCheck::Vertex | RateCheck::Cube(_));
-    for combo in rate_combos(model).into_iter().filter(|_| vertex) {
-        if !xs.is_empty() && combo_is_linear(model, &combo) {
-            // N and M vanish in every term: every pair (i, j) gives this
-            // same block (rows(0, x) = 0 exactly), so it is checked once.
-            let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, 0, 0);
-            let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
-            sr.add(-lambda_max(&m), guard, || {
-                if global {
-                    combo.label(double)
-                } else {
-                    format!("{} (every pair: N = M = 0)", combo.label(double))
-                }
-            });
-            continue;
-        }
-        for i in 0..xs.len() {
-            for j in 0..xs.len() {
-                let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, i, j);
-                let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
-                sr.add(-lambda_max(&m), guard, || {
-                    format!("{} i={} j={}", combo.label(double), i + 1, j + 1)
-                });
-            }
-        }
-    }
-
+    let stage = Stage {
+        model,
+        set,
+        global,
+        alpha,
+        gamma: gamma_blocks,
+        w,
+        ps: (w.p + w.p.transpose()) * 0.5,
+        rate,
+        gens,
+    };
     let families = if global {
-        vec![s1.finish(), sr.finish()]
+        vec![stage.s1(f1), stage.rate(fr)]
     } else {
-        vec![s1.finish(), sv.finish(), sf.finish(), sr.finish()]
+        vec![
+            stage.s1(f1),
+            stage.vertices(fv),
+            stage.facets(ff),
+            stage.rate(fr),
+        ]
     };
     let passed = families.iter().all(|f| f.passed)
         && data.values().filter(|d| d.required).all(|d| d.passed)

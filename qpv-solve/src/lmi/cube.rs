@@ -243,9 +243,8 @@ impl Problem<'_> {
                 for (k, g) in self.gens.iter().enumerate() {
                     let var = self.yvar(c, k);
                     // Ŵ − 3G = Ŝ ⪰ 2εκI: the variable alone.
-                    let row0 = out.open(tri(nx), 2.0 * rate.slack_eps);
-                    self.push_sym_var(&mut out.cols, row0, var, -1.0);
-                    out.cones.push(SupportedConeT::PSDTriangleConeT(nx));
+                    let blk = out.psd(nx, 2.0 * rate.slack_eps);
+                    self.push_sym_var(out, &blk, var, -1.0);
                     // Ŵ + 3G = Ŝ + 6G ⪰ 2εκI is −(−6G − Ŝ) ⪰ 2εκI.
                     let kh = self.cube_kh(alpha, gamma, c, Part::E(g), -6.0);
                     block(out, &kh, 2.0 * rate.slack_eps, &[(var, -1.0)]);
@@ -253,8 +252,8 @@ impl Problem<'_> {
                     add_kh(&mut main, &self.cube_kh(alpha, gamma, c, Part::E(g), 3.0));
                     sum.push((var, 1.0));
                 }
-                let row0 = block(out, &main, rate.eps, &sum);
-                rate.push_column(&mut out.cols, row0);
+                let blk = block(out, &main, rate.eps, &sum);
+                rate.push_column(out, &blk);
                 continue;
             }
             for (k, g) in self.gens.iter().enumerate() {
