@@ -39,6 +39,9 @@ mod faer {
     fn run(model: &qpv_dsl::PolytopicModel, alpha: AlphaSpec, gamma: f64, k: KktSolver) -> Design {
         let mut req = request(alpha, GammaSpec::Fixed(gamma), Mode::Sound);
         req.conditions = Conditions::Cube;
+        // α = max is the certified supremum, not the practical point within
+        // 1 % of it (the default `within`).
+        req.within = 0.0;
         let settings = Settings {
             kkt_solver: k,
             ..Settings::default()
