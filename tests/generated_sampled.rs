@@ -116,7 +116,7 @@ fn continuous_plant_stays_in_the_bound(rates: bool) -> f64 {
     assert_eq!(model.params[0].rate, rates.then_some(6.3));
     let p = nalgebra::DMatrix::from_fn(3, 3, |i, j| m::P[i][j]);
     let h = m::SAMPLE_PERIOD;
-    let b = qpv::solve::sampled_plant::continuous_bound(&model, m::ALPHA, h, &p)
+    let b = qpv::solve::report::continuous::continuous_bound(&model, m::ALPHA, h, &p)
         .expect("the bound is computed");
     assert_eq!(b.rates_declared, rates);
     assert!(b.invariant && b.truncation > 0.0);

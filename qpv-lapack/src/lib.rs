@@ -59,7 +59,7 @@
 //! linked at all (any item used, or `use qpv_lapack as _;`); a binary that
 //! calls Clarabel without using anything from it fails with undefined
 //! references to `dgemm_` etc. (reproduced). Code that runs Clarabel should
-//! therefore call [`ensure_linked`] (cheap; `qpv_solve::sdp::ensure_lapack`
+//! therefore call [`ensure_linked`] (cheap; `qpv_solve::backend::ensure_lapack`
 //! does, before every solve): it references every exported symbol, so the
 //! objects defining them are part of every link that contains the caller,
 //! whatever the linker. (`rust-lld`, rustc's default on x86_64 Linux,

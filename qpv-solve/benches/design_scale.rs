@@ -18,7 +18,8 @@
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode};
 use qpv_solve::conditions::reference::synthetic_model;
 use qpv_solve::conditions::{gamma_max, ConditionSet};
-use qpv_solve::sdp::{tri, Objective, Problem};
+use qpv_solve::linalg::svec::svec_len as tri;
+use qpv_solve::lmi::{Objective, Problem};
 use qpv_solve::{design, request, Settings};
 use std::process::Command;
 use std::time::Instant;

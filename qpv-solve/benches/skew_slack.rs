@@ -7,7 +7,7 @@
 
 use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, Split};
 use qpv_solve::conditions::reference::paper_model;
-use qpv_solve::{design, request, skew_slack, Settings};
+use qpv_solve::{design, request, Settings};
 use std::time::Instant;
 
 fn main() {
@@ -23,7 +23,7 @@ fn main() {
         req.split = split;
         let start = design(&model, &req, &settings).expect("design");
         let t0 = Instant::now();
-        let r = skew_slack::search(&model, &start, rounds, &settings, Conditions::Full)
+        let r = qpv_solve::search::skew_search(&model, &start, rounds, &settings, Conditions::Full)
             .expect("search");
         let secs = t0.elapsed().as_secs_f64();
         println!(

@@ -82,7 +82,6 @@ pub mod search;
 
 pub use certificate::sampling;
 pub use model::{diagnosis, size};
-pub use report::continuous as sampled_plant;
 
 /// Noise and disturbances: the channels (model), the bound σ and its check
 /// (certificate), the noise-optimal design and trade-off (search) and the
@@ -103,20 +102,3 @@ pub use model::{output_filter, state_bound};
 pub use report::{DataCheck, Design, GammaSearchInfo, LocalMax, SearchStep, SolverInfo, Status};
 pub use search::{alpha_profile, design, design_with_progress, request, ProfilePoint};
 pub use settings::{KktSolver, Settings};
-
-/// The skew-symmetric slack of `split = skew_slack` (the alternation, its
-/// fixed-P step and the model transformation), under its former path.
-pub mod skew_slack {
-    pub use crate::lmi::skew::{max_alpha_fixed_p, FixedP};
-    pub use crate::model::skew::with_skew;
-    pub use crate::search::skew::{Round, SkewResult};
-    pub use crate::search::skew_search as search;
-}
-
-/// The LMI assembly under its former path (see [`lmi`] and [`backend`]).
-#[doc(hidden)]
-pub mod sdp {
-    pub use crate::backend::{clarabel_settings, ensure_lapack, interpret};
-    pub use crate::linalg::svec::svec_len as tri;
-    pub use crate::lmi::*;
-}

@@ -17,7 +17,7 @@ use qpv_solve::certificate::rate_lmi;
 use qpv_solve::certificate::Gains;
 use qpv_solve::conditions::reference::{box_region, paper_model};
 use qpv_solve::conditions::{gamma_max, ConditionSet};
-use qpv_solve::sdp::{Objective, Problem};
+use qpv_solve::lmi::{Objective, Problem};
 use qpv_solve::vocab::Candidate;
 use qpv_solve::{check, design, Design, Settings};
 
@@ -254,9 +254,9 @@ fn decoupled_solution_satisfies_the_full_family() {
             .unwrap();
         let settings = Settings::default();
         let asm = prob.assemble(alpha, gamma, &settings, Objective::Gains);
-        qpv_solve::sdp::ensure_lapack();
+        qpv_solve::backend::ensure_lapack();
         let solver =
-            qpv_clarabel::solve(asm, qpv_solve::sdp::clarabel_settings(&settings)).unwrap();
+            qpv_clarabel::solve(asm, qpv_solve::backend::clarabel_settings(&settings)).unwrap();
         assert_eq!(
             solver.solution.status,
             qpv_clarabel::clarabel::solver::SolverStatus::Solved,

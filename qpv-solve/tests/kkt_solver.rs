@@ -1,7 +1,7 @@
 //! The KKT solver setting: QDLDL by default, and (feature `faer`) faer's
 //! supernodal LDLᵀ giving the same certified designs.
 
-use qpv_solve::sdp::clarabel_settings;
+use qpv_solve::backend::clarabel_settings;
 use qpv_solve::{KktSolver, Settings};
 
 #[test]

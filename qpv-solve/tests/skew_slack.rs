@@ -8,7 +8,7 @@ use qpv_solve::certificate::Gains;
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::falsify::falsify;
 use qpv_solve::vocab::Candidate;
-use qpv_solve::{check, design, request, skew_slack, Settings};
+use qpv_solve::{check, design, request, Settings};
 
 #[test]
 fn skew_slack_keeps_the_plant_and_raises_the_certified_alpha() {
@@ -18,7 +18,7 @@ fn skew_slack_keeps_the_plant_and_raises_the_certified_alpha() {
     req.split = Split::Symmetric;
     let start = design(&model, &req, &settings).unwrap();
     assert!(start.certifies, "{}", start.summary);
-    let r = skew_slack::search(&model, &start, 2, &settings, Conditions::Full).unwrap();
+    let r = qpv_solve::search::skew_search(&model, &start, 2, &settings, Conditions::Full).unwrap();
     assert!(!r.rounds.is_empty());
     assert!(
         r.alpha_best() > start.alpha * 1.02,

@@ -370,7 +370,7 @@ fn describe_state_bound(sb: &StateBoundInfo) -> String {
 /// why).
 pub(crate) fn continuous_line(
     h: f64,
-    b: Option<&qpv_solve::sampled_plant::ContinuousBound>,
+    b: Option<&qpv_solve::report::continuous::ContinuousBound>,
 ) -> String {
     let Some(b) = b else {
         return String::new();
