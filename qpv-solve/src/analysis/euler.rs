@@ -51,15 +51,7 @@ pub fn simulate_euler(
     let steps = steps as usize;
     let h = scenario.dt;
     let mut frozen = Frozen::new(model);
-    let mut traj = Trajectory {
-        t: Vec::with_capacity(steps + 1),
-        x: Vec::with_capacity(steps + 1),
-        xhat: Vec::with_capacity(steps + 1),
-        theta: Vec::with_capacity(steps + 1),
-        mu: Vec::with_capacity(steps + 1),
-        error_norm: Vec::with_capacity(steps + 1),
-        diverged_at: None,
-    };
+    let mut traj = Trajectory::with_capacity(steps + 1);
     let mut x = scenario.x0.clone();
     let mut xh = scenario.xhat0.clone();
     let (mut dx, mut dxh) = (vec![0.0; nx], vec![0.0; nx]);

@@ -629,6 +629,19 @@ pub struct Trajectory {
 }
 
 impl Trajectory {
+    /// An empty trajectory with room for `rows` time steps.
+    pub fn with_capacity(rows: usize) -> Self {
+        Trajectory {
+            t: Vec::with_capacity(rows),
+            x: Vec::with_capacity(rows),
+            xhat: Vec::with_capacity(rows),
+            theta: Vec::with_capacity(rows),
+            mu: Vec::with_capacity(rows),
+            error_norm: Vec::with_capacity(rows),
+            diverged_at: None,
+        }
+    }
+
     /// Number of recorded time steps.
     pub fn len(&self) -> usize {
         self.t.len()
@@ -888,15 +901,7 @@ pub fn simulate(
              simulate_each streams up to {MAX_STEPS})"
         )));
     }
-    let mut traj = Trajectory {
-        t: Vec::with_capacity(steps + 1),
-        x: Vec::with_capacity(steps + 1),
-        xhat: Vec::with_capacity(steps + 1),
-        theta: Vec::with_capacity(steps + 1),
-        mu: Vec::with_capacity(steps + 1),
-        error_norm: Vec::with_capacity(steps + 1),
-        diverged_at: None,
-    };
+    let mut traj = Trajectory::with_capacity(steps + 1);
     traj.diverged_at = simulate_each(model, gains, scenario, None, &mut |r| {
         traj.t.push(r.t);
         traj.x.push(r.x.to_vec());
