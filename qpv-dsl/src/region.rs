@@ -54,6 +54,12 @@ const TOL: f64 = 1e-9;
 /// Most intermediate rays the enumeration keeps before giving up.
 const MAX_RAYS: usize = 20_000;
 
+/// The work limit of one vertex enumeration, in 64-bit word operations of
+/// the double description's bit sets (about 6 s on one core of the CI
+/// machine): a region whose enumeration would need more is refused with
+/// [`RegionError::TooComplex`] instead of running for minutes.
+pub const MAX_ENUMERATION_WORK: u64 = 3_000_000_000;
+
 /// Why a set of vertices or facets is not an acceptable region.
 #[derive(Debug, Clone, PartialEq)]
 pub enum RegionError {
@@ -125,7 +131,9 @@ impl fmt::Display for RegionError {
             RegionError::Empty => write!(f, "the region is empty"),
             RegionError::TooComplex => write!(
                 f,
-                "the region is too complex: at most {MAX_REGION_VERTICES} vertices and facets are supported"
+                "the region is too complex: at most {MAX_REGION_VERTICES} vertices and facets are \
+                 supported, and its vertex enumeration must fit a fixed work limit (give the region \
+                 by fewer halfspaces, by its vertices, or as a box or zonotope)"
             ),
             RegionError::Degenerate { reason } => write!(
                 f,
@@ -336,6 +344,18 @@ impl Region {
         hull_from_halfspaces(normals).map(|(r, _)| r)
     }
 
+    /// [`Region::from_halfspaces`] with a work limit of `work` word
+    /// operations for the vertex enumeration instead of [`MAX_ENUMERATION_WORK`]
+    /// (about 6 s on one core): a caller can allow a large region more time,
+    /// or refuse sooner. Beyond the limit the result is
+    /// [`RegionError::TooComplex`].
+    pub fn from_halfspaces_within(
+        normals: &[DVector<f64>],
+        work: u64,
+    ) -> Result<Region, RegionError> {
+        hull_within(normals, work).map(|(r, _)| r)
+    }
+
     /// True if every facet inequality holds at `x`, up to a relative
     /// tolerance of 1e-9 · (1 + Σ_j |a_j x_j|) per facet (scale-invariant).
     pub fn contains(&self, x: &DVector<f64>) -> bool {
@@ -521,11 +541,16 @@ pub(crate) fn hull_from_vertices(
 pub(crate) fn hull_from_halfspaces(
     normals: &[DVector<f64>],
 ) -> Result<(Region, Vec<usize>), RegionError> {
+    hull_within(normals, MAX_ENUMERATION_WORK)
+}
+
+/// [`hull_from_halfspaces`] with the enumeration's work limit `work`.
+fn hull_within(normals: &[DVector<f64>], work: u64) -> Result<(Region, Vec<usize>), RegionError> {
     let n = check_points(normals)?;
     let scales = column_scales(normals, n);
     // aᵀx = (a/s)ᵀ(s·x): rows b = a/s, coordinates y = s·x
     let b = divide(normals, &scales);
-    let vertices_y = match enumerate_vertices(&b, n) {
+    let vertices_y = match enumerate_within(&b, n, work) {
         Ok(v) => v,
         Err(Enum::Unbounded(d)) => {
             // y = s·x, so the direction in x is d/s
@@ -640,13 +665,18 @@ fn normalize(z: &mut [f64]) -> f64 {
 /// the new hyperplane; adjacency is the combinatorial test with an inverted
 /// index from rows to the rays tight on them.
 fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>, Enum> {
+    enumerate_within(a, n, MAX_ENUMERATION_WORK)
+}
+
+/// [`enumerate_vertices`] with the work limit `limit` (word operations).
+fn enumerate_within(a: &[DVector<f64>], n: usize, limit: u64) -> Result<Vec<DVector<f64>>, Enum> {
     let h = homogenised_rows(a, n);
     let m = h.len();
     let basis = initial_basis(&h, n)?;
     let mut rays = initial_rays(&h, &basis, m.div_ceil(64))?;
-    let mut work = Workspace::new(m);
+    let mut work = Workspace::new(m, limit);
     for k in (0..m).filter(|k| !basis.contains(k)) {
-        rays = add_row(&rays, &h, k, n + 1, &mut work)?;
+        rays = add_row(rays, &h, k, n + 1, &mut work)?;
     }
     rays_to_vertices(&rays, a, n)
 }
@@ -760,15 +790,21 @@ struct Workspace {
     acc: Vec<u64>,
     /// tight[j]: bit set over the current rays that are tight on row j.
     tight: Vec<Vec<u64>>,
+    /// Word operations spent so far.
+    done: u64,
+    /// The most word operations allowed.
+    limit: u64,
 }
 
 impl Workspace {
-    fn new(rows: usize) -> Workspace {
+    fn new(rows: usize, limit: u64) -> Workspace {
         Workspace {
             vals: Vec::new(),
             common: vec![0; rows.div_ceil(64)],
             acc: Vec::new(),
             tight: vec![Vec::new(); rows],
+            done: 0,
+            limit,
         }
     }
 }
@@ -777,7 +813,7 @@ impl Workspace {
 /// rays on its nonnegative side, plus one new ray for each adjacent pair
 /// on opposite sides).
 fn add_row(
-    rays: &[Ray],
+    rays: Vec<Ray>,
     h: &[Vec<f64>],
     k: usize,
     d: usize,
@@ -786,29 +822,63 @@ fn add_row(
     let hk = &h[k];
     work.vals.clear();
     work.vals.extend(rays.iter().map(|r| dot(hk, &r.z)));
-    let vals = &work.vals;
-    let mut next: Vec<Ray> = Vec::with_capacity(rays.len());
-    for (i, r) in rays.iter().enumerate() {
-        if vals[i] >= -TOL {
-            let mut r = r.clone();
-            if vals[i] <= TOL {
+    let has_pos = work.vals.iter().any(|v| *v > TOL);
+    let has_neg = work.vals.iter().any(|v| *v < -TOL);
+    let mut created = Vec::new();
+    if has_pos && has_neg {
+        created = new_rays(&rays, k, d, work)?;
+    }
+    let mut next: Vec<Ray> = Vec::with_capacity(rays.len() + created.len());
+    for (r, &v) in rays.into_iter().zip(&work.vals) {
+        if v >= -TOL {
+            let mut r = r;
+            if v <= TOL {
                 insert(&mut r.zero, k);
             }
             next.push(r);
         }
     }
-    let has_pos = vals.iter().any(|v| *v > TOL);
-    let has_neg = vals.iter().any(|v| *v < -TOL);
-    if !(has_pos && has_neg) {
-        return Ok(next);
+    next.extend(created);
+    if next.len() > MAX_RAYS {
+        return Err(Enum::TooComplex);
     }
-    index_tight_rows(rays, &mut work.tight);
+    Ok(next)
+}
+
+/// The rays that row k creates: one per adjacent pair (p, q) with p on its
+/// positive and q on its negative side, on the hyperplane between them.
+/// Charges the work to `work.done` and stops at `work.limit`.
+fn new_rays(rays: &[Ray], k: usize, d: usize, work: &mut Workspace) -> Result<Vec<Ray>, Enum> {
+    let rwords = rays.len().div_ceil(64);
+    let mut negative = vec![0u64; rwords];
+    let mut needed = vec![0u64; work.common.len()];
+    for (q, v) in work.vals.iter().enumerate() {
+        if *v < -TOL {
+            insert(&mut negative, q);
+        } else if *v > TOL {
+            for (n, z) in needed.iter_mut().zip(&rays[q].zero) {
+                *n |= *z;
+            }
+        }
+    }
+    index_tight_rows(rays, &needed, &mut work.tight);
+    let needed_rows = needed.iter().map(|w| w.count_ones()).sum::<u32>() as usize;
+    work.done += (rays.len() * (2 * needed.len() + d) + needed_rows * rwords) as u64;
+    let mut created = Vec::new();
+    let mut candidates = vec![0u64; rwords];
     for p in 0..rays.len() {
         if work.vals[p] <= TOL {
             continue;
         }
-        for q in 0..rays.len() {
-            if work.vals[q] >= -TOL || !adjacent(rays, p, q, d, work) {
+        partners(&rays[p].zero, &negative, d, &work.tight, &mut candidates);
+        let tight_rows = rays[p].zero.iter().map(|w| w.count_ones()).sum::<u32>() as u64;
+        let tested = candidates.iter().map(|w| w.count_ones()).sum::<u32>() as u64;
+        work.done += (tight_rows + 1 + tested) * rwords as u64 + tested * work.common.len() as u64;
+        if work.done > work.limit {
+            return Err(Enum::TooComplex);
+        }
+        for q in bits(&candidates) {
+            if !adjacent(rays, p, q, d, work) {
                 continue;
             }
             let (vp, vq) = (work.vals[p], work.vals[q]);
@@ -820,26 +890,62 @@ fn add_row(
             }
             let mut zero = work.common.clone();
             insert(&mut zero, k);
-            next.push(Ray { z, zero });
-            if next.len() > MAX_RAYS {
+            created.push(Ray { z, zero });
+            if created.len() > MAX_RAYS {
                 return Err(Enum::TooComplex);
             }
         }
     }
-    Ok(next)
+    Ok(created)
 }
 
-/// The inverted index of the rays' zero sets: tight[j] = the rays tight on
-/// row j.
-fn index_tight_rows(rays: &[Ray], tight: &mut [Vec<u64>]) {
+/// The rays on the negative side that may be adjacent to a ray whose tight
+/// rows are `zero_p`: adjacent rays share at least d − 2 tight rows, so for
+/// d > 2 they share at least one, and the candidates are the union of the
+/// inverted index over p's tight rows (instead of every negative ray).
+fn partners(zero_p: &[u64], negative: &[u64], d: usize, tight: &[Vec<u64>], out: &mut [u64]) {
+    if d <= 2 {
+        out.copy_from_slice(negative);
+        return;
+    }
+    out.fill(0);
+    for j in bits(zero_p) {
+        for (o, t) in out.iter_mut().zip(&tight[j]) {
+            *o |= *t;
+        }
+    }
+    for (o, n) in out.iter_mut().zip(negative) {
+        *o &= *n;
+    }
+}
+
+/// The indices of the set bits of a bit set, in increasing order.
+fn bits(set: &[u64]) -> impl Iterator<Item = usize> + '_ {
+    set.iter().enumerate().flat_map(|(w, &word)| {
+        let mut b = word;
+        std::iter::from_fn(move || {
+            if b == 0 {
+                return None;
+            }
+            let j = w * 64 + b.trailing_zeros() as usize;
+            b &= b - 1;
+            Some(j)
+        })
+    })
+}
+
+/// The inverted index of the rays' zero sets, for the rows in `needed`
+/// only (the rows a positive ray is tight on: the only ones the adjacency
+/// tests of this step read): tight[j] = the rays tight on row j.
+fn index_tight_rows(rays: &[Ray], needed: &[u64], tight: &mut [Vec<u64>]) {
     let rwords = rays.len().div_ceil(64);
-    for t in tight.iter_mut() {
-        t.clear();
-        t.resize(rwords, 0);
+    for j in bits(needed) {
+        tight[j].clear();
+        tight[j].resize(rwords, 0);
     }
     for (i, r) in rays.iter().enumerate() {
-        for (w, &bitsw) in r.zero.iter().enumerate() {
-            let mut b = bitsw;
+        for (w, (&bitsw, &need)) in r.zero.iter().zip(needed).enumerate() {
+            let mut b = bitsw & need;
             while b != 0 {
                 let j = w * 64 + b.trailing_zeros() as usize;
                 insert(&mut tight[j], i);

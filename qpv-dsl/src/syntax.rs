@@ -887,7 +887,7 @@ fn unknown_function(span: Span, w: &str) -> Diag {
     )
 }
 
-/// True for names that can denote a matrix: A, B, C, N<k>, M<k> (with or
+/// True for names that can denote a matrix: A, B, C, `N<k>`, `M<k>` (with or
 /// without `_` before k).
 pub fn is_matrix_name_shape(w: &str) -> bool {
     matches!(w, "A" | "B" | "B_w" | "C")

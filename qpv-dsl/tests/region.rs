@@ -640,3 +640,65 @@ fn unrepresentable_regions_are_refused() {
         Err(RegionError::TooComplex)
     ));
 }
+
+/// `m` unit normals in `n` dimensions, spread by a xorshift generator: each
+/// is a facet, so the polytope has many vertices.
+fn sphere_rows(n: usize, m: usize) -> Vec<DVector<f64>> {
+    let mut s: u64 = 12345;
+    let mut next = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    (0..m)
+        .map(|_| {
+            let v = DVector::from_fn(n, |_, _| next());
+            let norm = v.norm();
+            v / norm
+        })
+        .collect()
+}
+
+/// Many halfspaces in a few dimensions: the enumeration is exact within its
+/// work limit and refused (not run for minutes) beyond it.
+#[test]
+fn the_halfspace_enumeration_has_a_work_limit() {
+    let rows = sphere_rows(4, 300);
+    let r = Region::from_halfspaces(&rows).expect("300 halfspaces in 4-D fit the default limit");
+    assert!(r.vertices.len() > 1000, "{} vertices", r.vertices.len());
+    assert_eq!(r.facets.len(), 300);
+    for v in &r.vertices {
+        assert!(r.contains(v));
+        assert!(rows.iter().all(|a| a.dot(v) <= 1.0 + 1e-7));
+    }
+    // the same rows with a limit far below what they need
+    assert!(matches!(
+        Region::from_halfspaces_within(&rows, 1_000_000),
+        Err(RegionError::TooComplex)
+    ));
+    let e = Region::from_halfspaces_within(&rows, 1_000_000).unwrap_err();
+    assert!(e.to_string().contains("work limit"), "{e}");
+    // and enough work gives the same polytope as the default
+    let again = Region::from_halfspaces_within(&rows, u64::MAX).expect("no limit");
+    assert_eq!(again.vertices.len(), r.vertices.len());
+}
+
+/// A box with one corner cut off: degenerate (many rays tight on the same
+/// rows), where a missed adjacent pair in the enumeration would lose a vertex.
+#[test]
+fn a_cut_box_keeps_every_vertex() {
+    for n in 2..=6 {
+        let mut rows = Vec::new();
+        for j in 0..n {
+            let mut e = DVector::zeros(n);
+            e[j] = 1.0;
+            rows.push(e.clone());
+            rows.push(-e);
+        }
+        rows.push(DVector::from_element(n, 1.0 / (n as f64 - 0.5)));
+        let r = Region::from_halfspaces(&rows).expect("cut box");
+        // 2^n corners but the cut one, and n points on its edges
+        assert_eq!(r.vertices.len(), (1 << n) - 1 + n, "n = {n}");
+    }
+}
