@@ -33,7 +33,9 @@
 //! it is accepted with a warning that it will be slow (a search runs tens
 //! of solves).
 
-use qpv_dsl::{Conditions, DesignRequest, Mode, OutputRoute, PolytopicModel, Split};
+use qpv_dsl::{
+    AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode, OutputRoute, PolytopicModel, Split,
+};
 
 /// Bytes per unit of [`SizeEstimate::units`] (the measurements in the
 /// module documentation give 12–18; rounded up).
@@ -196,14 +198,21 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
 /// as it is (docs/method.md, "The automatic choice", has the measurements).
 pub const AUTO_FULL_BLOCKS: usize = 4096;
 
+/// Largest full family that `conditions = auto` solves as it is when the
+/// design searches both α and γ (`alpha = max; gamma = search`: 50 to 150
+/// solves instead of one to twenty). The elastic arm's 4096 blocks took
+/// 1114 s on two cores that way with full conditions and 32 s decoupled.
+pub const AUTO_FULL_SEARCH_BLOCKS: usize = 2048;
+
 /// Largest decoupled family (c·2p rate blocks) that `conditions = auto`
 /// prefers to the cube relaxation when the region is a zonotope.
 pub const AUTO_DECOUPLED_BLOCKS: usize = 512;
 
 /// The conditions `conditions = auto` stands for on `model`, and why (one
 /// sentence for the report): full while the full family has at most
-/// [`AUTO_FULL_BLOCKS`] blocks (exact on the vertices, and what every
-/// small model has always used); then decoupled while it has at most
+/// [`AUTO_FULL_BLOCKS`] blocks ([`AUTO_FULL_SEARCH_BLOCKS`] when α and γ
+/// are both searched; exact on the vertices, and what every small model
+/// has always used); then decoupled while it has at most
 /// [`AUTO_DECOUPLED_BLOCKS`] blocks or the region is not a zonotope; then
 /// cube. An explicit choice is returned unchanged, with an empty reason.
 pub fn choose(model: &PolytopicModel, request: &DesignRequest) -> (Conditions, String) {
@@ -221,11 +230,18 @@ pub fn choose(model: &PolytopicModel, request: &DesignRequest) -> (Conditions, S
     let full = c.saturating_mul(p).saturating_mul(p);
     let decoupled = c.saturating_mul(2 * p);
     let gens = model.region.zonotope_generators().map(|g| g.len());
-    if full <= AUTO_FULL_BLOCKS {
+    let searches = request.alpha == AlphaSpec::Max && request.gamma == GammaSpec::Search;
+    let limit = if searches {
+        AUTO_FULL_SEARCH_BLOCKS
+    } else {
+        AUTO_FULL_BLOCKS
+    };
+    if full <= limit {
         return (
             Conditions::Full,
             format!(
-                "conditions = auto chose full: {c} rate combinations × {p}² region-vertex pairs = {full} blocks (at most {AUTO_FULL_BLOCKS} are solved exactly)"
+                "conditions = auto chose full: {c} rate combinations × {p}² region-vertex pairs = {full} blocks (at most {limit} are solved exactly{})",
+                if searches { " in a search of α and γ" } else { "" }
             ),
         );
     }
@@ -240,7 +256,8 @@ pub fn choose(model: &PolytopicModel, request: &DesignRequest) -> (Conditions, S
         _ => (
             Conditions::Decoupled,
             format!(
-                "conditions = auto chose decoupled: the full family would have {full} blocks (more than {AUTO_FULL_BLOCKS}), the decoupled one has {decoupled}{}",
+                "conditions = auto chose decoupled: the full family would have {full} blocks (more than {limit}{}), the decoupled one has {decoupled}{}",
+                if searches { " in a search of α and γ" } else { "" },
                 if gens.is_none() {
                     " (the region is not a zonotope, so cube conditions do not apply)"
                 } else {
