@@ -207,4 +207,28 @@ fn a_rate_beyond_the_sample_period_says_what_certifies_there() {
     assert!(alpha > 0.0 && alpha < 12.3, "{note}");
     let ok = design(&model, &req(AlphaSpec::Fixed(alpha), GAMMA, Some(h)), &s).unwrap();
     assert!(ok.certifies, "{}", ok.summary);
+    // The period at which the asked α certifies, and the failed one just
+    // above it: a design at the first certifies, at the second does not.
+    let key = "α = 12.3 certifies at the shorter period h = ";
+    let at = note.find(key).unwrap_or_else(|| panic!("{note}")) + key.len();
+    let h_ok: f64 = note[at..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let key = " and fails at ";
+    let at = note.find(key).unwrap_or_else(|| panic!("{note}")) + key.len();
+    let h_fail: f64 = note[at..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        h_ok < h_fail && h_fail <= h && h_fail / h_ok <= 1.1 * (1.0 + 1e-3),
+        "{note}"
+    );
+    let ok = design(&model, &req(AlphaSpec::Fixed(12.3), GAMMA, Some(h_ok)), &s).unwrap();
+    assert!(ok.certifies, "at h = {h_ok}: {}", ok.summary);
 }

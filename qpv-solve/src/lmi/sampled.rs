@@ -51,6 +51,13 @@ impl Problem<'_> {
         Ok(self)
     }
 
+    /// Moves a problem already validated for a sampled design to another
+    /// sample period (the failure note's search over h; positive finite h).
+    pub(crate) fn set_sample(&mut self, h: f64) {
+        debug_assert!(self.sample.is_some() && h.is_finite() && h > 0.0);
+        self.sample = Some(h);
+    }
+
     /// The sample period of a sampled design, if any.
     pub fn sample(&self) -> Option<f64> {
         self.sample
