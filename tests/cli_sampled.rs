@@ -54,6 +54,10 @@ fn design_and_check_at_a_sample_period() {
         "{s}"
     );
     assert!(s.contains("S5d"), "{s}");
+    assert!(
+        s.contains("continuous plant sampled at h (recomputed)") && s.contains("lim sup |e_k| <="),
+        "{s}"
+    );
 
     let slow = qpv(&[
         "check",
@@ -70,6 +74,10 @@ fn design_and_check_at_a_sample_period() {
         "{s}"
     );
     assert!(s.contains("NOT certified"), "{s}");
+    assert!(
+        s.contains("at this h the gains satisfy the discrete family up to alpha = "),
+        "{s}"
+    );
 
     // The continuous plant against the observer stepped at 1 kHz: the
     // bound is recomputed, the run stays inside it (exit 0).
@@ -87,7 +95,10 @@ fn design_and_check_at_a_sample_period() {
     assert_eq!(sim.status.code(), Some(0), "{s}");
     assert!(s.contains("the continuous plant by RK4 at h/20"), "{s}");
     assert!(s.contains("continuous-plant bound (recomputed)"), "{s}");
-    assert!(s.contains("the error stays inside the certified bound"), "{s}");
+    assert!(
+        s.contains("the error stays inside the certified bound"),
+        "{s}"
+    );
     assert!(s.contains("held over each step in the plant too"), "{s}");
     let bad = qpv(&[
         "simulate",
@@ -281,4 +292,90 @@ fn the_continuous_plant_stays_inside_the_sampled_bound_on_every_example() {
             c.worst_ratio
         );
     }
+}
+
+/// A plant with an input: the continuous-plant bound needs the input's
+/// range (`input u in [lo, hi]`), and takes its rate when declared. The
+/// design and `qpv check --sample` print the bound with the range and say
+/// why there is none without it.
+#[test]
+fn the_continuous_bound_with_inputs_needs_their_range() {
+    let src = std::fs::read_to_string("examples/van_de_vusse.qpv").unwrap();
+    let ranged = tmp("vdv_ranged.qpv");
+    std::fs::write(
+        &ranged,
+        src.replace("input  u;", "input  u in [-4.3, 5.8] rate 50;"),
+    )
+    .unwrap();
+    let report = tmp("vdv_1khz.json");
+    let out = qpv(&[
+        "design",
+        ranged.to_str().unwrap(),
+        "--alpha",
+        "600",
+        "--gamma",
+        "0.068",
+        "--sample",
+        "1e-3",
+        "--json",
+        report.to_str().unwrap(),
+    ]);
+    let s = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{s}");
+    assert!(
+        s.contains("continuous plant sampled at h: Euler truncation error"),
+        "{s}"
+    );
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let b = &v["designs"][0]["sample"]["continuous_bound"];
+    assert_eq!(b["rates_declared"], Value::Bool(false), "{b}"); // th has no rate
+    let with_range = b["accel"].as_f64().unwrap();
+
+    let check = qpv(&[
+        "check",
+        ranged.to_str().unwrap(),
+        "--gains",
+        report.to_str().unwrap(),
+    ]);
+    let s = text(&check);
+    assert_eq!(check.status.code(), Some(0), "{s}");
+    assert!(
+        s.contains("continuous plant sampled at h (recomputed)"),
+        "{s}"
+    );
+    // The same gains on the example as written (no range on u): certified,
+    // and no continuous-plant bound, with the reason.
+    let check = qpv(&[
+        "check",
+        "examples/van_de_vusse.qpv",
+        "--gains",
+        report.to_str().unwrap(),
+    ]);
+    let s = text(&check);
+    assert_eq!(check.status.code(), Some(0), "{s}");
+    assert!(
+        s.contains("no bound (input(s) u declare no range (`input u in [lo, hi];`)"),
+        "{s}"
+    );
+    // A rate on the input adds its B u' term: the bound on |x''| grows.
+    let rated = tmp("vdv_rated.qpv");
+    std::fs::write(
+        &rated,
+        src.replace("input  u;", "input  u in [-4.3, 5.8] rate 50;")
+            .replace("param  th in [30, 40];", "param  th in [30, 40] rate 50;"),
+    )
+    .unwrap();
+    let models = qpv::dsl::parse(&std::fs::read_to_string(&rated).unwrap()).unwrap();
+    let d: qpv::solve::Design = serde_json::from_value(v["designs"][0].clone()).unwrap();
+    let b = qpv::solve::report::continuous::continuous_bound(
+        &models[0].polytopic(),
+        d.alpha,
+        1e-3,
+        &d.p_matrix(),
+    )
+    .unwrap();
+    assert!(
+        b.rates_declared && b.accel > with_range,
+        "{b:?} vs {with_range}"
+    );
 }

@@ -344,7 +344,13 @@ pub fn attach(model: &PolytopicModel, d: &mut Design) {
     let Some(h) = d.sample.map(|s| s.h) else {
         return;
     };
-    match continuous_bound(model, d.alpha, h, &d.p_matrix()) {
+    // The design's observer model carries the state bound it used (also
+    // a computed one, `state_bound auto`); the filter route's is larger.
+    let bound = match d.observer_model(model) {
+        Ok(obs) if obs.nx() == model.nx() => continuous_bound(&obs, d.alpha, h, &d.p_matrix()),
+        _ => continuous_bound(model, d.alpha, h, &d.p_matrix()),
+    };
+    match bound {
         Ok(b) => {
             if let Some(s) = d.sample.as_mut() {
                 s.continuous_bound = Some(b);
