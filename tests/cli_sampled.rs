@@ -129,10 +129,6 @@ fn bad_sample_periods_are_refused() {
             vec!["--sample", "1e-3", "--conditions", "decoupled"],
             "--sample does not apply here",
         ),
-        (
-            vec!["--sample", "1e-3", "--alpha", "5", "--noise", "min"],
-            "--sample with --noise min",
-        ),
     ] {
         let mut all = vec!["design", "examples/paper.qpv", "--gamma", "0.1889"];
         all.extend(args.iter().copied());
@@ -377,5 +373,44 @@ fn the_continuous_bound_with_inputs_needs_their_range() {
     assert!(
         b.rates_declared && b.accel > with_range,
         "{b:?} vs {with_range}"
+    );
+}
+
+/// `--sample` with `--noise min`: the discrete noise claim, its σ and the
+/// S5d certificate; σ at 1 kHz lies within 1 % of the continuous design's
+/// at the same (α, γ) (the h → 0 limit, docs/method.md §16).
+#[test]
+fn noise_min_at_a_sample_period() {
+    let sigma_of = |extra: &[&str]| -> (String, f64) {
+        let report = tmp(&format!("noise{}.json", extra.len()));
+        let mut args = vec![
+            "design",
+            "examples/paper.qpv",
+            "--alpha",
+            "5",
+            "--gamma",
+            "0.18898",
+            "--noise",
+            "min",
+            "--json",
+            report.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let out = qpv(&args);
+        let s = text(&out);
+        assert_eq!(out.status.code(), Some(0), "{s}");
+        let v: Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (s, v["designs"][0]["noise"]["sigma"].as_f64().unwrap())
+    };
+    let (s, sampled) = sigma_of(&["--sample", "1e-3"]);
+    assert!(s.contains("CERTIFIED at h = 1e-3 s (1 kHz)"), "{s}");
+    assert!(
+        s.contains("V(e_k+1) - (1 - h alpha) V(e_k) <= h sigma (|v_k|^2 + |w_k|^2)"),
+        "{s}"
+    );
+    let (_, continuous) = sigma_of(&[]);
+    assert!(
+        (sampled / continuous - 1.0).abs() < 0.01,
+        "{sampled} vs {continuous}"
     );
 }
