@@ -73,19 +73,15 @@ pub struct SampledRow<'a> {
     pub u: &'a [f64],
 }
 
-/// Runs the continuous plant (RK4 at h/substeps) against the observer
-/// stepped at h, handing every substep's row to `each` (false stops the
-/// run). Returns the time a non-finite value appeared, if one did.
-pub fn simulate_sampled_each(
+/// Checks the run's input; returns the number of samples.
+fn samples_of(
     model: &PolytopicModel,
     gains: &[DMatrix<f64>],
     scenario: &Scenario,
     run: &SampledRun,
-    each: &mut dyn FnMut(&SampledRow<'_>) -> bool,
-) -> Result<Option<f64>, SimError> {
+) -> Result<usize, SimError> {
     check_model(model)?;
     check_gains(model, gains)?;
-    let (nx, ny) = (model.nx(), model.ny());
     let h = run.h;
     if !(h.is_finite() && h > 0.0) {
         return Err(SimError::Argument(format!("sample period h = {h}")));
@@ -107,10 +103,10 @@ pub fn simulate_sampled_each(
         });
     }
     for (what, v) in [("x0", &scenario.x0), ("xhat0", &scenario.xhat0)] {
-        if v.len() != nx || v.iter().any(|x| !x.is_finite()) {
+        if v.len() != model.nx() || v.iter().any(|x| !x.is_finite()) {
             return Err(SimError::Length {
                 what: what.into(),
-                expected: nx,
+                expected: model.nx(),
                 got: v.len(),
             });
         }
@@ -125,27 +121,135 @@ pub fn simulate_sampled_each(
             run.substeps
         )));
     }
-    let samples = samples as usize;
+    Ok(samples as usize)
+}
+
+/// The plant's side of a step: its signals (held or following the
+/// scenario) and the RK4 buffers.
+struct Plant<'a> {
+    model: &'a PolytopicModel,
+    scenario: &'a Scenario,
+    run: &'a SampledRun,
+    frozen: Frozen,
+    th: Vec<f64>,
+    u: Vec<f64>,
+    stages: [Vec<f64>; 4],
+    tmp: Vec<f64>,
+}
+
+impl Plant<'_> {
+    /// θ(t) and u(t) as the plant sees them (held ones at their samples).
+    fn signals(&self, t: f64, th_k: &[f64], u_k: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let sc = self.scenario;
+        let th = (0..th_k.len())
+            .map(|i| {
+                if self.run.hold_params[i] {
+                    th_k[i]
+                } else {
+                    sc.theta[i].at(t)
+                }
+            })
+            .collect();
+        let u = (0..u_k.len())
+            .map(|j| {
+                if self.run.hold_inputs[j] {
+                    u_k[j]
+                } else {
+                    sc.u[j].at(t)
+                }
+            })
+            .collect();
+        (th, u)
+    }
+
+    /// out = f(x, u(t), θ(t)); false if a signal is not finite.
+    fn rhs(&mut self, t: f64, x: &[f64], out: usize, th_k: &[f64], u_k: &[f64]) -> bool {
+        (self.th, self.u) = self.signals(t, th_k, u_k);
+        if self.th.iter().chain(&self.u).any(|v| !v.is_finite()) {
+            return false;
+        }
+        self.frozen.set(self.model, &[], &self.th);
+        self.frozen.drift(x, &mut self.stages[out]);
+        self.frozen.add_input(&self.u, &mut self.stages[out]);
+        true
+    }
+
+    /// One classical RK4 step of length dt from (t, x); false if a signal
+    /// was not finite (x unchanged then).
+    fn rk4(&mut self, t: f64, dt: f64, x: &mut [f64], th_k: &[f64], u_k: &[f64]) -> bool {
+        let mut ok = self.rhs(t, x, 0, th_k, u_k);
+        for (stage, c) in [(1, 0.5), (2, 0.5), (3, 1.0)] {
+            let mut tmp = std::mem::take(&mut self.tmp);
+            axpy(&mut tmp, x, c * dt, &self.stages[stage - 1]);
+            ok = ok && self.rhs(t + c * dt, &tmp, stage, th_k, u_k);
+            self.tmp = tmp;
+        }
+        if ok {
+            let [k1, k2, k3, k4] = &self.stages;
+            for i in 0..x.len() {
+                x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+        }
+        ok
+    }
+}
+
+/// The observer's step on the samples (the generated `step`):
+/// x̂ ← x̂ + h (f(x̂, u_k, θ_k) + L(θ_k)(y_k − ŷ_k)).
+fn observer_step(
+    frozen: &mut Frozen,
+    (model, gains): (&PolytopicModel, &[DMatrix<f64>]),
+    (x, xh): (&[f64], &mut [f64]),
+    (th_k, u_k, h): (&[f64], &[f64], f64),
+) {
+    let (mut y, mut yh) = (vec![0.0; model.ny()], vec![0.0; model.ny()]);
+    let mut dxh = vec![0.0; model.nx()];
+    frozen.set(model, gains, th_k);
+    frozen.output(x, &mut y);
+    frozen.output(xh, &mut yh);
+    for (a, b) in y.iter_mut().zip(&yh) {
+        *a -= b;
+    }
+    frozen.drift(xh, &mut dxh);
+    frozen.add_input(u_k, &mut dxh);
+    frozen.add_gain(&y, &mut dxh);
+    for (v, d) in xh.iter_mut().zip(&dxh) {
+        *v += h * d;
+    }
+}
+
+/// Runs the continuous plant (RK4 at h/substeps) against the observer
+/// stepped at h, handing every substep's row to `each` (false stops the
+/// run). Returns the time a non-finite value appeared, if one did.
+pub fn simulate_sampled_each(
+    model: &PolytopicModel,
+    gains: &[DMatrix<f64>],
+    scenario: &Scenario,
+    run: &SampledRun,
+    each: &mut dyn FnMut(&SampledRow<'_>) -> bool,
+) -> Result<Option<f64>, SimError> {
+    let samples = samples_of(model, gains, scenario, run)?;
+    let (nx, h) = (model.nx(), run.h);
     let dt = h / run.substeps as f64;
     let mut frozen = Frozen::new(model);
+    let mut plant = Plant {
+        model,
+        scenario,
+        run,
+        frozen: Frozen::new(model),
+        th: Vec::new(),
+        u: Vec::new(),
+        stages: [vec![0.0; nx], vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]],
+        tmp: vec![0.0; nx],
+    };
     let mut x = scenario.x0.clone();
     let mut xh = scenario.xhat0.clone();
-    let (mut y, mut yh, mut dxh) = (vec![0.0; ny], vec![0.0; ny], vec![0.0; nx]);
-    let mut th = vec![0.0; model.ntheta()];
-    let mut u = vec![0.0; model.nu()];
-    let mut stages = [vec![0.0; nx], vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]];
-    let mut tmp = vec![0.0; nx];
     for k in 0..=samples {
         let tk = k as f64 * h;
         let th_k: Vec<f64> = scenario.theta.iter().map(|s| s.at(tk)).collect();
         let u_k: Vec<f64> = scenario.u.iter().map(|s| s.at(tk)).collect();
-        if th_k
-            .iter()
-            .chain(&u_k)
-            .chain(&x)
-            .chain(&xh)
-            .any(|v| !v.is_finite())
-        {
+        let all = th_k.iter().chain(&u_k).chain(&x).chain(&xh);
+        if all.clone().any(|v| !v.is_finite()) {
             return Ok(Some(tk));
         }
         let row = SampledRow {
@@ -159,73 +263,18 @@ pub fn simulate_sampled_each(
         if !each(&row) || k == samples {
             return Ok(None);
         }
-        // The observer's step on the samples (the generated `step`).
-        frozen.set(model, gains, &th_k);
-        frozen.output(&x, &mut y);
-        frozen.output(&xh, &mut yh);
-        for (a, b) in y.iter_mut().zip(&yh) {
-            *a -= b;
-        }
-        frozen.drift(&xh, &mut dxh);
-        frozen.add_input(&u_k, &mut dxh);
-        frozen.add_gain(&y, &mut dxh);
-        for (v, d) in xh.iter_mut().zip(&dxh) {
-            *v += h * d;
-        }
+        observer_step(&mut frozen, (model, gains), (&x, &mut xh), (&th_k, &u_k, h));
         // The plant over [t_k, t_k + h]: RK4 at h/substeps.
-        let mut rhs = |t: f64, x: &[f64], out: &mut [f64]| -> bool {
-            for (i, s) in scenario.theta.iter().enumerate() {
-                th[i] = if run.hold_params[i] { th_k[i] } else { s.at(t) };
-            }
-            for (j, s) in scenario.u.iter().enumerate() {
-                u[j] = if run.hold_inputs[j] { u_k[j] } else { s.at(t) };
-            }
-            if th.iter().chain(&u).any(|v| !v.is_finite()) {
-                return false;
-            }
-            frozen.set(model, &[], &th);
-            frozen.drift(x, out);
-            frozen.add_input(&u, out);
-            true
-        };
         for n in 0..run.substeps {
             let t = tk + n as f64 * dt;
-            let [k1, k2, k3, k4] = &mut stages;
-            let mut ok = rhs(t, &x, k1);
-            axpy(&mut tmp, &x, 0.5 * dt, k1);
-            ok = ok && rhs(t + 0.5 * dt, &tmp, k2);
-            axpy(&mut tmp, &x, 0.5 * dt, k2);
-            ok = ok && rhs(t + 0.5 * dt, &tmp, k3);
-            axpy(&mut tmp, &x, dt, k3);
-            ok = ok && rhs(t + dt, &tmp, k4);
-            if !ok {
+            if !plant.rk4(t, dt, &mut x, &th_k, &u_k) {
                 return Ok(Some(t));
-            }
-            for i in 0..nx {
-                x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
             }
             if x.iter().any(|v| !v.is_finite()) {
                 return Ok(Some(t + dt));
             }
             if n + 1 < run.substeps {
-                let theta: Vec<f64> = (0..th_k.len())
-                    .map(|i| {
-                        if run.hold_params[i] {
-                            th_k[i]
-                        } else {
-                            scenario.theta[i].at(t + dt)
-                        }
-                    })
-                    .collect();
-                let inputs: Vec<f64> = (0..u_k.len())
-                    .map(|j| {
-                        if run.hold_inputs[j] {
-                            u_k[j]
-                        } else {
-                            scenario.u[j].at(t + dt)
-                        }
-                    })
-                    .collect();
+                let (theta, inputs) = plant.signals(t + dt, &th_k, &u_k);
                 let row = SampledRow {
                     t: t + dt,
                     sample: false,
@@ -319,25 +368,27 @@ pub fn check_sampled_run(
             got: p.shape(),
         });
     }
-    let q_inv = match &obs.state_bound {
-        StateBound::Given(q) => q.clone().try_inverse(),
-        _ => None,
-    };
     let gains = design.l_matrices();
-    let (rho, delta, ult) = match &claim.bound {
-        Ok(b) => (
-            (1.0 - run.h * claim.alpha).sqrt(),
-            b.delta,
-            b.ultimate_v_sqrt,
-        ),
-        Err(_) => (f64::NAN, f64::NAN, f64::NAN),
+    let mut rec = match &claim.bound {
+        Ok(b) => Recursion {
+            rho: (1.0 - run.h * claim.alpha).sqrt(),
+            delta: b.delta,
+            ultimate: b.ultimate_v_sqrt,
+            bound: f64::NAN,
+        },
+        Err(_) => Recursion {
+            rho: f64::NAN,
+            delta: f64::NAN,
+            ultimate: f64::NAN,
+            bound: f64::NAN,
+        },
     };
     let v_sqrt = |x: &[f64], xh: &[f64]| {
         let e = DVector::from_iterator(x.len(), x.iter().zip(xh).map(|(a, b)| a - b));
         e.dot(&(&p * &e)).max(0.0).sqrt()
     };
     let mut out = SampledCheck {
-        claim: claim.clone(),
+        claim,
         v0_sqrt: v_sqrt(&scenario.x0, &scenario.xhat0),
         samples: 0,
         worst_ratio: 0.0,
@@ -349,31 +400,79 @@ pub fn check_sampled_run(
         last_error: f64::NAN,
         diverged_at: None,
     };
-    let mut bound = out.v0_sqrt;
-    // The declared rates of the signals the plant follows (held ones: none).
-    let rates: Vec<Option<f64>> = obs
-        .params
-        .iter()
-        .zip(&run.hold_params)
-        .map(|(p, &held)| if held { None } else { p.rate })
-        .chain((0..obs.nu()).map(|j| {
-            let rate = obs.input_rates.get(j).copied().flatten();
-            if run.hold_inputs.get(j).copied().unwrap_or(true) {
-                None
-            } else {
-                rate
-            }
-        }))
-        .collect();
-    let names: Vec<String> = obs
-        .params
-        .iter()
-        .map(|p| p.name.clone())
-        .chain(obs.inputs.iter().cloned())
-        .collect();
-    let mut prev: Option<(f64, Vec<f64>)> = None;
+    rec.bound = out.v0_sqrt;
+    let mut premises = Premises::of(&obs, run);
     let mut each = |r: &SampledRow<'_>| {
-        if let Some(qi) = &q_inv {
+        premises.see(r, &mut out);
+        if r.sample {
+            out.last_error =
+                r.x.iter()
+                    .zip(r.xhat)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .sum::<f64>()
+                    .sqrt();
+            rec.sample(r.t, v_sqrt(r.x, r.xhat), &mut out);
+        }
+        true
+    };
+    out.diverged_at = simulate_sampled_each(&obs, &gains, scenario, run, &mut each)?;
+    Ok(out)
+}
+
+/// The premises of the bound along a run: x in F, θ and u in their
+/// ranges, and the signals the plant follows within their declared rates.
+struct Premises {
+    q_inv: Option<DMatrix<f64>>,
+    ranges: Vec<Option<(f64, f64)>>,
+    rates: Vec<Option<f64>>,
+    names: Vec<String>,
+    prev: Option<(f64, Vec<f64>)>,
+}
+
+impl Premises {
+    fn of(obs: &PolytopicModel, run: &SampledRun) -> Premises {
+        let q_inv = match &obs.state_bound {
+            StateBound::Given(q) => q.clone().try_inverse(),
+            _ => None,
+        };
+        let input = |j: usize| {
+            (
+                obs.input_rates.get(j).copied().flatten(),
+                run.hold_inputs[j],
+            )
+        };
+        Premises {
+            q_inv,
+            ranges: obs
+                .params
+                .iter()
+                .map(|p| Some((p.lo, p.hi)))
+                .chain((0..obs.nu()).map(|j| obs.input_ranges.get(j).copied().flatten()))
+                .collect(),
+            // Held signals have no rate to keep.
+            rates: obs
+                .params
+                .iter()
+                .zip(&run.hold_params)
+                .map(|(p, &held)| if held { None } else { p.rate })
+                .chain((0..obs.nu()).map(|j| match input(j) {
+                    (_, true) => None,
+                    (rate, false) => rate,
+                }))
+                .collect(),
+            names: obs
+                .params
+                .iter()
+                .map(|p| p.name.clone())
+                .chain(obs.inputs.iter().cloned())
+                .collect(),
+            prev: None,
+        }
+    }
+
+    /// Records in `out` the first broken premise of row `r`.
+    fn see(&mut self, r: &SampledRow<'_>, out: &mut SampledCheck) {
+        if let Some(qi) = &self.q_inv {
             let xs = DVector::from_column_slice(r.x);
             let s = xs.dot(&(qi * &xs));
             if s > 1.0 + 1e-9 {
@@ -381,68 +480,67 @@ pub fn check_sampled_run(
                 f.1 = f.1.max(s);
             }
         }
-        let ranges = obs
-            .params
-            .iter()
-            .map(|p| Some((p.lo, p.hi)))
-            .chain((0..obs.nu()).map(|j| obs.input_ranges.get(j).copied().flatten()));
         let now: Vec<f64> = r.theta.iter().chain(r.u).copied().collect();
-        let outside = ranges
+        let outside = self
+            .ranges
+            .iter()
             .zip(&now)
             .any(|(b, &v)| b.is_some_and(|(lo, hi)| v < lo - 1e-12 || v > hi + 1e-12));
         if outside && out.left_theta.is_none() {
             out.left_theta = Some(r.t);
         }
-        if let Some((t0, before)) = &prev {
+        if let Some((t0, before)) = &self.prev {
             let dt = r.t - t0;
             for (i, (a, b)) in before.iter().zip(&now).enumerate() {
                 let slope = (b - a).abs() / dt;
-                if rates[i].is_some_and(|rate| dt > 0.0 && slope > rate * (1.0 + 1e-6))
+                if self.rates[i].is_some_and(|rate| dt > 0.0 && slope > rate * (1.0 + 1e-6))
                     && out.rate_exceeded.is_none()
                 {
-                    out.rate_exceeded = Some((names[i].clone(), r.t, slope));
+                    out.rate_exceeded = Some((self.names[i].clone(), r.t, slope));
                 }
             }
         }
-        prev = Some((r.t, now));
-        if !r.sample {
-            return true;
-        }
+        self.prev = Some((r.t, now));
+    }
+}
+
+/// The certified recursion b_{k+1} = ρ b_k + δ and its limit.
+struct Recursion {
+    rho: f64,
+    delta: f64,
+    ultimate: f64,
+    bound: f64,
+}
+
+impl Recursion {
+    /// Compares √V(e_k) = `v` at sample time `t` with b_k (b_0 = √V(e_0)).
+    fn sample(&mut self, t: f64, v: f64, out: &mut SampledCheck) {
         if out.samples > 0 {
-            bound = rho * bound + delta;
+            self.bound = self.rho * self.bound + self.delta;
         }
         out.samples += 1;
-        let v = v_sqrt(r.x, r.xhat);
-        out.last_error =
-            r.x.iter()
-                .zip(r.xhat)
-                .map(|(a, b)| (a - b) * (a - b))
-                .sum::<f64>()
-                .sqrt();
-        if bound.is_finite() {
-            let ratio = if bound > 0.0 {
-                v / bound
-            } else if v > 0.0 {
-                f64::INFINITY
-            } else {
-                0.0
-            };
-            if out.samples > 1 {
-                out.worst_ratio = out.worst_ratio.max(ratio);
-            }
-            if v > bound * (1.0 + BOUND_SLACK) + 1e-300 {
-                let e = out.exceeded.get_or_insert((r.t, ratio));
-                e.1 = e.1.max(ratio);
-            }
-            if v <= ult * (1.0 + BOUND_SLACK) {
-                out.entered_at.get_or_insert(r.t);
-            } else {
-                out.entered_at = None;
-            }
+        let bound = self.bound;
+        if !bound.is_finite() {
+            return;
         }
-        true
-    };
-    let diverged = simulate_sampled_each(&obs, &gains, scenario, run, &mut each)?;
-    out.diverged_at = diverged;
-    Ok(out)
+        let ratio = if bound > 0.0 {
+            v / bound
+        } else if v > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        };
+        if out.samples > 1 {
+            out.worst_ratio = out.worst_ratio.max(ratio);
+        }
+        if v > bound * (1.0 + BOUND_SLACK) + 1e-300 {
+            let e = out.exceeded.get_or_insert((t, ratio));
+            e.1 = e.1.max(ratio);
+        }
+        if v <= self.ultimate * (1.0 + BOUND_SLACK) {
+            out.entered_at.get_or_insert(t);
+        } else {
+            out.entered_at = None;
+        }
+    }
 }
