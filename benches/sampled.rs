@@ -5,11 +5,12 @@
 //! figure docs/figures/sampled_alpha.svg (α certified against h on the
 //! paper example, the continuous α as the h → 0 asymptote).
 //!
-//! `cargo bench --bench sampled` (prints numbers, writes the figure);
-//! `QPV_BENCH_QUICK=1` skips the slow plants.
+//! `cargo bench --bench sampled` (prints numbers, writes the figure;
+//! `-- figure` or `-- table` runs one part); `QPV_BENCH_QUICK=1` skips the
+//! slow plants.
 
 use qpv::dsl::{AlphaSpec, GammaSpec, Mode, PolytopicModel, Split};
-use qpv::plot::{line_chart, Series, PALETTE};
+use qpv::plot::{line_chart_x, Series, PALETTE};
 use qpv::solve::{design, Design, Settings};
 
 /// CPU time of this thread in seconds (Linux), so the numbers mean
@@ -206,10 +207,10 @@ fn figure() {
         ),
     ];
     let path = std::path::Path::new("docs/figures/sampled_alpha.svg");
-    line_chart(
+    line_chart_x(
         path,
-        "paper example: certified alpha against the sample period h (s), gamma = 0.18898",
-        "alpha (1/s)",
+        "paper example: certified alpha against the sample period h, gamma = 0.18898",
+        ("sample period h [s]", "alpha [1/s]"),
         &series,
         false,
     )
@@ -219,6 +220,12 @@ fn figure() {
 
 fn main() {
     let quick = std::env::var_os("QPV_BENCH_QUICK").is_some();
-    figure();
-    table(quick);
+    let args: Vec<String> = std::env::args().collect();
+    let only = |w: &str| args.iter().any(|a| a == w);
+    if !only("table") {
+        figure();
+    }
+    if !only("figure") {
+        table(quick);
+    }
 }

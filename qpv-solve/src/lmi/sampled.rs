@@ -210,9 +210,9 @@ impl Problem<'_> {
                             out.matrix(&blk, svec_index(pr, pc), &dm, -1.0);
                         }
                     }
-                    for l in 0..self.nv {
+                    for (l, &wl_l) in wl.iter().enumerate() {
                         let hl = hs.iter().find(|(g, _)| *g == l).map(|(_, h)| h);
-                        if hl.is_none() && wl[l] == 0.0 {
+                        if hl.is_none() && wl_l == 0.0 {
                             continue;
                         }
                         for gr in 0..nx {
@@ -226,7 +226,7 @@ impl Problem<'_> {
                                     }
                                 }
                                 if let Some(pos) = outs.iter().position(|&o| o == gc) {
-                                    let v = -sh * wl[l];
+                                    let v = -sh * wl_l;
                                     dm[(x2 + gr, nx + nw + pos)] = v;
                                     dm[(nx + nw + pos, x2 + gr)] = v;
                                 }
