@@ -45,10 +45,23 @@ pub const PALETTE: [RGBColor; 6] = [
 
 /// Draws `series` into an SVG file at `path`; `log_y` uses a logarithmic y
 /// axis (non-positive values are dropped from the log plot, not clamped).
+/// The x axis is time, "t [s]" ([`line_chart_x`] names another).
 pub fn line_chart(
     path: &Path,
     title: &str,
     y_label: &str,
+    series: &[Series],
+    log_y: bool,
+) -> Result<(), String> {
+    line_chart_x(path, title, ("t [s]", y_label), series, log_y)
+}
+
+/// [`line_chart`] with the x axis named `labels.0` (and the y axis
+/// `labels.1`): for figures against something other than time.
+pub fn line_chart_x(
+    path: &Path,
+    title: &str,
+    (x_label, y_label): (&str, &str),
     series: &[Series],
     log_y: bool,
 ) -> Result<(), String> {
@@ -98,7 +111,7 @@ pub fn line_chart(
             let mut chart = $chart;
             chart
                 .configure_mesh()
-                .x_desc("t [s]")
+                .x_desc(x_label)
                 .y_desc(y_label)
                 .y_label_formatter(&|v: &f64| {
                     if log_y {

@@ -49,6 +49,10 @@ pub struct PolytopicModel {
     /// None: not declared). Empty is read as "none declared".
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub input_rates: Vec<Option<f64>>,
+    /// The declared range [lo, hi] of each input (`input u in [lo, hi]`;
+    /// None: not declared). Empty is read as "none declared".
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub input_ranges: Vec<Option<(f64, f64)>>,
     /// Output names.
     pub outputs: Vec<String>,
     /// All declared parameters.
@@ -380,6 +384,7 @@ impl crate::model::Model {
             states: self.states.clone(),
             inputs: self.inputs.clone(),
             input_rates: self.input_rates.clone(),
+            input_ranges: self.input_ranges.clone(),
             outputs: self.outputs.clone(),
             params: self.params.clone(),
             scheduling,

@@ -122,7 +122,6 @@ fn cases() -> Vec<(
         ("state in sample", r("region box(1);", "region box(1); design { sample = x1; }"), 7, 38, "x1", "x1"),
         ("sample with decoupled", r("region box(1);", "region box(1); design { conditions = decoupled; sample = 1e-3; }"), 7, 29, "conditions", "`sample` is designed with the full vertex family"),
         ("sample with cube", r("region box(1);", "region box(1); design { conditions = cube; sample = 1e-3; }"), 7, 29, "conditions", "has no discrete-time form in qpv yet"),
-        ("sample with noise = min", r("region box(1);", "region box(1); design { alpha = 1; noise = min; sample = 1e-3; }"), 7, 40, "noise", "`noise = min` has no discrete-time form in qpv yet"),
         ("sample in paper mode", r("region box(1);", "region box(1); design { mode = paper; sample = 1e-3; }"), 7, 29, "mode", "`sample` needs `mode = sound`"),
         ("sample twice", r("region box(1);", "region box(1); design { sample = 1e-3; sample = 1e-2; }"), 7, 44, "sample", "`sample` is set twice in this design block"),
         ("max_gain with noise = min", r("region box(1);", "region box(1); design { alpha = 1; noise = min; max_gain = 5; }"), 7, 53, "max_gain", "`max_gain` cannot be combined with `noise = min`"),

@@ -22,6 +22,7 @@ fn stable_linear(nx: usize) -> PolytopicModel {
         states: names("x", nx),
         inputs: vec![],
         input_rates: vec![],
+        input_ranges: vec![],
         outputs: names("y", nx),
         params: vec![param("unused", -1.0, 1.0)],
         scheduling: vec![],

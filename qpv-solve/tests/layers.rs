@@ -129,6 +129,7 @@ const OTHERS: &[Crate] = &[
             ("cli::simulate", 3),
             ("cli::gains", 3),
             ("cli::check", 4),
+            ("cli::simulate_sampled", 4),
             ("cli::tradeoff", 4),
             ("cli::codegen", 4),
             ("cli", 5),

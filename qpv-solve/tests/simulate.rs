@@ -25,6 +25,7 @@ fn scalar_model(a0: f64, a1: f64, b: f64, nu: usize) -> PolytopicModel {
         states: names("x", 1),
         inputs: names("u", nu),
         input_rates: vec![],
+        input_ranges: vec![],
         outputs: names("y", 1),
         params: vec![param("theta", 0.0, 1.0)],
         scheduling: vec![0],

@@ -299,6 +299,9 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         }
         _ => "  => NOT certified\n",
     });
+    if let Some((h, _)) = sample {
+        s.push_str(&sampled_lines(&model, &design, h, cert.passed));
+    }
     // Every family holding but no verdict: say which assumption is missing.
     let families_hold = cert.input_errors.is_empty() && cert.families.iter().all(|f| f.passed);
     if code == exit::NOT_CERTIFIED && families_hold && mode == Mode::Sound {
@@ -323,4 +326,29 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         &CheckOutput::new(&model.name, gains, mode_source, split, &cert, code),
     )?;
     Ok(code)
+}
+
+/// What the gains certify at the sample period h beyond the discrete
+/// family (docs/method.md §16), recomputed from the model and the gains:
+/// the continuous-plant bound when the check passed (or why it is not
+/// computed), and the largest α the gains reach at h when it failed.
+fn sampled_lines(model: &Model, design: &Design, h: f64, passed: bool) -> String {
+    let claim = qpv_solve::report::continuous::sampled_claim(&model.polytopic(), design, h);
+    if !passed {
+        return if claim.capacity > 0.0 {
+            format!(
+                "     at this h the gains satisfy the discrete family up to alpha = {:.6} (its capacity for these P, L_l)\n",
+                claim.capacity
+            )
+        } else {
+            "     at this h the gains satisfy the discrete family at no alpha > 0 (the Euler step itself does not contract V)\n".into()
+        };
+    }
+    match &claim.bound {
+        Ok(b) => super::design::continuous_line(h, Some(b)).replace(
+            "continuous plant sampled at h:",
+            "continuous plant sampled at h (recomputed):",
+        ),
+        Err(why) => format!("  continuous plant sampled at h: no bound ({why})\n"),
+    }
 }

@@ -158,11 +158,6 @@ fn check_flags(o: &Options) -> Result<(), CliError> {
                 "--sample {h}: expected a positive sample period in seconds (e.g. 1e-4 for 10 kHz)"
             )));
         }
-        if noise_min {
-            return Err(CliError::Input(
-                "--sample with --noise min: the noise-optimal design has no discrete-time form in qpv yet".into(),
-            ));
-        }
     }
     if let Some(cap) = o.alpha_cap {
         if !(cap.is_finite() && cap > 0.0) {
@@ -191,7 +186,6 @@ fn culprit(clash: Clash, o: &Options) -> &'static str {
         Clash::SamplePaper
         | Clash::SampleDecoupled
         | Clash::SampleCube
-        | Clash::SampleNoiseMin
         | Clash::SampleSkewSlack => (("--sample", o.sample.is_some()), noise),
     };
     if first.1 || !second.1 {
@@ -559,8 +553,13 @@ pub(super) fn describe_noise(d: &Design) -> String {
         return s;
     }
     if let Some(nb) = &d.noise {
+        let claim = if d.sample.is_some() {
+            "V(e_k+1) - (1 - h alpha) V(e_k) <= h sigma (|v_k|^2 + |w_k|^2), noise held over each step"
+        } else {
+            "V' + alpha V <= sigma (|v|^2 + |w|^2)"
+        };
         s.push_str(&format!(
-            "  noise (certified, V' + alpha V <= sigma (|v|^2 + |w|^2) on the region; noisy outputs: {}{}):\n",
+            "  noise (certified, {claim} on the region; noisy outputs: {}{}):\n",
             if nb.noisy_outputs.is_empty() {
                 "none".to_string()
             } else {

@@ -9,6 +9,7 @@ mod input;
 mod schema;
 mod signal;
 mod simulate;
+mod simulate_sampled;
 mod tradeoff;
 mod vertices;
 
@@ -113,6 +114,7 @@ pub fn run(cli: Cli) -> Result<i32, CliError> {
         Command::Tradeoff(o) => tradeoff::run(&o),
         Command::Check(o) => check::run(&o),
         Command::Codegen(o) => codegen::run(&o),
+        Command::Simulate(o) if o.sample.is_some() => simulate_sampled::run(&o),
         Command::Simulate(o) => simulate::run(&o),
     }
 }

@@ -105,6 +105,12 @@ pub struct Options {
     /// Seed of the noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Run the observer stepped at the sample period H seconds (explicit
+    /// Euler on sampled y, u, θ) against the continuous plant (RK4 at
+    /// min(--dt, H/20)), and check the error against the certified
+    /// continuous-plant bound (docs/method.md §16).
+    #[arg(long, value_name = "H", allow_negative_numbers = true)]
+    pub sample: Option<f64>,
 }
 
 /// What the simulation is compared with.
@@ -162,7 +168,7 @@ fn not_certified_reason(
 /// The design a report's gains are simulated and re-checked with: its
 /// mode (sound if absent), α and γ (required: the claim is made at them),
 /// split and the rest of its claim ([`super::gains::Claim::at`]).
-fn claimed_design(claim: super::gains::Claim, path: &Path) -> Result<Design, CliError> {
+pub(super) fn claimed_design(claim: super::gains::Claim, path: &Path) -> Result<Design, CliError> {
     let mode = claim.mode.unwrap_or(qpv_dsl::Mode::Sound);
     let value = |name: &str, v: Option<f64>, ok: fn(f64) -> bool, expected: &str| match v {
         Some(v) if ok(v) => Ok(v),
@@ -493,7 +499,7 @@ fn csv_size_guard(
 
 /// The scenario of `--scenario`, with the run's horizon and step, the
 /// signals and initial state given on the command line.
-fn scenario(o: &Options, poly: &PolytopicModel) -> Result<Scenario, CliError> {
+pub(super) fn scenario(o: &Options, poly: &PolytopicModel) -> Result<Scenario, CliError> {
     let mut sc = match o.scenario.as_str() {
         "paper" => Scenario::paper(poly),
         _ => Scenario::default_for(poly),

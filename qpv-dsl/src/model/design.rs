@@ -346,8 +346,6 @@ impl DesignRequest {
             Some(Clash::SampleDecoupled)
         } else if self.conditions == Conditions::Cube {
             Some(Clash::SampleCube)
-        } else if noise_min {
-            Some(Clash::SampleNoiseMin)
         } else if skew {
             Some(Clash::SampleSkewSlack)
         } else {
@@ -382,8 +380,6 @@ pub enum Clash {
     SampleDecoupled,
     /// `sample` with `conditions = cube`.
     SampleCube,
-    /// `sample` with `noise = min`.
-    SampleNoiseMin,
     /// `sample` with `split = skew_slack`.
     SampleSkewSlack,
 }
@@ -399,7 +395,6 @@ impl Clash {
             Clash::NoiseMinSkewSlack | Clash::SampleSkewSlack => "split",
             Clash::MaxGainNoiseMin | Clash::MaxGainSkewSlack | Clash::MaxGainPaper => "max_gain",
             Clash::SampleDecoupled | Clash::SampleCube => "conditions",
-            Clash::SampleNoiseMin => "noise",
         }
     }
 }
@@ -447,10 +442,6 @@ impl std::fmt::Display for Clash {
                 "`sample` is designed with the full vertex family (`conditions = full` or \
                  `auto`): the matrix-cube relaxation of `conditions = cube` has no \
                  discrete-time form in qpv yet"
-            }
-            Clash::SampleNoiseMin => {
-                "`noise = min` has no discrete-time form in qpv yet: drop `sample` for the \
-                 continuous noise-optimal design, or `noise = min` for the sampled one"
             }
             Clash::SampleSkewSlack => {
                 "`split = skew_slack` searches its slack with the continuous rate \

@@ -6,4 +6,5 @@ pub mod euler;
 pub mod falsify;
 pub mod noise;
 pub(crate) mod rng;
+pub mod sampled;
 pub mod simulate;

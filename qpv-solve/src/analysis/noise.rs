@@ -21,7 +21,8 @@ pub struct NoiseFalsification {
     pub samples: usize,
     /// Points with r ≥ 0 (or a non-finite r).
     pub counterexamples: usize,
-    /// The largest r = (V' + αV − σ(|w|² + |v|²))/V found.
+    /// The largest r = (V' + αV − σ(|w|² + |v|²))/V found (its discrete
+    /// form for a sampled design, see [`falsify_noise`]).
     pub worst_ratio: f64,
     /// The point with the largest ratio.
     pub worst: Option<NoiseSample>,
@@ -56,7 +57,9 @@ impl NoiseFalsification {
 /// does; (v, w) the worst case for that (e, x, θ) (v = −EᵀLᵀPe/σ,
 /// w = B_wᵀPe/σ, the maximiser of the right-hand side) in a quarter of the
 /// draws, otherwise uniform in the ball of radius 2ν_max. Any r ≥ 0 is a
-/// counterexample.
+/// counterexample. A `sample = h` design's claim is the discrete one
+/// (docs/method.md §16): on the Euler error map e⁺ = e + h·e',
+/// r = (V(e⁺) − (1 − hα)V(e) − hσ(|w|² + |v|²))/(hV(e)).
 pub fn falsify_noise(
     plant: &PolytopicModel,
     design: &Design,
@@ -85,6 +88,7 @@ pub fn falsify_noise(
     check_gains(&model, &gains)?;
     let (nx, ny) = (model.nx(), model.ny());
     let (alpha, sigma) = (design.alpha, nb.sigma);
+    let sample = design.sample.map(|s| s.h);
     let rp = factor("P", &p, nx)?;
     let rp_t = rp.transpose();
     let to_e = |z: &DVector<f64>| rp_t.solve_upper_triangular(z);
@@ -175,9 +179,15 @@ pub fn falsify_noise(
         if v <= 0.0 {
             continue;
         }
-        let vdot = 2.0 * pe.dot(&de);
         let n2: f64 = vw.iter().map(|c| c * c).sum();
-        let r = (vdot + alpha * v - sigma * n2) / v;
+        let r = match sample {
+            // The discrete claim on the Euler error map e⁺ = e + h·e'.
+            Some(h) => {
+                let ep = &e + &de * h;
+                (ep.dot(&(&p * &ep)) - (1.0 - h * alpha) * v - h * sigma * n2) / (h * v)
+            }
+            None => (2.0 * pe.dot(&de) + alpha * v - sigma * n2) / v,
+        };
         out.samples += 1;
         let key = if r.is_nan() { f64::INFINITY } else { r };
         if r.is_nan() || r >= 0.0 {

@@ -45,7 +45,7 @@ pub(super) fn input_errors(set: ConditionSet, alpha: f64, h: f64) -> Vec<String>
 
 /// The combination's block W(1 − hα)P, M, WP as one 2nx matrix, and the
 /// size of its terms (for the guard).
-fn block(
+pub(super) fn block(
     terms: &Terms<'_>,
     combo: &Combo,
     alpha: f64,

@@ -382,8 +382,8 @@ pub struct ContinuousBound {
     pub ultimate_v_sqrt: f64,
     /// The ultimate bound on ‖e_k‖ (2-norm): ultimate_v_sqrt / √λ_min(P).
     pub ultimate_error: f64,
-    /// True if every scheduling parameter declares a `rate`; false: the
-    /// parameters without one are assumed constant over each step.
+    /// True if every scheduling parameter and every input declares a
+    /// `rate`; false: those without one are assumed constant over each step.
     pub rates_declared: bool,
 }
 
@@ -391,9 +391,9 @@ impl ContinuousBound {
     /// The assumptions behind the bound, in words.
     pub fn assumption(&self) -> &'static str {
         if self.rates_declared {
-            "x(t) in F between samples, θ(t) in Θ within its declared rates, y and θ sampled at t_k"
+            "x(t) in F between samples, θ(t) in Θ and u(t) in its range within their declared rates, y, u and θ sampled at t_k"
         } else {
-            "x(t) in F between samples; θ constant over each step where no `rate` is declared (a sample-and-hold parameter), y and θ sampled at t_k"
+            "x(t) in F between samples; θ and u constant over each step where no `rate` is declared (sample-and-hold), u(t) in its declared range, y, u and θ sampled at t_k"
         }
     }
 }

@@ -181,7 +181,13 @@ impl Baked {
     /// nothing, docs/method.md §16, nor for a cube design too large for
     /// them).
     pub fn figures(&self) -> Figures {
-        let noise = self.design.noise.as_ref();
+        // A sampled design's noise key is the discrete claim (docs/method.md
+        // §16), not the continuous σ these constants document: not baked.
+        let noise = self
+            .design
+            .noise
+            .as_ref()
+            .filter(|_| self.design.sample.is_none());
         let sampling = self.design.sampling.as_ref();
         Figures {
             sigma: noise.map(|b| b.sigma),

@@ -758,7 +758,19 @@ impl<'m> Problem<'m> {
         };
         match (family, sigma) {
             (RateFamily::Noise(channels), Some(svar)) => {
-                self.push_rate_noise(&mut out, (alpha, gamma), channels, svar, rate.eps);
+                match self.sample {
+                    Some(h) => {
+                        let fam = sampled::SampledNoiseFamily {
+                            channels,
+                            svar,
+                            eps: rate.eps,
+                        };
+                        self.push_rate_noise_sampled(&mut out, (alpha, gamma, h), &fam);
+                    }
+                    None => {
+                        self.push_rate_noise(&mut out, (alpha, gamma), channels, svar, rate.eps)
+                    }
+                }
                 out.cost(svar, 1.0);
             }
             _ => match self.conditions {

@@ -51,6 +51,13 @@ impl Problem<'_> {
         Ok(self)
     }
 
+    /// Moves a problem already validated for a sampled design to another
+    /// sample period (the failure note's search over h; positive finite h).
+    pub(crate) fn set_sample(&mut self, h: f64) {
+        debug_assert!(self.sample.is_some() && h.is_finite() && h > 0.0);
+        self.sample = Some(h);
+    }
+
     /// The sample period of a sampled design, if any.
     pub fn sample(&self) -> Option<f64> {
         self.sample
@@ -127,6 +134,111 @@ impl Problem<'_> {
                             out.a(blk.row0 + idx, mc.var, v * scale);
                         }
                     }
+                }
+            }
+        }
+    }
+}
+
+/// The discrete noise block family's data (docs/method.md §16, "Noise at
+/// the sample period"): the channels, σ̂'s column, the margin εκ.
+pub(super) struct SampledNoiseFamily<'a> {
+    pub(super) channels: &'a crate::model::noise::NoiseChannels,
+    pub(super) svar: usize,
+    pub(super) eps: f64,
+}
+
+impl Problem<'_> {
+    /// The discrete noise family in place of the rate family: per rate
+    /// combination and pair (i, j) the PSD(2nx + k) block
+    /// [W(1 − hα)P̂, 0, Mᵀ; 0, Wσ̂I, √h Ĝᵀ; M, √h Ĝ, WP̂] − δI ⪰ 0 with M as in
+    /// [`Problem::push_rate_sampled`] and Ĝ = [P̂ B_w, −Σ_l w_l Γ̂_l E]
+    /// (the model-unit block divided by s; σ̂ = σ/s).
+    pub(super) fn push_rate_noise_sampled(
+        &self,
+        out: &mut SdpBuilder,
+        (alpha, gamma, h): (f64, f64, f64),
+        fam: &SampledNoiseFamily<'_>,
+    ) {
+        let nx = self.nx;
+        let outs = fam.channels.noisy_outputs(self.ny);
+        let nw = fam.channels.n_w();
+        let k = nw + outs.len();
+        let d = 2 * nx + k;
+        let (x2, sh) = (nx + k, h.sqrt());
+        let kappa = self.rate_scale(alpha, gamma);
+        let c = self.sampled_factor(alpha, gamma, h);
+        let delta = if kappa > 0.0 {
+            fam.eps / kappa * c
+        } else {
+            0.0
+        };
+        let p_reg = self.xs_hat.len();
+        let mut dm = DMatrix::<f64>::zeros(d, d);
+        for ci in 0..self.combos.len() {
+            let combo = &self.combos[ci];
+            let w = combo.weight();
+            let mut bw = DMatrix::<f64>::zeros(nx, nw);
+            let mut wl = vec![0.0; self.nv];
+            for &(l, _, wt) in &combo.terms {
+                if let Some(bb) = &fam.channels.b_w {
+                    bw += &bb[l] * wt;
+                }
+                wl[l] += wt;
+            }
+            for i in 0..p_reg {
+                for j in 0..p_reg {
+                    let (k0, hs) = self.rate_kh(0.0, gamma, ci, i, j);
+                    let blk = out.psd(d, delta);
+                    for pc in 0..nx {
+                        for pr in 0..=pc {
+                            dm.fill(0.0);
+                            let mut e = DMatrix::<f64>::zeros(nx, nx);
+                            e[(pr, pc)] = 1.0;
+                            e[(pc, pr)] = 1.0;
+                            let m = &e * w + &e * &k0 * (h / gamma);
+                            dm.view_mut((0, 0), (nx, nx))
+                                .copy_from(&(&e * (w * (1.0 - h * alpha))));
+                            dm.view_mut((x2, x2), (nx, nx)).copy_from(&(&e * w));
+                            dm.view_mut((x2, 0), (nx, nx)).copy_from(&m);
+                            dm.view_mut((0, x2), (nx, nx)).copy_from(&m.transpose());
+                            if nw > 0 {
+                                let eb = &e * &bw * sh;
+                                dm.view_mut((x2, nx), (nx, nw)).copy_from(&eb);
+                                dm.view_mut((nx, x2), (nw, nx)).copy_from(&eb.transpose());
+                            }
+                            out.matrix(&blk, svec_index(pr, pc), &dm, -1.0);
+                        }
+                    }
+                    for (l, &wl_l) in wl.iter().enumerate() {
+                        let hl = hs.iter().find(|(g, _)| *g == l).map(|(_, h)| h);
+                        if hl.is_none() && wl_l == 0.0 {
+                            continue;
+                        }
+                        for gr in 0..nx {
+                            for gc in 0..self.ny {
+                                dm.fill(0.0);
+                                if let Some(hl) = hl {
+                                    for b in 0..nx {
+                                        let v = -(h / gamma) * hl[(gc, b)];
+                                        dm[(x2 + gr, b)] = v;
+                                        dm[(b, x2 + gr)] = v;
+                                    }
+                                }
+                                if let Some(pos) = outs.iter().position(|&o| o == gc) {
+                                    let v = -sh * wl_l;
+                                    dm[(x2 + gr, nx + nw + pos)] = v;
+                                    dm[(nx + nw + pos, x2 + gr)] = v;
+                                }
+                                out.matrix(&blk, self.gvar(l, gr, gc), &dm, -1.0);
+                            }
+                        }
+                    }
+                    dm.fill(0.0);
+                    for t in nx..nx + k {
+                        dm[(t, t)] = w;
+                    }
+                    out.matrix(&blk, fam.svar, &dm, -1.0);
                 }
             }
         }

@@ -217,6 +217,7 @@ pub fn augment(model: &PolytopicModel, f: &OutputFilter) -> Result<PolytopicMode
         states,
         inputs: model.inputs.clone(),
         input_rates: model.input_rates.clone(),
+        input_ranges: model.input_ranges.clone(),
         outputs: filt,
         params: model.params.clone(),
         scheduling: model.scheduling.clone(),

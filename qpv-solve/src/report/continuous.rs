@@ -18,14 +18,16 @@
 //! ‖e_k‖_P ≤ ρ^k ‖e_0‖_P + δ(1 − ρ^k)/(1 − ρ) → δ/(1 − ρ) (an ultimate
 //! bound), ‖e‖ ≤ ‖e‖_P / √λ_min(P).
 //!
-//! ẍ = f_x(x, θ) f(x, θ) + Σ_i ∂f/∂θ_i θ̇_i (no inputs). On the polytopic
+//! ẍ = f_x f + B(θ) u̇ + Σ_i ∂f/∂θ_i θ̇_i (f = f(x, u, θ)). On the polytopic
 //! model f(x, θ) = Σ_l μ_l(θ) f_l(x) exactly (multi-affine in θ, no derived
-//! scheduling variables, no cover), with f_l(x) = A_l x + (xᵀN_{l,k}x)_k:
+//! scheduling variables, no cover), with f_l(x, u) = A_l x + (xᵀN_{l,k}x)_k + B_l u:
 //! f_x f = Σ_{l,m} μ_l μ_m J_l(x) f_m(x) lies in the hull of the J_l f_m,
 //! and ∂f/∂θ_i lies in the hull of (f_{l+} − f_{l−})/(hi_i − lo_i) over the
 //! edges of the box along θ_i. Each is bounded by interval arithmetic on
-//! the bounding box of F = {xᵀQ⁻¹x ≤ 1}, |x_i| ≤ √Q_ii. A parameter without
-//! a declared `rate` is assumed constant over each step (its term is 0).
+//! the bounding box of F = {xᵀQ⁻¹x ≤ 1}, |x_i| ≤ √Q_ii, and the inputs'
+//! declared ranges; B(θ)u̇ lies in the hull of the B_l u̇ with |u̇_j| ≤ its
+//! declared rate. A parameter or an input without a declared `rate` is
+//! assumed constant over each step (its term is 0).
 
 use crate::report::Design;
 use nalgebra::DMatrix;
@@ -62,8 +64,9 @@ impl Iv {
     }
 }
 
-/// f_l(X) componentwise: A_l x + (xᵀN_{l,k}x)_k on the box X.
-fn f_iv(a: &DMatrix<f64>, n: &[DMatrix<f64>], x: &[Iv]) -> Vec<Iv> {
+/// f_l(X, U) componentwise: A_l x + (xᵀN_{l,k}x)_k + B_l u on the box X × U.
+fn f_iv(v: &qpv_dsl::Vertex, x: &[Iv], u: &[Iv]) -> Vec<Iv> {
+    let (a, n) = (&v.a, &v.n);
     let nx = x.len();
     (0..nx)
         .map(|k| {
@@ -78,6 +81,11 @@ fn f_iv(a: &DMatrix<f64>, n: &[DMatrix<f64>], x: &[Iv]) -> Vec<Iv> {
                             s = s.add(x[i].mul(x[j]).scale(nk[(i, j)]));
                         }
                     }
+                }
+            }
+            for (j, uj) in u.iter().enumerate() {
+                if v.b.ncols() > j && v.b[(k, j)] != 0.0 {
+                    s = s.add(uj.scale(v.b[(k, j)]));
                 }
             }
             s
@@ -108,44 +116,63 @@ fn jac_iv(a: &DMatrix<f64>, n: &[DMatrix<f64>], x: &[Iv]) -> Vec<Vec<Iv>> {
         .collect()
 }
 
-/// The bound for the continuous plant at (h, α) with the Lyapunov matrix
-/// `p` (model units, nx × nx), or why it is not computed.
-pub fn continuous_bound(
-    model: &PolytopicModel,
-    alpha: f64,
-    h: f64,
-    p: &DMatrix<f64>,
-) -> Result<ContinuousBound, String> {
+/// The box X × U of the bound: |x_i| ≤ √Q_ii (F's bounding box) and each
+/// input's declared range, and each input's declared rate (None: held over
+/// the step), or why it cannot be formed.
+type Boxes = (Vec<Iv>, Vec<Iv>, Vec<Option<f64>>);
+
+fn boxes(model: &PolytopicModel) -> Result<Boxes, String> {
     let nx = model.nx();
-    if model.nu() > 0 {
-        return Err(
-            "the model has inputs and declares no bound on their amplitude: f over F is not bounded"
-                .into(),
-        );
-    }
     if !model.derived.is_empty() || model.cover.is_some() {
         return Err("the model has derived scheduling variables or a cover: its polytopic form over-approximates the plant, whose θ-derivative is not bounded yet".into());
     }
     let StateBound::Given(q) = &model.state_bound else {
         return Err("no state bound Q: F is not known".into());
     };
-    if p.shape() != (nx, nx) || q.shape() != (nx, nx) {
-        return Err(
-            "P is not nx × nx (an output filter design): not computed for this route".into(),
-        );
+    if q.shape() != (nx, nx) {
+        return Err("Q is not nx × nx".into());
     }
-    if !(h > 0.0 && h * alpha > 0.0 && h * alpha < 1.0) {
-        return Err(format!("hα = {} is not in (0, 1)", h * alpha));
-    }
-    let x: Vec<Iv> = (0..nx)
+    let x = (0..nx)
         .map(|i| {
             let r = q[(i, i)].max(0.0).sqrt();
             Iv(-r, r)
         })
         .collect();
+    let mut u = Vec::with_capacity(model.nu());
+    let mut missing = Vec::new();
+    for (j, name) in model.inputs.iter().enumerate() {
+        match model.input_ranges.get(j).copied().flatten() {
+            Some((lo, hi)) => u.push(Iv(lo, hi)),
+            None => missing.push(name.as_str()),
+        }
+    }
+    if !missing.is_empty() {
+        return Err(format!(
+            "input(s) {} declare no range (`input u in [lo, hi];`): f over F is not bounded",
+            missing.join(", ")
+        ));
+    }
+    let rates = (0..model.nu())
+        .map(|j| model.input_rates.get(j).copied().flatten())
+        .collect();
+    Ok((x, u, rates))
+}
+
+/// Componentwise bounds on ẍ over X × U × Θ: the hull of J_l(f_m + B_m u)
+/// over (l, m), plus Σ_j |B_l e_j| |u̇_j| over l for the inputs with a
+/// declared rate, plus Σ_i |θ̇_i| |∂f/∂θ_i| (edges of the box along θ_i)
+/// for the parameters with one. Also: whether every scheduling parameter
+/// and every input declares a rate.
+fn accel_bounds(
+    model: &PolytopicModel,
+    x: &[Iv],
+    u: &[Iv],
+    urates: &[Option<f64>],
+) -> (Vec<f64>, bool) {
+    let nx = x.len();
     let vs = &model.vertices;
-    let fs: Vec<Vec<Iv>> = vs.iter().map(|v| f_iv(&v.a, &v.n, &x)).collect();
-    let js: Vec<Vec<Vec<Iv>>> = vs.iter().map(|v| jac_iv(&v.a, &v.n, &x)).collect();
+    let fs: Vec<Vec<Iv>> = vs.iter().map(|v| f_iv(v, x, u)).collect();
+    let js: Vec<Vec<Vec<Iv>>> = vs.iter().map(|v| jac_iv(&v.a, &v.n, x)).collect();
     // f_x f: the hull over (l, m) of J_l f_m.
     let mut acc = vec![0.0f64; nx];
     for j in &js {
@@ -159,9 +186,21 @@ pub fn continuous_bound(
             }
         }
     }
+    let mut rates_declared = urates.iter().all(Option::is_some);
+    // B(θ) u̇: the hull over l of B_l u̇, |u̇_j| ≤ rate_j.
+    let mut input_term = vec![0.0f64; nx];
+    for v in vs {
+        for (k, it) in input_term.iter_mut().enumerate() {
+            let s: f64 = urates
+                .iter()
+                .enumerate()
+                .filter_map(|(j, r)| r.map(|r| v.b[(k, j)].abs() * r))
+                .sum();
+            *it = it.max(s);
+        }
+    }
     // Σ_i ∂f/∂θ_i θ̇_i: edges along each scheduling parameter.
     let s = model.scheduling.len();
-    let mut rates_declared = true;
     let mut theta_term = vec![0.0f64; nx];
     for (i, &pi) in model.scheduling.iter().enumerate() {
         let par = &model.params[pi];
@@ -182,12 +221,34 @@ pub fn continuous_bound(
             theta_term[k] += rate * worst[k];
         }
     }
-    let accel = acc
-        .iter()
-        .zip(&theta_term)
-        .map(|(a, t)| (a + t).powi(2))
-        .sum::<f64>()
-        .sqrt();
+    let total = (0..nx)
+        .map(|k| acc[k] + input_term[k] + theta_term[k])
+        .collect();
+    (total, rates_declared)
+}
+
+/// The bound for the continuous plant at (h, α) with the Lyapunov matrix
+/// `p` (model units, nx × nx), or why it is not computed. Inputs need a
+/// declared range (`input u in [lo, hi]`); an input or a scheduling
+/// parameter without a declared `rate` is assumed constant over each step.
+pub fn continuous_bound(
+    model: &PolytopicModel,
+    alpha: f64,
+    h: f64,
+    p: &DMatrix<f64>,
+) -> Result<ContinuousBound, String> {
+    let nx = model.nx();
+    let (x, u, urates) = boxes(model)?;
+    if p.shape() != (nx, nx) {
+        return Err(
+            "P is not nx × nx (an output filter design): not computed for this route".into(),
+        );
+    }
+    if !(h > 0.0 && h * alpha > 0.0 && h * alpha < 1.0) {
+        return Err(format!("hα = {} is not in (0, 1)", h * alpha));
+    }
+    let (acc, rates_declared) = accel_bounds(model, &x, &u, &urates);
+    let accel = acc.iter().map(|a| a * a).sum::<f64>().sqrt();
     let ps = (p + p.transpose()) * 0.5;
     let eig = ps.symmetric_eigenvalues();
     let (lmin, lmax) = (eig.min(), eig.max());
@@ -209,13 +270,87 @@ pub fn continuous_bound(
     })
 }
 
+/// What a design's gains certify at a sample period h, recomputed from the
+/// model as it is now and the gains as given (never read from a report):
+/// the discrete family at α, and the continuous-plant bound at (h, α).
+#[derive(Debug, Clone)]
+pub struct SampledClaim {
+    /// The sample period h.
+    pub h: f64,
+    /// The α checked: the report's α, lowered to just below the gains'
+    /// capacity at h when it exceeds it (a continuous design's gains
+    /// checked at a rate, or a report's α the gains do not reach).
+    pub alpha: f64,
+    /// The largest α the same P, L_l satisfy the discrete family with
+    /// ([`crate::certificate::alpha_capacity_sampled`]; 0: none).
+    pub capacity: f64,
+    /// The independent certificate (family S5d) at (h, `alpha`).
+    pub certificate: crate::certificate::Certificate,
+    /// The bound for the continuous plant sampled at h, or why it is not
+    /// computed (not certified, inputs without a range, derived
+    /// scheduling, a cover, the filter route).
+    pub bound: Result<ContinuousBound, String>,
+}
+
+/// Recomputes what `design`'s P and L_l certify at the sample period `h`
+/// on the plant `model`: the α capacity of the discrete family, the
+/// independent certificate at α = min(the design's α, 0.999999 × that
+/// capacity), and the continuous-plant bound when the certificate passes.
+pub fn sampled_claim(model: &PolytopicModel, design: &Design, h: f64) -> SampledClaim {
+    let p = design.p_matrix();
+    let obs = design.observer_model(model);
+    let capacity = match &obs {
+        Ok(obs) if p.nrows() == obs.nx() => {
+            let gammas: Vec<DMatrix<f64>> = design.l_matrices().iter().map(|l| &p * l).collect();
+            crate::certificate::alpha_capacity_sampled(obs, design.gamma, h, &p, &gammas)
+        }
+        _ => 0.0,
+    };
+    let alpha = if capacity > 0.0 {
+        design.alpha.min(capacity * (1.0 - 1e-6))
+    } else {
+        design.alpha
+    };
+    let mut at = design.clone();
+    at.alpha = alpha;
+    at.sample = Some(crate::certificate::sampling::SampleInfo::new(h, alpha));
+    let certificate = match &obs {
+        Ok(obs) => at.recheck_on(obs),
+        Err(_) => at.recheck(model),
+    };
+    let bound = if !certificate.passed {
+        Err(format!(
+            "the gains are not certified at h = {h:e} (the discrete family fails at α = {alpha:.6})"
+        ))
+    } else {
+        match &obs {
+            Ok(obs) if obs.nx() == model.nx() => continuous_bound(obs, alpha, h, &p),
+            Ok(_) => Err("the output filter route: not computed for this route".into()),
+            Err(e) => Err(format!("observer's model: {e}")),
+        }
+    };
+    SampledClaim {
+        h,
+        alpha,
+        capacity,
+        certificate,
+        bound,
+    }
+}
+
 /// Adds the continuous-plant bound to a certified sampled design's `sample`
 /// key, or a note saying why it is not computed.
 pub fn attach(model: &PolytopicModel, d: &mut Design) {
     let Some(h) = d.sample.map(|s| s.h) else {
         return;
     };
-    match continuous_bound(model, d.alpha, h, &d.p_matrix()) {
+    // The design's observer model carries the state bound it used (also
+    // a computed one, `state_bound auto`); the filter route's is larger.
+    let bound = match d.observer_model(model) {
+        Ok(obs) if obs.nx() == model.nx() => continuous_bound(&obs, d.alpha, h, &d.p_matrix()),
+        _ => continuous_bound(model, d.alpha, h, &d.p_matrix()),
+    };
+    match bound {
         Ok(b) => {
             if let Some(s) = d.sample.as_mut() {
                 s.continuous_bound = Some(b);

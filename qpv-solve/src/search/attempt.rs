@@ -7,6 +7,7 @@
 use super::{Claims, Ctx};
 use crate::backend::Status;
 use crate::certificate::noise::{bound_from, sigma_for, NoiseBound};
+use crate::certificate::noise_sampled::SampledNoise;
 use crate::certificate::{
     alpha_capacity, alpha_capacity_cube, alpha_capacity_sampled, check, data_checks, Certificate,
     Gains,
@@ -222,8 +223,19 @@ impl Ctx<'_, '_> {
             Solve::Lmi(..) => true,
             Solve::Noise(ch) => {
                 let (m, a) = (self.model, pt.alpha);
-                pt.noise = sigma_for(m, ch, a, pt.gamma, &pt.p, &pt.gammas)
-                    .and_then(|(s, c)| bound_from(m, ch, a, &pt.p, s, c));
+                pt.noise = match self.sample {
+                    // The discrete noise claim (docs/method.md §16).
+                    Some(h) => SampledNoise {
+                        model: m,
+                        channels: ch,
+                        alpha: a,
+                        gamma: pt.gamma,
+                        h,
+                    }
+                    .bound(&pt.p, &pt.l),
+                    None => sigma_for(m, ch, a, pt.gamma, &pt.p, &pt.gammas)
+                        .and_then(|(s, c)| bound_from(m, ch, a, &pt.p, s, c)),
+                };
                 pt.noise.is_some()
             }
         }

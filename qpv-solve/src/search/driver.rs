@@ -440,17 +440,90 @@ impl Ctx<'_, '_> {
             AlphaSpec::Fixed(a) => format!("α = {a}"),
             AlphaSpec::Max => "any α".to_string(),
         };
+        let target = match requested {
+            AlphaSpec::Fixed(a) => a,
+            AlphaSpec::Max => self.settings.alpha_floor,
+        };
+        let shorter = match self.longest_period(target, gamma, h)? {
+            Some((hs, hf)) => format!(
+                "α = {target} certifies at the shorter period {} and fails at {hf:.4e} s: sample at least every {hs:.4e} s ({:.4} Hz or faster; the largest h for this α at γ = {gamma:.6} lies in [{hs:.4e}, {hf:.4e}))",
+                crate::certificate::sampling::describe_period(hs),
+                1.0 / hs
+            ),
+            None => format!(
+                "α = {target} does not certify at γ = {gamma:.6} even at h = {:.3e} s: the continuous design at this γ does not reach it either (the sampled α never exceeds the continuous one)",
+                h / LONGEST_PERIOD_SHRINK.powi(LONGEST_PERIOD_DOWN as i32)
+            ),
+        };
+        let tail = if target >= self.settings.alpha_cap {
+            String::new()
+        } else {
+            format!(". {shorter}")
+        };
         Ok(match best {
             Some(p) => format!(
-                "not certified at {at}: {asked} is beyond this rate; the largest α certified at this h and γ = {gamma:.6} is {:.6} (decrease 1 − hα = {:.6} per step; coarse search). A design at a shorter h certifies more (α → the continuous α_max as h → 0)",
+                "not certified at {at}: {asked} is beyond this rate; the largest α certified at this h and γ = {gamma:.6} is {:.6} (decrease 1 − hα = {:.6} per step; coarse search){tail}",
                 p.alpha,
                 1.0 - h * p.alpha
             ),
             None => format!(
-                "not certified at {at}: no α ≥ {} certifies the discrete decrease at this h and γ = {gamma:.6}: the step is too long for this plant and region (the explicit Euler step itself must contract V); try a shorter h, or a continuous design and its certified Euler step (`sampling.max_step_euler`)",
+                "not certified at {at}: no α ≥ {} certifies the discrete decrease at this h and γ = {gamma:.6}: the step is too long for this plant and region (the explicit Euler step itself must contract V){tail}",
                 self.settings.alpha_floor
             ),
         })
+    }
+
+    /// The longest sample period h_ok < `h` at which α = `target` certifies
+    /// at `gamma`, with the failed period just above it (within a factor
+    /// [`LONGEST_PERIOD_RATIO`]): periods
+    /// h/4, h/16, ... (at most [`LONGEST_PERIOD_DOWN`]) until one certifies,
+    /// then bisection in ln h between it and the shortest failed one
+    /// (feasibility is monotone in h only in practice, not by proof: the
+    /// answer is a certified period and a failed one just above it). None:
+    /// not even the shortest period tried certifies.
+    fn longest_period(
+        &mut self,
+        target: f64,
+        gamma: f64,
+        h: f64,
+    ) -> Result<Option<(f64, f64)>, SolveError> {
+        let saved = self.sample;
+        let probe = |ctx: &mut Self, hp: f64| -> Result<bool, SolveError> {
+            ctx.sample = Some(hp);
+            ctx.prob.set_sample(hp);
+            let cand = Candidate::new(target, gamma);
+            let solve = Solve::Lmi(Objective::MaxMargin, None);
+            if ctx.attempt(cand, solve, Phase::Diagnose)?.certified {
+                return Ok(true);
+            }
+            Ok(ctx.attempt_regularised(cand, Phase::Diagnose)?.certified)
+        };
+        let mut fail = h;
+        let mut ok = None;
+        for _ in 0..LONGEST_PERIOD_DOWN {
+            let hp = fail / LONGEST_PERIOD_SHRINK;
+            if probe(self, hp)? {
+                ok = Some(hp);
+                break;
+            }
+            fail = hp;
+        }
+        if let Some(mut lo) = ok {
+            while fail / lo > LONGEST_PERIOD_RATIO {
+                let mid = (lo * fail).sqrt();
+                if probe(self, mid)? {
+                    lo = mid;
+                } else {
+                    fail = mid;
+                }
+            }
+            ok = Some(lo);
+        }
+        self.sample = saved;
+        if let Some(hs) = saved {
+            self.prob.set_sample(hs);
+        }
+        Ok(ok.map(|lo| (lo, fail)))
     }
 
     /// Notes on the solves: unknown statuses, a certified point from an
@@ -960,6 +1033,15 @@ impl Ctx<'_, '_> {
         Ok(findings)
     }
 }
+
+/// The failure note's search for the longest period at which the asked α
+/// certifies: steps down by this factor ...
+const LONGEST_PERIOD_SHRINK: f64 = 4.0;
+/// ... at most this many times ...
+const LONGEST_PERIOD_DOWN: usize = 6;
+/// ... then bisects in ln h until the certified and the failed period are
+/// within this ratio.
+const LONGEST_PERIOD_RATIO: f64 = 1.1;
 
 /// The condition families a point fails, with their worst margins.
 fn failures(p: &Point) -> Vec<String> {

@@ -150,8 +150,12 @@ fn noise_notes(
     route_info: &OutputRouteInfo,
     bound_info: &StateBoundInfo,
 ) -> Vec<String> {
+    let claim = match request.sample {
+        Some(_) => "V(e_k+1) − (1 − hα)V(e_k) ≤ hσ(|w_k|² + |v_k|²) (noise held over each step, docs/method.md §16)",
+        None => "V' + αV ≤ σ(|w|² + |v|²)",
+    };
     let mut notes = vec![format!(
-        "noise = min: σ of V' + αV ≤ σ(|w|² + |v|²) minimised at α = {alpha}{}; noise on {}{}",
+        "noise = min: σ of {claim} minimised at α = {alpha}{}; noise on {}{}",
         match request.gamma {
             GammaSpec::Fixed(_) => String::new(),
             GammaSpec::Search => ", γ searched for the smallest error bound √(σ/(α λ_min(P))) (grid and golden section)".to_string(),
@@ -213,7 +217,6 @@ fn noise_report(
     let solved = DesignRequest {
         conditions: qpv_dsl::Conditions::Full,
         max_gain: None,
-        sample: None,
         ..request.clone()
     };
     let at = Candidate::new(alpha, shown.as_ref().map_or(gamma_req, |pt| pt.gamma));
@@ -225,20 +228,31 @@ fn noise_report(
     };
     let mut d = design_of(obs, &solved, shown, ctx.steps);
     let (gamma_r, max_gain) = (d.gamma, d.gain_norms.iter().copied().fold(0.0, f64::max));
-    let mut summary = match &d.noise {
-        Some(nb) => format!(
+    let mut summary = match (&d.noise, request.sample) {
+        (Some(nb), Some(h)) => format!(
+            "CERTIFIED at {} (sound conditions S1-S3, the discrete decrease S5d and the discrete noise block LMI): V(e_k+1) − (1 − hα)V(e_k) ≤ hσ(|w_k|² + |v_k|²) with α = {alpha:.6}, γ = {gamma_r:.6}, σ = {:.6e}; E stays invariant for noise amplitude up to ν_max = {:.4e}; lim sup ‖e_k‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
+            crate::certificate::sampling::describe_period(h),
+            nb.sigma, nb.max_amplitude, nb.error_bound
+        ),
+        (Some(nb), None) => format!(
             "CERTIFIED (sound conditions S1-S5 and the noise block LMI): V' + αV ≤ σ(|w|² + |v|²) with α = {alpha:.6}, γ = {gamma_r:.6}, σ = {:.6e}; E stays invariant for noise amplitude up to ν_max = {:.4e}; ‖e(∞)‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
             nb.sigma, nb.max_amplitude, nb.error_bound
         ),
-        None => format!(
-            "NOT CERTIFIED (noise = min) at α = {alpha:.6}, γ = {gamma_r:.6}: solver {status}."
+        (None, _) => format!(
+            "NOT CERTIFIED (noise = min{}) at α = {alpha:.6}, γ = {gamma_r:.6}: solver {status}.",
+            request.sample.map_or(String::new(), |h| format!(
+                ", {}",
+                crate::certificate::sampling::describe_period(h)
+            ))
         ),
     };
     let notes: Notes = notes.into();
     append_notes(&mut summary, &notes);
     d.summary = summary;
     d.notes = notes;
-    if d.certifies {
+    if d.certifies && d.sample.is_some() {
+        crate::report::continuous::attach(obs, &mut d);
+    } else if d.certifies {
         let (p, l) = (d.p_matrix(), d.l_matrices());
         d.sampling = crate::certificate::sampling::sampling(obs, alpha, d.gamma, &p, &l);
     }
@@ -280,9 +294,18 @@ pub fn design_noise_with_progress(
         return Err(SolveError::NoGammaRange(gmax));
     }
     let gamma_hi = gmax.min(1.0) * (1.0 - 1e-6);
-    let prob = Problem::new(obs, ConditionSet::Sound)?;
+    if let Some(h) = request.sample {
+        if h * alpha >= 1.0 {
+            return Err(SolveError::Unsupported(format!(
+                "sample = {h:e} with α = {alpha}: hα ≥ 1, no Lyapunov function decreases by a factor 1 − hα ≤ 0 per step"
+            )));
+        }
+    }
+    let prob = Problem::new(obs, ConditionSet::Sound)?.with_sample(request.sample)?;
+    let mut ctx = Ctx::new(obs, Mode::Sound, settings, prob, progress);
+    ctx.sample = request.sample;
     let mut search = NoiseSearch {
-        ctx: Ctx::new(obs, Mode::Sound, settings, prob, progress),
+        ctx,
         channels: &ch,
         alpha,
         last_uncertified: None,
