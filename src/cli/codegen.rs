@@ -14,6 +14,7 @@ use super::input::{exit, load_model, load_model_for, CliError};
 use qpv_codegen::c::{CModel, Float};
 use qpv_codegen::{CertifiedDesign, Figures};
 use qpv_dsl::{Mode, Model, OutputRoute};
+use qpv_solve::certificate::rounding::RhsRounding;
 use qpv_solve::export::{self, BakeError, Baked};
 use qpv_solve::Design;
 use std::path::{Path, PathBuf};
@@ -153,17 +154,42 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             euler: f.euler,
             rk4: f.rk4,
             f32_floor: None,
+            f32_euler: None,
         },
         sample: d.sample.map(|s| s.h),
     };
     let scheduling = plant.scheduling.clone();
     let mut floor_note = String::new();
     if float == Float::F32 {
-        let floor = baked.f32_floor(|xs, xh| {
-            qpv_codegen::rounding::design_error(&model, &scheduling, &design, xs, xh)
+        let floor = baked.f32_floor(|xs, radius| {
+            qpv_codegen::rounding::design_error(&model, &scheduling, &design, xs, radius).map(|r| {
+                RhsRounding {
+                    constant: r.constant,
+                    proportional: r.proportional,
+                    derivative: r.derivative,
+                    state: r.state,
+                }
+            })
         });
         match floor {
-            Ok(v) => design.figures.f32_floor = Some(v),
+            Ok(f) => {
+                design.figures.f32_floor = Some(f.error_bound);
+                design.figures.f32_euler = f.euler.map(|e| qpv_codegen::design::EulerFloor {
+                    base: e.base,
+                    per_step: e.per_step,
+                    min_step: e.min_step,
+                });
+                floor_note = format!(
+                    " The rounding is d0 + d1*rho per state (rho = sqrt(e'Pe)): D0 = {:.3e}, \
+                     D1 = {:.3e} in P-norm, so the rate drops to alpha - 2*D1 = {:.6e} and the \
+                     constant part ends in lim sup |e| <= {:.3e} ({} bound).",
+                    f.constant,
+                    f.proportional,
+                    d.alpha - 2.0 * f.proportional,
+                    f.error_bound,
+                    f.via
+                );
+            }
             Err(e) => floor_note = format!(" No f32 error floor is certified: {e}."),
         }
     }
