@@ -346,6 +346,10 @@ fn the_design_path_refuses_paper_mode_and_exports_the_sound_design() {
     );
     assert!(source.contains("const paper_sound_real paper_sound_ALPHA = 10.0;"));
     assert!(
+        !header.contains("ALPHA_SUP"),
+        "a fixed α has no supremum estimate"
+    );
+    assert!(
         !source.contains("#include <math.h>"),
         "no libm without scheduling functions"
     );
@@ -559,4 +563,42 @@ fn an_uncertified_design_block_is_explained_as_qpv_explains_it() {
     );
     assert!(err.contains("nothing written"), "{err}");
     assert!(!d.join("paper_sound.c").exists());
+}
+
+#[test]
+fn an_alpha_max_design_exports_its_supremum_estimate() {
+    // examples/lorenz.qpv: `alpha = max` (the practical design, 1 % below
+    // the supremum estimate unless the gains force the knee).
+    let Some(cc) = c_compiler() else { return };
+    let d = dir("alpha-sup");
+    let out = d.to_str().expect("utf-8");
+    qpv(&["codegen", "examples/lorenz.qpv", "--out", out]);
+    let source = std::fs::read_to_string(d.join("lorenz.c")).expect("C source");
+    let header = std::fs::read_to_string(d.join("lorenz.h")).expect("C header");
+    assert!(header.contains("extern const lorenz_real lorenz_ALPHA_SUP;"));
+    assert!(header.contains("not a rate this design certifies"));
+    let value = |name: &str| -> f64 {
+        let key = format!("const lorenz_real lorenz_{name} = ");
+        let line = source
+            .lines()
+            .find(|l| l.starts_with(&key))
+            .unwrap_or_else(|| panic!("no {name} in the source"));
+        line[key.len()..]
+            .trim_end_matches(';')
+            .parse()
+            .expect("a number")
+    };
+    let (alpha, sup) = (value("ALPHA"), value("ALPHA_SUP"));
+    assert!(
+        alpha > 0.0 && alpha <= sup,
+        "ALPHA = {alpha}, ALPHA_SUP = {sup}"
+    );
+    let c = Command::new(&cc)
+        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c"])
+        .arg(d.join("lorenz.c"))
+        .arg("-o")
+        .arg(d.join("l.o"))
+        .output()
+        .expect("cc runs");
+    assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
 }

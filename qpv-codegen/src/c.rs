@@ -526,6 +526,14 @@ impl<'a> Ctx<'a> {
                  F32_EULER_FLOOR + F32_EULER_UPDATE_ROUNDING / h (INFINITY: none certified) */"
             );
         }
+        if self.d.alpha_sup.is_some() {
+            let _ = writeln!(
+                h,
+                "extern const {r} {name}_ALPHA_SUP; /* alpha = max: the search's estimate of the \
+                 certified supremum of alpha; an estimate, not a rate this design certifies \
+                 (that is ALPHA) */"
+            );
+        }
         if let Some(t) = self.d.sample_text() {
             let _ = writeln!(
                 h,
@@ -692,6 +700,9 @@ impl<'a> Ctx<'a> {
                 let v = v.filter(|x| x.is_finite()).map(round_up_to_f32);
                 let _ = writeln!(s, "const {r} {name}_{k} = {};", self.fig(v, inf));
             }
+        }
+        if let Some(a) = d.alpha_sup {
+            let _ = writeln!(s, "const {r} {name}_ALPHA_SUP = {};", p.num(a));
         }
         if let Some(period) = d.sample {
             let _ = writeln!(s, "const {r} {name}_SAMPLE_PERIOD = {};", p.num(period));
@@ -1133,6 +1144,13 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
         d.gamma,
         shape.nv
     );
+    if let Some(a) = d.alpha_sup {
+        let _ = writeln!(
+            t,
+            "alpha = max: the search's certified supremum estimate is ALPHA_SUP = {a} (an \
+             estimate of the supremum, not a rate of this design)"
+        );
+    }
     if let (Some(text), Some(period)) = (d.sample_text(), d.sample) {
         let _ = writeln!(
             t,

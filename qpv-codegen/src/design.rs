@@ -40,6 +40,11 @@ pub struct CertifiedDesign {
     /// where nothing could be certified (then the generated constants say
     /// "no bound": an infinite σ and zero steps).
     pub figures: Figures,
+    /// `alpha = max`: the search's estimate of the certified supremum α_sup
+    /// (the fastest α it certified, at another γ or a higher gain). An
+    /// estimate of the supremum, not a certified rate of this design
+    /// (`alpha` is). `None` for a fixed α.
+    pub alpha_sup: Option<f64>,
     /// `sample = h`: the sample period (seconds) the design is certified at
     /// (the discrete decrease S5d: the observer stepped by one explicit
     /// Euler step of exactly h, V(e_{k+1}) ≤ (1 − hα)V(e_k)); then the

@@ -216,6 +216,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 figures: Figures::default(),
                 float: req.float,
                 sample: req.sample,
+                alpha_sup: None,
             }
         };
         emit::emit(&EmitModel {
@@ -276,7 +277,7 @@ fn one_design(
     if let Some(baked) = hit {
         return Ok(Outcome {
             origin: "cache hit, re-certified",
-            numbers: numbers(model, poly, &request, &baked),
+            numbers: numbers(model, poly, (req, &request), &baked),
         });
     }
     let (design, baked) = solve(poly, req, &settings, &request)?;
@@ -285,7 +286,7 @@ fn one_design(
     }
     Ok(Outcome {
         origin: "solved",
-        numbers: numbers(model, poly, &request, &baked),
+        numbers: numbers(model, poly, (req, &request), &baked),
     })
 }
 
@@ -339,7 +340,12 @@ fn solve(
 /// The numbers to emit for a baked design: P, L_l, the margins of their
 /// certificate, the figures computed on them and, for f32, the certified
 /// error floor of the generated arithmetic.
-fn numbers(model: &Model, poly: &PolytopicModel, request: &str, baked: &Baked) -> CertifiedDesign {
+fn numbers(
+    model: &Model,
+    poly: &PolytopicModel,
+    (req, request): (&DesignRequest, &str),
+    baked: &Baked,
+) -> CertifiedDesign {
     let d = baked.design();
     let f = baked.figures();
     let mut out = CertifiedDesign {
@@ -365,6 +371,7 @@ fn numbers(model: &Model, poly: &PolytopicModel, request: &str, baked: &Baked) -
         },
         float: baked.float(),
         sample: d.sample.map(|s| s.h),
+        alpha_sup: baked.alpha_sup(req.alpha),
     };
     if out.float == Float::F32 {
         let floor = baked.f32_floor(|xs, radius| {

@@ -58,6 +58,9 @@ struct Source {
     iterations: u32,
     /// The design block's `float` (f64 for a gains file).
     float: qpv_dsl::Float,
+    /// The design block's α request (a gains file: `Fixed`, its α; the
+    /// file's supremum estimate is not exported).
+    alpha: qpv_dsl::AlphaSpec,
 }
 
 /// Runs `qpv codegen`.
@@ -157,6 +160,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             f32_euler: None,
         },
         sample: d.sample.map(|s| s.h),
+        alpha_sup: baked.alpha_sup(source.alpha),
     };
     let scheduling = plant.scheduling.clone();
     let mut floor_note = String::new();
@@ -300,6 +304,7 @@ fn solved(
         status: design.solver.detail.clone(),
         iterations: design.solver.iterations,
         solved: true,
+        alpha: req.alpha,
         design,
     }))
 }
@@ -371,6 +376,7 @@ fn from_gains(
             status: "gains file".into(),
             iterations: 0,
             float: qpv_dsl::Float::F64,
+            alpha: qpv_dsl::AlphaSpec::Fixed(0.0),
         },
     ))
 }

@@ -165,6 +165,23 @@ impl Baked {
         &self.design
     }
 
+    /// For an `alpha = max` request, the search's certified supremum
+    /// estimate α_sup: the fastest α it certified (the practical design
+    /// returns α ≥ (1 − within)·α_sup at a smaller gain; with `within = 0`
+    /// the design's own α). An estimate of the supremum, not a rate this
+    /// design certifies. `None` for a fixed α.
+    pub fn alpha_sup(&self, alpha: qpv_dsl::AlphaSpec) -> Option<f64> {
+        match alpha {
+            qpv_dsl::AlphaSpec::Max => Some(
+                self.design
+                    .practical
+                    .as_ref()
+                    .map_or(self.design.alpha, |p| p.alpha_sup),
+            ),
+            qpv_dsl::AlphaSpec::Fixed(_) => None,
+        }
+    }
+
     /// The float type the numbers are held in (f32: rounded, each exactly
     /// representable in f64).
     pub fn float(&self) -> Float {

@@ -258,6 +258,19 @@ fn certified_constants(
         }
         None => quote!(),
     };
+    let alpha_sup = match d.alpha_sup {
+        Some(a) => {
+            let a = lit(a);
+            quote! {
+                /// `alpha = max`: the search's estimate of the certified
+                /// supremum of α (the fastest α it certified, at another γ
+                /// or at a higher gain). An estimate of the supremum, not a
+                /// rate this design certifies: that is `ALPHA`.
+                pub const ALPHA_SUP: f64 = #a;
+            }
+        }
+        None => quote!(),
+    };
     let filter_consts = match shape.filter {
         Some(f) => {
             let (a, b) = (lit(f.pole), lit(f.gain));
@@ -280,6 +293,7 @@ fn certified_constants(
         #filter_consts
         #[doc = #alpha_doc]
         pub const ALPHA: f64 = #alpha;
+        #alpha_sup
         #sample_const
         /// Certified region scaling γ.
         pub const GAMMA: f64 = #gamma;
