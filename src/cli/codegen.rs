@@ -85,7 +85,11 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         Some(g) => from_gains(&o.file, o.model.as_deref(), g, o.design)?,
         None => {
             let (_, model) = load_model(&o.file, o.model.as_deref())?;
-            let n = match solved(&o.file, &model, o.design)? {
+            let held = flag.map(|f| match f {
+                Float::F32 => qpv_dsl::Float::F32,
+                Float::F64 => qpv_dsl::Float::F64,
+            });
+            let n = match solved(&o.file, &model, o.design, held)? {
                 Ok(n) => n,
                 Err(msg) => {
                     eprintln!("{msg}\nnothing written: only certified designs are exported");
@@ -241,12 +245,14 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
 }
 
 /// Solves design block `n` (1-based; default the first sound one) of the
-/// model, as `qpv!` does. `Ok(Err(msg))`: not certified, and why
-/// ([`export::explain`]).
+/// model, as `qpv!` does, for the numbers held in `float` (default: the
+/// block's): for f32, again with larger margins while the rounded numbers
+/// fail. `Ok(Err(msg))`: not certified, and why ([`export::explain`]).
 fn solved(
     file: &Path,
     model: &Model,
     n: Option<usize>,
+    float: Option<qpv_dsl::Float>,
 ) -> Result<Result<Source, String>, CliError> {
     let index = match n {
         Some(0) => {
@@ -289,14 +295,36 @@ fn solved(
     }
     let settings = qpv_solve::Settings::default();
     let poly = model.polytopic();
-    let design = match qpv_solve::design(&poly, req, &settings) {
-        Ok(d) => d,
-        Err(e) => return Ok(Err(format!("{here} cannot be attempted: {e}"))),
-    };
-    if !(design.feasible && design.certifies) {
-        let why = export::explain(&poly, req, &design, &settings);
-        return Ok(Err(format!("{here} {why}")));
+    // As `qpv!` does: an f32 export whose rounded numbers fail is solved
+    // again with the strict inequalities' margin 10 and 100 times larger.
+    let float = float.unwrap_or(req.float);
+    let tries = if float == qpv_dsl::Float::F32 { 3 } else { 1 };
+    let mut design = None;
+    for k in 0..tries {
+        let s = qpv_solve::Settings {
+            margin_rel: settings.margin_rel * 10f64.powi(k),
+            ..settings.clone()
+        };
+        let d = match qpv_solve::design(&poly, req, &s) {
+            Ok(d) => d,
+            Err(e) => return Ok(Err(format!("{here} cannot be attempted: {e}"))),
+        };
+        if !(d.feasible && d.certifies) {
+            let why = export::explain(&poly, req, &d, &settings);
+            return Ok(Err(format!("{here} {why}")));
+        }
+        let bakes = !matches!(
+            Baked::solved(&poly, d.clone(), float),
+            Err(BakeError::Failed(_))
+        );
+        design = Some(d);
+        if bakes {
+            break;
+        }
     }
+    let Some(design) = design else {
+        return Ok(Err(format!("{here}: nothing solved")));
+    };
     Ok(Ok(Source {
         request: describe(req),
         origin: format!("{here}, solved and independently re-checked"),
