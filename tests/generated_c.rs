@@ -34,8 +34,16 @@ fn c_compiler() -> Option<String> {
     let msg =
         format!("no C compiler found (tried `{cc}`; set $CC): the C export tests did NOT run");
     assert!(std::env::var_os("CI").is_none(), "{msg}");
-    eprintln!("SKIPPED: {msg}");
+    loud(&format!("SKIPPED: {msg}"));
     None
+}
+
+/// A line on the real stderr: the test harness captures `eprintln!` of a
+/// passing test, not a direct write, so a skip is seen without
+/// `--nocapture`.
+fn loud(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "{line}");
 }
 
 /// A fresh directory for one test.
@@ -113,6 +121,84 @@ int main(void) {{
     )
 }
 
+/// The Cortex-M4F cross-compiler's flags (docs/embedded.md).
+const M4F: [&str; 5] = [
+    "-mcpu=cortex-m4",
+    "-mthumb",
+    "-mfloat-abi=hard",
+    "-mfpu=fpv4-sp-d16",
+    "-Os",
+];
+
+/// Where `arm-none-eabi-gcc` is installed (CI does not install it:
+/// docs/embedded.md, "Cross-compiling for a Cortex-M4F"): cross-compiles
+/// `<model>.c` in `out` with the warnings `warn` (and for f32 the
+/// promotion warnings), prints the object's `.text` size, and for f32
+/// asserts that `nm` finds no double-precision helper (`__aeabi_d*`).
+/// Without the compiler it says so on stderr and checks nothing.
+fn cortex_m4f(out: &Path, model: &str, float: &str, warn: &[&str]) {
+    let gcc = std::env::var("ARM_CC").unwrap_or_else(|_| "arm-none-eabi-gcc".into());
+    if !Command::new(&gcc)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        loud(&format!(
+            "NOTE: {gcc} not found: the Cortex-M4F build of {model}.c ({float}) did not run \
+             (apt-get install gcc-arm-none-eabi; docs/embedded.md)"
+        ));
+        return;
+    }
+    let obj = out.join(format!("{model}.m4f.o"));
+    let mut c = Command::new(&gcc);
+    c.args(M4F).args(warn);
+    if float == "f32" {
+        c.args(["-Wdouble-promotion", "-Wfloat-conversion"]);
+    }
+    let c = c
+        .arg("-c")
+        .arg(out.join(format!("{model}.c")))
+        .arg("-o")
+        .arg(&obj)
+        .output()
+        .expect("arm-none-eabi-gcc runs");
+    assert!(
+        c.status.success(),
+        "{model}.c ({float}) does not cross-compile for the Cortex-M4F:\n{}",
+        String::from_utf8_lossy(&c.stderr)
+    );
+    let tool = |name: &str| gcc.replace("gcc", name);
+    let nm = Command::new(tool("nm"))
+        .arg("-u")
+        .arg(&obj)
+        .output()
+        .expect("arm-none-eabi-nm runs");
+    let undefined = String::from_utf8_lossy(&nm.stdout).to_string();
+    let helpers: Vec<&str> = undefined
+        .split_whitespace()
+        .filter(|s| s.starts_with("__aeabi_d"))
+        .collect();
+    let size = Command::new(tool("size"))
+        .arg("-A")
+        .arg(&obj)
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).to_string())
+        .unwrap_or_default();
+    let text = size
+        .lines()
+        .find(|l| l.starts_with(".text"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .unwrap_or("?")
+        .to_string();
+    eprintln!("Cortex-M4F {model}.c ({float}): .text {text} bytes, double helpers {helpers:?}");
+    if float == "f32" {
+        assert!(
+            helpers.is_empty(),
+            "the f32 object of {model} calls double-precision helpers: {helpers:?}"
+        );
+    }
+}
+
 /// Writes the gains file of a generated module's design.
 fn gains_file(path: &Path, model: &str, alpha: f64, gamma: f64, p: String, l: String) {
     let text = format!(
@@ -176,6 +262,7 @@ fn run_c(
         "{model}.c ({float}) does not compile cleanly:\n{}",
         String::from_utf8_lossy(&c.stderr)
     );
+    cortex_m4f(&out, model, float, &flags[..5]);
     let c = Command::new(cc)
         .args(["-std=c99", "-O2"])
         .arg(out.join("driver.c"))
@@ -345,6 +432,10 @@ fn the_design_path_refuses_paper_mode_and_exports_the_sound_design() {
         "the certificate's margins in the comment block"
     );
     assert!(source.contains("const paper_sound_real paper_sound_ALPHA = 10.0;"));
+    assert!(
+        !header.contains("ALPHA_SUP"),
+        "a fixed α has no supremum estimate"
+    );
     assert!(
         !source.contains("#include <math.h>"),
         "no libm without scheduling functions"
@@ -559,4 +650,42 @@ fn an_uncertified_design_block_is_explained_as_qpv_explains_it() {
     );
     assert!(err.contains("nothing written"), "{err}");
     assert!(!d.join("paper_sound.c").exists());
+}
+
+#[test]
+fn an_alpha_max_design_exports_its_supremum_estimate() {
+    // examples/lorenz.qpv: `alpha = max` (the practical design, 1 % below
+    // the supremum estimate unless the gains force the knee).
+    let Some(cc) = c_compiler() else { return };
+    let d = dir("alpha-sup");
+    let out = d.to_str().expect("utf-8");
+    qpv(&["codegen", "examples/lorenz.qpv", "--out", out]);
+    let source = std::fs::read_to_string(d.join("lorenz.c")).expect("C source");
+    let header = std::fs::read_to_string(d.join("lorenz.h")).expect("C header");
+    assert!(header.contains("extern const lorenz_real lorenz_ALPHA_SUP;"));
+    assert!(header.contains("not a rate this design certifies"));
+    let value = |name: &str| -> f64 {
+        let key = format!("const lorenz_real lorenz_{name} = ");
+        let line = source
+            .lines()
+            .find(|l| l.starts_with(&key))
+            .unwrap_or_else(|| panic!("no {name} in the source"));
+        line[key.len()..]
+            .trim_end_matches(';')
+            .parse()
+            .expect("a number")
+    };
+    let (alpha, sup) = (value("ALPHA"), value("ALPHA_SUP"));
+    assert!(
+        alpha > 0.0 && alpha <= sup,
+        "ALPHA = {alpha}, ALPHA_SUP = {sup}"
+    );
+    let c = Command::new(&cc)
+        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c"])
+        .arg(d.join("lorenz.c"))
+        .arg("-o")
+        .arg(d.join("l.o"))
+        .output()
+        .expect("cc runs");
+    assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
 }

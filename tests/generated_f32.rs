@@ -157,3 +157,41 @@ fn f32_observer_agrees_with_the_f64_one_within_the_certified_floor() {
         "‖x̂32 − x̂64‖ reached {worst:e} > floor {floor:e} + {rounding:e}"
     );
 }
+
+#[test]
+fn f32_euler_observer_stays_within_the_certified_euler_floor() {
+    // The premise of F32_EULER_FLOOR (docs/method.md §15, "The f32 error
+    // floor"): the Euler-discretised plant and the f32 observer's
+    // step_euler at the same h, F32_EULER_MIN_STEP < h ≤ MAX_STEP_EULER.
+    // Started at the true state (e = 0, inside the floor's invariant
+    // sublevel set), the f32 estimate stays within the floor of the plant
+    // at every step, the rounding of the state update included.
+    use paper_f32::design2 as d;
+    let h = 1e-3f32;
+    assert!(d::F32_EULER_MIN_STEP < h && h <= d::MAX_STEP_EULER);
+    let floor = f64::from(d::F32_EULER_FLOOR) + f64::from(d::F32_EULER_UPDATE_ROUNDING / h);
+    assert!(floor.is_finite() && floor > 0.0);
+    let hd = f64::from(h);
+    let mut x = [-0.01, 0.015, -0.02].map(|v: f32| f64::from(v));
+    let mut o = d::Observer::with_state(&x.map(|v| v as f32));
+    let mut worst: f64 = 0.0;
+    for n in 0..2000 {
+        let th = paper_theta(f64::from(n) * hd);
+        let y = paper_f32::plant::output(&x, &th);
+        o.step_euler(h, &y.map(|v| v as f32), &[], &th.map(|v| v as f32));
+        let dx = paper_f32::plant::derivative(&x, &[], &th);
+        x = [0, 1, 2].map(|i| x[i] + hd * dx[i]);
+        let e = (0..3)
+            .map(|i| (x[i] - f64::from(o.estimate()[i])).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        worst = worst.max(e);
+    }
+    eprintln!(
+        "paper f32 step_euler at h = {h}: max ‖x − x̂32‖ = {worst:e}, certified floor {floor:e}"
+    );
+    assert!(
+        worst <= floor,
+        "‖e‖ reached {worst:e} > the Euler floor {floor:e}"
+    );
+}

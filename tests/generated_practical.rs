@@ -55,6 +55,9 @@ fn run(h: f64, t_end: f64, rk4: bool) -> (f64, f64) {
 #[test]
 fn the_default_alpha_max_design_runs_at_one_millisecond() {
     const { assert!(lorenz::CERTIFIES) };
+    // ALPHA_SUP: the search's supremum estimate; the design certifies
+    // ALPHA, at most that (1 % below it unless the gains force the knee).
+    const { assert!(lorenz::ALPHA > 0.0 && lorenz::ALPHA <= lorenz::ALPHA_SUP) };
     // The certified Euler step covers 1 ms (the debug assertion of
     // step_euler would refuse it otherwise).
     const { assert!(lorenz::MAX_STEP_EULER >= 1e-3) };

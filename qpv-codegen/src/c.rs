@@ -519,7 +519,19 @@ impl<'a> Ctx<'a> {
                 h,
                 "extern const {r} {name}_F32_ERROR_FLOOR; /* certified f32 error floor: lim sup |e| \
                  from the float rounding of the right-hand side alone, even without noise \
-                 (INFINITY: none certified) */"
+                 (INFINITY: none certified) */\n\
+                 extern const {r} {name}_F32_EULER_FLOOR, {name}_F32_EULER_UPDATE_ROUNDING, \
+                 {name}_F32_EULER_MIN_STEP; /* with step_euler at F32_EULER_MIN_STEP < h <= \
+                 MAX_STEP_EULER, the state update's rounding included: lim sup |e| <= \
+                 F32_EULER_FLOOR + F32_EULER_UPDATE_ROUNDING / h (INFINITY: none certified) */"
+            );
+        }
+        if self.d.alpha_sup.is_some() {
+            let _ = writeln!(
+                h,
+                "extern const {r} {name}_ALPHA_SUP; /* alpha = max: the search's estimate of the \
+                 certified supremum of alpha; an estimate, not a rate this design certifies \
+                 (that is ALPHA) */"
             );
         }
         if let Some(t) = self.d.sample_text() {
@@ -635,7 +647,7 @@ impl<'a> Ctx<'a> {
         let finite = |v: Option<f64>| matches!(v, Some(x) if x.is_finite());
         let infinite = !finite(f.sigma)
             || !finite(f.error_bound)
-            || (self.cm.float == Float::F32 && !finite(f.f32_floor));
+            || (self.cm.float == Float::F32 && !(finite(f.f32_floor) && f.f32_euler.is_some()));
         let mut s = String::new();
         let _ = writeln!(
             s,
@@ -678,6 +690,19 @@ impl<'a> Ctx<'a> {
                 "const {r} {name}_F32_ERROR_FLOOR = {};",
                 self.fig(v, inf)
             );
+            let e = f.f32_euler;
+            let euler = [
+                ("F32_EULER_FLOOR", e.map(|e| e.base)),
+                ("F32_EULER_UPDATE_ROUNDING", e.map(|e| e.per_step)),
+                ("F32_EULER_MIN_STEP", e.map(|e| e.min_step)),
+            ];
+            for (k, v) in euler {
+                let v = v.filter(|x| x.is_finite()).map(round_up_to_f32);
+                let _ = writeln!(s, "const {r} {name}_{k} = {};", self.fig(v, inf));
+            }
+        }
+        if let Some(a) = d.alpha_sup {
+            let _ = writeln!(s, "const {r} {name}_ALPHA_SUP = {};", p.num(a));
         }
         if let Some(period) = d.sample {
             let _ = writeln!(s, "const {r} {name}_SAMPLE_PERIOD = {};", p.num(period));
@@ -1119,6 +1144,13 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
         d.gamma,
         shape.nv
     );
+    if let Some(a) = d.alpha_sup {
+        let _ = writeln!(
+            t,
+            "alpha = max: the search's certified supremum estimate is ALPHA_SUP = {a} (an \
+             estimate of the supremum, not a rate of this design)"
+        );
+    }
     if let (Some(text), Some(period)) = (d.sample_text(), d.sample) {
         let _ = writeln!(
             t,
@@ -1156,6 +1188,15 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
              noise; the rounding of the state update comes on top",
             opt(f.f32_floor)
         );
+        let _ = match f.f32_euler {
+            Some(e) => writeln!(
+                t,
+                "f32 floor of step_euler, the state update's rounding included: lim sup |e| <= \
+                 {:.6e} + {:.6e} / h for {:.6e} < h <= MAX_STEP_EULER",
+                e.base, e.per_step, e.min_step
+            ),
+            None => writeln!(t, "f32 floor of step_euler: none certified"),
+        };
     }
     let _ = writeln!(
         t,

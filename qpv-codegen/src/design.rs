@@ -40,6 +40,11 @@ pub struct CertifiedDesign {
     /// where nothing could be certified (then the generated constants say
     /// "no bound": an infinite σ and zero steps).
     pub figures: Figures,
+    /// `alpha = max`: the search's estimate of the certified supremum α_sup
+    /// (the fastest α it certified, at another γ or a higher gain). An
+    /// estimate of the supremum, not a certified rate of this design
+    /// (`alpha` is). `None` for a fixed α.
+    pub alpha_sup: Option<f64>,
     /// `sample = h`: the sample period (seconds) the design is certified at
     /// (the discrete decrease S5d: the observer stepped by one explicit
     /// Euler step of exactly h, V(e_{k+1}) ≤ (1 − hα)V(e_k)); then the
@@ -64,8 +69,23 @@ pub struct Figures {
     pub rk4: Option<f64>,
     /// The certified f32 error floor (f32 designs): lim sup ‖e(t)‖ caused by
     /// the rounding of the right-hand side in f32 alone
-    /// ([`crate::rounding`], through the noise bound).
+    /// ([`crate::rounding`]; docs/method.md §15, "The f32 error floor").
     pub f32_floor: Option<f64>,
+    /// The f32 floor of explicit Euler steps, the state update's rounding
+    /// included: lim sup ‖e‖ ≤ base + per_step/h for min_step < h ≤ the
+    /// certified Euler step.
+    pub f32_euler: Option<EulerFloor>,
+}
+
+/// The f32 floor of explicit Euler steps ([`Figures::f32_euler`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EulerFloor {
+    /// The part of the floor that does not depend on h.
+    pub base: f64,
+    /// The rounding of the state update x̂ + h·k, divided by h in the floor.
+    pub per_step: f64,
+    /// The smallest step at which the floor is certified (exclusive).
+    pub min_step: f64,
 }
 
 impl CertifiedDesign {

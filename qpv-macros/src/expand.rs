@@ -19,6 +19,7 @@ use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, Float, GammaSpec, Mode, Model, NoiseObjective,
     OutputFilter, OutputRoute, PolytopicModel, Split,
 };
+use qpv_solve::certificate::rounding::RhsRounding;
 use qpv_solve::export::{self, BakeError, Baked};
 use qpv_solve::{Design, Settings};
 use quote::quote;
@@ -215,6 +216,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 figures: Figures::default(),
                 float: req.float,
                 sample: req.sample,
+                alpha_sup: None,
             }
         };
         emit::emit(&EmitModel {
@@ -275,7 +277,7 @@ fn one_design(
     if let Some(baked) = hit {
         return Ok(Outcome {
             origin: "cache hit, re-certified",
-            numbers: numbers(model, poly, &request, &baked),
+            numbers: numbers(model, poly, (req, &request), &baked),
         });
     }
     let (design, baked) = solve(poly, req, &settings, &request)?;
@@ -284,7 +286,7 @@ fn one_design(
     }
     Ok(Outcome {
         origin: "solved",
-        numbers: numbers(model, poly, &request, &baked),
+        numbers: numbers(model, poly, (req, &request), &baked),
     })
 }
 
@@ -338,7 +340,12 @@ fn solve(
 /// The numbers to emit for a baked design: P, L_l, the margins of their
 /// certificate, the figures computed on them and, for f32, the certified
 /// error floor of the generated arithmetic.
-fn numbers(model: &Model, poly: &PolytopicModel, request: &str, baked: &Baked) -> CertifiedDesign {
+fn numbers(
+    model: &Model,
+    poly: &PolytopicModel,
+    (req, request): (&DesignRequest, &str),
+    baked: &Baked,
+) -> CertifiedDesign {
     let d = baked.design();
     let f = baked.figures();
     let mut out = CertifiedDesign {
@@ -360,17 +367,42 @@ fn numbers(model: &Model, poly: &PolytopicModel, request: &str, baked: &Baked) -
             euler: f.euler,
             rk4: f.rk4,
             f32_floor: None,
+            f32_euler: None,
         },
         float: baked.float(),
         sample: d.sample.map(|s| s.h),
+        alpha_sup: baked.alpha_sup(req.alpha),
     };
     if out.float == Float::F32 {
-        let floor = baked.f32_floor(|xs, xh| {
-            qpv_codegen::rounding::design_error(model, &poly.scheduling, &out, xs, xh)
+        let floor = baked.f32_floor(|xs, radius| {
+            qpv_codegen::rounding::design_error(model, &poly.scheduling, &out, xs, radius)
+                .map(rounding)
         });
-        out.figures.f32_floor = floor.ok();
+        if let Ok(f) = floor {
+            out.figures.f32_floor = Some(f.error_bound);
+            out.figures.f32_euler = f.euler.map(euler_floor);
+        }
     }
     out
+}
+
+/// The code generator's rounding bound in the certificate's vocabulary.
+fn rounding(r: qpv_codegen::rounding::RhsError) -> RhsRounding {
+    RhsRounding {
+        constant: r.constant,
+        proportional: r.proportional,
+        derivative: r.derivative,
+        state: r.state,
+    }
+}
+
+/// The certificate's Euler floor in the code generator's vocabulary.
+fn euler_floor(e: qpv_solve::certificate::rounding::EulerFloor) -> qpv_codegen::design::EulerFloor {
+    qpv_codegen::design::EulerFloor {
+        base: e.base,
+        per_step: e.per_step,
+        min_step: e.min_step,
+    }
 }
 
 /// A design ready for emission and where it came from (for `QPV_TIMING`).

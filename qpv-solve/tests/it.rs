@@ -33,6 +33,7 @@ mod observer_model;
 mod output_filter;
 mod output_route;
 mod practical;
+mod rounding;
 mod sampled;
 mod simulate;
 mod skew_slack;

@@ -14,6 +14,7 @@ use super::input::{exit, load_model, load_model_for, CliError};
 use qpv_codegen::c::{CModel, Float};
 use qpv_codegen::{CertifiedDesign, Figures};
 use qpv_dsl::{Mode, Model, OutputRoute};
+use qpv_solve::certificate::rounding::RhsRounding;
 use qpv_solve::export::{self, BakeError, Baked};
 use qpv_solve::Design;
 use std::path::{Path, PathBuf};
@@ -57,6 +58,9 @@ struct Source {
     iterations: u32,
     /// The design block's `float` (f64 for a gains file).
     float: qpv_dsl::Float,
+    /// The design block's α request (a gains file: `Fixed`, its α; the
+    /// file's supremum estimate is not exported).
+    alpha: qpv_dsl::AlphaSpec,
 }
 
 /// Runs `qpv codegen`.
@@ -81,7 +85,11 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         Some(g) => from_gains(&o.file, o.model.as_deref(), g, o.design)?,
         None => {
             let (_, model) = load_model(&o.file, o.model.as_deref())?;
-            let n = match solved(&o.file, &model, o.design)? {
+            let held = flag.map(|f| match f {
+                Float::F32 => qpv_dsl::Float::F32,
+                Float::F64 => qpv_dsl::Float::F64,
+            });
+            let n = match solved(&o.file, &model, o.design, held)? {
                 Ok(n) => n,
                 Err(msg) => {
                     eprintln!("{msg}\nnothing written: only certified designs are exported");
@@ -153,17 +161,43 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             euler: f.euler,
             rk4: f.rk4,
             f32_floor: None,
+            f32_euler: None,
         },
         sample: d.sample.map(|s| s.h),
+        alpha_sup: baked.alpha_sup(source.alpha),
     };
     let scheduling = plant.scheduling.clone();
     let mut floor_note = String::new();
     if float == Float::F32 {
-        let floor = baked.f32_floor(|xs, xh| {
-            qpv_codegen::rounding::design_error(&model, &scheduling, &design, xs, xh)
+        let floor = baked.f32_floor(|xs, radius| {
+            qpv_codegen::rounding::design_error(&model, &scheduling, &design, xs, radius).map(|r| {
+                RhsRounding {
+                    constant: r.constant,
+                    proportional: r.proportional,
+                    derivative: r.derivative,
+                    state: r.state,
+                }
+            })
         });
         match floor {
-            Ok(v) => design.figures.f32_floor = Some(v),
+            Ok(f) => {
+                design.figures.f32_floor = Some(f.error_bound);
+                design.figures.f32_euler = f.euler.map(|e| qpv_codegen::design::EulerFloor {
+                    base: e.base,
+                    per_step: e.per_step,
+                    min_step: e.min_step,
+                });
+                floor_note = format!(
+                    " The rounding is d0 + d1*rho per state (rho = sqrt(e'Pe)): D0 = {:.3e}, \
+                     D1 = {:.3e} in P-norm, so the rate drops to alpha - 2*D1 = {:.6e} and the \
+                     constant part ends in lim sup |e| <= {:.3e} ({} bound).",
+                    f.constant,
+                    f.proportional,
+                    d.alpha - 2.0 * f.proportional,
+                    f.error_bound,
+                    f.via
+                );
+            }
             Err(e) => floor_note = format!(" No f32 error floor is certified: {e}."),
         }
     }
@@ -211,12 +245,14 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
 }
 
 /// Solves design block `n` (1-based; default the first sound one) of the
-/// model, as `qpv!` does. `Ok(Err(msg))`: not certified, and why
-/// ([`export::explain`]).
+/// model, as `qpv!` does, for the numbers held in `float` (default: the
+/// block's): for f32, again with larger margins while the rounded numbers
+/// fail. `Ok(Err(msg))`: not certified, and why ([`export::explain`]).
 fn solved(
     file: &Path,
     model: &Model,
     n: Option<usize>,
+    float: Option<qpv_dsl::Float>,
 ) -> Result<Result<Source, String>, CliError> {
     let index = match n {
         Some(0) => {
@@ -259,14 +295,36 @@ fn solved(
     }
     let settings = qpv_solve::Settings::default();
     let poly = model.polytopic();
-    let design = match qpv_solve::design(&poly, req, &settings) {
-        Ok(d) => d,
-        Err(e) => return Ok(Err(format!("{here} cannot be attempted: {e}"))),
-    };
-    if !(design.feasible && design.certifies) {
-        let why = export::explain(&poly, req, &design, &settings);
-        return Ok(Err(format!("{here} {why}")));
+    // As `qpv!` does: an f32 export whose rounded numbers fail is solved
+    // again with the strict inequalities' margin 10 and 100 times larger.
+    let float = float.unwrap_or(req.float);
+    let tries = if float == qpv_dsl::Float::F32 { 3 } else { 1 };
+    let mut design = None;
+    for k in 0..tries {
+        let s = qpv_solve::Settings {
+            margin_rel: settings.margin_rel * 10f64.powi(k),
+            ..settings.clone()
+        };
+        let d = match qpv_solve::design(&poly, req, &s) {
+            Ok(d) => d,
+            Err(e) => return Ok(Err(format!("{here} cannot be attempted: {e}"))),
+        };
+        if !(d.feasible && d.certifies) {
+            let why = export::explain(&poly, req, &d, &settings);
+            return Ok(Err(format!("{here} {why}")));
+        }
+        let bakes = !matches!(
+            Baked::solved(&poly, d.clone(), float),
+            Err(BakeError::Failed(_))
+        );
+        design = Some(d);
+        if bakes {
+            break;
+        }
     }
+    let Some(design) = design else {
+        return Ok(Err(format!("{here}: nothing solved")));
+    };
     Ok(Ok(Source {
         request: describe(req),
         origin: format!("{here}, solved and independently re-checked"),
@@ -274,6 +332,7 @@ fn solved(
         status: design.solver.detail.clone(),
         iterations: design.solver.iterations,
         solved: true,
+        alpha: req.alpha,
         design,
     }))
 }
@@ -345,6 +404,7 @@ fn from_gains(
             status: "gains file".into(),
             iterations: 0,
             float: qpv_dsl::Float::F64,
+            alpha: qpv_dsl::AlphaSpec::Fixed(0.0),
         },
     ))
 }

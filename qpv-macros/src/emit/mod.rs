@@ -78,6 +78,10 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
         Some(_) => quote!(pub use self::#primary::SAMPLE_PERIOD;),
         None => quote!(),
     };
+    let primary_sup = match em.designs.get(primary_index - 1).and_then(|d| d.alpha_sup) {
+        Some(_) => quote!(pub use self::#primary::ALPHA_SUP;),
+        None => quote!(),
+    };
     let designs: Vec<TokenStream> = em
         .designs
         .iter()
@@ -120,6 +124,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
             };
             #primary_filter
             #primary_sample
+            #primary_sup
 
             #(#designs)*
 
@@ -291,6 +296,7 @@ mod tests {
             filter,
             float,
             sample: None,
+            alpha_sup: Some(1.5),
         };
         emit(&EmitModel {
             model,

@@ -14,6 +14,7 @@ pub mod explain;
 
 pub use explain::{best_sound_design, explain, Best, Explanation, Failing, SoundDesign, Tradeoff};
 
+use crate::certificate::rounding::{rounding_floor, FloorInputs, RhsRounding, RoundingFloor};
 use crate::certificate::sampling::SampleInfo;
 use crate::certificate::Certificate;
 use crate::error::SolveError;
@@ -164,6 +165,23 @@ impl Baked {
         &self.design
     }
 
+    /// For an `alpha = max` request, the search's certified supremum
+    /// estimate α_sup: the fastest α it certified (the practical design
+    /// returns α ≥ (1 − within)·α_sup at a smaller gain; with `within = 0`
+    /// the design's own α). An estimate of the supremum, not a rate this
+    /// design certifies. `None` for a fixed α.
+    pub fn alpha_sup(&self, alpha: qpv_dsl::AlphaSpec) -> Option<f64> {
+        match alpha {
+            qpv_dsl::AlphaSpec::Max => Some(
+                self.design
+                    .practical
+                    .as_ref()
+                    .map_or(self.design.alpha, |p| p.alpha_sup),
+            ),
+            qpv_dsl::AlphaSpec::Fixed(_) => None,
+        }
+    }
+
     /// The float type the numbers are held in (f32: rounded, each exactly
     /// representable in f64).
     pub fn float(&self) -> Float {
@@ -200,36 +218,53 @@ impl Baked {
         }
     }
 
-    /// The certified f32 error floor of the baked numbers: `rhs_error`
+    /// The certified f32 error floor of the baked numbers
+    /// ([`crate::certificate::rounding::rounding_floor`]): `rhs_error`
     /// bounds, per observer state, the rounding of one evaluation of the
-    /// generated right-hand side over the plant state's box and the
-    /// estimate's box (given in that order, from
-    /// [`crate::certificate::noise::observer_boxes`]); that bound enters every state as
-    /// a disturbance through the noise bound
-    /// ([`crate::certificate::noise::disturbance_floor`]). `Err` says why there is none.
+    /// generated right-hand side, split into a part independent of the
+    /// error and one per unit ρ = √(eᵀPe), over the plant state's box and
+    /// the error's per-state radius √((P⁻¹)_kk) (given in that order; the
+    /// box from [`crate::certificate::noise::observer_boxes`]). `Err` says why there
+    /// is none.
     pub fn f32_floor(
         &self,
-        rhs_error: impl FnOnce(&[(f64, f64)], &[(f64, f64)]) -> Result<Vec<f64>, String>,
-    ) -> Result<f64, String> {
+        rhs_error: impl FnOnce(&[(f64, f64)], &[f64]) -> Result<RhsRounding, String>,
+    ) -> Result<RoundingFloor, String> {
         let d = &self.design;
         if matches!(d.route(), qpv_dsl::OutputRoute::Filter(_)) {
             return Err("the f32 floor is not computed for the filter route".into());
         }
+        if d.global {
+            // the rounding scales with |x|, which nothing bounds here
+            return Err(
+                "a global (LPV) design has no region or state bound, so the \
+                        rounding of the f32 arithmetic, which grows with |x|, has no bound"
+                    .into(),
+            );
+        }
         let p = d.p_matrix();
-        let (plant_state, observer_state) =
+        let (plant_state, _) =
             crate::certificate::noise::observer_boxes(&self.observer, d.gamma, &p)
                 .ok_or("P is not positive definite")?;
-        let err = rhs_error(&plant_state, &observer_state)?;
+        // |e_k| ≤ ρ √((P⁻¹)_kk) on E_ρ, padded for the inverse's rounding
+        let pinv = ((&p + p.transpose()) * 0.5)
+            .cholesky()
+            .ok_or("P is not positive definite")?
+            .inverse();
+        let radius: Vec<f64> = (0..p.nrows())
+            .map(|k| pinv[(k, k)].max(0.0).sqrt() * (1.0 + 1e-9))
+            .collect();
+        let rounding = rhs_error(&plant_state, &radius)?;
         let l = d.l_matrices();
-        let f = crate::certificate::noise::disturbance_floor(
-            &self.observer,
-            d.alpha,
-            d.gamma,
-            &p,
-            &l,
-            &err,
-        )?;
-        Ok(f.error_bound)
+        let inputs = FloorInputs {
+            model: &self.observer,
+            alpha: d.alpha,
+            gamma: d.gamma,
+            p: &p,
+            l: &l,
+            euler: self.figures().euler,
+        };
+        rounding_floor(&inputs, &rounding)
     }
 
     /// Re-checks `design` on `observer`; for numbers rounded to f32 whose

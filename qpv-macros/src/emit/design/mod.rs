@@ -82,7 +82,12 @@ fn f32_design(
     let coefficients = super::coefficients::items(&local, m.ntheta(), m.derived.len(), &em.libm);
     let lo: Vec<TokenStream> = m.params.iter().map(|p| lit(p.lo)).collect();
     let hi: Vec<TokenStream> = m.params.iter().map(|p| lit(p.hi)).collect();
-    let floor = figure(d32.figures.f32_floor, quote!(::core::f64::INFINITY));
+    let inf = || quote!(::core::f64::INFINITY);
+    let floor = figure(d32.figures.f32_floor, inf());
+    let e = d32.figures.f32_euler;
+    let euler_floor = figure(e.map(|e| e.base), inf());
+    let update = figure(e.map(|e| e.per_step), inf());
+    let min_step = figure(e.map(|e| e.min_step), inf());
     let body = super::tokens::to_f32(
         quote! {
             /// Lower bounds of θ (f32), in declaration order.
@@ -96,6 +101,16 @@ fn f32_design(
             /// rounding of the state update x̂ + h·k comes on top. Infinite if
             /// no floor could be certified.
             pub const F32_ERROR_FLOOR: f64 = #floor;
+            /// With `step_euler` at `F32_EULER_MIN_STEP < dt <= MAX_STEP_EULER`,
+            /// the state update's rounding included:
+            /// lim sup ‖e‖ ≤ `F32_EULER_FLOOR + F32_EULER_UPDATE_ROUNDING / dt`
+            /// (no noise). Infinite if none is certified.
+            pub const F32_EULER_FLOOR: f64 = #euler_floor;
+            /// The state update's rounding in the Euler floor (divided by dt).
+            pub const F32_EULER_UPDATE_ROUNDING: f64 = #update;
+            /// The smallest step (exclusive) of the Euler floor: below it the
+            /// update's rounding is too large to certify anything.
+            pub const F32_EULER_MIN_STEP: f64 = #min_step;
             #constants
             #gain
             #observer
@@ -138,6 +153,11 @@ fn safe_side(d: &CertifiedDesign) -> CertifiedDesign {
     f.euler = f.euler.map(|(h, b)| (down(h), down(b)));
     f.rk4 = f.rk4.map(down);
     f.f32_floor = f.f32_floor.map(up);
+    f.f32_euler = f.f32_euler.map(|e| qpv_codegen::design::EulerFloor {
+        base: up(e.base),
+        per_step: up(e.per_step),
+        min_step: up(e.min_step),
+    });
     out
 }
 
@@ -238,6 +258,19 @@ fn certified_constants(
         }
         None => quote!(),
     };
+    let alpha_sup = match d.alpha_sup {
+        Some(a) => {
+            let a = lit(a);
+            quote! {
+                /// `alpha = max`: the search's estimate of the certified
+                /// supremum of α (the fastest α it certified, at another γ
+                /// or at a higher gain). An estimate of the supremum, not a
+                /// rate this design certifies: that is `ALPHA`.
+                pub const ALPHA_SUP: f64 = #a;
+            }
+        }
+        None => quote!(),
+    };
     let filter_consts = match shape.filter {
         Some(f) => {
             let (a, b) = (lit(f.pole), lit(f.gain));
@@ -260,6 +293,7 @@ fn certified_constants(
         #filter_consts
         #[doc = #alpha_doc]
         pub const ALPHA: f64 = #alpha;
+        #alpha_sup
         #sample_const
         /// Certified region scaling γ.
         pub const GAMMA: f64 = #gamma;
