@@ -150,6 +150,29 @@ fn recheck(model: &Model, design: &Design, gains: &Path) -> Result<Certificate, 
     }
 }
 
+/// The sample period to check at and where it came from: `--sample`, else
+/// the gains file's `sample.h`, else none (continuous time).
+fn choose_sample(
+    flag: Option<f64>,
+    claimed_h: Option<f64>,
+    gains: &Path,
+) -> Result<Option<(f64, &'static str)>, CliError> {
+    match (flag, claimed_h) {
+        (Some(h), _) if !positive(h) => Err(CliError::Input(format!(
+            "--sample {}: expected a positive sample period in seconds",
+            fmt_num(h)
+        ))),
+        (Some(h), _) => Ok(Some((h, "--sample"))),
+        (None, Some(h)) if !positive(h) => Err(CliError::Input(format!(
+            "{}: the gains file's `sample.h` is {}: expected a positive sample period in seconds",
+            gains.display(),
+            fmt_num(h)
+        ))),
+        (None, Some(h)) => Ok(Some((h, "gains file"))),
+        (None, None) => Ok(None),
+    }
+}
+
 /// The first of the model's `design` blocks in `mode` that fixes the value
 /// `pick` reads, with its 1-based number.
 fn from_blocks(
@@ -210,24 +233,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     let mut design = claim.at(mode, alpha, gamma);
     let split = design.split;
     let claimed_h = design.sample.as_ref().map(|s| s.h);
-    let sample = match (o.sample, claimed_h) {
-        (Some(h), _) if !positive(h) => {
-            return Err(CliError::Input(format!(
-                "--sample {}: expected a positive sample period in seconds",
-                fmt_num(h)
-            )))
-        }
-        (Some(h), _) => Some((h, "--sample")),
-        (None, Some(h)) if !positive(h) => {
-            return Err(CliError::Input(format!(
-            "{}: the gains file's `sample.h` is {}: expected a positive sample period in seconds",
-            gains.display(),
-            fmt_num(h)
-        )))
-        }
-        (None, Some(h)) => Some((h, "gains file")),
-        (None, None) => None,
-    };
+    let sample = choose_sample(o.sample, claimed_h, gains)?;
     if let Some((h, _)) = sample {
         if mode != Mode::Sound {
             return Err(CliError::Input(
@@ -243,6 +249,35 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         (true, Mode::Paper) => exit::REPRODUCTION,
         (false, _) => exit::NOT_CERTIFIED,
     };
+    let s = report_text(
+        &cert,
+        code,
+        gains,
+        (mode, mode_source),
+        (alpha, &alpha_source),
+        (gamma, &gamma_source),
+        sample,
+    );
+    print_text(json, &s);
+    emit_json(
+        json,
+        &CheckOutput::new(&model.name, gains, mode_source, split, &cert, code),
+    )?;
+    Ok(code)
+}
+
+/// The text report of `qpv check`: what was checked against what, the
+/// margin of every family and data check, the verdict and, where every
+/// family holds without a verdict, the missing assumption.
+fn report_text(
+    cert: &Certificate,
+    code: i32,
+    gains: &Path,
+    (mode, mode_source): (Mode, &str),
+    (alpha, alpha_source): (f64, &str),
+    (gamma, gamma_source): (f64, &str),
+    sample: Option<(f64, &str)>,
+) -> String {
     let mut s = format!(
         "check of {} against {} mode ({}) at alpha = {} ({alpha_source}), gamma = {} ({gamma_source}):\n",
         gains.display(),
@@ -317,10 +352,5 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             _ => {}
         }
     }
-    print_text(json, &s);
-    emit_json(
-        json,
-        &CheckOutput::new(&model.name, gains, mode_source, split, &cert, code),
-    )?;
-    Ok(code)
+    s
 }

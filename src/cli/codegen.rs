@@ -44,10 +44,8 @@ pub struct Options {
     pub out: PathBuf,
 }
 
-/// The design to export, before it is baked, with words on where it came
-/// from and the solver's record.
+/// Where the design to export came from, in words, and the solver's record.
 struct Source {
-    design: Design,
     /// Solved in this run (its own certificate holds for its f64 numbers),
     /// rather than read from a gains file (a claim, re-checked).
     solved: bool,
@@ -67,28 +65,18 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             o.lang
         )));
     }
-    let flag = match o.float.as_deref() {
-        None => None,
-        Some("f64") => Some(Float::F64),
-        Some("f32") => Some(Float::F32),
-        Some(other) => {
-            return Err(CliError::Input(format!(
-                "--float {other}: expected `f64` or `f32`"
-            )))
-        }
-    };
-    let (model, source) = match &o.gains {
+    let flag = float_flag(o.float.as_deref())?;
+    let (model, (design, source)) = match &o.gains {
         Some(g) => from_gains(&o.file, o.model.as_deref(), g, o.design)?,
         None => {
             let (_, model) = load_model(&o.file, o.model.as_deref())?;
-            let n = match solved(&o.file, &model, o.design)? {
-                Ok(n) => n,
+            match solved(&o.file, &model, o.design)? {
+                Ok(n) => (model, n),
                 Err(msg) => {
                     eprintln!("{msg}\nnothing written: only certified designs are exported");
                     return Ok(exit::NOT_CERTIFIED);
                 }
-            };
-            (model, n)
+            }
         }
     };
     // --float, else the design block's `float = ...`, else f64
@@ -104,9 +92,9 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     // rounded P, L_l and sample period, each exactly representable in f64).
     let plant = model.polytopic();
     let baked = if source.solved {
-        Baked::solved(&plant, source.design, held)
+        Baked::solved(&plant, design, held)
     } else {
-        Baked::claimed(&plant, source.design, held)
+        Baked::claimed(&plant, design, held)
     };
     let baked = match baked {
         Ok(b) => b,
@@ -128,45 +116,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             return Ok(exit::NOT_CERTIFIED);
         }
     };
-    let d = baked.design();
-    let f = baked.figures();
-    let mut design = CertifiedDesign {
-        request: source.request.clone(),
-        mode: Mode::Sound.name().into(),
-        certifies: true,
-        alpha: d.alpha,
-        gamma: d.gamma,
-        p: d.p.concat(),
-        l: d.l.iter().map(|l| l.concat()).collect(),
-        margins: d.margins.iter().map(|(k, m)| (k.clone(), *m)).collect(),
-        status: source.status.clone(),
-        iterations: source.iterations,
-        float: held,
-        filter: match d.route() {
-            OutputRoute::Filter(f) => Some(f),
-            OutputRoute::DoubleSum => None,
-        },
-        figures: Figures {
-            sigma: f.sigma,
-            error_bound: f.error_bound,
-            max_amplitude: f.max_amplitude,
-            euler: f.euler,
-            rk4: f.rk4,
-            f32_floor: None,
-        },
-        sample: d.sample.map(|s| s.h),
-    };
-    let scheduling = plant.scheduling.clone();
-    let mut floor_note = String::new();
-    if float == Float::F32 {
-        let floor = baked.f32_floor(|xs, xh| {
-            qpv_codegen::rounding::design_error(&model, &scheduling, &design, xs, xh)
-        });
-        match floor {
-            Ok(v) => design.figures.f32_floor = Some(v),
-            Err(e) => floor_note = format!(" No f32 error floor is certified: {e}."),
-        }
-    }
+    let (design, floor_note) = certified_design(&model, &plant.scheduling, &source, &baked);
     let mut notes = vec![format!("numbers: {}", source.origin)];
     notes.push(match float {
         Float::F64 => "float: f64; the certificate checked P and L_l as printed here".into(),
@@ -178,21 +128,12 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     });
     let files = qpv_codegen::c::emit(&CModel {
         model: &model,
-        scheduling: &scheduling,
+        scheduling: &plant.scheduling,
         design: &design,
         float,
         notes,
     });
-    std::fs::create_dir_all(&o.out)
-        .map_err(|e| CliError::Input(format!("--out {}: {e}", o.out.display())))?;
-    let write = |name: String, text: &str| -> Result<std::path::PathBuf, CliError> {
-        let path = o.out.join(name);
-        std::fs::write(&path, text)
-            .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
-        Ok(path)
-    };
-    let h = write(format!("{}.h", model.name), &files.header)?;
-    let c = write(format!("{}.c", model.name), &files.source)?;
+    let (h, c) = write_files(&o.out, &model.name, &files)?;
     let at = design
         .sample_text()
         .map(|t| format!(" at {t}"))
@@ -210,6 +151,86 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     Ok(exit::CERTIFIED)
 }
 
+/// `--float`: `f64`, `f32` or absent.
+fn float_flag(flag: Option<&str>) -> Result<Option<Float>, CliError> {
+    match flag {
+        None => Ok(None),
+        Some("f64") => Ok(Some(Float::F64)),
+        Some("f32") => Ok(Some(Float::F32)),
+        Some(other) => Err(CliError::Input(format!(
+            "--float {other}: expected `f64` or `f32`"
+        ))),
+    }
+}
+
+/// The numbers to emit for a baked design and, for an f32 design whose
+/// error floor could not be certified, the sentence that says why.
+fn certified_design(
+    model: &Model,
+    scheduling: &[usize],
+    source: &Source,
+    baked: &Baked,
+) -> (CertifiedDesign, String) {
+    let d = baked.design();
+    let f = baked.figures();
+    let mut design = CertifiedDesign {
+        request: source.request.clone(),
+        mode: Mode::Sound.name().into(),
+        certifies: true,
+        alpha: d.alpha,
+        gamma: d.gamma,
+        p: d.p.concat(),
+        l: d.l.iter().map(|l| l.concat()).collect(),
+        margins: d.margins.iter().map(|(k, m)| (k.clone(), *m)).collect(),
+        status: source.status.clone(),
+        iterations: source.iterations,
+        float: baked.float(),
+        filter: match d.route() {
+            OutputRoute::Filter(f) => Some(f),
+            OutputRoute::DoubleSum => None,
+        },
+        figures: Figures {
+            sigma: f.sigma,
+            error_bound: f.error_bound,
+            max_amplitude: f.max_amplitude,
+            euler: f.euler,
+            rk4: f.rk4,
+            f32_floor: None,
+        },
+        sample: d.sample.map(|s| s.h),
+    };
+    let mut floor_note = String::new();
+    if design.float == qpv_dsl::Float::F32 {
+        let floor = baked.f32_floor(|xs, xh| {
+            qpv_codegen::rounding::design_error(model, scheduling, &design, xs, xh)
+        });
+        match floor {
+            Ok(v) => design.figures.f32_floor = Some(v),
+            Err(e) => floor_note = format!(" No f32 error floor is certified: {e}."),
+        }
+    }
+    (design, floor_note)
+}
+
+/// Writes `<name>.h` and `<name>.c` into `out` and returns their paths.
+fn write_files(
+    out: &Path,
+    name: &str,
+    files: &qpv_codegen::c::CFiles,
+) -> Result<(PathBuf, PathBuf), CliError> {
+    std::fs::create_dir_all(out)
+        .map_err(|e| CliError::Input(format!("--out {}: {e}", out.display())))?;
+    let write = |name: String, text: &str| -> Result<std::path::PathBuf, CliError> {
+        let path = out.join(name);
+        std::fs::write(&path, text)
+            .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
+        Ok(path)
+    };
+    let h = write(format!("{}.h", name), &files.header)?;
+    let c = write(format!("{}.c", name), &files.source)?;
+    Ok((h, c))
+}
+
 /// Solves design block `n` (1-based; default the first sound one) of the
 /// model, as `qpv!` does. `Ok(Err(msg))`: not certified, and why
 /// ([`export::explain`]).
@@ -217,7 +238,7 @@ fn solved(
     file: &Path,
     model: &Model,
     n: Option<usize>,
-) -> Result<Result<Source, String>, CliError> {
+) -> Result<Result<(Design, Source), String>, CliError> {
     let index = match n {
         Some(0) => {
             return Err(CliError::Input(
@@ -267,15 +288,15 @@ fn solved(
         let why = export::explain(&poly, req, &design, &settings);
         return Ok(Err(format!("{here} {why}")));
     }
-    Ok(Ok(Source {
+    let source = Source {
         request: describe(req),
         origin: format!("{here}, solved and independently re-checked"),
         float: req.float,
         status: design.solver.detail.clone(),
         iterations: design.solver.iterations,
         solved: true,
-        design,
-    }))
+    };
+    Ok(Ok((design, source)))
 }
 
 /// The request in words (as `qpv!` describes it, in short).
@@ -305,7 +326,7 @@ fn from_gains(
     model_flag: Option<&str>,
     gains: &Path,
     design: Option<usize>,
-) -> Result<(Model, Source), CliError> {
+) -> Result<(Model, (Design, Source)), CliError> {
     if design.is_some() {
         return Err(CliError::Input(
             "--design and --gains exclude each other: the gains file is the design".into(),
@@ -335,16 +356,13 @@ fn from_gains(
     design
         .observer_model(&model.polytopic())
         .map_err(|e| CliError::Input(format!("{}: {e}", gains.display())))?;
-    Ok((
-        model,
-        Source {
-            design,
-            solved: false,
-            request: format!("gains from {}", gains.display()),
-            origin: format!("{}, re-certified", gains.display()),
-            status: "gains file".into(),
-            iterations: 0,
-            float: qpv_dsl::Float::F64,
-        },
-    ))
+    let source = Source {
+        solved: false,
+        request: format!("gains from {}", gains.display()),
+        origin: format!("{}, re-certified", gains.display()),
+        status: "gains file".into(),
+        iterations: 0,
+        float: qpv_dsl::Float::F64,
+    };
+    Ok((model, (design, source)))
 }
