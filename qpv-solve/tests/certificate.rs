@@ -70,7 +70,14 @@ fn sound_rate_lmi_is_the_true_lyapunov_derivative() {
         let g = &p * &ls[l];
         for i in 0..model.region.vertices.len() {
             for j in 0..model.region.vertices.len() {
-                let m = rate_lmi(&model, Mode::Sound, alpha, gamma, &p, &g, l, i, j);
+                let m = rate_lmi(
+                    &model,
+                    Mode::Sound,
+                    Candidate::new(alpha, gamma),
+                    &p,
+                    &g,
+                    (l, i, j),
+                );
                 let e = &model.region.vertices[i] / gamma;
                 let x = &model.region.vertices[j] / gamma;
                 let lhs = e.dot(&((&m - &p * (gamma * alpha)) * &e));
@@ -93,8 +100,22 @@ fn paper_rate_lmi_has_the_opposite_nonlinear_sign() {
     let p = d.p_matrix();
     let g = &p * &d.l_matrices()[2];
     let (a, gm) = (d.alpha, d.gamma);
-    let s5 = rate_lmi(&model, Mode::Sound, a, gm, &p, &g, 2, 3, 5);
-    let p26 = rate_lmi(&model, Mode::Paper, a, gm, &p, &g, 2, 3, 5);
+    let s5 = rate_lmi(
+        &model,
+        Mode::Sound,
+        Candidate::new(a, gm),
+        &p,
+        &g,
+        (2, 3, 5),
+    );
+    let p26 = rate_lmi(
+        &model,
+        Mode::Paper,
+        Candidate::new(a, gm),
+        &p,
+        &g,
+        (2, 3, 5),
+    );
     let v = &model.vertices[2];
     let xi = &model.region.vertices[3];
     let xj = &model.region.vertices[5];
@@ -307,7 +328,14 @@ fn symmetric_split_lmi_is_the_true_lyapunov_derivative_too() {
         let g = &p * &ls[l];
         for i in 0..model.region.vertices.len() {
             for j in 0..model.region.vertices.len() {
-                let m = rate_lmi(&sym, Mode::Sound, alpha, gamma, &p, &g, l, i, j);
+                let m = rate_lmi(
+                    &sym,
+                    Mode::Sound,
+                    Candidate::new(alpha, gamma),
+                    &p,
+                    &g,
+                    (l, i, j),
+                );
                 let e = &model.region.vertices[i] / gamma;
                 let x = &model.region.vertices[j] / gamma;
                 let lhs = e.dot(&((&m - &p * (gamma * alpha)) * &e));

@@ -308,7 +308,7 @@ fn decoupled_solution_satisfies_the_full_family() {
             let p_cnt = model.region.vertices.len();
             for i in 0..p_cnt {
                 for j in 0..p_cnt {
-                    let m = rate_lmi(&model, mode, alpha, gamma, &p, g, l, i, j);
+                    let m = rate_lmi(&model, mode, Candidate::new(alpha, gamma), &p, g, (l, i, j));
                     assert!(
                         lmax(&m) <= e_worst + x_worst.max(0.0) + 1e-9 * scale,
                         "l={l} i={i} j={j}"

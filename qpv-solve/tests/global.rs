@@ -242,7 +242,15 @@ fn linear_vertices_are_written_once_and_certified_the_same() {
     for c in rate_combos(&m) {
         for i in 0..p {
             for j in 0..p {
-                let b = combo_lmi(&m, Mode::Sound, d.alpha, d.gamma, &pm, &gammas, &c, i, j);
+                let b = combo_lmi(
+                    &m,
+                    Mode::Sound,
+                    Candidate::new(d.alpha, d.gamma),
+                    &pm,
+                    &gammas,
+                    &c,
+                    (i, j),
+                );
                 worst = worst.min(-b.symmetric_eigenvalues().max());
             }
         }

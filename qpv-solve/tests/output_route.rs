@@ -83,8 +83,15 @@ fn double_sum_family_is_the_error_dynamics_at_every_theta() {
                     let one = Combo {
                         terms: vec![(lv, mv, 1.0)],
                     };
-                    got += combo_lmi(&model, Mode::Sound, alpha, gamma, &p, &gammas, &one, i, j)
-                        * (wl * wm);
+                    got += combo_lmi(
+                        &model,
+                        Mode::Sound,
+                        Candidate::new(alpha, gamma),
+                        &p,
+                        &gammas,
+                        &one,
+                        (i, j),
+                    ) * (wl * wm);
                 }
             }
             assert!(
