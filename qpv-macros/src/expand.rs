@@ -344,12 +344,12 @@ fn numbers(model: &Model, poly: &PolytopicModel, request: &str, baked: &Baked) -
     let mut out = CertifiedDesign {
         request: request.to_string(),
         mode: mode_name(d.mode).into(),
-        certifies: d.certifies,
+        certifies: d.certifies(),
         alpha: d.alpha,
         gamma: d.gamma,
         p: d.p.concat(),
         l: d.l.iter().map(|l| l.concat()).collect(),
-        margins: d.margins.iter().map(|(k, m)| (k.clone(), *m)).collect(),
+        margins: d.margins.iter().map(|(k, m)| (k.to_string(), *m)).collect(),
         status: d.solver.detail.clone(),
         iterations: d.solver.iterations,
         filter: filter_of(d.route()),
@@ -448,7 +448,7 @@ mod tests {
         let (stored_key, json) = text.split_once("---\n").expect("key, then the design");
         assert_eq!(stored_key, key);
         let cached = Design::from_json(json).expect("a design");
-        assert!(cached.certifies && cached.recheck(&poly).passed);
+        assert!(cached.certifies() && cached.recheck(&poly).passed);
 
         // A cached P that no longer certifies (here: negated) is not trusted.
         tamper(&dir, &poly, req, |d| {

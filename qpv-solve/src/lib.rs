@@ -3,8 +3,8 @@
 //!
 //! * [`design`] / [`design_with_progress`]: fixed (α, γ), α = max at fixed
 //!   γ, or a γ search maximising α ([`search`] documents the algorithms);
-//!   returns a [`Design`] that is `feasible` only if the independent
-//!   [`check`] passed, and `certifies` only in sound mode.
+//!   returns a [`Design`] whose `verdict` is `Certified` only if the
+//!   independent [`check`] passed in sound mode (`Reproduction` in paper mode).
 //! * [`check`]: recomputes every condition — sound (S1)-(S5) or the paper's
 //!   printed (13), (14), (26) — from P and L_l with nalgebra eigenvalues and
 //!   reports the worst margin per family (positive = satisfied) plus the
@@ -46,7 +46,7 @@
 //! let model = qpv_solve::conditions::reference::paper_model();
 //! let req = request(AlphaSpec::Fixed(10.0), GammaSpec::Fixed(0.1889), Mode::Sound);
 //! let d = design(&model, &req, &Settings::default()).unwrap();
-//! assert!(d.feasible && d.certifies);
+//! assert!(d.certifies());
 //! // Anyone can re-check the gains without the solver:
 //! let (p, l) = (d.p_matrix(), d.l_matrices());
 //! let c = check(&model, &Gains::new(&p, &l), &d.candidate(), d.mode);

@@ -1,7 +1,7 @@
 //! The serialisable result of a design: [`Design`] and its parts.
 //!
 //! JSON layout (keys exactly as written): `model`, `mode`, `split`,
-//! `conditions`, `feasible`, `certifies`, `alpha`, `gamma`, `P` (rows), `Gamma` (one matrix per
+//! `conditions`, `verdict`, `alpha`, `gamma`, `P` (rows), `Gamma` (one matrix per
 //! vertex, rows), `L` (one nx × ny matrix per vertex, rows), `gain_norms`,
 //! `margins` (family → worst margin, positive = satisfied), `data_checks`,
 //! `solver` {`status`, `detail`, `iterations`, `seconds`, `assembly_seconds`,
@@ -32,8 +32,7 @@ use crate::certificate::{Certificate, Gains};
 use crate::error::SolveError;
 use crate::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 use crate::settings::Settings;
-use crate::vocab::Candidate;
-use crate::vocab::Phase;
+use crate::vocab::{Candidate, Family, Phase, Verdict};
 use nalgebra::DMatrix;
 use qpv_dsl::{Conditions, Mode, PolytopicModel, Split, StateBound};
 
@@ -294,15 +293,15 @@ pub struct Design {
     /// Reports written before the key existed read as "full".
     #[serde(default = "full_conditions", with = "conditions_serde")]
     pub conditions: Conditions,
-    /// True only if the independent certificate passed for every condition
-    /// family (and, in sound mode, the data check (S4)). In paper mode this
-    /// means "satisfies the paper's printed conditions", which certifies nothing.
-    #[serde(default)]
-    pub feasible: bool,
-    /// True only for a feasible *sound-mode* design: the convergence claim
-    /// V' ≤ −αV on the certified set is proven. Always false in paper mode.
-    #[serde(default)]
-    pub certifies: bool,
+    /// What the independent certificate established ([`Verdict`]):
+    /// `certified` only if every condition family (and the required data
+    /// checks) passed in sound mode, which proves V' ≤ −αV on the certified
+    /// set; `reproduction` if the paper's printed conditions hold (paper
+    /// mode: certifies nothing); else `not_certified`. Reports written
+    /// before the key existed carry `feasible` and `certifies` instead,
+    /// read as the same three states ([`crate::vocab::verdict_serde`]).
+    #[serde(flatten, with = "crate::vocab::verdict_serde")]
+    pub verdict: Verdict,
     /// Decay rate α of the reported point (NaN when a gains file does not
     /// say: the re-check takes it from elsewhere).
     #[serde(default = "unstated")]
@@ -328,7 +327,7 @@ pub struct Design {
     /// independent certificate: "S1","S2","S3","S5" (sound) or
     /// "S1","13","14","26" (paper).
     #[serde(default)]
-    pub margins: BTreeMap<String, f64>,
+    pub margins: BTreeMap<Family, f64>,
     /// Data checks: "S4" (γ² a_kᵀ Q a_k ≤ 1) and "region_in_F" (P ⊂ F).
     #[serde(default)]
     pub data_checks: BTreeMap<String, DataCheck>,
@@ -548,6 +547,17 @@ impl ReportedMatrices {
 }
 
 impl Design {
+    /// The conditions of the design's mode hold (certified, or in paper
+    /// mode a reproduction): [`Verdict::feasible`].
+    pub fn feasible(&self) -> bool {
+        self.verdict.feasible()
+    }
+
+    /// A certified sound-mode design: [`Verdict::certifies`].
+    pub fn certifies(&self) -> bool {
+        self.verdict.certifies()
+    }
+
     /// The candidate the design claims: (α, γ) and its sample period.
     pub fn candidate(&self) -> Candidate {
         Candidate::new(self.alpha, self.gamma).at_sample(self.sample.as_ref().map(|s| s.h))
@@ -701,8 +711,7 @@ impl Design {
             mode,
             split: Split::default_for(mode),
             conditions: Conditions::Full,
-            feasible: false,
-            certifies: false,
+            verdict: Verdict::NotCertified,
             alpha,
             gamma,
             p,

@@ -29,7 +29,7 @@ fn sound_design() -> &'static Design {
             &Settings::default(),
         )
         .unwrap();
-        assert!(d.feasible, "{}", d.summary);
+        assert!(d.feasible(), "{}", d.summary);
         d
     })
 }
@@ -286,7 +286,7 @@ fn external_gains_can_be_checked() {
         Mode::Sound,
     );
     assert!(!sound.passed);
-    let keys: Vec<String> = paper.margins().keys().cloned().collect();
+    let keys: Vec<String> = paper.margins().keys().map(|k| k.to_string()).collect();
     assert_eq!(keys, ["13", "14", "26", "S1"]);
 }
 
@@ -299,7 +299,7 @@ fn synthetic_models_design_and_certify() {
         let model = synthetic_model(nx);
         let r = qpv_solve::request(AlphaSpec::Fixed(1.0), GammaSpec::Fixed(0.3), Mode::Sound);
         let d = design(&model, &r, &Settings::default()).unwrap();
-        assert!(d.feasible && d.certifies, "nx = {nx}: {}", d.summary);
+        assert!(d.feasible() && d.certifies(), "nx = {nx}: {}", d.summary);
         // Designed with the default (symmetric) split: re-checked with it.
         assert!(d.recheck(&model).passed);
     }
@@ -318,7 +318,7 @@ fn symmetric_split_lmi_is_the_true_lyapunov_derivative_too() {
     );
     assert_eq!(r.split, qpv_dsl::Split::Symmetric);
     let d = design(&model, &r, &Settings::default()).unwrap();
-    assert!(d.feasible, "{}", d.summary);
+    assert!(d.feasible(), "{}", d.summary);
     let sym = qpv_solve::conditions::with_split(&model, d.split);
     let (alpha, gamma) = (d.alpha, d.gamma);
     let p = d.p_matrix();

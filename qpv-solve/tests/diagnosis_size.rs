@@ -108,7 +108,7 @@ fn a_failed_design_carries_margins_and_its_diagnosis() {
     let m = model(UNDETECTABLE);
     let req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
     let d = design(&m, &req, &Settings::default()).expect("design runs");
-    assert!(!d.feasible && !d.certifies);
+    assert!(!d.feasible() && !d.certifies());
     assert!(d.margins.contains_key("S5"), "{:?}", d.margins);
     assert!(d.margins["S5"] <= 0.0);
     let diag = d.diagnosis.as_ref().expect("diagnosis");
@@ -233,7 +233,7 @@ fn wide_scheduling_ranges_propose_a_cover_and_failed_decoupled_points_full_condi
     assert_eq!(m.params[est.param].name, "q2");
     assert!(est.ratio > 0.0 && est.ratio < 0.6, "ratio {}", est.ratio);
     let d = qpv_solve::design(&m, &m.designs[0], &qpv_solve::Settings::default()).unwrap();
-    assert!(!d.certifies, "{}", d.summary);
+    assert!(!d.certifies(), "{}", d.summary);
     let findings = d.diagnosis.as_ref().expect("a diagnosis");
     let cover = findings
         .iter()
@@ -283,7 +283,7 @@ fn cover_and_conditions_findings_only_where_they_apply() {
     assert_eq!(qpv_solve::diagnosis::cover_estimate(&paper, 4), None);
     let m = natural_arm("full");
     let d = qpv_solve::design(&m, &m.designs[0], &qpv_solve::Settings::default()).unwrap();
-    assert!(!d.certifies);
+    assert!(!d.certifies());
     let findings = d.diagnosis.expect("a diagnosis");
     assert!(findings.iter().any(|f| f.kind == "cover"), "{findings:?}");
     assert!(

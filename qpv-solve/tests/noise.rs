@@ -81,7 +81,7 @@ fn recheck(d: &Design) {
 #[test]
 fn noise_optimal_design_alpha_5_matches_reference() {
     let d = noise_design_5();
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     let nb = d.noise.clone().unwrap();
     eprintln!(
         "α = 5: σ = {}, bound = {}, ν_max = {}, max‖L‖ = {}, {:.2} s",
@@ -122,7 +122,7 @@ fn noise_optimal_design_alpha_5_matches_reference() {
 fn noise_optimal_design_alpha_10_and_12() {
     for (alpha, sigma_ref, bound_ref) in [(10.0, 2965.0, 2.33), (12.0, 5.3e4, 7.8)] {
         let d = noise_design(alpha);
-        assert!(d.certifies, "{}", d.summary);
+        assert!(d.certifies(), "{}", d.summary);
         let nb = d.noise.clone().unwrap();
         eprintln!(
             "α = {alpha}: σ = {}, bound = {}, max‖L‖ = {}",
@@ -148,7 +148,7 @@ fn noise_optimal_design_alpha_10_and_12() {
 fn ordinary_designs_carry_a_checked_noise_bound_and_sampling() {
     let req = request(AlphaSpec::Fixed(5.0), GammaSpec::Fixed(GAMMA), Mode::Sound);
     let d = design(&paper_model(), &req, &Settings::default()).unwrap();
-    assert!(d.certifies);
+    assert!(d.certifies());
     let nb = d.noise.clone().expect("noise bound of a certified design");
     assert!(nb.check.passed);
     // The gain-regularised design is not noise-optimal: its σ is no smaller.
@@ -317,7 +317,7 @@ fn gamma_search_never_does_worse_than_the_top_of_the_range() {
         &Settings::default(),
     )
     .unwrap();
-    assert!(d.certifies, "{}", d.summary);
+    assert!(d.certifies(), "{}", d.summary);
     let top = noise_design_5().noise.clone().unwrap().error_bound;
     let got = d.noise.clone().unwrap();
     eprintln!(

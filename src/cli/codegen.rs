@@ -181,7 +181,7 @@ fn certified_design(
         gamma: d.gamma,
         p: d.p.concat(),
         l: d.l.iter().map(|l| l.concat()).collect(),
-        margins: d.margins.iter().map(|(k, m)| (k.clone(), *m)).collect(),
+        margins: d.margins.iter().map(|(k, m)| (k.to_string(), *m)).collect(),
         status: source.status.clone(),
         iterations: source.iterations,
         float: baked.float(),
@@ -284,7 +284,7 @@ fn solved(
         Ok(d) => d,
         Err(e) => return Ok(Err(format!("{here} cannot be attempted: {e}"))),
     };
-    if !(design.feasible && design.certifies) {
+    if !(design.feasible() && design.certifies()) {
         let why = export::explain(&poly, req, &design, &settings);
         return Ok(Err(format!("{here} {why}")));
     }

@@ -408,8 +408,8 @@ fn describe_verdict(d: &Design) -> String {
         .iter()
         .filter(|s| s.status == qpv_solve::Status::Solved && !s.certified)
         .count();
-    let families: Vec<&str> = d.margins.keys().map(String::as_str).collect();
-    match (d.feasible, d.mode) {
+    let families: Vec<&str> = d.margins.keys().map(|f| f.name()).collect();
+    match (d.feasible(), d.mode) {
         (true, Mode::Sound) if d.sample.is_some() => {
             let s = d.sample.unwrap_or(qpv_solve::sampling::SampleInfo::new(f64::NAN, d.alpha));
             format!(
@@ -555,7 +555,7 @@ fn describe_failure_margins(d: &Design) -> String {
 /// any other design: an uncertified design carries no bound).
 pub(super) fn describe_noise(d: &Design) -> String {
     let mut s = String::new();
-    if !(d.certifies && d.mode == Mode::Sound) {
+    if !(d.certifies() && d.mode == Mode::Sound) {
         return s;
     }
     if let Some(nb) = &d.noise {
@@ -601,7 +601,7 @@ pub(super) fn describe_noise(d: &Design) -> String {
 /// A human-readable report of one design.
 pub fn describe_design(d: &Design) -> String {
     let mut s = String::new();
-    let verdict = match (d.feasible, d.mode) {
+    let verdict = match (d.feasible(), d.mode) {
         (true, Mode::Sound) => "CERTIFIED".to_string(),
         (true, Mode::Paper) => {
             "satisfies the paper's printed conditions (reproduction mode: certifies nothing)".into()
@@ -641,7 +641,7 @@ pub fn describe_design(d: &Design) -> String {
     } else if let Some(sb) = &d.state_bound {
         s.push_str(&describe_state_bound(sb));
     }
-    if d.feasible && !d.p.is_empty() {
+    if d.feasible() && !d.p.is_empty() {
         s.push_str(&format!("  P:\n{}", fmt_matrix(&d.p_matrix(), "    ")));
         for (l, m) in d.l_matrices().iter().enumerate() {
             let norm = d.gain_norms.get(l).copied().unwrap_or(f64::NAN);
@@ -652,7 +652,7 @@ pub fn describe_design(d: &Design) -> String {
             ));
         }
     }
-    if d.feasible && !d.margins.is_empty() {
+    if d.feasible() && !d.margins.is_empty() {
         s.push_str("  condition families (worst margin, positive = satisfied):\n");
         for (k, v) in &d.margins {
             s.push_str(&format!(
@@ -661,7 +661,7 @@ pub fn describe_design(d: &Design) -> String {
             ));
         }
     }
-    if !d.feasible {
+    if !d.feasible() {
         s.push_str(&describe_failure_margins(d));
     }
     s.push_str(&describe_noise(d));
@@ -688,7 +688,7 @@ pub fn describe_design(d: &Design) -> String {
             ));
         }
     }
-    if d.feasible {
+    if d.feasible() {
         s.push_str(&format!(
             "  solves: {} in {:.3} s; the reported point: {} iterations, {:.3} s (the search log is in the JSON report)\n",
             d.search.len(),
@@ -713,7 +713,7 @@ pub fn describe_design(d: &Design) -> String {
         .notes
         .iter()
         // the γ search's statement has its own line above
-        .filter(|n| !(matches!(n, Note::GammaSearch(_)) || (d.feasible && n.is_search_log())))
+        .filter(|n| !(matches!(n, Note::GammaSearch(_)) || (d.feasible() && n.is_search_log())))
     {
         s.push_str(&format!("  note: {n}\n"));
     }
@@ -792,7 +792,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         &DesignOutput::new(&model.name, &designs, &skipped, &failures),
     )?;
     Ok(
-        if failures.is_empty() && designs.iter().all(|d| d.feasible) {
+        if failures.is_empty() && designs.iter().all(|d| d.feasible()) {
             exit::CERTIFIED
         } else {
             exit::NOT_CERTIFIED

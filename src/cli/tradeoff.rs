@@ -305,7 +305,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         &settings,
     )
     .map_err(bad)?;
-    if !fastest.certifies {
+    if !fastest.certifies() {
         bar.finish_and_clear();
         print_text(
             json,

@@ -92,11 +92,12 @@ pub struct Certificate {
 }
 
 impl Certificate {
-    /// Family → worst margin.
-    pub fn margins(&self) -> BTreeMap<String, f64> {
+    /// Family → worst margin (every family of a certificate is named by a
+    /// [`Family`], so none is left out).
+    pub fn margins(&self) -> BTreeMap<Family, f64> {
         self.families
             .iter()
-            .map(|f| (f.name.clone(), f.margin))
+            .filter_map(|f| Some((Family::from_name(&f.name)?, f.margin)))
             .collect()
     }
 

@@ -18,6 +18,7 @@ use crate::certificate::sampling::SampleInfo;
 use crate::certificate::Certificate;
 use crate::error::SolveError;
 use crate::report::{Design, ReportedMatrices};
+use crate::vocab::Verdict;
 use nalgebra::DMatrix;
 use qpv_dsl::{DesignRequest, Float, Mode, PolytopicModel};
 
@@ -105,8 +106,8 @@ impl Baked {
         float: Float,
     ) -> Result<Baked, BakeError> {
         let accepted = match design.mode {
-            Mode::Sound => design.feasible && design.certifies,
-            Mode::Paper => design.feasible,
+            Mode::Sound => design.certifies(),
+            Mode::Paper => design.feasible(),
         };
         if !accepted {
             return Err(BakeError::NotCertified);
@@ -247,8 +248,7 @@ impl Baked {
         }
         design.margins = cert.margins();
         design.data_checks = cert.data_checks;
-        design.feasible = true;
-        design.certifies = design.mode == Mode::Sound;
+        design.verdict = Verdict::of(true, design.mode);
         Baked::finish(plant, design, observer, float)
     }
 

@@ -238,7 +238,7 @@ fn noise_report(
     append_notes(&mut summary, &notes);
     d.summary = summary;
     d.notes = notes;
-    if d.certifies {
+    if d.certifies() {
         let (p, l) = (d.p_matrix(), d.l_matrices());
         d.sampling = crate::certificate::sampling::sampling(obs, alpha, d.gamma, &p, &l);
     }
@@ -470,7 +470,7 @@ fn tradeoff_point(
         ..request_base.clone()
     };
     let d = design_noise(model, &req, channels, settings)?;
-    let nb = d.noise.as_ref().filter(|_| d.certifies);
+    let nb = d.noise.as_ref().filter(|_| d.certifies());
     Ok(TradeoffPoint {
         alpha,
         gamma: d.gamma,
