@@ -335,42 +335,12 @@ fn solve(
     ))
 }
 
-/// The numbers to emit for a baked design: P, L_l, the margins of their
-/// certificate, the figures computed on them and, for f32, the certified
-/// error floor of the generated arithmetic.
+/// The numbers to emit for a baked design ([`Baked::certified_design`]:
+/// P, L_l, the margins of their certificate, the figures computed on them
+/// and, for f32, the certified error floor of the generated arithmetic,
+/// absent where none is certified).
 fn numbers(model: &Model, poly: &PolytopicModel, request: &str, baked: &Baked) -> CertifiedDesign {
-    let d = baked.design();
-    let f = baked.figures();
-    let mut out = CertifiedDesign {
-        request: request.to_string(),
-        mode: mode_name(d.mode).into(),
-        certifies: d.certifies(),
-        alpha: d.alpha,
-        gamma: d.gamma,
-        p: d.p.concat(),
-        l: d.l.iter().map(|l| l.concat()).collect(),
-        margins: d.margins.iter().map(|(k, m)| (k.to_string(), *m)).collect(),
-        status: d.solver.detail.clone(),
-        iterations: d.solver.iterations,
-        filter: filter_of(d.route()),
-        figures: Figures {
-            sigma: f.sigma,
-            error_bound: f.error_bound,
-            max_amplitude: f.max_amplitude,
-            euler: f.euler,
-            rk4: f.rk4,
-            f32_floor: None,
-        },
-        float: baked.float(),
-        sample: d.sample.map(|s| s.h),
-    };
-    if out.float == Float::F32 {
-        let floor = baked.f32_floor(|xs, xh| {
-            qpv_codegen::rounding::design_error(model, &poly.scheduling, &out, xs, xh)
-        });
-        out.figures.f32_floor = floor.ok();
-    }
-    out
+    baked.certified_design(model, &poly.scheduling, request).0
 }
 
 /// A design ready for emission and where it came from (for `QPV_TIMING`).

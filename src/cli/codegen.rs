@@ -12,8 +12,8 @@
 use super::gains::read_claim;
 use super::input::{exit, load_model, load_model_for, CliError};
 use qpv_codegen::c::{CModel, Float};
-use qpv_codegen::{CertifiedDesign, Figures};
-use qpv_dsl::{Mode, Model, OutputRoute};
+use qpv_codegen::CertifiedDesign;
+use qpv_dsl::{Mode, Model};
 use qpv_solve::export::{self, BakeError, Baked};
 use qpv_solve::Design;
 use std::path::{Path, PathBuf};
@@ -163,52 +163,22 @@ fn float_flag(flag: Option<&str>) -> Result<Option<Float>, CliError> {
     }
 }
 
-/// The numbers to emit for a baked design and, for an f32 design whose
-/// error floor could not be certified, the sentence that says why.
+/// The numbers to emit for a baked design ([`Baked::certified_design`],
+/// as `qpv!` emits them, with the record of where they came from) and, for
+/// an f32 design whose error floor could not be certified, the sentence
+/// that says why.
 fn certified_design(
     model: &Model,
     scheduling: &[usize],
     source: &Source,
     baked: &Baked,
 ) -> (CertifiedDesign, String) {
-    let d = baked.design();
-    let f = baked.figures();
-    let mut design = CertifiedDesign {
-        request: source.request.clone(),
-        mode: Mode::Sound.name().into(),
-        certifies: true,
-        alpha: d.alpha,
-        gamma: d.gamma,
-        p: d.p.concat(),
-        l: d.l.iter().map(|l| l.concat()).collect(),
-        margins: d.margins.iter().map(|(k, m)| (k.to_string(), *m)).collect(),
-        status: source.status.clone(),
-        iterations: source.iterations,
-        float: baked.float(),
-        filter: match d.route() {
-            OutputRoute::Filter(f) => Some(f),
-            OutputRoute::DoubleSum => None,
-        },
-        figures: Figures {
-            sigma: f.sigma,
-            error_bound: f.error_bound,
-            max_amplitude: f.max_amplitude,
-            euler: f.euler,
-            rk4: f.rk4,
-            f32_floor: None,
-        },
-        sample: d.sample.map(|s| s.h),
-    };
-    let mut floor_note = String::new();
-    if design.float == qpv_dsl::Float::F32 {
-        let floor = baked.f32_floor(|xs, xh| {
-            qpv_codegen::rounding::design_error(model, scheduling, &design, xs, xh)
-        });
-        match floor {
-            Ok(v) => design.figures.f32_floor = Some(v),
-            Err(e) => floor_note = format!(" No f32 error floor is certified: {e}."),
-        }
-    }
+    let (mut design, no_floor) = baked.certified_design(model, scheduling, &source.request);
+    design.status = source.status.clone();
+    design.iterations = source.iterations;
+    let floor_note = no_floor
+        .map(|e| format!(" No f32 error floor is certified: {e}."))
+        .unwrap_or_default();
     (design, floor_note)
 }
 

@@ -3,7 +3,9 @@
 //! values ([`Baked`]); the figures computed on them ([`Figures`]: the noise
 //! bound and the sampling figures, under the size guard of
 //! [`crate::report::figures::attach`]); the certified f32 error floor
-//! ([`Baked::f32_floor`]); and for a design that is not certified, why
+//! ([`Baked::f32_floor`]); the code generator's input built from all that
+//! ([`Baked::certified_design`], the [`CertifiedDesign`] of
+//! [`qpv_codegen`]); and for a design that is not certified, why
 //! ([`explain`]).
 //!
 //! `qpv!` and `qpv codegen` both bake through here, so an observer is
@@ -20,7 +22,8 @@ use crate::error::SolveError;
 use crate::report::{Design, ReportedMatrices};
 use crate::vocab::Verdict;
 use nalgebra::DMatrix;
-use qpv_dsl::{DesignRequest, Float, Mode, PolytopicModel};
+use qpv_codegen::{CertifiedDesign, Figures};
+use qpv_dsl::{DesignRequest, Float, Mode, Model, OutputRoute, PolytopicModel};
 
 /// A design whose P and L_l, as generated code holds them, passed the
 /// independent certificate, with the figures computed on those numbers.
@@ -180,7 +183,7 @@ impl Baked {
     /// The figures of the baked numbers, each present only if its own check
     /// passed (none for a sampled design, whose continuous-time figures say
     /// nothing, docs/method.md §16, nor for a cube design too large for
-    /// them).
+    /// them); the f32 floor is [`Baked::f32_floor`]'s (None here).
     pub fn figures(&self) -> Figures {
         let noise = self.design.noise.as_ref();
         let sampling = self.design.sampling.as_ref();
@@ -192,6 +195,56 @@ impl Baked {
                 .filter(|s| s.max_step_euler > 0.0)
                 .map(|s| (s.max_step_euler, s.beta)),
             rk4: sampling.map(|s| s.step_estimate_rk4).filter(|h| *h > 0.0),
+            f32_floor: None,
+        }
+    }
+
+    /// The code generator's input for the baked numbers, as `qpv!` and
+    /// `qpv codegen` both emit it: P and L_l row-major, the margins of
+    /// their certificate, the solver's record, the output filter, the
+    /// sample period and the figures; for f32 numbers also the certified
+    /// error floor of the generated arithmetic ([`Baked::f32_floor`] over
+    /// [`qpv_codegen::rounding::design_error`], `scheduling` being the
+    /// plant's scheduling parameters). The second value says why an f32
+    /// design has no certified floor (None otherwise).
+    pub fn certified_design(
+        &self,
+        model: &Model,
+        scheduling: &[usize],
+        request: &str,
+    ) -> (CertifiedDesign, Option<String>) {
+        let d = &self.design;
+        let mut out = CertifiedDesign {
+            request: request.to_string(),
+            mode: d.mode.name().into(),
+            certifies: d.certifies(),
+            alpha: d.alpha,
+            gamma: d.gamma,
+            p: d.p.concat(),
+            l: d.l.iter().map(|l| l.concat()).collect(),
+            margins: d.margins.iter().map(|(k, m)| (k.to_string(), *m)).collect(),
+            status: d.solver.detail.clone(),
+            iterations: d.solver.iterations,
+            filter: match d.route() {
+                OutputRoute::Filter(f) => Some(f),
+                OutputRoute::DoubleSum => None,
+            },
+            figures: self.figures(),
+            float: self.float,
+            sample: d.sample.map(|s| s.h),
+        };
+        if self.float != Float::F32 {
+            return (out, None);
+        }
+        let floor = self.f32_floor(|xs, xh| {
+            qpv_codegen::rounding::design_error(model, scheduling, &out, xs, xh)
+        });
+        match floor {
+            Ok(v) => {
+                out.figures.f32_floor = Some(v);
+                (out, None)
+            }
+            Err(why) => (out, Some(why)),
         }
     }
 
@@ -271,24 +324,6 @@ impl Baked {
             float,
         })
     }
-}
-
-/// The noise bound and sampling figures of baked numbers
-/// ([`Baked::figures`]).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Figures {
-    /// σ in V' + αV ≤ σ(|v|² + |w|²) on the model's noise channels.
-    pub sigma: Option<f64>,
-    /// ‖e(∞)‖ per unit noise amplitude, √(σ/(α λ_min(P))).
-    pub error_bound: Option<f64>,
-    /// ν_max = √(α/σ): the noise amplitude up to which the certified set
-    /// stays invariant.
-    pub max_amplitude: Option<f64>,
-    /// The largest certified explicit Euler step (positive), and its
-    /// contraction rate β.
-    pub euler: Option<(f64, f64)>,
-    /// The RK4 step estimate (positive; frozen vertex dynamics, not a proof).
-    pub rk4: Option<f64>,
 }
 
 /// The design with P, L_l and the sample period rounded to f32 (each
