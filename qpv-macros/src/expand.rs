@@ -640,7 +640,7 @@ mod tests {
         for h in [1e-4, 1e-3, 2e-3, 0.05, 3e-7] {
             assert_eq!(
                 qpv_codegen::design::describe_period(h),
-                qpv_solve::sampling::describe_period(h)
+                qpv_solve::certificate::sampling::describe_period(h)
             );
         }
     }

@@ -12,15 +12,17 @@
 //! * [`model`]: the observer's model: the state bound (given, or computed
 //!   for `state_bound auto` by [`state_bound`]), the output route ([`output_filter`]: double sum or output
 //!   post-filter), the split of N_k and M_k, and the skew slack
-//!   ([`skew_slack`]).
+//!   ([`model::skew`]).
 //! * [`lmi`]: the LMIs assembled directly into Clarabel's standard form
 //!   (PSD triangle cones, no modelling layer); [`conditions`]: the condition
 //!   sets and the one place where the two modes differ.
-//! * [`noise`]: the certified noise bound σ of V' + αV ≤ σ(|w|² + |v|²)
-//!   (reported on every certified sound design as `noise`), the
-//!   noise-optimal design ([`noise::design_noise`]) and the rate–noise
-//!   trade-off ([`noise::tradeoff`]); [`sampling`]: the largest Euler step
-//!   that keeps V contracting and an RK4 step estimate (`sampling`).
+//! * Noise, in the folder of each layer: the channels
+//!   ([`model::noise`]), the certified bound σ of V' + αV ≤ σ(|w|² + |v|²)
+//!   and its check ([`certificate::noise`]; reported on every certified
+//!   sound design as `noise`), the noise-optimal design and the rate–noise
+//!   trade-off ([`search::noise`]) and the falsification of a noise claim
+//!   ([`analysis::noise`]); [`certificate::sampling`]: the largest Euler
+//!   step that keeps V contracting and an RK4 step estimate (`sampling`).
 //!
 //! # Layers
 //!
@@ -79,20 +81,6 @@ pub mod analysis;
 pub mod export;
 pub mod report;
 pub mod search;
-
-pub use certificate::sampling;
-pub use model::{diagnosis, size};
-
-/// Noise and disturbances: the channels (model), the bound σ and its check
-/// (certificate), the noise-optimal design and trade-off (search) and the
-/// falsification of a noise claim (analysis), gathered in one path.
-pub mod noise {
-    pub use crate::analysis::noise::*;
-    pub use crate::certificate::noise::*;
-    pub use crate::model::noise::*;
-    pub use crate::report::figures::attach;
-    pub use crate::search::noise::*;
-}
 
 pub use analysis::{falsify, simulate};
 pub use certificate::{check, Certificate, FamilyMargin};

@@ -119,7 +119,7 @@ fn unstated() -> f64 {
 #[derive(Debug, Clone)]
 pub enum Note {
     /// `conditions = auto`: the conditions the size estimate chose, and why
-    /// ([`crate::size::choose`]).
+    /// ([`crate::model::size::choose`]).
     ConditionsChosen(String),
     /// What the γ search searched ([`GammaSearchInfo::statement`]).
     GammaSearch(GammaSearchInfo),

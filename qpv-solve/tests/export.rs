@@ -190,7 +190,7 @@ fn the_figures_keep_the_size_guard_of_a_cube_design() {
     assert!(d.certifies(), "{}", d.summary);
     assert!(d.cube.is_some());
     let pairs = poly.nv() * poly.region.vertices.len().pow(2);
-    assert!(pairs > qpv_solve::size::AUTO_FULL_BLOCKS, "{pairs}");
+    assert!(pairs > qpv_solve::model::size::AUTO_FULL_BLOCKS, "{pairs}");
     let baked = Baked::solved(&poly, d.clone(), Float::F64).expect("certified");
     assert_eq!(baked.figures(), qpv_codegen::Figures::default());
     let claimed = Baked::claimed(&poly, d, Float::F64).expect("re-checks by its slacks");

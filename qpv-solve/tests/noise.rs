@@ -7,8 +7,10 @@ use nalgebra::DMatrix;
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
 use qpv_solve::analysis::euler::simulate_euler;
 use qpv_solve::conditions::reference::paper_model;
-use qpv_solve::noise::{check_noise, design_noise, noise_bound, tradeoff, NoiseChannels};
-use qpv_solve::sampling::{euler_margin, vertex_dynamics};
+use qpv_solve::certificate::noise::{check_noise, noise_bound};
+use qpv_solve::model::noise::NoiseChannels;
+use qpv_solve::search::noise::{design_noise, tradeoff};
+use qpv_solve::certificate::sampling::{euler_margin, vertex_dynamics};
 use qpv_solve::simulate::Scenario;
 use qpv_solve::{design, request, Design, Settings};
 use std::sync::OnceLock;
@@ -223,7 +225,7 @@ fn noisy_outputs_subset_and_disturbance_channels() {
 fn noise_claim_not_falsified_on_the_true_error_dynamics() {
     let d = noise_design_5();
     let nb = d.noise.clone().unwrap();
-    let report = qpv_solve::noise::falsify_noise(
+    let report = qpv_solve::analysis::noise::falsify_noise(
         &paper_model(),
         d,
         &NoiseChannels::all_outputs(),

@@ -241,7 +241,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
                     .into(),
             ));
         }
-        design.sample = Some(qpv_solve::sampling::SampleInfo::new(h, alpha));
+        design.sample = Some(qpv_solve::certificate::sampling::SampleInfo::new(h, alpha));
     }
     let cert = recheck(&model, &design, gains)?;
     let code = match (cert.passed, mode) {
@@ -296,7 +296,7 @@ fn report_text(
     if let Some((h, source)) = sample {
         s.push_str(&format!(
             "  sampled at {} ({source}): the observer stepped by explicit Euler, V(e_k+1) <= {} V(e_k) (family S5d in place of S5)\n",
-            qpv_solve::sampling::describe_period(h),
+            qpv_solve::certificate::sampling::describe_period(h),
             fmt_num(1.0 - h * alpha)
         ));
     }

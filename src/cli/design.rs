@@ -411,7 +411,7 @@ fn describe_verdict(d: &Design) -> String {
     let families: Vec<&str> = d.margins.keys().map(|f| f.name()).collect();
     match (d.feasible(), d.mode) {
         (true, Mode::Sound) if d.sample.is_some() => {
-            let s = d.sample.unwrap_or(qpv_solve::sampling::SampleInfo::new(f64::NAN, d.alpha));
+            let s = d.sample.unwrap_or(qpv_solve::certificate::sampling::SampleInfo::new(f64::NAN, d.alpha));
             format!(
                 "  CERTIFIED at {}: alpha = {:.6} per second at gamma = {:.6}, V(e_k+1) <= {:.6} V(e_k) per step for the observer stepped by explicit Euler at h (the discrete decrease S5d in place of S5): every condition family holds ({}) and the data check S4, by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), {rejected} of them rejected by that check and not used\n{}",
                 s.describe(),

@@ -59,7 +59,7 @@ impl Claim {
         }
         d.sample = d
             .sample
-            .map(|s| qpv_solve::sampling::SampleInfo::new(s.h, alpha));
+            .map(|s| qpv_solve::certificate::sampling::SampleInfo::new(s.h, alpha));
         d
     }
 }

@@ -676,7 +676,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     // given; the report's own figures are claims, never read as facts.
     design.verdict = qpv_solve::vocab::Verdict::of(reason.is_none(), design.mode);
     if reason.is_none() {
-        qpv_solve::noise::attach(&poly, &mut design);
+        qpv_solve::report::figures::attach(&poly, &mut design);
     }
     if let Some(sp) = design
         .sampling

@@ -9,8 +9,9 @@ use super::input::{
 };
 use super::schema::SCHEMA;
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec};
-use qpv_solve::noise::{
-    tradeoff_with_progress, NoiseChannels, Sweep, SweepStep, Tradeoff, TradeoffPoint,
+use qpv_solve::model::noise::NoiseChannels;
+use qpv_solve::search::noise::{
+    tradeoff_with_progress, Sweep, SweepStep, Tradeoff, TradeoffPoint,
 };
 use qpv_solve::report::Design;
 use serde::Serialize;
