@@ -63,12 +63,12 @@ pub use qpv_lapack as lapack;
 
 // Shared vocabulary.
 pub mod backend;
-pub mod error;
+pub(crate) mod error;
 #[doc(hidden)]
 pub mod fixtures;
 pub mod linalg;
 pub mod line_search;
-pub mod settings;
+pub(crate) mod settings;
 pub mod vocab;
 // Model preparation.
 pub mod model;

@@ -567,10 +567,6 @@ impl Design {
     pub fn p_matrix(&self) -> DMatrix<f64> {
         rows_to_matrix(&self.p)
     }
-    /// Γ_l as matrices.
-    pub fn gamma_matrices(&self) -> Vec<DMatrix<f64>> {
-        self.gamma_l.iter().map(|g| rows_to_matrix(g)).collect()
-    }
     /// L_l as matrices.
     pub fn l_matrices(&self) -> Vec<DMatrix<f64>> {
         self.l.iter().map(|g| rows_to_matrix(g)).collect()
@@ -592,7 +588,7 @@ impl Design {
 
     /// The state bound this design claims for a `state_bound auto` model:
     /// its Q, box size h and the split of its invariance check.
-    pub fn state_bound_claim(&self) -> Option<ClaimedBound> {
+    pub(crate) fn state_bound_claim(&self) -> Option<ClaimedBound> {
         let info = self.state_bound.as_ref()?;
         Some(ClaimedBound {
             q: rows_to_matrix(info.q.as_ref()?),
@@ -820,7 +816,7 @@ fn recheck_blocks(obs: &PolytopicModel, cube: bool) -> f64 {
 }
 
 /// The `skew` key of a report (per θ-vertex, per k, rows) as matrices.
-pub fn skew_matrices(k: &[Vec<Vec<Vec<f64>>>]) -> Vec<Vec<DMatrix<f64>>> {
+pub(crate) fn skew_matrices(k: &[Vec<Vec<Vec<f64>>>]) -> Vec<Vec<DMatrix<f64>>> {
     k.iter()
         .map(|kl| kl.iter().map(|kk| rows_to_matrix(kk)).collect())
         .collect()

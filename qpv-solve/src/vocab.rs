@@ -142,7 +142,7 @@ impl Candidate {
     }
 
     /// The same candidate at the sample period `h` (None: continuous time).
-    pub fn at_sample(self, h: Option<f64>) -> Candidate {
+    pub(crate) fn at_sample(self, h: Option<f64>) -> Candidate {
         Candidate { sample: h, ..self }
     }
 }
@@ -255,7 +255,7 @@ pub mod verdict_serde {
     }
 
     /// Writes `verdict`.
-    pub fn serialize<S: Serializer>(v: &Verdict, s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(v: &Verdict, s: S) -> Result<S::Ok, S::Error> {
         Wire {
             verdict: Some(*v),
             feasible: None,
@@ -307,13 +307,6 @@ named_enum! {
     }
 }
 
-impl Phase {
-    /// Whether this is a solve of the noise-optimal design.
-    pub fn is_noise(self) -> bool {
-        matches!(self, Phase::Noise | Phase::NoiseGrid | Phase::NoiseRefine)
-    }
-}
-
 named_enum! {
     /// Where a design's state bound Q came from (a report's
     /// `state_bound.source`).
@@ -333,7 +326,7 @@ pub mod split_serde {
     use serde::{Deserialize, Deserializer, Serializer};
 
     /// Writes the split's name ([`Split::name`]).
-    pub fn serialize<S: Serializer>(m: &Split, s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(m: &Split, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(m.name())
     }
 
@@ -357,7 +350,7 @@ pub mod conditions_serde {
     use serde::{Deserialize, Deserializer, Serializer};
 
     /// Writes "full", "decoupled" or "cube".
-    pub fn serialize<S: Serializer>(c: &Conditions, s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(c: &Conditions, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(c.name())
     }
 
@@ -381,7 +374,7 @@ pub mod mode_serde {
     use serde::{Deserialize, Deserializer, Serializer};
 
     /// Writes "sound" or "paper".
-    pub fn serialize<S: Serializer>(m: &Mode, s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(m: &Mode, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(m.name())
     }
 
@@ -406,7 +399,7 @@ pub mod bound_split_serde {
     use serde::{Deserialize, Deserializer, Serializer};
 
     /// Writes the split's name, or `null`.
-    pub fn serialize<S: Serializer>(m: &Option<Split>, s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(m: &Option<Split>, s: S) -> Result<S::Ok, S::Error> {
         match m {
             Some(m) => s.serialize_str(m.name()),
             None => s.serialize_none(),

@@ -6,11 +6,11 @@
 use nalgebra::DMatrix;
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
 use qpv_solve::analysis::euler::simulate_euler;
-use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::certificate::noise::{check_noise, noise_bound};
+use qpv_solve::certificate::sampling::{euler_margin, vertex_dynamics};
+use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::model::noise::NoiseChannels;
 use qpv_solve::search::noise::{design_noise, tradeoff};
-use qpv_solve::certificate::sampling::{euler_margin, vertex_dynamics};
 use qpv_solve::simulate::Scenario;
 use qpv_solve::{design, request, Design, Settings};
 use std::sync::OnceLock;

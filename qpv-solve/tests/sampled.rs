@@ -4,9 +4,9 @@
 //! true Euler error map, and the report's re-check.
 
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, PolytopicModel, Split};
+use qpv_solve::certificate::sampling::SampleInfo;
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::falsify::falsify_design;
-use qpv_solve::certificate::sampling::SampleInfo;
 use qpv_solve::{design, Design, Settings};
 
 /// γ_max of the paper example (docs/method.md §14).

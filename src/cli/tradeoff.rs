@@ -10,10 +10,8 @@ use super::input::{
 use super::schema::SCHEMA;
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec};
 use qpv_solve::model::noise::NoiseChannels;
-use qpv_solve::search::noise::{
-    tradeoff_with_progress, Sweep, SweepStep, Tradeoff, TradeoffPoint,
-};
 use qpv_solve::report::Design;
+use qpv_solve::search::noise::{tradeoff_with_progress, Sweep, SweepStep, Tradeoff, TradeoffPoint};
 use serde::Serialize;
 use std::path::PathBuf;
 

@@ -219,7 +219,7 @@ pub fn check_model(model: &PolytopicModel) -> Result<(), SimError> {
 }
 
 /// Checks that there is one finite nx × ny gain L_l per vertex.
-pub fn check_gains(model: &PolytopicModel, gains: &[DMatrix<f64>]) -> Result<(), SimError> {
+pub(crate) fn check_gains(model: &PolytopicModel, gains: &[DMatrix<f64>]) -> Result<(), SimError> {
     if gains.len() != model.nv() {
         return Err(SimError::Length {
             what: "gains".to_string(),

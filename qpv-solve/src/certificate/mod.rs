@@ -124,7 +124,7 @@ impl Certificate {
     /// The certificate with the data check of `max_gain = G` (required):
     /// max_l ‖L_l‖₂ ≤ G, computed from the gains `l` as given (see
     /// [`gain_check`]); unchanged when `bound` is None.
-    pub fn with_gain_bound(mut self, l: &[DMatrix<f64>], bound: Option<f64>) -> Certificate {
+    pub(crate) fn with_gain_bound(mut self, l: &[DMatrix<f64>], bound: Option<f64>) -> Certificate {
         if let Some(g) = bound {
             let c = gain_check(l, g);
             self.passed &= c.passed;
@@ -1249,7 +1249,7 @@ fn capacity_inner(
 /// at which F0_c(α) + Σ_k Y_{c,k} + Σ_k X_{c,k} ≺ 0 for the same (P, Γ_l) and
 /// slacks (the slack inequalities and the region conditions do not depend
 /// on α; [`check_cube`] checks them). 0 if P is not positive definite.
-pub fn alpha_capacity_cube(
+pub(crate) fn alpha_capacity_cube(
     model: &PolytopicModel,
     mode: Mode,
     gamma: f64,

@@ -54,7 +54,7 @@ mod driver;
 pub mod gamma;
 pub mod noise;
 mod practical;
-pub mod skew;
+pub(crate) mod skew;
 
 use attempt::{Attempt, Point, Solve};
 use driver::design_plain;

@@ -246,7 +246,7 @@ fn noise_report(
 }
 
 /// As [`design_noise`], calling `progress` after every solve.
-pub fn design_noise_with_progress(
+pub(crate) fn design_noise_with_progress(
     model: &PolytopicModel,
     request: &DesignRequest,
     channels: &NoiseChannels,
@@ -489,7 +489,7 @@ fn tradeoff_point(
 }
 
 /// The knee of a sweep (see [`Tradeoff::knee`]).
-pub fn knee_of(points: &[TradeoffPoint]) -> Option<usize> {
+pub(crate) fn knee_of(points: &[TradeoffPoint]) -> Option<usize> {
     let min = points
         .iter()
         .filter_map(|p| p.error_bound)
