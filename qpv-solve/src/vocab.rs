@@ -187,6 +187,8 @@ named_enum! {
     /// What a design or a re-check establishes: one of three states (a
     /// report's `verdict`; reports written before it existed said it with
     /// two booleans, `feasible` and `certifies`, which still load).
+    /// The default is `NotCertified`.
+    #[derive(Default)]
     pub enum Verdict ("verdict") {
         /// Sound mode, every condition family and required data check
         /// holds: V' ≤ −αV on the certified set is proven.
@@ -195,13 +197,8 @@ named_enum! {
         /// certifies nothing.
         Reproduction = "reproduction",
         /// Some family or required data check fails, or there is no point.
+        #[default]
         NotCertified = "not_certified",
-    }
-}
-
-impl Default for Verdict {
-    fn default() -> Self {
-        Verdict::NotCertified
     }
 }
 
