@@ -368,20 +368,15 @@ enum Vecs {
     Thin,
 }
 
-/// Thin SVD of the m × n matrix in `a` into `s` (descending) and the
-/// requested factors. Returns LAPACK's `info` (always 0).
+/// Thin SVD of the m × n matrix in `a` (leading dimension `lda`) into `s`
+/// (descending) and the requested factors, each given as (which, where,
+/// leading dimension). Returns LAPACK's `info` (always 0).
 unsafe fn svd_into(
-    m: usize,
-    n: usize,
-    a: &[f64],
-    lda: usize,
+    (m, n): (usize, usize),
+    (a, lda): (&[f64], usize),
     s: *mut f64,
-    want_u: Vecs,
-    u: *mut f64,
-    ldu: usize,
-    want_vt: Vecs,
-    vt: *mut f64,
-    ldvt: usize,
+    (want_u, u, ldu): (Vecs, *mut f64, usize),
+    (want_vt, vt, ldvt): (Vecs, *mut f64, usize),
 ) -> c_int {
     let k = m.min(n);
     let (cu, cv) = (want_u == Vecs::Thin, want_vt == Vecs::Thin);
@@ -720,7 +715,7 @@ pub unsafe extern "C" fn dgesdd_(
     let (lda, ldu, ldvt) = (lda as usize, ldu as usize, ldvt as usize);
     let a = unsafe { slice(a as *const f64, mat_len(m, n, lda)) };
     let want = if wntqn { Vecs::None } else { Vecs::Thin };
-    let r = unsafe { svd_into(m, n, a, lda, s, want, u, ldu, want, vt, ldvt) };
+    let r = unsafe { svd_into((m, n), (a, lda), s, (want, u, ldu), (want, vt, ldvt)) };
     unsafe { *info = r };
 }
 
@@ -804,6 +799,6 @@ pub unsafe extern "C" fn dgesvd_(
     } else {
         Vecs::Thin
     };
-    let r = unsafe { svd_into(m, n, a, lda, s, wu, u, ldu, wv, vt, ldvt) };
+    let r = unsafe { svd_into((m, n), (a, lda), s, (wu, u, ldu), (wv, vt, ldvt)) };
     unsafe { *info = r };
 }
