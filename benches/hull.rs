@@ -115,7 +115,7 @@ fn main() {
             let d = qpv::solve::design(&poly, &req, &Default::default());
             let secs = start.elapsed().as_secs_f64();
             let alpha = match d {
-                Ok(d) if d.certifies => format!("{:.5}", d.alpha),
+                Ok(d) if d.certifies() => format!("{:.5}", d.alpha),
                 Ok(_) => "none".to_string(),
                 Err(e) => format!("error: {e}"),
             };

@@ -149,7 +149,7 @@ fn table(quick: bool) {
             "{name:<18} {:>8} {:>9} {:>12.6} {n:>7} {t:>8.2} {:>14}",
             case.gamma,
             "cont.",
-            if d.certifies { d.alpha } else { 0.0 },
+            if d.certifies() { d.alpha } else { 0.0 },
             "-"
         );
         for &h in case.hs {
@@ -162,7 +162,7 @@ fn table(quick: bool) {
             println!(
                 "{name:<18} {:>8} {h:>9.0e} {:>12.6} {n:>7} {t:>8.2} {bound:>14}",
                 case.gamma,
-                if d.certifies { d.alpha } else { 0.0 },
+                if d.certifies() { d.alpha } else { 0.0 },
             );
         }
     }
@@ -190,9 +190,9 @@ fn figure() {
     );
     for &h in &hs {
         let (d, n, t) = alpha_max(&m, gamma, Some(h));
-        let a = if d.certifies { d.alpha } else { 0.0 };
+        let a = if d.certifies() { d.alpha } else { 0.0 };
         println!("  h = {h:>7.4}  α = {a:>9.4}  ({n} solves, {t:.2} s)");
-        if d.certifies {
+        if d.certifies() {
             pts.push((h, a));
         }
     }

@@ -22,7 +22,7 @@
 //! let model = &qpv::dsl::parse(&src).unwrap()[0];
 //! let poly = model.polytopic();
 //! let design = qpv::solve::design(&poly, &model.designs[1], &Default::default()).unwrap();
-//! assert!(design.feasible && design.certifies);
+//! assert!(design.certifies());
 //! # }
 //! ```
 

@@ -60,7 +60,7 @@ fn paper_mode_reproduces_the_published_point_with_json_on_stdout_only() {
     for key in [
         "model",
         "mode",
-        "feasible",
+        "verdict",
         "alpha",
         "gamma",
         "P",
@@ -73,8 +73,7 @@ fn paper_mode_reproduces_the_published_point_with_json_on_stdout_only() {
         assert!(j.get(key).is_some(), "report lacks key {key}");
     }
     assert_eq!(j["mode"], "paper");
-    assert_eq!(j["feasible"], true);
-    assert_eq!(j["certifies"], false);
+    assert_eq!(j["verdict"], "reproduction");
     assert!(j["solver"]["status"].is_string() && j["solver"]["iterations"].is_number());
     // (S4) is reported as a violated assumption: γ² a_kᵀQa_k = 4.48.
     let s4 = j["data_checks"]["S4"]["value"].as_f64().expect("S4 value");
@@ -99,7 +98,7 @@ fn sound_mode_at_the_papers_gamma_is_rejected_with_exit_1() {
     assert_eq!(out.status.code(), Some(1));
     let doc = json_stdout(&out);
     let j = &doc["designs"][0];
-    assert_eq!(j["feasible"], false);
+    assert_eq!(j["verdict"], "not_certified");
     assert_eq!(j["data_checks"]["S4"]["passed"], false);
 }
 
@@ -129,8 +128,7 @@ fn sound_design_certifies_and_check_and_simulate_accept_it() {
             .expect("json");
     assert_envelope(&doc, "design");
     let j = &doc["designs"][0];
-    assert_eq!(j["feasible"], true);
-    assert_eq!(j["certifies"], true);
+    assert_eq!(j["verdict"], "certified");
     for fam in ["S1", "S2", "S3", "S5"] {
         assert!(
             j["margins"][fam].as_f64().expect("margin") > 0.0,
@@ -160,8 +158,7 @@ fn sound_design_certifies_and_check_and_simulate_accept_it() {
     assert_eq!(bad.status.code(), Some(1));
     let c = json_stdout(&bad);
     assert_envelope(&c, "check");
-    assert_eq!(c["feasible"], false);
-    assert_eq!(c["certifies"], false);
+    assert_eq!(c["verdict"], "not_certified");
     assert_eq!(c["exit_code"], 1);
 
     // Simulation writes the figures and the CSV.
@@ -359,8 +356,7 @@ fn every_command_writes_the_same_envelope_with_matrices_as_rows() {
     assert_envelope(&c, "check");
     assert_eq!(c["model"], "paper_example");
     assert_eq!(c["mode"], "sound");
-    assert_eq!(c["certifies"], true);
-    assert_eq!(c["feasible"], true);
+    assert_eq!(c["verdict"], "certified");
     assert_eq!(c["exit_code"], 0);
     let margins = c["margins"]
         .as_object()
@@ -484,7 +480,7 @@ fn paper_mode_gains_are_never_certified() {
     let c = json_stdout(&out);
     assert_eq!(c["mode"], "sound");
     assert_eq!(c["mode_source"], "default");
-    assert_eq!(c["certifies"], false);
+    assert_eq!(c["verdict"], "not_certified");
     let text = stderr_of(&out);
     assert!(text.contains("NOT certified"), "{text}");
     assert!(!text.contains("all conditions hold"), "{text}");
@@ -503,8 +499,7 @@ fn paper_mode_gains_are_never_certified() {
     assert_eq!(out.status.code(), Some(3), "{}", stderr_of(&out));
     let c = json_stdout(&out);
     assert_eq!(c["mode"], "paper");
-    assert_eq!(c["feasible"], true);
-    assert_eq!(c["certifies"], false);
+    assert_eq!(c["verdict"], "reproduction");
     assert_eq!(c["exit_code"], 3);
     let text = stderr_of(&out);
     assert!(
@@ -650,7 +645,7 @@ fn split_skew_slack_skips_the_paper_block_and_runs_the_sound_one() {
     assert_eq!(designs.len(), 1, "the sound block ran");
     assert_eq!(designs[0]["mode"], "sound");
     assert_eq!(designs[0]["split"], "skew_slack");
-    assert_eq!(designs[0]["certifies"], true);
+    assert_eq!(designs[0]["verdict"], "certified");
 
     // With nothing left to run it is an error.
     let out = qpv(&[

@@ -35,7 +35,7 @@ fn conditions_and_split_flags_reach_the_report() {
         text.contains("split = as_written, conditions = decoupled"),
         "{text}"
     );
-    assert_eq!(dec["certifies"], true);
+    assert_eq!(dec["verdict"], "certified");
     let (af, ad) = (
         full["alpha"].as_f64().unwrap(),
         dec["alpha"].as_f64().unwrap(),

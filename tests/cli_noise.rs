@@ -65,7 +65,7 @@ fn noise_min_on_the_paper_example_matches_the_reference_noise_gain() {
     let v: Value = serde_json::from_slice(&out.stdout).expect("json on stdout");
     assert_eq!(v["schema"], "qpv/1");
     let d = &v["designs"][0];
-    assert_eq!(d["certifies"], true);
+    assert_eq!(d["verdict"], "certified");
     let noise = &d["noise"];
     let sigma = num(noise, "sigma");
     assert!(

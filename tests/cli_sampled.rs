@@ -172,7 +172,7 @@ fn sampled_run(plant: &Plant) -> qpv::solve::analysis::sampled::SampledCheck {
     );
     req.sample = Some(plant.h);
     let d = qpv::solve::design(&poly, &req, &qpv::solve::Settings::default()).unwrap();
-    assert!(d.certifies, "{}: {:?}", plant.file, d.notes);
+    assert!(d.certifies(), "{}: {:?}", plant.file, d.notes);
     let mut sc = qpv::solve::simulate::Scenario::default_for(&poly);
     sc.t_end = plant.t_end;
     // Half a region vertex: inside the certified set, and the plant stays

@@ -105,7 +105,7 @@ fn tampered_gains_are_rechecked_and_a_diverging_run_exits_1() {
     let mut j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
     let d = &mut j["designs"][0];
-    assert_eq!(d["certifies"], true);
+    assert_eq!(d["verdict"], "certified");
     // Gains scaled by −1e4: the report still says `certifies: true`.
     for l in d["L"].as_array_mut().expect("L") {
         for row in l.as_array_mut().expect("rows") {
@@ -310,7 +310,7 @@ fn an_undetectable_plant_fails_with_margins_and_a_diagnosis_but_no_alpha() {
     let j: serde_json::Value =
         serde_json::from_str(&String::from_utf8_lossy(&json.stdout)).expect("json");
     let failed = &j["designs"][0];
-    assert_eq!(failed["certifies"], false);
+    assert_eq!(failed["verdict"], "not_certified");
     let kinds: Vec<&str> = failed["diagnosis"]
         .as_array()
         .expect("diagnosis")

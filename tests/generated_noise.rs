@@ -9,8 +9,8 @@
 
 use super::{gains, paper_theta, polytopic, quad_form};
 use nalgebra::DMatrix;
+use qpv::solve::certificate::sampling;
 use qpv::solve::model::{ObserverModel, ObserverOptions, StateBoundClaim};
-use qpv::solve::sampling;
 
 // The paper's example, σ minimised at α = 5, γ = 0.18898 (sound mode,
 // symmetric split: the defaults), noise on both outputs.

@@ -173,7 +173,7 @@ pub fn vertex_count(m: &qpv_dsl::Model, scheduling: &[usize]) -> usize {
 
 /// "h = 1e-4 s (10 kHz)", "h = 2e-3 s (500 Hz)": a sample period and its
 /// rate, worded as the solver's report words it
-/// (`qpv_solve::sampling::describe_period`, which qpv-macros' tests compare
+/// (`qpv_solve::certificate::sampling::describe_period`, which qpv-macros' tests compare
 /// with this one).
 pub fn describe_period(h: f64) -> String {
     let f = 1.0 / h;

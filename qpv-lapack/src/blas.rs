@@ -147,12 +147,12 @@ pub unsafe extern "C" fn dgemm_(
     // The arithmetic and its order are those of the general case, so the
     // results are bit for bit the same.
     match m {
-        2 if n == 2 && k == 2 => op.run(2, 2, 2, a, lda, b, ldb, c, ldc),
-        3 if n == 3 && k == 3 => op.run(3, 3, 3, a, lda, b, ldb, c, ldc),
-        4 if n == 4 && k == 4 => op.run(4, 4, 4, a, lda, b, ldb, c, ldc),
-        5 if n == 5 && k == 5 => op.run(5, 5, 5, a, lda, b, ldb, c, ldc),
-        6 if n == 6 && k == 6 => op.run(6, 6, 6, a, lda, b, ldb, c, ldc),
-        _ => op.run(m, n, k, a, lda, b, ldb, c, ldc),
+        2 if n == 2 && k == 2 => op.run((2, 2, 2), (a, lda), (b, ldb), (c, ldc)),
+        3 if n == 3 && k == 3 => op.run((3, 3, 3), (a, lda), (b, ldb), (c, ldc)),
+        4 if n == 4 && k == 4 => op.run((4, 4, 4), (a, lda), (b, ldb), (c, ldc)),
+        5 if n == 5 && k == 5 => op.run((5, 5, 5), (a, lda), (b, ldb), (c, ldc)),
+        6 if n == 6 && k == 6 => op.run((6, 6, 6), (a, lda), (b, ldb), (c, ldc)),
+        _ => op.run((m, n, k), (a, lda), (b, ldb), (c, ldc)),
     }
 }
 
@@ -168,19 +168,14 @@ impl Gemm {
     /// `C := alpha * op(A) * op(B) + beta * C` on validated, non-trivial
     /// dimensions (`alpha != 0`, `k > 0`); inlined into each call site so
     /// that constant dimensions specialise it.
+    /// Each matrix comes with its leading dimension.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
-        m: usize,
-        n: usize,
-        k: usize,
-        a: &[f64],
-        lda: usize,
-        b: &[f64],
-        ldb: usize,
-        c: &mut [f64],
-        ldc: usize,
+        (m, n, k): (usize, usize, usize),
+        (a, lda): (&[f64], usize),
+        (b, ldb): (&[f64], usize),
+        (c, ldc): (&mut [f64], usize),
     ) {
         let Gemm {
             ta,

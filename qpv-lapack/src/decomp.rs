@@ -195,6 +195,40 @@ pub unsafe extern "C" fn dpotrs_(
 // Symmetric eigenproblem
 // ---------------------------------------------------------------------------
 
+/// The eigenvalues (unordered) and, if `wantz`, eigenvectors of the
+/// symmetric matrix whose `upper` (else lower) triangle is stored in `a`
+/// (column-major, leading dimension `lda`); NaN throughout for non-finite
+/// input.
+fn symmetric_eigen(
+    a: &[f64],
+    n: usize,
+    lda: usize,
+    upper: bool,
+    wantz: bool,
+) -> (Vec<f64>, Option<DMatrix<f64>>) {
+    // Full symmetric matrix from the referenced triangle.
+    let mut s = DMatrix::<f64>::zeros(n, n);
+    let mut finite = true;
+    for j in 0..n {
+        let (lo, hi) = if upper { (0, j + 1) } else { (j, n) };
+        for i in lo..hi {
+            let v = a[j * lda + i];
+            finite &= v.is_finite();
+            s[(i, j)] = v;
+            s[(j, i)] = v;
+        }
+    }
+    if !finite {
+        let vecs = wantz.then(|| DMatrix::from_element(n, n, f64::NAN));
+        (vec![f64::NAN; n], vecs)
+    } else if wantz {
+        let e = SymmetricEigen::new(s);
+        (e.eigenvalues.as_slice().to_vec(), Some(e.eigenvectors))
+    } else {
+        (s.symmetric_eigenvalues().as_slice().to_vec(), None)
+    }
+}
+
 /// Eigenvalues (ascending) and optionally eigenvectors of a symmetric
 /// matrix, of which only the `uplo` triangle is read (A is left unchanged;
 /// LAPACK would overwrite it). `range` = `A` (all), `V` (in `(vl, vu]`) or
@@ -277,29 +311,7 @@ pub unsafe extern "C" fn dsyevr_(
     let (n, lda, ldz) = (n as usize, lda as usize, ldz as usize);
     let a = unsafe { slice(a as *const f64, mat_len(n, n, lda)) };
 
-    // Full symmetric matrix from the referenced triangle.
-    let upper = uplo == b'U';
-    let mut s = DMatrix::<f64>::zeros(n, n);
-    let mut finite = true;
-    for j in 0..n {
-        let (lo, hi) = if upper { (0, j + 1) } else { (j, n) };
-        for i in lo..hi {
-            let v = a[j * lda + i];
-            finite &= v.is_finite();
-            s[(i, j)] = v;
-            s[(j, i)] = v;
-        }
-    }
-
-    let (vals, vecs): (Vec<f64>, Option<DMatrix<f64>>) = if !finite {
-        let vecs = wantz.then(|| DMatrix::from_element(n, n, f64::NAN));
-        (vec![f64::NAN; n], vecs)
-    } else if wantz {
-        let e = SymmetricEigen::new(s);
-        (e.eigenvalues.as_slice().to_vec(), Some(e.eigenvectors))
-    } else {
-        (s.symmetric_eigenvalues().as_slice().to_vec(), None)
-    };
+    let (vals, vecs) = symmetric_eigen(a, n, lda, uplo == b'U', wantz);
 
     // Ascending order (NaN last; only occurs for non-finite input).
     let mut order: Vec<usize> = (0..n).collect();
@@ -356,20 +368,15 @@ enum Vecs {
     Thin,
 }
 
-/// Thin SVD of the m × n matrix in `a` into `s` (descending) and the
-/// requested factors. Returns LAPACK's `info` (always 0).
+/// Thin SVD of the m × n matrix in `a` (leading dimension `lda`) into `s`
+/// (descending) and the requested factors, each given as (which, where,
+/// leading dimension). Returns LAPACK's `info` (always 0).
 unsafe fn svd_into(
-    m: usize,
-    n: usize,
-    a: &[f64],
-    lda: usize,
+    (m, n): (usize, usize),
+    (a, lda): (&[f64], usize),
     s: *mut f64,
-    want_u: Vecs,
-    u: *mut f64,
-    ldu: usize,
-    want_vt: Vecs,
-    vt: *mut f64,
-    ldvt: usize,
+    (want_u, u, ldu): (Vecs, *mut f64, usize),
+    (want_vt, vt, ldvt): (Vecs, *mut f64, usize),
 ) -> c_int {
     let k = m.min(n);
     let (cu, cv) = (want_u == Vecs::Thin, want_vt == Vecs::Thin);
@@ -708,7 +715,7 @@ pub unsafe extern "C" fn dgesdd_(
     let (lda, ldu, ldvt) = (lda as usize, ldu as usize, ldvt as usize);
     let a = unsafe { slice(a as *const f64, mat_len(m, n, lda)) };
     let want = if wntqn { Vecs::None } else { Vecs::Thin };
-    let r = unsafe { svd_into(m, n, a, lda, s, want, u, ldu, want, vt, ldvt) };
+    let r = unsafe { svd_into((m, n), (a, lda), s, (want, u, ldu), (want, vt, ldvt)) };
     unsafe { *info = r };
 }
 
@@ -792,6 +799,6 @@ pub unsafe extern "C" fn dgesvd_(
     } else {
         Vecs::Thin
     };
-    let r = unsafe { svd_into(m, n, a, lda, s, wu, u, ldu, wv, vt, ldvt) };
+    let r = unsafe { svd_into((m, n), (a, lda), s, (wu, u, ldu), (wv, vt, ldvt)) };
     unsafe { *info = r };
 }

@@ -65,7 +65,7 @@
 //! whatever the linker. (`rust-lld`, rustc's default on x86_64 Linux,
 //! resolves archive members regardless of order.)
 
-#![allow(clippy::too_many_arguments, clippy::missing_safety_doc)]
+#![allow(clippy::missing_safety_doc)]
 
 mod blas;
 mod decomp;

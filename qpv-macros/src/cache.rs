@@ -187,8 +187,7 @@ mod tests {
                 vec![vec![1.0 / 3.0], vec![4.0]],
             ],
         );
-        d.feasible = true;
-        d.certifies = true;
+        d.verdict = qpv_solve::vocab::Verdict::Certified;
         d.skew = Some(vec![vec![vec![vec![0.0, 0.25], vec![-0.25, 0.0]]]]);
         store(&dir, "some key\n", &d);
         assert_eq!(load(&dir, "some key\n"), Some(d.clone()));

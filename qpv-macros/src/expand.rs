@@ -19,7 +19,6 @@ use qpv_dsl::{
     AlphaSpec, Conditions, DesignRequest, Float, GammaSpec, Mode, Model, NoiseObjective,
     OutputFilter, OutputRoute, PolytopicModel, Split,
 };
-use qpv_solve::certificate::rounding::RhsRounding;
 use qpv_solve::export::{self, BakeError, Baked};
 use qpv_solve::{Design, Settings};
 use quote::quote;
@@ -337,72 +336,19 @@ fn solve(
     ))
 }
 
-/// The numbers to emit for a baked design: P, L_l, the margins of their
-/// certificate, the figures computed on them and, for f32, the certified
-/// error floor of the generated arithmetic.
+/// The numbers to emit for a baked design ([`Baked::certified_design`]:
+/// P, L_l, the margins of their certificate, the figures computed on them,
+/// α_sup for `alpha = max` and, for f32, the certified error floors of the
+/// generated arithmetic, absent where none is certified).
 fn numbers(
     model: &Model,
     poly: &PolytopicModel,
     (req, request): (&DesignRequest, &str),
     baked: &Baked,
 ) -> CertifiedDesign {
-    let d = baked.design();
-    let f = baked.figures();
-    let mut out = CertifiedDesign {
-        request: request.to_string(),
-        mode: mode_name(d.mode).into(),
-        certifies: d.certifies,
-        alpha: d.alpha,
-        gamma: d.gamma,
-        p: d.p.concat(),
-        l: d.l.iter().map(|l| l.concat()).collect(),
-        margins: d.margins.iter().map(|(k, m)| (k.clone(), *m)).collect(),
-        status: d.solver.detail.clone(),
-        iterations: d.solver.iterations,
-        filter: filter_of(d.route()),
-        figures: Figures {
-            sigma: f.sigma,
-            error_bound: f.error_bound,
-            max_amplitude: f.max_amplitude,
-            euler: f.euler,
-            rk4: f.rk4,
-            f32_floor: None,
-            f32_euler: None,
-        },
-        float: baked.float(),
-        sample: d.sample.map(|s| s.h),
-        alpha_sup: baked.alpha_sup(req.alpha),
-    };
-    if out.float == Float::F32 {
-        let floor = baked.f32_floor(|xs, radius| {
-            qpv_codegen::rounding::design_error(model, &poly.scheduling, &out, xs, radius)
-                .map(rounding)
-        });
-        if let Ok(f) = floor {
-            out.figures.f32_floor = Some(f.error_bound);
-            out.figures.f32_euler = f.euler.map(euler_floor);
-        }
-    }
-    out
-}
-
-/// The code generator's rounding bound in the certificate's vocabulary.
-fn rounding(r: qpv_codegen::rounding::RhsError) -> RhsRounding {
-    RhsRounding {
-        constant: r.constant,
-        proportional: r.proportional,
-        derivative: r.derivative,
-        state: r.state,
-    }
-}
-
-/// The certificate's Euler floor in the code generator's vocabulary.
-fn euler_floor(e: qpv_solve::certificate::rounding::EulerFloor) -> qpv_codegen::design::EulerFloor {
-    qpv_codegen::design::EulerFloor {
-        base: e.base,
-        per_step: e.per_step,
-        min_step: e.min_step,
-    }
+    baked
+        .certified_design(model, &poly.scheduling, request, req.alpha)
+        .0
 }
 
 /// A design ready for emission and where it came from (for `QPV_TIMING`).
@@ -480,7 +426,7 @@ mod tests {
         let (stored_key, json) = text.split_once("---\n").expect("key, then the design");
         assert_eq!(stored_key, key);
         let cached = Design::from_json(json).expect("a design");
-        assert!(cached.certifies && cached.recheck(&poly).passed);
+        assert!(cached.certifies() && cached.recheck(&poly).passed);
 
         // A cached P that no longer certifies (here: negated) is not trusted.
         tamper(&dir, &poly, req, |d| {
@@ -702,7 +648,7 @@ mod tests {
         for h in [1e-4, 1e-3, 2e-3, 0.05, 3e-7] {
             assert_eq!(
                 qpv_codegen::design::describe_period(h),
-                qpv_solve::sampling::describe_period(h)
+                qpv_solve::certificate::sampling::describe_period(h)
             );
         }
     }

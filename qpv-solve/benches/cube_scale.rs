@@ -171,10 +171,10 @@ fn scale_child(nx: usize, search: bool) {
             d.solver.assembly_seconds,
             d.solver.certify_seconds,
             d.solver.iterations,
-            if d.certifies { "yes" } else { "NO" },
+            if d.certifies() { "yes" } else { "NO" },
             peak_fixed
         );
-        if !d.certifies {
+        if !d.certifies() {
             println!("    (Clarabel: {})", d.solver.detail);
         }
         return;
@@ -196,8 +196,8 @@ fn scale_child(nx: usize, search: bool) {
         d.solver.assembly_seconds,
         d.solver.certify_seconds,
         d.solver.iterations,
-        if d.certifies { "yes" } else { "NO" },
-        if m.certifies { m.alpha } else { f64::NAN },
+        if d.certifies() { "yes" } else { "NO" },
+        if m.certifies() { m.alpha } else { f64::NAN },
         wall_max,
         cpu_max,
         solver_total,
@@ -362,7 +362,7 @@ fn compare_child(nx: usize) {
         d.solver.seconds,
         d.solver.iterations,
         d.solver.detail,
-        if d.certifies { "certified" } else { "NOT certified" }
+        if d.certifies() { "certified" } else { "NOT certified" }
     );
     if std::env::args().any(|a| a == "kkt") {
         qpv_solve::backend::ensure_lapack();
@@ -429,7 +429,7 @@ fn check_child(nx: usize) {
         model.region.vertices.len(),
         wall,
         cpu,
-        if d.certifies { "yes" } else { "NO" },
+        if d.certifies() { "yes" } else { "NO" },
         cwall,
         ccpu,
         if cert.passed { "yes" } else { "NO" },
@@ -450,7 +450,7 @@ fn loss_child(nx: usize) {
     };
     let alpha = |c: Conditions| {
         let (d, wall) = run(&model, AlphaSpec::Max, gamma, c);
-        (if d.certifies { d.alpha } else { f64::NAN }, wall)
+        (if d.certifies() { d.alpha } else { f64::NAN }, wall)
     };
     let (cube, tc) = alpha(Conditions::Cube);
     // `cube-only`: the vertex families are left out (their α does not

@@ -45,7 +45,7 @@ fn main() {
             asm.push(d.solver.assembly_seconds);
             cer.push(d.solver.certify_seconds);
             iters = d.solver.iterations;
-            feasible = d.feasible;
+            feasible = d.feasible();
         }
         let over: Vec<f64> = tot.iter().zip(&sol).map(|(t, s)| t - s).collect();
         let (t, s, a, c, o) = (

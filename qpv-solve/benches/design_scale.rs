@@ -86,7 +86,7 @@ fn child(nx: usize, conditions: Conditions) {
         d.solver.iterations,
         vm_hwm_mib(),
         d.solver.detail,
-        d.feasible && d.certifies
+        d.feasible() && d.certifies()
     );
 }
 

@@ -137,7 +137,7 @@ fn main() {
             iters,
             d.alpha,
             d.gamma,
-            d.feasible
+            d.feasible()
         );
     }
 }

@@ -185,8 +185,8 @@ fn main() {
         } else {
             search(model, Conditions::Decoupled, &settings).0
         };
-        let alpha = if d.certifies { d.alpha } else { 0.0 };
-        let alpha_d = if dd.certifies { dd.alpha } else { 0.0 };
+        let alpha = if d.certifies() { d.alpha } else { 0.0 };
+        let alpha_d = if dd.certifies() { dd.alpha } else { 0.0 };
         let gap = 100.0 * (best.0 - alpha) / best.0.max(1e-300);
         let maxima: Vec<String> = info
             .local_maxima

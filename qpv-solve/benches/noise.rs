@@ -8,9 +8,11 @@
 //! is asserted on time.
 
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode};
+use qpv_solve::certificate::noise::noise_bound;
+use qpv_solve::certificate::sampling::sampling;
 use qpv_solve::conditions::reference::paper_model;
-use qpv_solve::noise::{design_noise, noise_bound, tradeoff, NoiseChannels};
-use qpv_solve::sampling::sampling;
+use qpv_solve::model::noise::NoiseChannels;
+use qpv_solve::search::noise::{design_noise, tradeoff};
 use qpv_solve::{design, request, Settings};
 use std::time::Instant;
 

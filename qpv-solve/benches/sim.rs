@@ -81,7 +81,7 @@ fn main() {
         ..Default::default()
     };
     match qpv_solve::design(&model, &request, &qpv_solve::Settings::default()) {
-        Ok(design) if design.certifies => {
+        Ok(design) if design.certifies() => {
             let traj = simulate(&model, &design.l_matrices(), &scenario).expect("valid scenario");
             println!(
                 "certified design (α = 10, γ = 0.1889): error {:.3e} at t = 1, below 1e-6 from t = {:?}",

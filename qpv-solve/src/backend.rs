@@ -2,7 +2,7 @@
 //! [`Status`], the solver settings derived from [`Settings`], and the
 //! BLAS/LAPACK symbols its PSD cones need.
 
-pub mod builder;
+pub(crate) mod builder;
 
 use crate::error::SolveError;
 use crate::settings::{KktSolver, Settings};
@@ -47,7 +47,7 @@ impl std::fmt::Display for Status {
 }
 
 /// Only a full-accuracy primal-infeasibility certificate counts as infeasible.
-pub fn interpret(s: SolverStatus) -> Status {
+pub(crate) fn interpret(s: SolverStatus) -> Status {
     match s {
         SolverStatus::Solved => Status::Solved,
         SolverStatus::PrimalInfeasible => Status::Infeasible,

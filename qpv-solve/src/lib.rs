@@ -3,8 +3,8 @@
 //!
 //! * [`design`] / [`design_with_progress`]: fixed (α, γ), α = max at fixed
 //!   γ, or a γ search maximising α ([`search`] documents the algorithms);
-//!   returns a [`Design`] that is `feasible` only if the independent
-//!   [`check`] passed, and `certifies` only in sound mode.
+//!   returns a [`Design`] whose `verdict` is `Certified` only if the
+//!   independent [`check`] passed in sound mode (`Reproduction` in paper mode).
 //! * [`check`]: recomputes every condition — sound (S1)-(S5) or the paper's
 //!   printed (13), (14), (26) — from P and L_l with nalgebra eigenvalues and
 //!   reports the worst margin per family (positive = satisfied) plus the
@@ -12,15 +12,17 @@
 //! * [`model`]: the observer's model: the state bound (given, or computed
 //!   for `state_bound auto` by [`state_bound`]), the output route ([`output_filter`]: double sum or output
 //!   post-filter), the split of N_k and M_k, and the skew slack
-//!   ([`skew_slack`]).
+//!   ([`model::skew`]).
 //! * [`lmi`]: the LMIs assembled directly into Clarabel's standard form
 //!   (PSD triangle cones, no modelling layer); [`conditions`]: the condition
 //!   sets and the one place where the two modes differ.
-//! * [`noise`]: the certified noise bound σ of V' + αV ≤ σ(|w|² + |v|²)
-//!   (reported on every certified sound design as `noise`), the
-//!   noise-optimal design ([`noise::design_noise`]) and the rate–noise
-//!   trade-off ([`noise::tradeoff`]); [`sampling`]: the largest Euler step
-//!   that keeps V contracting and an RK4 step estimate (`sampling`).
+//! * Noise, in the folder of each layer: the channels
+//!   ([`model::noise`]), the certified bound σ of V' + αV ≤ σ(|w|² + |v|²)
+//!   and its check ([`certificate::noise`]; reported on every certified
+//!   sound design as `noise`), the noise-optimal design and the rate–noise
+//!   trade-off ([`search::noise`]) and the falsification of a noise claim
+//!   ([`analysis::noise`]); [`certificate::sampling`]: the largest Euler
+//!   step that keeps V contracting and an RK4 step estimate (`sampling`).
 //!
 //! # Layers
 //!
@@ -46,7 +48,7 @@
 //! let model = qpv_solve::conditions::reference::paper_model();
 //! let req = request(AlphaSpec::Fixed(10.0), GammaSpec::Fixed(0.1889), Mode::Sound);
 //! let d = design(&model, &req, &Settings::default()).unwrap();
-//! assert!(d.feasible && d.certifies);
+//! assert!(d.certifies());
 //! // Anyone can re-check the gains without the solver:
 //! let (p, l) = (d.p_matrix(), d.l_matrices());
 //! let c = check(&model, &Gains::new(&p, &l), &d.candidate(), d.mode);
@@ -61,12 +63,12 @@ pub use qpv_lapack as lapack;
 
 // Shared vocabulary.
 pub mod backend;
-pub mod error;
+pub(crate) mod error;
 #[doc(hidden)]
 pub mod fixtures;
 pub mod linalg;
 pub mod line_search;
-pub mod settings;
+pub(crate) mod settings;
 pub mod vocab;
 // Model preparation.
 pub mod model;
@@ -79,20 +81,6 @@ pub mod analysis;
 pub mod export;
 pub mod report;
 pub mod search;
-
-pub use certificate::sampling;
-pub use model::{diagnosis, size};
-
-/// Noise and disturbances: the channels (model), the bound σ and its check
-/// (certificate), the noise-optimal design and trade-off (search) and the
-/// falsification of a noise claim (analysis), gathered in one path.
-pub mod noise {
-    pub use crate::analysis::noise::*;
-    pub use crate::certificate::noise::*;
-    pub use crate::model::noise::*;
-    pub use crate::report::figures::attach;
-    pub use crate::search::noise::*;
-}
 
 pub use analysis::{falsify, simulate};
 pub use certificate::{check, Certificate, FamilyMargin};

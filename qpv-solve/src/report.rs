@@ -1,7 +1,7 @@
 //! The serialisable result of a design: [`Design`] and its parts.
 //!
 //! JSON layout (keys exactly as written): `model`, `mode`, `split`,
-//! `conditions`, `feasible`, `certifies`, `alpha`, `gamma`, `P` (rows), `Gamma` (one matrix per
+//! `conditions`, `verdict`, `alpha`, `gamma`, `P` (rows), `Gamma` (one matrix per
 //! vertex, rows), `L` (one nx × ny matrix per vertex, rows), `gain_norms`,
 //! `margins` (family → worst margin, positive = satisfied), `data_checks`,
 //! `solver` {`status`, `detail`, `iterations`, `seconds`, `assembly_seconds`,
@@ -32,8 +32,7 @@ use crate::certificate::{Certificate, Gains};
 use crate::error::SolveError;
 use crate::model::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 use crate::settings::Settings;
-use crate::vocab::Candidate;
-use crate::vocab::Phase;
+use crate::vocab::{Candidate, Family, Phase, Verdict};
 use nalgebra::DMatrix;
 use qpv_dsl::{Conditions, Mode, PolytopicModel, Split, StateBound};
 
@@ -120,7 +119,7 @@ fn unstated() -> f64 {
 #[derive(Debug, Clone)]
 pub enum Note {
     /// `conditions = auto`: the conditions the size estimate chose, and why
-    /// ([`crate::size::choose`]).
+    /// ([`crate::model::size::choose`]).
     ConditionsChosen(String),
     /// What the γ search searched ([`GammaSearchInfo::statement`]).
     GammaSearch(GammaSearchInfo),
@@ -294,15 +293,15 @@ pub struct Design {
     /// Reports written before the key existed read as "full".
     #[serde(default = "full_conditions", with = "conditions_serde")]
     pub conditions: Conditions,
-    /// True only if the independent certificate passed for every condition
-    /// family (and, in sound mode, the data check (S4)). In paper mode this
-    /// means "satisfies the paper's printed conditions", which certifies nothing.
-    #[serde(default)]
-    pub feasible: bool,
-    /// True only for a feasible *sound-mode* design: the convergence claim
-    /// V' ≤ −αV on the certified set is proven. Always false in paper mode.
-    #[serde(default)]
-    pub certifies: bool,
+    /// What the independent certificate established ([`Verdict`]):
+    /// `certified` only if every condition family (and the required data
+    /// checks) passed in sound mode, which proves V' ≤ −αV on the certified
+    /// set; `reproduction` if the paper's printed conditions hold (paper
+    /// mode: certifies nothing); else `not_certified`. Reports written
+    /// before the key existed carry `feasible` and `certifies` instead,
+    /// read as the same three states ([`crate::vocab::verdict_serde`]).
+    #[serde(flatten, with = "crate::vocab::verdict_serde")]
+    pub verdict: Verdict,
     /// Decay rate α of the reported point (NaN when a gains file does not
     /// say: the re-check takes it from elsewhere).
     #[serde(default = "unstated")]
@@ -328,7 +327,7 @@ pub struct Design {
     /// independent certificate: "S1","S2","S3","S5" (sound) or
     /// "S1","13","14","26" (paper).
     #[serde(default)]
-    pub margins: BTreeMap<String, f64>,
+    pub margins: BTreeMap<Family, f64>,
     /// Data checks: "S4" (γ² a_kᵀ Q a_k ≤ 1) and "region_in_F" (P ⊂ F).
     #[serde(default)]
     pub data_checks: BTreeMap<String, DataCheck>,
@@ -548,6 +547,17 @@ impl ReportedMatrices {
 }
 
 impl Design {
+    /// The conditions of the design's mode hold (certified, or in paper
+    /// mode a reproduction): [`Verdict::feasible`].
+    pub fn feasible(&self) -> bool {
+        self.verdict.feasible()
+    }
+
+    /// A certified sound-mode design: [`Verdict::certifies`].
+    pub fn certifies(&self) -> bool {
+        self.verdict.certifies()
+    }
+
     /// The candidate the design claims: (α, γ) and its sample period.
     pub fn candidate(&self) -> Candidate {
         Candidate::new(self.alpha, self.gamma).at_sample(self.sample.as_ref().map(|s| s.h))
@@ -556,10 +566,6 @@ impl Design {
     /// P as a matrix (0 × 0 if absent).
     pub fn p_matrix(&self) -> DMatrix<f64> {
         rows_to_matrix(&self.p)
-    }
-    /// Γ_l as matrices.
-    pub fn gamma_matrices(&self) -> Vec<DMatrix<f64>> {
-        self.gamma_l.iter().map(|g| rows_to_matrix(g)).collect()
     }
     /// L_l as matrices.
     pub fn l_matrices(&self) -> Vec<DMatrix<f64>> {
@@ -582,7 +588,7 @@ impl Design {
 
     /// The state bound this design claims for a `state_bound auto` model:
     /// its Q, box size h and the split of its invariance check.
-    pub fn state_bound_claim(&self) -> Option<ClaimedBound> {
+    pub(crate) fn state_bound_claim(&self) -> Option<ClaimedBound> {
         let info = self.state_bound.as_ref()?;
         Some(ClaimedBound {
             q: rows_to_matrix(info.q.as_ref()?),
@@ -701,8 +707,7 @@ impl Design {
             mode,
             split: Split::default_for(mode),
             conditions: Conditions::Full,
-            feasible: false,
-            certifies: false,
+            verdict: Verdict::NotCertified,
             alpha,
             gamma,
             p,
@@ -811,7 +816,7 @@ fn recheck_blocks(obs: &PolytopicModel, cube: bool) -> f64 {
 }
 
 /// The `skew` key of a report (per θ-vertex, per k, rows) as matrices.
-pub fn skew_matrices(k: &[Vec<Vec<Vec<f64>>>]) -> Vec<Vec<DMatrix<f64>>> {
+pub(crate) fn skew_matrices(k: &[Vec<Vec<Vec<f64>>>]) -> Vec<Vec<DMatrix<f64>>> {
     k.iter()
         .map(|kl| kl.iter().map(|kk| rows_to_matrix(kk)).collect())
         .collect()

@@ -16,9 +16,36 @@ macro_rules! named_enum {
         }
     ) => {
         $(#[$meta])*
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
         $vis enum $ty {
             $( $(#[$vmeta])* $var, )+
+        }
+
+        // Ordered and hashed by name, as the strings reports used to key
+        // maps by, so that a map keyed by the enum iterates in the same
+        // order and can be looked up with a `&str` (`Borrow<str>`).
+        impl Ord for $ty {
+            fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+                self.name().cmp(other.name())
+            }
+        }
+
+        impl PartialOrd for $ty {
+            fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+                Some(self.cmp(other))
+            }
+        }
+
+        impl std::hash::Hash for $ty {
+            fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
+                self.name().hash(h)
+            }
+        }
+
+        impl std::borrow::Borrow<str> for $ty {
+            fn borrow(&self) -> &str {
+                self.name()
+            }
         }
 
         impl $ty {
@@ -115,7 +142,7 @@ impl Candidate {
     }
 
     /// The same candidate at the sample period `h` (None: continuous time).
-    pub fn at_sample(self, h: Option<f64>) -> Candidate {
+    pub(crate) fn at_sample(self, h: Option<f64>) -> Candidate {
         Candidate { sample: h, ..self }
     }
 }
@@ -157,6 +184,93 @@ named_enum! {
 }
 
 named_enum! {
+    /// What a design or a re-check establishes: one of three states (a
+    /// report's `verdict`; reports written before it existed said it with
+    /// two booleans, `feasible` and `certifies`, which still load).
+    /// The default is `NotCertified`.
+    #[derive(Default)]
+    pub enum Verdict ("verdict") {
+        /// Sound mode, every condition family and required data check
+        /// holds: V' ≤ −αV on the certified set is proven.
+        Certified = "certified",
+        /// Paper mode, the printed conditions hold: a reproduction, which
+        /// certifies nothing.
+        Reproduction = "reproduction",
+        /// Some family or required data check fails, or there is no point.
+        #[default]
+        NotCertified = "not_certified",
+    }
+}
+
+impl Verdict {
+    /// The verdict of conditions that `passed` (or not) in `mode`.
+    pub fn of(passed: bool, mode: qpv_dsl::Mode) -> Verdict {
+        match (passed, mode) {
+            (false, _) => Verdict::NotCertified,
+            (true, qpv_dsl::Mode::Sound) => Verdict::Certified,
+            (true, qpv_dsl::Mode::Paper) => Verdict::Reproduction,
+        }
+    }
+
+    /// The verdict the two booleans of an older report say (`certifies`
+    /// wins; `feasible` alone is a reproduction).
+    pub fn from_flags(feasible: bool, certifies: bool) -> Verdict {
+        match (feasible, certifies) {
+            (_, true) => Verdict::Certified,
+            (true, false) => Verdict::Reproduction,
+            (false, false) => Verdict::NotCertified,
+        }
+    }
+
+    /// The conditions of the mode hold (certified, or a reproduction).
+    pub fn feasible(self) -> bool {
+        self != Verdict::NotCertified
+    }
+
+    /// Certified: sound mode and every condition holds.
+    pub fn certifies(self) -> bool {
+        self == Verdict::Certified
+    }
+}
+
+/// Serde of a report's verdict, flattened into the report: writes
+/// `verdict`; reads `verdict`, else the two booleans `feasible` and
+/// `certifies` of reports written before it existed (either may be absent,
+/// as false).
+pub mod verdict_serde {
+    use crate::vocab::Verdict;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    #[derive(Serialize, Deserialize)]
+    struct Wire {
+        #[serde(default)]
+        verdict: Option<Verdict>,
+        #[serde(default, skip_serializing)]
+        feasible: Option<bool>,
+        #[serde(default, skip_serializing)]
+        certifies: Option<bool>,
+    }
+
+    /// Writes `verdict`.
+    pub(crate) fn serialize<S: Serializer>(v: &Verdict, s: S) -> Result<S::Ok, S::Error> {
+        Wire {
+            verdict: Some(*v),
+            feasible: None,
+            certifies: None,
+        }
+        .serialize(s)
+    }
+
+    /// Reads `verdict`, else `feasible`/`certifies`.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Verdict, D::Error> {
+        let w = Wire::deserialize(d)?;
+        Ok(w.verdict.unwrap_or_else(|| {
+            Verdict::from_flags(w.feasible.unwrap_or(false), w.certifies.unwrap_or(false))
+        }))
+    }
+}
+
+named_enum! {
     /// What one solve of a search was for (a report's `search[].phase`).
     pub enum Phase ("search phase") {
         /// A fixed (α, γ) request.
@@ -190,13 +304,6 @@ named_enum! {
     }
 }
 
-impl Phase {
-    /// Whether this is a solve of the noise-optimal design.
-    pub fn is_noise(self) -> bool {
-        matches!(self, Phase::Noise | Phase::NoiseGrid | Phase::NoiseRefine)
-    }
-}
-
 named_enum! {
     /// Where a design's state bound Q came from (a report's
     /// `state_bound.source`).
@@ -216,7 +323,7 @@ pub mod split_serde {
     use serde::{Deserialize, Deserializer, Serializer};
 
     /// Writes the split's name ([`Split::name`]).
-    pub fn serialize<S: Serializer>(m: &Split, s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(m: &Split, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(m.name())
     }
 
@@ -240,7 +347,7 @@ pub mod conditions_serde {
     use serde::{Deserialize, Deserializer, Serializer};
 
     /// Writes "full", "decoupled" or "cube".
-    pub fn serialize<S: Serializer>(c: &Conditions, s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(c: &Conditions, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(c.name())
     }
 
@@ -264,7 +371,7 @@ pub mod mode_serde {
     use serde::{Deserialize, Deserializer, Serializer};
 
     /// Writes "sound" or "paper".
-    pub fn serialize<S: Serializer>(m: &Mode, s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(m: &Mode, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(m.name())
     }
 
@@ -289,7 +396,7 @@ pub mod bound_split_serde {
     use serde::{Deserialize, Deserializer, Serializer};
 
     /// Writes the split's name, or `null`.
-    pub fn serialize<S: Serializer>(m: &Option<Split>, s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<S: Serializer>(m: &Option<Split>, s: S) -> Result<S::Ok, S::Error> {
         match m {
             Some(m) => s.serialize_str(m.name()),
             None => s.serialize_none(),

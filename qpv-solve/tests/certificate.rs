@@ -29,7 +29,7 @@ fn sound_design() -> &'static Design {
             &Settings::default(),
         )
         .unwrap();
-        assert!(d.feasible, "{}", d.summary);
+        assert!(d.feasible(), "{}", d.summary);
         d
     })
 }
@@ -70,7 +70,14 @@ fn sound_rate_lmi_is_the_true_lyapunov_derivative() {
         let g = &p * &ls[l];
         for i in 0..model.region.vertices.len() {
             for j in 0..model.region.vertices.len() {
-                let m = rate_lmi(&model, Mode::Sound, alpha, gamma, &p, &g, l, i, j);
+                let m = rate_lmi(
+                    &model,
+                    Mode::Sound,
+                    Candidate::new(alpha, gamma),
+                    &p,
+                    &g,
+                    (l, i, j),
+                );
                 let e = &model.region.vertices[i] / gamma;
                 let x = &model.region.vertices[j] / gamma;
                 let lhs = e.dot(&((&m - &p * (gamma * alpha)) * &e));
@@ -93,8 +100,22 @@ fn paper_rate_lmi_has_the_opposite_nonlinear_sign() {
     let p = d.p_matrix();
     let g = &p * &d.l_matrices()[2];
     let (a, gm) = (d.alpha, d.gamma);
-    let s5 = rate_lmi(&model, Mode::Sound, a, gm, &p, &g, 2, 3, 5);
-    let p26 = rate_lmi(&model, Mode::Paper, a, gm, &p, &g, 2, 3, 5);
+    let s5 = rate_lmi(
+        &model,
+        Mode::Sound,
+        Candidate::new(a, gm),
+        &p,
+        &g,
+        (2, 3, 5),
+    );
+    let p26 = rate_lmi(
+        &model,
+        Mode::Paper,
+        Candidate::new(a, gm),
+        &p,
+        &g,
+        (2, 3, 5),
+    );
     let v = &model.vertices[2];
     let xi = &model.region.vertices[3];
     let xj = &model.region.vertices[5];
@@ -265,7 +286,7 @@ fn external_gains_can_be_checked() {
         Mode::Sound,
     );
     assert!(!sound.passed);
-    let keys: Vec<String> = paper.margins().keys().cloned().collect();
+    let keys: Vec<String> = paper.margins().keys().map(|k| k.to_string()).collect();
     assert_eq!(keys, ["13", "14", "26", "S1"]);
 }
 
@@ -278,7 +299,7 @@ fn synthetic_models_design_and_certify() {
         let model = synthetic_model(nx);
         let r = qpv_solve::request(AlphaSpec::Fixed(1.0), GammaSpec::Fixed(0.3), Mode::Sound);
         let d = design(&model, &r, &Settings::default()).unwrap();
-        assert!(d.feasible && d.certifies, "nx = {nx}: {}", d.summary);
+        assert!(d.feasible() && d.certifies(), "nx = {nx}: {}", d.summary);
         // Designed with the default (symmetric) split: re-checked with it.
         assert!(d.recheck(&model).passed);
     }
@@ -297,7 +318,7 @@ fn symmetric_split_lmi_is_the_true_lyapunov_derivative_too() {
     );
     assert_eq!(r.split, qpv_dsl::Split::Symmetric);
     let d = design(&model, &r, &Settings::default()).unwrap();
-    assert!(d.feasible, "{}", d.summary);
+    assert!(d.feasible(), "{}", d.summary);
     let sym = qpv_solve::conditions::with_split(&model, d.split);
     let (alpha, gamma) = (d.alpha, d.gamma);
     let p = d.p_matrix();
@@ -307,7 +328,14 @@ fn symmetric_split_lmi_is_the_true_lyapunov_derivative_too() {
         let g = &p * &ls[l];
         for i in 0..model.region.vertices.len() {
             for j in 0..model.region.vertices.len() {
-                let m = rate_lmi(&sym, Mode::Sound, alpha, gamma, &p, &g, l, i, j);
+                let m = rate_lmi(
+                    &sym,
+                    Mode::Sound,
+                    Candidate::new(alpha, gamma),
+                    &p,
+                    &g,
+                    (l, i, j),
+                );
                 let e = &model.region.vertices[i] / gamma;
                 let x = &model.region.vertices[j] / gamma;
                 let lhs = e.dot(&((&m - &p * (gamma * alpha)) * &e));

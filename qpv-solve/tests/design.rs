@@ -12,7 +12,7 @@ use qpv_dsl::{
 };
 use qpv_solve::certificate::Gains;
 use qpv_solve::conditions::reference::paper_model;
-use qpv_solve::vocab::Candidate;
+use qpv_solve::vocab::{Candidate, Verdict};
 use qpv_solve::{
     check, design, design_with_progress, Design, SearchStep, Settings, SolveError, Status,
 };
@@ -46,8 +46,8 @@ fn recheck_json(model: &PolytopicModel, d: &Design) -> qpv_solve::Certificate {
 fn paper_mode_published_point_satisfies_printed_conditions() {
     let model = paper_model();
     let d = run(&model, &fixed(10.0, 0.4, Mode::Paper));
-    assert!(d.feasible, "{}", d.summary);
-    assert!(!d.certifies, "paper mode never certifies");
+    assert!(d.feasible(), "{}", d.summary);
+    assert!(!d.certifies(), "paper mode never certifies");
     assert_eq!(d.solver.status, Status::Solved);
     for key in ["S1", "13", "14", "26"] {
         assert!(d.margins[key] > 0.0, "{key}: {}", d.margins[key]);
@@ -83,7 +83,7 @@ fn paper_mode_published_point_satisfies_printed_conditions() {
 fn sound_mode_rejected_at_gamma_04() {
     let model = paper_model();
     let d = run(&model, &fixed(10.0, 0.4, Mode::Sound));
-    assert!(!d.feasible && !d.certifies, "{}", d.summary);
+    assert!(!d.feasible() && !d.certifies(), "{}", d.summary);
     // With N_k as printed the LMIs are infeasible: Clarabel's certificate.
     assert_eq!(d.solver.status, Status::Infeasible, "{:?}", d.solver);
     assert_eq!(d.solver.detail, "PrimalInfeasible");
@@ -97,7 +97,7 @@ fn sound_mode_rejected_at_gamma_04() {
 fn sound_mode_certified_at_gamma_01889() {
     let model = paper_model();
     let d = run(&model, &fixed(10.0, 0.1889, Mode::Sound));
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     for key in ["S1", "S2", "S3", "S5"] {
         assert!(d.margins[key] > 0.0, "{key}: {}", d.margins[key]);
     }
@@ -138,7 +138,7 @@ fn alpha_max_paper_mode_at_gamma_04() {
         &model,
         &req(AlphaSpec::Max, GammaSpec::Fixed(0.4), Mode::Paper),
     );
-    assert!(d.feasible, "{}", d.summary);
+    assert!(d.feasible(), "{}", d.summary);
     // The published α = 10 is feasible, so α_max ≥ 10; measured 10.03.
     assert!(d.alpha >= 10.0 && d.alpha < 10.1, "α_max = {}", d.alpha);
     // The bisection brackets α_max: some step above α was not certified.
@@ -162,7 +162,7 @@ fn alpha_max_sound_mode_at_gamma_01889() {
         &model,
         &req(AlphaSpec::Max, GammaSpec::Fixed(0.1889), Mode::Sound),
     );
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     assert!(d.alpha >= 10.0 && d.alpha < 11.0, "α_max = {}", d.alpha);
     let tol = Settings::default().bisection_rel_tol;
     assert!(d
@@ -189,7 +189,7 @@ fn sound_mode_gamma_search_optimum() {
         &mut |s| steps.push(s.clone()),
     )
     .unwrap();
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     let gmax = qpv_solve::conditions::gamma_max(&model).unwrap();
     assert!(d.gamma > 0.0 && d.gamma <= gmax, "γ = {}", d.gamma);
     // At least as good as the fixed γ = 0.1889 point (α_max ≈ 10.605).
@@ -238,7 +238,7 @@ fn sound_mode_gamma_search_optimum() {
 fn paper_mode_gamma_search_stays_in_open_unit_interval() {
     let model = paper_model();
     let d = run(&model, &req(AlphaSpec::Max, GammaSpec::Search, Mode::Paper));
-    assert!(d.feasible && !d.certifies, "{}", d.summary);
+    assert!(d.feasible() && !d.certifies(), "{}", d.summary);
     assert!(d.gamma > 0.0 && d.gamma < 1.0);
     assert!(d.alpha >= 10.0, "α = {}", d.alpha);
     println!("paper optimum α = {:.5}, γ = {:.5}", d.alpha, d.gamma);
@@ -251,14 +251,14 @@ fn fixed_alpha_with_gamma_search() {
         &model,
         &req(AlphaSpec::Fixed(10.0), GammaSpec::Search, Mode::Sound),
     );
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     assert_eq!(d.alpha, 10.0);
     // Too fast a rate: no γ works, and the report says so.
     let d = run(
         &model,
         &req(AlphaSpec::Fixed(50.0), GammaSpec::Search, Mode::Sound),
     );
-    assert!(!d.feasible, "{}", d.summary);
+    assert!(!d.feasible(), "{}", d.summary);
     assert!(d
         .notes
         .iter()
@@ -286,8 +286,8 @@ fn unknown_solver_status_counts_only_through_the_certificate() {
         // An unfinished solve may still return a point that passes the
         // independent certificate; feasible is exactly "the certificate passed".
         let passed = !d.p.is_empty() && recheck_json(&model, &d).passed;
-        assert_eq!(d.feasible, passed, "max_iter {max_iter}: {}", d.summary);
-        seen_uncertified |= !d.feasible;
+        assert_eq!(d.feasible(), passed, "max_iter {max_iter}: {}", d.summary);
+        seen_uncertified |= !d.feasible();
         // The search treats unknowns as "not certified" and reports them.
         let d = design(
             &model,
@@ -335,7 +335,7 @@ fn request_errors() {
     ));
     // Paper mode runs without Q; (S4) is then reported as not checked.
     let d = design(&no_q, &fixed(10.0, 0.4, Mode::Paper), &s).unwrap();
-    assert!(d.feasible && d.data_checks.is_empty());
+    assert!(d.feasible() && d.data_checks.is_empty());
     assert!(d
         .notes
         .iter()
@@ -354,6 +354,36 @@ fn request_errors() {
 }
 
 #[test]
+fn reports_with_the_two_booleans_still_load() {
+    // Reports written before `verdict` said it with `feasible` and
+    // `certifies`: each of their combinations reads as one of the three
+    // states, and the design is written back in the new form.
+    let model = paper_model();
+    let d = run(&model, &fixed(10.0, 0.1889, Mode::Sound));
+    let mut v: serde_json::Value = serde_json::from_str(&d.to_json()).unwrap();
+    let obj = v.as_object_mut().unwrap();
+    obj.remove("verdict");
+    for (feasible, certifies, verdict) in [
+        (Some(true), Some(true), Verdict::Certified),
+        (Some(true), Some(false), Verdict::Reproduction),
+        (Some(false), Some(false), Verdict::NotCertified),
+        (None, None, Verdict::NotCertified),
+    ] {
+        let mut old = obj.clone();
+        for (key, flag) in [("feasible", feasible), ("certifies", certifies)] {
+            if let Some(b) = flag {
+                old.insert(key.into(), serde_json::Value::from(b));
+            }
+        }
+        let back = Design::from_json(&serde_json::Value::from(old).to_string()).expect("old form");
+        assert_eq!(back.verdict, verdict, "{feasible:?} {certifies:?}");
+        let again: serde_json::Value = serde_json::from_str(&back.to_json()).unwrap();
+        assert_eq!(again["verdict"], verdict.name());
+        assert!(again.get("feasible").is_none() && again.get("certifies").is_none());
+    }
+}
+
+#[test]
 fn json_keys_are_exactly_the_documented_ones() {
     let model = paper_model();
     let d = run(&model, &fixed(10.0, 0.1889, Mode::Sound));
@@ -364,8 +394,7 @@ fn json_keys_are_exactly_the_documented_ones() {
         "mode",
         "split",
         "conditions",
-        "feasible",
-        "certifies",
+        "verdict",
         "alpha",
         "gamma",
         "P",
@@ -386,8 +415,11 @@ fn json_keys_are_exactly_the_documented_ones() {
     ] {
         assert!(obj.contains_key(key), "missing key {key}");
     }
-    // 21 keys, plus `noise` and `sampling` on a certified sound design.
-    assert_eq!(obj.len(), 23);
+    // 20 keys (the verdict one key where older reports had the two
+    // booleans `feasible` and `certifies`), plus `noise` and `sampling` on
+    // a certified sound design.
+    assert_eq!(obj.len(), 22);
+    assert_eq!(v["verdict"], "certified");
     for key in ["sigma", "max_amplitude", "error_bound", "per_state"] {
         assert!(v["noise"].get(key).is_some(), "noise.{key}");
     }
@@ -426,7 +458,7 @@ fn parsed_paper_example_matches_hand_built_model() {
     // The model's own requests: the published paper point, then the sound search.
     let d0 = run(&parsed, &parsed.designs[0]);
     assert_eq!(d0.mode, Mode::Paper);
-    assert!(d0.feasible && !d0.certifies);
+    assert!(d0.feasible() && !d0.certifies());
     // The gains designed on the hand-built model certify on the parsed one.
     let d = run(&hand, &fixed(10.0, 0.1889, Mode::Sound));
     assert!(
@@ -448,7 +480,7 @@ fn symmetric_split_certifies_a_faster_rate() {
     let r = qpv_solve::request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
     assert_eq!(r.split, Split::Symmetric, "sound-mode default");
     let d = run(&model, &r);
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     assert_eq!(d.split, Split::Symmetric);
     assert!(d.alpha > 11.0, "α = {}", d.alpha);
     let c = recheck_json(&model, &d);
@@ -476,7 +508,7 @@ fn a_fixed_request_falls_back_to_the_alpha_search_at_its_gamma() {
     let mut r = qpv_solve::request(AlphaSpec::Fixed(35.0), GammaSpec::Fixed(0.035), Mode::Sound);
     r.conditions = Conditions::Decoupled;
     let d = run(&model, &r);
-    assert!(d.certifies, "{}", d.summary);
+    assert!(d.certifies(), "{}", d.summary);
     assert_eq!((d.alpha, d.gamma), (35.0, 0.035));
     let final_step = d.search.iter().find(|s| s.phase == "final").expect("final");
     assert!(

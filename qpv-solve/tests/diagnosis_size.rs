@@ -4,8 +4,8 @@
 
 use qpv_dsl::{AlphaSpec, Conditions, DesignRequest, GammaSpec, Mode};
 use qpv_solve::conditions::reference::{paper_model, synthetic_model};
-use qpv_solve::diagnosis::{diagnose, undetectable_modes};
-use qpv_solve::size::{estimate, guard, Verdict, CERTIFICATE_BUDGET, MEMORY_BUDGET};
+use qpv_solve::model::diagnosis::{diagnose, undetectable_modes};
+use qpv_solve::model::size::{estimate, guard, Verdict, CERTIFICATE_BUDGET, MEMORY_BUDGET};
 use qpv_solve::{design, request, Settings, SolveError};
 
 fn model(src: &str) -> qpv_dsl::PolytopicModel {
@@ -108,7 +108,7 @@ fn a_failed_design_carries_margins_and_its_diagnosis() {
     let m = model(UNDETECTABLE);
     let req = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
     let d = design(&m, &req, &Settings::default()).expect("design runs");
-    assert!(!d.feasible && !d.certifies);
+    assert!(!d.feasible() && !d.certifies());
     assert!(d.margins.contains_key("S5"), "{:?}", d.margins);
     assert!(d.margins["S5"] <= 0.0);
     let diag = d.diagnosis.as_ref().expect("diagnosis");
@@ -161,7 +161,7 @@ fn a_ten_state_box_is_refused_before_solving_and_three_states_fit() {
     // the cube conditions, which fit.
     let auto = request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound);
     assert_eq!(auto.conditions, Conditions::Auto);
-    let (chosen, why) = qpv_solve::size::choose(&big, &auto);
+    let (chosen, why) = qpv_solve::model::size::choose(&big, &auto);
     assert_eq!(chosen, Conditions::Cube, "{why}");
     let cube = DesignRequest {
         conditions: chosen,
@@ -229,11 +229,11 @@ fn natural_arm(conditions: &str) -> qpv_dsl::PolytopicModel {
 fn wide_scheduling_ranges_propose_a_cover_and_failed_decoupled_points_full_conditions() {
     let m = natural_arm("decoupled");
     assert!(m.cover.is_none() && !m.derived.is_empty());
-    let est = qpv_solve::diagnosis::cover_estimate(&m, 4).expect("an estimate");
+    let est = qpv_solve::model::diagnosis::cover_estimate(&m, 4).expect("an estimate");
     assert_eq!(m.params[est.param].name, "q2");
     assert!(est.ratio > 0.0 && est.ratio < 0.6, "ratio {}", est.ratio);
     let d = qpv_solve::design(&m, &m.designs[0], &qpv_solve::Settings::default()).unwrap();
-    assert!(!d.certifies, "{}", d.summary);
+    assert!(!d.certifies(), "{}", d.summary);
     let findings = d.diagnosis.as_ref().expect("a diagnosis");
     let cover = findings
         .iter()
@@ -277,13 +277,13 @@ fn cover_and_conditions_findings_only_where_they_apply() {
         qpv_dsl::parse(include_str!("../../examples/manipulator.qpv")).unwrap()[0].polytopic();
     let mut req = with_cover.designs[0].clone();
     req.alpha = qpv_dsl::AlphaSpec::Fixed(0.15);
-    let f = qpv_solve::diagnosis::diagnose(&with_cover, &req, 1e-4);
+    let f = qpv_solve::model::diagnosis::diagnose(&with_cover, &req, 1e-4);
     assert!(!f.iter().any(|f| f.kind == "cover"), "{f:?}");
     let paper = qpv_solve::conditions::reference::paper_model();
-    assert_eq!(qpv_solve::diagnosis::cover_estimate(&paper, 4), None);
+    assert_eq!(qpv_solve::model::diagnosis::cover_estimate(&paper, 4), None);
     let m = natural_arm("full");
     let d = qpv_solve::design(&m, &m.designs[0], &qpv_solve::Settings::default()).unwrap();
-    assert!(!d.certifies);
+    assert!(!d.certifies());
     let findings = d.diagnosis.expect("a diagnosis");
     assert!(findings.iter().any(|f| f.kind == "cover"), "{findings:?}");
     assert!(

@@ -27,7 +27,7 @@ fn the_best_sound_design_hint_reports_the_full_search() {
     let hint = export::best_sound_design(&poly, &Settings::default());
     let d = design(&poly, &DesignRequest::default(), &Settings::default())
         .expect("the paper model designs");
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     assert_eq!(
         hint.to_string(),
         format!(
@@ -55,7 +55,7 @@ fn a_request_failing_on_the_data_names_the_limit_without_a_search() {
     let mut req = poly.designs[0].clone();
     req.gamma = GammaSpec::Fixed(0.4);
     let d = design(&poly, &req, &Settings::default()).expect("design runs");
-    assert!(!d.feasible && !d.certifies);
+    assert!(!d.feasible() && !d.certifies());
     let why = export::explain(&poly, &req, &d, &Settings::default());
     let text = why.to_string();
     assert!(text.contains("margin -3.48"), "{text}");
@@ -83,7 +83,7 @@ fn f64_numbers_are_baked_as_solved_and_f32_numbers_rounded_and_rechecked() {
         Mode::Sound,
     );
     let d = design(&poly, &req, &Settings::default()).expect("design runs");
-    assert!(d.certifies, "{}", d.summary);
+    assert!(d.certifies(), "{}", d.summary);
 
     let f64_baked = Baked::solved(&poly, d.clone(), Float::F64).expect("certified");
     assert_eq!(f64_baked.design().p, d.p);
@@ -123,7 +123,7 @@ fn f64_numbers_are_baked_as_solved_and_f32_numbers_rounded_and_rechecked() {
     ));
     // A design that is not certified is not baked, whatever its numbers.
     let mut uncertified = d;
-    uncertified.certifies = false;
+    uncertified.verdict = qpv_solve::vocab::Verdict::NotCertified;
     assert!(matches!(
         Baked::solved(&poly, uncertified, Float::F64),
         Err(BakeError::NotCertified)
@@ -187,12 +187,12 @@ fn the_figures_keep_the_size_guard_of_a_cube_design() {
     let poly = qpv_dsl::parse(&chain(7)).expect("the chain parses")[0].polytopic();
     let req = poly.designs[0].clone();
     let d = design(&poly, &req, &Settings::default()).expect("design runs");
-    assert!(d.certifies, "{}", d.summary);
+    assert!(d.certifies(), "{}", d.summary);
     assert!(d.cube.is_some());
     let pairs = poly.nv() * poly.region.vertices.len().pow(2);
-    assert!(pairs > qpv_solve::size::AUTO_FULL_BLOCKS, "{pairs}");
+    assert!(pairs > qpv_solve::model::size::AUTO_FULL_BLOCKS, "{pairs}");
     let baked = Baked::solved(&poly, d.clone(), Float::F64).expect("certified");
-    assert_eq!(baked.figures(), export::Figures::default());
+    assert_eq!(baked.figures(), qpv_codegen::Figures::default());
     let claimed = Baked::claimed(&poly, d, Float::F64).expect("re-checks by its slacks");
-    assert_eq!(claimed.figures(), export::Figures::default());
+    assert_eq!(claimed.figures(), qpv_codegen::Figures::default());
 }

@@ -221,7 +221,11 @@ fn paper_design(alpha: f64, gamma: f64, mode: Mode) -> qpv_solve::Design {
 fn certified_paper_design_converges_and_survives_falsification() {
     let model = paper_model();
     let design = paper_design(10.0, 0.1889, Mode::Sound);
-    assert!(design.feasible && design.certifies, "{}", design.summary);
+    assert!(
+        design.feasible() && design.certifies(),
+        "{}",
+        design.summary
+    );
     let gains = design.l_matrices();
     let p = design.p_matrix();
 
@@ -279,7 +283,11 @@ fn certified_designs_stay_inside_their_error_envelopes() {
     )
     .unwrap();
     for design in [&fixed, &max] {
-        assert!(design.feasible && design.certifies, "{}", design.summary);
+        assert!(
+            design.feasible() && design.certifies(),
+            "{}",
+            design.summary
+        );
         let traj = simulate(&model, &design.l_matrices(), &Scenario::paper(&model)).unwrap();
         assert_eq!(traj.diverged_at, None);
         let p = design.p_matrix();
@@ -306,7 +314,11 @@ fn certified_designs_stay_inside_their_error_envelopes() {
 fn paper_mode_design_is_falsified() {
     let model = paper_model();
     let design = paper_design(10.0, 0.4, Mode::Paper);
-    assert!(design.feasible && !design.certifies, "{}", design.summary);
+    assert!(
+        design.feasible() && !design.certifies(),
+        "{}",
+        design.summary
+    );
     let f = falsify_design(&model, &design, 20_000, 2026).unwrap();
     assert!(f.counterexamples > 0, "{f:?}");
     assert!(f.worst_ratio > 0.0);

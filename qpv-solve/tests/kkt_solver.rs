@@ -53,13 +53,13 @@ mod faer {
     fn faer_and_qdldl_find_the_same_cube_alpha_on_the_paper_example() {
         let model = paper_model();
         let q = run(&model, AlphaSpec::Max, 0.18898, KktSolver::Qdldl);
-        assert!(q.feasible && q.certifies, "{}", q.summary);
+        assert!(q.feasible() && q.certifies(), "{}", q.summary);
         for k in [
             KktSolver::Faer { threads: 1 },
             KktSolver::Faer { threads: 2 },
         ] {
             let f = run(&model, AlphaSpec::Max, 0.18898, k);
-            assert!(f.feasible && f.certifies, "{k:?}: {}", f.summary);
+            assert!(f.feasible() && f.certifies(), "{k:?}: {}", f.summary);
             assert!(f.recheck(&model).passed, "{k:?}");
             // the bisection's relative tolerance is 1e-3
             let rel = (f.alpha - q.alpha).abs() / q.alpha;
@@ -78,7 +78,7 @@ mod faer {
             gamma,
             KktSolver::Faer { threads: 0 },
         );
-        assert!(d.feasible && d.certifies, "{}", d.summary);
+        assert!(d.feasible() && d.certifies(), "{}", d.summary);
         assert!(d.cube.is_some() && d.recheck(&model).passed);
     }
 }

@@ -10,7 +10,7 @@
 //! `blas`/`lapack` crates do), so this also checks the names and that
 //! [`qpv_solve::lapack::ensure_linked`] pulls them into the link.
 #![cfg(feature = "pure-lapack")]
-#![allow(clippy::too_many_arguments, clippy::needless_range_loop)]
+#![allow(clippy::needless_range_loop)]
 
 use std::ffi::{c_char, c_int};
 
@@ -507,11 +507,9 @@ fn dsymv_matches_reference() {
 fn check_sym_update(
     cm: &[f64],
     c0: &[f64],
-    n: usize,
-    ldc: usize,
+    (n, ldc): (usize, usize),
     upper: bool,
-    beta: f64,
-    scale: f64,
+    (beta, scale): (f64, f64),
     prod: impl Fn(usize, usize) -> f64,
     what: &str,
 ) {
@@ -599,7 +597,7 @@ fn dsyrk_matches_reference() {
             "dsyrk {} {} n={n} k={k} alpha={alpha} beta={beta}",
             uplo as char, trans as char
         );
-        check_sym_update(&cm, &c0, n, ldc, upper, beta, k as f64, prod, &what);
+        check_sym_update(&cm, &c0, (n, ldc), upper, (beta, k as f64), prod, &what);
     }
 }
 
@@ -671,7 +669,7 @@ fn dsyr2k_matches_reference() {
             "dsyr2k {} {} n={n} k={k} alpha={alpha} beta={beta}",
             uplo as char, trans as char
         );
-        check_sym_update(&cm, &c0, n, ldc, upper, beta, k as f64, prod, &what);
+        check_sym_update(&cm, &c0, (n, ldc), upper, (beta, k as f64), prod, &what);
     }
 }
 
@@ -916,9 +914,7 @@ fn dpotrf_reports_the_failing_minor() {
 /// (lwork = liwork = -1) into 1-element work vectors, resize, then the call.
 /// Returns (m, w, z, isuppz).
 fn syevr_like_clarabel(
-    jobz: u8,
-    range: u8,
-    uplo: u8,
+    (jobz, range, uplo): (u8, u8, u8),
     a: &mut [f64],
     n: usize,
     lda: usize,
@@ -1023,7 +1019,7 @@ fn dsyevr_matches_reference() {
         };
         let mut a = store_triangle(&s, lda, uplo == b'U');
         let (m, w, z, isuppz) =
-            syevr_like_clarabel(jobz, range, uplo, &mut a, n, lda, ldz, (vl, vu, il, iu));
+            syevr_like_clarabel((jobz, range, uplo), &mut a, n, lda, ldz, (vl, vu, il, iu));
         let want: Vec<f64> = match range {
             b'A' => reference.clone(),
             b'I' => reference[(il as usize - 1).min(n)..(iu as usize).min(n)].to_vec(),
@@ -1084,7 +1080,7 @@ fn dsyevr_special_inputs() {
     let n = 4;
     let mut a = vec![1.0; n * n];
     a[5] = f64::NAN;
-    let (m, w, _, _) = syevr_like_clarabel(b'N', b'A', b'U', &mut a, n, n, n, (0.0, 0.0, 0, 0));
+    let (m, w, _, _) = syevr_like_clarabel((b'N', b'A', b'U'), &mut a, n, n, n, (0.0, 0.0, 0, 0));
     assert_eq!(m, n);
     assert!(w.iter().all(|v| v.is_nan()));
     // Diagonal input: exact eigenvalues.
@@ -1092,7 +1088,7 @@ fn dsyevr_special_inputs() {
     for (i, d) in [3.0, -1.0, 2.0, 0.5].iter().enumerate() {
         a[i * n + i] = *d;
     }
-    let (_, w, _, _) = syevr_like_clarabel(b'V', b'A', b'U', &mut a, n, n, n, (0.0, 0.0, 0, 0));
+    let (_, w, _, _) = syevr_like_clarabel((b'V', b'A', b'U'), &mut a, n, n, n, (0.0, 0.0, 0, 0));
     assert_eq!(w, vec![-1.0, 0.5, 2.0, 3.0]);
     // Illegal arguments are reported in info.
     let (ni, mut m, mut info) = (n as c_int, 0, 0);
@@ -1144,11 +1140,8 @@ fn svd_like_clarabel(
     gesdd: bool,
     job: u8,
     a: &mut [f64],
-    m: usize,
-    n: usize,
-    lda: usize,
-    ldu: usize,
-    ldvt: usize,
+    (m, n): (usize, usize),
+    (lda, ldu, ldvt): (usize, usize, usize),
 ) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let k = m.min(n);
     let mut s = vec![f64::NAN; k];
@@ -1245,7 +1238,7 @@ fn check_svd(gesdd: bool, rng: &mut Rng, cases: usize) {
             }
         }
         let a0 = a.clone();
-        let (s, u, vt) = svd_like_clarabel(gesdd, job, &mut a, m, n, lda, ldu, ldvt);
+        let (s, u, vt) = svd_like_clarabel(gesdd, job, &mut a, (m, n), (lda, ldu, ldvt));
         let name = format!(
             "{} job={} m={m} n={n}",
             if gesdd { "dgesdd" } else { "dgesvd" },
@@ -1326,7 +1319,7 @@ fn svd_special_inputs() {
     let _rng = Rng::new(0);
     // Non-finite input: NaN out, info 0 (no abort inside the FFI call).
     let mut a = vec![1.0, f64::NAN, 0.0, 2.0, 1.0, 3.0, 4.0, 0.0];
-    let (s, _, _) = svd_like_clarabel(true, b'S', &mut a, 4, 2, 4, 4, 2);
+    let (s, _, _) = svd_like_clarabel(true, b'S', &mut a, (4, 2), (4, 4, 2));
     assert!(s.iter().all(|v| v.is_nan()));
     // Unsupported jobz = 'O' and jobz = 'A' for a non-square matrix: info = -1.
     let (m, n) = (3 as c_int, 2 as c_int);
@@ -1393,7 +1386,7 @@ fn check_svd_dense(a: &[Vec<f64>], tol: f64, what: &str) -> Vec<f64> {
     let (m, n) = (a.len(), a[0].len());
     let k = m.min(n);
     let mut col: Vec<f64> = (0..n).flat_map(|j| (0..m).map(move |i| a[i][j])).collect();
-    let (s, u, vt) = svd_like_clarabel(true, b'S', &mut col, m, n, m, m, k);
+    let (s, u, vt) = svd_like_clarabel(true, b'S', &mut col, (m, n), (m, m, k));
     let amax = a.iter().flatten().fold(0.0f64, |x, v| x.max(v.abs()));
     for i in 0..m {
         for j in 0..n {
@@ -1582,7 +1575,7 @@ fn dsyevr_stress_graded_and_clustered() {
         let mut col = store_triangle(&a, n, case % 2 == 0);
         let uplo = if case % 2 == 0 { b'U' } else { b'L' };
         let (m, w, z, _) =
-            syevr_like_clarabel(b'V', b'A', uplo, &mut col, n, n, n, (0.0, 0.0, 0, 0));
+            syevr_like_clarabel((b'V', b'A', uplo), &mut col, n, n, n, (0.0, 0.0, 0, 0));
         assert_eq!(m, n);
         for k in 0..n {
             let zk = &z[k * n..(k + 1) * n];
@@ -1608,7 +1601,7 @@ fn dsyevr_stress_graded_and_clustered() {
         // Eigenvalues only: same values.
         let mut col = store_triangle(&a, n, true);
         let (_, w2, _, _) =
-            syevr_like_clarabel(b'N', b'A', b'U', &mut col, n, n, n, (0.0, 0.0, 0, 0));
+            syevr_like_clarabel((b'N', b'A', b'U'), &mut col, n, n, n, (0.0, 0.0, 0, 0));
         for k in 0..n {
             assert!((w[k] - w2[k]).abs() <= 1e-13 * n as f64 * amax);
         }

@@ -6,9 +6,11 @@
 use nalgebra::DMatrix;
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, Split};
 use qpv_solve::analysis::euler::simulate_euler;
+use qpv_solve::certificate::noise::{check_noise, noise_bound};
+use qpv_solve::certificate::sampling::{euler_margin, vertex_dynamics};
 use qpv_solve::conditions::reference::paper_model;
-use qpv_solve::noise::{check_noise, design_noise, noise_bound, tradeoff, NoiseChannels};
-use qpv_solve::sampling::{euler_margin, vertex_dynamics};
+use qpv_solve::model::noise::NoiseChannels;
+use qpv_solve::search::noise::{design_noise, tradeoff};
 use qpv_solve::simulate::Scenario;
 use qpv_solve::{design, request, Design, Settings};
 use std::sync::OnceLock;
@@ -81,7 +83,7 @@ fn recheck(d: &Design) {
 #[test]
 fn noise_optimal_design_alpha_5_matches_reference() {
     let d = noise_design_5();
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     let nb = d.noise.clone().unwrap();
     eprintln!(
         "α = 5: σ = {}, bound = {}, ν_max = {}, max‖L‖ = {}, {:.2} s",
@@ -122,7 +124,7 @@ fn noise_optimal_design_alpha_5_matches_reference() {
 fn noise_optimal_design_alpha_10_and_12() {
     for (alpha, sigma_ref, bound_ref) in [(10.0, 2965.0, 2.33), (12.0, 5.3e4, 7.8)] {
         let d = noise_design(alpha);
-        assert!(d.certifies, "{}", d.summary);
+        assert!(d.certifies(), "{}", d.summary);
         let nb = d.noise.clone().unwrap();
         eprintln!(
             "α = {alpha}: σ = {}, bound = {}, max‖L‖ = {}",
@@ -148,7 +150,7 @@ fn noise_optimal_design_alpha_10_and_12() {
 fn ordinary_designs_carry_a_checked_noise_bound_and_sampling() {
     let req = request(AlphaSpec::Fixed(5.0), GammaSpec::Fixed(GAMMA), Mode::Sound);
     let d = design(&paper_model(), &req, &Settings::default()).unwrap();
-    assert!(d.certifies);
+    assert!(d.certifies());
     let nb = d.noise.clone().expect("noise bound of a certified design");
     assert!(nb.check.passed);
     // The gain-regularised design is not noise-optimal: its σ is no smaller.
@@ -223,7 +225,7 @@ fn noisy_outputs_subset_and_disturbance_channels() {
 fn noise_claim_not_falsified_on_the_true_error_dynamics() {
     let d = noise_design_5();
     let nb = d.noise.clone().unwrap();
-    let report = qpv_solve::noise::falsify_noise(
+    let report = qpv_solve::analysis::noise::falsify_noise(
         &paper_model(),
         d,
         &NoiseChannels::all_outputs(),
@@ -317,7 +319,7 @@ fn gamma_search_never_does_worse_than_the_top_of_the_range() {
         &Settings::default(),
     )
     .unwrap();
-    assert!(d.certifies, "{}", d.summary);
+    assert!(d.certifies(), "{}", d.summary);
     let top = noise_design_5().noise.clone().unwrap().error_bound;
     let got = d.noise.clone().unwrap();
     eprintln!(

@@ -18,7 +18,7 @@ fn auto_model() -> qpv_dsl::PolytopicModel {
 fn auto_design(model: &qpv_dsl::PolytopicModel) -> Design {
     let req = request(AlphaSpec::Fixed(5.0), GammaSpec::Fixed(0.15), Mode::Sound);
     let d = design(model, &req, &Settings::default()).unwrap();
-    assert!(d.certifies, "{}", d.summary);
+    assert!(d.certifies(), "{}", d.summary);
     d
 }
 

@@ -83,8 +83,15 @@ fn double_sum_family_is_the_error_dynamics_at_every_theta() {
                     let one = Combo {
                         terms: vec![(lv, mv, 1.0)],
                     };
-                    got += combo_lmi(&model, Mode::Sound, alpha, gamma, &p, &gammas, &one, i, j)
-                        * (wl * wm);
+                    got += combo_lmi(
+                        &model,
+                        Mode::Sound,
+                        Candidate::new(alpha, gamma),
+                        &p,
+                        &gammas,
+                        &one,
+                        (i, j),
+                    ) * (wl * wm);
                 }
             }
             assert!(
@@ -100,7 +107,7 @@ fn double_sum_design_certifies_and_survives_falsification() {
     let model = varying();
     assert_eq!(rate_combos(&model).len(), 16);
     let d = run(&model, OutputRoute::DoubleSum);
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     let route = d.output_route.as_ref().expect("route recorded");
     assert_eq!(
         (route.route.as_str(), route.combinations),
@@ -129,7 +136,7 @@ fn filter_design_certifies_bounds_its_states_and_converges() {
         gain: 50.0,
     };
     let d = run(&model, OutputRoute::Filter(f));
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     let route = d.output_route.as_ref().expect("route recorded");
     assert_eq!(route.route, "filter");
     assert_eq!(
@@ -193,7 +200,7 @@ fn alpha_max_after_retries_takes_a_few_dozen_solves() {
         gain: 5.0,
     });
     let d = design(&model, &r, &Settings::default()).expect("design runs");
-    assert!(d.certifies, "{}", d.summary);
+    assert!(d.certifies(), "{}", d.summary);
     let retries = d
         .search
         .iter()

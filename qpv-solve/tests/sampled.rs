@@ -4,9 +4,9 @@
 //! true Euler error map, and the report's re-check.
 
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode, PolytopicModel, Split};
+use qpv_solve::certificate::sampling::SampleInfo;
 use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::falsify::falsify_design;
-use qpv_solve::sampling::SampleInfo;
 use qpv_solve::{design, Design, Settings};
 
 /// γ_max of the paper example (docs/method.md §14).
@@ -37,11 +37,11 @@ fn sampled_alpha_approaches_the_continuous_alpha_from_below() {
     let s = Settings::default();
     let tol = s.bisection_rel_tol;
     let cont = design(&model, &req(AlphaSpec::Max, GAMMA, None), &s).unwrap();
-    assert!(cont.certifies, "{}", cont.summary);
+    assert!(cont.certifies(), "{}", cont.summary);
     let mut alphas = Vec::new();
     for h in [1e-4, 1e-3, 1e-2] {
         let d = design(&model, &req(AlphaSpec::Max, GAMMA, Some(h)), &s).unwrap();
-        assert!(d.certifies, "h = {h}: {}", d.summary);
+        assert!(d.certifies(), "h = {h}: {}", d.summary);
         assert!(d.summary.starts_with("CERTIFIED at h = "), "{}", d.summary);
         let sample = d.sample.expect("a sampled design reports its period");
         assert_eq!(sample.h, h);
@@ -87,7 +87,7 @@ fn continuous_gains_pass_the_discrete_certificate_at_their_euler_step() {
     let model = paper_model();
     let s = Settings::default();
     let cont = design(&model, &req(AlphaSpec::Fixed(10.0), GAMMA, None), &s).unwrap();
-    assert!(cont.certifies, "{}", cont.summary);
+    assert!(cont.certifies(), "{}", cont.summary);
     let sm = cont
         .sampling
         .clone()
@@ -135,7 +135,7 @@ fn the_true_euler_error_map_never_exceeds_the_certified_decrease() {
     ];
     for (name, model, alpha, gamma, h) in cases {
         let d = design(&model, &req(AlphaSpec::Fixed(alpha), gamma, Some(h)), &s).unwrap();
-        assert!(d.certifies, "{name}: {}", d.summary);
+        assert!(d.certifies(), "{name}: {}", d.summary);
         let f = falsify_design(&model, &d, 20_000, 11).unwrap();
         assert_eq!(f.samples + f.skipped, 20_000, "{name}");
         assert!(f.samples > 19_000, "{name}");
@@ -160,7 +160,7 @@ fn the_report_carries_the_sample_and_the_recheck_uses_it() {
     let model = paper_model();
     let s = Settings::default();
     let d = design(&model, &req(AlphaSpec::Fixed(10.0), GAMMA, Some(1e-2)), &s).unwrap();
-    assert!(d.certifies, "{}", d.summary);
+    assert!(d.certifies(), "{}", d.summary);
     assert!(d.noise.is_none() && d.sampling.is_none());
     let json = d.to_json();
     assert!(json.contains("\"sample\""), "{json}");
@@ -184,7 +184,7 @@ fn a_rate_beyond_the_sample_period_says_what_certifies_there() {
     let s = Settings::default();
     let h = 0.03;
     let d = design(&model, &req(AlphaSpec::Fixed(12.3), GAMMA, Some(h)), &s).unwrap();
-    assert!(!d.certifies, "{}", d.summary);
+    assert!(!d.certifies(), "{}", d.summary);
     assert!(
         d.summary.starts_with("NOT CERTIFIED at h = 3e-2 s"),
         "{}",
@@ -206,7 +206,7 @@ fn a_rate_beyond_the_sample_period_says_what_certifies_there() {
         .unwrap();
     assert!(alpha > 0.0 && alpha < 12.3, "{note}");
     let ok = design(&model, &req(AlphaSpec::Fixed(alpha), GAMMA, Some(h)), &s).unwrap();
-    assert!(ok.certifies, "{}", ok.summary);
+    assert!(ok.certifies(), "{}", ok.summary);
     // The period at which the asked α certifies, and the failed one just
     // above it: a design at the first certifies, at the second does not.
     let key = "α = 12.3 certifies at the shorter period h = ";
@@ -230,7 +230,7 @@ fn a_rate_beyond_the_sample_period_says_what_certifies_there() {
         "{note}"
     );
     let ok = design(&model, &req(AlphaSpec::Fixed(12.3), GAMMA, Some(h_ok)), &s).unwrap();
-    assert!(ok.certifies, "at h = {h_ok}: {}", ok.summary);
+    assert!(ok.certifies(), "at h = {h_ok}: {}", ok.summary);
 }
 
 /// `noise = min` at the sample period (docs/method.md §16, "Noise at the
@@ -243,8 +243,9 @@ fn a_rate_beyond_the_sample_period_says_what_certifies_there() {
 /// caught, so the sampler is live.
 #[test]
 fn the_sampled_noise_bound_holds_on_the_euler_error_map() {
+    use qpv_solve::analysis::noise::falsify_noise;
     use qpv_solve::certificate::noise_sampled::SampledNoise;
-    use qpv_solve::noise::{falsify_noise, NoiseChannels};
+    use qpv_solve::model::noise::NoiseChannels;
     let s = Settings::default();
     let cases: Vec<(&str, PolytopicModel, f64, f64, f64)> = vec![
         ("paper", paper_model(), 5.0, GAMMA, 1e-2),
@@ -260,7 +261,7 @@ fn the_sampled_noise_bound_holds_on_the_euler_error_map() {
         let mut r = req(AlphaSpec::Fixed(alpha), gamma, Some(h));
         r.noise = qpv_dsl::NoiseObjective::Min;
         let d = design(&model, &r, &s).unwrap();
-        assert!(d.certifies, "{name}: {}", d.summary);
+        assert!(d.certifies(), "{name}: {}", d.summary);
         assert!(
             d.summary.starts_with("CERTIFIED at h = "),
             "{name}: {}",

@@ -17,7 +17,7 @@ fn skew_slack_keeps_the_plant_and_raises_the_certified_alpha() {
     let mut req = request(AlphaSpec::Max, GammaSpec::Fixed(0.1889), Mode::Sound);
     req.split = Split::Symmetric;
     let start = design(&model, &req, &settings).unwrap();
-    assert!(start.certifies, "{}", start.summary);
+    assert!(start.certifies(), "{}", start.summary);
     let r = qpv_solve::search::skew_search(&model, &start, 2, &settings, Conditions::Full).unwrap();
     assert!(!r.rounds.is_empty());
     assert!(
@@ -68,7 +68,7 @@ fn split_skew_slack_reports_k_and_rechecks_from_json() {
     let mut req = request(AlphaSpec::Max, GammaSpec::Fixed(0.1889), Mode::Sound);
     req.split = Split::SkewSlack;
     let d = design(&model, &req, &Settings::default()).unwrap();
-    assert!(d.certifies, "{}", d.summary);
+    assert!(d.certifies(), "{}", d.summary);
     assert_eq!(d.split, Split::SkewSlack);
     assert!(d.alpha > 13.0, "α = {}", d.alpha);
     let k = d.skew.as_ref().expect("the slack is reported");

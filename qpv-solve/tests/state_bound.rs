@@ -204,7 +204,7 @@ fn design_uses_and_reports_the_computed_bound() {
         ..Default::default()
     };
     let d = design(&model, &req, &Settings::default()).unwrap();
-    assert!(d.feasible && d.certifies, "{}", d.summary);
+    assert!(d.feasible() && d.certifies(), "{}", d.summary);
     let sb = d.state_bound.as_ref().unwrap();
     assert_eq!(sb.source, "auto");
     assert!(sb.gamma_max.unwrap() > 0.23 && sb.check.as_ref().unwrap().passed);
@@ -215,7 +215,7 @@ fn design_uses_and_reports_the_computed_bound() {
         .map(ToString::to_string)
         .any(|n| n.contains("state_bound auto")));
     let with_paper_q = design(&paper_model(), &req, &Settings::default()).unwrap();
-    assert!(!with_paper_q.feasible && !with_paper_q.data_checks["S4"].passed);
+    assert!(!with_paper_q.feasible() && !with_paper_q.data_checks["S4"].passed);
     // re-check and falsify against the auto model use the design's Q
     assert!(d.recheck(&model).passed);
     let f = falsify_design(&model, &d, 20_000, 7).unwrap();
@@ -283,7 +283,7 @@ fn paper_auto_example_reaches_the_issue_goal() {
     let req = &model.designs[0];
     assert_eq!(req.split, Split::Symmetric);
     let d = design(&poly, req, &Settings::default()).unwrap();
-    assert!(d.certifies, "{}", d.summary);
+    assert!(d.certifies(), "{}", d.summary);
     assert!(d.alpha >= 11.3, "α = {}", d.alpha);
     assert_eq!(d.state_bound.as_ref().unwrap().source, "auto");
     assert!(d.recheck(&poly).passed);

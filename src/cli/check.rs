@@ -150,6 +150,29 @@ fn recheck(model: &Model, design: &Design, gains: &Path) -> Result<Certificate, 
     }
 }
 
+/// The sample period to check at and where it came from: `--sample`, else
+/// the gains file's `sample.h`, else none (continuous time).
+fn choose_sample(
+    flag: Option<f64>,
+    claimed_h: Option<f64>,
+    gains: &Path,
+) -> Result<Option<(f64, &'static str)>, CliError> {
+    match (flag, claimed_h) {
+        (Some(h), _) if !positive(h) => Err(CliError::Input(format!(
+            "--sample {}: expected a positive sample period in seconds",
+            fmt_num(h)
+        ))),
+        (Some(h), _) => Ok(Some((h, "--sample"))),
+        (None, Some(h)) if !positive(h) => Err(CliError::Input(format!(
+            "{}: the gains file's `sample.h` is {}: expected a positive sample period in seconds",
+            gains.display(),
+            fmt_num(h)
+        ))),
+        (None, Some(h)) => Ok(Some((h, "gains file"))),
+        (None, None) => Ok(None),
+    }
+}
+
 /// The first of the model's `design` blocks in `mode` that fixes the value
 /// `pick` reads, with its 1-based number.
 fn from_blocks(
@@ -210,24 +233,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     let mut design = claim.at(mode, alpha, gamma);
     let split = design.split;
     let claimed_h = design.sample.as_ref().map(|s| s.h);
-    let sample = match (o.sample, claimed_h) {
-        (Some(h), _) if !positive(h) => {
-            return Err(CliError::Input(format!(
-                "--sample {}: expected a positive sample period in seconds",
-                fmt_num(h)
-            )))
-        }
-        (Some(h), _) => Some((h, "--sample")),
-        (None, Some(h)) if !positive(h) => {
-            return Err(CliError::Input(format!(
-            "{}: the gains file's `sample.h` is {}: expected a positive sample period in seconds",
-            gains.display(),
-            fmt_num(h)
-        )))
-        }
-        (None, Some(h)) => Some((h, "gains file")),
-        (None, None) => None,
-    };
+    let sample = choose_sample(o.sample, claimed_h, gains)?;
     if let Some((h, _)) = sample {
         if mode != Mode::Sound {
             return Err(CliError::Input(
@@ -235,7 +241,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
                     .into(),
             ));
         }
-        design.sample = Some(qpv_solve::sampling::SampleInfo::new(h, alpha));
+        design.sample = Some(qpv_solve::certificate::sampling::SampleInfo::new(h, alpha));
     }
     let cert = recheck(&model, &design, gains)?;
     let code = match (cert.passed, mode) {
@@ -243,6 +249,38 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         (true, Mode::Paper) => exit::REPRODUCTION,
         (false, _) => exit::NOT_CERTIFIED,
     };
+    let mut s = report_text(
+        &cert,
+        code,
+        gains,
+        (mode, mode_source),
+        (alpha, &alpha_source),
+        (gamma, &gamma_source),
+        sample,
+    );
+    if let Some((h, _)) = sample {
+        s.push_str(&sampled_lines(&model, &design, h, cert.passed));
+    }
+    print_text(json, &s);
+    emit_json(
+        json,
+        &CheckOutput::new(&model.name, gains, mode_source, split, &cert, code),
+    )?;
+    Ok(code)
+}
+
+/// The text report of `qpv check`: what was checked against what, the
+/// margin of every family and data check, the verdict and, where every
+/// family holds without a verdict, the missing assumption.
+fn report_text(
+    cert: &Certificate,
+    code: i32,
+    gains: &Path,
+    (mode, mode_source): (Mode, &str),
+    (alpha, alpha_source): (f64, &str),
+    (gamma, gamma_source): (f64, &str),
+    sample: Option<(f64, &str)>,
+) -> String {
     let mut s = format!(
         "check of {} against {} mode ({}) at alpha = {} ({alpha_source}), gamma = {} ({gamma_source}):\n",
         gains.display(),
@@ -261,7 +299,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     if let Some((h, source)) = sample {
         s.push_str(&format!(
             "  sampled at {} ({source}): the observer stepped by explicit Euler, V(e_k+1) <= {} V(e_k) (family S5d in place of S5)\n",
-            qpv_solve::sampling::describe_period(h),
+            qpv_solve::certificate::sampling::describe_period(h),
             fmt_num(1.0 - h * alpha)
         ));
     }
@@ -299,9 +337,6 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         }
         _ => "  => NOT certified\n",
     });
-    if let Some((h, _)) = sample {
-        s.push_str(&sampled_lines(&model, &design, h, cert.passed));
-    }
     // Every family holding but no verdict: say which assumption is missing.
     let families_hold = cert.input_errors.is_empty() && cert.families.iter().all(|f| f.passed);
     if code == exit::NOT_CERTIFIED && families_hold && mode == Mode::Sound {
@@ -320,12 +355,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             _ => {}
         }
     }
-    print_text(json, &s);
-    emit_json(
-        json,
-        &CheckOutput::new(&model.name, gains, mode_source, split, &cert, code),
-    )?;
-    Ok(code)
+    s
 }
 
 /// What the gains certify at the sample period h beyond the discrete

@@ -12,9 +12,8 @@
 use super::gains::read_claim;
 use super::input::{exit, load_model, load_model_for, CliError};
 use qpv_codegen::c::{CModel, Float};
-use qpv_codegen::{CertifiedDesign, Figures};
-use qpv_dsl::{Mode, Model, OutputRoute};
-use qpv_solve::certificate::rounding::RhsRounding;
+use qpv_codegen::CertifiedDesign;
+use qpv_dsl::{Mode, Model};
 use qpv_solve::export::{self, BakeError, Baked};
 use qpv_solve::Design;
 use std::path::{Path, PathBuf};
@@ -45,10 +44,8 @@ pub struct Options {
     pub out: PathBuf,
 }
 
-/// The design to export, before it is baked, with words on where it came
-/// from and the solver's record.
+/// Where the design to export came from, in words, and the solver's record.
 struct Source {
-    design: Design,
     /// Solved in this run (its own certificate holds for its f64 numbers),
     /// rather than read from a gains file (a claim, re-checked).
     solved: bool,
@@ -71,17 +68,8 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             o.lang
         )));
     }
-    let flag = match o.float.as_deref() {
-        None => None,
-        Some("f64") => Some(Float::F64),
-        Some("f32") => Some(Float::F32),
-        Some(other) => {
-            return Err(CliError::Input(format!(
-                "--float {other}: expected `f64` or `f32`"
-            )))
-        }
-    };
-    let (model, source) = match &o.gains {
+    let flag = float_flag(o.float.as_deref())?;
+    let (model, (design, source)) = match &o.gains {
         Some(g) => from_gains(&o.file, o.model.as_deref(), g, o.design)?,
         None => {
             let (_, model) = load_model(&o.file, o.model.as_deref())?;
@@ -89,14 +77,13 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
                 Float::F32 => qpv_dsl::Float::F32,
                 Float::F64 => qpv_dsl::Float::F64,
             });
-            let n = match solved(&o.file, &model, o.design, held)? {
-                Ok(n) => n,
+            match solved(&o.file, &model, o.design, held)? {
+                Ok(n) => (model, n),
                 Err(msg) => {
                     eprintln!("{msg}\nnothing written: only certified designs are exported");
                     return Ok(exit::NOT_CERTIFIED);
                 }
-            };
-            (model, n)
+            }
         }
     };
     // --float, else the design block's `float = ...`, else f64
@@ -112,9 +99,9 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     // rounded P, L_l and sample period, each exactly representable in f64).
     let plant = model.polytopic();
     let baked = if source.solved {
-        Baked::solved(&plant, source.design, held)
+        Baked::solved(&plant, design, held)
     } else {
-        Baked::claimed(&plant, source.design, held)
+        Baked::claimed(&plant, design, held)
     };
     let baked = match baked {
         Ok(b) => b,
@@ -136,71 +123,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             return Ok(exit::NOT_CERTIFIED);
         }
     };
-    let d = baked.design();
-    let f = baked.figures();
-    let mut design = CertifiedDesign {
-        request: source.request.clone(),
-        mode: Mode::Sound.name().into(),
-        certifies: true,
-        alpha: d.alpha,
-        gamma: d.gamma,
-        p: d.p.concat(),
-        l: d.l.iter().map(|l| l.concat()).collect(),
-        margins: d.margins.iter().map(|(k, m)| (k.clone(), *m)).collect(),
-        status: source.status.clone(),
-        iterations: source.iterations,
-        float: held,
-        filter: match d.route() {
-            OutputRoute::Filter(f) => Some(f),
-            OutputRoute::DoubleSum => None,
-        },
-        figures: Figures {
-            sigma: f.sigma,
-            error_bound: f.error_bound,
-            max_amplitude: f.max_amplitude,
-            euler: f.euler,
-            rk4: f.rk4,
-            f32_floor: None,
-            f32_euler: None,
-        },
-        sample: d.sample.map(|s| s.h),
-        alpha_sup: baked.alpha_sup(source.alpha),
-    };
-    let scheduling = plant.scheduling.clone();
-    let mut floor_note = String::new();
-    if float == Float::F32 {
-        let floor = baked.f32_floor(|xs, radius| {
-            qpv_codegen::rounding::design_error(&model, &scheduling, &design, xs, radius).map(|r| {
-                RhsRounding {
-                    constant: r.constant,
-                    proportional: r.proportional,
-                    derivative: r.derivative,
-                    state: r.state,
-                }
-            })
-        });
-        match floor {
-            Ok(f) => {
-                design.figures.f32_floor = Some(f.error_bound);
-                design.figures.f32_euler = f.euler.map(|e| qpv_codegen::design::EulerFloor {
-                    base: e.base,
-                    per_step: e.per_step,
-                    min_step: e.min_step,
-                });
-                floor_note = format!(
-                    " The rounding is d0 + d1*rho per state (rho = sqrt(e'Pe)): D0 = {:.3e}, \
-                     D1 = {:.3e} in P-norm, so the rate drops to alpha - 2*D1 = {:.6e} and the \
-                     constant part ends in lim sup |e| <= {:.3e} ({} bound).",
-                    f.constant,
-                    f.proportional,
-                    d.alpha - 2.0 * f.proportional,
-                    f.error_bound,
-                    f.via
-                );
-            }
-            Err(e) => floor_note = format!(" No f32 error floor is certified: {e}."),
-        }
-    }
+    let (design, floor_note) = certified_design(&model, &plant.scheduling, &source, &baked);
     let mut notes = vec![format!("numbers: {}", source.origin)];
     notes.push(match float {
         Float::F64 => "float: f64; the certificate checked P and L_l as printed here".into(),
@@ -212,21 +135,12 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     });
     let files = qpv_codegen::c::emit(&CModel {
         model: &model,
-        scheduling: &scheduling,
+        scheduling: &plant.scheduling,
         design: &design,
         float,
         notes,
     });
-    std::fs::create_dir_all(&o.out)
-        .map_err(|e| CliError::Input(format!("--out {}: {e}", o.out.display())))?;
-    let write = |name: String, text: &str| -> Result<std::path::PathBuf, CliError> {
-        let path = o.out.join(name);
-        std::fs::write(&path, text)
-            .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
-        Ok(path)
-    };
-    let h = write(format!("{}.h", model.name), &files.header)?;
-    let c = write(format!("{}.c", model.name), &files.source)?;
+    let (h, c) = write_files(&o.out, &model.name, &files)?;
     let at = design
         .sample_text()
         .map(|t| format!(" at {t}"))
@@ -244,6 +158,68 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     Ok(exit::CERTIFIED)
 }
 
+/// `--float`: `f64`, `f32` or absent.
+fn float_flag(flag: Option<&str>) -> Result<Option<Float>, CliError> {
+    match flag {
+        None => Ok(None),
+        Some("f64") => Ok(Some(Float::F64)),
+        Some("f32") => Ok(Some(Float::F32)),
+        Some(other) => Err(CliError::Input(format!(
+            "--float {other}: expected `f64` or `f32`"
+        ))),
+    }
+}
+
+/// The numbers to emit for a baked design ([`Baked::certified_design`],
+/// as `qpv!` emits them, with the record of where they came from) and, for
+/// an f32 design, the sentence on its error floor (how the rounding bound
+/// splits, or why none is certified).
+fn certified_design(
+    model: &Model,
+    scheduling: &[usize],
+    source: &Source,
+    baked: &Baked,
+) -> (CertifiedDesign, String) {
+    let (mut design, floor) =
+        baked.certified_design(model, scheduling, &source.request, source.alpha);
+    design.status = source.status.clone();
+    design.iterations = source.iterations;
+    let floor_note = match floor {
+        None => String::new(),
+        Some(Ok(f)) => format!(
+            " The rounding is d0 + d1*rho per state (rho = sqrt(e'Pe)): D0 = {:.3e}, \
+             D1 = {:.3e} in P-norm, so the rate drops to alpha - 2*D1 = {:.6e} and the \
+             constant part ends in lim sup |e| <= {:.3e} ({} bound).",
+            f.constant,
+            f.proportional,
+            design.alpha - 2.0 * f.proportional,
+            f.error_bound,
+            f.via
+        ),
+        Some(Err(e)) => format!(" No f32 error floor is certified: {e}."),
+    };
+    (design, floor_note)
+}
+
+/// Writes `<name>.h` and `<name>.c` into `out` and returns their paths.
+fn write_files(
+    out: &Path,
+    name: &str,
+    files: &qpv_codegen::c::CFiles,
+) -> Result<(PathBuf, PathBuf), CliError> {
+    std::fs::create_dir_all(out)
+        .map_err(|e| CliError::Input(format!("--out {}: {e}", out.display())))?;
+    let write = |name: String, text: &str| -> Result<std::path::PathBuf, CliError> {
+        let path = out.join(name);
+        std::fs::write(&path, text)
+            .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
+        Ok(path)
+    };
+    let h = write(format!("{}.h", name), &files.header)?;
+    let c = write(format!("{}.c", name), &files.source)?;
+    Ok((h, c))
+}
+
 /// Solves design block `n` (1-based; default the first sound one) of the
 /// model, as `qpv!` does, for the numbers held in `float` (default: the
 /// block's): for f32, again with larger margins while the rounded numbers
@@ -253,7 +229,7 @@ fn solved(
     model: &Model,
     n: Option<usize>,
     float: Option<qpv_dsl::Float>,
-) -> Result<Result<Source, String>, CliError> {
+) -> Result<Result<(Design, Source), String>, CliError> {
     let index = match n {
         Some(0) => {
             return Err(CliError::Input(
@@ -295,37 +271,14 @@ fn solved(
     }
     let settings = qpv_solve::Settings::default();
     let poly = model.polytopic();
-    // As `qpv!` does: an f32 export whose rounded numbers fail is solved
-    // again with the strict inequalities' margin 10 and 100 times larger.
-    let float = float.unwrap_or(req.float);
-    let tries = if float == qpv_dsl::Float::F32 { 3 } else { 1 };
-    let mut design = None;
-    for k in 0..tries {
-        let s = qpv_solve::Settings {
-            margin_rel: settings.margin_rel * 10f64.powi(k),
-            ..settings.clone()
-        };
-        let d = match qpv_solve::design(&poly, req, &s) {
-            Ok(d) => d,
-            Err(e) => return Ok(Err(format!("{here} cannot be attempted: {e}"))),
-        };
-        if !(d.feasible && d.certifies) {
-            let why = export::explain(&poly, req, &d, &settings);
-            return Ok(Err(format!("{here} {why}")));
-        }
-        let bakes = !matches!(
-            Baked::solved(&poly, d.clone(), float),
-            Err(BakeError::Failed(_))
-        );
-        design = Some(d);
-        if bakes {
-            break;
-        }
-    }
-    let Some(design) = design else {
+    let Some(design) = solve_held(&poly, req, &settings, float.unwrap_or(req.float)) else {
         return Ok(Err(format!("{here}: nothing solved")));
     };
-    Ok(Ok(Source {
+    let design = match design {
+        Ok(d) => d,
+        Err(why) => return Ok(Err(format!("{here} {why}"))),
+    };
+    let source = Source {
         request: describe(req),
         origin: format!("{here}, solved and independently re-checked"),
         float: req.float,
@@ -333,8 +286,44 @@ fn solved(
         iterations: design.solver.iterations,
         solved: true,
         alpha: req.alpha,
-        design,
-    }))
+    };
+    Ok(Ok((design, source)))
+}
+
+/// Solves `req` for numbers held in `float`: as `qpv!` does, an f32 export
+/// whose rounded numbers fail is solved again with the strict
+/// inequalities' margin 10 and 100 times larger. `Err(why)`: not certified
+/// ([`export::explain`]); `None`: nothing was solved.
+fn solve_held(
+    poly: &qpv_dsl::PolytopicModel,
+    req: &qpv_dsl::DesignRequest,
+    settings: &qpv_solve::Settings,
+    float: qpv_dsl::Float,
+) -> Option<Result<Design, String>> {
+    let tries = if float == qpv_dsl::Float::F32 { 3 } else { 1 };
+    let mut design = None;
+    for k in 0..tries {
+        let s = qpv_solve::Settings {
+            margin_rel: settings.margin_rel * 10f64.powi(k),
+            ..settings.clone()
+        };
+        let d = match qpv_solve::design(poly, req, &s) {
+            Ok(d) => d,
+            Err(e) => return Some(Err(format!("cannot be attempted: {e}"))),
+        };
+        if !(d.feasible() && d.certifies()) {
+            return Some(Err(export::explain(poly, req, &d, settings).to_string()));
+        }
+        let bakes = !matches!(
+            Baked::solved(poly, d.clone(), float),
+            Err(BakeError::Failed(_))
+        );
+        design = Some(Ok(d));
+        if bakes {
+            break;
+        }
+    }
+    design
 }
 
 /// The request in words (as `qpv!` describes it, in short).
@@ -364,7 +353,7 @@ fn from_gains(
     model_flag: Option<&str>,
     gains: &Path,
     design: Option<usize>,
-) -> Result<(Model, Source), CliError> {
+) -> Result<(Model, (Design, Source)), CliError> {
     if design.is_some() {
         return Err(CliError::Input(
             "--design and --gains exclude each other: the gains file is the design".into(),
@@ -394,17 +383,14 @@ fn from_gains(
     design
         .observer_model(&model.polytopic())
         .map_err(|e| CliError::Input(format!("{}: {e}", gains.display())))?;
-    Ok((
-        model,
-        Source {
-            design,
-            solved: false,
-            request: format!("gains from {}", gains.display()),
-            origin: format!("{}, re-certified", gains.display()),
-            status: "gains file".into(),
-            iterations: 0,
-            float: qpv_dsl::Float::F64,
-            alpha: qpv_dsl::AlphaSpec::Fixed(0.0),
-        },
-    ))
+    let source = Source {
+        solved: false,
+        request: format!("gains from {}", gains.display()),
+        origin: format!("{}, re-certified", gains.display()),
+        status: "gains file".into(),
+        iterations: 0,
+        float: qpv_dsl::Float::F64,
+        alpha: qpv_dsl::AlphaSpec::Fixed(0.0),
+    };
+    Ok((model, (design, source)))
 }

@@ -402,10 +402,10 @@ fn describe_verdict(d: &Design) -> String {
         .iter()
         .filter(|s| s.status == qpv_solve::Status::Solved && !s.certified)
         .count();
-    let families: Vec<&str> = d.margins.keys().map(String::as_str).collect();
-    match (d.feasible, d.mode) {
+    let families: Vec<&str> = d.margins.keys().map(|f| f.name()).collect();
+    match (d.feasible(), d.mode) {
         (true, Mode::Sound) if d.sample.is_some() => {
-            let s = d.sample.unwrap_or(qpv_solve::sampling::SampleInfo::new(f64::NAN, d.alpha));
+            let s = d.sample.unwrap_or(qpv_solve::certificate::sampling::SampleInfo::new(f64::NAN, d.alpha));
             format!(
                 "  CERTIFIED at {}: alpha = {:.6} per second at gamma = {:.6}, V(e_k+1) <= {:.6} V(e_k) per step for the observer stepped by explicit Euler at h (the discrete decrease S5d in place of S5): every condition family holds ({}) and the data check S4, by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), {rejected} of them rejected by that check and not used\n{}",
                 s.describe(),
@@ -549,7 +549,7 @@ fn describe_failure_margins(d: &Design) -> String {
 /// any other design: an uncertified design carries no bound).
 pub(super) fn describe_noise(d: &Design) -> String {
     let mut s = String::new();
-    if !(d.certifies && d.mode == Mode::Sound) {
+    if !(d.certifies() && d.mode == Mode::Sound) {
         return s;
     }
     if let Some(nb) = &d.noise {
@@ -600,7 +600,7 @@ pub(super) fn describe_noise(d: &Design) -> String {
 /// A human-readable report of one design.
 pub fn describe_design(d: &Design) -> String {
     let mut s = String::new();
-    let verdict = match (d.feasible, d.mode) {
+    let verdict = match (d.feasible(), d.mode) {
         (true, Mode::Sound) => "CERTIFIED".to_string(),
         (true, Mode::Paper) => {
             "satisfies the paper's printed conditions (reproduction mode: certifies nothing)".into()
@@ -640,7 +640,7 @@ pub fn describe_design(d: &Design) -> String {
     } else if let Some(sb) = &d.state_bound {
         s.push_str(&describe_state_bound(sb));
     }
-    if d.feasible && !d.p.is_empty() {
+    if d.feasible() && !d.p.is_empty() {
         s.push_str(&format!("  P:\n{}", fmt_matrix(&d.p_matrix(), "    ")));
         for (l, m) in d.l_matrices().iter().enumerate() {
             let norm = d.gain_norms.get(l).copied().unwrap_or(f64::NAN);
@@ -651,7 +651,7 @@ pub fn describe_design(d: &Design) -> String {
             ));
         }
     }
-    if d.feasible && !d.margins.is_empty() {
+    if d.feasible() && !d.margins.is_empty() {
         s.push_str("  condition families (worst margin, positive = satisfied):\n");
         for (k, v) in &d.margins {
             s.push_str(&format!(
@@ -660,7 +660,7 @@ pub fn describe_design(d: &Design) -> String {
             ));
         }
     }
-    if !d.feasible {
+    if !d.feasible() {
         s.push_str(&describe_failure_margins(d));
     }
     s.push_str(&describe_noise(d));
@@ -687,7 +687,7 @@ pub fn describe_design(d: &Design) -> String {
             ));
         }
     }
-    if d.feasible {
+    if d.feasible() {
         s.push_str(&format!(
             "  solves: {} in {:.3} s; the reported point: {} iterations, {:.3} s (the search log is in the JSON report)\n",
             d.search.len(),
@@ -712,7 +712,7 @@ pub fn describe_design(d: &Design) -> String {
         .notes
         .iter()
         // the γ search's statement has its own line above
-        .filter(|n| !(matches!(n, Note::GammaSearch(_)) || (d.feasible && n.is_search_log())))
+        .filter(|n| !(matches!(n, Note::GammaSearch(_)) || (d.feasible() && n.is_search_log())))
     {
         s.push_str(&format!("  note: {n}\n"));
     }
@@ -791,7 +791,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         &DesignOutput::new(&model.name, &designs, &skipped, &failures),
     )?;
     Ok(
-        if failures.is_empty() && designs.iter().all(|d| d.feasible) {
+        if failures.is_empty() && designs.iter().all(|d| d.feasible()) {
             exit::CERTIFIED
         } else {
             exit::NOT_CERTIFIED

@@ -6,14 +6,15 @@
 //! file may leave out take defaults), then cut down to its claim by
 //! [`Design::into_claim`]: a report's own margins, data checks, verdict, σ
 //! or sampling figures are never read; they are recomputed from the model
-//! as it is now (docs/schema.md, "What a report may claim"). Only its
-//! `certifies: false` is respected (a report may claim less than its
-//! gains achieve).
+//! as it is now (docs/schema.md, "What a report may claim"). Only a
+//! verdict short of `certified` is respected (a report may claim less than
+//! its gains achieve).
 
 use super::input::{read_bounded, CliError, JSON_LIMIT};
 use super::schema::SCHEMA;
 use qpv_dsl::{Mode, Split};
 use qpv_solve::report::Design;
+use qpv_solve::vocab::Verdict;
 use serde::de::{DeserializeSeed, IgnoredAny};
 use serde_json::Value;
 use std::marker::PhantomData;
@@ -58,7 +59,7 @@ impl Claim {
         }
         d.sample = d
             .sample
-            .map(|s| qpv_solve::sampling::SampleInfo::new(s.h, alpha));
+            .map(|s| qpv_solve::certificate::sampling::SampleInfo::new(s.h, alpha));
         d
     }
 }
@@ -68,12 +69,34 @@ impl Claim {
 /// keys with defaults it states.
 #[derive(serde::Deserialize)]
 struct Stated {
+    verdict: Option<Value>,
     certifies: Option<Value>,
     feasible: Option<Value>,
     mode: Option<Value>,
     alpha: Option<Value>,
     gamma: Option<Value>,
     split: Option<IgnoredAny>,
+}
+
+impl Stated {
+    /// Whether it states whether it certifies (`verdict`, or the
+    /// `certifies` of older reports).
+    fn has_verdict(&self) -> bool {
+        self.verdict.is_some() || self.certifies.is_some()
+    }
+
+    /// The verdict it states (not certified where it states none or an
+    /// unknown one): `verdict`, else the two booleans of older reports.
+    fn says(&self) -> Verdict {
+        let yes = |v: &Option<Value>| v == &Some(Value::Bool(true));
+        match &self.verdict {
+            Some(v) => v
+                .as_str()
+                .and_then(Verdict::from_name)
+                .unwrap_or(Verdict::NotCertified),
+            None => Verdict::from_flags(yes(&self.feasible), yes(&self.certifies)),
+        }
+    }
 }
 
 /// The envelope of a JSON object, read without its matrices (skipped, not
@@ -160,11 +183,10 @@ impl<'de> serde::de::Visitor<'de> for DesignsNth {
 /// Of several designs the first certified one (else the first feasible
 /// one, else the first), and stderr says which.
 fn pick(stated: &[Stated], path: &Path) -> usize {
-    let yes = |v: &Option<Value>| v == &Some(Value::Bool(true));
     let i = stated
         .iter()
-        .position(|v| yes(&v.certifies))
-        .or_else(|| stated.iter().position(|v| yes(&v.feasible)))
+        .position(|v| v.says().certifies())
+        .or_else(|| stated.iter().position(|v| v.says().feasible()))
         .unwrap_or(0);
     if stated.len() > 1 {
         eprintln!(
@@ -280,7 +302,7 @@ pub fn read_claim(path: &Path, what: &str) -> Result<Claim, CliError> {
         alpha: stated.alpha.is_some().then_some(design.alpha),
         gamma: stated.gamma.is_some().then_some(design.gamma),
         split: stated.split.is_some(),
-        certifies: stated.certifies.is_some().then_some(design.certifies),
+        certifies: stated.has_verdict().then_some(design.certifies()),
         design: design.into_claim(),
     })
 }

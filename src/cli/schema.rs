@@ -6,12 +6,13 @@
 //! version, [`SCHEMA`]), `command` (`design`, `check` or `vertices`) and
 //! `model` (the model's name), then the command's keys. Matrices are arrays
 //! of rows everywhere; the same thing has the same key in every command
-//! (`margins` is family → worst margin, `feasible` and `certifies` mean the
+//! (`margins` is family → worst margin, `verdict` means the
 //! same for `design` and `check`).
 
-use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, OutputRoute, PolytopicModel};
+use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, OutputRoute, PolytopicModel};
 use qpv_dsl::{Region, StateBound};
 use qpv_solve::report::{matrix_to_rows, DataCheck, Design};
+use qpv_solve::vocab::{Family, Verdict};
 use qpv_solve::Certificate;
 use serde::Serialize;
 use serde_json::Value;
@@ -109,16 +110,14 @@ pub struct CheckOutput<'a> {
     pub gamma: f64,
     /// Representation of N_k, M_k checked.
     pub split: &'static str,
-    /// Every condition family and required data check holds (in paper mode:
-    /// the paper's printed conditions hold, which certifies nothing).
-    pub feasible: bool,
-    /// `feasible` in sound mode: the gains are certified. Always false in
-    /// paper mode.
-    pub certifies: bool,
+    /// `certified` (sound mode, every condition family and required data
+    /// check holds), `reproduction` (paper mode, the printed conditions
+    /// hold: certifies nothing) or `not_certified`.
+    pub verdict: Verdict,
     /// The process exit code of this check.
     pub exit_code: i32,
     /// Family → worst margin (positive = satisfied).
-    pub margins: BTreeMap<String, f64>,
+    pub margins: BTreeMap<Family, f64>,
     /// Family → its guard, pass/fail, worst place and number of conditions.
     pub families: BTreeMap<String, FamilyDetail>,
     /// Checks on the data alone: "S4" and "region_in_F".
@@ -147,8 +146,7 @@ impl<'a> CheckOutput<'a> {
             alpha: cert.alpha,
             gamma: cert.gamma,
             split: split.name(),
-            feasible: cert.passed,
-            certifies: cert.passed && cert.mode == Mode::Sound,
+            verdict: Verdict::of(cert.passed, cert.mode),
             exit_code,
             margins: cert.margins(),
             families: cert

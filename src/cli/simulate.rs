@@ -140,7 +140,7 @@ fn not_certified_reason(
         return Some("the report is a paper-mode reproduction, which certifies nothing".into());
     }
     if claims == Some(false) {
-        return Some("the report does not certify (certifies: false)".into());
+        return Some("the report does not certify (its verdict is not `certified`)".into());
     }
     let cert = design.recheck_on(obs);
     if cert.passed {
@@ -680,9 +680,9 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     // Every figure a claim rests on (σ, ν_max, the error bound, the Euler
     // step) is recomputed from the model as it is now and the gains as
     // given; the report's own figures are claims, never read as facts.
-    design.certifies = reason.is_none();
+    design.verdict = qpv_solve::vocab::Verdict::of(reason.is_none(), design.mode);
     if reason.is_none() {
-        qpv_solve::noise::attach(&poly, &mut design);
+        qpv_solve::report::figures::attach(&poly, &mut design);
     }
     if let Some(sp) = design
         .sampling

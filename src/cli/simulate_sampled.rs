@@ -13,7 +13,7 @@ use super::input::{load_model_for, CliError};
 use super::simulate::{claimed_design, scenario, Options};
 use qpv_dsl::diagnostic::fmt_num;
 use qpv_solve::analysis::sampled::{check_sampled_run, SampledCheck, SampledRun, MIN_SUBSTEPS};
-use qpv_solve::sampling::describe_period;
+use qpv_solve::certificate::sampling::describe_period;
 
 /// Runs `qpv simulate --sample H`.
 pub fn run(o: &Options) -> Result<i32, CliError> {

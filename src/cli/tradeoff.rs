@@ -9,20 +9,15 @@ use super::input::{
 };
 use super::schema::SCHEMA;
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec};
-use qpv_solve::noise::{default_alphas, knee_of, tradeoff, NoiseChannels, TradeoffPoint};
+use qpv_solve::model::noise::NoiseChannels;
 use qpv_solve::report::Design;
+use qpv_solve::search::noise::{tradeoff_with_progress, Sweep, SweepStep, Tradeoff, TradeoffPoint};
 use serde::Serialize;
 use std::path::PathBuf;
 
 /// How many times the knee design's largest gain a design's gain may reach
 /// before the report says its gains are far above what the knee needs.
 const GAIN_EXCESS: f64 = 10.0;
-
-/// The sweep extends below 5 % of the supremum while its lowest point's
-/// gain is below the next one's by more than this factor ...
-const GAIN_FALL: f64 = 2.0;
-/// ... by at most this many points (each a fifth of the previous α).
-const EXTEND: usize = 3;
 
 /// The options of `qpv tradeoff`.
 #[derive(clap::Args, Debug)]
@@ -216,6 +211,51 @@ fn json_view<'a>(
     }
 }
 
+/// The text report's summary: the fastest design, the table and the knee.
+fn summary(
+    name: &str,
+    gamma: GammaSpec,
+    fastest: &Design,
+    top: f64,
+    over: Option<f64>,
+    sweep: &Tradeoff,
+) -> String {
+    let fast_gain = max_gain(fastest);
+    let mut s = format!(
+        "model {}: rate-noise trade-off ({} noise-optimal designs, gamma {}; noise on every output)\n",
+        name,
+        sweep.points.len(),
+        match gamma {
+            GammaSpec::Fixed(g) => format!("= {g}"),
+            GammaSpec::Search => "searched per point".into(),
+        }
+    );
+    s.push_str(&format!(
+        "  alpha = max design: alpha = {:.6} (certified supremum {top:.6}), gamma = {:.6}, max ||L_l||_2 = {:.4}{}\n",
+        fastest.alpha,
+        fastest.gamma,
+        fast_gain,
+        fastest.noise.as_ref().map_or(String::new(), |n| format!(
+            ", ||e(inf)|| per unit noise <= {:.4}",
+            n.error_bound
+        ))
+    ));
+    if let Some(r) = over.filter(|r| *r > GAIN_EXCESS) {
+        s.push_str(&format!(
+            "  the alpha = max design's gains are far above what the knee needs: ||L|| is {r:.0}x the knee design's\n"
+        ));
+    }
+    s.push_str(&table(&sweep.points, sweep.knee));
+    match sweep.knee {
+        Some(k) => s.push_str(&format!(
+            "  knee: alpha = {:.4} (the fastest point whose certified error bound is within 2x the smallest of the sweep)\n",
+            sweep.points[k].alpha
+        )),
+        None => s.push_str("  no point of the sweep certified: no knee\n"),
+    }
+    s
+}
+
 /// Runs `qpv tradeoff`.
 pub fn run(o: &Options) -> Result<i32, CliError> {
     if o.points < 2 {
@@ -264,7 +304,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         &settings,
     )
     .map_err(bad)?;
-    if !fastest.certifies {
+    if !fastest.certifies() {
         bar.finish_and_clear();
         print_text(
             json,
@@ -275,84 +315,41 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         );
         return Ok(exit::NOT_CERTIFIED);
     }
-    // The range: up to 99 % of the certified supremum (the practical
-    // α = max reports it), down to where the gain has stopped falling.
+    // The certified supremum (the practical α = max reports it).
     let top = fastest
         .practical
         .as_ref()
         .map_or(fastest.alpha, |p| p.alpha_sup);
-    let alphas = default_alphas(top, o.points);
+    // The range: up to 99 % of the certified supremum, extended below
+    // 5 % while the gain still falls steeply ([`Sweep::under`]).
     let channels = NoiseChannels::from_model(&poly);
-    let mut points = Vec::with_capacity(alphas.len());
-    let one_point = |a: f64, what: String| -> Result<TradeoffPoint, CliError> {
-        bar.set_message(format!(
-            "{}: noise-optimal design {what} at alpha = {a:.4}",
-            model.name
-        ));
-        bar.tick();
-        let one = tradeoff(&poly, &base, &channels, &[a], &settings).map_err(bad)?;
-        Ok(one.points.into_iter().next().expect("one point per alpha"))
-    };
-    for (k, &a) in alphas.iter().enumerate() {
-        points.push(one_point(a, format!("{}/{}", k + 1, alphas.len()))?);
-    }
-    // The practical end: while the lowest point's gain is still more than
-    // GAIN_FALL times the next one's lower (the gain still falls steeply
-    // as α falls), one more point at a fifth of its α, at most EXTEND.
-    for _ in 0..EXTEND {
-        let (Some(g0), Some(g1)) = (points[0].max_gain, points.get(1).and_then(|p| p.max_gain))
-        else {
-            break;
-        };
-        if g0 > g1 / GAIN_FALL || points[0].alpha < top * 1e-4 {
-            break;
-        }
-        let a = points[0].alpha / 5.0;
-        let p = one_point(a, "below the range".into())?;
-        if !p.certified {
-            break;
-        }
-        points.insert(0, p);
-    }
+    let sweep = tradeoff_with_progress(
+        &poly,
+        &base,
+        &channels,
+        &Sweep::under(top, o.points),
+        &settings,
+        &mut |step| {
+            let (what, a) = match *step {
+                SweepStep::Point { index, of, alpha } => (format!("{}/{of}", index + 1), alpha),
+                SweepStep::Below { alpha } => ("below the range".into(), alpha),
+            };
+            bar.set_message(format!(
+                "{}: noise-optimal design {what} at alpha = {a:.4}",
+                model.name
+            ));
+            bar.tick();
+        },
+    )
+    .map_err(bad)?;
     bar.finish_and_clear();
-    let knee = knee_of(&points);
+    let (points, knee) = (&sweep.points, sweep.knee);
     let knee_gain = knee.and_then(|k| points[k].max_gain);
     let fast_gain = max_gain(&fastest);
     let over = knee_gain.filter(|g| *g > 0.0).map(|g| fast_gain / g);
-    let mut s = format!(
-        "model {}: rate-noise trade-off ({} noise-optimal designs, gamma {}; noise on every output)\n",
-        model.name,
-        points.len(),
-        match gamma {
-            GammaSpec::Fixed(g) => format!("= {g}"),
-            GammaSpec::Search => "searched per point".into(),
-        }
-    );
-    s.push_str(&format!(
-        "  alpha = max design: alpha = {:.6} (certified supremum {top:.6}), gamma = {:.6}, max ||L_l||_2 = {:.4}{}\n",
-        fastest.alpha,
-        fastest.gamma,
-        fast_gain,
-        fastest.noise.as_ref().map_or(String::new(), |n| format!(
-            ", ||e(inf)|| per unit noise <= {:.4}",
-            n.error_bound
-        ))
-    ));
-    if let Some(r) = over.filter(|r| *r > GAIN_EXCESS) {
-        s.push_str(&format!(
-            "  the alpha = max design's gains are far above what the knee needs: ||L|| is {r:.0}x the knee design's\n"
-        ));
-    }
-    s.push_str(&table(&points, knee));
-    match knee {
-        Some(k) => s.push_str(&format!(
-            "  knee: alpha = {:.4} (the fastest point whose certified error bound is within 2x the smallest of the sweep)\n",
-            points[k].alpha
-        )),
-        None => s.push_str("  no point of the sweep certified: no knee\n"),
-    }
+    let mut s = summary(&model.name, gamma, &fastest, top, over, &sweep);
     if let Some(dir) = &o.plot {
-        s.push_str(&write_figure(dir, &model.name, &points, knee)?);
+        s.push_str(&write_figure(dir, &model.name, points, knee)?);
     }
     let seconds_total = t0.elapsed().as_secs_f64();
     s.push_str(&format!(
@@ -365,7 +362,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         gamma,
         &fastest,
         over,
-        &points,
+        points,
         knee,
         seconds_total,
     );

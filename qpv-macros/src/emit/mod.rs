@@ -102,7 +102,6 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
             clippy::approx_constant,
             clippy::excessive_precision,
             clippy::unreadable_literal,
-            clippy::too_many_arguments,
             clippy::let_and_return,
             clippy::just_underscores_and_digits,
             clippy::neg_multiply,

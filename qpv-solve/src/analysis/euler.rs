@@ -36,19 +36,8 @@ pub fn simulate_euler(
             got: scenario.theta.len() + scenario.u.len(),
         });
     }
-    if !(scenario.dt.is_finite() && scenario.dt > 0.0 && scenario.t_end.is_finite())
-        || scenario.t_end < 0.0
-    {
-        return Err(SimError::TimeGrid(format!(
-            "t_end = {}, dt = {}",
-            scenario.t_end, scenario.dt
-        )));
-    }
-    let steps = (scenario.t_end / scenario.dt - 1e-9).ceil().max(0.0);
-    if steps > crate::analysis::simulate::MAX_RECORDED_STEPS as f64 {
-        return Err(SimError::TimeGrid(format!("{steps} steps")));
-    }
-    let steps = steps as usize;
+    // The time grid as the RK4 simulator checks it, every step recorded.
+    let steps = crate::analysis::simulate::recorded(scenario.steps()?)?;
     let h = scenario.dt;
     let mut frozen = Frozen::new(model);
     let mut traj = Trajectory::with_capacity(steps + 1);

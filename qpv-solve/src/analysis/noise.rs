@@ -4,7 +4,7 @@
 use crate::model::noise::NoiseChannels;
 use crate::report::figures::channels_on_observer;
 use crate::report::Design;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 use qpv_dsl::PolytopicModel;
 use serde::Serialize;
 
@@ -48,6 +48,20 @@ impl NoiseFalsification {
     pub fn passed(&self) -> bool {
         self.samples > 0 && self.counterexamples == 0
     }
+
+    /// Counts one evaluated point of ratio `r` (a counterexample if r ≥ 0
+    /// or NaN) and keeps it (built by `point`) if it is the worst so far.
+    fn record(&mut self, r: f64, point: impl FnOnce() -> NoiseSample) {
+        self.samples += 1;
+        let key = if r.is_nan() { f64::INFINITY } else { r };
+        if r.is_nan() || r >= 0.0 {
+            self.counterexamples += 1;
+        }
+        if key > self.worst_ratio {
+            self.worst_ratio = key;
+            self.worst = Some(point());
+        }
+    }
 }
 
 /// Samples the noise claim V' + αV ≤ σ(|w|² + |v|²) of a design with a
@@ -69,7 +83,6 @@ pub fn falsify_noise(
 ) -> Result<NoiseFalsification, crate::analysis::simulate::SimError> {
     use crate::analysis::falsify::{draw_e, draw_theta, draw_x, factor, Rng};
     use crate::analysis::simulate::{check_gains, check_model, Frozen, SimError};
-    use nalgebra::DVector;
     let nb = design
         .noise
         .as_ref()
@@ -92,30 +105,14 @@ pub fn falsify_noise(
     let rp = factor("P", &p, nx)?;
     let rp_t = rp.transpose();
     let to_e = |z: &DVector<f64>| rp_t.solve_upper_triangular(z);
-    let e_vertices: Vec<DVector<f64>> = model
-        .region
-        .vertices
-        .iter()
-        .filter_map(|v| {
-            let vpv = v.dot(&(&p * v));
-            (vpv > 0.0).then(|| v * (1.0 / vpv.sqrt()).min(1.0))
-        })
-        .collect();
+    let e_vertices = region_in_e(&model, &p);
     let qpv_dsl::StateBound::Given(q) = &model.state_bound else {
         return Err(SimError::Model(
             "the design's model has no state bound Q".into(),
         ));
     };
     let rq = factor("state bound Q", q, nx)?;
-    let x_vertices: Vec<DVector<f64>> = model
-        .region
-        .vertices
-        .iter()
-        .filter_map(|v| {
-            let r = rq.solve_lower_triangular(v)?.norm();
-            (r > 0.0).then(|| v / r)
-        })
-        .collect();
+    let x_vertices = region_in_f(&model, &rq);
     let outs = ch.noisy_outputs(ny);
     let nw = ch.n_w();
     let nvw = outs.len() + nw;
@@ -146,15 +143,7 @@ pub fn falsify_noise(
         frozen.drift(xh.as_slice(), &mut fxh);
         frozen.output(x.as_slice(), &mut hx);
         frozen.output(xh.as_slice(), &mut hxh);
-        // L(θ) and B_w(θ) at this θ.
-        let mut lt = DMatrix::zeros(nx, ny);
-        let mut bw = DMatrix::zeros(nx, nw);
-        for (l, &mu) in frozen.mu.iter().enumerate() {
-            lt += &gains[l] * mu;
-            if let Some(b) = &ch.b_w {
-                bw += &b[l] * mu;
-            }
-        }
+        let (lt, bw) = gain_and_bw_at(&frozen.mu, &gains, &ch, (nx, ny, nw));
         let pe = &p * &e;
         // (v, w): the maximiser, or random in the ball.
         let vw: Vec<f64> = if rng.uniform() < 0.25 {
@@ -188,21 +177,58 @@ pub fn falsify_noise(
             }
             None => (2.0 * pe.dot(&de) + alpha * v - sigma * n2) / v,
         };
-        out.samples += 1;
-        let key = if r.is_nan() { f64::INFINITY } else { r };
-        if r.is_nan() || r >= 0.0 {
-            out.counterexamples += 1;
-        }
-        if key > out.worst_ratio {
-            out.worst_ratio = key;
-            out.worst = Some(NoiseSample {
-                e: e.iter().copied().collect(),
-                x: x.iter().copied().collect(),
-                theta: theta.clone(),
-                noise: vw,
-                ratio: r,
-            });
-        }
+        out.record(r, || NoiseSample {
+            e: e.iter().copied().collect(),
+            x: x.iter().copied().collect(),
+            theta: theta.clone(),
+            noise: vw.clone(),
+            ratio: r,
+        });
     }
     Ok(out)
+}
+
+/// The region's vertices scaled into E = {eᵀPe ≤ 1} (those with vᵀPv > 0).
+fn region_in_e(model: &PolytopicModel, p: &DMatrix<f64>) -> Vec<DVector<f64>> {
+    model
+        .region
+        .vertices
+        .iter()
+        .filter_map(|v| {
+            let vpv = v.dot(&(p * v));
+            (vpv > 0.0).then(|| v * (1.0 / vpv.sqrt()).min(1.0))
+        })
+        .collect()
+}
+
+/// The region's vertices scaled onto the boundary of F = {xᵀQ⁻¹x ≤ 1}
+/// (`rq` the Cholesky factor of Q).
+fn region_in_f(model: &PolytopicModel, rq: &DMatrix<f64>) -> Vec<DVector<f64>> {
+    model
+        .region
+        .vertices
+        .iter()
+        .filter_map(|v| {
+            let r = rq.solve_lower_triangular(v)?.norm();
+            (r > 0.0).then(|| v / r)
+        })
+        .collect()
+}
+
+/// L(θ) and B_w(θ) at the scheduling weights `mu`.
+fn gain_and_bw_at(
+    mu: &[f64],
+    gains: &[DMatrix<f64>],
+    ch: &NoiseChannels,
+    (nx, ny, nw): (usize, usize, usize),
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let mut lt = DMatrix::zeros(nx, ny);
+    let mut bw = DMatrix::zeros(nx, nw);
+    for (l, &mu) in mu.iter().enumerate() {
+        lt += &gains[l] * mu;
+        if let Some(b) = &ch.b_w {
+            bw += &b[l] * mu;
+        }
+    }
+    (lt, bw)
 }

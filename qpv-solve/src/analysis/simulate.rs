@@ -219,7 +219,7 @@ pub fn check_model(model: &PolytopicModel) -> Result<(), SimError> {
 }
 
 /// Checks that there is one finite nx × ny gain L_l per vertex.
-pub fn check_gains(model: &PolytopicModel, gains: &[DMatrix<f64>]) -> Result<(), SimError> {
+pub(crate) fn check_gains(model: &PolytopicModel, gains: &[DMatrix<f64>]) -> Result<(), SimError> {
     if gains.len() != model.nv() {
         return Err(SimError::Length {
             what: "gains".to_string(),
@@ -590,7 +590,7 @@ impl Scenario {
     }
 
     /// Number of RK4 steps, checking the time grid (at most [`MAX_STEPS`]).
-    fn steps(&self) -> Result<usize, SimError> {
+    pub(crate) fn steps(&self) -> Result<usize, SimError> {
         if !(self.t_end.is_finite() && self.t_end >= 0.0) {
             return Err(SimError::TimeGrid(format!("t_end = {}", self.t_end)));
         }
@@ -880,6 +880,18 @@ impl MeasurementNoise {
     }
 }
 
+/// `steps` if a run of that many steps may be recorded (at most
+/// [`MAX_RECORDED_STEPS`]), else the error that says so.
+pub(crate) fn recorded(steps: usize) -> Result<usize, SimError> {
+    if steps > MAX_RECORDED_STEPS {
+        return Err(SimError::TimeGrid(format!(
+            "t_end / dt = {steps} steps (at most {MAX_RECORDED_STEPS} are recorded; \
+             simulate_each streams up to {MAX_STEPS})"
+        )));
+    }
+    Ok(steps)
+}
+
 /// Simulates plant and observer (spec eq. 9) with classical fixed-step RK4;
 /// θ and u are sampled at the RK4 stage times and y = C x + M(x) x is taken
 /// from the plant's stage state. Every step is recorded (at most
@@ -894,13 +906,7 @@ pub fn simulate(
     scenario: &Scenario,
 ) -> Result<Trajectory, SimError> {
     // A bad grid is reported by simulate_each, after the model's checks.
-    let steps = scenario.steps().unwrap_or(0);
-    if steps > MAX_RECORDED_STEPS {
-        return Err(SimError::TimeGrid(format!(
-            "t_end / dt = {steps} steps (at most {MAX_RECORDED_STEPS} are recorded; \
-             simulate_each streams up to {MAX_STEPS})"
-        )));
-    }
+    let steps = recorded(scenario.steps().unwrap_or(0))?;
     let mut traj = Trajectory::with_capacity(steps + 1);
     traj.diverged_at = simulate_each(model, gains, scenario, None, &mut |r| {
         traj.t.push(r.t);

@@ -1,5 +1,5 @@
-//! The one builder of the crate's SDPs: named variables, PSD, nonnegative
-//! and zero blocks, a linear and a diagonal quadratic objective, and
+//! The one builder of the crate's SDPs: named variables, PSD and
+//! nonnegative blocks, a linear and a diagonal quadratic objective, and
 //! [`SdpBuilder::finish`] into Clarabel's standard form
 //! `min ½xᵀPx + qᵀx  s.t.  Ax + s = b, s ∈ K` (the backend's [`Sdp`]).
 //!
@@ -81,14 +81,6 @@ impl SdpBuilder {
         self.names.last().map_or(0, |(_, r)| r.end)
     }
 
-    /// The indices of the variables declared as `name`.
-    pub fn range(&self, name: &str) -> Option<Range<usize>> {
-        self.names
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|(_, r)| r.clone())
-    }
-
     /// Number of rows written so far.
     pub fn n_rows(&self) -> usize {
         self.b.len()
@@ -118,14 +110,6 @@ impl SdpBuilder {
         let row0 = self.b.len();
         self.b.resize(row0 + len, 0.0);
         self.cones.push(SupportedConeT::NonnegativeConeT(len));
-        row0
-    }
-
-    /// Opens `len` rows of the zero cone (Ax = b); returns the first row.
-    pub fn zero(&mut self, len: usize) -> usize {
-        let row0 = self.b.len();
-        self.b.resize(row0 + len, 0.0);
-        self.cones.push(SupportedConeT::ZeroConeT(len));
         row0
     }
 

@@ -94,11 +94,12 @@ pub struct Certificate {
 }
 
 impl Certificate {
-    /// Family → worst margin.
-    pub fn margins(&self) -> BTreeMap<String, f64> {
+    /// Family → worst margin (every family of a certificate is named by a
+    /// [`Family`], so none is left out).
+    pub fn margins(&self) -> BTreeMap<Family, f64> {
         self.families
             .iter()
-            .map(|f| (f.name.clone(), f.margin))
+            .filter_map(|f| Some((Family::from_name(&f.name)?, f.margin)))
             .collect()
     }
 
@@ -125,7 +126,7 @@ impl Certificate {
     /// The certificate with the data check of `max_gain = G` (required):
     /// max_l ‖L_l‖₂ ≤ G, computed from the gains `l` as given (see
     /// [`gain_check`]); unchanged when `bound` is None.
-    pub fn with_gain_bound(mut self, l: &[DMatrix<f64>], bound: Option<f64>) -> Certificate {
+    pub(crate) fn with_gain_bound(mut self, l: &[DMatrix<f64>], bound: Option<f64>) -> Certificate {
         if let Some(g) = bound {
             let c = gain_check(l, g);
             self.passed &= c.passed;
@@ -666,9 +667,10 @@ impl Stage<'_> {
         let double = is_double_sum(model);
         let mut sr = Acc::new(family);
         if let Some(c) = self.cube() {
-            let ct = CubeTerms::new(model, &self.ps, self.w.gammas, self.w.lnorm, set, gamma);
+            let at = Candidate::new(alpha, gamma);
+            let ct = CubeTerms::new(model, &self.ps, self.w.gammas, self.w.lnorm, set, at);
             for (ci, combo) in rate_combos(model).iter().enumerate() {
-                ct.check(&mut sr, combo, ci, double, alpha, &self.gens, c);
+                ct.check(&mut sr, (combo, ci, double), &self.gens, c);
             }
         }
         let xs: &[DVector<f64>] = match self.cube() {
@@ -872,16 +874,20 @@ struct CubeTerms<'a> {
     gn: Vec<f64>,
     sigma: f64,
     gamma: f64,
+    /// The α the slack inequalities are checked at.
+    alpha: f64,
 }
 
 impl<'a> CubeTerms<'a> {
+    /// The pieces at the candidate `at` (its α is used by
+    /// [`CubeTerms::check`] only).
     fn new(
         model: &'a PolytopicModel,
         p: &'a DMatrix<f64>,
         gammas: &'a [DMatrix<f64>],
         lnorm: &[f64],
         set: ConditionSet,
-        gamma: f64,
+        at: Candidate,
     ) -> Self {
         let pn = p.norm();
         CubeTerms {
@@ -894,7 +900,8 @@ impl<'a> CubeTerms<'a> {
                 .map(|(l, g)| lnorm.get(l).copied().unwrap_or(0.0) * pn + g.norm())
                 .collect(),
             sigma: sigma(set),
-            gamma,
+            gamma: at.gamma,
+            alpha: at.alpha,
         }
     }
 
@@ -938,18 +945,16 @@ impl<'a> CubeTerms<'a> {
         (out, size)
     }
 
-    /// Adds every slack inequality of combination `c` (index `ci`) to `acc`.
-    #[allow(clippy::too_many_arguments)]
+    /// Adds every slack inequality of combination `c` (index `ci`; labelled
+    /// for a double sum if `double`) to `acc`.
     fn check(
         &self,
         acc: &mut Acc,
-        c: &Combo,
-        ci: usize,
-        double: bool,
-        alpha: f64,
+        (c, ci, double): (&Combo, usize, bool),
         gens: &[DVector<f64>],
         slacks: &CubeSlacks,
     ) {
+        let alpha = self.alpha;
         let nx = self.p.nrows();
         let g0 = DVector::zeros(nx);
         let guard =
@@ -1132,42 +1137,38 @@ impl<'a> Terms<'a> {
 /// He{γ(PA_l − Γ_lC_l) + σ P R_{l,i,j} − Γ_l S_{l,i,j}} + γαP with σ = +1 for
 /// (S5) and −1 for (26) — required ≺ 0. For e = x_(i)/γ and x = x_(j)/γ it
 /// equals γ·He{P F(θ_l, e, x)} + γαP, F being the error-dynamics matrix.
-/// (With a constant output map these are the whole rate family.)
-#[allow(clippy::too_many_arguments)]
+/// (With a constant output map these are the whole rate family.) `at`
+/// gives α and γ; `(l, i, j)` the block.
 pub fn rate_lmi(
     model: &PolytopicModel,
     mode: Mode,
-    alpha: f64,
-    gamma: f64,
+    at: Candidate,
     p: &DMatrix<f64>,
     gamma_l: &DMatrix<f64>,
-    l: usize,
-    i: usize,
-    j: usize,
+    (l, i, j): (usize, usize, usize),
 ) -> DMatrix<f64> {
     let mut gammas = vec![DMatrix::zeros(gamma_l.nrows(), gamma_l.ncols()); model.nv()];
     gammas[l] = gamma_l.clone();
     let own = Combo {
         terms: vec![(l, l, 1.0)],
     };
-    combo_lmi(model, mode, alpha, gamma, p, &gammas, &own, i, j)
+    combo_lmi(model, mode, at, p, &gammas, &own, (i, j))
 }
 
 /// The rate block of combination `combo` at the pair (i, j) (0-based):
 /// Σ_t w_t Ξ_{l_t m_t}(i, j) in model units, required ≺ 0 (the family the
-/// certificate checks; see [`crate::conditions::Combo`]).
-#[allow(clippy::too_many_arguments)]
+/// certificate checks; see [`crate::conditions::Combo`]) at the candidate
+/// `at` (α, γ).
 pub fn combo_lmi(
     model: &PolytopicModel,
     mode: Mode,
-    alpha: f64,
-    gamma: f64,
+    at: Candidate,
     p: &DMatrix<f64>,
     gammas: &[DMatrix<f64>],
     combo: &Combo,
-    i: usize,
-    j: usize,
+    (i, j): (usize, usize),
 ) -> DMatrix<f64> {
+    let Candidate { alpha, gamma, .. } = at;
     let set = ConditionSet::from_mode(mode);
     let lnorm = vec![0.0; gammas.len()];
     let pair = [
@@ -1250,7 +1251,7 @@ fn capacity_inner(
 /// at which F0_c(α) + Σ_k Y_{c,k} + Σ_k X_{c,k} ≺ 0 for the same (P, Γ_l) and
 /// slacks (the slack inequalities and the region conditions do not depend
 /// on α; [`check_cube`] checks them). 0 if P is not positive definite.
-pub fn alpha_capacity_cube(
+pub(crate) fn alpha_capacity_cube(
     model: &PolytopicModel,
     mode: Mode,
     gamma: f64,
@@ -1289,7 +1290,7 @@ fn capacity_cube_inner(
         return 0.0;
     }
     let lnorm = vec![0.0; gammas.len()];
-    let ct = CubeTerms::new(model, &ps, gammas, &lnorm, set, gamma);
+    let ct = CubeTerms::new(model, &ps, gammas, &lnorm, set, Candidate::new(0.0, gamma));
     let mut worst = f64::INFINITY;
     for (ci, combo) in combos.iter().enumerate() {
         let a = ct.capacity(combo, ci, &linv, slacks);

@@ -45,6 +45,7 @@
 use crate::certificate::combo_lmi;
 use crate::conditions::{rate_combos, Combo};
 use crate::model::noise::NoiseChannels;
+use crate::vocab::Candidate;
 use nalgebra::DMatrix;
 use qpv_dsl::{Mode, PolytopicModel};
 use serde::{Deserialize, Serialize};
@@ -67,7 +68,15 @@ fn block_parts(
     combo: &Combo,
     (i, j): (usize, usize),
 ) -> BlockParts {
-    let s = combo_lmi(model, Mode::Sound, alpha, gamma, p, gammas, combo, i, j);
+    let s = combo_lmi(
+        model,
+        Mode::Sound,
+        Candidate::new(alpha, gamma),
+        p,
+        gammas,
+        combo,
+        (i, j),
+    );
     let outs = channels.noisy_outputs(model.ny());
     let nw = channels.n_w();
     let nx = model.nx();

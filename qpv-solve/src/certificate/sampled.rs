@@ -21,6 +21,7 @@
 use super::{lambda_min, Acc, Terms, GUARD_C};
 use crate::conditions::{rate_combos, Combo, ConditionSet};
 use crate::model::is_double_sum;
+use crate::vocab::Candidate;
 use nalgebra::DMatrix;
 use qpv_dsl::PolytopicModel;
 
@@ -103,26 +104,30 @@ pub(super) fn check_family(
 
 /// The discrete block of combination `combo` at the pair (i, j) (0-based)
 /// in model units, [W(1 − hα)P, Mᵀ; M, WP], required ⪰ 0 (the family the
-/// certificate checks for a `sample = h` design).
-#[allow(clippy::too_many_arguments)]
+/// certificate checks for a `sample = h` design) at the candidate `at`
+/// (α, γ and its sample period h; None for a continuous-time candidate,
+/// which has no discrete block).
 pub fn sampled_block(
     model: &PolytopicModel,
-    alpha: f64,
-    gamma: f64,
-    h: f64,
+    at: Candidate,
     p: &DMatrix<f64>,
     gammas: &[DMatrix<f64>],
     combo: &Combo,
-    i: usize,
-    j: usize,
-) -> DMatrix<f64> {
+    (i, j): (usize, usize),
+) -> Option<DMatrix<f64>> {
+    let Candidate {
+        alpha,
+        gamma,
+        sample,
+    } = at;
+    let h = sample?;
     let lnorm = vec![0.0; gammas.len()];
     let pair = [
         model.region.vertices[i].clone(),
         model.region.vertices[j].clone(),
     ];
     let terms = Terms::new(model, &pair, p, gammas, &lnorm, gamma);
-    block(&terms, combo, alpha, gamma, h, 0, 1).0
+    Some(block(&terms, combo, alpha, gamma, h, 0, 1).0)
 }
 
 /// The largest α at which the *same* (P, Γ_l) satisfy every discrete block

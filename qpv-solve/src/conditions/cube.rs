@@ -62,7 +62,7 @@ pub struct CubeReport {
 
 impl CubeSlacks {
     /// The report form.
-    pub fn to_report(&self) -> CubeReport {
+    pub(crate) fn to_report(&self) -> CubeReport {
         let rows = |v: &Vec<Vec<DMatrix<f64>>>| {
             v.iter()
                 .map(|c| c.iter().map(matrix_to_rows).collect())

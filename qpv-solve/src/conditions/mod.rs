@@ -55,7 +55,7 @@ pub enum ConditionSet {
 
 /// The region conditions of one mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RegionForm {
+pub(crate) enum RegionForm {
     /// (S2): xᵢᵀ P xᵢ ≤ 1, a scalar per region vertex.
     VertexQuadratic,
     /// (13): [1 xᵢᵀ; xᵢ P] ⪰ 0, an (nx+1)-block per region vertex.
@@ -97,7 +97,7 @@ impl ConditionSet {
     }
 
     /// The condition on the region vertices.
-    pub fn vertex_form(self) -> RegionForm {
+    pub(crate) fn vertex_form(self) -> RegionForm {
         match self {
             ConditionSet::Sound => RegionForm::VertexQuadratic,
             ConditionSet::Paper => RegionForm::VertexSchur,
@@ -105,7 +105,7 @@ impl ConditionSet {
     }
 
     /// The condition on the region facets.
-    pub fn facet_form(self) -> RegionForm {
+    pub(crate) fn facet_form(self) -> RegionForm {
         match self {
             ConditionSet::Sound => RegionForm::FacetSchur,
             ConditionSet::Paper => RegionForm::FacetSchurP,
@@ -132,7 +132,7 @@ impl ConditionSet {
 
     /// Whether (S4) is part of this set's claim (it is in sound mode; in
     /// paper mode its counterpart (15) is only reported).
-    pub fn requires_s4(self) -> bool {
+    pub(crate) fn requires_s4(self) -> bool {
         matches!(self, ConditionSet::Sound)
     }
 }
@@ -142,7 +142,7 @@ impl ConditionSet {
 /// `mhe[m][j] = rowsHe(M_m, x_(j))`, `mrw[m][i] = rows(M_m, x_(i))`
 /// (M_m: the M_k at θ-vertex m, the same at every vertex when M is constant).
 #[derive(Debug, Clone)]
-pub struct PairTerms {
+pub(crate) struct PairTerms {
     /// rowsHe(N_l, x_(j)), nx × nx.
     pub nhe: Vec<Vec<DMatrix<f64>>>,
     /// rows(N_l, x_(i)), nx × nx.
@@ -170,16 +170,6 @@ impl PairTerms {
             mhe: per_vertex(&|v, x| rows_he(&v.m, x)),
             mrw: per_vertex(&|v, x| rows(&v.m, x)),
         }
-    }
-
-    /// R_{l,i,j} = rowsHe(N_l, x_(j)) − rows(N_l, x_(i)).
-    pub fn r(&self, l: usize, i: usize, j: usize) -> DMatrix<f64> {
-        &self.nhe[l][j] - &self.nrw[l][i]
-    }
-
-    /// S_{m,i,j} = rowsHe(M_m, x_(j)) − rows(M_m, x_(i)).
-    pub fn s(&self, m: usize, i: usize, j: usize) -> DMatrix<f64> {
-        &self.mhe[m][j] - &self.mrw[m][i]
     }
 }
 

@@ -142,7 +142,7 @@ pub fn explain(
             .iter()
             .filter(|(_, m)| **m <= 0.0)
             .map(|(name, m)| Failing {
-                name: name.clone(),
+                name: name.to_string(),
                 description: None,
                 margin: *m,
             }),
@@ -191,7 +191,7 @@ fn state_bound_gamma_max(model: &PolytopicModel, design: &Design) -> Option<f64>
 /// run with the default split and conditions.
 pub fn best_sound_design(model: &PolytopicModel, settings: &Settings) -> SoundDesign {
     match crate::search::design(model, &DesignRequest::default(), settings) {
-        Ok(d) if d.feasible && d.certifies => SoundDesign::Certified {
+        Ok(d) if d.certifies() => SoundDesign::Certified {
             alpha: d.alpha,
             gamma: d.gamma,
         },
@@ -219,7 +219,7 @@ fn best_tradeoff_point(
             ..request.clone()
         };
         match design_noise(model, &r, &channels, settings) {
-            Ok(d) if d.feasible && d.certifies => {
+            Ok(d) if d.certifies() => {
                 if let Some(nb) = d.noise.as_ref() {
                     return Some(Tradeoff::Point {
                         alpha: d.alpha,

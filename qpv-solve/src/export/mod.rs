@@ -3,7 +3,9 @@
 //! values ([`Baked`]); the figures computed on them ([`Figures`]: the noise
 //! bound and the sampling figures, under the size guard of
 //! [`crate::report::figures::attach`]); the certified f32 error floor
-//! ([`Baked::f32_floor`]); and for a design that is not certified, why
+//! ([`Baked::f32_floor`]); the code generator's input built from all that
+//! ([`Baked::certified_design`], the [`CertifiedDesign`] of
+//! [`qpv_codegen`]); and for a design that is not certified, why
 //! ([`explain`]).
 //!
 //! `qpv!` and `qpv codegen` both bake through here, so an observer is
@@ -19,8 +21,10 @@ use crate::certificate::sampling::SampleInfo;
 use crate::certificate::Certificate;
 use crate::error::SolveError;
 use crate::report::{Design, ReportedMatrices};
+use crate::vocab::Verdict;
 use nalgebra::DMatrix;
-use qpv_dsl::{DesignRequest, Float, Mode, PolytopicModel};
+use qpv_codegen::{CertifiedDesign, Figures};
+use qpv_dsl::{DesignRequest, Float, Mode, Model, OutputRoute, PolytopicModel};
 
 /// A design whose P and L_l, as generated code holds them, passed the
 /// independent certificate, with the figures computed on those numbers.
@@ -106,8 +110,8 @@ impl Baked {
         float: Float,
     ) -> Result<Baked, BakeError> {
         let accepted = match design.mode {
-            Mode::Sound => design.feasible && design.certifies,
-            Mode::Paper => design.feasible,
+            Mode::Sound => design.certifies(),
+            Mode::Paper => design.feasible(),
         };
         if !accepted {
             return Err(BakeError::NotCertified);
@@ -197,7 +201,7 @@ impl Baked {
     /// The figures of the baked numbers, each present only if its own check
     /// passed (none for a sampled design, whose continuous-time figures say
     /// nothing, docs/method.md §16, nor for a cube design too large for
-    /// them).
+    /// them); the f32 floor is [`Baked::f32_floor`]'s (None here).
     pub fn figures(&self) -> Figures {
         // A sampled design's noise key is the discrete claim (docs/method.md
         // §16), not the continuous σ these constants document: not baked.
@@ -215,7 +219,70 @@ impl Baked {
                 .filter(|s| s.max_step_euler > 0.0)
                 .map(|s| (s.max_step_euler, s.beta)),
             rk4: sampling.map(|s| s.step_estimate_rk4).filter(|h| *h > 0.0),
+            f32_floor: None,
+            f32_euler: None,
         }
+    }
+
+    /// The code generator's input for the baked numbers, as `qpv!` and
+    /// `qpv codegen` both emit it: P and L_l row-major, the margins of
+    /// their certificate, the solver's record, the output filter, the
+    /// sample period, the figures and, for an `alpha = max` request
+    /// (`alpha`), the supremum estimate ([`Baked::alpha_sup`]); for f32
+    /// numbers also the certified error floors of the generated arithmetic
+    /// ([`Baked::f32_floor`] over [`qpv_codegen::rounding::design_error`],
+    /// `scheduling` being the plant's scheduling parameters). The second
+    /// value is that floor, or why an f32 design has none (None for f64).
+    pub fn certified_design(
+        &self,
+        model: &Model,
+        scheduling: &[usize],
+        request: &str,
+        alpha: qpv_dsl::AlphaSpec,
+    ) -> (CertifiedDesign, Option<Result<RoundingFloor, String>>) {
+        let d = &self.design;
+        let mut out = CertifiedDesign {
+            request: request.to_string(),
+            mode: d.mode.name().into(),
+            certifies: d.certifies(),
+            alpha: d.alpha,
+            gamma: d.gamma,
+            p: d.p.concat(),
+            l: d.l.iter().map(|l| l.concat()).collect(),
+            margins: d.margins.iter().map(|(k, m)| (k.to_string(), *m)).collect(),
+            status: d.solver.detail.clone(),
+            iterations: d.solver.iterations,
+            filter: match d.route() {
+                OutputRoute::Filter(f) => Some(f),
+                OutputRoute::DoubleSum => None,
+            },
+            figures: self.figures(),
+            float: self.float,
+            sample: d.sample.map(|s| s.h),
+            alpha_sup: self.alpha_sup(alpha),
+        };
+        if self.float != Float::F32 {
+            return (out, None);
+        }
+        let floor = self.f32_floor(|xs, radius| {
+            qpv_codegen::rounding::design_error(model, scheduling, &out, xs, radius).map(|r| {
+                RhsRounding {
+                    constant: r.constant,
+                    proportional: r.proportional,
+                    derivative: r.derivative,
+                    state: r.state,
+                }
+            })
+        });
+        if let Ok(f) = &floor {
+            out.figures.f32_floor = Some(f.error_bound);
+            out.figures.f32_euler = f.euler.as_ref().map(|e| qpv_codegen::design::EulerFloor {
+                base: e.base,
+                per_step: e.per_step,
+                min_step: e.min_step,
+            });
+        }
+        (out, Some(floor))
     }
 
     /// The certified f32 error floor of the baked numbers
@@ -288,8 +355,7 @@ impl Baked {
         }
         design.margins = cert.margins();
         design.data_checks = cert.data_checks;
-        design.feasible = true;
-        design.certifies = design.mode == Mode::Sound;
+        design.verdict = Verdict::of(true, design.mode);
         Baked::finish(plant, design, observer, float)
     }
 
@@ -312,24 +378,6 @@ impl Baked {
             float,
         })
     }
-}
-
-/// The noise bound and sampling figures of baked numbers
-/// ([`Baked::figures`]).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Figures {
-    /// σ in V' + αV ≤ σ(|v|² + |w|²) on the model's noise channels.
-    pub sigma: Option<f64>,
-    /// ‖e(∞)‖ per unit noise amplitude, √(σ/(α λ_min(P))).
-    pub error_bound: Option<f64>,
-    /// ν_max = √(α/σ): the noise amplitude up to which the certified set
-    /// stays invariant.
-    pub max_amplitude: Option<f64>,
-    /// The largest certified explicit Euler step (positive), and its
-    /// contraction rate β.
-    pub euler: Option<(f64, f64)>,
-    /// The RK4 step estimate (positive; frozen vertex dynamics, not a proof).
-    pub rk4: Option<f64>,
 }
 
 /// The design with P, L_l and the sample period rounded to f32 (each

@@ -43,7 +43,7 @@
 mod cube;
 pub(crate) mod noise;
 mod sampled;
-pub mod skew;
+pub(crate) mod skew;
 
 use crate::backend::builder::{Psd, SdpBuilder};
 use crate::backend::{clarabel_settings, ensure_lapack, run_sdp, Sdp, Status};
@@ -61,7 +61,7 @@ use std::time::Instant;
 
 /// The relative step above α at which the global observer's gain objective
 /// is solved (see [`Problem::solve_with_metric`]).
-pub const GLOBAL_BACKOFF: f64 = 1e-3;
+pub(crate) const GLOBAL_BACKOFF: f64 = 1e-3;
 
 /// W = M/λ_min(M) (symmetrised) and W^{-1/2}, for a finite positive
 /// definite n × n metric M; None otherwise.
@@ -147,7 +147,7 @@ pub enum Objective {
 }
 
 /// One assembled problem in Clarabel's standard form (the backend's [`Sdp`]).
-pub type Assembled = Sdp;
+pub(crate) type Assembled = Sdp;
 
 /// The raw result of one solve, unscaled to the model's units.
 #[derive(Debug, Clone)]
@@ -570,7 +570,7 @@ impl<'m> Problem<'m> {
     /// K and the gain terms of the one block of a linear combination c
     /// ([`Problem::combo_is_linear`]): K = γA + (γα/2)I, H = γC, the block
     /// every vertex pair of c shares.
-    pub fn linear_kh(
+    pub(crate) fn linear_kh(
         &self,
         alpha: f64,
         gamma: f64,
@@ -594,7 +594,11 @@ impl<'m> Problem<'m> {
     /// The x-vertex part H_c(x_j) of the decoupled conditions. With
     /// [`Problem::decoupled_e_kh`] at (c, i) it adds up to
     /// [`Problem::rate_kh`] at (c, i, j).
-    pub fn decoupled_x_kh(&self, c: usize, j: usize) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
+    pub(crate) fn decoupled_x_kh(
+        &self,
+        c: usize,
+        j: usize,
+    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
         self.combo_kh(0.0, 0.0, c, None, Some(j))
     }
 

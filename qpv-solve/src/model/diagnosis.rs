@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 /// Relative rank tolerance of the PBH test: σ_min([A − λI; C]) below this
 /// times the matrix's size (its largest singular value, at least 1) counts
 /// as rank deficient.
-pub const PBH_REL_TOL: f64 = 1e-8;
+pub(crate) const PBH_REL_TOL: f64 = 1e-8;
 
 /// One reason a design fails (or a bound it must respect).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -4,12 +4,12 @@
 
 pub mod diagnosis;
 pub mod noise;
-pub mod observer;
+pub(crate) mod observer;
 pub mod output_filter;
-pub mod plant;
-pub mod scaling;
+pub(crate) mod plant;
+pub(crate) mod scaling;
 pub mod size;
-pub mod skew;
+pub(crate) mod skew;
 pub mod state_bound;
 
 pub use observer::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};

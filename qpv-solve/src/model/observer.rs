@@ -202,14 +202,10 @@ fn refuse(what: String) -> SolveError {
     ))
 }
 
-/// Verifies a claimed Q for a `state_bound auto` model (module doc) and
-/// returns the model with Q given and the report's record of it.
-fn verify_claim(
-    plant: &PolytopicModel,
-    claim: &ClaimedBound,
-) -> Result<(PolytopicModel, StateBoundInfo), SolveError> {
-    let nx = plant.nx();
-    let q = &claim.q;
+/// Checks a claimed Q (shape, finite, symmetric, positive definite, not
+/// badly scaled, a state count the invariance check takes) and returns
+/// W = Q⁻¹, symmetrised.
+fn claimed_metric(q: &DMatrix<f64>, nx: usize) -> Result<DMatrix<f64>, SolveError> {
     if q.shape() != (nx, nx) {
         return Err(refuse(format!(
             "Q is {:?}, expected ({nx}, {nx})",
@@ -254,7 +250,46 @@ fn verify_claim(
             "Q is not positive definite (no Cholesky factor)".into(),
         ));
     };
-    let w = (&w + w.transpose()) * 0.5;
+    Ok((&w + w.transpose()) * 0.5)
+}
+
+/// The refusal of a claimed Q whose state-bound check failed, naming every
+/// part that failed.
+fn refused_check(chk: &BoundCheck, h: f64) -> SolveError {
+    let mut why = Vec::new();
+    if chk.region.is_nan() || chk.region > 1.0 {
+        why.push(format!(
+            "the region is not inside F (max_i x_(i)ᵀ Q⁻¹ x_(i) = {:.4} > 1)",
+            chk.region
+        ));
+    }
+    if chk.in_box.is_nan() || chk.in_box > 1.0 {
+        why.push(format!(
+            "F is not inside its box h·B with h = {h:.4e} (max_j Q_jj/(h β_j)² = {:.4} > 1)",
+            chk.in_box
+        ));
+    }
+    if chk.invariance.is_nan() || chk.invariance >= 0.0 {
+        why.push(format!(
+            "F is not invariant for the plant (max λ(He{{W(A_l + rows(N_l, v))}})/‖W‖ = {:.3e} ≥ 0 on h·B)",
+            chk.invariance
+        ));
+    }
+    if why.is_empty() {
+        why.push("the state-bound check failed".into());
+    }
+    refuse(why.join("; "))
+}
+
+/// Verifies a claimed Q for a `state_bound auto` model (module doc) and
+/// returns the model with Q given and the report's record of it.
+fn verify_claim(
+    plant: &PolytopicModel,
+    claim: &ClaimedBound,
+) -> Result<(PolytopicModel, StateBoundInfo), SolveError> {
+    let nx = plant.nx();
+    let q = &claim.q;
+    let w = claimed_metric(q, nx)?;
     let h = match claim.h {
         Some(h) => h,
         None => {
@@ -285,29 +320,7 @@ fn verify_claim(
     }
     let (split, chk) = checked.expect("at least one split is checked");
     if !chk.passed {
-        let mut why = Vec::new();
-        if chk.region.is_nan() || chk.region > 1.0 {
-            why.push(format!(
-                "the region is not inside F (max_i x_(i)ᵀ Q⁻¹ x_(i) = {:.4} > 1)",
-                chk.region
-            ));
-        }
-        if chk.in_box.is_nan() || chk.in_box > 1.0 {
-            why.push(format!(
-                "F is not inside its box h·B with h = {h:.4e} (max_j Q_jj/(h β_j)² = {:.4} > 1)",
-                chk.in_box
-            ));
-        }
-        if chk.invariance.is_nan() || chk.invariance >= 0.0 {
-            why.push(format!(
-                "F is not invariant for the plant (max λ(He{{W(A_l + rows(N_l, v))}})/‖W‖ = {:.3e} ≥ 0 on h·B)",
-                chk.invariance
-            ));
-        }
-        if why.is_empty() {
-            why.push("the state-bound check failed".into());
-        }
-        return Err(refuse(why.join("; ")));
+        return Err(refused_check(&chk, h));
     }
     let mut out = plant.clone();
     out.state_bound = StateBound::Given(q.clone());

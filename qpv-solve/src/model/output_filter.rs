@@ -87,7 +87,7 @@ impl OutputRouteInfo {
 }
 
 /// The name of the filter state of output `y`.
-pub fn filter_state_name(y: &str) -> String {
+pub(crate) fn filter_state_name(y: &str) -> String {
     format!("{y}_filt")
 }
 

@@ -56,11 +56,11 @@ use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// Most states for `state_bound auto` (the box h·B has 2^nx vertices).
-pub const MAX_STATES: usize = 12;
+pub(crate) const MAX_STATES: usize = 12;
 
 /// Most invariance blocks (box vertices × θ-vertices) per solve (about a
 /// minute per solve at this size on one core).
-pub const MAX_BLOCKS: usize = 16_384;
+pub(crate) const MAX_BLOCKS: usize = 16_384;
 
 /// How the box size h is searched when the model does not fix it.
 #[derive(Debug, Clone, PartialEq)]
@@ -197,7 +197,7 @@ fn region_reach(model: &PolytopicModel) -> Vec<f64> {
 }
 
 /// β_j = r_j / max_i r_i: the shape of the enclosing box (see the module doc).
-pub fn box_shape(model: &PolytopicModel) -> Vec<f64> {
+pub(crate) fn box_shape(model: &PolytopicModel) -> Vec<f64> {
     let r = region_reach(model);
     let rmax = r.iter().copied().fold(0.0, f64::max);
     r.iter().map(|x| x / rmax).collect()
@@ -344,7 +344,7 @@ impl Lmi {
 /// Solves the state-bound SDP at box size `h` (in model units) and checks
 /// the result. Returns the step record and, if the solution passed
 /// [`check`], the bound.
-pub fn solve_at(
+pub(crate) fn solve_at(
     model: &PolytopicModel,
     h: f64,
     settings: &Settings,

@@ -27,7 +27,7 @@ pub(crate) fn channels_on_observer(
 /// computed on its observer model; leaves other designs untouched. Nothing
 /// is added that its check did not pass.
 pub fn attach(plant: &PolytopicModel, design: &mut Design) {
-    if !design.certifies {
+    if !design.certifies() {
         return;
     }
     let Ok(obs) = design.observer_model(plant) else {

@@ -20,7 +20,7 @@ use crate::lmi::{Objective, Problem, SolveResult};
 use crate::model::noise::NoiseChannels;
 use crate::report::{Design, Note, ReportedMatrices, SearchStep, SolverInfo};
 use crate::settings::Settings;
-use crate::vocab::{Candidate, Phase};
+use crate::vocab::{Candidate, Phase, Verdict};
 use nalgebra::DMatrix;
 use qpv_dsl::{DesignRequest, Mode, PolytopicModel};
 use std::time::Instant;
@@ -356,8 +356,7 @@ pub(super) fn design_of(
     );
     d.split = request.split;
     d.conditions = request.conditions;
-    d.feasible = feasible;
-    d.certifies = feasible && mode == Mode::Sound;
+    d.verdict = Verdict::of(feasible, mode);
     d.gamma_l = matrices.gamma_l;
     d.gain_norms = matrices.gain_norms;
     d.solver = solver;

@@ -765,13 +765,13 @@ pub(super) fn design_plain(
     // kept.
     let t0 = Instant::now();
     let first = design_plain_with(model, request, settings, progress, None)?;
-    if !first.certifies {
+    if !first.certifies() {
         return Ok(first);
     }
     let hint = first.p_matrix();
     let second = design_plain_with(model, request, settings, progress, Some(&hint))?;
     let solves = first.search.len() + second.search.len();
-    let mut out = if second.certifies && second.alpha >= first.alpha {
+    let mut out = if second.certifies() && second.alpha >= first.alpha {
         second
     } else {
         first
@@ -1010,7 +1010,7 @@ impl Ctx<'_, '_> {
         setup: &Setup,
         request: &DesignRequest,
         gamma: f64,
-        margins: &mut BTreeMap<String, f64>,
+        margins: &mut BTreeMap<Family, f64>,
         notes: &mut Notes,
     ) -> Result<Vec<crate::model::diagnosis::Finding>, SolveError> {
         let settings = self.settings;

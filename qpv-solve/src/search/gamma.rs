@@ -125,7 +125,7 @@ pub fn maximise<E>(
 /// [`maximise`], with a walk below a cliff (step 4) that also ends when
 /// `stop` says so (checked before each of its evaluations): the practical
 /// α = max ends it once the gains have exploded.
-pub fn maximise_until<E>(
+pub(crate) fn maximise_until<E>(
     plan: &GammaPlan,
     eval: &mut dyn FnMut(f64, Phase) -> Result<f64, E>,
     stop: &dyn Fn() -> bool,

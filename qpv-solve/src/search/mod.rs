@@ -54,7 +54,7 @@ mod driver;
 pub mod gamma;
 pub mod noise;
 mod practical;
-pub mod skew;
+pub(crate) mod skew;
 
 use attempt::{Attempt, Point, Solve};
 use driver::design_plain;
@@ -466,7 +466,7 @@ fn design_skew(
             request.within
         ));
     }
-    if !d.certifies {
+    if !d.certifies() {
         d.notes.push(
             "split = skew_slack: the symmetric design did not certify, so no slack was searched",
         );
@@ -549,7 +549,7 @@ pub fn design_with_progress(
     // continuous-time design (both are continuous-time analyses).
     if d.sample.is_none() {
         crate::report::figures::attach(model, &mut d);
-    } else if d.certifies {
+    } else if d.certifies() {
         d.notes.push(
             "sample = h: the noise bound and the Euler-step figures are continuous-time analyses and are not computed for a sampled design",
         );

@@ -250,9 +250,9 @@ fn noise_report(
     append_notes(&mut summary, &notes);
     d.summary = summary;
     d.notes = notes;
-    if d.certifies && d.sample.is_some() {
+    if d.certifies() && d.sample.is_some() {
         crate::report::continuous::attach(obs, &mut d);
-    } else if d.certifies {
+    } else if d.certifies() {
         let (p, l) = (d.p_matrix(), d.l_matrices());
         d.sampling = crate::certificate::sampling::sampling(obs, alpha, d.gamma, &p, &l);
     }
@@ -260,7 +260,7 @@ fn noise_report(
 }
 
 /// As [`design_noise`], calling `progress` after every solve.
-pub fn design_noise_with_progress(
+pub(crate) fn design_noise_with_progress(
     model: &PolytopicModel,
     request: &DesignRequest,
     channels: &NoiseChannels,
@@ -363,6 +363,70 @@ pub struct Tradeoff {
     pub knee: Option<usize>,
 }
 
+/// The sweep extends below its lowest α while that point's gain is more
+/// than this factor below the next one's (the gain still falls steeply as
+/// α falls) ...
+const GAIN_FALL: f64 = 2.0;
+/// ... by at most this many points (each a fifth of the previous α).
+const EXTEND: usize = 3;
+
+/// The α values of a trade-off sweep, and whether it extends below them
+/// where the gain is still falling steeply.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sweep {
+    /// The α values, ascending.
+    pub alphas: Vec<f64>,
+    /// The certified supremum the range is measured against: the sweep
+    /// never extends below 10⁻⁴ of it.
+    pub top: f64,
+    /// At most this many points below `alphas[0]`, each a fifth of the
+    /// previous α, added while the lowest point's largest gain is below
+    /// the next one's by more than a factor 2 (0: no extension).
+    pub extend_below: usize,
+}
+
+impl Sweep {
+    /// Exactly the α values given, no extension.
+    pub fn fixed(alphas: &[f64]) -> Self {
+        Sweep {
+            alphas: alphas.to_vec(),
+            top: alphas.iter().copied().fold(0.0, f64::max),
+            extend_below: 0,
+        }
+    }
+
+    /// `qpv tradeoff`'s sweep under the certified supremum `alpha_sup`:
+    /// `n` points of [`default_alphas`], extended below 5 % of it (at most
+    /// three points) while the gain still falls steeply.
+    pub fn under(alpha_sup: f64, n: usize) -> Self {
+        Sweep {
+            alphas: default_alphas(alpha_sup, n),
+            top: alpha_sup,
+            extend_below: EXTEND,
+        }
+    }
+}
+
+/// Where a trade-off sweep is, for a progress display: called before each
+/// point's design.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SweepStep {
+    /// Point `index` (0-based) of the `of` given α values.
+    Point {
+        /// Which point.
+        index: usize,
+        /// How many α values were given.
+        of: usize,
+        /// Its α.
+        alpha: f64,
+    },
+    /// A point below the given range ([`Sweep::extend_below`]).
+    Below {
+        /// Its α.
+        alpha: f64,
+    },
+}
+
 /// Sweeps α (`alphas`) with `noise = min` designs at the γ of
 /// `request_base` (fixed or searched), returning each point's σ, error
 /// bound per unit noise and largest gain, and the knee (see
@@ -374,36 +438,81 @@ pub fn tradeoff(
     alphas: &[f64],
     settings: &Settings,
 ) -> Result<Tradeoff, SolveError> {
-    let mut points = Vec::with_capacity(alphas.len());
-    for &a in alphas {
-        let req = DesignRequest {
-            alpha: AlphaSpec::Fixed(a),
-            ..request_base.clone()
+    let sweep = Sweep::fixed(alphas);
+    tradeoff_with_progress(model, request_base, channels, &sweep, settings, &mut |_| {})
+}
+
+/// As [`tradeoff`] over a [`Sweep`] (extended below its range where it
+/// says so; the extension keeps only certified points, first in the
+/// result), calling `progress` before every point's design.
+pub fn tradeoff_with_progress(
+    model: &PolytopicModel,
+    request_base: &DesignRequest,
+    channels: &NoiseChannels,
+    sweep: &Sweep,
+    settings: &Settings,
+    progress: &mut dyn FnMut(&SweepStep),
+) -> Result<Tradeoff, SolveError> {
+    let point = |a: f64| tradeoff_point(model, request_base, channels, a, settings);
+    let mut points = Vec::with_capacity(sweep.alphas.len() + sweep.extend_below);
+    for (index, &alpha) in sweep.alphas.iter().enumerate() {
+        let of = sweep.alphas.len();
+        progress(&SweepStep::Point { index, of, alpha });
+        points.push(point(alpha)?);
+    }
+    for _ in 0..sweep.extend_below {
+        let (Some(g0), Some(g1)) = (points[0].max_gain, points.get(1).and_then(|p| p.max_gain))
+        else {
+            break;
         };
-        let d = design_noise(model, &req, channels, settings)?;
-        let nb = d.noise.as_ref().filter(|_| d.certifies);
-        points.push(TradeoffPoint {
-            alpha: a,
-            gamma: d.gamma,
-            certified: nb.is_some(),
-            sigma: nb.map(|n| n.sigma),
-            error_bound: nb.map(|n| n.error_bound),
-            max_amplitude: nb.map(|n| n.max_amplitude),
-            max_gain: nb.map(|_| d.gain_norms.iter().copied().fold(0.0, f64::max)),
-            max_step_euler: d
-                .sampling
-                .as_ref()
-                .filter(|_| nb.is_some())
-                .map(|sp| sp.max_step_euler),
-            seconds: d.seconds_total,
-        });
+        if g0 > g1 / GAIN_FALL || points[0].alpha < sweep.top * 1e-4 {
+            break;
+        }
+        let alpha = points[0].alpha / 5.0;
+        progress(&SweepStep::Below { alpha });
+        let p = point(alpha)?;
+        if !p.certified {
+            break;
+        }
+        points.insert(0, p);
     }
     let knee = knee_of(&points);
     Ok(Tradeoff { points, knee })
 }
 
+/// The noise-optimal design at `alpha` as a point of the trade-off.
+fn tradeoff_point(
+    model: &PolytopicModel,
+    request_base: &DesignRequest,
+    channels: &NoiseChannels,
+    alpha: f64,
+    settings: &Settings,
+) -> Result<TradeoffPoint, SolveError> {
+    let req = DesignRequest {
+        alpha: AlphaSpec::Fixed(alpha),
+        ..request_base.clone()
+    };
+    let d = design_noise(model, &req, channels, settings)?;
+    let nb = d.noise.as_ref().filter(|_| d.certifies());
+    Ok(TradeoffPoint {
+        alpha,
+        gamma: d.gamma,
+        certified: nb.is_some(),
+        sigma: nb.map(|n| n.sigma),
+        error_bound: nb.map(|n| n.error_bound),
+        max_amplitude: nb.map(|n| n.max_amplitude),
+        max_gain: nb.map(|_| d.gain_norms.iter().copied().fold(0.0, f64::max)),
+        max_step_euler: d
+            .sampling
+            .as_ref()
+            .filter(|_| nb.is_some())
+            .map(|sp| sp.max_step_euler),
+        seconds: d.seconds_total,
+    })
+}
+
 /// The knee of a sweep (see [`Tradeoff::knee`]).
-pub fn knee_of(points: &[TradeoffPoint]) -> Option<usize> {
+pub(crate) fn knee_of(points: &[TradeoffPoint]) -> Option<usize> {
     let min = points
         .iter()
         .filter_map(|p| p.error_bound)

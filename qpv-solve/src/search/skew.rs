@@ -91,7 +91,7 @@ pub fn alternate(
     conditions: Conditions,
     alpha_search: &mut AlphaSearch<'_>,
 ) -> Result<SkewResult, SolveError> {
-    if !start.certifies {
+    if !start.certifies() {
         return Err(SolveError::Unsupported(
             "the skew-slack search starts from a certified sound design".into(),
         ));
@@ -136,14 +136,14 @@ pub fn alternate(
             .flatten()
             .map(|k| k.norm())
             .fold(0.0, f64::max);
-        let alpha = if d.certifies { d.alpha } else { f64::NAN };
+        let alpha = if d.certifies() { d.alpha } else { f64::NAN };
         out.push(Round {
             alpha_fixed_p,
             alpha,
             k_norm,
         });
         let prev = best.1.alpha;
-        if d.certifies && d.alpha > prev {
+        if d.certifies() && d.alpha > prev {
             best = (cur_model.clone(), d.clone());
             cur = d;
         } else {
