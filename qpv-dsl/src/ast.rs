@@ -200,6 +200,10 @@ pub struct DesignEntry {
     /// Options in parentheses after the value, `filter(pole = 40)`, with the
     /// span of the parenthesised list (`None` when there are none).
     pub options: Option<(Vec<DesignEntry>, crate::diagnostic::Span)>,
+    /// Further values after commas, each with its options (`poles =
+    /// disk(..), sector(..)`: the only key that takes a list); empty for
+    /// a single value and for options.
+    pub more: Vec<(Expr, Option<(Vec<DesignEntry>, crate::diagnostic::Span)>)>,
     /// The whole entry.
     pub span: Span,
 }

@@ -413,6 +413,15 @@ pub struct Design {
     /// decay V' ≤ −αV holds for every e(0) (`gamma` is 1 and unused).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub global: bool,
+    /// `poles = ...`: the pole regions the design claims (certificate family
+    /// "D", docs/method.md §18); [`Design::recheck`] checks them from P and L.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub poles: Vec<qpv_dsl::PoleRegion>,
+    /// With a disk among `poles` on an LPV plant: the bound on every
+    /// ‖L_l‖₂ that the certified disk implies through P's condition number
+    /// ([`crate::certificate::poles::disk_gain_bound`]); only on certified designs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pole_gain_bound: Option<f64>,
 }
 
 /// How a practical `alpha = max` chose its design: the fastest certified
@@ -678,8 +687,10 @@ impl Design {
         let l = self.l_matrices();
         let p = self.p_matrix();
         let gains = Gains::new(&p, &l).with_cube(slacks.as_ref());
-        crate::certificate::check(obs, &gains, &self.candidate(), self.mode)
+        let at = self.candidate();
+        crate::certificate::check(obs, &gains, &at, self.mode)
             .with_gain_bound(&l, self.max_gain)
+            .with_poles(obs, &gains, &at, &self.poles)
     }
 
     /// A design that holds only the claim of a gains file: P and L_l (rows)
@@ -728,6 +739,8 @@ impl Design {
             practical: None,
             sample: None,
             global: false,
+            poles: Vec::new(),
+            pole_gain_bound: None,
         }
     }
 
@@ -756,6 +769,7 @@ impl Design {
         d.skew = self.skew;
         d.cube = self.cube;
         d.max_gain = self.max_gain;
+        d.poles = self.poles;
         d.output_route = self.output_route;
         d.sample = sample;
         d.state_bound = self

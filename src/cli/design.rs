@@ -193,6 +193,11 @@ fn culprit(clash: Clash, o: &Options) -> &'static str {
         | Clash::SampleCube
         | Clash::SampleNoiseMin
         | Clash::SampleSkewSlack => (("--sample", o.sample.is_some()), noise),
+        // `poles` has no flag: the model's design block set it.
+        Clash::PolesPaper => (("`poles`", false), paper),
+        Clash::PolesNoiseMin => (("`poles`", false), noise),
+        Clash::PolesSkewSlack => (("`poles`", false), skew),
+        Clash::PolesSample => (("`poles`", false), ("--sample", o.sample.is_some())),
     };
     if first.1 || !second.1 {
         first.0

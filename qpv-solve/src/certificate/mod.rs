@@ -19,6 +19,7 @@
 //! and "region_in_F" max_i x_(i)ᵀQ⁻¹x_(i) ≤ 1 (reported).
 
 pub mod noise;
+pub mod poles;
 mod sampled;
 pub mod sampling;
 
