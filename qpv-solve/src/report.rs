@@ -422,6 +422,18 @@ pub struct Design {
     /// ([`crate::certificate::poles::disk_gain_bound`]); only on certified designs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pole_gain_bound: Option<f64>,
+    /// For a certified continuous-time sound design of a QPV plant: the α
+    /// the plant's linear part alone (every N_k and M_k zero) certifies
+    /// with the global observer, to 1 % (`crate::search::region_cost`):
+    /// what the region costs, next to `alpha`. None where it does not
+    /// apply or the linear part certifies nothing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub linear_part_alpha: Option<f64>,
+    /// As `linear_part_alpha` with every ‖L_l‖₂ bounded by this design's
+    /// largest gain (`max_gain`): the linear part's α at the QPV design's
+    /// gain level.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub linear_part_alpha_at_gain: Option<f64>,
 }
 
 /// How a practical `alpha = max` chose its design: the fastest certified
@@ -741,6 +753,8 @@ impl Design {
             global: false,
             poles: Vec::new(),
             pole_gain_bound: None,
+            linear_part_alpha: None,
+            linear_part_alpha_at_gain: None,
         }
     }
 

@@ -197,3 +197,41 @@ fn a_disk_bounds_the_gains_of_the_three_tank() {
     assert!(g0 > 1e3 * g1, "{g0} vs {g1}");
     assert!(free.pole_gain_bound.is_none() && free.poles.is_empty());
 }
+
+#[test]
+fn a_qpv_design_reports_what_its_region_costs() {
+    let m = paper();
+    let settings = Settings {
+        region_cost: true,
+        ..Settings::default()
+    };
+    let req = qpv_solve::request(AlphaSpec::Fixed(2.0), GammaSpec::Fixed(0.15), Mode::Sound);
+    // Off by default: no figure, no extra searches.
+    assert!(run(&m, AlphaSpec::Fixed(2.0), GammaSpec::Fixed(0.15), &[])
+        .linear_part_alpha
+        .is_none());
+    let d = design(&m, &req, &settings).expect("runs");
+    assert!(d.certifies, "{}", d.summary);
+    assert!(d.linear_part_alpha_at_gain.is_some());
+    let lin = d
+        .linear_part_alpha
+        .expect("a certified QPV design reports its linear part's α");
+    // The region contains the origin: the QPV (P, L) satisfy the global
+    // conditions of the linear part at the same α (1 % search tolerance).
+    assert!(lin >= 0.99 * d.alpha, "{lin} < {}", d.alpha);
+    assert!(d
+        .notes
+        .iter()
+        .any(|n| n.to_string().contains("region cost")));
+    // Recomputed independently: the linear part as an LPV model certifies
+    // the QPV design's own α globally (lin ≥ α is about that).
+    let lp = qpv_solve::search::region_cost::linear_part(&m);
+    assert!(lp.is_lpv());
+    let r = qpv_solve::request(AlphaSpec::Fixed(d.alpha), GammaSpec::Search, Mode::Sound);
+    let g = design(&lp, &r, &Settings::default()).expect("runs");
+    assert!(g.certifies && g.global, "{}", g.summary);
+    // Not for LPV plants (no region to cost) nor uncertified designs.
+    let r = qpv_solve::request(AlphaSpec::Fixed(0.09), GammaSpec::Search, Mode::Sound);
+    let t = design(&three_tank(), &r, &settings).expect("runs");
+    assert!(t.certifies && t.linear_part_alpha.is_none());
+}
