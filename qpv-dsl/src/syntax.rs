@@ -389,7 +389,7 @@ fn parse_design_entry(pair: Pair<'_, Rule>) -> Result<DesignEntry> {
     let key = parse_ident(next(&mut it, span, "design key")?);
     let value = parse_expr(next(&mut it, span, "design value")?)?;
     // The values in order, each followed by its options, if any.
-    let mut values: Vec<(Expr, Option<(Vec<DesignEntry>, Span)>)> = vec![(value, None)];
+    let mut values: Vec<(Expr, Option<ValueOptions>)> = vec![(value, None)];
     for child in it {
         if child.as_rule() == Rule::value_options {
             let ospan = span_of(&child);

@@ -99,7 +99,7 @@ impl Builder<'_> {
     fn pole_region(
         &self,
         v: &Expr,
-        options: Option<&(Vec<ast::DesignEntry>, Span)>,
+        options: Option<&ast::ValueOptions>,
     ) -> R<PoleRegion> {
         let kind = match &v.kind {
             ExprKind::Name(n) if ["disk", "sector", "strip"].contains(&n.as_str()) => n.as_str(),

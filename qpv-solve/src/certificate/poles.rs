@@ -222,7 +222,7 @@ pub fn disk_gain_bound(
             let shifted = &v.a - DMatrix::identity(n, n) * centre;
             let a_norm = shifted.singular_values().max();
             let smin = v.c.clone().singular_values().min();
-            if v.c.nrows() > v.c.ncols() || !(smin > 0.0) {
+            if v.c.nrows() > v.c.ncols() || smin.is_nan() || smin <= 0.0 {
                 return None;
             }
             worst = worst.max((a_norm + radius * kappa.sqrt()) / smin);
