@@ -96,11 +96,7 @@ impl Builder<'_> {
     }
 
     /// One region: its kind, then its options (each exactly once).
-    fn pole_region(
-        &self,
-        v: &Expr,
-        options: Option<&ast::ValueOptions>,
-    ) -> R<PoleRegion> {
+    fn pole_region(&self, v: &Expr, options: Option<&ast::ValueOptions>) -> R<PoleRegion> {
         let kind = match &v.kind {
             ExprKind::Name(n) if ["disk", "sector", "strip"].contains(&n.as_str()) => n.as_str(),
             _ => {
