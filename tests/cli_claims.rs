@@ -838,3 +838,41 @@ fn fuzzed_reports_never_claim_what_sampling_falsifies() {
 fn num_at(d: &Value, key: &str) -> f64 {
     d[key].as_f64().unwrap_or_else(|| panic!("{key} in {d}"))
 }
+
+/// A report with `poles` (docs/method.md §18): `design` prints the pole
+/// note, `check` and `simulate` re-check the regions from P and L (family
+/// D), and a gain moved out of the disk is NOT certified.
+#[test]
+fn check_and_simulate_recheck_the_pole_regions() {
+    let model = tmp("tank_poles.qpv");
+    let text_model = include_str!("../examples/three_tank.qpv").replace(
+        "design { alpha = 0.9; }",
+        "design { alpha = 0.09; poles = disk(centre = -3, radius = 3); }",
+    );
+    std::fs::write(&model, text_model).expect("write model");
+    let report = tmp("tank_poles.json");
+    let out = qpv(&["design", s(&model), "--json", s(&report)]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(
+        t.contains("pole regions disk(centre = -3, radius = 3): certified"),
+        "{t}"
+    );
+    let doc = read(&report);
+    assert_eq!(doc["designs"][0]["poles"][0]["region"], "disk");
+    assert!(doc["designs"][0]["margins"]["D"].as_f64().expect("D") > 0.0);
+    let out = qpv(&["check", s(&model), "--gains", s(&report)]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    // x3's gain at vertex 6 raised by 20: its mode leaves the disk.
+    let mut doc = read(&report);
+    let g = &mut doc["designs"][0]["L"][5][2][0];
+    *g = Value::from(g.as_f64().expect("gain") + 20.0);
+    let forged = write("tank_poles_forged.json", &doc);
+    let out = qpv(&["check", s(&model), "--gains", s(&forged)]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{t}");
+    assert!(t.contains("NOT certified") && t.contains("disk"), "{t}");
+    let out = qpv(&["simulate", s(&model), "--design", s(&forged)]);
+    let t = text(&out);
+    assert!(t.contains("NOT certified"), "{t}");
+}

@@ -25,6 +25,7 @@ macro_rules! inline_model {
 }
 
 mod generated_f32;
+mod generated_lpv;
 mod generated_noise;
 mod generated_practical;
 mod generated_sampled;

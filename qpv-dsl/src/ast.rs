@@ -189,6 +189,10 @@ pub struct DesignBlock {
     pub span: Span,
 }
 
+/// The options in parentheses after a design value, with the span of the
+/// parenthesised list.
+pub type ValueOptions = (Vec<DesignEntry>, crate::diagnostic::Span);
+
 /// `key = value;` inside a design block (or `key = value` inside
 /// `state_bound auto(...)`).
 #[derive(Debug, Clone, PartialEq)]
@@ -199,7 +203,11 @@ pub struct DesignEntry {
     pub value: Expr,
     /// Options in parentheses after the value, `filter(pole = 40)`, with the
     /// span of the parenthesised list (`None` when there are none).
-    pub options: Option<(Vec<DesignEntry>, crate::diagnostic::Span)>,
+    pub options: Option<ValueOptions>,
+    /// Further values after commas, each with its options (`poles =
+    /// disk(..), sector(..)`: the only key that takes a list); empty for
+    /// a single value and for options.
+    pub more: Vec<(Expr, Option<ValueOptions>)>,
     /// The whole entry.
     pub span: Span,
 }

@@ -19,7 +19,7 @@ pub use expr::{PolyMatrix, ThetaPoly};
 pub use func::Func;
 pub use model::{
     AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Mode, Model, NoiseObjective,
-    OutputFilter, OutputRoute, Param, Split, StateBound, MAX_COEFFICIENT,
+    OutputFilter, OutputRoute, Param, PoleRegion, Split, StateBound, MAX_COEFFICIENT,
 };
 pub use region::{Region, RegionError};
 pub use sched::{Derived, RangeInfo, SchedExpr};

@@ -388,20 +388,31 @@ fn parse_design_entry(pair: Pair<'_, Rule>) -> Result<DesignEntry> {
     let mut it = children(pair);
     let key = parse_ident(next(&mut it, span, "design key")?);
     let value = parse_expr(next(&mut it, span, "design value")?)?;
-    let options = match it.next() {
-        Some(opts) => {
-            let ospan = span_of(&opts);
-            let list = children(opts)
+    // The values in order, each followed by its options, if any.
+    let mut values: Vec<(Expr, Option<ValueOptions>)> = vec![(value, None)];
+    for child in it {
+        if child.as_rule() == Rule::value_options {
+            let ospan = span_of(&child);
+            let list = children(child)
                 .map(parse_design_entry)
                 .collect::<Result<Vec<_>>>()?;
-            Some((list, ospan))
+            match values.last_mut() {
+                Some(last) if last.1.is_none() => last.1 = Some((list, ospan)),
+                _ => return Err(internal(ospan, "options without a value")),
+            }
+        } else {
+            values.push((parse_expr(child)?, None));
         }
-        None => None,
-    };
+    }
+    let mut values = values.into_iter();
+    let (value, options) = values
+        .next()
+        .ok_or_else(|| internal(span, "design entry without a value"))?;
     Ok(DesignEntry {
         key,
         value,
         options,
+        more: values.collect(),
         span,
     })
 }

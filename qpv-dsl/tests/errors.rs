@@ -108,7 +108,7 @@ fn cases() -> Vec<(
         ("auto without parentheses", r("region box(1);", "region box(1); state_bound auto h = 2;"), 7, 37, "h", "expected `(` or `;`, found `h`"),
         ("empty auto options", r("region box(1);", "region box(1); state_bound auto();"), 7, 37, ")", "expected a state bound option (`h = ...`), found `)`"),
         ("auto and Q", r("region box(1);", "region box(1); state_bound auto; state_bound Q = [2, 0; 0, 2];"), 7, 38, "state_bound Q = [2, 0; 0, 2];", "the state bound is given twice (first at 7:20)"),
-        ("unknown design key", r("region box(1);", "region box(1); design { alpha = 10; beta = 2; }"), 7, 41, "beta", "unknown design setting `beta`: expected `alpha`, `gamma`, `mode`, `split`, `conditions`, `output_route`, `noise`, `max_gain`, `sample` or `float`"),
+        ("unknown design key", r("region box(1);", "region box(1); design { alpha = 10; beta = 2; }"), 7, 41, "beta", "unknown design setting `beta`: expected `alpha`, `gamma`, `mode`, `split`, `conditions`, `output_route`, `noise`, `max_gain`, `sample`, `float` or `poles`"),
         ("unknown float", r("region box(1);", "region box(1); design { float = f16; }"), 7, 37, "f16", "`float` must be `f64` (the default) or `f32`, found `f16`"),
         ("reversed input range", r("region box(1);", "region box(1); input w1, w2 in [2, 1];"), 7, 36, "[2, 1]", "input range [2, 1]: expected finite bounds, the lower one first"),
         ("unknown output route", r("region box(1);", "region box(1); design { output_route = kalman; }"), 7, 44, "kalman", "`output_route` must be `double_sum` or `filter` (optionally `filter(pole = .., gain = ..)`), found `kalman`"),

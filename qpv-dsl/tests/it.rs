@@ -19,6 +19,7 @@ mod limits;
 mod noise;
 mod options;
 mod paper;
+mod poles;
 mod region;
 mod region_basic;
 mod sched_range;

@@ -129,6 +129,10 @@ pub fn describe(req: &DesignRequest) -> String {
     if let Some(h) = req.sample {
         text.push_str(&format!("; sample = {h}"));
     }
+    for (k, r) in req.poles.iter().enumerate() {
+        text.push_str(if k == 0 { "; poles = " } else { ", " });
+        text.push_str(&r.to_string());
+    }
     text
 }
 

@@ -412,6 +412,27 @@ pub struct Design {
     /// decay V' ≤ −αV holds for every e(0) (`gamma` is 1 and unused).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub global: bool,
+    /// `poles = ...`: the pole regions the design claims (certificate family
+    /// "D", docs/method.md §18); [`Design::recheck`] checks them from P and L.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub poles: Vec<qpv_dsl::PoleRegion>,
+    /// With a disk among `poles` on an LPV plant: the bound on every
+    /// ‖L_l‖₂ that the certified disk implies through P's condition number
+    /// ([`crate::certificate::poles::disk_gain_bound`]); only on certified designs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pole_gain_bound: Option<f64>,
+    /// For a certified continuous-time sound design of a QPV plant: the α
+    /// the plant's linear part alone (every N_k and M_k zero) certifies
+    /// with the global observer, to 1 % (`crate::search::region_cost`):
+    /// what the region costs, next to `alpha`. None where it does not
+    /// apply or the linear part certifies nothing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub linear_part_alpha: Option<f64>,
+    /// As `linear_part_alpha` with every ‖L_l‖₂ bounded by this design's
+    /// largest gain (`max_gain`): the linear part's α at the QPV design's
+    /// gain level.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub linear_part_alpha_at_gain: Option<f64>,
 }
 
 /// How a practical `alpha = max` chose its design: the fastest certified
@@ -684,8 +705,10 @@ impl Design {
         let l = self.l_matrices();
         let p = self.p_matrix();
         let gains = Gains::new(&p, &l).with_cube(slacks.as_ref());
-        crate::certificate::check(obs, &gains, &self.candidate(), self.mode)
+        let at = self.candidate();
+        crate::certificate::check(obs, &gains, &at, self.mode)
             .with_gain_bound(&l, self.max_gain)
+            .with_poles(obs, &gains, &at, &self.poles)
     }
 
     /// A design that holds only the claim of a gains file: P and L_l (rows)
@@ -733,6 +756,10 @@ impl Design {
             practical: None,
             sample: None,
             global: false,
+            poles: Vec::new(),
+            pole_gain_bound: None,
+            linear_part_alpha: None,
+            linear_part_alpha_at_gain: None,
         }
     }
 
@@ -761,6 +788,7 @@ impl Design {
         d.skew = self.skew;
         d.cube = self.cube;
         d.max_gain = self.max_gain;
+        d.poles = self.poles;
         d.output_route = self.output_route;
         d.sample = sample;
         d.state_bound = self

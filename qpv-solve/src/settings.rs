@@ -62,6 +62,11 @@ pub struct Settings {
     /// Clarabel: the direct solver of the KKT system factorised at every
     /// interior-point iteration. Default [`KktSolver::default`].
     pub kkt_solver: KktSolver,
+    /// After a certified continuous-time sound design of a QPV plant, also
+    /// search the α its linear part alone certifies globally (two more
+    /// α searches; `Design::linear_part_alpha`, docs/method.md §18).
+    /// Default false (`qpv design --region-cost` sets it).
+    pub region_cost: bool,
 }
 
 /// The sparse LDLᵀ solver Clarabel factorises its KKT systems with.
@@ -126,6 +131,7 @@ impl Default for Settings {
             search_tol: 1e-5,
             verbose: false,
             kkt_solver: KktSolver::default(),
+            region_cost: false,
         }
     }
 }

@@ -169,6 +169,10 @@ named_enum! {
         /// mode): He{P A_l − Γ_l C_m} + αP ≺ 0 per rate combination, with
         /// no region, state bound or γ.
         G5 = "G5",
+        /// `poles = ...`: the pole-region blocks (disk, sector, strip) on
+        /// the frozen error dynamics with the design's P, per rate
+        /// combination and region-vertex pair.
+        D = "D",
         /// The paper's printed vertex condition.
         Paper13 = "13",
         /// The paper's printed facet condition.

@@ -32,6 +32,7 @@ mod noise;
 mod observer_model;
 mod output_filter;
 mod output_route;
+mod poles;
 mod practical;
 mod rounding;
 mod sampled;

@@ -84,6 +84,11 @@ pub struct Options {
     /// reaches it says so.
     #[arg(long = "alpha-cap", allow_negative_numbers = true)]
     pub alpha_cap: Option<f64>,
+    /// For a QPV plant, also report the alpha its linear part alone (every
+    /// N_k and M_k zero) certifies globally, unbounded and at the design's
+    /// largest gain: what the region costs (two more alpha searches).
+    #[arg(long = "region-cost")]
+    pub region_cost: bool,
     /// Write the JSON report to this file (`-` for stdout).
     #[arg(long)]
     pub json: Option<String>,
@@ -187,6 +192,11 @@ fn culprit(clash: Clash, o: &Options) -> &'static str {
         | Clash::SampleDecoupled
         | Clash::SampleCube
         | Clash::SampleSkewSlack => (("--sample", o.sample.is_some()), noise),
+        // `poles` has no flag: the model's design block set it.
+        Clash::PolesPaper => (("`poles`", false), paper),
+        Clash::PolesNoiseMin => (("`poles`", false), noise),
+        Clash::PolesSkewSlack => (("`poles`", false), skew),
+        Clash::PolesSample => (("`poles`", false), ("--sample", o.sample.is_some())),
     };
     if first.1 || !second.1 {
         first.0
@@ -730,6 +740,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     if let Some(cap) = o.alpha_cap {
         settings.alpha_cap = cap;
     }
+    settings.region_cost = o.region_cost;
     let mut designs = Vec::new();
     let mut skipped = Vec::new();
     let mut failures = Vec::new();

@@ -266,6 +266,10 @@ pub struct DesignRequest {
     /// (constants rounded to f32 before the certificate checks them, and a
     /// certified f32 error floor). Default f64.
     pub float: Float,
+    /// `poles = disk(..), sector(..), strip(..)`: the regions (intersected)
+    /// the eigenvalues of the frozen error dynamics must lie in, imposed with
+    /// the design's P and certified (family "D"); empty: none.
+    pub poles: Vec<super::poles::PoleRegion>,
     /// The `design` block in the source, for errors about this request.
     pub span: Span,
 }
@@ -305,6 +309,7 @@ impl Default for DesignRequest {
             max_gain: None,
             sample: None,
             float: Float::F64,
+            poles: Vec::new(),
             span: Span::default(),
         }
     }
@@ -338,6 +343,14 @@ impl DesignRequest {
             Some(Clash::MaxGainSkewSlack)
         } else if self.max_gain.is_some() && !sound {
             Some(Clash::MaxGainPaper)
+        } else if !self.poles.is_empty() && !sound {
+            Some(Clash::PolesPaper)
+        } else if !self.poles.is_empty() && noise_min {
+            Some(Clash::PolesNoiseMin)
+        } else if !self.poles.is_empty() && skew {
+            Some(Clash::PolesSkewSlack)
+        } else if !self.poles.is_empty() && self.sample.is_some() {
+            Some(Clash::PolesSample)
         } else if self.sample.is_none() {
             None
         } else if !sound {
@@ -374,6 +387,14 @@ pub enum Clash {
     MaxGainSkewSlack,
     /// `max_gain` in paper mode.
     MaxGainPaper,
+    /// `poles` in paper mode.
+    PolesPaper,
+    /// `poles` with `noise = min`.
+    PolesNoiseMin,
+    /// `poles` with `split = skew_slack`.
+    PolesSkewSlack,
+    /// `poles` with `sample`.
+    PolesSample,
     /// `sample` in paper mode.
     SamplePaper,
     /// `sample` with `conditions = decoupled`.
@@ -395,6 +416,10 @@ impl Clash {
             Clash::NoiseMinSkewSlack | Clash::SampleSkewSlack => "split",
             Clash::MaxGainNoiseMin | Clash::MaxGainSkewSlack | Clash::MaxGainPaper => "max_gain",
             Clash::SampleDecoupled | Clash::SampleCube => "conditions",
+            Clash::PolesPaper
+            | Clash::PolesNoiseMin
+            | Clash::PolesSkewSlack
+            | Clash::PolesSample => "poles",
         }
     }
 }
@@ -428,6 +453,21 @@ impl std::fmt::Display for Clash {
             Clash::MaxGainPaper => {
                 "`max_gain` cannot be combined with `mode = paper` (the printed conditions \
                  certify nothing)"
+            }
+            Clash::PolesPaper => {
+                "`poles` needs `mode = sound`: the paper's printed conditions certify nothing"
+            }
+            Clash::PolesNoiseMin => {
+                "`poles` cannot be combined with `noise = min` (its SDP has no pole-region \
+                 blocks)"
+            }
+            Clash::PolesSkewSlack => {
+                "`poles` cannot be combined with `split = skew_slack` (the slack search has no \
+                 pole-region blocks)"
+            }
+            Clash::PolesSample => {
+                "`poles` is a continuous-time condition (eigenvalues of the error dynamics): \
+                 it cannot be combined with `sample`"
             }
             Clash::SamplePaper => {
                 "`sample` needs `mode = sound`: the paper's printed conditions have no \
@@ -494,12 +534,15 @@ impl std::fmt::Display for DesignRequest {
         if self.float != Float::F64 {
             write!(f, "; float = {}", self.float.name())?;
         }
+        for (k, r) in self.poles.iter().enumerate() {
+            write!(f, "{}{r}", if k == 0 { "; poles = " } else { ", " })?;
+        }
         Ok(())
     }
 }
 
 /// The keys of a `design { ... }` block.
-const DESIGN_KEYS: [&str; 10] = [
+const DESIGN_KEYS: [&str; 11] = [
     "alpha",
     "gamma",
     "mode",
@@ -510,6 +553,7 @@ const DESIGN_KEYS: [&str; 10] = [
     "max_gain",
     "sample",
     "float",
+    "poles",
 ];
 
 impl Builder<'_> {
@@ -578,13 +622,24 @@ impl Builder<'_> {
                 ),
             ));
         }
-        if let (Some((_, ospan)), false) = (&entry.options, key == "output_route" || key == "alpha")
-        {
+        if let (Some((v, _)), false) = (entry.more.first(), key == "poles") {
+            return Err(Diag::new(
+                v.span,
+                format!(
+                    "`{key}` takes one value (only `poles` takes a list: `poles = disk(..), \
+                     sector(..)`)"
+                ),
+            ));
+        }
+        if let (Some((_, ospan)), false) = (
+            &entry.options,
+            key == "output_route" || key == "alpha" || key == "poles",
+        ) {
             return Err(Diag::new(
                 *ospan,
                 format!(
-                    "`{key}` takes no options in parentheses (only `alpha = max(within = ..)` \
-                     and `output_route = filter(...)` do)"
+                    "`{key}` takes no options in parentheses (only `alpha = max(within = ..)`, \
+                     `output_route = filter(...)` and the regions of `poles` do)"
                 ),
             ));
         }
@@ -611,6 +666,7 @@ impl Builder<'_> {
             "output_route" => req.output_route = self.output_route_value(entry)?,
             "noise" => req.noise = self.noise_value(&entry.value)?,
             "float" => req.float = self.float_value(&entry.value)?,
+            "poles" => req.poles = self.poles_value(entry)?,
             _ => {
                 let hint = suggest(key, DESIGN_KEYS)
                     .map(|s| format!(" (did you mean `{s}`?)"))
@@ -619,7 +675,7 @@ impl Builder<'_> {
                     entry.key.span,
                     format!(
                         "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
-                         `split`, `conditions`, `output_route`, `noise`, `max_gain`, `sample` or `float`{hint}"
+                         `split`, `conditions`, `output_route`, `noise`, `max_gain`, `sample`, `float` or `poles`{hint}"
                     ),
                 ));
             }

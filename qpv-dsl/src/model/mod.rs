@@ -11,6 +11,7 @@ mod derived;
 mod design;
 mod matrices;
 mod names;
+mod poles;
 mod region;
 mod state_bound;
 mod validate;
@@ -21,6 +22,7 @@ pub use design::{
     OutputFilter, OutputRoute, Split,
 };
 pub use names::{Param, MAX_DIM, MAX_PARAMS};
+pub use poles::PoleRegion;
 pub use state_bound::StateBound;
 pub use validate::{MAX_COEFFICIENT, MAX_SCHEDULING};
 

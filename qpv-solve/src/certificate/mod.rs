@@ -20,6 +20,7 @@
 
 pub mod noise;
 pub mod noise_sampled;
+pub mod poles;
 pub mod rounding;
 mod sampled;
 pub mod sampling;

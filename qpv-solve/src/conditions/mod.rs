@@ -32,6 +32,7 @@
 //! rowsHe(T, v) is vᵀ (T_k + T_kᵀ).
 
 pub mod cube;
+pub mod poles;
 
 use crate::vocab::Family;
 use nalgebra::{DMatrix, DVector};

@@ -143,7 +143,7 @@ impl Baked {
 
     /// [`Baked::claimed`] for a design read back as the answer to `request`
     /// (`qpv!`'s cache): the certificate is the one the request asks for
-    /// (its mode, sample period and gain bound replace the design's own),
+    /// (its mode, sample period, gain bound and pole regions replace the design's own),
     /// the numbers are those of the request's `float`, and a design for
     /// another output route is refused.
     pub fn claimed_for(
@@ -158,6 +158,7 @@ impl Baked {
         }
         design.mode = request.mode;
         design.max_gain = request.max_gain;
+        design.poles = request.poles.clone();
         design.sample = request.sample.map(|h| SampleInfo::new(h, design.alpha));
         Baked::claimed(plant, design, request.float)
     }

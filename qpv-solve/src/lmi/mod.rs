@@ -42,6 +42,7 @@
 
 mod cube;
 pub(crate) mod noise;
+pub mod poles;
 mod sampled;
 pub(crate) mod skew;
 
@@ -220,6 +221,8 @@ pub struct Problem<'m> {
     /// and M_m = 0 for every term), so that its p² vertex-pair blocks are
     /// one block, written once.
     linear: Vec<bool>,
+    /// `poles = ...`: the pole regions imposed (see [`Problem::with_poles`]).
+    poles: Vec<qpv_dsl::PoleRegion>,
 }
 
 impl<'m> Problem<'m> {
@@ -271,6 +274,7 @@ impl<'m> Problem<'m> {
             max_gain: None,
             scaling: None,
             sample: None,
+            poles: Vec::new(),
         })
     }
 
@@ -786,6 +790,7 @@ impl<'m> Problem<'m> {
                 Conditions::Cube => self.push_rate_cube(&mut out, alpha, gamma, &rate),
             },
         }
+        self.push_poles(&mut out, gamma, eps, max_margin);
         if let Some(g) = self.max_gain_z() {
             self.push_gain_bound(&mut out, g);
         }
@@ -967,11 +972,23 @@ impl<'m> Problem<'m> {
     }
 
     /// svec(W)·κ, the coefficients of the max-margin column t̂ in a rate
-    /// block (upper triangle, √2 off the diagonal): W = P_ref/λ_max(P_ref)
-    /// for a usable `metric`, else I.
+    /// block (upper triangle, √2 off the diagonal), W of [`Problem::margin_metric`].
     fn margin_column(&self, metric: Option<&DMatrix<f64>>, kappa: f64) -> Vec<f64> {
         let nx = self.nx;
+        let wm = self.margin_metric(metric);
         let mut w = vec![0.0; svec_len(nx)];
+        for c in 0..nx {
+            for r in 0..=c {
+                w[svec_index(r, c)] = svec_scale(r, c) * wm[(r, c)] * kappa;
+            }
+        }
+        w
+    }
+
+    /// W of the max-margin objective: P_ref/λ_max(P_ref) for a usable
+    /// `metric`, else I.
+    fn margin_metric(&self, metric: Option<&DMatrix<f64>>) -> DMatrix<f64> {
+        let nx = self.nx;
         let m = metric
             .filter(|m| m.shape() == (nx, nx) && m.iter().all(|v| v.is_finite()))
             .map(|m| (m + m.transpose()) * 0.5);
@@ -979,16 +996,10 @@ impl<'m> Problem<'m> {
             .as_ref()
             .map(|m| m.clone().symmetric_eigenvalues().max())
             .unwrap_or(0.0);
-        for c in 0..nx {
-            for r in 0..=c {
-                let v = match &m {
-                    Some(m) if lmax > 0.0 => m[(r, c)] / lmax,
-                    _ => f64::from(u8::from(r == c)),
-                };
-                w[svec_index(r, c)] = svec_scale(r, c) * v * kappa;
-            }
+        match m {
+            Some(m) if lmax > 0.0 => m / lmax,
+            _ => DMatrix::identity(nx, nx),
         }
-        w
     }
 
     /// (S1): P̂ − εI ⪰ 0: s = svec(P̂) − ε svec(I) ⇒ b = −ε svec(I), A = −svec(E_v).

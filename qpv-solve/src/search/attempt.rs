@@ -125,7 +125,9 @@ impl Ctx<'_, '_> {
     ) -> Certificate {
         let gains = Gains::new(p, l).with_cube(cube);
         let at = Candidate::new(alpha, gamma).at_sample(self.sample);
-        check(self.model, &gains, &at, self.mode).with_gain_bound(l, self.max_gain)
+        check(self.model, &gains, &at, self.mode)
+            .with_gain_bound(l, self.max_gain)
+            .with_poles(self.model, &gains, &at, self.prob.poles())
     }
 
     /// The largest α at which the point's (P, Γ_l, L_l) certify at `gamma`
@@ -362,6 +364,7 @@ pub(super) fn design_of(
     d.solver = solver;
     d.search = steps;
     d.max_gain = request.max_gain;
+    d.poles = request.poles.clone();
     d.sample = request
         .sample
         .map(|h| crate::certificate::sampling::SampleInfo::new(h, at.alpha));

@@ -5,6 +5,7 @@
 use super::attempt::{append_notes, design_of, Point, Shown, Solve};
 use super::Ctx;
 use crate::backend::Status;
+use crate::certificate::poles::disk_gain_bound;
 use crate::certificate::DataCheck;
 use crate::conditions::ConditionSet;
 use crate::error::SolveError;
@@ -128,6 +129,7 @@ impl Setup {
         Problem::new(model, ConditionSet::from_mode(request.mode))?
             .with_conditions(request.conditions)?
             .with_max_gain(request.max_gain)
+            .with_poles(&request.poles)
             .with_scaling(scaling)
             .with_sample(request.sample)
     }
@@ -812,7 +814,6 @@ fn global_balance(
             Some(p) => p,
             None => {
                 pilots += 1;
-                let prob = setup.problem(request)?;
                 // The first pilot only needs some feasible P; the next one
                 // the smallest-gain point in the units it gave.
                 let objective = if pilots == 1 {
@@ -821,13 +822,26 @@ fn global_balance(
                     Objective::Gains
                 };
                 // A pilot without a point is retried at smaller α (the
-                // units that suit a smaller α are a better start than none).
+                // units that suit a smaller α are a better start than none),
+                // and with pole regions, that give none in unbalanced units
+                // when the region cuts α far down, without them.
                 let mut found = None;
-                for k in 0..4 {
-                    let a = alpha * 0.5f64.powi(k);
-                    if let Some(p) = prob.solve(a, 1.0, settings, objective)?.p {
-                        found = Some(p);
-                        break;
+                let free = DesignRequest {
+                    poles: Vec::new(),
+                    ..request.clone()
+                };
+                let mut tries = vec![request];
+                if !request.poles.is_empty() {
+                    tries.push(&free);
+                }
+                'pilot: for req in tries {
+                    let prob = setup.problem(req)?;
+                    for k in 0..4 {
+                        let a = alpha * 0.5f64.powi(k);
+                        if let Some(p) = prob.solve(a, 1.0, settings, objective)?.p {
+                            found = Some(p);
+                            break 'pilot;
+                        }
                     }
                 }
                 match found {
@@ -986,6 +1000,12 @@ impl Ctx<'_, '_> {
         d.margins = margins;
         d.diagnosis = diagnosis;
         data_notes(mode, &d.data_checks, at.gamma, setup.gmax, &mut notes);
+        if !request.poles.is_empty() {
+            d.pole_gain_bound = feasible
+                .then(|| disk_gain_bound(&setup.model, &d.p_matrix(), &request.poles))
+                .flatten();
+            notes.push(pole_note(&d, &request.poles));
+        }
         let norms = &d.gain_norms;
         d.summary = match setup.global {
             true => global_summary(feasible, at.alpha, fin.status, &failed, norms, &notes),
@@ -1042,6 +1062,26 @@ const LONGEST_PERIOD_DOWN: usize = 6;
 /// ... then bisects in ln h until the certified and the failed period are
 /// within this ratio.
 const LONGEST_PERIOD_RATIO: f64 = 1.1;
+
+/// The line a design with `poles = ...` carries: the regions, family D's
+/// margin, and for a disk on an LPV plant the gain bound it implies.
+fn pole_note(d: &Design, poles: &[qpv_dsl::PoleRegion]) -> String {
+    let list: Vec<String> = poles.iter().map(|r| r.to_string()).collect();
+    let margin = d.margins.get(Family::D.name());
+    let mut out = match (d.feasible(), margin) {
+        (true, Some(m)) => format!(
+            "pole regions {}: certified with the design's P (family D, worst margin {m:.3e}): every eigenvalue of the error dynamics frozen at a vertex lies in them",
+            list.join(", ")
+        ),
+        _ => format!("pole regions {}: not certified", list.join(", ")),
+    };
+    if let Some(b) = d.pole_gain_bound {
+        out.push_str(&format!(
+            "; the disk bounds every ‖L_l‖₂ by {b:.4e} (through κ(P); docs/method.md §18)"
+        ));
+    }
+    out
+}
 
 /// The condition families a point fails, with their worst margins.
 fn failures(p: &Point) -> Vec<String> {

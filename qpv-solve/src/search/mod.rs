@@ -54,6 +54,7 @@ mod driver;
 pub mod gamma;
 pub mod noise;
 mod practical;
+pub mod region_cost;
 pub(crate) mod skew;
 
 use attempt::{Attempt, Point, Solve};
@@ -545,6 +546,7 @@ pub fn design_with_progress(
     } else {
         design_plain(model, request, settings, progress)?
     };
+    region_cost::attach(model, request, settings, &mut d)?;
     // The noise bound and the sampling figures of a certified
     // continuous-time design (both are continuous-time analyses).
     if d.sample.is_none() {
