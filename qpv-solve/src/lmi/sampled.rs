@@ -22,7 +22,7 @@
 //! of [`super::Objective::MaxMargin`]: t̂ > 0 leaves room for a larger α.
 
 use super::{Problem, RateMargins};
-use crate::backend::builder::SdpBuilder;
+use crate::backend::builder::{Psd, SdpBuilder};
 use crate::error::SolveError;
 use crate::linalg::svec::svec_index;
 use nalgebra::DMatrix;
@@ -97,21 +97,15 @@ impl Problem<'_> {
                     let (k0, hs) = self.rate_kh(0.0, gamma, ci, i, j);
                     let blk = out.psd(d, delta);
                     // P̂ columns: −∂block/∂P̂_v.
-                    for pc in 0..nx {
-                        for pr in 0..=pc {
-                            dm.fill(0.0);
-                            let mut e = DMatrix::<f64>::zeros(nx, nx);
-                            e[(pr, pc)] = 1.0;
-                            e[(pc, pr)] = 1.0;
-                            let m = &e * w + &e * &k0 * (h / gamma);
-                            dm.view_mut((0, 0), (nx, nx))
-                                .copy_from(&(&e * (w * (1.0 - h * alpha))));
-                            dm.view_mut((nx, nx), (nx, nx)).copy_from(&(&e * w));
-                            dm.view_mut((nx, 0), (nx, nx)).copy_from(&m);
-                            dm.view_mut((0, nx), (nx, nx)).copy_from(&m.transpose());
-                            out.matrix(&blk, svec_index(pr, pc), &dm, -1.0);
-                        }
-                    }
+                    let at = PColumns {
+                        w,
+                        k0: &k0,
+                        alpha,
+                        gamma,
+                        h,
+                        x2: nx,
+                    };
+                    self.push_p_columns(out, &blk, &mut dm, &at, |_, _| {});
                     // Γ̂_l columns: ∂M/∂Γ̂_l[gr, gc] = −(h/γ) E_{gr,gc} H_l.
                     for (l, hl) in &hs {
                         for gr in 0..nx {
@@ -135,6 +129,51 @@ impl Problem<'_> {
                         }
                     }
                 }
+            }
+        }
+    }
+}
+
+/// Where a discrete block's P̂ columns are written: the combination's
+/// weight w, the rate term K₀ of the pair, (α, γ, h), and the first row x2
+/// of the block's last nx rows (the P̂ that closes the Schur complement).
+struct PColumns<'a> {
+    w: f64,
+    k0: &'a DMatrix<f64>,
+    alpha: f64,
+    gamma: f64,
+    h: f64,
+    x2: usize,
+}
+
+impl Problem<'_> {
+    /// The P̂ columns of one discrete block, −∂block/∂P̂_v for every packed
+    /// entry v = (r, c): W(1 − hα)E top left, WE bottom right and
+    /// M = WE + (h/γ)E K₀ off the diagonal, plus what `extra` writes for
+    /// the same E (the noise block's P̂ B_w column).
+    fn push_p_columns(
+        &self,
+        out: &mut SdpBuilder,
+        blk: &Psd,
+        dm: &mut DMatrix<f64>,
+        at: &PColumns<'_>,
+        extra: impl Fn(&DMatrix<f64>, &mut DMatrix<f64>),
+    ) {
+        let (nx, x2, w) = (self.nx, at.x2, at.w);
+        for pc in 0..nx {
+            for pr in 0..=pc {
+                dm.fill(0.0);
+                let mut e = DMatrix::<f64>::zeros(nx, nx);
+                e[(pr, pc)] = 1.0;
+                e[(pc, pr)] = 1.0;
+                let m = &e * w + &e * at.k0 * (at.h / at.gamma);
+                dm.view_mut((0, 0), (nx, nx))
+                    .copy_from(&(&e * (w * (1.0 - at.h * at.alpha))));
+                dm.view_mut((x2, x2), (nx, nx)).copy_from(&(&e * w));
+                dm.view_mut((x2, 0), (nx, nx)).copy_from(&m);
+                dm.view_mut((0, x2), (nx, nx)).copy_from(&m.transpose());
+                extra(&e, dm);
+                out.matrix(blk, svec_index(pr, pc), dm, -1.0);
             }
         }
     }
@@ -190,26 +229,21 @@ impl Problem<'_> {
                 for j in 0..p_reg {
                     let (k0, hs) = self.rate_kh(0.0, gamma, ci, i, j);
                     let blk = out.psd(d, delta);
-                    for pc in 0..nx {
-                        for pr in 0..=pc {
-                            dm.fill(0.0);
-                            let mut e = DMatrix::<f64>::zeros(nx, nx);
-                            e[(pr, pc)] = 1.0;
-                            e[(pc, pr)] = 1.0;
-                            let m = &e * w + &e * &k0 * (h / gamma);
-                            dm.view_mut((0, 0), (nx, nx))
-                                .copy_from(&(&e * (w * (1.0 - h * alpha))));
-                            dm.view_mut((x2, x2), (nx, nx)).copy_from(&(&e * w));
-                            dm.view_mut((x2, 0), (nx, nx)).copy_from(&m);
-                            dm.view_mut((0, x2), (nx, nx)).copy_from(&m.transpose());
-                            if nw > 0 {
-                                let eb = &e * &bw * sh;
-                                dm.view_mut((x2, nx), (nx, nw)).copy_from(&eb);
-                                dm.view_mut((nx, x2), (nw, nx)).copy_from(&eb.transpose());
-                            }
-                            out.matrix(&blk, svec_index(pr, pc), &dm, -1.0);
+                    let at = PColumns {
+                        w,
+                        k0: &k0,
+                        alpha,
+                        gamma,
+                        h,
+                        x2,
+                    };
+                    self.push_p_columns(out, &blk, &mut dm, &at, |e, dm| {
+                        if nw > 0 {
+                            let eb = e * &bw * sh;
+                            dm.view_mut((x2, nx), (nx, nw)).copy_from(&eb);
+                            dm.view_mut((nx, x2), (nw, nx)).copy_from(&eb.transpose());
                         }
-                    }
+                    });
                     for (l, &wl_l) in wl.iter().enumerate() {
                         let hl = hs.iter().find(|(g, _)| *g == l).map(|(_, h)| h);
                         if hl.is_none() && wl_l == 0.0 {
