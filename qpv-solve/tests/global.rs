@@ -270,19 +270,11 @@ fn routes_not_built_for_lpv_plants_are_refused_by_name() {
         noise: qpv_dsl::NoiseObjective::Min,
         ..base.clone()
     };
-    let sampled = qpv_dsl::DesignRequest {
-        sample: Some(1e-3),
-        ..base.clone()
-    };
     let skew = qpv_dsl::DesignRequest {
         split: qpv_dsl::Split::SkewSlack,
         ..base
     };
-    for (what, r) in [
-        ("noise = min", noise),
-        ("sample", sampled),
-        ("skew_slack", skew),
-    ] {
+    for (what, r) in [("noise = min", noise), ("skew_slack", skew)] {
         let err = design(&m, &r, &Settings::default())
             .unwrap_err()
             .to_string();
@@ -291,5 +283,144 @@ fn routes_not_built_for_lpv_plants_are_refused_by_name() {
             err.contains("three_tank") && err.contains("LPV"),
             "{what}: {err}"
         );
+    }
+}
+
+fn run_sampled(m: &PolytopicModel, alpha: AlphaSpec, h: f64) -> Design {
+    let r = qpv_dsl::DesignRequest {
+        sample: Some(h),
+        ..qpv_solve::request(alpha, GammaSpec::Search, Mode::Sound)
+    };
+    design(m, &r, &Settings::default()).expect("design runs")
+}
+
+/// The worst per-step ratio V(e⁺)/V(e) of the Euler error map
+/// e⁺ = (I + h(A(θ) − L(θ)C(θ)))e, in the balanced coordinates of P (an
+/// exact congruence): at every θ of `thetas`, over `n_e` random e and the
+/// exact maximiser over e (the largest generalised eigenvalue of
+/// (Mᵀ P M, P), M the step matrix).
+fn worst_step_ratio(
+    m: &PolytopicModel,
+    d: &Design,
+    h: f64,
+    thetas: &[Vec<f64>],
+    n_e: usize,
+) -> (f64, f64) {
+    let p = d.p_matrix();
+    let ls = d.l_matrices();
+    let dz = StateScaling::of_p(&p)
+        .map(|s| s.d)
+        .unwrap_or_else(|| vec![1.0; m.nx()]);
+    let dm = DMatrix::from_diagonal(&DVector::from_vec(dz.clone()));
+    let dinv = DMatrix::from_diagonal(&DVector::from_vec(dz.iter().map(|v| 1.0 / v).collect()));
+    let pz = &dm * &p * &dm;
+    let chol = pz.clone().cholesky().expect("P ≻ 0");
+    let linv = chol.l().try_inverse().expect("invertible");
+    let mut state: u64 = 0x2545_f491_4f6c_dd1d;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    let (mut random, mut exact) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for th in thetas {
+        let mu = m.mu(th);
+        let mut l = DMatrix::zeros(m.nx(), m.ny());
+        for (w, li) in mu.iter().zip(&ls) {
+            l += li * *w;
+        }
+        let fz = &dinv * (m.a_at(th) - l * m.c_at(th)) * &dm;
+        let step = DMatrix::identity(m.nx(), m.nx()) + fz * h;
+        for _ in 0..n_e {
+            let e = DVector::from_fn(m.nx(), |_, _| next());
+            let ep = &step * &e;
+            random = random.max(ep.dot(&(&pz * &ep)) / e.dot(&(&pz * &e)));
+        }
+        // max_e V(Me)/V(e) = σ_max(Lᵀ M L⁻ᵀ)² for P = LLᵀ.
+        let n = chol.l().transpose() * &step * linv.transpose();
+        exact = exact.max(n.singular_values().max().powi(2));
+    }
+    (random, exact)
+}
+
+#[test]
+fn three_tank_sampled_certifies_globally_and_the_euler_map_decreases() {
+    let m = three_tank();
+    let h = 0.01;
+    let mut thetas = sample_thetas(&m, 300);
+    thetas.extend(m.vertices.iter().map(|v| v.theta.clone()));
+    for alpha in [AlphaSpec::Fixed(0.15), AlphaSpec::Max] {
+        let d = run_sampled(&m, alpha, h);
+        assert!(d.certifies(), "{alpha:?}: {}", d.summary);
+        assert!(d.global);
+        assert!(d.summary.contains("GLOBAL") && d.summary.contains("S5d"));
+        let families: Vec<&str> = d.margins.keys().map(|f| f.name()).collect();
+        assert_eq!(families, ["S1", "S5d"]);
+        assert!(d.data_checks.is_empty(), "no S4 for a global design");
+        if alpha == AlphaSpec::Fixed(0.15) {
+            assert_eq!(d.alpha, 0.15);
+        } else {
+            assert!(d.alpha > 0.15, "α = {}", d.alpha);
+            assert!(h * d.alpha < 1.0);
+        }
+        let (p, l) = (d.p_matrix(), d.l_matrices());
+        let at = Candidate {
+            sample: Some(h),
+            ..Candidate::new(d.alpha, 1.0)
+        };
+        let cert = check(&m, &Gains::new(&p, &l), &at, Mode::Sound);
+        assert!(cert.passed, "{alpha:?}: independent S5d check");
+        // The discrete decrease implies the continuous one for the same
+        // (P, L): He{PF} + αP ⪯ −h FᵀPF ⪯ 0.
+        let cont = check(
+            &m,
+            &Gains::new(&p, &l),
+            &Candidate::new(d.alpha, 1.0),
+            Mode::Sound,
+        );
+        assert!(cont.passed, "{alpha:?}: the continuous G5 at the same α");
+        // Brute force on the Euler error map at random θ and e.
+        let bound = 1.0 - h * d.alpha;
+        let (random, exact) = worst_step_ratio(&m, &d, h, &thetas, 20);
+        assert!(
+            random <= bound * (1.0 + 1e-9),
+            "{alpha:?}: random e: {random} > {bound}"
+        );
+        assert!(
+            exact <= bound * (1.0 + 1e-9),
+            "{alpha:?}: worst e: {exact} > {bound}"
+        );
+        // The worst θ is a vertex (the step is affine in θ's weights), where
+        // the exact ratio is the one the capacity computes.
+        let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| &p * li).collect();
+        let cap = qpv_solve::certificate::alpha_capacity_sampled(
+            &qpv_solve::model::global_model(&m),
+            1.0,
+            h,
+            &p,
+            &gammas,
+        );
+        eprintln!(
+            "{alpha:?}: α = {}, 1 − hα = {bound}, brute force random {random}, worst {exact}, capacity {cap}, max ‖L‖ = {:e}",
+            d.alpha,
+            d.gain_norms.iter().copied().fold(0.0, f64::max)
+        );
+        assert!(
+            cap >= d.alpha * (1.0 - 1e-9),
+            "capacity {cap} < α {}",
+            d.alpha
+        );
+        assert!(
+            (exact - (1.0 - h * cap)).abs() <= 1e-7,
+            "{alpha:?}: brute-force worst {exact} vs capacity 1 − hα_c = {}",
+            1.0 - h * cap
+        );
+        // A claim beyond the capacity is rejected.
+        let over = Candidate {
+            sample: Some(h),
+            ..Candidate::new(cap + 0.05, 1.0)
+        };
+        assert!(!check(&m, &Gains::new(&p, &l), &over, Mode::Sound).passed);
     }
 }

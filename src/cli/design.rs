@@ -416,11 +416,20 @@ fn describe_verdict(d: &Design) -> String {
     match (d.feasible(), d.mode) {
         (true, Mode::Sound) if d.sample.is_some() => {
             let s = d.sample.unwrap_or(qpv_solve::certificate::sampling::SampleInfo::new(f64::NAN, d.alpha));
+            // The global observer has no γ and no data check S4.
+            let (head, at, data) = if d.global {
+                (
+                    "CERTIFIED, GLOBAL",
+                    " for every initial error (LPV plant: no region, state bound or gamma)".to_string(),
+                    "",
+                )
+            } else {
+                ("CERTIFIED", format!(" at gamma = {:.6}", d.gamma), " and the data check S4")
+            };
             format!(
-                "  CERTIFIED at {}: alpha = {:.6} per second at gamma = {:.6}, V(e_k+1) <= {:.6} V(e_k) per step for the observer stepped by explicit Euler at h (the discrete decrease S5d in place of S5): every condition family holds ({}) and the data check S4, by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), {rejected} of them rejected by that check and not used\n{}",
+                "  {head} at {}: alpha = {:.6} per second{at}, V(e_k+1) <= {:.6} V(e_k) per step for the observer stepped by explicit Euler at h (the discrete decrease S5d in place of S5): every condition family holds ({}){data}, by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), {rejected} of them rejected by that check and not used\n{}",
                 s.describe(),
                 d.alpha,
-                d.gamma,
                 s.decrease,
                 families.join(", "),
                 practical_line(d)

@@ -686,20 +686,24 @@ fn summary(
 /// homogeneous), the conditions are the full family (one block per rate
 /// combination: decoupled and cube conditions have nothing to split), and
 /// what the plant's own statements asked for that the global observer does
-/// not use is noted. Refused: `sample = h` and the skew slack (not built for
-/// the global observer).
+/// not use is noted. At `sample = h` the rate family is the discrete
+/// decrease without region terms (docs/method.md, "The global observer").
+/// Refused elsewhere: the skew slack (not built for the global observer).
 fn global_request(
     model: &PolytopicModel,
     request: DesignRequest,
     notes: &mut Notes,
 ) -> Result<DesignRequest, SolveError> {
-    if let Some(h) = request.sample {
-        return Err(SolveError::Unsupported(format!(
-            "model `{}`: sample = {h:e} is not built for an LPV plant (its observer is the global one, docs/method.md \"The global observer\"); design in continuous time and read the report's sampling figures",
-            model.name
-        )));
-    }
-    let mut used = vec!["the plant is LPV (every N_k and M_k is zero): the global observer, P ⪰ I and He{P A_l − Γ_l C_m} + αP ≺ 0 at every rate combination (certificate family G5), with no region, state bound or γ".to_string()];
+    let family = match request.sample {
+        None => "He{P A_l − Γ_l C_m} + αP ≺ 0 at every rate combination (certificate family G5)"
+            .to_string(),
+        Some(h) => format!(
+            "at sample = {h:e} the discrete decrease [(1 − hα)P, (P + hΦ)ᵀ; P + hΦ, P] ⪰ 0, Φ = P A_l − Γ_l C_m, at every rate combination (certificate family S5d without region terms)"
+        ),
+    };
+    let mut used = vec![format!(
+        "the plant is LPV (every N_k and M_k is zero): the global observer, P ⪰ I and {family}, with no region, state bound or γ"
+    )];
     if model.has_region() {
         used.push("the model's region is not used".into());
     }
@@ -723,27 +727,37 @@ fn global_request(
     })
 }
 
-/// The summary of a global design: its verdict line, then every note.
+/// The summary of a global design: its verdict line (the discrete decrease
+/// per step at a sample period h), then every note.
 fn global_summary(
     feasible: bool,
-    alpha: f64,
+    (alpha, sample): (f64, Option<f64>),
     status: Status,
     failed: &[String],
     norms: &[f64],
     notes: &Notes,
 ) -> String {
     let max_norm = norms.iter().copied().fold(0.0, f64::max);
-    let head = if feasible {
-        format!(
+    let head = match (feasible, sample) {
+        (true, None) => format!(
             "CERTIFIED, GLOBAL (LPV plant: P ≻ 0 and G5): V' ≤ −αV with α = {alpha:.6} for every e(0) and every θ(t) in the box; max ‖L_l‖₂ = {max_norm:.4}."
-        )
-    } else {
-        let failed = if failed.is_empty() {
-            String::new()
-        } else {
-            format!("; failed: {}", failed.join(", "))
-        };
-        format!("NOT CERTIFIED, GLOBAL (LPV plant) at α = {alpha:.6}: solver {status}{failed}.")
+        ),
+        (true, Some(h)) => format!(
+            "CERTIFIED, GLOBAL at {} (LPV plant: P ≻ 0 and the discrete decrease S5d): the Euler-stepped observer has V(e_(k+1)) ≤ (1 − hα)V(e_k) = {:.6}·V(e_k) with α = {alpha:.6} per second for every e(0) and every θ_k in the box; max ‖L_l‖₂ = {max_norm:.4}.",
+            crate::certificate::sampling::describe_period(h),
+            1.0 - h * alpha
+        ),
+        (false, _) => {
+            let failed = if failed.is_empty() {
+                String::new()
+            } else {
+                format!("; failed: {}", failed.join(", "))
+            };
+            let at = sample
+                .map(|h| format!(" at {}", crate::certificate::sampling::describe_period(h)))
+                .unwrap_or_default();
+            format!("NOT CERTIFIED, GLOBAL (LPV plant){at} at α = {alpha:.6}: solver {status}{failed}.")
+        }
     };
     let mut s = head;
     append_notes(&mut s, notes);
@@ -1008,7 +1022,10 @@ impl Ctx<'_, '_> {
         }
         let norms = &d.gain_norms;
         d.summary = match setup.global {
-            true => global_summary(feasible, at.alpha, fin.status, &failed, norms, &notes),
+            true => {
+                let at = (at.alpha, request.sample);
+                global_summary(feasible, at, fin.status, &failed, norms, &notes)
+            }
             false => {
                 let at = (at.alpha, at.gamma, request.sample);
                 summary(mode, feasible, at, fin.status, &failed, norms, &notes)
