@@ -562,33 +562,18 @@ fn main() {
             "peak MiB",
             "peak max"
         );
-        let nxs = if given.is_empty() {
-            vec![6, 8, 10, 12, 16]
-        } else {
-            given.clone()
-        };
-        for nx in nxs {
+        for nx in sizes_or(&given, &[6, 8, 10, 12, 16]) {
             child(if fixed { "fixed" } else { "scale" }, nx);
         }
     }
     if profile {
-        let nxs = if given.is_empty() {
-            vec![10]
-        } else {
-            given.clone()
-        };
-        for nx in nxs {
+        for nx in sizes_or(&given, &[10]) {
             child("profile", nx);
         }
     }
     if compare {
         println!("bench cube_scale (compare): the fixed cube design against the reference formulation of the same relaxation, same settings");
-        let nxs = if given.is_empty() {
-            vec![10, 12]
-        } else {
-            given.clone()
-        };
-        for nx in nxs {
+        for nx in sizes_or(&given, &[10, 12]) {
             child("compare", nx);
         }
     }
@@ -598,12 +583,7 @@ fn main() {
             "{:>3} {:>6} {:>8} {:>7} {:>9} | {:>8} {:>7} {:>9} | {:>6} {:>6}  families (conditions)",
             "nx", "verts", "wall s", "cpu s", "certified", "check s", "cpu s", "passes", "wall ×", "cpu ×"
         );
-        let nxs = if given.is_empty() {
-            vec![10]
-        } else {
-            given.clone()
-        };
-        for nx in nxs {
+        for nx in sizes_or(&given, &[10]) {
             child("check", nx);
         }
     }
@@ -613,13 +593,17 @@ fn main() {
             "{:>11} {:>6} {:>9} {:>7} {:>9} {:>7} {:>9} {:>7} {:>8}",
             "model", "γ", "full α", "s", "dec α", "s", "cube α", "s", "loss"
         );
-        let nxs = if given.is_empty() {
-            vec![0, 3, 4, 5, 6, 7, 8]
-        } else {
-            given
-        };
-        for nx in nxs {
+        for nx in sizes_or(&given, &[0, 3, 4, 5, 6, 7, 8]) {
             child("loss", nx);
         }
+    }
+}
+
+/// The sizes given on the command line, or `default` when none were.
+fn sizes_or(given: &[usize], default: &[usize]) -> Vec<usize> {
+    if given.is_empty() {
+        default.to_vec()
+    } else {
+        given.to_vec()
     }
 }

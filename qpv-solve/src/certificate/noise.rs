@@ -236,15 +236,9 @@ pub fn check_noise(
                 };
                 let margin = -lmax;
                 let guard = 32.0 * f64::EPSILON * (n as f64 + 1.0) * m.norm();
-                out.count += 1;
-                if margin.is_nan() || margin <= guard {
-                    out.passed = false;
-                }
-                if out.count == 1 || margin.is_nan() || margin < out.margin {
-                    out.margin = if margin.is_nan() { -f64::MAX } else { margin };
-                    out.guard = guard;
-                    out.worst_at = format!("{} i={} j={}", combo.label(double), i + 1, j + 1);
-                }
+                out.record(margin, guard, || {
+                    format!("{} i={} j={}", combo.label(double), i + 1, j + 1)
+                });
             }
         }
     }
@@ -357,6 +351,23 @@ pub struct NoiseCheck {
     pub worst_at: String,
     /// Number of blocks checked.
     pub count: usize,
+}
+
+impl NoiseCheck {
+    /// Counts one block of margin `margin` (NaN fails) against its
+    /// floating-point `guard`, keeping it (and where it is, `at`) if it is
+    /// the worst so far.
+    pub(crate) fn record(&mut self, margin: f64, guard: f64, at: impl FnOnce() -> String) {
+        self.count += 1;
+        if margin.is_nan() || margin <= guard {
+            self.passed = false;
+        }
+        if self.count == 1 || margin.is_nan() || margin < self.margin {
+            self.margin = if margin.is_nan() { -f64::MAX } else { margin };
+            self.guard = guard;
+            self.worst_at = at();
+        }
+    }
 }
 
 /// The certified noise bound of a design (the report's `noise` key).

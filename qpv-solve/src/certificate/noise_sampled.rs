@@ -212,15 +212,7 @@ impl SampledNoise<'_> {
             };
             let size = b.size + (b.w * sigma).abs() * (b.k as f64).sqrt();
             let guard = 32.0 * f64::EPSILON * (n as f64 + 1.0) * (size + b.m.norm());
-            out.count += 1;
-            if margin.is_nan() || margin <= guard {
-                out.passed = false;
-            }
-            if out.count == 1 || margin.is_nan() || margin < out.margin {
-                out.margin = if margin.is_nan() { -f64::MAX } else { margin };
-                out.guard = guard;
-                out.worst_at = label;
-            }
+            out.record(margin, guard, || label);
         }
         out.passed &= out.count > 0;
         out

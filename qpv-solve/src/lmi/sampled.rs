@@ -69,6 +69,18 @@ impl Problem<'_> {
         t / (1.0 + t)
     }
 
+    /// The margin δ of a discrete block, in the block's units, for the
+    /// rate margin `eps` = εκ: δ = (eps/κ)·c with c the margin factor
+    /// (0 where κ is 0).
+    fn sampled_margin(&self, eps: f64, alpha: f64, gamma: f64, h: f64) -> f64 {
+        let kappa = self.rate_scale(alpha, gamma);
+        if kappa > 0.0 {
+            eps / kappa * self.sampled_factor(alpha, gamma, h)
+        } else {
+            0.0
+        }
+    }
+
     /// The discrete family: one PSD(2nx) block per (combination, i, j).
     pub(super) fn push_rate_sampled(
         &self,
@@ -83,11 +95,7 @@ impl Problem<'_> {
         let kappa = self.rate_scale(alpha, gamma);
         let c = self.sampled_factor(alpha, gamma, h);
         // rate.eps is ε κ (0 for the max-margin objective).
-        let delta = if kappa > 0.0 {
-            rate.eps / kappa * c
-        } else {
-            0.0
-        };
+        let delta = self.sampled_margin(rate.eps, alpha, gamma, h);
         let p_reg = self.xs_hat.len();
         let mut dm = DMatrix::<f64>::zeros(d, d);
         for ci in 0..self.combos.len() {
@@ -205,13 +213,7 @@ impl Problem<'_> {
         let k = nw + outs.len();
         let d = 2 * nx + k;
         let (x2, sh) = (nx + k, h.sqrt());
-        let kappa = self.rate_scale(alpha, gamma);
-        let c = self.sampled_factor(alpha, gamma, h);
-        let delta = if kappa > 0.0 {
-            fam.eps / kappa * c
-        } else {
-            0.0
-        };
+        let delta = self.sampled_margin(fam.eps, alpha, gamma, h);
         let p_reg = self.xs_hat.len();
         let mut dm = DMatrix::<f64>::zeros(d, d);
         for ci in 0..self.combos.len() {
