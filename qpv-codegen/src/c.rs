@@ -508,7 +508,7 @@ impl<'a> Ctx<'a> {
             ),
             (
                 "MAX_NOISE_AMPLITUDE",
-                "noise amplitude up to which the bounds apply (0: none)",
+                "noise amplitude up to which the bounds apply (0: none; infinite: every amplitude, global observer)",
             ),
         ];
         for (k, doc) in scalars {
@@ -647,6 +647,7 @@ impl<'a> Ctx<'a> {
         let finite = |v: Option<f64>| matches!(v, Some(x) if x.is_finite());
         let infinite = !finite(f.sigma)
             || !finite(f.error_bound)
+            || f.max_amplitude == Some(f64::INFINITY)
             || (self.cm.float == Float::F32 && !(finite(f.f32_floor) && f.f32_euler.is_some()));
         let mut s = String::new();
         let _ = writeln!(
@@ -677,7 +678,14 @@ impl<'a> Ctx<'a> {
             ("STEP_ESTIMATE_RK4", self.fig(f.rk4, &zero)),
             ("NOISE_SIGMA", self.fig(f.sigma, inf)),
             ("ERROR_BOUND_PER_NOISE", self.fig(f.error_bound, inf)),
-            ("MAX_NOISE_AMPLITUDE", self.fig(f.max_amplitude, &zero)),
+            (
+                "MAX_NOISE_AMPLITUDE",
+                match f.max_amplitude {
+                    // Unlimited: the global observer's claim holds for every e.
+                    Some(x) if x == f64::INFINITY => inf.to_string(),
+                    other => self.fig(other, &zero),
+                },
+            ),
         ];
         let mut s = String::new();
         for (k, v) in values {

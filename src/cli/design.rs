@@ -578,7 +578,12 @@ pub(super) fn describe_noise(d: &Design) -> String {
             "V' + alpha V <= sigma (|v|^2 + |w|^2)"
         };
         s.push_str(&format!(
-            "  noise (certified, {claim} on the region; noisy outputs: {}{}):\n",
+            "  noise (certified, {claim} {}; noisy outputs: {}{}):\n",
+            if d.global {
+                "for every e (global)"
+            } else {
+                "on the region"
+            },
             if nb.noisy_outputs.is_empty() {
                 "none".to_string()
             } else {
@@ -595,10 +600,13 @@ pub(super) fn describe_noise(d: &Design) -> String {
             "    ||e(inf)|| per unit noise amplitude <= {:.4}\n",
             nb.error_bound
         ));
-        s.push_str(&format!(
-            "    nu_max (largest noise amplitude keeping the region invariant) = {:.4e}\n",
-            nb.max_amplitude
-        ));
+        s.push_str(&match nb.max_amplitude.is_finite() {
+            true => format!(
+                "    nu_max (largest noise amplitude keeping the region invariant) = {:.4e}\n",
+                nb.max_amplitude
+            ),
+            false => "    nu_max: unlimited (the global observer's claim holds for every e)\n".into(),
+        });
         let per: Vec<String> = nb.per_state.iter().map(|v| format!("{v:.4}")).collect();
         s.push_str(&format!(
             "    per-state |e_k(inf)| per unit noise <= [{}]\n",

@@ -45,6 +45,7 @@
 use crate::certificate::combo_lmi;
 use crate::conditions::{rate_combos, Combo};
 use crate::model::noise::NoiseChannels;
+use crate::model::StateScaling;
 use crate::vocab::Candidate;
 use nalgebra::DMatrix;
 use qpv_dsl::{Mode, PolytopicModel};
@@ -139,8 +140,59 @@ pub fn sigma_min_for(
 
 /// σ for these (P, Γ_l) with the margin the independent check needs:
 /// [`sigma_min_for`] times (1 + δ), δ = 1e-6 raised tenfold (to 1e-2 at
-/// most) until [`check_noise`] passes; `None` if it never does.
+/// most) until [`check_noise`] passes; `None` if it never does. A global
+/// observer's blocks are checked in balanced coordinates
+/// ([`BalancedGlobal`]) and, failing that, in the model's own (the two are
+/// exactly congruent: either check proves the claim).
 pub fn sigma_for(
+    model: &PolytopicModel,
+    channels: &NoiseChannels,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+) -> Option<(f64, NoiseCheck)> {
+    BalancedGlobal::of(model, channels, p, gammas)
+        .and_then(|z| sigma_for_plain(&z.model, &z.channels, alpha, gamma, &z.p, &z.gammas))
+        .or_else(|| sigma_for_plain(model, channels, alpha, gamma, p, gammas))
+}
+
+/// The global observer's noise check in balanced coordinates: its P may
+/// span many orders of magnitude (docs/method.md §17, "Units"), and the
+/// eigenvalues of the block are read in z = D⁻¹x with D from P
+/// ([`StateScaling::of_p`], powers of two): the block there is
+/// diag(D, I)·block·diag(D, I), exactly, so its sign (and σ) is the same.
+pub(crate) struct BalancedGlobal {
+    pub(crate) model: PolytopicModel,
+    pub(crate) channels: NoiseChannels,
+    pub(crate) p: DMatrix<f64>,
+    pub(crate) gammas: Vec<DMatrix<f64>>,
+}
+
+impl BalancedGlobal {
+    /// The balanced inputs, if `model` is a global observer's model and
+    /// P balances exactly (None: check in the model's own coordinates).
+    pub(crate) fn of(
+        model: &PolytopicModel,
+        channels: &NoiseChannels,
+        p: &DMatrix<f64>,
+        gammas: &[DMatrix<f64>],
+    ) -> Option<BalancedGlobal> {
+        if !is_global_model(model) || p.shape() != (model.nx(), model.nx()) {
+            return None;
+        }
+        let s = StateScaling::of_p(p)?;
+        Some(BalancedGlobal {
+            model: s.model(model)?,
+            channels: channels.in_z(&s),
+            p: s.p_to_z(p)?,
+            gammas: gammas.iter().map(|g| s.gamma_to_z(g)).collect::<Option<_>>()?,
+        })
+    }
+}
+
+/// [`sigma_for`] in the coordinates given.
+fn sigma_for_plain(
     model: &PolytopicModel,
     channels: &NoiseChannels,
     alpha: f64,
@@ -207,7 +259,7 @@ pub fn check_noise(
     {
         return fail("P or the gains do not fit the model".into());
     }
-    if !(sigma.is_finite() && sigma > 0.0 && alpha.is_finite() && gamma > 0.0 && gamma < 1.0) {
+    if !(sigma.is_finite() && sigma > 0.0 && alpha.is_finite() && gamma_in_range(model, gamma)) {
         return fail(format!(
             "σ = {sigma}, α = {alpha}, γ = {gamma} out of range"
         ));
@@ -246,6 +298,25 @@ pub fn check_noise(
     out
 }
 
+/// Whether γ is a γ of a noise claim on `model`: in (0, 1), or exactly 1 on
+/// the global observer's model of an LPV plant (its blocks carry no region
+/// terms, docs/method.md §17).
+pub(crate) fn gamma_in_range(model: &PolytopicModel, gamma: f64) -> bool {
+    gamma > 0.0 && (gamma < 1.0 || (is_global_model(model) && gamma == 1.0))
+}
+
+/// Whether `model` is the global observer's model of an LPV plant
+/// ([`crate::model::global_model`]: no N_k or M_k, the region the point
+/// {0}): its noise claim holds for every e, so no amplitude limits it.
+fn is_global_model(model: &PolytopicModel) -> bool {
+    model.is_lpv()
+        && model
+            .region
+            .vertices
+            .iter()
+            .all(|v| v.iter().all(|&c| c == 0.0))
+}
+
 /// The noise bound of a design with Lyapunov matrix `p` and gains L_l
 /// (Γ_l = P L_l recomputed): σ from [`sigma_for`] (checked by
 /// [`check_noise`]) and the derived amplitudes. `None` if the block LMI
@@ -282,7 +353,11 @@ pub(crate) fn bound_from(
     }
     Some(NoiseBound {
         sigma,
-        max_amplitude: (alpha / sigma).sqrt(),
+        max_amplitude: if is_global_model(model) {
+            f64::INFINITY
+        } else {
+            (alpha / sigma).sqrt()
+        },
         error_bound: (sigma / (alpha * lmin)).sqrt(),
         per_state: (0..p.nrows())
             .map(|k| (sigma * pinv[(k, k)] / alpha).sqrt())
@@ -376,6 +451,9 @@ pub struct NoiseBound {
     /// σ of V' + αV ≤ σ(|w|² + |v|²), checked by [`check_noise`].
     pub sigma: f64,
     /// ν_max = √(α/σ): up to this noise amplitude E stays invariant.
+    /// Unlimited (∞, `null` in a report) for the global observer of an LPV
+    /// plant, whose claim holds for every e (docs/method.md §17).
+    #[serde(with = "unlimited")]
     pub max_amplitude: f64,
     /// ‖e(∞)‖ per unit noise amplitude: √(σ/(α λ_min(P))).
     pub error_bound: f64,
@@ -387,4 +465,22 @@ pub struct NoiseBound {
     pub disturbances: usize,
     /// The independent check of the block LMI at `sigma`.
     pub check: NoiseCheck,
+}
+
+/// Serde of an amplitude that may be unlimited: ∞ is written `null` (JSON
+/// has no infinity) and read back from it.
+mod unlimited {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if v.is_infinite() && *v > 0.0 {
+            s.serialize_none()
+        } else {
+            s.serialize_some(v)
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::INFINITY))
+    }
 }

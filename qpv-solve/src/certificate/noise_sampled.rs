@@ -27,7 +27,7 @@
 //! figures are those of the continuous claim: V_k ≤ (1 − hα)^k V_0 +
 //! (σν²/α)(1 − (1 − hα)^k), {V ≤ 1} invariant for ν ≤ √(α/σ).
 
-use super::noise::{bound_from, NoiseBound, NoiseCheck};
+use super::noise::{bound_from, BalancedGlobal, NoiseBound, NoiseCheck};
 use super::sampled::block;
 use super::Terms;
 use crate::conditions::{rate_combos, Combo};
@@ -73,7 +73,8 @@ impl SampledNoise<'_> {
             return Err("P or the gains do not fit the model".into());
         }
         let (a, g, h) = (self.alpha, self.gamma, self.h);
-        if !(a.is_finite() && a > 0.0 && g > 0.0 && g < 1.0 && h > 0.0 && h * a < 1.0) {
+        let g_ok = super::noise::gamma_in_range(m, g);
+        if !(a.is_finite() && a > 0.0 && g_ok && h > 0.0 && h * a < 1.0) {
             return Err(format!("α = {a}, γ = {g}, h = {h} out of range"));
         }
         Ok(())
@@ -222,6 +223,26 @@ impl SampledNoise<'_> {
     /// [`SampledNoise::sigma_min`] times (1 + δ), δ = 1e-6 raised tenfold
     /// (to 1e-2 at most) until [`SampledNoise::check`] passes.
     pub fn sigma_for(
+        &self,
+        p: &DMatrix<f64>,
+        gammas: &[DMatrix<f64>],
+    ) -> Option<(f64, NoiseCheck)> {
+        // A global observer's blocks in balanced coordinates, exactly
+        // congruent (certificate::noise::BalancedGlobal), else as given.
+        BalancedGlobal::of(self.model, self.channels, p, gammas)
+            .and_then(|z| {
+                let zs = SampledNoise {
+                    model: &z.model,
+                    channels: &z.channels,
+                    ..*self
+                };
+                zs.sigma_for_plain(&z.p, &z.gammas)
+            })
+            .or_else(|| self.sigma_for_plain(p, gammas))
+    }
+
+    /// [`SampledNoise::sigma_for`] in the coordinates given.
+    fn sigma_for_plain(
         &self,
         p: &DMatrix<f64>,
         gammas: &[DMatrix<f64>],

@@ -749,7 +749,9 @@ impl<'m> Problem<'m> {
         let mut out = self.builder(max_margin, min_gain);
         debug_assert_eq!(out.n_vars(), n);
         let sigma = matches!(family, RateFamily::Noise(_)).then(|| out.var("sigma"));
-        if self.global {
+        if self.global && sigma.is_some() {
+            self.push_global_noise_normalisation(&mut out);
+        } else if self.global {
             self.push_global_normalisation(&mut out, eps, max_margin);
         } else {
             self.push_s1(&mut out, eps);
@@ -887,6 +889,23 @@ impl<'m> Problem<'m> {
         // I − P̂ ⪰ 0: s = svec(I) − svec(P̂) ⇒ b = svec(I), A = svec(E_v).
         let blk = out.psd(self.nx, -1.0);
         self.push_sym_var(out, &blk, 0, 1.0);
+    }
+
+    /// The global observer's normalisation for the noise objective: P ⪰ cI
+    /// in the model's own coordinates (P̂_z ⪰ cD² in balanced ones, P =
+    /// D⁻¹P̂_zD⁻¹). The noise block is homogeneous in (P, Γ_l, σ), so with
+    /// λ_min(P) ≥ 1 the smallest σ is the smallest certified error bound
+    /// √(σ/(α λ_min(P))) per unit noise (docs/method.md §17).
+    fn push_global_noise_normalisation(&self, out: &mut SdpBuilder) {
+        let blk = out.psd(self.nx, 0.0);
+        self.push_sym_var(out, &blk, 0, -1.0);
+        // The blocks are homogeneous, so P ⪰ cI for any c > 0 gives the
+        // same smallest bound; c = 1/max_i d_i² keeps P̂_z ⪰ D²c ⪯ I.
+        let dmax = self.scaling.as_ref().map_or(1.0, |s| s.max());
+        for d in 0..self.nx {
+            let di = self.scaling.as_ref().map_or(1.0, |s| s.d[d]) / dmax;
+            out.rhs(&blk, d, d, -di * di / self.scale);
+        }
     }
 
     /// `max_gain = G`: P̂ − p̂I ⪰ 0, then [G'p̂ I_ny, Γ̂_lᵀ; Γ̂_l, G'p̂ I_nx] ⪰ 0

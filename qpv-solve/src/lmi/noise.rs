@@ -35,6 +35,10 @@ pub(crate) fn solve_noise_sdp(
     settings: &Settings,
 ) -> Result<NoiseSolve, SolveError> {
     let t0 = Instant::now();
+    // A problem posed in balanced coordinates (the global observer's,
+    // docs/method.md §17) gets its channels there too, and its point back.
+    let in_z = prob.scaling().map(|s| channels.in_z(s));
+    let channels = in_z.as_ref().unwrap_or(channels);
     let sdp = prob.assemble_family(
         (alpha, gamma),
         settings,
@@ -44,7 +48,13 @@ pub(crate) fn solve_noise_sdp(
     );
     let assembly_seconds = t0.elapsed().as_secs_f64();
     let run = run_sdp(sdp, clarabel_settings(settings))?;
-    let point = run.x.as_ref().map(|x| prob.unpack(&x[..prob.n_vars()]));
+    let point = run.x.as_ref().map(|x| {
+        let (p, g) = prob.unpack(&x[..prob.n_vars()]);
+        match prob.scaling() {
+            Some(s) => (s.p_from_z(&p), g.iter().map(|g| s.gamma_from_z(g)).collect()),
+            None => (p, g),
+        }
+    });
     Ok(NoiseSolve {
         status: run.status,
         detail: run.detail,

@@ -92,6 +92,20 @@ impl NoiseChannels {
         Ok(())
     }
 
+    /// The channels in balanced coordinates z = D⁻¹x
+    /// ([`crate::model::scaling::StateScaling`]): B_w,z = D⁻¹B_w (exact,
+    /// D is powers of two); the noisy outputs are unchanged (y = C D z).
+    pub(crate) fn in_z(&self, s: &crate::model::StateScaling) -> Self {
+        NoiseChannels {
+            outputs: self.outputs.clone(),
+            b_w: self.b_w.as_ref().map(|b| {
+                b.iter()
+                    .map(|bl| DMatrix::from_fn(bl.nrows(), bl.ncols(), |r, c| bl[(r, c)] / s.d[r]))
+                    .collect()
+            }),
+        }
+    }
+
     /// The channels of the observer model of an output-filter design: noise
     /// on output k enters the filter state k through the filter gain b (a
     /// process disturbance of the augmented plant, x_{y,k}' = −a x_{y,k} +

@@ -921,7 +921,7 @@ fn design_plain_with(
 /// `conditions = auto` chosen by size (crate::model::size::choose; a
 /// sampled design has the full vertex family only), the global observer's
 /// request ([`global_request`]) and its units ([`global_balance`]).
-fn prepare(
+pub(super) fn prepare(
     model: &PolytopicModel,
     request: &DesignRequest,
     settings: &Settings,

@@ -139,6 +139,23 @@ fn noise_request_alpha(request: &DesignRequest) -> Result<f64, SolveError> {
     Ok(alpha)
 }
 
+/// The note of an LPV plant's noise design: the global observer's blocks
+/// (no region terms, γ = 1), the claim for every e and every amplitude,
+/// and what of the model and the request it does not use.
+fn global_noise_note(model: &PolytopicModel, request: &DesignRequest) -> String {
+    let mut s = "the plant is LPV (every N_k and M_k is zero): the global observer's noise design, P ⪰ I and the noise block LMI without region terms at every rate combination; the claim holds for every e(0) and every noise amplitude (docs/method.md §17)".to_string();
+    if model.has_region() {
+        s.push_str("; the model's region is not used");
+    }
+    if !matches!(model.state_bound, qpv_dsl::StateBound::None) {
+        s.push_str("; its state bound is not used");
+    }
+    if let GammaSpec::Fixed(g) = request.gamma {
+        s.push_str(&format!("; γ = {g} is not used"));
+    }
+    s
+}
+
 /// The notes of a `noise = min` report: what was minimised, on which
 /// channels, and what of the request the noise SDP does not use.
 fn noise_notes(
@@ -157,6 +174,7 @@ fn noise_notes(
     let mut notes = vec![format!(
         "noise = min: σ of {claim} minimised at α = {alpha}{}; noise on {}{}",
         match request.gamma {
+            _ if crate::model::is_global(obs, request.mode) => String::new(),
             GammaSpec::Fixed(_) => String::new(),
             GammaSpec::Search => ", γ searched for the smallest error bound √(σ/(α λ_min(P))) (grid and golden section)".to_string(),
         },
@@ -228,7 +246,18 @@ fn noise_report(
     };
     let mut d = design_of(obs, &solved, shown, ctx.steps);
     let (gamma_r, max_gain) = (d.gamma, d.gain_norms.iter().copied().fold(0.0, f64::max));
+    let global = crate::model::is_global(obs, Mode::Sound);
+    d.global = global;
     let mut summary = match (&d.noise, request.sample) {
+        (Some(nb), Some(h)) if global => format!(
+            "CERTIFIED, GLOBAL at {} (LPV plant: P ≻ 0, the discrete decrease S5d and the discrete noise block LMI, no region terms): V(e_k+1) − (1 − hα)V(e_k) ≤ hσ(|w_k|² + |v_k|²) with α = {alpha:.6}, σ = {:.6e}, for every e(0), every θ_k in the box and every noise amplitude ν; lim sup ‖e_k‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
+            crate::certificate::sampling::describe_period(h),
+            nb.sigma, nb.error_bound
+        ),
+        (Some(nb), None) if global => format!(
+            "CERTIFIED, GLOBAL (LPV plant: P ≻ 0 and the noise block LMI, no region terms): V' + αV ≤ σ(|w|² + |v|²) with α = {alpha:.6}, σ = {:.6e}, for every e(0), every θ(t) in the box and every noise amplitude ν; ‖e(∞)‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
+            nb.sigma, nb.error_bound
+        ),
         (Some(nb), Some(h)) => format!(
             "CERTIFIED at {} (sound conditions S1-S3, the discrete decrease S5d and the discrete noise block LMI): V(e_k+1) − (1 − hα)V(e_k) ≤ hσ(|w_k|² + |v_k|²) with α = {alpha:.6}, γ = {gamma_r:.6}, σ = {:.6e}; E stays invariant for noise amplitude up to ν_max = {:.4e}; lim sup ‖e_k‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
             crate::certificate::sampling::describe_period(h),
@@ -268,32 +297,46 @@ pub(crate) fn design_noise_with_progress(
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
-    if crate::model::is_global(model, request.mode) {
-        return Err(SolveError::Unsupported(format!(
-            "model `{}`: noise = min is not built for an LPV plant, whose observer is the global one (docs/method.md §17); design with a fixed α or alpha = max",
-            model.name
-        )));
-    }
     let alpha = noise_request_alpha(request)?;
-    let prepared = ObserverModel::prepare(
-        model,
-        &ObserverOptions::for_request(request),
-        StateBoundClaim::Compute(settings),
-    )?;
-    let (bound_info, route_info) = (prepared.state_bound, prepared.output_route);
-    let obs: &PolytopicModel = &prepared.model;
+    // An LPV plant's noise design is the global observer's (docs/method.md
+    // §17): its model has the region {0}, γ is 1 and unused.
+    let global = crate::model::is_global(model, request.mode);
+    // The global observer's setup: its model (region {0}), its request
+    // (γ = 1, the full family) and its balanced units (pilot solves at α).
+    let global_setup = match global {
+        true => Some(super::driver::prepare(model, request, settings, None)?),
+        false => None,
+    };
+    let prepared = match global_setup {
+        Some(_) => None,
+        None => Some(ObserverModel::prepare(
+            model,
+            &ObserverOptions::for_request(request),
+            StateBoundClaim::Compute(settings),
+        )?),
+    };
+    let (obs, bound_info, route_info): (&PolytopicModel, _, _) = match (&global_setup, &prepared) {
+        (Some((_, setup, _)), _) => (&setup.model, &setup.bound_info, &setup.route_info),
+        (None, Some(p)) => (&p.model, &p.state_bound, &p.output_route),
+        (None, None) => return Err(SolveError::Unsupported("no observer model".into())),
+    };
+    let (bound_info, route_info) = (bound_info.clone(), route_info.clone());
     channels.validate(model)?;
     let ch = match &route_info.filter {
         Some(f) => channels.through_filter(model.nx(), model.ny(), model.nv(), f.gain),
         None => channels.clone(),
     };
     ch.validate(obs)?;
-    let gmax = crate::conditions::gamma_max(obs)
-        .ok_or_else(|| SolveError::MissingStateBound(obs.name.clone()))?;
-    if !(gmax.is_finite() && gmax > 0.0) && matches!(request.gamma, GammaSpec::Search) {
-        return Err(SolveError::NoGammaRange(gmax));
-    }
-    let gamma_hi = gmax.min(1.0) * (1.0 - 1e-6);
+    let gamma_hi = if global {
+        1.0
+    } else {
+        let gmax = crate::conditions::gamma_max(obs)
+            .ok_or_else(|| SolveError::MissingStateBound(obs.name.clone()))?;
+        if !(gmax.is_finite() && gmax > 0.0) && matches!(request.gamma, GammaSpec::Search) {
+            return Err(SolveError::NoGammaRange(gmax));
+        }
+        gmax.min(1.0) * (1.0 - 1e-6)
+    };
     if let Some(h) = request.sample {
         if h * alpha >= 1.0 {
             return Err(SolveError::Unsupported(format!(
@@ -301,7 +344,10 @@ pub(crate) fn design_noise_with_progress(
             )));
         }
     }
-    let prob = Problem::new(obs, ConditionSet::Sound)?.with_sample(request.sample)?;
+    let prob = match &global_setup {
+        Some((resolved, setup, _)) => setup.problem(resolved)?,
+        None => Problem::new(obs, ConditionSet::Sound)?.with_sample(request.sample)?,
+    };
     let mut ctx = Ctx::new(obs, Mode::Sound, settings, prob, progress);
     ctx.sample = request.sample;
     let mut search = NoiseSearch {
@@ -310,14 +356,38 @@ pub(crate) fn design_noise_with_progress(
         alpha,
         last_uncertified: None,
     };
+    let mut own_units = false;
     let (best, gamma_req) = match request.gamma {
+        _ if global => {
+            let mut best = search.at(1.0, Phase::Noise)?;
+            if best.is_none() && search.ctx.prob.scaling().is_some() {
+                // The units balanced by the rate pilots need not suit the
+                // noise design: once more in the model's own.
+                search.ctx.prob =
+                    Problem::new(obs, ConditionSet::Sound)?.with_sample(request.sample)?;
+                best = search.at(1.0, Phase::Noise)?;
+                own_units = true;
+            }
+            (best, 1.0)
+        }
         GammaSpec::Fixed(g) => (search.at(g, Phase::Noise)?, g),
         GammaSpec::Search => {
             let refine = settings.gamma_refine.max(2);
             (search.search(gamma_hi, refine)?, gamma_hi)
         }
     };
-    let notes = noise_notes(request, alpha, channels, &ch, obs, &route_info, &bound_info);
+    let mut notes = noise_notes(request, alpha, channels, &ch, obs, &route_info, &bound_info);
+    if let Some((_, _, setup_notes)) = &global_setup {
+        notes.insert(0, global_noise_note(model, request));
+        // The balanced units, if any (the global request's own note is
+        // replaced by the noise design's).
+        let units = setup_notes.iter().map(|n| n.to_string());
+        let units = units.filter(|n| n.starts_with("global observer in balanced units"));
+        match own_units {
+            false => notes.extend(units),
+            true => notes.push("the noise design in balanced units did not certify; solved again in the model's own units".into()),
+        }
+    }
     let mut d = noise_report(search, request, gamma_req, best, notes);
     d.state_bound = Some(bound_info);
     d.output_route = Some(route_info);

@@ -322,8 +322,12 @@ fn noise_constants(d: &CertifiedDesign) -> TokenStream {
     let f = &d.figures;
     let inf = quote!(::core::f64::INFINITY);
     let sigma = figure(f.sigma, inf.clone());
-    let bound = figure(f.error_bound, inf);
-    let amp = figure(f.max_amplitude, quote!(0.0));
+    let bound = figure(f.error_bound, inf.clone());
+    // Unlimited (the global observer's claim holds for every e) is ∞.
+    let amp = match f.max_amplitude {
+        Some(x) if x == f64::INFINITY => inf.clone(),
+        other => figure(other, quote!(0.0)),
+    };
     let euler = figure(f.euler.map(|e| e.0), quote!(0.0));
     let beta = figure(f.euler.map(|e| e.1), quote!(0.0));
     let rk4 = figure(f.rk4, quote!(0.0));
@@ -340,7 +344,8 @@ fn noise_constants(d: &CertifiedDesign) -> TokenStream {
         pub const ERROR_BOUND_PER_NOISE: f64 = #bound;
         /// ν_max = √(α/σ): up to this noise amplitude the certified set
         /// {eᵀPe ≤ 1} stays invariant, so the bounds above apply. Zero if
-        /// no bound could be certified.
+        /// no bound could be certified; infinite for the global observer of
+        /// an LPV plant, whose bounds hold for every e.
         pub const MAX_NOISE_AMPLITUDE: f64 = #amp;
         /// The certified largest explicit Euler step h: for every step
         /// dt ≤ h, V = eᵀPe contracts by at least (1 − dt·EULER_BETA) per
