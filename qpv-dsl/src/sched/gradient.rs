@@ -75,7 +75,11 @@ pub fn gradient_bound(
             let w = (hi - lo) / per as f64;
             let a = lo + w * k as f64;
             // the last piece ends exactly at hi
-            let z = if k + 1 == per { hi } else { lo + w * (k + 1) as f64 };
+            let z = if k + 1 == per {
+                hi
+            } else {
+                lo + w * (k + 1) as f64
+            };
             b[d] = (a, z);
         }
         let g = enclose_gradient(e, &b, names)?;
@@ -175,13 +179,7 @@ fn product(
 }
 
 /// An enclosure of f′ on the argument's enclosure `w` (`v` encloses f(w)).
-fn derivative(
-    f: Func,
-    w: Iv,
-    v: Iv,
-    arg: &SchedExpr,
-    names: &[String],
-) -> Result<Iv, Undefined> {
+fn derivative(f: Func, w: Iv, v: Iv, arg: &SchedExpr, names: &[String]) -> Result<Iv, Undefined> {
     let one = Iv::point(1.0);
     Ok(match f {
         Func::Sqrt => {
@@ -259,17 +257,29 @@ mod tests {
                 (false, num(3.0)),
                 (
                     false,
-                    call(Func::Exp, Neg(Box::new(prod(vec![(false, num(2.0)), (true, p(0))])))),
+                    call(
+                        Func::Exp,
+                        Neg(Box::new(prod(vec![(false, num(2.0)), (true, p(0))]))),
+                    ),
                 ),
             ]),
             // 1/(4 − a b) and (a + b)/(3 + a²)
             prod(vec![
                 (false, num(1.0)),
-                (true, sum(vec![(false, num(4.0)), (true, prod(vec![(false, p(0)), (false, p(1))]))])),
+                (
+                    true,
+                    sum(vec![
+                        (false, num(4.0)),
+                        (true, prod(vec![(false, p(0)), (false, p(1))])),
+                    ]),
+                ),
             ]),
             prod(vec![
                 (false, sum(vec![(false, p(0)), (false, p(1))])),
-                (true, sum(vec![(false, num(3.0)), (false, Pow(Box::new(p(0)), 2))])),
+                (
+                    true,
+                    sum(vec![(false, num(3.0)), (false, Pow(Box::new(p(0)), 2))]),
+                ),
             ]),
             Pow(Box::new(sum(vec![(false, p(1)), (true, p(0))])), 3),
             call(Func::Sqrt, sum(vec![(false, p(0)), (false, num(0.1))])),
@@ -284,7 +294,13 @@ mod tests {
                 "det".into(),
                 Box::new(sum(vec![
                     (false, num(1.0)),
-                    (true, prod(vec![(false, num(0.2)), (false, Pow(Box::new(call(Func::Cos, p(0))), 2))])),
+                    (
+                        true,
+                        prod(vec![
+                            (false, num(0.2)),
+                            (false, Pow(Box::new(call(Func::Cos, p(0))), 2)),
+                        ]),
+                    ),
                 ])),
             ),
         ]
@@ -326,7 +342,8 @@ mod tests {
                     );
                     let (plo, phi) = at.grad[i];
                     assert!(
-                        (phi - plo) <= 1e-9 * (1.0 + fd.abs()) && (0.5 * (plo + phi) - fd).abs() <= tol,
+                        (phi - plo) <= 1e-9 * (1.0 + fd.abs())
+                            && (0.5 * (plo + phi) - fd).abs() <= tol,
                         "case {c}, d/d{}: point enclosure [{plo}, {phi}] against {fd}",
                         names[i]
                     );
@@ -360,7 +377,12 @@ mod tests {
                     let at = enclose_gradient(e, &[(x[0], x[0]), (x[1], x[1])], &names).unwrap();
                     let d = at.grad[i].0.abs().max(at.grad[i].1.abs());
                     seen[i] = seen[i].max(d);
-                    assert!(d <= bound[i] * (1.0 + 1e-9), "case {c}: |d/d{}| = {d} > {}", names[i], bound[i]);
+                    assert!(
+                        d <= bound[i] * (1.0 + 1e-9),
+                        "case {c}: |d/d{}| = {d} > {}",
+                        names[i],
+                        bound[i]
+                    );
                 }
             }
             for i in 0..2 {

@@ -233,7 +233,10 @@ fn piece_boxes(model: &PolytopicModel) -> Result<(Vec<PieceBox>, bool), String> 
         None => vec![(whole_theta.as_slice(), whole_phi.as_slice())],
     };
     let names: Vec<String> = model.params.iter().map(|p| p.name.clone()).collect();
-    let mut used = model.scheduling.iter().fold(0u64, |m, &pi| m | (1u64 << pi));
+    let mut used = model
+        .scheduling
+        .iter()
+        .fold(0u64, |m, &pi| m | (1u64 << pi));
     let mut out = Vec::with_capacity(ranges.len());
     for (k, (theta, phi)) in ranges.into_iter().enumerate() {
         let mut widths = Vec::with_capacity(s);
@@ -256,7 +259,10 @@ fn piece_boxes(model: &PolytopicModel) -> Result<(Vec<PieceBox>, bool), String> 
                 continue;
             }
             let grad = qpv_dsl::sched::gradient_bound(&d.expr, theta, &names).map_err(|e| {
-                format!("the rate of the derived variable {} is not bounded: {e}", d.name)
+                format!(
+                    "the rate of the derived variable {} is not bounded: {e}",
+                    d.name
+                )
             })?;
             let r = model
                 .params
@@ -395,6 +401,7 @@ pub fn continuous_bound(
         ultimate_v_sqrt,
         ultimate_error: ultimate_v_sqrt / lmin.sqrt(),
         rates_declared,
+        global: false,
     })
 }
 
@@ -451,11 +458,7 @@ pub fn sampled_claim(model: &PolytopicModel, design: &Design, h: f64) -> Sampled
             "the gains are not certified at h = {h:e} (the discrete family fails at α = {alpha:.6})"
         ))
     } else {
-        match &obs {
-            Ok(obs) if obs.nx() == model.nx() => continuous_bound(obs, alpha, h, &p),
-            Ok(_) => Err("the output filter route: not computed for this route".into()),
-            Err(e) => Err(format!("observer's model: {e}")),
-        }
+        design_bound(model, design, alpha, h)
     };
     SampledClaim {
         h,
@@ -466,22 +469,64 @@ pub fn sampled_claim(model: &PolytopicModel, design: &Design, h: f64) -> Sampled
     }
 }
 
+/// Why the global observer of an LPV plant without a declared state bound
+/// gets no continuous-plant bound, and what to add.
+const GLOBAL_WITHOUT_Q: &str = "the global observer (LPV plant) needs no state bound, but the bound on the truncation error does: declare the plant's operating envelope with `state_bound Q = [...];` (x(t) stays in {xᵀQ⁻¹x ≤ 1}) to get one";
+
+/// The model the continuous-plant bound is computed on for `design`: its
+/// observer model, which carries the Q the design used (also a computed
+/// one, `state_bound auto`); for the global observer of an LPV plant, whose
+/// observer model has no state bound, that model with the plant's declared
+/// `state_bound` as the operating envelope the bound assumes x(t) stays in
+/// (docs/method.md §16). An error for the filter route and for a global
+/// observer without a declared Q.
+pub fn bound_model(model: &PolytopicModel, design: &Design) -> Result<PolytopicModel, String> {
+    let mut obs = design
+        .observer_model(model)
+        .map_err(|e| format!("observer's model: {e}"))?;
+    if obs.nx() != model.nx() {
+        return Err("the output filter route: not computed for this route".into());
+    }
+    if crate::model::is_global(model, design.mode) {
+        match &model.state_bound {
+            StateBound::Given(q) => obs.state_bound = StateBound::Given(q.clone()),
+            _ => return Err(GLOBAL_WITHOUT_Q.into()),
+        }
+    }
+    Ok(obs)
+}
+
+/// The continuous-plant bound of `design`'s P at (h, α) on
+/// [`bound_model`], marked `global` for the global observer (whose
+/// recursion holds for every e).
+fn design_bound(
+    model: &PolytopicModel,
+    design: &Design,
+    alpha: f64,
+    h: f64,
+) -> Result<ContinuousBound, String> {
+    let m = bound_model(model, design)?;
+    let mut b = continuous_bound(&m, alpha, h, &design.p_matrix())?;
+    b.global = crate::model::is_global(model, design.mode);
+    Ok(b)
+}
+
 /// Adds the continuous-plant bound to a certified sampled design's `sample`
 /// key, or a note saying why it is not computed.
 pub fn attach(model: &PolytopicModel, d: &mut Design) {
     let Some(h) = d.sample.map(|s| s.h) else {
         return;
     };
-    // The design's observer model carries the state bound it used (also
-    // a computed one, `state_bound auto`); the filter route's is larger.
-    let bound = match d.observer_model(model) {
-        Ok(obs) if obs.nx() == model.nx() => continuous_bound(&obs, d.alpha, h, &d.p_matrix()),
-        _ => continuous_bound(model, d.alpha, h, &d.p_matrix()),
-    };
+    let bound = design_bound(model, d, d.alpha, h);
     match bound {
         Ok(b) => {
             if let Some(s) = d.sample.as_mut() {
                 s.continuous_bound = Some(b);
+            }
+            if b.global {
+                d.notes.push(
+                    "sample = h: the continuous-plant bound takes the declared state_bound Q as the plant's operating envelope: it assumes x(t) stays in {xᵀQ⁻¹x ≤ 1} (the global observer's certificate itself needs no state bound)",
+                );
             }
         }
         Err(why) => d.notes.push(format!(
