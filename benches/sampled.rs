@@ -118,7 +118,7 @@ fn table(quick: bool) {
             file: "examples/arrhenius_reactor.qpv",
             edits: &[],
             gamma: 0.6,
-            hs: &[1e-3, 1e-2],
+            hs: &[1e-4, 1e-3, 1e-2],
             slow: false,
         },
         Case {
