@@ -199,6 +199,9 @@ fn boxes(model: &PolytopicModel) -> Result<Boxes, String> {
     Ok((x, u, rates))
 }
 
+/// A closed range (lo, hi).
+type Range = (f64, f64);
+
 /// One box of the polytopic model (the whole of it, or a piece of the
 /// cover): the vertices it owns, and per vertex coordinate (the scheduling
 /// parameters, then the derived variables, in the vertex order) the
@@ -224,7 +227,7 @@ fn piece_boxes(model: &PolytopicModel) -> Result<(Vec<PieceBox>, bool), String> 
     let s = ns + model.derived.len();
     let whole_theta: Vec<(f64, f64)> = model.params.iter().map(|p| (p.lo, p.hi)).collect();
     let whole_phi: Vec<(f64, f64)> = model.derived.iter().map(|d| (d.lo, d.hi)).collect();
-    let ranges: Vec<(&[(f64, f64)], &[(f64, f64)])> = match &model.cover {
+    let ranges: Vec<(&[Range], &[Range])> = match &model.cover {
         Some(c) => c
             .pieces
             .iter()
