@@ -449,9 +449,7 @@ pub fn sampled_claim(model: &PolytopicModel, design: &Design, h: f64) -> Sampled
     } else {
         design.alpha
     };
-    let mut at = design.clone();
-    at.alpha = alpha;
-    at.sample = Some(crate::certificate::sampling::SampleInfo::new(h, alpha));
+    let at = design.at_sample(h, alpha);
     let certificate = match &obs {
         Ok(obs) => at.recheck_on(obs),
         Err(_) => at.recheck(model),
