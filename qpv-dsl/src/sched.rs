@@ -12,6 +12,9 @@
 //! width of the sampled range) of the values sampled on the way.
 
 pub use crate::func::Func;
+
+mod gradient;
+pub use gradient::{enclose_gradient, gradient_bound, GradientEnclosure};
 use serde::Serialize;
 use std::fmt::Write as _;
 

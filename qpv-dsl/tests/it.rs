@@ -22,6 +22,7 @@ mod paper;
 mod poles;
 mod region;
 mod region_basic;
+mod sched_gradient;
 mod sched_range;
 mod soundness;
 mod syntax;

@@ -618,6 +618,21 @@ impl Design {
         })
     }
 
+    /// These gains as a claim at the sample period `h` and rate `alpha`
+    /// (the `sample` key set). The discrete decrease has no cube form, so
+    /// cube slacks are dropped and the claim is checked on the full vertex
+    /// family, which is the discrete certificate for any gains
+    /// (docs/method.md §16).
+    pub fn at_sample(&self, h: f64, alpha: f64) -> Design {
+        let mut d = self.clone();
+        d.alpha = alpha;
+        d.sample = Some(crate::certificate::sampling::SampleInfo::new(h, alpha));
+        if d.cube.take().is_some() {
+            d.conditions = Conditions::Full;
+        }
+        d
+    }
+
     /// The model this design's P and L_l belong to, built from the plant
     /// `model` by [`ObserverModel::prepare`]: for `state_bound auto` the Q
     /// this design claims, verified against `model` as it is now (a stale or

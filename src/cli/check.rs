@@ -241,7 +241,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
                     .into(),
             ));
         }
-        design.sample = Some(qpv_solve::certificate::sampling::SampleInfo::new(h, alpha));
+        design = design.at_sample(h, alpha);
     }
     let cert = recheck(&model, &design, gains)?;
     let code = match (cert.passed, mode) {

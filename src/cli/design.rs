@@ -379,7 +379,14 @@ pub(crate) fn continuous_line(
     let Some(b) = b else {
         return String::new();
     };
-    let verdict = if b.invariant {
+    let verdict = if b.global {
+        format!(
+            "the global observer's recursion holds for every e, and lim sup |e_k| <= {:.4e} (sqrt V <= {:.4e}; {:.4e} per unit h)",
+            b.ultimate_error,
+            b.ultimate_v_sqrt,
+            b.ultimate_error / h
+        )
+    } else if b.invariant {
         format!(
             "the certified set stays invariant and lim sup |e_k| <= {:.4e} (sqrt V <= {:.4e}; {:.4e} per unit h)",
             b.ultimate_error,

@@ -110,7 +110,7 @@ fn describe(c: &SampledCheck) -> String {
             (1.0 - cl.h * cl.alpha).sqrt(),
             b.ultimate_v_sqrt,
             b.ultimate_error,
-            if b.invariant { "" } else { "; delta > 1 - rho: the certified set is NOT shown invariant, no bound holds" },
+            if b.holds() { "" } else { "; delta > 1 - rho: the certified set is NOT shown invariant, no bound holds" },
             b.assumption()
         )),
         Err(why) if cl.certificate.passed => s.push_str(&format!(
@@ -122,7 +122,7 @@ fn describe(c: &SampledCheck) -> String {
         "{} samples: sqrt V(e_0) = {:.4e}{}, ||e|| at the end = {:.4e}\n",
         c.samples,
         c.v0_sqrt,
-        if c.v0_sqrt > 1.0 {
+        if c.v0_sqrt > 1.0 && !cl.bound.as_ref().is_ok_and(|b| b.global) {
             " (> 1: e(0) outside the certified set, the bound is not a guarantee for this run)"
         } else {
             ""
@@ -144,7 +144,7 @@ fn describe(c: &SampledCheck) -> String {
             "warning: {name} moves faster than its declared rate at t = {t:.4} (slope {slope:.4e}); the bound assumes it does not\n"
         ));
     }
-    if cl.bound.as_ref().is_ok_and(|b| b.invariant) {
+    if cl.bound.as_ref().is_ok_and(|b| b.holds()) {
         match c.exceeded {
             Some((t, r)) => s.push_str(&format!(
                 "the error LEAVES the certified bound at t = {t:.4} (up to {r:.4} times the bound)\n"

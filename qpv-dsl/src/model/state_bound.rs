@@ -57,7 +57,8 @@ impl Builder<'_> {
         if lpv {
             self.warnings.push(Warning {
                 message: "the plant is LPV (every N_k and M_k is zero): its observer is global, \
-                          so the state bound is not used by the design"
+                          so the state bound is not used by the design (a `sample = h` design \
+                          takes it as the operating envelope of its continuous-plant bound)"
                     .into(),
                 span,
             });

@@ -14,7 +14,7 @@
 //! model and the gains ([`crate::report::continuous::sampled_claim`]).
 
 use crate::analysis::simulate::{check_gains, check_model, Frozen, Scenario, SimError, MAX_STEPS};
-use crate::report::continuous::{sampled_claim, SampledClaim};
+use crate::report::continuous::{bound_model, sampled_claim, SampledClaim};
 use crate::report::Design;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{PolytopicModel, StateBound};
@@ -335,8 +335,9 @@ impl SampledCheck {
     /// certified, bound computed and invariant, e(0) in {V ≤ 1}, x in F,
     /// θ in Θ, and √V(e_k) above b_k (or the run diverged).
     pub fn violated(&self) -> bool {
-        let premises = self.claim.bound.as_ref().is_ok_and(|b| b.invariant)
-            && self.v0_sqrt <= 1.0
+        let bound = self.claim.bound.as_ref().ok();
+        let premises = bound.is_some_and(|b| b.holds())
+            && (self.v0_sqrt <= 1.0 || bound.is_some_and(|b| b.global))
             && self.left_f.is_none()
             && self.left_theta.is_none()
             && self.rate_exceeded.is_none();
@@ -401,7 +402,10 @@ pub fn check_sampled_run(
         diverged_at: None,
     };
     rec.bound = out.v0_sqrt;
-    let mut premises = Premises::of(&obs, run);
+    // x is checked against the Q the bound assumes (for the global
+    // observer, the plant's declared operating envelope).
+    let envelope = bound_model(model, design).unwrap_or_else(|_| obs.clone());
+    let mut premises = Premises::of(&envelope, run);
     let mut each = |r: &SampledRow<'_>| {
         premises.see(r, &mut out);
         if r.sample {

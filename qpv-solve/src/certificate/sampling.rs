@@ -385,9 +385,20 @@ pub struct ContinuousBound {
     /// True if every scheduling parameter and every input declares a
     /// `rate`; false: those without one are assumed constant over each step.
     pub rates_declared: bool,
+    /// True for the global observer of an LPV plant: its discrete decrease
+    /// holds for every e, so the recursion, and the ultimate bound, hold
+    /// from any e(0) without δ ≤ 1 − ρ (docs/method.md §16).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub global: bool,
 }
 
 impl ContinuousBound {
+    /// Whether the ultimate bound holds: δ ≤ 1 − ρ (the certified set stays
+    /// invariant), or the global observer, whose recursion holds for every e.
+    pub fn holds(&self) -> bool {
+        self.invariant || self.global
+    }
+
     /// The assumptions behind the bound, in words.
     pub fn assumption(&self) -> &'static str {
         if self.rates_declared {

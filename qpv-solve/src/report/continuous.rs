@@ -19,15 +19,39 @@
 //! bound), ‖e‖ ≤ ‖e‖_P / √λ_min(P).
 //!
 //! ẍ = f_x f + B(θ) u̇ + Σ_i ∂f/∂θ_i θ̇_i (f = f(x, u, θ)). On the polytopic
-//! model f(x, θ) = Σ_l μ_l(θ) f_l(x) exactly (multi-affine in θ, no derived
-//! scheduling variables, no cover), with f_l(x, u) = A_l x + (xᵀN_{l,k}x)_k + B_l u:
-//! f_x f = Σ_{l,m} μ_l μ_m J_l(x) f_m(x) lies in the hull of the J_l f_m,
-//! and ∂f/∂θ_i lies in the hull of (f_{l+} − f_{l−})/(hi_i − lo_i) over the
-//! edges of the box along θ_i. Each is bounded by interval arithmetic on
-//! the bounding box of F = {xᵀQ⁻¹x ≤ 1}, |x_i| ≤ √Q_ii, and the inputs'
-//! declared ranges; B(θ)u̇ lies in the hull of the B_l u̇ with |u̇_j| ≤ its
-//! declared rate. A parameter or an input without a declared `rate` is
-//! assumed constant over each step (its term is 0).
+//! model f(x, u, θ) = Σ_l μ_l(θ) f_l(x, u) exactly, with
+//! f_l(x, u) = A_l x + (xᵀN_{l,k}x)_k + B_l u: f_x f = Σ_{l,m} μ_l μ_m J_l(x) f_m(x)
+//! lies in the hull of the J_l f_m over the pairs (l, m) of one box (with a
+//! cover μ is zero outside the piece that holds θ). Each is bounded by
+//! interval arithmetic on the bounding box of F = {xᵀQ⁻¹x ≤ 1},
+//! |x_i| ≤ √Q_ii, and the inputs' declared ranges; B(θ)u̇ lies in the hull
+//! of the B_l u̇ with |u̇_j| ≤ its declared rate. A parameter or an input
+//! without a declared `rate` is assumed constant over each step (its term
+//! is 0).
+//!
+//! *The θ-derivative, with derived scheduling variables and a cover.* The
+//! vertices are the corners of a box in the coordinates c = (θ_s, φ)
+//! (scheduling parameters, then derived variables φ_j(θ); with a cover, one
+//! such box per piece), and f = F(x, u, c(θ)) with F multi-affine in c and
+//! c(θ) = (θ_s, φ(θ)) inside the box. The box holds points (θ, φ) no θ
+//! produces — the polytopic form over-approximates the plant — but every
+//! bound here is a hull over the box, which contains the actual point, so
+//! it stays a bound for the plant. Along a trajectory
+//! d/dt f(x, u, θ) = f_x ẋ + f_u u̇ + Σ_c ∂F/∂c ċ; ∂F/∂c at any point of
+//! the box is a convex combination of the edge differences
+//! (f_{l+} − f_{l−})/(width of c) along c (formed coefficient by
+//! coefficient, then enclosed on X × U). For a parameter ċ = θ̇_i; for a
+//! derived variable φ̇_j = Σ_i ∂φ_j/∂θ_i θ̇_i, so
+//! |φ̇_j| ≤ Σ_i sup|∂φ_j/∂θ_i| |θ̇_i| with the supremum over the box's θ
+//! range enclosed by interval arithmetic on φ_j's expression tree
+//! ([`qpv_dsl::sched::gradient_bound`]; φ depends on θ only, never on x:
+//! a state inside a function is outside the model class). A parameter held
+//! over the step contributes nothing, and φ_j is held when all of its
+//! parameters are. With a cover, θ(t) lies in one piece at each instant and
+//! f (the plant itself, exact on every piece) is continuous across the
+//! breakpoints, so ẋ stays absolutely continuous and the largest bound over
+//! the pieces bounds ẍ almost everywhere, which is all the truncation
+//! integral needs.
 
 use crate::report::Design;
 use nalgebra::DMatrix;
@@ -46,9 +70,6 @@ impl Iv {
     fn add(self, o: Iv) -> Iv {
         Iv(self.0 + o.0, self.1 + o.1)
     }
-    fn sub(self, o: Iv) -> Iv {
-        Iv(self.0 - o.1, self.1 - o.0)
-    }
     fn mul(self, o: Iv) -> Iv {
         let c = [self.0 * o.0, self.0 * o.1, self.1 * o.0, self.1 * o.1];
         Iv(
@@ -66,7 +87,30 @@ impl Iv {
 
 /// f_l(X, U) componentwise: A_l x + (xᵀN_{l,k}x)_k + B_l u on the box X × U.
 fn f_iv(v: &qpv_dsl::Vertex, x: &[Iv], u: &[Iv]) -> Vec<Iv> {
-    let (a, n) = (&v.a, &v.n);
+    f_parts_iv(&v.a, &v.n, &v.b, x, u)
+}
+
+/// (f_b − f_a)(X, U): the difference of two vertices' right-hand sides,
+/// formed coefficient by coefficient before the interval evaluation (an
+/// interval difference of the two enclosures would double the width).
+fn f_diff_iv(a: &qpv_dsl::Vertex, b: &qpv_dsl::Vertex, x: &[Iv], u: &[Iv]) -> Vec<Iv> {
+    let n: Vec<DMatrix<f64>> = b.n.iter().zip(&a.n).map(|(nb, na)| nb - na).collect();
+    let bu = if a.b.shape() == b.b.shape() {
+        &b.b - &a.b
+    } else {
+        DMatrix::zeros(0, 0)
+    };
+    f_parts_iv(&(&b.a - &a.a), &n, &bu, x, u)
+}
+
+/// A x + (xᵀN_k x)_k + B u componentwise on the box X × U.
+fn f_parts_iv(
+    a: &DMatrix<f64>,
+    n: &[DMatrix<f64>],
+    b: &DMatrix<f64>,
+    x: &[Iv],
+    u: &[Iv],
+) -> Vec<Iv> {
     let nx = x.len();
     (0..nx)
         .map(|k| {
@@ -84,8 +128,8 @@ fn f_iv(v: &qpv_dsl::Vertex, x: &[Iv], u: &[Iv]) -> Vec<Iv> {
                 }
             }
             for (j, uj) in u.iter().enumerate() {
-                if v.b.ncols() > j && v.b[(k, j)] != 0.0 {
-                    s = s.add(uj.scale(v.b[(k, j)]));
+                if b.ncols() > j && b[(k, j)] != 0.0 {
+                    s = s.add(uj.scale(b[(k, j)]));
                 }
             }
             s
@@ -123,9 +167,6 @@ type Boxes = (Vec<Iv>, Vec<Iv>, Vec<Option<f64>>);
 
 fn boxes(model: &PolytopicModel) -> Result<Boxes, String> {
     let nx = model.nx();
-    if !model.derived.is_empty() || model.cover.is_some() {
-        return Err("the model has derived scheduling variables or a cover: its polytopic form over-approximates the plant, whose θ-derivative is not bounded yet".into());
-    }
     let StateBound::Given(q) = &model.state_bound else {
         return Err("no state bound Q: F is not known".into());
     };
@@ -158,35 +199,153 @@ fn boxes(model: &PolytopicModel) -> Result<Boxes, String> {
     Ok((x, u, rates))
 }
 
+/// A closed range (lo, hi).
+type Range = (f64, f64);
+
+/// One box of the polytopic model (the whole of it, or a piece of the
+/// cover): the vertices it owns, and per vertex coordinate (the scheduling
+/// parameters, then the derived variables, in the vertex order) the
+/// coordinate's width on the box and the bound on its rate of change
+/// (None: held over each step).
+struct PieceBox {
+    /// Index of the box's first vertex (its 2^s vertices follow).
+    first: usize,
+    /// Width of each coordinate's range on the box.
+    widths: Vec<f64>,
+    /// |ċ| ≤ rate for each coordinate c; None: constant over each step.
+    rates: Vec<Option<f64>>,
+}
+
+/// The boxes of the model's vertex list with their coordinates' widths and
+/// rates, and whether every parameter the plant depends on declares a rate.
+/// A derived variable φ_j(θ) moves at |φ̇_j| ≤ Σ_i sup|∂φ_j/∂θ_i| |θ̇_i|
+/// over the box's θ range (interval gradient, [`qpv_dsl::sched::gradient_bound`]);
+/// the parameters without a rate are held, so they contribute nothing, and
+/// φ_j is held when none of its parameters has a rate.
+fn piece_boxes(model: &PolytopicModel) -> Result<(Vec<PieceBox>, bool), String> {
+    let ns = model.scheduling.len();
+    let s = ns + model.derived.len();
+    let whole_theta: Vec<(f64, f64)> = model.params.iter().map(|p| (p.lo, p.hi)).collect();
+    let whole_phi: Vec<(f64, f64)> = model.derived.iter().map(|d| (d.lo, d.hi)).collect();
+    let ranges: Vec<(&[Range], &[Range])> = match &model.cover {
+        Some(c) => c
+            .pieces
+            .iter()
+            .map(|p| (p.theta.as_slice(), p.phi.as_slice()))
+            .collect(),
+        None => vec![(whole_theta.as_slice(), whole_phi.as_slice())],
+    };
+    let names: Vec<String> = model.params.iter().map(|p| p.name.clone()).collect();
+    let mut used = model
+        .scheduling
+        .iter()
+        .fold(0u64, |m, &pi| m | (1u64 << pi));
+    let mut out = Vec::with_capacity(ranges.len());
+    for (k, (theta, phi)) in ranges.into_iter().enumerate() {
+        let mut widths = Vec::with_capacity(s);
+        let mut rates = Vec::with_capacity(s);
+        for &pi in &model.scheduling {
+            widths.push(theta[pi].1 - theta[pi].0);
+            rates.push(model.params[pi].rate);
+        }
+        for (j, d) in model.derived.iter().enumerate() {
+            widths.push(phi[j].1 - phi[j].0);
+            let mask = d.expr.param_mask();
+            used |= mask;
+            let moving = model
+                .params
+                .iter()
+                .enumerate()
+                .any(|(i, p)| mask >> i & 1 == 1 && p.rate.is_some());
+            if !moving {
+                rates.push(None);
+                continue;
+            }
+            let grad = qpv_dsl::sched::gradient_bound(&d.expr, theta, &names).map_err(|e| {
+                format!(
+                    "the rate of the derived variable {} is not bounded: {e}",
+                    d.name
+                )
+            })?;
+            let r = model
+                .params
+                .iter()
+                .zip(&grad)
+                .filter_map(|(p, g)| p.rate.map(|r| r * g))
+                .sum::<f64>();
+            rates.push(Some(r));
+        }
+        out.push(PieceBox {
+            first: k << s,
+            widths,
+            rates,
+        });
+    }
+    let declared = model
+        .params
+        .iter()
+        .enumerate()
+        .all(|(i, p)| used >> i & 1 == 0 || p.rate.is_some());
+    Ok((out, declared))
+}
+
 /// Componentwise bounds on ẍ over X × U × Θ: the hull of J_l(f_m + B_m u)
-/// over (l, m), plus Σ_j |B_l e_j| |u̇_j| over l for the inputs with a
-/// declared rate, plus Σ_i |θ̇_i| |∂f/∂θ_i| (edges of the box along θ_i)
-/// for the parameters with one. Also: whether every scheduling parameter
-/// and every input declares a rate.
+/// over the pairs (l, m) of one box (μ is zero outside the box that holds
+/// θ), plus Σ_j |B_l e_j| |u̇_j| over l for the inputs with a declared rate,
+/// plus the largest over the boxes of Σ_c |ċ| |∂f/∂c| (edges of the box
+/// along each vertex coordinate c with a rate). Also: whether every
+/// parameter the plant depends on and every input declares a rate.
 fn accel_bounds(
     model: &PolytopicModel,
     x: &[Iv],
     u: &[Iv],
     urates: &[Option<f64>],
-) -> (Vec<f64>, bool) {
+) -> Result<(Vec<f64>, bool), String> {
     let nx = x.len();
     let vs = &model.vertices;
+    let (pieces, params_declared) = piece_boxes(model)?;
+    let s = model.scheduling.len() + model.derived.len();
     let fs: Vec<Vec<Iv>> = vs.iter().map(|v| f_iv(v, x, u)).collect();
     let js: Vec<Vec<Vec<Iv>>> = vs.iter().map(|v| jac_iv(&v.a, &v.n, x)).collect();
-    // f_x f: the hull over (l, m) of J_l f_m.
     let mut acc = vec![0.0f64; nx];
-    for j in &js {
-        for f in &fs {
-            for k in 0..nx {
-                let mut s = Iv::point(0.0);
-                for (jj, fj) in f.iter().enumerate() {
-                    s = s.add(j[k][jj].mul(*fj));
+    let mut theta_term = vec![0.0f64; nx];
+    for pb in &pieces {
+        let own = pb.first..(pb.first + (1usize << s)).min(vs.len());
+        // f_x f: the hull over (l, m) of J_l f_m.
+        for j in &js[own.clone()] {
+            for f in &fs[own.clone()] {
+                for k in 0..nx {
+                    let mut sum = Iv::point(0.0);
+                    for (jj, fj) in f.iter().enumerate() {
+                        sum = sum.add(j[k][jj].mul(*fj));
+                    }
+                    acc[k] = acc[k].max(sum.mag());
                 }
-                acc[k] = acc[k].max(s.mag());
             }
         }
+        // Σ_c ∂f/∂c ċ: edges along each coordinate with a rate.
+        let mut here = vec![0.0f64; nx];
+        for (c, (&w, r)) in pb.widths.iter().zip(&pb.rates).enumerate() {
+            let Some(rate) = *r else { continue };
+            if w <= 0.0 || rate == 0.0 {
+                continue; // a coordinate constant on the box does not move f
+            }
+            let bit = 1usize << (s - 1 - c);
+            let mut worst = vec![0.0f64; nx];
+            for lo in (0..1usize << s).filter(|l| l & bit == 0) {
+                let (a, b) = (&vs[pb.first + lo], &vs[pb.first + (lo | bit)]);
+                for (wk, d) in worst.iter_mut().zip(f_diff_iv(a, b, x, u)) {
+                    *wk = wk.max(d.mag() / w);
+                }
+            }
+            for k in 0..nx {
+                here[k] += rate * worst[k];
+            }
+        }
+        for k in 0..nx {
+            theta_term[k] = theta_term[k].max(here[k]);
+        }
     }
-    let mut rates_declared = urates.iter().all(Option::is_some);
     // B(θ) u̇: the hull over l of B_l u̇, |u̇_j| ≤ rate_j.
     let mut input_term = vec![0.0f64; nx];
     for v in vs {
@@ -199,32 +358,10 @@ fn accel_bounds(
             *it = it.max(s);
         }
     }
-    // Σ_i ∂f/∂θ_i θ̇_i: edges along each scheduling parameter.
-    let s = model.scheduling.len();
-    let mut theta_term = vec![0.0f64; nx];
-    for (i, &pi) in model.scheduling.iter().enumerate() {
-        let par = &model.params[pi];
-        let Some(rate) = par.rate else {
-            rates_declared = false;
-            continue;
-        };
-        let bit = 1usize << (s - 1 - i);
-        let mut worst = vec![0.0f64; nx];
-        for lo in (0..vs.len()).filter(|l| l & bit == 0) {
-            let hi = lo | bit;
-            for k in 0..nx {
-                let d = fs[hi][k].sub(fs[lo][k]).mag() / (par.hi - par.lo);
-                worst[k] = worst[k].max(d);
-            }
-        }
-        for k in 0..nx {
-            theta_term[k] += rate * worst[k];
-        }
-    }
     let total = (0..nx)
         .map(|k| acc[k] + input_term[k] + theta_term[k])
         .collect();
-    (total, rates_declared)
+    Ok((total, params_declared && urates.iter().all(Option::is_some)))
 }
 
 /// The bound for the continuous plant at (h, α) with the Lyapunov matrix
@@ -247,7 +384,7 @@ pub fn continuous_bound(
     if !(h > 0.0 && h * alpha > 0.0 && h * alpha < 1.0) {
         return Err(format!("hα = {} is not in (0, 1)", h * alpha));
     }
-    let (acc, rates_declared) = accel_bounds(model, &x, &u, &urates);
+    let (acc, rates_declared) = accel_bounds(model, &x, &u, &urates)?;
     let accel = acc.iter().map(|a| a * a).sum::<f64>().sqrt();
     let ps = (p + p.transpose()) * 0.5;
     let eig = ps.symmetric_eigenvalues();
@@ -267,6 +404,7 @@ pub fn continuous_bound(
         ultimate_v_sqrt,
         ultimate_error: ultimate_v_sqrt / lmin.sqrt(),
         rates_declared,
+        global: false,
     })
 }
 
@@ -287,8 +425,8 @@ pub struct SampledClaim {
     /// The independent certificate (family S5d) at (h, `alpha`).
     pub certificate: crate::certificate::Certificate,
     /// The bound for the continuous plant sampled at h, or why it is not
-    /// computed (not certified, inputs without a range, derived
-    /// scheduling, a cover, the filter route).
+    /// computed (not certified, inputs without a range, no state bound,
+    /// a derived variable whose rate is unbounded, the filter route).
     pub bound: Result<ContinuousBound, String>,
 }
 
@@ -311,9 +449,7 @@ pub fn sampled_claim(model: &PolytopicModel, design: &Design, h: f64) -> Sampled
     } else {
         design.alpha
     };
-    let mut at = design.clone();
-    at.alpha = alpha;
-    at.sample = Some(crate::certificate::sampling::SampleInfo::new(h, alpha));
+    let at = design.at_sample(h, alpha);
     let certificate = match &obs {
         Ok(obs) => at.recheck_on(obs),
         Err(_) => at.recheck(model),
@@ -323,11 +459,7 @@ pub fn sampled_claim(model: &PolytopicModel, design: &Design, h: f64) -> Sampled
             "the gains are not certified at h = {h:e} (the discrete family fails at α = {alpha:.6})"
         ))
     } else {
-        match &obs {
-            Ok(obs) if obs.nx() == model.nx() => continuous_bound(obs, alpha, h, &p),
-            Ok(_) => Err("the output filter route: not computed for this route".into()),
-            Err(e) => Err(format!("observer's model: {e}")),
-        }
+        design_bound(model, design, alpha, h)
     };
     SampledClaim {
         h,
@@ -338,22 +470,64 @@ pub fn sampled_claim(model: &PolytopicModel, design: &Design, h: f64) -> Sampled
     }
 }
 
+/// Why the global observer of an LPV plant without a declared state bound
+/// gets no continuous-plant bound, and what to add.
+const GLOBAL_WITHOUT_Q: &str = "the global observer (LPV plant) needs no state bound, but the bound on the truncation error does: declare the plant's operating envelope with `state_bound Q = [...];` (x(t) stays in {xᵀQ⁻¹x ≤ 1}) to get one";
+
+/// The model the continuous-plant bound is computed on for `design`: its
+/// observer model, which carries the Q the design used (also a computed
+/// one, `state_bound auto`); for the global observer of an LPV plant, whose
+/// observer model has no state bound, that model with the plant's declared
+/// `state_bound` as the operating envelope the bound assumes x(t) stays in
+/// (docs/method.md §16). An error for the filter route and for a global
+/// observer without a declared Q.
+pub fn bound_model(model: &PolytopicModel, design: &Design) -> Result<PolytopicModel, String> {
+    let mut obs = design
+        .observer_model(model)
+        .map_err(|e| format!("observer's model: {e}"))?;
+    if obs.nx() != model.nx() {
+        return Err("the output filter route: not computed for this route".into());
+    }
+    if crate::model::is_global(model, design.mode) {
+        match &model.state_bound {
+            StateBound::Given(q) => obs.state_bound = StateBound::Given(q.clone()),
+            _ => return Err(GLOBAL_WITHOUT_Q.into()),
+        }
+    }
+    Ok(obs)
+}
+
+/// The continuous-plant bound of `design`'s P at (h, α) on
+/// [`bound_model`], marked `global` for the global observer (whose
+/// recursion holds for every e).
+fn design_bound(
+    model: &PolytopicModel,
+    design: &Design,
+    alpha: f64,
+    h: f64,
+) -> Result<ContinuousBound, String> {
+    let m = bound_model(model, design)?;
+    let mut b = continuous_bound(&m, alpha, h, &design.p_matrix())?;
+    b.global = crate::model::is_global(model, design.mode);
+    Ok(b)
+}
+
 /// Adds the continuous-plant bound to a certified sampled design's `sample`
 /// key, or a note saying why it is not computed.
 pub fn attach(model: &PolytopicModel, d: &mut Design) {
     let Some(h) = d.sample.map(|s| s.h) else {
         return;
     };
-    // The design's observer model carries the state bound it used (also
-    // a computed one, `state_bound auto`); the filter route's is larger.
-    let bound = match d.observer_model(model) {
-        Ok(obs) if obs.nx() == model.nx() => continuous_bound(&obs, d.alpha, h, &d.p_matrix()),
-        _ => continuous_bound(model, d.alpha, h, &d.p_matrix()),
-    };
+    let bound = design_bound(model, d, d.alpha, h);
     match bound {
         Ok(b) => {
             if let Some(s) = d.sample.as_mut() {
                 s.continuous_bound = Some(b);
+            }
+            if b.global {
+                d.notes.push(
+                    "sample = h: the continuous-plant bound takes the declared state_bound Q as the plant's operating envelope: it assumes x(t) stays in {xᵀQ⁻¹x ≤ 1} (the global observer's certificate itself needs no state bound)",
+                );
             }
         }
         Err(why) => d.notes.push(format!(

@@ -708,7 +708,11 @@ fn global_request(
         used.push("the model's region is not used".into());
     }
     if !matches!(model.state_bound, StateBound::None) {
-        used.push("its state bound is not used".into());
+        used.push(if request.sample.is_some() {
+            "its state bound is not used by the certificate (only as the operating envelope of the continuous-plant bound)".into()
+        } else {
+            "its state bound is not used".into()
+        });
     }
     if let GammaSpec::Fixed(g) = request.gamma {
         used.push(format!("γ = {g} is not used"));
