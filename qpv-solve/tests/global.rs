@@ -263,27 +263,108 @@ fn linear_vertices_are_written_once_and_certified_the_same() {
 }
 
 #[test]
-fn routes_not_built_for_lpv_plants_are_refused_by_name() {
+fn skew_slack_is_refused_by_name_for_lpv_plants() {
     let m = three_tank();
-    let base = qpv_solve::request(AlphaSpec::Fixed(0.9), GammaSpec::Search, Mode::Sound);
-    let noise = qpv_dsl::DesignRequest {
-        noise: qpv_dsl::NoiseObjective::Min,
-        ..base.clone()
-    };
     let skew = qpv_dsl::DesignRequest {
         split: qpv_dsl::Split::SkewSlack,
-        ..base
+        ..qpv_solve::request(AlphaSpec::Fixed(0.9), GammaSpec::Search, Mode::Sound)
     };
-    for (what, r) in [("noise = min", noise), ("skew_slack", skew)] {
-        let err = design(&m, &r, &Settings::default())
-            .unwrap_err()
-            .to_string();
-        assert!(err.contains(what), "{what}: {err}");
-        assert!(
-            err.contains("three_tank") && err.contains("LPV"),
-            "{what}: {err}"
-        );
+    let err = design(&m, &skew, &Settings::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("skew_slack"), "{err}");
+    assert!(err.contains("three_tank") && err.contains("LPV"), "{err}");
+}
+
+/// The noise-optimal global design of three-tank at α, on its one output.
+fn noise_min(m: &PolytopicModel, alpha: f64, sample: Option<f64>) -> Design {
+    let r = qpv_dsl::DesignRequest {
+        noise: qpv_dsl::NoiseObjective::Min,
+        sample,
+        ..qpv_solve::request(AlphaSpec::Fixed(alpha), GammaSpec::Search, Mode::Sound)
+    };
+    design(m, &r, &Settings::default()).expect("design runs")
+}
+
+/// The global model, P and Γ_l of a design, exactly balanced by P (x = Dz).
+fn balanced(m: &PolytopicModel, d: &Design) -> (PolytopicModel, DMatrix<f64>, Vec<DMatrix<f64>>) {
+    let g = qpv_solve::model::global_model(m).into_owned();
+    let p = d.p_matrix();
+    let s = StateScaling::of_p(&p).expect("P balances");
+    let gammas = d.l_matrices().iter().map(|l| &p * l).collect::<Vec<_>>();
+    (
+        s.model(&g).expect("exact"),
+        s.p_to_z(&p).expect("exact"),
+        gammas
+            .iter()
+            .map(|x| s.gamma_to_z(x).expect("exact"))
+            .collect(),
+    )
+}
+
+#[test]
+fn noise_min_is_global_and_its_sigma_is_the_smallest_that_checks() {
+    use qpv_solve::certificate::noise::check_noise;
+    use qpv_solve::model::noise::NoiseChannels;
+    let m = three_tank();
+    let d = noise_min(&m, 0.5, None);
+    assert!(d.certifies() && d.global, "{}", d.summary);
+    assert!(d.summary.contains("GLOBAL"), "{}", d.summary);
+    let nb = d.noise.as_ref().expect("a noise bound");
+    assert!(nb.max_amplitude.is_infinite(), "{}", nb.max_amplitude);
+    assert!(nb.check.passed && nb.error_bound.is_finite());
+    // The block LMI at σ holds, at 0.9σ it fails: σ is the certified one
+    // and not loose by more than 10 %.
+    let (zm, pz, gz) = balanced(&m, &d);
+    let ch = NoiseChannels::all_outputs();
+    assert!(check_noise(&zm, &ch, d.alpha, 1.0, &pz, &gz, nb.sigma).passed);
+    assert!(!check_noise(&zm, &ch, d.alpha, 1.0, &pz, &gz, 0.9 * nb.sigma).passed);
+    // A report round trip keeps "unlimited" (null in JSON).
+    let json = serde_json::to_string(nb).expect("serialises");
+    assert!(json.contains("\"max_amplitude\":null"), "{json}");
+    let back: qpv_solve::certificate::noise::NoiseBound =
+        serde_json::from_str(&json).expect("reads back");
+    assert!(back.max_amplitude.is_infinite());
+}
+
+/// The noise claim by brute force over θ: with the worst noise v for each
+/// e (v = −LᵀPe/σ), V' + αV − σ|v|² = eᵀ(He{P(A − LC)} + αP + PLLᵀP/σ)e,
+/// so that matrix must be negative semidefinite at every sampled θ
+/// (evaluated balanced, like [`sampled_worst`]).
+#[test]
+fn global_noise_claim_holds_at_sampled_parameters() {
+    let m = three_tank();
+    let d = noise_min(&m, 0.9, None);
+    assert!(d.certifies(), "{}", d.summary);
+    let sigma = d.noise.as_ref().expect("bound").sigma;
+    let p = d.p_matrix();
+    let ls = d.l_matrices();
+    let dz = StateScaling::of_p(&p).expect("balances").d;
+    let dm = DMatrix::from_diagonal(&DVector::from_vec(dz.clone()));
+    let pz = &dm * &p * &dm;
+    let mut worst = f64::NEG_INFINITY;
+    for th in sample_thetas(&m, 4000) {
+        let mut l = DMatrix::zeros(m.nx(), m.ny());
+        for (w, li) in m.mu(&th).iter().zip(&ls) {
+            l += li * *w;
+        }
+        let f = &p * (m.a_at(&th) - &l * m.c_at(&th));
+        let pl = &p * &l;
+        let mat = &f + f.transpose() + &p * d.alpha + &pl * pl.transpose() / sigma;
+        let mz = &dm * mat * &dm;
+        worst = worst.max(mz.symmetric_eigenvalues().max() / pz.norm());
     }
+    assert!(worst <= 1e-9, "worst normalised eigenvalue {worst:e}");
+}
+
+#[test]
+fn sampled_global_noise_min_certifies_the_discrete_claim() {
+    let m = three_tank();
+    let d = noise_min(&m, 0.1, Some(0.01));
+    assert!(d.certifies() && d.global, "{}", d.summary);
+    let nb = d.noise.as_ref().expect("a noise bound");
+    assert!(nb.max_amplitude.is_infinite() && nb.check.passed);
+    assert!(d.summary.contains("GLOBAL at"), "{}", d.summary);
 }
 
 fn run_sampled(m: &PolytopicModel, alpha: AlphaSpec, h: f64) -> Design {

@@ -612,7 +612,9 @@ pub(super) fn describe_noise(d: &Design) -> String {
                 "    nu_max (largest noise amplitude keeping the region invariant) = {:.4e}\n",
                 nb.max_amplitude
             ),
-            false => "    nu_max: unlimited (the global observer's claim holds for every e)\n".into(),
+            false => {
+                "    nu_max: unlimited (the global observer's claim holds for every e)\n".into()
+            }
         });
         let per: Vec<String> = nb.per_state.iter().map(|v| format!("{v:.4}")).collect();
         s.push_str(&format!(

@@ -186,7 +186,10 @@ impl BalancedGlobal {
             model: s.model(model)?,
             channels: channels.in_z(&s),
             p: s.p_to_z(p)?,
-            gammas: gammas.iter().map(|g| s.gamma_to_z(g)).collect::<Option<_>>()?,
+            gammas: gammas
+                .iter()
+                .map(|g| s.gamma_to_z(g))
+                .collect::<Option<_>>()?,
         })
     }
 }

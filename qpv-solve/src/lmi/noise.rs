@@ -51,7 +51,10 @@ pub(crate) fn solve_noise_sdp(
     let point = run.x.as_ref().map(|x| {
         let (p, g) = prob.unpack(&x[..prob.n_vars()]);
         match prob.scaling() {
-            Some(s) => (s.p_from_z(&p), g.iter().map(|g| s.gamma_from_z(g)).collect()),
+            Some(s) => (
+                s.p_from_z(&p),
+                g.iter().map(|g| s.gamma_from_z(g)).collect(),
+            ),
             None => (p, g),
         }
     });

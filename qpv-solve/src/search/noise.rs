@@ -143,7 +143,7 @@ fn noise_request_alpha(request: &DesignRequest) -> Result<f64, SolveError> {
 /// (no region terms, γ = 1), the claim for every e and every amplitude,
 /// and what of the model and the request it does not use.
 fn global_noise_note(model: &PolytopicModel, request: &DesignRequest) -> String {
-    let mut s = "the plant is LPV (every N_k and M_k is zero): the global observer's noise design, P ⪰ I and the noise block LMI without region terms at every rate combination; the claim holds for every e(0) and every noise amplitude (docs/method.md §17)".to_string();
+    let mut s = "the plant is LPV (every N_k and M_k is zero): the global observer's noise design, P ⪰ cI (the blocks are homogeneous: min σ is the smallest error bound per unit noise) and the noise block LMI without region terms at every rate combination; the claim holds for every e(0) and every noise amplitude (docs/method.md §17)".to_string();
     if model.has_region() {
         s.push_str("; the model's region is not used");
     }
