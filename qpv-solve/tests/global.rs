@@ -143,14 +143,55 @@ fn global_certificate_rejects_too_fast_a_claim() {
 }
 
 #[test]
-fn three_tank_alpha_max_certifies_beyond_the_fixed_requests() {
+fn three_tank_alpha_max_finds_a_high_supremum_and_returns_the_gain_knee() {
     let m = three_tank();
     let d = run(&m, AlphaSpec::Max);
     assert!(d.certifies(), "{}", d.summary);
     assert!(d.global);
-    assert!(d.alpha > 0.99, "α = {}", d.alpha);
+    let pr = d.practical.as_ref().expect("practical info");
+    // The supremum search certifies far beyond the classical 0.99 ...
+    assert!(pr.alpha_sup > 0.99, "α_sup = {}", pr.alpha_sup);
+    // ... with gains that grow like α³ on this cascade: high gain, and the
+    // design returned is the knee, with far smaller gains.
+    assert!(pr.high_gain, "{}", d.summary);
+    let gain = d.gain_norms.iter().copied().fold(0.0, f64::max);
+    assert!(
+        d.alpha < pr.alpha_sup && d.alpha > pr.alpha_sup / 100.0,
+        "α = {}",
+        d.alpha
+    );
+    assert!(
+        gain * 1e3 < pr.gain_sup,
+        "knee gain {gain:e}, at α_sup {:e}",
+        pr.gain_sup
+    );
+    let note = d
+        .notes
+        .iter()
+        .map(|n| n.to_string())
+        .find(|n| n.contains("knee"));
+    assert!(
+        note.is_some_and(|n| n.contains("max_gain")),
+        "{:?}",
+        d.notes
+    );
     let worst = sampled_worst(&m, &d, &sample_thetas(&m, 400));
     assert!(worst < 0.0, "sampled λ_max/‖P‖ = {worst:e}");
+    // within = 0 keeps the fastest point.
+    let fastest = design(
+        &m,
+        &qpv_dsl::DesignRequest {
+            within: 0.0,
+            ..qpv_solve::request(AlphaSpec::Max, GammaSpec::Search, Mode::Sound)
+        },
+        &Settings::default(),
+    )
+    .expect("design runs");
+    assert!(
+        fastest.certifies() && fastest.alpha > 0.99,
+        "{}",
+        fastest.summary
+    );
 }
 
 #[test]

@@ -174,7 +174,8 @@ impl Setup {
                 route_info.combinations
             ));
         }
-        if request.split == Split::Symmetric {
+        // An LPV plant has no N_k or M_k to symmetrise.
+        if request.split == Split::Symmetric && !self.global {
             notes.push(
                 "N_k and M_k symmetrised ((T + Tᵀ)/2, the same plant); re-check with this split"
                     .into(),
@@ -799,7 +800,93 @@ pub(super) fn design_plain(
     out.notes.push(format!(
         "global α = max: searched twice, the second time in the units of the first result's P ({solves} solves in all)"
     ));
+    // A gain bound, a pole region (a disk bounds the gain) or a sample
+    // period (h‖LC‖ must stay small) already limit the gain.
+    let limited = request.max_gain.is_some() || !request.poles.is_empty();
+    if request.within > 0.0 && !limited && request.sample.is_none() {
+        out = global_knee(model, request, settings, progress, out)?;
+    }
     out.seconds_total = t0.elapsed().as_secs_f64();
+    Ok(out)
+}
+
+/// Bisection steps in ln α for the global knee.
+const KNEE_STEPS: usize = 8;
+
+/// The practical α = max of the global observer (docs/method.md §17, "High
+/// gain and the knee"): an observable LPV plant reaches any α with large
+/// enough gains, so its α–gain curve has no supremum of its own and the
+/// search stops where the numerics do. With g(α) the largest gain of the
+/// smallest-gain design at α and α_ref = α_t/KNEE_FACTOR² (a rate a hundred
+/// times slower), the design at α_t is *high gain* if g(α_t) >
+/// KNEE_FACTOR³·g(α_ref) (faster than linear growth over those two decades:
+/// the high-gain regime), g(α_ref) taken at least ‖A_l‖₂/‖C_l‖₂. Then the design returned is the knee: the fastest
+/// α in [α_ref, α_t] with g(α) ≤ KNEE_FACTOR·g(α_ref), by bisection in ln α.
+/// Otherwise `design` is returned unchanged.
+fn global_knee(
+    model: &PolytopicModel,
+    request: &DesignRequest,
+    settings: &Settings,
+    progress: &mut dyn FnMut(&SearchStep),
+    design: Design,
+) -> Result<Design, SolveError> {
+    use super::practical::KNEE_FACTOR;
+    let (Some(mut info), true) = (design.practical.clone(), design.certifies()) else {
+        return Ok(design);
+    };
+    let gain = |d: &Design| d.gain_norms.iter().copied().fold(0.0, f64::max);
+    let mut solves = 0;
+    let mut at = |a: f64| -> Result<Option<Design>, SolveError> {
+        let fixed = DesignRequest {
+            alpha: AlphaSpec::Fixed(a),
+            ..request.clone()
+        };
+        let d = design_plain_with(model, &fixed, settings, progress, None)?;
+        solves += d.search.len();
+        Ok(d.certifies().then_some(d))
+    };
+    let (alpha_t, g_t) = (design.alpha, gain(&design));
+    let alpha_ref = alpha_t / KNEE_FACTOR.powi(2);
+    let Some(reference) = at(alpha_ref)? else {
+        return Ok(design);
+    };
+    // Not below a gain of the plant's own size, ‖A_l‖₂/‖C_l‖₂: a reference
+    // in the gain-free range (α below the plant's own decay) says nothing.
+    let own = model.vertices.iter().map(|v| {
+        let c = v.c.clone().singular_values().max();
+        v.a.clone().singular_values().max() / c.max(f64::MIN_POSITIVE)
+    });
+    let g_ref = gain(&reference).max(own.fold(0.0, f64::max));
+    if g_t <= KNEE_FACTOR.powi(3) * g_ref {
+        return Ok(design);
+    }
+    let (mut lo, mut hi, mut knee) = (alpha_ref, alpha_t, reference);
+    for _ in 0..KNEE_STEPS {
+        let mid = (lo * hi).sqrt();
+        match at(mid)? {
+            Some(d) if gain(&d) <= KNEE_FACTOR * g_ref => {
+                lo = mid;
+                knee = d;
+            }
+            _ => hi = mid,
+        }
+    }
+    info.high_gain = true;
+    info.solves += solves;
+    let mut notes = design.notes.clone();
+    notes.push(format!(
+        "high gain: the global observer reaches α = {alpha_t:.6} only with max ‖L_l‖₂ = {g_t:.4e}, {:.1e} times the gain at α = {alpha_ref:.6} ({g_ref:.4e}); returned the knee of the α–gain curve, the fastest α with at most {KNEE_FACTOR} times that gain: α = {:.6}, max ‖L_l‖₂ = {:.4e} ({solves} more solves). On an LPV plant any α is reachable with gain enough: `max_gain = G` or a sample period sets the real limit (docs/method.md §17)",
+        g_t / g_ref.max(f64::MIN_POSITIVE),
+        knee.alpha,
+        gain(&knee)
+    ));
+    let mut out = knee;
+    out.summary = format!(
+        "{} (high gain: the knee of the α–gain curve, α_sup = {:.6})",
+        out.summary, info.alpha_sup
+    );
+    out.practical = Some(info);
+    out.notes = notes;
     Ok(out)
 }
 
