@@ -107,3 +107,33 @@ fn converges_from_an_arbitrary_initial_error_under_fast_varying_theta() {
         assert!(e < e0n, "{e} vs {e0n}");
     }
 }
+
+qpv::qpv! {
+    model tank_lpv_noise {
+        state  x1, x2, x3;
+        input  q;
+        output y;
+        param  r1 in [0.05, 0.7];
+        param  r2 in [0.03, 1.5];
+        param  r3 in [0.03, 1.1];
+        param  r4 in [0.03, 1.4];
+        param  r5 in [0.03, 1.8];
+        der x1 = -r1*x1 + q;
+        der x2 = r2*x1 - r3*x2;
+        der x3 = r4*x2 - r5*x3;
+        out y = x3;
+        design { alpha = 0.1; noise = min; }
+    }
+}
+
+/// The global noise-optimal design bakes a finite σ and error bound and
+/// an unlimited amplitude (its claim holds for every e, docs/method.md §17).
+#[test]
+fn the_global_noise_design_bakes_an_unlimited_amplitude() {
+    use tank_lpv_noise as n;
+    assert!(n::NOISE_SIGMA.is_finite() && n::NOISE_SIGMA > 0.0);
+    assert!(n::ERROR_BOUND_PER_NOISE.is_finite() && n::ERROR_BOUND_PER_NOISE > 0.0);
+    assert_eq!(n::MAX_NOISE_AMPLITUDE, f64::INFINITY);
+    let families: Vec<&str> = n::CERTIFICATE.margins.iter().map(|f| f.family).collect();
+    assert!(families.contains(&"G5"), "{families:?}");
+}
