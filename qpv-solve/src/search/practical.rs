@@ -23,6 +23,7 @@
 //!   smaller gain.
 
 use super::{Ctx, Point, Solve};
+use crate::backend::Status;
 use crate::error::SolveError;
 use crate::line_search::Line;
 use crate::lmi::Objective;
@@ -42,6 +43,13 @@ pub const KNEE_FACTOR: f64 = 10.0;
 /// point's gain exceeds this factor times the gain at the walk's start: α
 /// is still rising there only because ‖L‖ → ∞.
 pub const WALK_GAIN_LIMIT: f64 = 100.0;
+/// The factors by which the min-gain solves' relative margin is cut, in
+/// turn, where the design's P is too ill-conditioned to carry the default
+/// one (docs/method.md §11a, "Margin"): the margins are absolute in the
+/// solver's normalised coordinates (P̂ ⪰ εI, rate blocks ⪯ −εκI with P̂ of
+/// order 1 at the region's vertices), so a P whose eigenvalues span more
+/// than about 1/ε has no room for them in its weak direction.
+pub const MARGIN_CUTS: [f64; 2] = [1e-2, 1e-4];
 
 /// What the α search saw, for the practical design: every certified
 /// (γ, α) it found, sorted by γ, and its walk below a cliff.
@@ -90,7 +98,11 @@ impl Ctx<'_, '_> {
     /// conditions may also leave less room than the solves' default margin
     /// (the max-margin optimum t̂ below `Settings::margin_rel`): then the
     /// margin is measured (one max-margin solve) and the solve repeated
-    /// with half of it. The certificate is the same either way.
+    /// with half of it. Where P must be too ill-conditioned to carry the
+    /// margin at all (the max-margin solve, which keeps P̂ ⪰ εI, finds no
+    /// room), the solve is repeated with the margin cut by
+    /// [`MARGIN_CUTS`] (docs/method.md §11a, "Margin"). The certificate is
+    /// the same either way.
     fn min_gain_at(
         &mut self,
         alpha: f64,
@@ -98,6 +110,12 @@ impl Ctx<'_, '_> {
         seed: Option<&DMatrix<f64>>,
     ) -> Result<Option<Point>, SolveError> {
         let cand = Candidate::new(alpha, gamma);
+        if let Some(m) = self.margin_cut {
+            // A cut margin was needed at another γ: start with it there.
+            if let Some(p) = self.min_gain_with_margin(cand, seed, m)? {
+                return Ok(Some(p));
+            }
+        }
         let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, None), Phase::Practical)?;
         if at.certified {
             return Ok(at.point);
@@ -114,10 +132,51 @@ impl Ctx<'_, '_> {
             Phase::Practical,
         )?;
         let t = room.margin;
-        if !(t.is_finite() && t > 0.0 && t < self.settings.margin_rel) {
+        let eps = self.settings.margin_rel;
+        if t.is_finite() && t > 0.0 && t < eps {
+            return self.min_gain_with_margin(cand, seed, 0.5 * t);
+        }
+        if t.is_finite() && t >= eps {
+            // Room enough for the default margin: the failure is not it.
             return Ok(None);
         }
-        self.margin_rel = Some(0.5 * t);
+        self.min_gain_margin_cuts(cand, seed)
+    }
+
+    /// The min-gain solve at `cand` with the margin cut by each factor of
+    /// [`MARGIN_CUTS`] in turn, while the cut one is still infeasible (a
+    /// point that fails the certificate does not improve with less margin).
+    /// Records the margin of a point that certifies in `self.margin_cut`.
+    fn min_gain_margin_cuts(
+        &mut self,
+        cand: Candidate,
+        seed: Option<&DMatrix<f64>>,
+    ) -> Result<Option<Point>, SolveError> {
+        for f in MARGIN_CUTS {
+            let m = f * self.settings.margin_rel;
+            self.margin_rel = Some(m);
+            let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, seed), Phase::Practical);
+            self.margin_rel = None;
+            let at = at?;
+            if at.certified {
+                self.margin_cut = Some(self.margin_cut.map_or(m, |c| c.min(m)));
+                return Ok(at.point);
+            }
+            if at.status != Status::Infeasible {
+                break;
+            }
+        }
+        Ok(None)
+    }
+
+    /// The min-gain solve at `cand` with the solves' relative margin `m`.
+    fn min_gain_with_margin(
+        &mut self,
+        cand: Candidate,
+        seed: Option<&DMatrix<f64>>,
+        m: f64,
+    ) -> Result<Option<Point>, SolveError> {
+        self.margin_rel = Some(m);
         let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, seed), Phase::Practical);
         self.margin_rel = None;
         let at = at?;
@@ -133,6 +192,7 @@ impl Ctx<'_, '_> {
         trace: &Trace,
     ) -> Result<Outcome, SolveError> {
         let n0 = self.steps.len();
+        self.margin_cut = None;
         let a_t = (1.0 - within) * sup.alpha;
         let gain_sup = max_gain(sup);
         let cands = candidates(trace, sup.gamma, a_t);
@@ -170,6 +230,12 @@ impl Ctx<'_, '_> {
             }
         }
         let mut notes = Vec::new();
+        if let Some(m) = self.margin_cut {
+            notes.push(format!(
+                "P is too ill-conditioned near α_sup for the solves' default margin ({:.0e}, absolute in the solver's normalised coordinates): min-gain solves that were infeasible with it were repeated with the margin cut to {m:.0e}; the certificate is the same",
+                self.settings.margin_rel
+            ));
+        }
         let high_gain = self.knee(sup, within, trace, gain_sup, &mut best, &mut notes)?;
         let solves = self.steps.len() - n0;
         let capped = sup.alpha >= self.settings.alpha_cap * (1.0 - 1e-9);
