@@ -11,7 +11,11 @@
 //!   any other; the gain reported is the reported L's, not κ. At the best
 //!   γ and at the supremum's, the default regularised objective is solved
 //!   too, and the smallest actual gain kept (the surrogate bounds the gain;
-//!   it is not the gain).
+//!   it is not the gain). Where the regularised design wins (the surrogate
+//!   is loose), the surrogate is reweighted by the best point's P for at
+//!   most [`REWEIGHT_ROUNDS`] rounds. Where P is too ill-conditioned for the
+//!   solves' default margin, the min-gain solves are repeated with the
+//!   margin cut by [`MARGIN_CUTS`].
 //! * High gain: when the γ search reached α_sup by its walk below a cliff
 //!   (α rising only as γ falls) and the design at α_t (or, if none
 //!   certified, the fastest point) has more than [`KNEE_FACTOR`] times the
