@@ -101,6 +101,7 @@ impl<'a, 'm> Ctx<'a, 'm> {
             within: 0.0,
             walk_stopped: false,
             margin_rel: None,
+            margin_cut: None,
             claims: Claims::default(),
             sample: None,
         }

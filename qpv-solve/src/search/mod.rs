@@ -123,6 +123,9 @@ struct Ctx<'a, 'm> {
     /// practical design's retry where the default margin exceeds what the
     /// conditions leave); None: the settings' own.
     margin_rel: Option<f64>,
+    /// The smallest cut margin at which a practical min-gain solve
+    /// certified ([`practical::MARGIN_CUTS`]), for the report's note.
+    margin_cut: Option<f64>,
     /// The points the solver returned as satisfying the problem's
     /// conditions, and how many of them the certificate rejected.
     claims: Claims,

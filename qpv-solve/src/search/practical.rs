@@ -11,7 +11,11 @@
 //!   any other; the gain reported is the reported L's, not κ. At the best
 //!   γ and at the supremum's, the default regularised objective is solved
 //!   too, and the smallest actual gain kept (the surrogate bounds the gain;
-//!   it is not the gain).
+//!   it is not the gain). Where the regularised design wins (the surrogate
+//!   is loose), the surrogate is reweighted by the best point's P for at
+//!   most [`REWEIGHT_ROUNDS`] rounds. Where P is too ill-conditioned for the
+//!   solves' default margin, the min-gain solves are repeated with the
+//!   margin cut by [`MARGIN_CUTS`].
 //! * High gain: when the γ search reached α_sup by its walk below a cliff
 //!   (α rising only as γ falls) and the design at α_t (or, if none
 //!   certified, the fastest point) has more than [`KNEE_FACTOR`] times the
@@ -23,6 +27,7 @@
 //!   smaller gain.
 
 use super::{Ctx, Point, Solve};
+use crate::backend::Status;
 use crate::error::SolveError;
 use crate::line_search::Line;
 use crate::lmi::Objective;
@@ -42,6 +47,16 @@ pub const KNEE_FACTOR: f64 = 10.0;
 /// point's gain exceeds this factor times the gain at the walk's start: α
 /// is still rising there only because ‖L‖ → ∞.
 pub const WALK_GAIN_LIMIT: f64 = 100.0;
+/// The factors by which the min-gain solves' relative margin is cut, in
+/// turn, where the design's P is too ill-conditioned to carry the default
+/// one (docs/method.md §11a, "Margin"): the margins are absolute in the
+/// solver's normalised coordinates (P̂ ⪰ εI, rate blocks ⪯ −εκI with P̂ of
+/// order 1 at the region's vertices), so a P whose eigenvalues span more
+/// than about 1/ε has no room for them in its weak direction.
+pub const MARGIN_CUTS: [f64; 2] = [1e-2, 1e-4];
+/// Most rounds of the reweighted gain surrogate, run where the regularised
+/// design beat the surrogate's (docs/method.md §11a, "The gain objective").
+pub const REWEIGHT_ROUNDS: usize = 3;
 
 /// What the α search saw, for the practical design: every certified
 /// (γ, α) it found, sorted by γ, and its walk below a cliff.
@@ -90,7 +105,11 @@ impl Ctx<'_, '_> {
     /// conditions may also leave less room than the solves' default margin
     /// (the max-margin optimum t̂ below `Settings::margin_rel`): then the
     /// margin is measured (one max-margin solve) and the solve repeated
-    /// with half of it. The certificate is the same either way.
+    /// with half of it. Where P must be too ill-conditioned to carry the
+    /// margin at all (the max-margin solve, which keeps P̂ ⪰ εI, finds no
+    /// room), the solve is repeated with the margin cut by
+    /// [`MARGIN_CUTS`] (docs/method.md §11a, "Margin"). The certificate is
+    /// the same either way.
     fn min_gain_at(
         &mut self,
         alpha: f64,
@@ -98,6 +117,12 @@ impl Ctx<'_, '_> {
         seed: Option<&DMatrix<f64>>,
     ) -> Result<Option<Point>, SolveError> {
         let cand = Candidate::new(alpha, gamma);
+        if let Some(m) = self.margin_cut {
+            // A cut margin was needed at another γ: start with it there.
+            if let Some(p) = self.min_gain_with_margin(cand, seed, m)? {
+                return Ok(Some(p));
+            }
+        }
         let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, None), Phase::Practical)?;
         if at.certified {
             return Ok(at.point);
@@ -114,10 +139,51 @@ impl Ctx<'_, '_> {
             Phase::Practical,
         )?;
         let t = room.margin;
-        if !(t.is_finite() && t > 0.0 && t < self.settings.margin_rel) {
+        let eps = self.settings.margin_rel;
+        if t.is_finite() && t > 0.0 && t < eps {
+            return self.min_gain_with_margin(cand, seed, 0.5 * t);
+        }
+        if t.is_finite() && t >= eps {
+            // Room enough for the default margin: the failure is not it.
             return Ok(None);
         }
-        self.margin_rel = Some(0.5 * t);
+        self.min_gain_margin_cuts(cand, seed)
+    }
+
+    /// The min-gain solve at `cand` with the margin cut by each factor of
+    /// [`MARGIN_CUTS`] in turn, while the cut one is still infeasible (a
+    /// point that fails the certificate does not improve with less margin).
+    /// Records the margin of a point that certifies in `self.margin_cut`.
+    fn min_gain_margin_cuts(
+        &mut self,
+        cand: Candidate,
+        seed: Option<&DMatrix<f64>>,
+    ) -> Result<Option<Point>, SolveError> {
+        for f in MARGIN_CUTS {
+            let m = f * self.settings.margin_rel;
+            self.margin_rel = Some(m);
+            let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, seed), Phase::Practical);
+            self.margin_rel = None;
+            let at = at?;
+            if at.certified {
+                self.margin_cut = Some(self.margin_cut.map_or(m, |c| c.min(m)));
+                return Ok(at.point);
+            }
+            if at.status != Status::Infeasible {
+                break;
+            }
+        }
+        Ok(None)
+    }
+
+    /// The min-gain solve at `cand` with the solves' relative margin `m`.
+    fn min_gain_with_margin(
+        &mut self,
+        cand: Candidate,
+        seed: Option<&DMatrix<f64>>,
+        m: f64,
+    ) -> Result<Option<Point>, SolveError> {
+        self.margin_rel = Some(m);
         let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, seed), Phase::Practical);
         self.margin_rel = None;
         let at = at?;
@@ -133,6 +199,7 @@ impl Ctx<'_, '_> {
         trace: &Trace,
     ) -> Result<Outcome, SolveError> {
         let n0 = self.steps.len();
+        self.margin_cut = None;
         let a_t = (1.0 - within) * sup.alpha;
         let gain_sup = max_gain(sup);
         let cands = candidates(trace, sup.gamma, a_t);
@@ -153,23 +220,19 @@ impl Ctx<'_, '_> {
         // The surrogate bounds the gain, it is not the gain: the default
         // regularised objective (½ w Σ‖Γ̂_l‖²) at the same point sometimes
         // does better (and solves where the homogenised problem's scaling
-        // fails): the smaller actual gain is kept.
-        let g_best = best.as_ref().map_or(sup.gamma, |(b, _)| b.gamma);
-        let mut at_gammas = vec![g_best];
-        if sup.gamma != g_best {
-            at_gammas.push(sup.gamma);
-        }
-        for g in at_gammas {
-            let solve = Solve::Lmi(Objective::Gains, None);
-            let at = self.attempt(Candidate::new(a_t, g), solve, Phase::Practical)?;
-            if let Some(p) = at.point.filter(|_| at.certified) {
-                let gain = max_gain(&p);
-                if best.as_ref().map_or(true, |(_, bg)| gain < *bg) {
-                    best = Some((p, gain));
-                }
-            }
+        // fails): the smaller actual gain is kept. Where it does better,
+        // the surrogate is loose, and the metric-normalised min-gain solve
+        // is repeated from the best point's P (reweighting).
+        if self.regularised_beats(a_t, sup.gamma, &mut best)? {
+            self.reweight(a_t, &mut best)?;
         }
         let mut notes = Vec::new();
+        if let Some(m) = self.margin_cut {
+            notes.push(format!(
+                "P is too ill-conditioned near α_sup for the solves' default margin ({:.0e}, absolute in the solver's normalised coordinates): min-gain solves that were infeasible with it were repeated with the margin cut to {m:.0e}; the certificate is the same",
+                self.settings.margin_rel
+            ));
+        }
         let high_gain = self.knee(sup, within, trace, gain_sup, &mut best, &mut notes)?;
         let solves = self.steps.len() - n0;
         let capped = sup.alpha >= self.settings.alpha_cap * (1.0 - 1e-9);
@@ -210,6 +273,64 @@ impl Ctx<'_, '_> {
             },
             notes,
         })
+    }
+
+    /// The regularised design at the best γ of `best` and at the
+    /// supremum's γ `gamma_sup`, kept in `best` if its actual gain is
+    /// smaller; returns whether it was (the surrogate was loose there).
+    fn regularised_beats(
+        &mut self,
+        a_t: f64,
+        gamma_sup: f64,
+        best: &mut Option<(Point, f64)>,
+    ) -> Result<bool, SolveError> {
+        let g_best = best.as_ref().map_or(gamma_sup, |(b, _)| b.gamma);
+        let mut at_gammas = vec![g_best];
+        if gamma_sup != g_best {
+            at_gammas.push(gamma_sup);
+        }
+        let mut beats = false;
+        for g in at_gammas {
+            let solve = Solve::Lmi(Objective::Gains, None);
+            let at = self.attempt(Candidate::new(a_t, g), solve, Phase::Practical)?;
+            if let Some(p) = at.point.filter(|_| at.certified) {
+                let gain = max_gain(&p);
+                if best.as_ref().map_or(true, |(_, bg)| gain < *bg) {
+                    beats = true;
+                    *best = Some((p, gain));
+                }
+            }
+        }
+        Ok(beats)
+    }
+
+    /// Iterative reweighting of the gain surrogate (docs/method.md §11a,
+    /// "The gain objective"): the min-gain solve normalised by the best
+    /// point's P (P̂ ⪰ W = P/λ_min(P), ‖W^{-1/2}Γ̂_l‖₂ ≤ κ) at its γ, then
+    /// by the new point's P, for at most [`REWEIGHT_ROUNDS`] rounds while
+    /// a round lowers the actual certified gain by 1 % or more; the
+    /// smallest actual gain is kept in `best`.
+    fn reweight(&mut self, a_t: f64, best: &mut Option<(Point, f64)>) -> Result<(), SolveError> {
+        let Some((start, _)) = best.as_ref() else {
+            return Ok(());
+        };
+        let (gamma, mut w) = (start.gamma, start.p.clone());
+        for _ in 0..REWEIGHT_ROUNDS {
+            let solve = Solve::Lmi(Objective::MinGain, Some(&w));
+            let at = self.attempt(Candidate::new(a_t, gamma), solve, Phase::Practical)?;
+            let Some(p) = at.point.filter(|_| at.certified) else {
+                break;
+            };
+            let (g, bg) = (max_gain(&p), best.as_ref().map_or(f64::INFINITY, |b| b.1));
+            w = p.p.clone();
+            if g < bg {
+                *best = Some((p, g));
+            }
+            if g > 0.99 * bg {
+                break;
+            }
+        }
+        Ok(())
     }
 
     /// The knee of the α–gain curve (module doc): when α_sup was reached by
