@@ -294,3 +294,46 @@ fn the_sampled_noise_bound_holds_on_the_euler_error_map() {
         assert!(!f.passed(), "{name}: σ/100 not caught ({})", f.worst_ratio);
     }
 }
+
+/// The continuous-plant bound with noise (docs/method.md §16): on the
+/// paper's noise-optimal design at h = 1e-3, the report carries ν_c and the
+/// noise term, and the worst-case recursion b⁺ = √(ρ²b² + hσν²) + δ from
+/// b = 1 (the certified set's edge) stays in {b ≤ 1} at ν_c and settles
+/// below δ/(1 − ρ) + ν√(σ/α); above ν_c it leaves the set.
+#[test]
+fn the_continuous_bound_with_noise_adds_the_two_bounds() {
+    let (alpha, h) = (5.0, 1e-3);
+    let mut r = req(AlphaSpec::Fixed(alpha), GAMMA, Some(h));
+    r.noise = qpv_dsl::NoiseObjective::Min;
+    let d = design(&paper_model(), &r, &Settings::default()).unwrap();
+    assert!(d.certifies(), "{}", d.summary);
+    let nb = d.noise.clone().expect("a noise bound");
+    let b = d
+        .sample
+        .and_then(|s| s.continuous_bound)
+        .expect("a continuous-plant bound");
+    assert!(b.invariant, "{b:?}");
+    let nu_c = b.noise_amplitude_max.expect("ν_c");
+    assert!(nu_c > 0.0 && nu_c < nb.max_amplitude, "ν_c = {nu_c}");
+    assert_eq!(b.noise_per_unit, Some(nb.error_bound));
+    let rho2 = 1.0 - h * alpha;
+    let run = |nu: f64| -> (f64, f64) {
+        let (mut v, mut top) = (1.0f64, 1.0f64);
+        for _ in 0..200_000 {
+            v = (rho2 * v * v + h * nb.sigma * nu * nu).sqrt() + b.delta;
+            top = top.max(v);
+        }
+        (v, top)
+    };
+    for nu in [nu_c, 0.5 * nu_c] {
+        let (end, top) = run(nu);
+        assert!(top <= 1.0 + 1e-12, "ν = {nu}: left the set ({top})");
+        let bound = b.ultimate_v_sqrt + nu * (nb.sigma / alpha).sqrt();
+        assert!(end <= bound * (1.0 + 1e-9), "ν = {nu}: {end} > {bound}");
+    }
+    let (_, top) = run(1.1 * nu_c);
+    assert!(
+        top > 1.0,
+        "ν = 1.1 ν_c stays inside: ν_c is not the largest"
+    );
+}

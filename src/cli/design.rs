@@ -399,8 +399,18 @@ pub(crate) fn continuous_line(
             b.delta
         )
     };
+    let noise = match (b.noise_amplitude_max, b.noise_per_unit) {
+        (Some(nu), Some(per)) if b.holds() && nu > 0.0 => format!(
+            "  with noise of amplitude nu <= {}: lim sup |e_k| <= {:.4e} + {:.4e} nu (the two bounds add)\n",
+            if nu.is_finite() { format!("{nu:.4e}") } else { "any".into() },
+            b.ultimate_error,
+            per
+        ),
+        (Some(_), Some(_)) => "  with noise: no amplitude keeps the certified set invariant against the truncation error\n".into(),
+        _ => String::new(),
+    };
     format!(
-        "  continuous plant sampled at h: Euler truncation error |r_k| <= {:.4e} per step (|x''| <= {:.4e} over F x Theta): {verdict}\n  assumes: {}\n",
+        "  continuous plant sampled at h: Euler truncation error |r_k| <= {:.4e} per step (|x''| <= {:.4e} over F x Theta): {verdict}\n{noise}  assumes: {}\n",
         b.truncation,
         b.accel,
         b.assumption()

@@ -390,9 +390,74 @@ pub struct ContinuousBound {
     /// from any e(0) without δ ≤ 1 − ρ (docs/method.md §16).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub global: bool,
+    /// With the design's certified discrete noise bound (`noise = min` at
+    /// h): the largest noise amplitude ν for which the bound with noise
+    /// holds, ν_c = √(((1 − δ)² − ρ²)/(hσ)) (∞ for the global observer);
+    /// then lim sup ‖e_k‖ ≤ `ultimate_error` + ν·`noise_per_unit`
+    /// (docs/method.md §16). None: no noise bound.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        with = "unlimited_opt"
+    )]
+    pub noise_amplitude_max: Option<f64>,
+    /// The noise term per unit amplitude, √(σ/(α λ_min(P))): the design's
+    /// own `noise.error_bound`, which adds to `ultimate_error`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_per_unit: Option<f64>,
+}
+
+/// Serde of an optional amplitude that may be unlimited: ∞ is written as
+/// the string "unlimited" (JSON has no infinity).
+mod unlimited_opt {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            Some(x) if x.is_infinite() => s.serialize_str("unlimited"),
+            Some(x) => s.serialize_f64(*x),
+            None => s.serialize_none(),
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Amp {
+        Num(f64),
+        Word(String),
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+        Ok(match Option::<Amp>::deserialize(d)? {
+            Some(Amp::Num(x)) => Some(x),
+            Some(Amp::Word(w)) if w == "unlimited" => Some(f64::INFINITY),
+            Some(Amp::Word(w)) => {
+                return Err(serde::de::Error::custom(format!(
+                    "expected a number or \"unlimited\", found \"{w}\""
+                )))
+            }
+            None => None,
+        })
+    }
 }
 
 impl ContinuousBound {
+    /// Adds the design's certified discrete noise bound σ (docs/method.md
+    /// §16, "with noise"): ‖e_{k+1}‖_P ≤ √(ρ²‖e_k‖²_P + hσν²) + δ, whose
+    /// fixed point is at most δ/(1 − ρ) + ν√(σ/α) (the two bounds add), and
+    /// {V ≤ 1} stays invariant while √(ρ² + hσν²) + δ ≤ 1.
+    pub fn with_noise(mut self, (h, alpha): (f64, f64), sigma: f64, per_unit: f64) -> Self {
+        let rho2 = 1.0 - h * alpha;
+        let room = (1.0 - self.delta).powi(2) - rho2;
+        self.noise_amplitude_max = Some(match (self.global, room > 0.0) {
+            (true, _) => f64::INFINITY,
+            (false, true) => (room / (h * sigma)).sqrt(),
+            (false, false) => 0.0,
+        });
+        self.noise_per_unit = Some(per_unit);
+        self
+    }
+
     /// Whether the ultimate bound holds: δ ≤ 1 − ρ (the certified set stays
     /// invariant), or the global observer, whose recursion holds for every e.
     pub fn holds(&self) -> bool {

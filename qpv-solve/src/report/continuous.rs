@@ -405,6 +405,8 @@ pub fn continuous_bound(
         ultimate_error: ultimate_v_sqrt / lmin.sqrt(),
         rates_declared,
         global: false,
+        noise_amplitude_max: None,
+        noise_per_unit: None,
     })
 }
 
@@ -521,6 +523,10 @@ pub fn attach(model: &PolytopicModel, d: &mut Design) {
     let bound = design_bound(model, d, d.alpha, h);
     match bound {
         Ok(b) => {
+            let b = match &d.noise {
+                Some(nb) => b.with_noise((h, d.alpha), nb.sigma, nb.error_bound),
+                None => b,
+            };
             if let Some(s) = d.sample.as_mut() {
                 s.continuous_bound = Some(b);
             }
