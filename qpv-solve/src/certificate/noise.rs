@@ -311,7 +311,7 @@ pub(crate) fn gamma_in_range(model: &PolytopicModel, gamma: f64) -> bool {
 /// Whether `model` is the global observer's model of an LPV plant
 /// ([`crate::model::global_model`]: no N_k or M_k, the region the point
 /// {0}): its noise claim holds for every e, so no amplitude limits it.
-fn is_global_model(model: &PolytopicModel) -> bool {
+pub(crate) fn is_global_model(model: &PolytopicModel) -> bool {
     model.is_lpv()
         && model
             .region

@@ -354,7 +354,28 @@ pub fn sampling(
     }
     let fs = vertex_dynamics(model, gamma, l);
     let beta = alpha / 2.0;
-    let h = bisect_euler(p, &fs, beta)?;
+    // A global observer's P may span many orders of magnitude (§17): the
+    // step is checked in the coordinates z = D⁻¹x that balance it (P_z =
+    // DPD, F_z = D⁻¹FD, exact powers of two), and failing that as given.
+    let balanced = super::noise::is_global_model(model)
+        .then(|| crate::model::StateScaling::of_p(p))
+        .flatten()
+        .and_then(|s| {
+            let pz = s.p_to_z(p)?;
+            let fz = fs
+                .iter()
+                .map(|(k, f)| {
+                    let fz =
+                        DMatrix::from_fn(f.nrows(), f.ncols(), |r, c| f[(r, c)] / s.d[r] * s.d[c]);
+                    (k.clone(), fz)
+                })
+                .collect::<Vec<_>>();
+            bisect_euler(&pz, &fz, beta)
+        });
+    let h = match balanced {
+        Some(h) => h,
+        None => bisect_euler(p, &fs, beta)?,
+    };
     let rk4 = step_estimate_rk4(&fs);
     Some(Sampling {
         max_step_euler: h,
