@@ -13,7 +13,9 @@
 //! its limit δ/(1 − ρ) the ultimate bound, with α and δ recomputed from the
 //! model and the gains ([`crate::report::continuous::sampled_claim`]).
 
-use crate::analysis::simulate::{check_gains, check_model, Frozen, Scenario, SimError, MAX_STEPS};
+use crate::analysis::simulate::{
+    check_gains, check_model, Frozen, MeasurementNoise, Scenario, SimError, MAX_STEPS,
+};
 use crate::report::continuous::{bound_model, sampled_claim, SampledClaim};
 use crate::report::Design;
 use nalgebra::{DMatrix, DVector};
@@ -38,6 +40,10 @@ pub struct SampledRun {
     pub hold_params: Vec<bool>,
     /// Per input: held at u(t_k) over each step in the plant, or not.
     pub hold_inputs: Vec<bool>,
+    /// Measurement noise on the sampled outputs (a new vector of norm ν at
+    /// every sample), or none. With it the run is compared with the bound
+    /// with noise (docs/method.md §16, "Noise and the continuous plant").
+    pub noise: Option<MeasurementNoise>,
 }
 
 impl SampledRun {
@@ -51,6 +57,7 @@ impl SampledRun {
             hold_inputs: (0..model.nu())
                 .map(|j| model.input_rates.get(j).copied().flatten().is_none())
                 .collect(),
+            noise: None,
         }
     }
 }
@@ -201,14 +208,20 @@ fn observer_step(
     (model, gains): (&PolytopicModel, &[DMatrix<f64>]),
     (x, xh): (&[f64], &mut [f64]),
     (th_k, u_k, h): (&[f64], &[f64], f64),
+    v: &[f64],
 ) {
     let (mut y, mut yh) = (vec![0.0; model.ny()], vec![0.0; model.ny()]);
     let mut dxh = vec![0.0; model.nx()];
     frozen.set(model, gains, th_k);
     frozen.output(x, &mut y);
     frozen.output(xh, &mut yh);
-    for (a, b) in y.iter_mut().zip(&yh) {
-        *a -= b;
+    // The measurement y_k + v_k against the observer's output.
+    for ((a, b), vi) in y
+        .iter_mut()
+        .zip(&yh)
+        .zip(v.iter().chain(std::iter::repeat(&0.0)))
+    {
+        *a += vi - b;
     }
     frozen.drift(xh, &mut dxh);
     frozen.add_input(u_k, &mut dxh);
@@ -244,6 +257,7 @@ pub fn simulate_sampled_each(
     };
     let mut x = scenario.x0.clone();
     let mut xh = scenario.xhat0.clone();
+    let mut noise = run.noise.clone();
     for k in 0..=samples {
         let tk = k as f64 * h;
         let th_k: Vec<f64> = scenario.theta.iter().map(|s| s.at(tk)).collect();
@@ -263,7 +277,17 @@ pub fn simulate_sampled_each(
         if !each(&row) || k == samples {
             return Ok(None);
         }
-        observer_step(&mut frozen, (model, gains), (&x, &mut xh), (&th_k, &u_k, h));
+        let v = noise
+            .as_mut()
+            .map(|n| n.sample(model.ny()))
+            .unwrap_or_default();
+        observer_step(
+            &mut frozen,
+            (model, gains),
+            (&x, &mut xh),
+            (&th_k, &u_k, h),
+            &v,
+        );
         // The plant over [t_k, t_k + h]: RK4 at h/substeps.
         for n in 0..run.substeps {
             let t = tk + n as f64 * dt;
@@ -299,6 +323,19 @@ fn axpy(dst: &mut [f64], x: &[f64], c: f64, k: &[f64]) {
     }
 }
 
+/// The noise of a sampled run and what bounds it (see
+/// [`SampledCheck::noise`]).
+#[derive(Debug, Clone, Copy)]
+pub struct NoiseInRun {
+    /// The amplitude ν of the run's noise.
+    pub amplitude: f64,
+    /// σ of V(e_k+1) − (1 − hα)V(e_k) ≤ hσ|v_k|², recomputed (None: the
+    /// gains certify no discrete noise bound at this h and α).
+    pub sigma: Option<f64>,
+    /// ν_c = √(((1 − δ)² − ρ²)/(hσ)) (∞ for the global observer).
+    pub amplitude_max: f64,
+}
+
 /// The verdict of a sampled run against the certified bound.
 #[derive(Debug, Clone)]
 pub struct SampledCheck {
@@ -328,6 +365,10 @@ pub struct SampledCheck {
     pub last_error: f64,
     /// When the simulation produced a non-finite value.
     pub diverged_at: Option<f64>,
+    /// With measurement noise of amplitude ν: the discrete noise claim's σ
+    /// at this h recomputed from the gains (None: not certified), and the
+    /// largest ν keeping the certified set invariant, ν_c.
+    pub noise: Option<NoiseInRun>,
 }
 
 impl SampledCheck {
@@ -376,12 +417,14 @@ pub fn check_sampled_run(
             delta: b.delta,
             ultimate: b.ultimate_v_sqrt,
             bound: f64::NAN,
+            noise2: 0.0,
         },
         Err(_) => Recursion {
             rho: f64::NAN,
             delta: f64::NAN,
             ultimate: f64::NAN,
             bound: f64::NAN,
+            noise2: 0.0,
         },
     };
     let v_sqrt = |x: &[f64], xh: &[f64]| {
@@ -400,7 +443,13 @@ pub fn check_sampled_run(
         rate_exceeded: None,
         last_error: f64::NAN,
         diverged_at: None,
+        noise: None,
     };
+    out.noise = run.noise.as_ref().map(|n| {
+        let ni = noise_in_run(&obs, design, &out.claim, n, (&p, &gains));
+        rec.add_noise(&ni, (run.h, out.claim.alpha));
+        ni
+    });
     rec.bound = out.v0_sqrt;
     // x is checked against the Q the bound assumes (for the global
     // observer, the plant's declared operating envelope).
@@ -514,13 +563,65 @@ struct Recursion {
     delta: f64,
     ultimate: f64,
     bound: f64,
+    /// hσν²: the noise term of b_{k+1} = √(ρ²b_k² + hσν²) + δ.
+    noise2: f64,
+}
+
+/// σ of the discrete noise claim for the run's noise channels, recomputed
+/// from the gains at the claim's (h, α), and ν_c.
+fn noise_in_run(
+    obs: &PolytopicModel,
+    design: &Design,
+    claim: &SampledClaim,
+    n: &MeasurementNoise,
+    (p, gains): (&DMatrix<f64>, &[DMatrix<f64>]),
+) -> NoiseInRun {
+    let channels = crate::model::noise::NoiseChannels {
+        outputs: Some(n.outputs().to_vec()),
+        b_w: None,
+    };
+    let sigma = crate::certificate::noise_sampled::SampledNoise {
+        model: obs,
+        channels: &channels,
+        alpha: claim.alpha,
+        gamma: design.gamma,
+        h: claim.h,
+    }
+    .bound(p, gains)
+    .map(|b| b.sigma);
+    let amplitude_max = match (&claim.bound, sigma) {
+        (Ok(b), Some(s)) => {
+            b.with_noise((claim.h, claim.alpha), s, 0.0)
+                .noise_amplitude_max
+        }
+        _ => None,
+    };
+    NoiseInRun {
+        amplitude: n.amplitude(),
+        sigma,
+        amplitude_max: amplitude_max.unwrap_or(0.0),
+    }
 }
 
 impl Recursion {
+    /// The noise term: b_{k+1} = √(ρ²b_k² + hσν²) + δ, ultimate bound
+    /// δ/(1 − ρ) + ν√(σ/α) (docs/method.md §16). Without a certified σ, or
+    /// above ν_c, there is no bound and nothing is compared.
+    fn add_noise(&mut self, ni: &NoiseInRun, (h, alpha): (f64, f64)) {
+        match ni.sigma {
+            Some(s) if ni.amplitude <= ni.amplitude_max => {
+                self.noise2 = h * s * ni.amplitude * ni.amplitude;
+                self.ultimate += ni.amplitude * (s / alpha).sqrt();
+            }
+            _ => self.rho = f64::NAN,
+        }
+    }
+
     /// Compares √V(e_k) = `v` at sample time `t` with b_k (b_0 = √V(e_0)).
     fn sample(&mut self, t: f64, v: f64, out: &mut SampledCheck) {
         if out.samples > 0 {
-            self.bound = self.rho * self.bound + self.delta;
+            let b = self.rho * self.bound;
+            self.bound = (b * b + self.noise2).sqrt() + self.delta;
         }
         out.samples += 1;
         let bound = self.bound;
