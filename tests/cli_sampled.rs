@@ -254,6 +254,22 @@ fn the_continuous_plant_stays_inside_the_sampled_bound_on_every_example() {
             gamma: 0.068,
             t_end: 0.05,
         },
+        Plant {
+            file: "examples/varying_output.qpv",
+            edits: &[("input  u;", "input  u in [-0.1, 0.1];")],
+            h: 1e-2,
+            alpha: 0.6,
+            gamma: 0.3344,
+            t_end: 10.0,
+        },
+        Plant {
+            file: "examples/paper_equations.qpv",
+            edits: &[],
+            h: 1e-3,
+            alpha: 10.0,
+            gamma: 0.18898,
+            t_end: 2.0,
+        },
     ];
     for plant in &plants {
         let c = sampled_run(plant);
