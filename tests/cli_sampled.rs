@@ -677,20 +677,31 @@ fn the_manipulator_with_a_cover_stays_inside_the_bound_at_its_sample_period() {
             && s.contains("the certified set stays invariant"),
         "{s}"
     );
+    simulate_inside(
+        "examples/manipulator.qpv",
+        &report,
+        ["1e-5", "0.1", "0.25,0.25,0.035,0.035"],
+    );
+}
+
+/// `qpv simulate FILE --design REPORT --sample H --t-end T --x0 X0`
+/// (`[H, T, X0]`) exits 0 with the recomputed continuous-plant bound, its
+/// premises kept, and the error inside the bound.
+fn simulate_inside(file: &str, report: &std::path::Path, [h, t_end, x0]: [&str; 3]) {
     let sim = qpv(&[
         "simulate",
-        "examples/manipulator.qpv",
+        file,
         "--design",
         report.to_str().unwrap(),
         "--sample",
-        "1e-5",
+        h,
         "--t-end",
-        "0.1",
+        t_end,
         "--x0",
-        "0.25,0.25,0.035,0.035",
+        x0,
     ]);
     let s = text(&sim);
-    assert_eq!(sim.status.code(), Some(0), "{s}");
+    assert_eq!(sim.status.code(), Some(0), "{file}: {s}");
     assert!(s.contains("continuous-plant bound (recomputed)"), "{s}");
     for broken in [
         "leaves the state bound F",
@@ -698,11 +709,11 @@ fn the_manipulator_with_a_cover_stays_inside_the_bound_at_its_sample_period() {
         "faster than its declared rate",
         "outside the certified set",
     ] {
-        assert!(!s.contains(broken), "{s}");
+        assert!(!s.contains(broken), "{file}: {s}");
     }
     assert!(
         s.contains("the error stays inside the certified bound"),
-        "{s}"
+        "{file}: {s}"
     );
 }
 
@@ -726,31 +737,10 @@ fn the_elastic_arm_stays_inside_the_bound_at_its_sample_period() {
         report.to_str().unwrap(),
     ]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out));
-    let sim = qpv(&[
-        "simulate",
+    simulate_inside(
         "examples/elastic_arm.qpv",
-        "--design",
-        report.to_str().unwrap(),
-        "--sample",
-        "2e-4",
-        "--t-end",
-        "1",
-        "--x0",
-        "0.05,0.05,0.3,0.3",
-    ]);
-    let s = text(&sim);
-    assert_eq!(sim.status.code(), Some(0), "{s}");
-    assert!(s.contains("continuous-plant bound (recomputed)"), "{s}");
-    for broken in [
-        "leaves the state bound F",
-        "leaves its declared range",
-        "outside the certified set",
-    ] {
-        assert!(!s.contains(broken), "{s}");
-    }
-    assert!(
-        s.contains("the error stays inside the certified bound"),
-        "{s}"
+        &report,
+        ["2e-4", "1", "0.05,0.05,0.3,0.3"],
     );
 }
 

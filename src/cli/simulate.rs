@@ -542,6 +542,27 @@ pub(super) fn scenario(o: &Options, poly: &PolytopicModel) -> Result<Scenario, C
     Ok(sc)
 }
 
+/// The outputs `--noise` enters: the report's noisy outputs, by name on
+/// the observer model; every output when the report names none that the
+/// model has.
+pub(super) fn noisy_outputs(design: &Design, obs: &PolytopicModel) -> Vec<usize> {
+    let named: Vec<usize> = design
+        .noise
+        .as_ref()
+        .map(|n| {
+            n.noisy_outputs
+                .iter()
+                .filter_map(|name| obs.outputs.iter().position(|o| o == name))
+                .collect()
+        })
+        .unwrap_or_default();
+    if named.is_empty() {
+        (0..obs.ny()).collect()
+    } else {
+        named
+    }
+}
+
 /// The measurement-noise generator of `--noise` (on the report's noisy
 /// outputs) and, when the design is certified for that amplitude, the
 /// certified bound to compare the run with; prints what is claimed.
@@ -560,26 +581,9 @@ fn noise_setup(
             )));
         }
     }
-    let noise_gen = o.noise.map(|nu| {
-        // The report's noisy outputs, by name on the observer model; every
-        // output when the report names none that the model has.
-        let named: Vec<usize> = design
-            .noise
-            .as_ref()
-            .map(|n| {
-                n.noisy_outputs
-                    .iter()
-                    .filter_map(|name| obs.outputs.iter().position(|o| o == name))
-                    .collect()
-            })
-            .unwrap_or_default();
-        let outputs = if named.is_empty() {
-            (0..obs.ny()).collect()
-        } else {
-            named
-        };
-        MeasurementNoise::new(o.seed, nu, outputs)
-    });
+    let noise_gen = o
+        .noise
+        .map(|nu| MeasurementNoise::new(o.seed, nu, noisy_outputs(design, obs)));
     let noise_bound = match (o.noise, reason, &design.noise) {
         (Some(nu), None, Some(nb)) if nu <= nb.max_amplitude => {
             NoiseEnvelope::new(&design.p_matrix(), e0, design.alpha, nb, nu)

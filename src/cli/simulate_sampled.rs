@@ -10,7 +10,7 @@
 
 use super::gains::read_claim;
 use super::input::{load_model_for, CliError};
-use super::simulate::{claimed_design, scenario, Options};
+use super::simulate::{claimed_design, noisy_outputs, scenario, Options};
 use qpv_dsl::diagnostic::fmt_num;
 use qpv_solve::analysis::sampled::{check_sampled_run, SampledCheck, SampledRun, MIN_SUBSTEPS};
 use qpv_solve::certificate::sampling::describe_period;
@@ -63,22 +63,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     let mut run = SampledRun::for_model(&obs, h);
     run.substeps = ((h / o.dt - 1e-9).ceil() as usize).max(MIN_SUBSTEPS);
     run.noise = o.noise.map(|nu| {
-        // The report's noisy outputs (every output by default).
-        let named: Vec<usize> = design
-            .noise
-            .as_ref()
-            .map(|n| {
-                n.noisy_outputs
-                    .iter()
-                    .filter_map(|name| obs.outputs.iter().position(|o| o == name))
-                    .collect()
-            })
-            .unwrap_or_default();
-        let outputs = if named.is_empty() {
-            (0..obs.ny()).collect()
-        } else {
-            named
-        };
+        let outputs = noisy_outputs(&design, &obs);
         let names: Vec<&str> = outputs.iter().map(|&i| obs.outputs[i].as_str()).collect();
         println!(
             "measurement noise: |v_k| = {} on {} (random direction at each sample, seed {})",
