@@ -590,3 +590,24 @@ fn the_euler_step_of_a_global_design_is_certified_and_tight() {
         "the step is not tight"
     );
 }
+
+/// Near the plant's own decay (α = 0.1 on three-tank: the x2 and x3 modes
+/// decay at 0.03, V at twice that) the gain-objective pilot's P is
+/// degenerate and the units it balances by certify nothing; the design is
+/// solved again in the model's own units and certifies, with a note.
+#[test]
+fn a_fixed_alpha_the_pilot_units_miss_certifies_in_the_model_units() {
+    let m = three_tank();
+    let d = run(&m, AlphaSpec::Fixed(0.1));
+    assert!(d.certifies() && d.global, "{}", d.summary);
+    assert_eq!(d.alpha, 0.1);
+    assert!(
+        d.notes
+            .iter()
+            .any(|n| n.to_string().contains("model's own units")),
+        "{:?}",
+        d.notes
+    );
+    let worst = sampled_worst(&m, &d, &sample_thetas(&m, 400));
+    assert!(worst < 0.0, "sampled λ_max/‖P‖ = {worst:e}");
+}

@@ -777,8 +777,29 @@ pub(super) fn design_plain(
     settings: &Settings,
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
-    if !(crate::model::is_global(model, request.mode) && request.alpha == AlphaSpec::Max) {
-        return design_plain_with(model, request, settings, progress, None);
+    let global = crate::model::is_global(model, request.mode);
+    if !(global && request.alpha == AlphaSpec::Max) {
+        let first = design_plain_with(model, request, settings, progress, None)?;
+        if !global || first.certifies() {
+            return Ok(first);
+        }
+        // The units the pilots balanced by need not suit the request (near
+        // the plant's own decay the gain-objective pilot's P is
+        // degenerate): once more in the model's own units (D = I).
+        let own = nalgebra::DMatrix::identity(model.nx(), model.nx());
+        let mut second = design_plain_with(model, request, settings, progress, Some(&own))?;
+        if !second.certifies() {
+            return Ok(first);
+        }
+        second.notes.0.retain(|n| {
+            !n.to_string()
+                .starts_with("global observer in balanced units")
+        });
+        second.notes.push(format!(
+            "the design in the pilots' balanced units did not certify ({} solves); solved again in the model's own units",
+            first.search.len()
+        ));
+        return Ok(second);
     }
     // The global α = max: the units the first search balanced by (a pilot
     // at a small α) need not suit its result, so the search runs once
