@@ -862,7 +862,7 @@ fn global_knee(
             alpha: AlphaSpec::Fixed(a),
             ..request.clone()
         };
-        let d = design_plain_with(model, &fixed, settings, progress, None)?;
+        let d = design_plain(model, &fixed, settings, progress)?;
         solves += d.search.len();
         Ok(d.certifies().then_some(d))
     };
