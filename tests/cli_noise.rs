@@ -282,3 +282,21 @@ fn simulate_recomputes_sigma_and_never_trusts_the_reports() {
         "{t}"
     );
 }
+
+/// `qpv tradeoff` on an LPV plant (three-tank): the global observer's
+/// noise-optimal designs (γ unused, unlimited amplitude), swept below the
+/// knee the high-gain `alpha = max` returned rather than up to its
+/// supremum, where no noise design certifies.
+#[test]
+fn tradeoff_on_an_lpv_plant_sweeps_below_the_knee() {
+    let out = qpv(&["tradeoff", "examples/three_tank.qpv"]);
+    let s = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{s}");
+    assert!(s.contains("gamma unused (global observer)"), "{s}");
+    assert!(
+        s.contains("high gain: the sweep stays below the knee returned"),
+        "{s}"
+    );
+    assert!(!s.contains("not certified"), "{s}");
+    assert!(s.contains("<- knee") && s.contains(" inf "), "{s}");
+}

@@ -226,13 +226,22 @@ fn summary(
         name,
         sweep.points.len(),
         match gamma {
+            // The global observer of an LPV plant has no γ (docs/method.md §17).
+            _ if fastest.global => "unused (global observer)".into(),
             GammaSpec::Fixed(g) => format!("= {g}"),
             GammaSpec::Search => "searched per point".into(),
         }
     );
+    let sup = fastest.practical.as_ref().map_or(top, |p| p.alpha_sup);
+    let high = fastest.practical.as_ref().is_some_and(|p| p.high_gain);
     s.push_str(&format!(
-        "  alpha = max design: alpha = {:.6} (certified supremum {top:.6}), gamma = {:.6}, max ||L_l||_2 = {:.4}{}\n",
+        "  alpha = max design: alpha = {:.6} (certified supremum {sup:.6}{}), gamma = {:.6}, max ||L_l||_2 = {:.4}{}\n",
         fastest.alpha,
+        if high {
+            ", high gain: the sweep stays below the knee returned"
+        } else {
+            ""
+        },
         fastest.gamma,
         fast_gain,
         fastest.noise.as_ref().map_or(String::new(), |n| format!(
@@ -315,11 +324,14 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         );
         return Ok(exit::NOT_CERTIFIED);
     }
-    // The certified supremum (the practical α = max reports it).
-    let top = fastest
-        .practical
-        .as_ref()
-        .map_or(fastest.alpha, |p| p.alpha_sup);
+    // The certified supremum (the practical α = max reports it); for a
+    // high-gain design, whose supremum is reached only as ‖L‖ → ∞, the knee
+    // it returned (docs/method.md §11a, §17).
+    let top = match fastest.practical.as_ref() {
+        Some(p) if p.high_gain => fastest.alpha,
+        Some(p) => p.alpha_sup,
+        None => fastest.alpha,
+    };
     // The range: up to 99 % of the certified supremum, extended below
     // 5 % while the gain still falls steeply ([`Sweep::under`]).
     let channels = NoiseChannels::from_model(&poly);
