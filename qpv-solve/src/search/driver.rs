@@ -894,7 +894,17 @@ fn global_knee(
     }
     info.high_gain = true;
     info.solves += solves;
+    // The α = max search's notes, but the units the returned design was
+    // solved in are its own.
+    let units = |n: &Note| {
+        n.to_string()
+            .starts_with("global observer in balanced units")
+    };
     let mut notes = design.notes.clone();
+    notes.0.retain(|n| !units(n));
+    notes
+        .0
+        .extend(knee.notes.0.iter().filter(|n| units(n)).cloned());
     notes.push(format!(
         "high gain: the global observer reaches α = {alpha_t:.6} only with max ‖L_l‖₂ = {g_t:.4e}, {:.1e} times the gain at α = {alpha_ref:.6} ({g_ref:.4e}); returned the knee of the α–gain curve, the fastest α with at most {KNEE_FACTOR} times that gain: α = {:.6}, max ‖L_l‖₂ = {:.4e} ({solves} more solves). On an LPV plant any α is reachable with gain enough: `max_gain = G` or a sample period sets the real limit (docs/method.md §17)",
         g_t / g_ref.max(f64::MIN_POSITIVE),
