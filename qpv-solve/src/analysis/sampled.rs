@@ -590,16 +590,13 @@ fn noise_in_run(
     .bound(p, gains)
     .map(|b| b.sigma);
     let amplitude_max = match (&claim.bound, sigma) {
-        (Ok(b), Some(s)) => {
-            b.with_noise((claim.h, claim.alpha), s, 0.0)
-                .noise_amplitude_max
-        }
-        _ => None,
+        (Ok(b), Some(s)) => b.amplitude_limit((claim.h, claim.alpha), s),
+        _ => 0.0,
     };
     NoiseInRun {
         amplitude: n.amplitude(),
         sigma,
-        amplitude_max: amplitude_max.unwrap_or(0.0),
+        amplitude_max,
     }
 }
 

@@ -307,20 +307,22 @@ pub(crate) fn design_noise_with_progress(
         true => Some(super::driver::prepare(model, request, settings, None)?),
         false => None,
     };
-    let prepared = match global_setup {
-        Some(_) => None,
-        None => Some(ObserverModel::prepare(
-            model,
-            &ObserverOptions::for_request(request),
-            StateBoundClaim::Compute(settings),
-        )?),
+    let (obs_model, bound_info, route_info) = match &global_setup {
+        Some((_, setup, _)) => (
+            setup.model.clone(),
+            setup.bound_info.clone(),
+            setup.route_info.clone(),
+        ),
+        None => {
+            let p = ObserverModel::prepare(
+                model,
+                &ObserverOptions::for_request(request),
+                StateBoundClaim::Compute(settings),
+            )?;
+            (p.model, p.state_bound, p.output_route)
+        }
     };
-    let (obs, bound_info, route_info): (&PolytopicModel, _, _) = match (&global_setup, &prepared) {
-        (Some((_, setup, _)), _) => (&setup.model, &setup.bound_info, &setup.route_info),
-        (None, Some(p)) => (&p.model, &p.state_bound, &p.output_route),
-        (None, None) => return Err(SolveError::Unsupported("no observer model".into())),
-    };
-    let (bound_info, route_info) = (bound_info.clone(), route_info.clone());
+    let obs: &PolytopicModel = &obs_model;
     channels.validate(model)?;
     let ch = match &route_info.filter {
         Some(f) => channels.through_filter(model.nx(), model.ny(), model.nv(), f.gain),

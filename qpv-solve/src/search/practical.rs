@@ -26,6 +26,7 @@
 //!   smallest-gain design at (1 − within) of its α if one certifies with a
 //!   smaller gain.
 
+use super::attempt::Attempt;
 use super::{Ctx, Point, Solve};
 use crate::backend::Status;
 use crate::error::SolveError;
@@ -161,10 +162,7 @@ impl Ctx<'_, '_> {
     ) -> Result<Option<Point>, SolveError> {
         for f in MARGIN_CUTS {
             let m = f * self.settings.margin_rel;
-            self.margin_rel = Some(m);
-            let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, seed), Phase::Practical);
-            self.margin_rel = None;
-            let at = at?;
+            let at = self.min_gain_attempt_with_margin(cand, seed, m)?;
             if at.certified {
                 self.margin_cut = Some(self.margin_cut.map_or(m, |c| c.min(m)));
                 return Ok(at.point);
@@ -183,11 +181,22 @@ impl Ctx<'_, '_> {
         seed: Option<&DMatrix<f64>>,
         m: f64,
     ) -> Result<Option<Point>, SolveError> {
+        let at = self.min_gain_attempt_with_margin(cand, seed, m)?;
+        Ok(if at.certified { at.point } else { None })
+    }
+
+    /// One min-gain attempt at `cand` with the solves' relative margin `m`
+    /// (the default restored after it, whatever its outcome).
+    fn min_gain_attempt_with_margin(
+        &mut self,
+        cand: Candidate,
+        seed: Option<&DMatrix<f64>>,
+        m: f64,
+    ) -> Result<Attempt, SolveError> {
         self.margin_rel = Some(m);
         let at = self.attempt(cand, Solve::Lmi(Objective::MinGain, seed), Phase::Practical);
         self.margin_rel = None;
-        let at = at?;
-        Ok(if at.certified { at.point } else { None })
+        at
     }
 
     /// The practical design below the fastest certified point `sup` (module
