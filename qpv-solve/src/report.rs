@@ -559,10 +559,7 @@ impl ReportedMatrices {
             p: matrix_to_rows(p),
             gamma_l: gammas.iter().map(matrix_to_rows).collect(),
             l: l.iter().map(matrix_to_rows).collect(),
-            gain_norms: l
-                .iter()
-                .map(|li| li.clone().singular_values().max())
-                .collect(),
+            gain_norms: l.iter().map(crate::linalg::norm2).collect(),
         }
     }
 }
@@ -697,7 +694,10 @@ impl Design {
             .as_ref()
             .map(crate::conditions::cube::CubeSlacks::from_report);
         let blocks = recheck_blocks(obs, slacks.is_some());
-        if blocks > crate::model::size::CERTIFICATE_BUDGET {
+        // Each pole region adds its blocks per rate block.
+        let pole_blocks: usize = self.poles.iter().map(|r| r.n_blocks()).sum();
+        let total = blocks * (1.0 + pole_blocks as f64);
+        if total > crate::model::size::CERTIFICATE_BUDGET {
             let combos = combinations(obs);
             return Certificate::refused(
                 self.mode,
@@ -705,8 +705,17 @@ impl Design {
                 self.gamma,
                 format!(
                     "too large to re-check: {combos} rate combination(s) × {}² region-vertex pairs \
-                     = {blocks:.3e} blocks, more than the certificate's budget of {:.3e}{}",
+                     = {blocks:.3e} blocks{}, more than the certificate's budget of {:.3e}{}",
                     obs.region.vertices.len(),
+                    if pole_blocks > 0 {
+                        format!(
+                            ", each with {pole_blocks} pole-region block(s) of its {} region(s): \
+                             {total:.3e} in all",
+                            self.poles.len()
+                        )
+                    } else {
+                        String::new()
+                    },
                     crate::model::size::CERTIFICATE_BUDGET,
                     if obs.region.zonotope_generators().is_some() {
                         "; a `conditions = cube` report carries slacks (its `cube` key) that are \

@@ -299,6 +299,9 @@ named_enum! {
         /// The smallest-gain solves of the practical α = max (α at the
         /// tolerance below the certified supremum).
         Practical = "practical",
+        /// The smallest-gain solves of `max_gain = G` without the SDP's
+        /// gain constraint, each checked for ‖L_l‖₂ ≤ G by the certificate.
+        GainWalk = "gain-walk",
         /// The noise-optimal solve at a fixed γ.
         Noise = "noise",
         /// The γ grid of the noise-optimal design.

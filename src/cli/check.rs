@@ -34,16 +34,16 @@ pub struct Options {
     pub mode: Option<Mode>,
     /// Decay rate to check (default: the gains file's `alpha`, else the
     /// first of the model's design blocks of the checked mode that fixes it).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub alpha: Option<f64>,
     /// Region scaling to check (default: the gains file's `gamma`, else
     /// the first of the model's design blocks of the checked mode that fixes it).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub gamma: Option<f64>,
     /// Check the gains at the sample period H seconds: the discrete
     /// decrease S5d of the Euler-stepped observer in place of S5
     /// (default: the gains file's `sample.h`, else continuous time).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub sample: Option<f64>,
     /// Write the JSON report to this file (`-` for stdout).
     #[arg(long)]
@@ -234,12 +234,24 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     let split = design.split;
     let claimed_h = design.sample.as_ref().map(|s| s.h);
     let sample = choose_sample(o.sample, claimed_h, gains)?;
-    if let Some((h, _)) = sample {
+    if let Some((h, h_source)) = sample {
         if mode != Mode::Sound {
-            return Err(CliError::Input(
-                "--sample checks the discrete decrease, a sound-mode condition: drop --mode paper"
-                    .into(),
-            ));
+            // Say where the mode and the period came from: either may be
+            // the file's, not a flag.
+            let mode_from = match mode_source {
+                "--mode" => "--mode paper".to_string(),
+                _ => format!("the gains file's `mode: paper` ({})", gains.display()),
+            };
+            return Err(CliError::Input(format!(
+                "a sample period (from {h_source}) checks the discrete decrease, a sound-mode \
+                 condition, and {mode_from} asks for the paper's reproduction: check the \
+                 sampled claim in sound mode{}",
+                if mode_source == "--mode" {
+                    " (drop --mode paper)"
+                } else {
+                    " (--mode sound), or drop the period"
+                }
+            )));
         }
         design = design.at_sample(h, alpha);
     }

@@ -70,7 +70,13 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     }
     let flag = float_flag(o.float.as_deref())?;
     let (model, (design, source)) = match &o.gains {
-        Some(g) => from_gains(&o.file, o.model.as_deref(), g, o.design)?,
+        Some(g) => match from_gains(&o.file, o.model.as_deref(), g, o.design)? {
+            Ok(n) => n,
+            Err(msg) => {
+                eprintln!("{msg}\nnothing written: only certified designs are exported");
+                return Ok(exit::NOT_CERTIFIED);
+            }
+        },
         None => {
             let (_, model) = load_model(&o.file, o.model.as_deref())?;
             let held = flag.map(|f| match f {
@@ -347,13 +353,15 @@ fn describe(req: &qpv_dsl::DesignRequest) -> String {
 }
 
 /// The design a gains file (a design report) claims, to be re-certified as
-/// `qpv check` does (sound mode; α and γ from the file).
+/// `qpv check` does (sound mode; α and γ from the file); `Err` (exported
+/// as "not certified") when the file's own verdict is short of certified,
+/// which is respected: a report may claim less than its gains achieve.
 fn from_gains(
     file: &Path,
     model_flag: Option<&str>,
     gains: &Path,
     design: Option<usize>,
-) -> Result<(Model, (Design, Source)), CliError> {
+) -> Result<Result<(Model, (Design, Source)), String>, CliError> {
     if design.is_some() {
         return Err(CliError::Input(
             "--design and --gains exclude each other: the gains file is the design".into(),
@@ -361,6 +369,13 @@ fn from_gains(
     }
     let claim = read_claim(gains, "gains file")?;
     let (_, model) = load_model_for(file, model_flag, gains, claim.model())?;
+    if claim.certifies == Some(false) && claim.mode != Some(Mode::Paper) {
+        return Ok(Err(format!(
+            "{}: the report's verdict is not `certified`; a verdict short of certified is \
+             respected (a report may claim less than its gains achieve)",
+            gains.display()
+        )));
+    }
     if claim.mode == Some(Mode::Paper) {
         return Err(CliError::Input(format!(
             "{}: a paper-mode report certifies nothing and is never exported",
@@ -392,5 +407,5 @@ fn from_gains(
         float: qpv_dsl::Float::F64,
         alpha: qpv_dsl::AlphaSpec::Fixed(0.0),
     };
-    Ok((model, (design, source)))
+    Ok(Ok((model, (design, source))))
 }

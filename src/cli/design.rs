@@ -27,10 +27,10 @@ pub struct Options {
     #[arg(long, value_parser = by_name(&Mode::ALL, Mode::name))]
     pub mode: Option<Mode>,
     /// Decay rate: a number or `max`.
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_alpha)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_alpha)]
     pub alpha: Option<AlphaSpec>,
     /// Region scaling: a number in (0,1) or `search`.
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_gamma)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_gamma)]
     pub gamma: Option<GammaSpec>,
     /// Representation of N_k, M_k: `as_written`, `symmetric` or
     /// `skew_slack` (symmetric plus a searched skew-symmetric slack;
@@ -53,11 +53,11 @@ pub struct Options {
     pub output_route: Option<String>,
     /// Pole a of the output filter x_y' = −a x_y + b y (implies
     /// `--output-route filter`; default 50).
-    #[arg(long = "filter-pole", allow_negative_numbers = true)]
+    #[arg(long = "filter-pole", allow_hyphen_values = true)]
     pub filter_pole: Option<f64>,
     /// Gain b of the output filter (implies `--output-route filter`;
     /// default: the pole, unit DC gain).
-    #[arg(long = "filter-gain", allow_negative_numbers = true)]
+    #[arg(long = "filter-gain", allow_hyphen_values = true)]
     pub filter_gain: Option<f64>,
     /// Design objective for sensor noise: `min` minimises the certified
     /// noise gain σ at the requested (fixed) alpha and gamma (sound
@@ -68,21 +68,21 @@ pub struct Options {
     /// With alpha = max: return the smallest-gain design certified at
     /// alpha >= (1 - WITHIN) x the certified supremum (a fraction, 0 to
     /// 0.5; default 0.01; 0 returns the fastest point found).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub within: Option<f64>,
     /// Bound every gain: ||L_l||_2 <= G at every vertex, imposed in the
     /// SDP and checked by the certificate from the reported gains.
-    #[arg(long = "max-gain", allow_negative_numbers = true)]
+    #[arg(long = "max-gain", allow_hyphen_values = true)]
     pub max_gain: Option<f64>,
     /// Design at the sample period H seconds (e.g. 1e-4 for 10 kHz):
     /// the observer stepped by explicit Euler at H is certified by the
     /// discrete decrease V(e_k+1) <= (1 - H alpha) V(e_k) in place of
     /// the continuous rate condition (sound mode, full conditions).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub sample: Option<f64>,
     /// The largest alpha the search tries (default 1e6): a design that
     /// reaches it says so.
-    #[arg(long = "alpha-cap", allow_negative_numbers = true)]
+    #[arg(long = "alpha-cap", allow_hyphen_values = true)]
     pub alpha_cap: Option<f64>,
     /// For a QPV plant, also report the alpha its linear part alone (every
     /// N_k and M_k zero) certifies globally, unbounded and at the design's

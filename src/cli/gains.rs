@@ -182,7 +182,13 @@ impl<'de> serde::de::Visitor<'de> for DesignsNth {
 
 /// Of several designs the first certified one (else the first feasible
 /// one, else the first), and stderr says which.
-fn pick(stated: &[Stated], path: &Path) -> usize {
+fn pick(stated: &[Stated], path: &Path) -> Result<usize, CliError> {
+    if stated.is_empty() {
+        return Err(CliError::Input(format!(
+            "{}: the report holds no design (an empty list): nothing to check",
+            path.display()
+        )));
+    }
     let i = stated
         .iter()
         .position(|v| v.says().certifies())
@@ -195,7 +201,7 @@ fn pick(stated: &[Stated], path: &Path) -> usize {
             i + 1
         );
     }
-    i
+    Ok(i)
 }
 
 fn rectangular(rows: &[Vec<f64>]) -> bool {
@@ -224,7 +230,7 @@ pub fn read_claim(path: &Path, what: &str) -> Result<Claim, CliError> {
     let (stated, design): (Stated, Design) = match text.trim_start().chars().next() {
         Some('[') => {
             let mut all: Vec<Stated> = serde_json::from_str(&text).map_err(json)?;
-            let i = pick(&all, path);
+            let i = pick(&all, path)?;
             check_mode(&all[i], path, what)?;
             let mut de = serde_json::Deserializer::from_str(&text);
             let d = Nth(i, PhantomData)
@@ -251,7 +257,7 @@ pub fn read_claim(path: &Path, what: &str) -> Result<Claim, CliError> {
                             "`designs` must be an array of design reports ({e})"
                         ))
                     })?;
-                    let i = pick(&all.designs, path);
+                    let i = pick(&all.designs, path)?;
                     check_mode(&all.designs[i], path, what)?;
                     let mut de = serde_json::Deserializer::from_str(&text);
                     let d = DesignsNth(i)

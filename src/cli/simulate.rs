@@ -25,8 +25,8 @@ use qpv_dsl::diagnostic::fmt_num;
 use qpv_dsl::{PolytopicModel, StateBound};
 use qpv_solve::report::Design;
 use qpv_solve::simulate::{
-    envelope_factor, plant_output, simulate_each, MeasurementNoise, NoiseEnvelope, Scenario,
-    Signal, MAX_STEPS,
+    arithmetic_floor, envelope_factor, plant_output, simulate_each, MeasurementNoise,
+    NoiseEnvelope, Scenario, Signal, MAX_STEPS,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -66,10 +66,10 @@ pub struct Options {
     #[arg(long)]
     pub model: Option<String>,
     /// End time [s].
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 2.0, allow_hyphen_values = true)]
     pub t_end: f64,
     /// RK4 step [s].
-    #[arg(long, default_value_t = 1e-3, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1e-3, allow_hyphen_values = true)]
     pub dt: f64,
     /// Initial plant state, comma-separated (default: the scenario's).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
@@ -94,13 +94,13 @@ pub struct Options {
     pub input_csv: Option<PathBuf>,
     /// Output interval of the CSV [s] (default: max(dt, t_end/10000));
     /// the figures keep at most 5000 points per curve.
-    #[arg(long, value_name = "DT", allow_negative_numbers = true)]
+    #[arg(long, value_name = "DT", allow_hyphen_values = true)]
     pub every: Option<f64>,
     /// Bounded measurement noise: |v(t)| = NU on the report's noisy
     /// outputs (every output by default), a random direction held over
     /// each step. With a certified noise bound and NU <= nu_max the
     /// error is checked against the certified bound.
-    #[arg(long, value_name = "NU", allow_negative_numbers = true)]
+    #[arg(long, value_name = "NU", allow_hyphen_values = true)]
     pub noise: Option<f64>,
     /// Seed of the noise.
     #[arg(long, default_value_t = 1)]
@@ -109,7 +109,7 @@ pub struct Options {
     /// Euler on sampled y, u, θ) against the continuous plant (RK4 at
     /// min(--dt, H/20)), and check the error against the certified
     /// continuous-plant bound (docs/method.md §16).
-    #[arg(long, value_name = "H", allow_negative_numbers = true)]
+    #[arg(long, value_name = "H", allow_hyphen_values = true)]
     pub sample: Option<f64>,
 }
 
@@ -356,6 +356,9 @@ struct Findings {
     noise_exceeded: Option<(f64, f64)>,
     rows_written: usize,
     t_last: f64,
+    /// The largest |x_i| or |x̂_i| so far: the scale of the run's rounding
+    /// ([`arithmetic_floor`]).
+    scale: f64,
 }
 
 const SUMMARY_TIMES: [f64; 9] = [0.0, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0, 5.0, 10.0];
@@ -815,9 +818,15 @@ fn run_streamed(
                 e.1 = e.1.max(s);
             }
         }
+        let here =
+            r.x.iter()
+                .chain(&r.xhat)
+                .fold(0.0f64, |m, v| m.max(v.abs()));
+        found.scale = found.scale.max(here);
         if let Some((kf, alpha)) = claim.envelope {
             let env = kf * found.e0 * (-alpha * r.t / 2.0).exp();
-            if r.err > env * (1.0 + ENVELOPE_SLACK) + 1e-300 {
+            let floor = arithmetic_floor(kf, alpha, sc.dt, found.scale);
+            if r.err > env * (1.0 + ENVELOPE_SLACK) + floor {
                 let ratio = r.err / env;
                 let e = found.envelope_exceeded.get_or_insert((r.t, ratio));
                 e.1 = e.1.max(ratio);

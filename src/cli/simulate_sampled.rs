@@ -39,6 +39,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     }
     let claim = read_claim(&o.design, "report")?;
     let (_, model) = load_model_for(&o.file, o.model.as_deref(), &o.design, claim.model())?;
+    let withdrawn = claim.certifies == Some(false);
     let design = claimed_design(claim, &o.design)?;
     if design.l.is_empty() {
         return Err(CliError::Input(format!(
@@ -94,8 +95,13 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             held.join(", ")
         );
     }
-    let check = check_sampled_run(&poly, &design, &sc, &run)
+    let mut check = check_sampled_run(&poly, &design, &sc, &run)
         .map_err(|e| CliError::Input(format!("simulation: {e}")))?;
+    if withdrawn {
+        // The report's own verdict may only withdraw a claim: nothing it
+        // did not claim is compared, whatever the gains achieve.
+        check.withdraw("the report does not certify (its verdict is not `certified`)");
+    }
     println!("{}", describe(&check));
     Ok(if check.violated() { 1 } else { 0 })
 }
@@ -104,7 +110,12 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
 fn describe(c: &SampledCheck) -> String {
     let cl = &c.claim;
     let mut s = String::new();
-    if cl.certificate.passed {
+    if let Some(why) = &c.withdrawn {
+        s.push_str(&format!(
+            "NOT certified at {}: {why}; no bound is claimed and nothing is compared\n",
+            describe_period(cl.h)
+        ));
+    } else if cl.certificate.passed {
         s.push_str(&format!(
             "certified at {} (independent certificate, family S5d) with alpha = {} (the gains reach alpha = {:.6} at this h): V(e_k+1) <= {} V(e_k) for the Euler plant\n",
             describe_period(cl.h),
@@ -120,6 +131,7 @@ fn describe(c: &SampledCheck) -> String {
         ));
     }
     match &cl.bound {
+        _ if c.withdrawn.is_some() => {}
         Ok(b) => s.push_str(&format!(
             "continuous-plant bound (recomputed): |x''| <= {:.4e}, |r_k| <= {:.4e} per step, delta = {:.4e}, rho = {:.6}; sqrt V(e_k) <= rho^k sqrt V(e_0) + delta (1 - rho^k)/(1 - rho); ultimate sqrt V <= {:.4e}, ||e|| <= {:.4e}{}\n  assumes: {}\n",
             b.accel,
@@ -136,8 +148,8 @@ fn describe(c: &SampledCheck) -> String {
         )),
         Err(_) => {}
     }
-    let mut compared = true;
-    if let Some(n) = &c.noise {
+    let mut compared = c.withdrawn.is_none();
+    if let Some(n) = c.noise.as_ref().filter(|_| compared) {
         let line = match n.sigma {
             Some(sigma) if n.amplitude <= n.amplitude_max => format!(
                 "with noise (recomputed: sigma = {sigma:.4e} for V(e_k+1) - (1 - h alpha) V(e_k) <= h sigma |v_k|^2): sqrt V(e_k+1) <= sqrt(rho^2 b_k^2 + h sigma nu^2) + delta, nu = {} <= nu_c = {}\n",

@@ -31,7 +31,7 @@ pub struct Options {
     #[arg(long, default_value_t = 8)]
     pub points: usize,
     /// Region scaling: a number in (0,1) or `search` (default: search).
-    #[arg(long, allow_negative_numbers = true, value_parser = super::input::parse_gamma)]
+    #[arg(long, allow_hyphen_values = true, value_parser = super::input::parse_gamma)]
     pub gamma: Option<GammaSpec>,
     /// Write the table as JSON to this file (`-` for stdout).
     #[arg(long)]

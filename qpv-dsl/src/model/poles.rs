@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 /// the frozen error dynamics A_l − L_l C (and, for a QPV plant, of its
 /// region-vertex terms) must lie in. Several regions are intersected.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "region", rename_all = "lowercase")]
+#[serde(tag = "region", rename_all = "lowercase", try_from = "RawPoleRegion")]
 pub enum PoleRegion {
     /// |λ − centre| < radius (centre on the real axis): bounds the fastest
     /// mode by |centre| + radius and, through P, the gains.
@@ -37,7 +37,85 @@ pub enum PoleRegion {
     },
 }
 
+/// A region as read from a report, before [`PoleRegion::invalid`] accepts
+/// it: a report reaches the solver and the certificate only through the
+/// same rule as a design block.
+#[derive(Deserialize)]
+#[serde(tag = "region", rename_all = "lowercase")]
+enum RawPoleRegion {
+    Disk { centre: f64, radius: f64 },
+    Sector { angle: f64 },
+    Strip { lo: f64, hi: f64 },
+}
+
+impl TryFrom<RawPoleRegion> for PoleRegion {
+    type Error = String;
+    fn try_from(raw: RawPoleRegion) -> Result<Self, String> {
+        let r = match raw {
+            RawPoleRegion::Disk { centre, radius } => PoleRegion::Disk { centre, radius },
+            RawPoleRegion::Sector { angle } => PoleRegion::Sector { angle },
+            RawPoleRegion::Strip { lo, hi } => PoleRegion::Strip { lo, hi },
+        };
+        match r.invalid() {
+            None => Ok(r),
+            Some((key, want)) => Err(format!(
+                "pole region `{}`: `{key}` must be {want}",
+                r.name()
+            )),
+        }
+    }
+}
+
 impl PoleRegion {
+    /// The one rule every region obeys, wherever it comes from (a design
+    /// block or a report): `None` if the region is well formed, else the
+    /// option at fault and what it must be. Every number is finite; a disk
+    /// has a positive radius; a sector's half-angle is in (0, 90) degrees,
+    /// taken as written (no angle is reduced modulo 360 or mirrored: 120°
+    /// or 405° is refused, not read as another sector); a strip has lo < hi.
+    pub fn invalid(&self) -> Option<(&'static str, &'static str)> {
+        const FINITE: &str = "a finite number";
+        match *self {
+            PoleRegion::Disk { centre, .. } if !centre.is_finite() => Some(("centre", FINITE)),
+            PoleRegion::Disk { radius, .. } if !(radius.is_finite() && radius > 0.0) => Some((
+                "radius",
+                "a positive number (the disk |λ − centre| < radius)",
+            )),
+            PoleRegion::Sector { angle } if !(angle > 0.0 && angle < 90.0) => Some((
+                "angle",
+                "an angle in degrees strictly between 0 and 90 (the half-angle of the sector \
+                 from the negative real axis)",
+            )),
+            PoleRegion::Strip { lo, hi } if !(lo.is_finite() && hi.is_finite()) => {
+                Some((if lo.is_finite() { "hi" } else { "lo" }, FINITE))
+            }
+            PoleRegion::Strip { lo, hi } if lo >= hi => Some((
+                "hi",
+                "above `lo` (`strip(lo = a, hi = b)` is the strip a < Re λ < b)",
+            )),
+            _ => None,
+        }
+    }
+
+    /// How many LMI blocks the region adds beside each rate block (Chilali
+    /// & Gahinet's characteristic functions: one for a disk or a sector,
+    /// one per edge for a strip).
+    pub fn n_blocks(&self) -> usize {
+        match self {
+            PoleRegion::Strip { .. } => 2,
+            _ => 1,
+        }
+    }
+
+    /// The side of each of the region's blocks for nx states: 2nx for a
+    /// disk or a sector, nx for a strip's.
+    pub fn block_side(&self, nx: usize) -> usize {
+        match self {
+            PoleRegion::Strip { .. } => nx,
+            _ => 2 * nx,
+        }
+    }
+
     /// Whether the point `re + i·im` lies in the (open) region.
     pub fn contains(&self, re: f64, im: f64) -> bool {
         match *self {
@@ -159,28 +237,11 @@ impl Builder<'_> {
         match kind {
             "disk" => {
                 let ((centre, _), (radius, rspan)) = (val(0), val(1));
-                if radius <= 0.0 {
-                    return Err(bad_value(
-                        rspan,
-                        "radius",
-                        "a positive number (the disk |λ − centre| < radius)",
-                        &fmt_num(radius),
-                    ));
-                }
-                Ok(PoleRegion::Disk { centre, radius })
+                self.checked(PoleRegion::Disk { centre, radius }, rspan, radius)
             }
             "sector" => {
                 let (angle, aspan) = val(0);
-                if !(angle > 0.0 && angle < 90.0) {
-                    return Err(bad_value(
-                        aspan,
-                        "angle",
-                        "an angle in degrees strictly between 0 and 90 (the half-angle of the \
-                         sector from the negative real axis)",
-                        &fmt_num(angle),
-                    ));
-                }
-                Ok(PoleRegion::Sector { angle })
+                self.checked(PoleRegion::Sector { angle }, aspan, angle)
             }
             _ => {
                 let ((lo, _), (hi, hspan)) = (val(0), val(1));
@@ -195,8 +256,17 @@ impl Builder<'_> {
                         ),
                     ));
                 }
-                Ok(PoleRegion::Strip { lo, hi })
+                self.checked(PoleRegion::Strip { lo, hi }, hspan, hi)
             }
+        }
+    }
+
+    /// `region` if [`PoleRegion::invalid`] accepts it, else its error at
+    /// `span`, the option whose value `found` is at fault.
+    fn checked(&self, region: PoleRegion, span: Span, found: f64) -> R<PoleRegion> {
+        match region.invalid() {
+            None => Ok(region),
+            Some((key, want)) => Err(bad_value(span, key, want, &fmt_num(found))),
         }
     }
 }

@@ -369,13 +369,24 @@ pub struct SampledCheck {
     /// at this h recomputed from the gains (None: not certified), and the
     /// largest ν keeping the certified set invariant, ν_c.
     pub noise: Option<NoiseInRun>,
+    /// Why the claim was withdrawn ([`SampledCheck::withdraw`]), if it was.
+    pub withdrawn: Option<String>,
 }
 
 impl SampledCheck {
+    /// Withdraws the claim (a report whose own verdict is short of
+    /// certified): the run is reported, nothing is compared with a bound.
+    pub fn withdraw(&mut self, why: &str) {
+        self.withdrawn = Some(why.to_string());
+    }
+
     /// The run violates the certified bound although its premises held:
     /// certified, bound computed and invariant, e(0) in {V ≤ 1}, x in F,
     /// θ in Θ, and √V(e_k) above b_k (or the run diverged).
     pub fn violated(&self) -> bool {
+        if self.withdrawn.is_some() {
+            return false;
+        }
         let bound = self.claim.bound.as_ref().ok();
         let premises = bound.is_some_and(|b| b.holds())
             && (self.v0_sqrt <= 1.0 || bound.is_some_and(|b| b.global))
@@ -444,6 +455,7 @@ pub fn check_sampled_run(
         last_error: f64::NAN,
         diverged_at: None,
         noise: None,
+        withdrawn: None,
     };
     out.noise = run.noise.as_ref().map(|n| {
         let ni = noise_in_run(&obs, design, &out.claim, n, (&p, &gains));

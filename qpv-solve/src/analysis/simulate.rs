@@ -1023,6 +1023,24 @@ pub fn envelope_factor(p: &DMatrix<f64>) -> Option<f64> {
     (lo > 0.0).then(|| (hi / lo).sqrt())
 }
 
+/// Units in the last place the rounding of one step of a run may leave
+/// in the computed error x − x̂ (per state, relative to the state scale).
+const FLOOR_ULPS: f64 = 16.0;
+
+/// The resolution of a run in f64 below which a certified envelope or
+/// bound is not compared: the computed error x − x̂ carries a rounding of
+/// a few ulps of the state scale at each step (`scale` = the largest |x_i|
+/// or |x̂_i| seen so far), which the error dynamics, contracting at α/2 per
+/// second in the P-norm, accumulate to at most that per-step rounding
+/// times 1 + 2/(α·dt) steps, and √cond(P) (`kf`) turns back into the
+/// Euclidean norm. A run whose error is below this floor has converged to
+/// the arithmetic's resolution and is never reported as leaving its
+/// envelope.
+pub fn arithmetic_floor(kf: f64, alpha: f64, dt: f64, scale: f64) -> f64 {
+    let steps = 1.0 + 2.0 / (alpha * dt).max(f64::MIN_POSITIVE);
+    kf * FLOOR_ULPS * f64::EPSILON * scale * steps
+}
+
 /// The certified bound on ‖e(t)‖ of a design with a noise bound
 /// ([`crate::report::NoiseBound`]: V' + αV ≤ σ|v|²) under measurement
 /// noise of amplitude ν ≤ ν_max: V(t) ≤ e^{−αt}V(0) + (σν²/α)(1 − e^{−αt})

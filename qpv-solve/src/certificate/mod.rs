@@ -152,7 +152,7 @@ pub fn gain_check(l: &[DMatrix<f64>], bound: f64) -> DataCheck {
         .iter()
         .map(|li| {
             if li.iter().all(|v| v.is_finite()) {
-                li.clone().singular_values().max()
+                crate::linalg::norm2(li)
             } else {
                 f64::INFINITY
             }

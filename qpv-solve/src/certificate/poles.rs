@@ -220,8 +220,8 @@ pub fn disk_gain_bound(
         for v in &model.vertices {
             let n = v.a.nrows();
             let shifted = &v.a - DMatrix::identity(n, n) * centre;
-            let a_norm = shifted.singular_values().max();
-            let smin = v.c.clone().singular_values().min();
+            let a_norm = crate::linalg::norm2(&shifted);
+            let smin = crate::linalg::min_singular(&v.c);
             if v.c.nrows() > v.c.ncols() || smin.is_nan() || smin <= 0.0 {
                 return None;
             }

@@ -165,7 +165,7 @@ pub fn alpha_capacity_sampled(
                 let (b, _) = block(&terms, &combo, 0.0, gamma, h, i, j);
                 let m = b.view((nx, 0), (nx, nx)).into_owned();
                 let n = &linv * m * linv.transpose();
-                let smax = n.singular_values().max();
+                let smax = crate::linalg::norm2(&n);
                 let a = (1.0 - (smax / w).powi(2)) / h;
                 if a.is_nan() {
                     return 0.0;

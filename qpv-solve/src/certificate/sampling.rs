@@ -60,11 +60,16 @@ pub struct Sampling {
 pub struct SampleInfo {
     /// The sample period h, seconds.
     pub h: f64,
-    /// The certified rate α per second (the design's α).
+    /// The certified rate α per second (the design's α). The three
+    /// figures derived from h and α may be left out of a hand-written
+    /// report: a report's figures are recomputed, never read.
+    #[serde(default)]
     pub alpha: f64,
     /// hα: the rate per step.
+    #[serde(default)]
     pub alpha_per_step: f64,
     /// 1 − hα: V(e_{k+1}) ≤ decrease · V(e_k).
+    #[serde(default)]
     pub decrease: f64,
     /// The bound for the *continuous* plant sampled at h (the Euler step's
     /// local truncation error as a bounded disturbance; docs/method.md

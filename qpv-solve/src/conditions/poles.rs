@@ -26,22 +26,6 @@
 use nalgebra::DMatrix;
 use qpv_dsl::PoleRegion;
 
-/// Number of blocks a region contributes per rate combination and pair.
-pub fn n_blocks(region: &PoleRegion) -> usize {
-    match region {
-        PoleRegion::Strip { .. } => 2,
-        _ => 1,
-    }
-}
-
-/// The side of a region's blocks, for nx states.
-pub fn side(region: &PoleRegion, nx: usize) -> usize {
-    match region {
-        PoleRegion::Strip { .. } => nx,
-        _ => 2 * nx,
-    }
-}
-
 /// The blocks of `region` (each required ≺ 0) for the matrices X and P of
 /// the module documentation and g = γ Σ_t w_t; linear in (X, P).
 pub fn blocks(

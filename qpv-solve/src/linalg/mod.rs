@@ -42,3 +42,39 @@ pub fn gains(p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Option<Vec<DMatrix<f6
     let lu = ps.lu();
     gammas.iter().map(|g| lu.solve(g)).collect()
 }
+
+/// The singular values of `m`, or `None` when an entry is not finite or
+/// the iteration does not converge: nalgebra's SVD never returns on
+/// non-finite input (a sample period of 1e305 makes the discrete blocks
+/// infinite), so every SVD of numbers that come from input goes through
+/// here, bounded before it starts.
+pub fn singular_values(m: &DMatrix<f64>) -> Option<nalgebra::DVector<f64>> {
+    if m.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    if m.is_empty() {
+        return Some(nalgebra::DVector::zeros(0));
+    }
+    m.clone()
+        .try_svd(false, false, f64::EPSILON, 10_000)
+        .map(|s| s.singular_values)
+}
+
+/// The spectral norm ‖m‖₂ (largest singular value): `f64::INFINITY` when
+/// an entry is infinite, NaN when one is NaN or the SVD does not converge
+/// ([`singular_values`]), so that a comparison with a bound fails.
+pub fn norm2(m: &DMatrix<f64>) -> f64 {
+    if m.iter().any(|v| v.is_nan()) {
+        return f64::NAN;
+    }
+    if m.iter().any(|v| v.is_infinite()) {
+        return f64::INFINITY;
+    }
+    singular_values(m).map_or(f64::NAN, |s| s.max())
+}
+
+/// The smallest singular value of `m` (NaN when [`singular_values`] gives
+/// none).
+pub fn min_singular(m: &DMatrix<f64>) -> f64 {
+    singular_values(m).map_or(f64::NAN, |s| s.min())
+}

@@ -5,7 +5,7 @@
 
 use super::Problem;
 use crate::backend::builder::{Psd, SdpBuilder};
-use crate::conditions::poles::{blocks, data_size, n_blocks, side};
+use crate::conditions::poles::{blocks, data_size};
 use crate::linalg::svec::svec_index;
 use nalgebra::DMatrix;
 use qpv_dsl::PoleRegion;
@@ -56,7 +56,7 @@ impl<'m> Problem<'m> {
 
     /// Number of pole-region blocks assembled.
     pub fn n_pole_blocks(&self) -> usize {
-        let per: usize = self.poles.iter().map(n_blocks).sum();
+        let per: usize = self.poles.iter().map(PoleRegion::n_blocks).sum();
         per * self.n_full_rate_blocks()
     }
 
@@ -102,8 +102,8 @@ impl<'m> Problem<'m> {
             let region = tightened(region);
             let kappa = self.rate_scale(0.0, gamma) + gamma * data_size(&region);
             let eps = if max_margin { 0.0 } else { eps * kappa };
-            let blks: Vec<Psd> = (0..n_blocks(&region))
-                .map(|_| out.psd(side(&region, nx), eps))
+            let blks: Vec<Psd> = (0..region.n_blocks())
+                .map(|_| out.psd(region.block_side(nx), eps))
                 .collect();
 
             let push = |out: &mut SdpBuilder, var: usize, x: &DMatrix<f64>, p: &DMatrix<f64>| {

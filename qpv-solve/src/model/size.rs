@@ -158,17 +158,29 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
         (false, Mode::Sound) => p,
         (false, Mode::Paper) => 0.0,
     };
-    let psd_blocks = rate_blocks + 1.0;
+    // A sampled design's rate block is the discrete decrease, of side 2nx
+    // (lmi/sampled.rs); each pole region adds its blocks (side nx or 2nx)
+    // beside every rate block (conditions/poles.rs).
+    let rate_side = if request.sample.is_some() { 2.0 } else { 1.0 } * nx;
+    let pole_sides: Vec<f64> = request
+        .poles
+        .iter()
+        .flat_map(|r| std::iter::repeat_n(r.block_side(nx_u) as f64, r.n_blocks()))
+        .collect();
+    let rate_work = |f: &dyn Fn(f64) -> f64| {
+        rate_blocks * (f(rate_side) + pole_sides.iter().map(|&d| f(d)).sum::<f64>())
+    };
+    let rate_rows = rate_work(&tri);
+    let psd_blocks = rate_blocks * (1.0 + pole_sides.len() as f64) + 1.0;
     let psd_blocks_plus = q + vertex_psd;
-    let rows = psd_blocks * t + psd_blocks_plus * t1 + vertex_rows + 1.0;
+    let rows = rate_rows + t + psd_blocks_plus * t1 + vertex_rows + 1.0;
     // Each rate row depends on P̂ (t), the Γ̂ of its terms, its slack and the margin.
     let per_rate_row = t + terms * nx * ny + 2.0;
     let vertex_nnz = if cube { vertex_rows * t } else { p * t };
-    let nonzeros =
-        rate_blocks * t * per_rate_row + psd_blocks_plus * t1 * (t + nx) + vertex_nnz + t;
+    let nonzeros = rate_rows * per_rate_row + psd_blocks_plus * t1 * (t + nx) + vertex_nnz + t;
     // KKT: A, the dense t×t scaling block of every PSD cone, the dense
     // variable block; the factor about as much again; cone work ~12 d².
-    let cone_dense = psd_blocks * tri(t) + psd_blocks_plus * tri(t1);
+    let cone_dense = rate_work(&|d| tri(tri(d))) + tri(t) + psd_blocks_plus * tri(t1);
     // The cube's slacks each touch three blocks of their own combination,
     // so they add fill per slack entry rather than a dense block.
     let kkt = if cube {
@@ -176,7 +188,8 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     } else {
         nonzeros + cone_dense + tri(variables)
     };
-    let cone_work = 12.0 * (psd_blocks * nx * nx + psd_blocks_plus * (nx + 1.0) * (nx + 1.0));
+    let cone_work =
+        12.0 * (rate_work(&|d| d * d) + nx * nx + psd_blocks_plus * (nx + 1.0) * (nx + 1.0));
     let units = nonzeros + 2.0 * kkt + cone_work + rows;
     SizeEstimate {
         nx: nx_u,
@@ -190,7 +203,8 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
         units,
         bytes: units * BYTES_PER_UNIT,
         seconds_per_solve: units * SECONDS_PER_UNIT,
-        certificate_blocks: if cube { c * (4.0 * r + 1.0) } else { c * p * p },
+        certificate_blocks: if cube { c * (4.0 * r + 1.0) } else { c * p * p }
+            * (1.0 + pole_sides.len() as f64),
     }
 }
 

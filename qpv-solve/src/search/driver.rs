@@ -602,9 +602,82 @@ fn data_notes(
     }
 }
 
+impl Ctx<'_, '_> {
+    /// `max_gain = G` with α = max in sound mode: the gain walk
+    /// ([`super::gain_walk`]) from the bounded search's α; its design
+    /// replaces the target when it is faster.
+    fn gain_walk(
+        &mut self,
+        setup: &Setup,
+        request: &DesignRequest,
+        t: &mut Target,
+        notes: &mut Notes,
+    ) -> Result<(), SolveError> {
+        let (Some(bound), Mode::Sound) = (request.max_gain, request.mode) else {
+            return Ok(());
+        };
+        let found = t.ready.as_ref().or(t.searched.as_ref()).map(|p| p.alpha);
+        let w = super::gain_walk::walk(setup, request, self.settings, bound, t.gamma, found)?;
+        let solves = w.steps.len();
+        self.steps.extend(w.steps);
+        let Some(mut p) = w.point.filter(|p| found.is_none_or(|a| p.alpha > a)) else {
+            return Ok(());
+        };
+        p.cert = self.certify(p.alpha, p.gamma, &p.p, &p.l, p.cube.as_ref());
+        if !p.cert.passed {
+            return Ok(());
+        }
+        notes.push(format!(
+            "max_gain = {bound}: the SDP's gain constraint (‖Γ_l‖₂ ≤ G·λ with P ⪰ λI) is sufficient, not necessary; the smallest-gain designs of the same conditions without it, each certified with ‖L_l‖₂ ≤ {bound} required, reach α = {:.6}{} (max ‖L_l‖₂ = {:.4e}; {solves} more solves, bisection in ln α to 1 %): that design is reported",
+            p.alpha,
+            found.map(|a| format!(" where the constrained search reached {a:.6}")).unwrap_or_default(),
+            super::practical::max_gain(&p)
+        ));
+        t.alpha = Some(p.alpha);
+        t.gamma = p.gamma;
+        t.ready = Some(p);
+        Ok(())
+    }
+
+    /// `max_gain = G` at a fixed α whose constrained solve certified
+    /// nothing: the smallest-gain design at α without the constraint,
+    /// reported if its actual gains meet G.
+    fn gain_walk_fixed(
+        &mut self,
+        setup: &Setup,
+        request: &DesignRequest,
+        gamma: f64,
+        fin: &mut Final,
+        notes: &mut Notes,
+    ) -> Result<(), SolveError> {
+        let (Some(bound), Mode::Sound) = (request.max_gain, request.mode) else {
+            return Ok(());
+        };
+        let w = super::gain_walk::walk(setup, request, self.settings, bound, gamma, None)?;
+        self.steps.extend(w.steps);
+        let Some(mut p) = w.point else {
+            return Ok(());
+        };
+        p.cert = self.certify(p.alpha, p.gamma, &p.p, &p.l, p.cube.as_ref());
+        if !p.cert.passed {
+            return Ok(());
+        }
+        notes.push(format!(
+            "max_gain = {bound}: the constrained solve certified nothing (its gain constraint ‖Γ_l‖₂ ≤ G·λ, P ⪰ λI, is sufficient, not necessary); the smallest-gain design at this α without it has max ‖L_l‖₂ = {:.4e} ≤ {bound}, certified with the bound required: reported",
+            super::practical::max_gain(&p)
+        ));
+        fin.status = p.solver.status;
+        fin.solver = p.solver.clone();
+        fin.chosen = Some(p);
+        fin.last = None;
+        Ok(())
+    }
+}
+
 /// Why a `max_gain = G` request certified nothing: the smallest gain the
-/// same conditions certify at the smallest α (one min-gain solve without
-/// the bound, at γ), or that none certifies even there.
+/// same conditions certify without the bound at the requested α (the α
+/// floor for α = max; one min-gain solve at γ), or that none certifies
+/// even there.
 fn gain_bound_failure(
     setup: &Setup,
     request: &DesignRequest,
@@ -620,16 +693,24 @@ fn gain_bound_failure(
     let prob = setup.problem(&free)?;
     let mut ctx = Ctx::new(&setup.model, request.mode, settings, prob, &mut quiet);
     ctx.sample = request.sample;
-    let a = settings.alpha_floor;
-    let solve = Solve::Lmi(Objective::MinGain, None);
-    let at = ctx.attempt(Candidate::new(a, gamma), solve, Phase::Diagnose)?;
-    Ok(match at.point.filter(|_| at.certified) {
+    let a = match request.alpha {
+        AlphaSpec::Fixed(a) => a,
+        AlphaSpec::Max => settings.alpha_floor,
+    };
+    let p = ctx.min_gain_at(a, gamma, None)?;
+    Ok(match p {
+        // Never a bound below G: a gain that meets it would have been
+        // reported (the gain walk), so this one is above it.
+        Some(p) if super::practical::max_gain(&p) > bound => format!(
+            "max_gain = {bound} is not reached: the smallest gain this search certified without the bound at α = {a}, γ = {gamma:.6} is max ‖L_l‖₂ = {:.4e} (a design with that gain exists; a bound of at least that much admits it)",
+            super::practical::max_gain(&p)
+        ),
         Some(p) => format!(
-            "max_gain = {bound} is not reachable: the smallest gain certified without the bound at α = {a}, γ = {gamma:.6} is max ‖L_l‖₂ = {:.4e} (a design with that gain exists; raise max_gain to at least it)",
+            "max_gain = {bound}: a design at α = {a}, γ = {gamma:.6} with max ‖L_l‖₂ = {:.4e} certifies without the bound in the problem, but not with every check of this request",
             super::practical::max_gain(&p)
         ),
         None => format!(
-            "max_gain = {bound}: no design certifies at α = {a}, γ = {gamma:.6} even without the bound"
+            "max_gain = {bound}: no design was found to certify at α = {a}, γ = {gamma:.6} even without the bound (not found by this search)"
         ),
     })
 }
@@ -874,8 +955,8 @@ fn global_knee(
     // Not below a gain of the plant's own size, ‖A_l‖₂/‖C_l‖₂: a reference
     // in the gain-free range (α below the plant's own decay) says nothing.
     let own = model.vertices.iter().map(|v| {
-        let c = v.c.clone().singular_values().max();
-        v.a.clone().singular_values().max() / c.max(f64::MIN_POSITIVE)
+        let c = crate::linalg::norm2(&v.c);
+        crate::linalg::norm2(&v.a) / c.max(f64::MIN_POSITIVE)
     });
     let g_ref = gain(&reference).max(own.fold(0.0, f64::max));
     if g_t <= KNEE_FACTOR.powi(3) * g_ref {
@@ -1028,10 +1109,16 @@ fn design_plain_with(
     if request.alpha == AlphaSpec::Max && mode == Mode::Sound {
         ctx.within = request.within;
     }
-    let target = ctx.target(request, setup.gamma_hi, &mut notes)?;
+    let mut target = ctx.target(request, setup.gamma_hi, &mut notes)?;
+    if request.alpha == AlphaSpec::Max {
+        ctx.gain_walk(&setup, request, &mut target, &mut notes)?;
+    }
     let requested = (target.alpha, target.gamma);
     let (gamma_search, practical) = (target.gamma_search.clone(), target.practical.clone());
-    let fin = ctx.final_solve(target, &mut notes)?;
+    let mut fin = ctx.final_solve(target, &mut notes)?;
+    if fin.chosen.is_none() && matches!(request.alpha, AlphaSpec::Fixed(_)) {
+        ctx.gain_walk_fixed(&setup, request, requested.1, &mut fin, &mut notes)?;
+    }
     let mut d = ctx.report(&setup, request, fin, requested, notes)?;
     d.gamma_search = gamma_search;
     d.practical = practical;

@@ -51,6 +51,7 @@
 
 mod attempt;
 mod driver;
+mod gain_walk;
 pub mod gamma;
 pub mod noise;
 mod practical;

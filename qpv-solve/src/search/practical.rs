@@ -92,9 +92,7 @@ pub(super) struct Outcome {
 
 /// max_l ‖L_l‖₂ of a point.
 pub(super) fn max_gain(p: &Point) -> f64 {
-    p.l.iter()
-        .map(|l| l.clone().singular_values().max())
-        .fold(0.0, f64::max)
+    p.l.iter().map(crate::linalg::norm2).fold(0.0, f64::max)
 }
 
 impl Ctx<'_, '_> {
@@ -111,7 +109,7 @@ impl Ctx<'_, '_> {
     /// room), the solve is repeated with the margin cut by
     /// [`MARGIN_CUTS`] (docs/method.md §11a, "Margin"). The certificate is
     /// the same either way.
-    fn min_gain_at(
+    pub(super) fn min_gain_at(
         &mut self,
         alpha: f64,
         gamma: f64,
