@@ -11,6 +11,7 @@ mod cli_decoupled;
 mod cli_noise;
 mod cli_output_route;
 mod cli_practical;
+mod cli_round3;
 mod cli_sampled;
 mod cli_simulate;
 mod cli_state_bound;

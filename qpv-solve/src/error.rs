@@ -18,6 +18,18 @@ pub enum SolveError {
     /// A fixed α that is not a positive finite number.
     #[error("α = {0} is not a positive finite number")]
     BadAlpha(f64),
+    /// A sampled request whose rate needs a decrease factor 1 − hα ≤ 0.
+    #[error(
+        "α = {alpha} at sample = {h:e}: hα = {:.4} ≥ 1, so V(e_k+1) ≤ (1 − hα)·V(e_k) ≤ 0 cannot hold for any e_k ≠ 0 and no design exists; at this period every certified α is below 1/h = {:.4e}",
+        h * alpha,
+        1.0 / h
+    )]
+    StepTooLong {
+        /// The sample period.
+        h: f64,
+        /// The requested rate.
+        alpha: f64,
+    },
     /// (S4) leaves no admissible γ: γ_max = 1/max_k sqrt(a_kᵀQa_k) is not positive/finite.
     #[error("no admissible γ: γ_max from (S4) is {0}")]
     NoGammaRange(f64),

@@ -144,6 +144,13 @@ pub enum Note {
         /// How many.
         count: usize,
     },
+    /// The global observer was solved in balanced units x = D z.
+    BalancedUnits {
+        /// The diagonal of D (powers of two).
+        d: Vec<f64>,
+        /// Where D came from ("2 pilot solves", "the first search's P").
+        from: String,
+    },
     /// Any other remark, and every note of a report read back.
     Text(String),
 }
@@ -182,6 +189,14 @@ impl std::fmt::Display for Note {
                 f,
                 "{count} solved points failed the independent certificate and were rejected"
             ),
+            Note::BalancedUnits { d, from } => {
+                let d: Vec<String> = d.iter().map(|v| format!("{v:e}")).collect();
+                write!(
+                    f,
+                    "global observer in balanced units x = D z, D = diag({}) (powers of two, from {from}; exact)",
+                    d.join(", ")
+                )
+            }
         }
     }
 }

@@ -182,7 +182,7 @@ fn an_unreachable_gain_bound_says_the_smallest_certified_gain() {
         .notes
         .iter()
         .map(ToString::to_string)
-        .find(|n| n.contains("max_gain = 0.001 is not reachable"))
+        .find(|n| n.contains("max_gain = 0.001 is not reached"))
         .unwrap_or_else(|| panic!("{:?}", d.notes));
     assert!(note.contains("max ‖L_l‖₂ ="), "{note}");
 }

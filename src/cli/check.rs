@@ -199,6 +199,17 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         (None, Some(m)) => (m, "gains file"),
         (None, None) => (Mode::Sound, "default"),
     };
+    if mode == Mode::Paper && !model.polytopic().has_region() {
+        // The printed conditions live on a region, which an LPV plant's
+        // design does not have: say so before any value is judged by them.
+        return Err(CliError::Input(format!(
+            "model `{}` ({}): paper mode ({mode_source}) checks the paper's printed conditions on a \
+             region, and this plant has none; the sound design of an LPV plant (every N_k and \
+             M_k zero) is the global observer: check it in sound mode (docs/method.md §17)",
+            model.name,
+            o.file.display()
+        )));
+    }
     let (alpha, alpha_source) = choose_value(
         "alpha",
         o.alpha,

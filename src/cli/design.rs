@@ -165,9 +165,11 @@ fn check_flags(o: &Options) -> Result<(), CliError> {
         }
     }
     if let Some(cap) = o.alpha_cap {
-        if !(cap.is_finite() && cap > 0.0) {
+        let floor = qpv_solve::Settings::default().alpha_floor;
+        if !(cap.is_finite() && cap >= floor) {
             return Err(CliError::Input(format!(
-                "--alpha-cap {cap}: expected a positive number (the largest alpha the search tries)"
+                "--alpha-cap {cap}: expected a number of at least {floor} (the largest alpha the \
+                 search tries; the search starts at alpha = {floor})"
             )));
         }
     }
@@ -765,6 +767,10 @@ pub fn describe_design(d: &Design) -> String {
     s
 }
 
+/// Above this estimated time per solve (seconds) `qpv design` says so
+/// before the first solve.
+const SLOW_NOTICE_SECONDS: f64 = 5.0;
+
 /// Runs `qpv design`.
 pub fn run(o: &Options) -> Result<i32, CliError> {
     let json = o.json.as_deref();
@@ -800,6 +806,23 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
                 .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
         );
         bar.set_message(format!("designing {} ({r})", model.name));
+        // The solver's clock runs between solves too; a request predicted
+        // to be slow says so before its first solve (on stderr, so that
+        // `--json -` stays one document).
+        bar.enable_steady_tick(std::time::Duration::from_millis(250));
+        let size = qpv_solve::model::size::estimate(&poly, r);
+        if size.seconds_per_solve > SLOW_NOTICE_SECONDS {
+            bar.suspend(|| {
+                eprintln!(
+                    "note: design request {number} is large ({:.3e} PSD blocks, {:.3e} constraint \
+                     nonzeros): about {:.0} s per solve on this estimate, and a search runs several \
+                     solves; progress follows",
+                    size.psd_blocks + size.psd_blocks_plus,
+                    size.nonzeros,
+                    size.seconds_per_solve
+                )
+            });
+        }
         let mut n = 0usize;
         let mut progress = |step: &qpv_solve::SearchStep| {
             n += 1;

@@ -473,6 +473,7 @@ fn cube_input_errors(model: &PolytopicModel, c: &CubeSlacks) -> Result<Vec<DVect
 
 fn input_errors(
     model: &PolytopicModel,
+    set: ConditionSet,
     alpha: f64,
     gamma: f64,
     p: &DMatrix<f64>,
@@ -509,7 +510,13 @@ fn input_errors(
     if !(alpha.is_finite() && alpha > 0.0) {
         errs.push(format!("α = {alpha} is not a positive finite number"));
     }
-    let global = crate::model::is_global(model, Mode::Sound);
+    // The caller's condition set decides, as in the check itself: paper
+    // mode has no global observer.
+    let mode = match set {
+        ConditionSet::Sound => Mode::Sound,
+        ConditionSet::Paper => Mode::Paper,
+    };
+    let global = crate::model::is_global(model, mode);
     let gamma_ok = gamma.is_finite() && gamma > 0.0 && gamma < 1.0;
     if !(global || gamma_ok) {
         errs.push(format!("γ = {gamma} is not in (0, 1)"));
@@ -735,7 +742,7 @@ fn check_inputs(
     w: &Witness,
     rate: RateCheck<'_>,
 ) -> (Vec<String>, Vec<DVector<f64>>) {
-    let mut errs = input_errors(model, at.alpha, at.gamma, w.p, w.gammas);
+    let mut errs = input_errors(model, set, at.alpha, at.gamma, w.p, w.gammas);
     if let RateCheck::Sampled(h) = rate {
         errs.extend(sampled::input_errors(set, at.alpha, h));
     }

@@ -530,6 +530,17 @@ pub fn attach(model: &PolytopicModel, d: &mut Design) {
             if let Some(s) = d.sample.as_mut() {
                 s.continuous_bound = Some(b);
             }
+            // A bound wider than the plant's own envelope is sound but
+            // says nothing about the estimate's accuracy: say so.
+            if let Ok(StateBound::Given(q)) = bound_model(model, d).map(|m| m.state_bound) {
+                let reach = q.symmetric_eigen().eigenvalues.max().max(0.0).sqrt();
+                if b.invariant && b.ultimate_error >= reach {
+                    d.notes.push(format!(
+                        "sample = h: the continuous-plant bound lim sup ‖e‖ ≤ {:.4e} is not smaller than the largest ‖x‖ of the state bound F ({reach:.4e}): sound, but vacuous as a statement of the estimate's accuracy (a shorter period or a design at this h lowers it)",
+                        b.ultimate_error
+                    ));
+                }
+            }
             if b.global {
                 d.notes.push(
                     "sample = h: the continuous-plant bound takes the declared state_bound Q as the plant's operating envelope: it assumes x(t) stays in {xᵀQ⁻¹x ≤ 1} (the global observer's certificate itself needs no state bound)",

@@ -85,6 +85,9 @@ impl Setup {
             if !(a.is_finite() && a > 0.0) {
                 return Err(SolveError::BadAlpha(a));
             }
+            if let Some(h) = request.sample.filter(|h| h * a >= 1.0) {
+                return Err(SolveError::StepTooLong { h, alpha: a });
+            }
         }
         if let (GammaSpec::Fixed(g), false) = (request.gamma, global) {
             if !(g.is_finite() && g > 0.0 && g < 1.0) {
@@ -449,12 +452,11 @@ impl Ctx<'_, '_> {
         };
         let shorter = match self.longest_period(target, gamma, h)? {
             Some((hs, hf)) => format!(
-                "α = {target} certifies at the shorter period {} and fails at {hf:.4e} s: sample at least every {hs:.4e} s ({:.4} Hz or faster; the largest h for this α at γ = {gamma:.6} lies in [{hs:.4e}, {hf:.4e}))",
+                "α = {target} certifies at the shorter period {} at γ = {gamma:.6} and fails at {hf:.4e} s in this search (not a proof that no design certifies there)",
                 crate::certificate::sampling::describe_period(hs),
-                1.0 / hs
             ),
             None => format!(
-                "α = {target} does not certify at γ = {gamma:.6} even at h = {:.3e} s: the continuous design at this γ does not reach it either (the sampled α never exceeds the continuous one)",
+                "this search found no design certifying α = {target} at γ = {gamma:.6} at any period down to h = {:.3e} s (not a proof that none exists)",
                 h / LONGEST_PERIOD_SHRINK.powi(LONGEST_PERIOD_DOWN as i32)
             ),
         };
@@ -465,12 +467,12 @@ impl Ctx<'_, '_> {
         };
         Ok(match best {
             Some(p) => format!(
-                "not certified at {at}: {asked} is beyond this rate; the largest α certified at this h and γ = {gamma:.6} is {:.6} (decrease 1 − hα = {:.6} per step; coarse search){tail}",
+                "not certified at {at}: {asked} was not certified by this search; the largest α certified at this h and γ = {gamma:.6} is {:.6} (decrease 1 − hα = {:.6} per step; coarse search){tail}",
                 p.alpha,
                 1.0 - h * p.alpha
             ),
             None => format!(
-                "not certified at {at}: no α ≥ {} certifies the discrete decrease at this h and γ = {gamma:.6}: the step is too long for this plant and region (the explicit Euler step itself must contract V){tail}",
+                "not certified at {at}: this search certified no α ≥ {} for the discrete decrease at this h and γ = {gamma:.6}: the step may be too long for this plant and region (the explicit Euler step itself must contract V){tail}",
                 self.settings.alpha_floor
             ),
         })
@@ -617,7 +619,8 @@ impl Ctx<'_, '_> {
             return Ok(());
         };
         let found = t.ready.as_ref().or(t.searched.as_ref()).map(|p| p.alpha);
-        let w = super::gain_walk::walk(setup, request, self.settings, bound, t.gamma, found)?;
+        let free = (&setup.model, setup.problem(&free_of(request))?);
+        let w = super::gain_walk::walk(free, request, self.settings, (bound, t.gamma), found)?;
         let solves = w.steps.len();
         self.steps.extend(w.steps);
         let Some(mut p) = w.point.filter(|p| found.is_none_or(|a| p.alpha > a)) else {
@@ -653,7 +656,8 @@ impl Ctx<'_, '_> {
         let (Some(bound), Mode::Sound) = (request.max_gain, request.mode) else {
             return Ok(());
         };
-        let w = super::gain_walk::walk(setup, request, self.settings, bound, gamma, None)?;
+        let free = (&setup.model, setup.problem(&free_of(request))?);
+        let w = super::gain_walk::walk(free, request, self.settings, (bound, gamma), None)?;
         self.steps.extend(w.steps);
         let Some(mut p) = w.point else {
             return Ok(());
@@ -674,6 +678,14 @@ impl Ctx<'_, '_> {
     }
 }
 
+/// `request` without its gain bound.
+fn free_of(request: &DesignRequest) -> DesignRequest {
+    DesignRequest {
+        max_gain: None,
+        ..request.clone()
+    }
+}
+
 /// Why a `max_gain = G` request certified nothing: the smallest gain the
 /// same conditions certify without the bound at the requested α (the α
 /// floor for α = max; one min-gain solve at γ), or that none certifies
@@ -685,12 +697,8 @@ fn gain_bound_failure(
     bound: f64,
     gamma: f64,
 ) -> Result<String, SolveError> {
-    let free = DesignRequest {
-        max_gain: None,
-        ..request.clone()
-    };
     let mut quiet = |_: &SearchStep| {};
-    let prob = setup.problem(&free)?;
+    let prob = setup.problem(&free_of(request))?;
     let mut ctx = Ctx::new(&setup.model, request.mode, settings, prob, &mut quiet);
     ctx.sample = request.sample;
     let a = match request.alpha {
@@ -872,10 +880,10 @@ pub(super) fn design_plain(
         if !second.certifies() {
             return Ok(first);
         }
-        second.notes.0.retain(|n| {
-            !n.to_string()
-                .starts_with("global observer in balanced units")
-        });
+        second
+            .notes
+            .0
+            .retain(|n| !matches!(n, Note::BalancedUnits { .. }));
         second.notes.push(format!(
             "the design in the pilots' balanced units did not certify ({} solves); solved again in the model's own units",
             first.search.len()
@@ -977,10 +985,7 @@ fn global_knee(
     info.solves += solves;
     // The α = max search's notes, but the units the returned design was
     // solved in are its own.
-    let units = |n: &Note| {
-        n.to_string()
-            .starts_with("global observer in balanced units")
-    };
+    let units = |n: &Note| matches!(n, Note::BalancedUnits { .. });
     let mut notes = design.notes.clone();
     notes.0.retain(|n| !units(n));
     notes
@@ -1165,16 +1170,14 @@ pub(super) fn prepare(
     let mut setup = Setup::new(model, &resolved, settings)?;
     let pilots = global_balance(&mut setup, &resolved, settings, hint)?;
     if let Some((_, sc)) = &setup.scaled {
-        let d: Vec<String> = sc.d.iter().map(|v| format!("{v:e}")).collect();
-        notes.push(format!(
-            "global observer in balanced units x = D z, D = diag({}) (powers of two, from {}; exact)",
-            d.join(", "),
-            if hint.is_some() && pilots == 0 {
+        notes.push(Note::BalancedUnits {
+            d: sc.d.clone(),
+            from: if hint.is_some() && pilots == 0 {
                 "the first search's P".to_string()
             } else {
                 format!("{pilots} pilot solves")
-            }
-        ));
+            },
+        });
     }
     Ok((resolved, setup, notes))
 }

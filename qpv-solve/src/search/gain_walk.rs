@@ -12,14 +12,14 @@
 //! faster.
 
 use super::attempt::Point;
-use super::driver::Setup;
 use super::practical::max_gain;
 use super::Ctx;
 use crate::error::SolveError;
+use crate::lmi::Problem;
 use crate::report::SearchStep;
 use crate::settings::Settings;
 use crate::vocab::Phase;
-use qpv_dsl::{AlphaSpec, DesignRequest};
+use qpv_dsl::{AlphaSpec, DesignRequest, PolytopicModel};
 
 /// The walk's relative tolerance in α.
 const WALK_TOL: f64 = 1e-2;
@@ -38,23 +38,18 @@ pub(super) struct Walk {
     pub steps: Vec<SearchStep>,
 }
 
-/// The walk for `request` (its `max_gain` is `bound`) at `gamma`, for
-/// α = max from the certified α `from` (the bounded search's, or None).
+/// The walk for `request` (its `max_gain` is `bound`) at `gamma` on
+/// `model` and `free`, the request's problem without the gain constraint;
+/// for α = max from the certified α `from` (the bounded search's, or None).
 pub(super) fn walk(
-    setup: &Setup,
+    (model, free): (&PolytopicModel, Problem<'_>),
     request: &DesignRequest,
     settings: &Settings,
-    bound: f64,
-    gamma: f64,
+    (bound, gamma): (f64, f64),
     from: Option<f64>,
 ) -> Result<Walk, SolveError> {
-    let free = DesignRequest {
-        max_gain: None,
-        ..request.clone()
-    };
     let mut quiet = |_: &SearchStep| {};
-    let prob = setup.problem(&free)?;
-    let mut ctx = Ctx::new(&setup.model, request.mode, settings, prob, &mut quiet);
+    let mut ctx = Ctx::new(model, request.mode, settings, free, &mut quiet);
     ctx.sample = request.sample;
     let mut out = Walk {
         point: None,
@@ -113,7 +108,19 @@ fn meeting(
     out: &mut Walk,
 ) -> Result<Option<Point>, SolveError> {
     ctx.max_gain = None;
-    let p = ctx.min_gain_at(a, gamma, seed.map(|s| &s.p))?;
+    let mut p = ctx.min_gain_at(a, gamma, seed.map(|s| &s.p))?;
+    // The surrogate bounds the gain, it is not the gain: where its design
+    // misses G, the default regularised objective's may not.
+    if p.as_ref().is_none_or(|p| max_gain(p) > bound) {
+        let cand = crate::vocab::Candidate::new(a, gamma);
+        let solve = super::attempt::Solve::Lmi(crate::lmi::Objective::Gains, None);
+        let at = ctx.attempt(cand, solve, Phase::GainWalk)?;
+        if let Some(q) = at.point.filter(|_| at.certified) {
+            if p.as_ref().is_none_or(|p| max_gain(&q) < max_gain(p)) {
+                p = Some(q);
+            }
+        }
+    }
     ctx.max_gain = Some(bound);
     if let Some(p) = &p {
         if out.smallest.is_none_or(|(sa, _)| a < sa) {

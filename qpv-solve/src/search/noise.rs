@@ -12,7 +12,7 @@ use crate::model::noise::NoiseChannels;
 use crate::model::output_filter::OutputRouteInfo;
 use crate::model::state_bound::StateBoundInfo;
 use crate::model::{ObserverModel, ObserverOptions, StateBoundClaim};
-use crate::report::{Design, Notes, SearchStep, SolverInfo};
+use crate::report::{Design, Note, Notes, SearchStep, SolverInfo};
 use crate::settings::Settings;
 use crate::vocab::{BoundSource, Candidate, Phase};
 use qpv_dsl::{AlphaSpec, DesignRequest, GammaSpec, Mode, PolytopicModel};
@@ -301,6 +301,19 @@ pub(crate) fn design_noise_with_progress(
     // An LPV plant's noise design is the global observer's (docs/method.md
     // §17): its model has the region {0}, γ is 1 and unused.
     let global = crate::model::is_global(model, request.mode);
+    // The size guard of every design, before anything is built or solved
+    // (the global setup's [`super::driver::prepare`] applies it too).
+    // The noise blocks are solved on the full vertex family, whatever the
+    // request's conditions.
+    let full = DesignRequest {
+        conditions: qpv_dsl::Conditions::Full,
+        ..request.clone()
+    };
+    let size_note = match crate::model::size::guard(model, &full) {
+        crate::model::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
+        crate::model::size::Verdict::Slow(m) => Some(m),
+        crate::model::size::Verdict::Fits => None,
+    };
     // The global observer's setup: its model (region {0}), its request
     // (γ = 1, the full family) and its balanced units (pilot solves at α).
     let global_setup = match global {
@@ -379,12 +392,17 @@ pub(crate) fn design_noise_with_progress(
         }
     };
     let mut notes = noise_notes(request, alpha, channels, &ch, obs, &route_info, &bound_info);
+    if !global {
+        notes.extend(size_note);
+    }
     if let Some((_, _, setup_notes)) = &global_setup {
         notes.insert(0, global_noise_note(model, request));
         // The balanced units, if any (the global request's own note is
         // replaced by the noise design's).
-        let units = setup_notes.iter().map(|n| n.to_string());
-        let units = units.filter(|n| n.starts_with("global observer in balanced units"));
+        let units = setup_notes
+            .iter()
+            .filter(|n| matches!(n, Note::BalancedUnits { .. }))
+            .map(Note::to_string);
         match own_units {
             false => notes.extend(units),
             true => notes.push("the noise design in balanced units did not certify; solved again in the model's own units".into()),
