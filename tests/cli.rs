@@ -9,6 +9,7 @@ mod cli_claims;
 mod cli_cover;
 mod cli_decoupled;
 mod cli_noise;
+mod cli_output;
 mod cli_output_route;
 mod cli_practical;
 mod cli_sampled;

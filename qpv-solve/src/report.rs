@@ -527,9 +527,9 @@ impl GammaSearchInfo {
             String::new()
         };
         format!(
-            "γ search: best over γ ∈ [{:.4e}, {:.6}], {} log-spaced grid points ({} γ values evaluated, {} solves){walk}; local maxima at {}",
-            self.gamma_lo,
-            self.gamma_hi,
+            "γ search: best over γ ∈ [{}, {}], {} log-spaced grid points ({} γ values evaluated, {} solver calls){walk}; local maxima at {}",
+            qpv_dsl::fmt_sig(self.gamma_lo, 5),
+            qpv_dsl::fmt_sig(self.gamma_hi, 6),
             self.grid_points,
             self.points,
             self.solves,

@@ -342,10 +342,10 @@ fn describe_state_bound(sb: &StateBoundInfo) -> String {
     let gmax = sb.gamma_max.map_or("-".to_string(), |g| format!("{g:.6}"));
     let mut s = match sb.source {
         BoundSource::Auto => format!(
-            "  state bound: computed (state_bound auto): h = {:.6}{}, gamma_max = {gmax} \
+            "  state bound: computed (state_bound auto): h = {}{}, gamma_max = {gmax} \
              (solver estimate for any ellipsoid around the region: {:.6}), invariance with N_k {}, \
-             {} solves, {:.3} s\n",
-            sb.h.unwrap_or(f64::NAN),
+             {} solver calls, {:.3} s\n",
+            qpv_dsl::fmt_sig(sb.h.unwrap_or(f64::NAN), 6),
             if sb.h_fixed {
                 " (fixed)"
             } else {
@@ -529,16 +529,9 @@ fn practical_line(d: &Design) -> String {
     format!("  {alpha}, ||L|| <= {}{bound}{step}\n", sig(gain))
 }
 
-/// Three significant digits, in scientific form outside [1e-3, 1e5).
+/// Three significant digits ([`qpv_dsl::fmt_sig`]).
 fn sig(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        format!("{v}")
-    } else if !(1e-3..1e5).contains(&v.abs()) {
-        format!("{v:.2e}")
-    } else {
-        let d = (2 - v.abs().log10().floor() as i32).max(0) as usize;
-        format!("{v:.d$}")
-    }
+    qpv_dsl::fmt_sig(v, 3)
 }
 
 /// A duration with its unit (s, ms, us, ns), three significant digits.

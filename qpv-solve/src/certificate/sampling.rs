@@ -102,8 +102,12 @@ pub fn describe_period(h: f64) -> String {
     } else {
         (f, "Hz")
     };
-    let v = format!("{v:.4}");
-    let v = v.trim_end_matches('0').trim_end_matches('.');
+    let v = if (1e-3..1e5).contains(&v) {
+        let v = format!("{v:.4}");
+        v.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        qpv_dsl::fmt_sig(v, 4)
+    };
     format!("h = {h:e} s ({v} {unit})")
 }
 

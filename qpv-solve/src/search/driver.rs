@@ -150,8 +150,8 @@ impl Setup {
         }
         if bound_info.source == BoundSource::Auto {
             notes.push(format!(
-                "state bound computed (state_bound auto): h = {:.6}, γ_max = {:.6}, in {} solves, {:.3} s",
-                bound_info.h.unwrap_or(f64::NAN),
+                "state bound computed (state_bound auto): h = {}, γ_max = {:.6}, in {} solver calls, {:.3} s",
+                qpv_dsl::fmt_sig(bound_info.h.unwrap_or(f64::NAN), 6),
                 bound_info.gamma_max.unwrap_or(f64::NAN),
                 bound_info.solves,
                 bound_info.seconds
