@@ -2,7 +2,95 @@
 //! vertices for the global observer, numbers in one readable form, the
 //! flags' overrides said, charts whose axes and legends hide no data.
 
-use crate::common::{qpv, text};
+use crate::common::{json_stdout, qpv, text, tmp};
+
+/// A two-state LPV plant (every N_k zero): the global observer.
+const TINY_LPV: &str = "model tiny_lpv {
+    state x1, x2;
+    output y;
+    param r in [0.5, 1];
+    der x1 = -r*x1 + x2;
+    der x2 = -x2;
+    out y = x1;
+}
+";
+
+/// The number after `prefix` in `s`.
+fn number_after(s: &str, prefix: &str) -> usize {
+    let at = s
+        .find(prefix)
+        .unwrap_or_else(|| panic!("`{prefix}` not in:\n{s}"));
+    s[at + prefix.len()..]
+        .chars()
+        .take_while(char::is_ascii_digit)
+        .collect::<String>()
+        .parse()
+        .unwrap_or_else(|_| panic!("no number after `{prefix}` in:\n{s}"))
+}
+
+#[test]
+fn the_solver_call_counts_of_a_global_alpha_max_add_up() {
+    let model = tmp("output", "tiny_lpv.qpv");
+    std::fs::write(&model, TINY_LPV).expect("model");
+    let m = model.to_str().expect("utf-8 path");
+    let out = qpv(&[
+        "design", m, "--alpha", "max", "--within", "0", "--json", "-",
+    ]);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{all}");
+    let doc = json_stdout(&out);
+    let d = &doc["designs"][0];
+    let log = d["search"].as_array().expect("search log");
+    let returned = log.iter().filter(|s| s["status"] == "solved").count();
+    // the one count of solver calls: the text's, the note's sum, the log's
+    assert_eq!(number_after(&all, "solver calls: "), log.len(), "{all}");
+    assert_eq!(number_after(&all, "the search made "), log.len(), "{all}");
+    let made = format!("the search made {} solver call(s), ", log.len());
+    assert_eq!(number_after(&all, &made), returned, "{all}");
+    let note = d["notes"]
+        .as_array()
+        .expect("notes")
+        .iter()
+        .filter_map(|n| n.as_str())
+        .find(|n| n.contains("searched twice"))
+        .unwrap_or_else(|| panic!("the two-search note: {d}"));
+    let first = number_after(note, "P (");
+    let second = number_after(note, &format!("P ({first} + "));
+    assert_eq!(first + second, log.len(), "{note}");
+    assert!(!all.contains(" solves"), "one word for one count:\n{all}");
+}
+
+#[test]
+fn a_failed_design_counts_in_the_same_words() {
+    let out = qpv(&[
+        "design",
+        "examples/paper.qpv",
+        "--alpha",
+        "100",
+        "--gamma",
+        "0.4",
+        "--json",
+        "-",
+    ]);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{all}");
+    let doc = json_stdout(&out);
+    let d = &doc["designs"][0];
+    let log = d["search"].as_array().expect("log");
+    let rejected = log
+        .iter()
+        .filter(|s| s["status"] == "solved" && s["certified"] == false)
+        .count();
+    assert!(rejected > 0, "this request returns a point that fails: {d}");
+    assert_eq!(number_after(&all, "solver calls: "), log.len(), "{all}");
+    assert!(
+        all.contains(&format!(
+            "{rejected} point(s) returned by the solver failed the independent certificate"
+        )),
+        "{all}"
+    );
+    assert!(!all.contains("no attempt returned"), "{all}");
+}
 
 #[test]
 fn numbers_print_in_one_readable_form() {

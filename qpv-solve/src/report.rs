@@ -171,7 +171,7 @@ impl std::fmt::Display for Note {
                 kinds,
             } => write!(
                 f,
-                "{count} of {solves} solves ended with an unknown status ({}): neither feasible nor infeasible, counted as not certified",
+                "{count} of {solves} solver calls ended with an unknown status ({}): neither feasible nor infeasible, counted as not certified",
                 kinds.join(", ")
             ),
             Note::StoppedShort { detail } => write!(
@@ -180,7 +180,7 @@ impl std::fmt::Display for Note {
             ),
             Note::Rejected { count } => write!(
                 f,
-                "{count} solved points failed the independent certificate and were rejected"
+                "{count} point(s) returned by the solver failed the independent certificate and were rejected"
             ),
         }
     }

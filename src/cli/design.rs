@@ -419,16 +419,7 @@ pub(crate) fn continuous_line(
 
 /// The verdict line(s) of a design: what is certified and how, once.
 fn describe_verdict(d: &Design) -> String {
-    let solved = d
-        .search
-        .iter()
-        .filter(|s| s.status == qpv_solve::Status::Solved)
-        .count();
-    let rejected = d
-        .search
-        .iter()
-        .filter(|s| s.status == qpv_solve::Status::Solved && !s.certified)
-        .count();
+    let searched = search_counts(d);
     let families: Vec<&str> = d.margins.keys().map(|f| f.name()).collect();
     match (d.feasible(), d.mode) {
         (true, Mode::Sound) if d.sample.is_some() => {
@@ -444,7 +435,7 @@ fn describe_verdict(d: &Design) -> String {
                 ("CERTIFIED", format!(" at gamma = {:.6}", d.gamma), " and the data check S4")
             };
             format!(
-                "  {head} at {}: alpha = {:.6} per second{at}, V(e_k+1) <= {:.6} V(e_k) per step for the observer stepped by explicit Euler at h (the discrete decrease S5d in place of S5): every condition family holds ({}){data}, by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), {rejected} of them rejected by that check and not used\n{}",
+                "  {head} at {}: alpha = {:.6} per second{at}, V(e_k+1) <= {:.6} V(e_k) per step for the observer stepped by explicit Euler at h (the discrete decrease S5d in place of S5): every condition family holds ({}){data}, by the independent eigenvalue check of the reported P and L_l; {searched}\n{}",
                 s.describe(),
                 d.alpha,
                 s.decrease,
@@ -455,15 +446,14 @@ fn describe_verdict(d: &Design) -> String {
         (true, Mode::Sound) if d.global => format!(
             "  CERTIFIED, GLOBAL: alpha = {:.6} for every initial error (LPV plant: no region, state bound or gamma): \
              P > 0 and the rate family hold ({}), by the independent eigenvalue check of the reported P and L_l; \
-             the search solved {solved} point(s), {rejected} of them rejected by that check and not used\n{}",
+             {searched}\n{}",
             d.alpha,
             families.join(", "),
             practical_line(d)
         ),
         (true, Mode::Sound) => format!(
             "  CERTIFIED: alpha = {:.6} at gamma = {:.6}: every sound condition family holds ({}) and the data check S4, \
-             by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), \
-             {rejected} of them rejected by that check and not used\n{}",
+             by the independent eigenvalue check of the reported P and L_l; {searched}\n{}",
             d.alpha,
             d.gamma,
             families.join(", "),
@@ -490,6 +480,31 @@ fn describe_verdict(d: &Design) -> String {
             }
         }
     }
+}
+
+/// The counts of a design's search log, each with one meaning: solver
+/// calls (every SDP solved, whatever its status), the points they returned
+/// (status solved), and of those the ones the independent certificate
+/// rejected.
+fn counts(d: &Design) -> (usize, usize, usize) {
+    let returned = |s: &&qpv_solve::SearchStep| s.status == qpv_solve::Status::Solved;
+    let calls = d.search.len();
+    let solved = d.search.iter().filter(returned).count();
+    let rejected = d
+        .search
+        .iter()
+        .filter(returned)
+        .filter(|s| !s.certified)
+        .count();
+    (calls, solved, rejected)
+}
+
+/// The counts of [`counts`] in words.
+fn search_counts(d: &Design) -> String {
+    let (calls, returned, rejected) = counts(d);
+    format!(
+        "the search made {calls} solver call(s), {returned} returned a point, {rejected} of those rejected by that check and not used"
+    )
 }
 
 /// The one line a user steps an observer by: α (and, for the practical
@@ -552,7 +567,14 @@ fn seconds(h: f64) -> String {
 fn describe_failure_margins(d: &Design) -> String {
     let mut s = String::new();
     if d.margins.is_empty() {
-        s.push_str("  no attempt returned a point, so there are no margins to show\n");
+        let (calls, returned, _) = counts(d);
+        s.push_str(&if returned > 0 {
+            format!(
+                "  {returned} of the {calls} solver call(s) returned a point, and none passed the independent certificate: no certified margins to show\n"
+            )
+        } else {
+            format!("  none of the {calls} solver call(s) returned a point, so there are no margins to show\n")
+        });
         return s;
     }
     let at = d
@@ -728,7 +750,7 @@ pub fn describe_design(d: &Design) -> String {
     }
     if d.feasible() {
         s.push_str(&format!(
-            "  solves: {} in {:.3} s; the reported point: {} iterations, {:.3} s (the search log is in the JSON report)\n",
+            "  solver calls: {} in {:.3} s; the reported point: {} iterations, {:.3} s (the search log is in the JSON report)\n",
             d.search.len(),
             d.seconds_total,
             d.solver.iterations,
@@ -736,7 +758,7 @@ pub fn describe_design(d: &Design) -> String {
         ));
     } else {
         s.push_str(&format!(
-            "  solves: {} in {:.3} s; the last one ended {} (Clarabel: {}); a solver status says whether a point \
+            "  solver calls: {} in {:.3} s; the last one ended {} (Clarabel: {}); a solver status says whether a point \
              was returned, not whether it certifies\n",
             d.search.len(),
             d.seconds_total,
