@@ -93,6 +93,41 @@ fn a_failed_design_counts_in_the_same_words() {
 }
 
 #[test]
+fn check_of_a_global_design_names_no_region_vertices() {
+    let report = tmp("output", "tank_sampled.json");
+    let r = report.to_str().expect("utf-8 path");
+    let out = qpv(&[
+        "design",
+        "examples/three_tank.qpv",
+        "--alpha",
+        "0.15",
+        "--sample",
+        "0.01",
+        "--json",
+        r,
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let out = qpv(&["check", "examples/three_tank.qpv", "--gains", r]);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{all}");
+    assert!(all.contains("S5d"), "{all}");
+    assert!(
+        !all.contains(" i=") && !all.contains(" j="),
+        "the global observer has no region vertices:\n{all}"
+    );
+}
+
+#[test]
+fn vertices_of_an_lpv_plant_says_there_is_no_region() {
+    let out = qpv(&["vertices", "examples/three_tank.qpv"]);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{all}");
+    assert!(!all.contains("0 vertices, 0 facets"), "{all}");
+    assert!(all.contains("region: none"), "{all}");
+    assert!(all.contains("global observer"), "{all}");
+}
+
+#[test]
 fn numbers_print_in_one_readable_form() {
     use qpv::dsl::fmt_sig;
     assert_eq!(fmt_sig(0.0, 5), "0");
