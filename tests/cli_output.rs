@@ -168,3 +168,52 @@ fn numbers_print_in_one_readable_form() {
         assert!(!all.contains("(0 Hz)"), "{all}");
     }
 }
+
+#[test]
+fn the_output_says_what_the_flags_overrode_of_the_design_blocks() {
+    let src = std::fs::read_to_string("examples/paper.qpv").expect("paper.qpv");
+    let start = src.find("    design {").expect("a design block");
+    let model = format!(
+        "{}    design {{ alpha = max; max_gain = 50; split = as_written; }}\n}}\n",
+        &src[..start]
+    );
+    let path = tmp("output", "paper_max_gain.qpv");
+    std::fs::write(&path, model).expect("model");
+    let m = path.to_str().expect("utf-8 path");
+    // --alpha replaces the block: its max_gain and split are not used
+    let out = qpv(&[
+        "design", m, "--alpha", "5", "--gamma", "0.18", "--json", "-",
+    ]);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{all}");
+    for said in [
+        "design block 1",
+        "max_gain = 50 dropped",
+        "split = as_written -> split = symmetric",
+        "alpha = max -> alpha = 5",
+    ] {
+        assert!(all.contains(said), "`{said}` in:\n{all}");
+    }
+    let doc = json_stdout(&out);
+    assert!(
+        doc["designs"][0]["notes"]
+            .as_array()
+            .expect("notes")
+            .iter()
+            .any(|n| n
+                .as_str()
+                .is_some_and(|n| n.contains("max_gain = 50 dropped"))),
+        "the note is in the report too: {doc}"
+    );
+    // an override flag on the block it runs: said too
+    let out = qpv(&["design", m, "--split", "symmetric", "--within", "0.3"]);
+    let all = text(&out);
+    for said in [
+        "command-line flags override design block 1",
+        "split = as_written -> split = symmetric",
+        "alpha = max -> alpha = max(within = 0.3)",
+    ] {
+        assert!(all.contains(said), "`{said}` in:\n{all}");
+    }
+    assert!(!all.contains("max_gain = 50 dropped"), "{all}");
+}

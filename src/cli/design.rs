@@ -131,6 +131,8 @@ fn parse_route(
 struct Planned {
     request: DesignRequest,
     skip: Option<String>,
+    /// What the flags changed of the model's design block(s), in words.
+    overridden: Option<String>,
 }
 
 /// The values of the flags that are numbers in a range, checked, and the
@@ -217,6 +219,7 @@ fn plan(
         Ok(Planned {
             request: r,
             skip: Some(why),
+            overridden: None,
         })
     };
     if let Some(w) = o.within {
@@ -250,6 +253,7 @@ fn plan(
         Ok(()) => Ok(Planned {
             request: r,
             skip: None,
+            overridden: None,
         }),
         Err(Clash::NoiseMinAlphaMax) => Err(CliError::Input(format!(
             "--noise min needs a fixed alpha ({r}): alpha = max is the fastest design, not a \
@@ -296,15 +300,68 @@ fn requests(model: &Model, o: &Options) -> Result<Vec<Planned>, CliError> {
         vec![r]
     };
     let route = parse_route(o.output_route.as_deref(), o.filter_pole, o.filter_gain)?;
-    let plan: Vec<Planned> = reqs
+    let blocks = reqs.clone();
+    let mut plan: Vec<Planned> = reqs
         .into_iter()
         .map(|r| plan(r, o, route))
         .collect::<Result<_, _>>()?;
+    if o.mode.is_some() || o.alpha.is_some() || o.gamma.is_some() {
+        // one request from the flags in place of the model's blocks
+        let changes: Vec<String> = (1..)
+            .zip(&model.designs)
+            .map(|(k, b)| (k, overridden(b, &plan[0].request)))
+            .filter(|(_, c)| !c.is_empty())
+            .map(|(k, c)| format!("design block {k}: {}", c.join(", ")))
+            .collect();
+        if !changes.is_empty() {
+            plan[0].overridden = Some(format!(
+                "--mode/--alpha/--gamma replace the model's design blocks, so their settings are not used unless a flag gives them: {}",
+                changes.join("; ")
+            ));
+        }
+    } else if !model.designs.is_empty() {
+        for (k, (p, b)) in (1..).zip(plan.iter_mut().zip(&blocks)) {
+            let c = overridden(b, &p.request);
+            if !c.is_empty() {
+                p.overridden = Some(format!(
+                    "command-line flags override design block {k}: {}",
+                    c.join(", ")
+                ));
+            }
+        }
+    }
     if plan.iter().all(|p| p.skip.is_some()) {
         let reason = plan.iter().find_map(|p| p.skip.as_deref()).unwrap_or("");
         return Err(CliError::Input(format!("nothing to run: {reason}")));
     }
     Ok(plan)
+}
+
+/// The settings of a request as `key = value` items, keyed, from its
+/// `design`-block form (`alpha = max(within = 0); gamma = search; ...`).
+fn setting_items(r: &DesignRequest) -> Vec<(String, String)> {
+    r.to_string()
+        .split("; ")
+        .map(|item| {
+            let key = item.split(" = ").next().unwrap_or(item).to_string();
+            (key, item.to_string())
+        })
+        .collect()
+}
+
+/// What the request run changed of a model's design block: every setting
+/// of the block the run does not keep, as "max_gain = 50 dropped" or
+/// "split = as_written -> split = symmetric".
+fn overridden(block: &DesignRequest, run: &DesignRequest) -> Vec<String> {
+    let now = setting_items(run);
+    setting_items(block)
+        .into_iter()
+        .filter_map(|(key, item)| match now.iter().find(|(k, _)| *k == key) {
+            None => Some(format!("{item} dropped")),
+            Some((_, other)) if *other != item => Some(format!("{item} -> {other}")),
+            Some(_) => None,
+        })
+        .collect()
 }
 
 /// Whether a design error is an outcome about the plant rather than bad
@@ -795,7 +852,15 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     let mut designs = Vec::new();
     let mut skipped = Vec::new();
     let mut failures = Vec::new();
-    for (number, Planned { request: r, skip }) in (1..).zip(&plan) {
+    for (
+        number,
+        Planned {
+            request: r,
+            skip,
+            overridden,
+        },
+    ) in (1..).zip(&plan)
+    {
         let not_run = |reason: String| NotRun {
             request: number,
             settings: r.to_string(),
@@ -831,7 +896,10 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         let result = qpv_solve::design_with_progress(&poly, r, &settings, &mut progress);
         bar.finish_and_clear();
         match result {
-            Ok(d) => {
+            Ok(mut d) => {
+                if let Some(note) = overridden {
+                    d.notes.push(note.clone());
+                }
                 print_text(json, &describe_design(&d));
                 designs.push(d);
             }
