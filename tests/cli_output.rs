@@ -217,3 +217,41 @@ fn the_output_says_what_the_flags_overrode_of_the_design_blocks() {
     }
     assert!(!all.contains("max_gain = 50 dropped"), "{all}");
 }
+
+#[test]
+fn a_log_axis_starts_below_the_data_and_the_legend_beside_the_plot() {
+    let (lo, hi) = qpv::plot::y_range([1.008e-7, 0.03, 1.2].into_iter(), true);
+    assert!(lo < 1.008e-7 && hi >= 1.2, "{lo} {hi}");
+    let (lo, _) = qpv::plot::y_range([1e-7, 1.0].into_iter(), true);
+    assert!(lo < 1e-7, "a decade value is not the floor itself: {lo}");
+    let path = tmp("output", "legend.svg");
+    let points: Vec<(f64, f64)> = (0..100)
+        .map(|k| (k as f64 * 0.02, (-(k as f64) * 0.2).exp()))
+        .collect();
+    qpv::plot::line_chart(
+        &path,
+        "t",
+        "e",
+        &[qpv::plot::Series::new(
+            "a long legend entry that would cover the curve",
+            points,
+            qpv::plot::PALETTE[0],
+            false,
+        )],
+        true,
+    )
+    .expect("chart");
+    let svg = std::fs::read_to_string(&path).expect("svg");
+    let at = svg.find("a long legend entry").expect("the legend's text");
+    let tag = &svg[svg[..at].rfind("<text").expect("its tag")..at];
+    let x: f64 = tag
+        .split("x=\"")
+        .nth(1)
+        .and_then(|r| r.split('"').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("x of {tag}"));
+    assert!(
+        x >= 900.0,
+        "the legend stands right of the 900-px plot: {tag}"
+    );
+}
