@@ -21,22 +21,22 @@ pub struct Options {
     /// The model file (.qpv).
     pub file: PathBuf,
     /// Which model of the file (default: the only one, or the first).
-    #[arg(long)]
+    #[arg(long, value_name = "NAME")]
     pub model: Option<String>,
     /// Condition set: sound (default, certifies) or paper (reproduction only).
-    #[arg(long, value_parser = by_name(&Mode::ALL, Mode::name))]
+    #[arg(long, value_name = "sound|paper", value_parser = by_name(&Mode::ALL, Mode::name))]
     pub mode: Option<Mode>,
     /// Decay rate: a number or `max`.
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_alpha)]
+    #[arg(long, value_name = "A|max", allow_negative_numbers = true, value_parser = parse_alpha)]
     pub alpha: Option<AlphaSpec>,
     /// Region scaling: a number in (0,1) or `search`.
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_gamma)]
+    #[arg(long, value_name = "G|search", allow_negative_numbers = true, value_parser = parse_gamma)]
     pub gamma: Option<GammaSpec>,
     /// Representation of N_k, M_k: `as_written`, `symmetric` or
     /// `skew_slack` (symmetric plus a searched skew-symmetric slack;
     /// sound mode) (default: symmetric in sound mode, as_written in
     /// paper mode). Overrides the model's design blocks.
-    #[arg(long, value_parser = by_name(&Split::ALL, Split::name))]
+    #[arg(long, value_name = "as_written|symmetric|skew_slack", value_parser = by_name(&Split::ALL, Split::name))]
     pub split: Option<Split>,
     /// Rate conditions solved: `full` (all p² vertex pairs),
     /// `decoupled` (one slack per θ-vertex, 2p blocks; the certificate
@@ -44,7 +44,7 @@ pub struct Options {
     /// pair of slacks per generator, certified on the slack
     /// inequalities) or `auto` (chosen by size; the default, the report
     /// says which). Overrides the model's design blocks.
-    #[arg(long, value_parser = by_name(&Conditions::ALL, Conditions::name))]
+    #[arg(long, value_name = "full|decoupled|cube|auto", value_parser = by_name(&Conditions::ALL, Conditions::name))]
     pub conditions: Option<Conditions>,
     /// How a θ-dependent output map is handled: `double_sum` (the
     /// double-sum relaxation) or `filter` (output post-filter
@@ -53,36 +53,36 @@ pub struct Options {
     pub output_route: Option<String>,
     /// Pole a of the output filter x_y' = −a x_y + b y (implies
     /// `--output-route filter`; default 50).
-    #[arg(long = "filter-pole", allow_negative_numbers = true)]
+    #[arg(value_name = "A", long = "filter-pole", allow_negative_numbers = true)]
     pub filter_pole: Option<f64>,
     /// Gain b of the output filter (implies `--output-route filter`;
     /// default: the pole, unit DC gain).
-    #[arg(long = "filter-gain", allow_negative_numbers = true)]
+    #[arg(value_name = "B", long = "filter-gain", allow_negative_numbers = true)]
     pub filter_gain: Option<f64>,
     /// Design objective for sensor noise: `min` minimises the certified
     /// noise gain σ at the requested (fixed) alpha and gamma (sound
     /// mode); `free` (default) is the ordinary design. Every certified
     /// sound design reports its noise bound either way.
-    #[arg(long, value_parser = by_name(&NoiseObjective::ALL, NoiseObjective::name))]
+    #[arg(long, value_name = "min|free", value_parser = by_name(&NoiseObjective::ALL, NoiseObjective::name))]
     pub noise: Option<NoiseObjective>,
     /// With alpha = max: return the smallest-gain design certified at
     /// alpha >= (1 - WITHIN) x the certified supremum (a fraction, 0 to
     /// 0.5; default 0.01; 0 returns the fastest point found).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_name = "T", allow_negative_numbers = true)]
     pub within: Option<f64>,
     /// Bound every gain: ||L_l||_2 <= G at every vertex, imposed in the
     /// SDP and checked by the certificate from the reported gains.
-    #[arg(long = "max-gain", allow_negative_numbers = true)]
+    #[arg(value_name = "G", long = "max-gain", allow_negative_numbers = true)]
     pub max_gain: Option<f64>,
     /// Design at the sample period H seconds (e.g. 1e-4 for 10 kHz):
     /// the observer stepped by explicit Euler at H is certified by the
     /// discrete decrease V(e_k+1) <= (1 - H alpha) V(e_k) in place of
     /// the continuous rate condition (sound mode, full conditions).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_name = "H", allow_negative_numbers = true)]
     pub sample: Option<f64>,
     /// The largest alpha the search tries (default 1e6): a design that
     /// reaches it says so.
-    #[arg(long = "alpha-cap", allow_negative_numbers = true)]
+    #[arg(value_name = "A", long = "alpha-cap", allow_negative_numbers = true)]
     pub alpha_cap: Option<f64>,
     /// For a QPV plant, also report the alpha its linear part alone (every
     /// N_k and M_k zero) certifies globally, unbounded and at the design's
@@ -90,7 +90,7 @@ pub struct Options {
     #[arg(long = "region-cost")]
     pub region_cost: bool,
     /// Write the JSON report to this file (`-` for stdout).
-    #[arg(long)]
+    #[arg(long, value_name = "OUT")]
     pub json: Option<String>,
 }
 
