@@ -143,9 +143,9 @@ pub fn line_chart_x(
     Ok(())
 }
 
-/// The y range of a chart of `values`: on a log scale from the decade at or
-/// below the smallest positive value (strictly below it, so that the lowest
-/// point is drawn above the axis, not on it) to the decade at or above the
+/// The y range of a chart of `values`: on a log scale from the decade at
+/// least a quarter decade below the smallest positive value (so that the
+/// lowest points are drawn clear of the axis, not on it) to the decade at or above the
 /// largest, at most 16 decades; on a linear scale the values' range with 5 %
 /// on either side.
 pub fn y_range(values: impl Iterator<Item = f64>, log_y: bool) -> (f64, f64) {
@@ -158,10 +158,8 @@ pub fn y_range(values: impl Iterator<Item = f64>, log_y: bool) -> (f64, f64) {
     if log_y {
         let top = 10f64.powf(hi.log10().ceil());
         let lo = lo.max(hi * 1e-16);
-        let mut floor = 10f64.powf(lo.log10().floor());
-        if floor >= lo {
-            floor /= 10.0;
-        }
+        // at least a quarter decade of room below the lowest point
+        let floor = 10f64.powf((lo.log10() - 0.25).floor());
         (floor, top)
     } else {
         let pad = if hi > lo {
