@@ -48,7 +48,17 @@ fn plant_step(x: &[f64; model::NX], t: f64, dt: f64) -> [f64; model::NX] {
     std::array::from_fn(|i| x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
 }
 
+/// A progress line on stderr: the time since the start and what runs now.
+fn step(start: std::time::Instant, what: &str) {
+    eprintln!("[{:6.2} s] {what}", start.elapsed().as_secs_f64());
+}
+
 fn main() {
+    let start = std::time::Instant::now();
+    step(
+        start,
+        "the two designs were solved and certified when qpv! expanded (build time); their certificates:",
+    );
     println!("{}", model::design1::CERTIFICATE);
     println!();
     println!("{}", model::CERTIFICATE);
@@ -73,6 +83,10 @@ fn main() {
         .iter()
         .map(|l| nalgebra::DMatrix::from_fn(model::NX, model::NY, |i, j| l[i][j]))
         .collect();
+    step(
+        start,
+        "re-checking the baked P, L_l with the independent certificate ...",
+    );
     let cert = qpv::solve::check(
         &poly,
         &Gains::new(&p, &gains),
@@ -93,6 +107,10 @@ fn main() {
             f.name, f.margin, f.count
         );
     }
+    step(
+        start,
+        "falsifying the decay claim on 100 000 random samples of (e, x, theta) ...",
+    );
     match qpv::solve::falsify::falsify(&poly, &p, &gains, model::ALPHA, model::GAMMA, 100_000, 7) {
         Ok(f) => println!(
             "falsification: {} samples of (e, x, theta), {} counterexamples, worst (V' + alpha V)/V = {:.4}",
@@ -101,6 +119,10 @@ fn main() {
         Err(e) => println!("falsification could not run: {e}"),
     }
 
+    step(
+        start,
+        "simulating the paper's scenario (2 s, RK4 at dt = 1e-4) ...",
+    );
     let dt = 1e-4;
     let record_every = 10; // one figure sample per millisecond
     let steps = (2.0 / dt) as usize;
@@ -138,8 +160,15 @@ fn main() {
         .nth(1)
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|| std::path::PathBuf::from("target/paper-figures"));
+    step(
+        start,
+        &format!("writing the figures to {} ...", dir.display()),
+    );
     match rec.write_figures(&dir, &p) {
-        Ok(()) => println!("figures written to {}", dir.display()),
+        Ok(()) => {
+            println!("figures written to {}", dir.display());
+            step(start, "done");
+        }
         Err(e) => {
             eprintln!("could not write figures: {e}");
             std::process::exit(1);

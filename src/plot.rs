@@ -80,27 +80,20 @@ pub fn line_chart_x(
     let (t0, t1) = all
         .iter()
         .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
-    let (mut y0, mut y1) = all
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
     let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
-    if log_y {
-        y0 = y0.max(y1 * 1e-16);
-        if y1 <= y0 {
-            y1 = y0 * 10.0;
-        }
-    } else {
-        let pad = if y1 > y0 {
-            0.05 * (y1 - y0)
-        } else {
-            1e-3_f64.max(y0.abs() * 0.1)
-        };
-        y0 -= pad;
-        y1 += pad;
-    }
-    let root = SVGBackend::new(path, (900, 520)).into_drawing_area();
+    let (y0, y1) = y_range(all.iter().map(|p| p.1), log_y);
+    // The legend stands to the right of the plot, where it hides no curve.
+    let longest = series
+        .iter()
+        .map(|s| s.name.chars().count())
+        .max()
+        .unwrap_or(0);
+    let legend_w = (48 + 8 * longest).min(420) as u32;
+    let root = SVGBackend::new(path, (900 + legend_w, 520)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut builder = ChartBuilder::on(&root);
+    let (plot, legend) = root.split_horizontally(900);
+    draw_legend(&legend, series).map_err(|e| err(&e))?;
+    let mut builder = ChartBuilder::on(&plot);
     builder
         .caption(title, ("sans-serif", 22))
         .margin(12)
@@ -128,24 +121,13 @@ pub fn line_chart_x(
                 if s.dashed {
                     chart
                         .draw_series(DashedLineSeries::new(p, 6, 4, style))
-                        .map_err(|e| err(&e))?
-                        .label(s.name.clone())
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                        .map_err(|e| err(&e))?;
                 } else {
                     chart
                         .draw_series(LineSeries::new(p, style))
-                        .map_err(|e| err(&e))?
-                        .label(s.name.clone())
-                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                        .map_err(|e| err(&e))?;
                 }
             }
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::UpperRight)
-                .draw()
-                .map_err(|e| err(&e))?;
         }};
     }
     if log_y {
@@ -158,6 +140,60 @@ pub fn line_chart_x(
             .map_err(|e| err(&e))?);
     }
     root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// The y range of a chart of `values`: on a log scale from the decade at
+/// least a quarter decade below the smallest positive value (so that the
+/// lowest points are drawn clear of the axis, not on it) to the decade at or above the
+/// largest, at most 16 decades; on a linear scale the values' range with 5 %
+/// on either side.
+pub fn y_range(values: impl Iterator<Item = f64>, log_y: bool) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && (!log_y || *v > 0.0))
+        .fold((f64::MAX, f64::MIN), |(a, b), v| (a.min(v), b.max(v)));
+    if lo > hi {
+        return if log_y { (0.1, 1.0) } else { (0.0, 1.0) };
+    }
+    if log_y {
+        let top = 10f64.powf(hi.log10().ceil());
+        let lo = lo.max(hi * 1e-16);
+        // at least a quarter decade of room below the lowest point
+        let floor = 10f64.powf((lo.log10() - 0.25).floor());
+        (floor, top)
+    } else {
+        let pad = if hi > lo {
+            0.05 * (hi - lo)
+        } else {
+            1e-3_f64.max(lo.abs() * 0.1)
+        };
+        (lo - pad, hi + pad)
+    }
+}
+
+/// The legend of a line chart in its own area: one entry per series, its
+/// line (dashed or solid) and its name.
+fn draw_legend(
+    area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
+    series: &[Series],
+) -> Result<(), DrawingAreaErrorKind<std::io::Error>> {
+    for (k, s) in series.iter().enumerate() {
+        let y = 50 + 24 * k as i32;
+        let style = s.color.stroke_width(2);
+        let pieces: &[(i32, i32)] = if s.dashed {
+            &[(4, 14), (20, 30)]
+        } else {
+            &[(4, 30)]
+        };
+        for &(a, b) in pieces {
+            area.draw(&PathElement::new(vec![(a, y), (b, y)], style))?;
+        }
+        area.draw(&Text::new(
+            s.name.clone(),
+            (38, y - 8),
+            ("sans-serif", 15).into_font().color(&BLACK),
+        ))?;
+    }
     Ok(())
 }
 

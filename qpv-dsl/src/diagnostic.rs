@@ -181,6 +181,24 @@ pub(crate) fn suggest<'a>(
         .map(|(_, c)| c)
 }
 
+/// A number to `digits` significant digits, the one form the command line
+/// prints measured figures in: fixed-point for magnitudes in [1e-3, 1e5),
+/// scientific outside (`2.44e296`, never hundreds of digits), and zero as
+/// `0` (not `0.0000e0`).
+pub fn fmt_sig(v: f64, digits: usize) -> String {
+    let digits = digits.max(1);
+    let a = v.abs();
+    if a == 0.0 || !v.is_finite() {
+        // 0, -0, inf, NaN as themselves
+        format!("{}", if a == 0.0 { 0.0 } else { v })
+    } else if (1e-3..1e5).contains(&a) {
+        let d = (digits as i32 - 1 - a.log10().floor() as i32).max(0) as usize;
+        format!("{v:.d$}")
+    } else {
+        format!("{v:.*e}", digits - 1)
+    }
+}
+
 /// Shortest round-trip text of a number: plain decimal for magnitudes in
 /// [1e-5, 1e16) (and 0), scientific otherwise (`1e-320`, `1e308`, never
 /// hundreds of digits).

@@ -14,7 +14,7 @@ mod syntax;
 pub mod vertices;
 
 pub use cover::{Cover, CoverAxis, Piece};
-pub use diagnostic::{Error, Span, Warning};
+pub use diagnostic::{fmt_sig, Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
 pub use func::Func;
 pub use model::{

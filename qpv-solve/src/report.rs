@@ -178,7 +178,7 @@ impl std::fmt::Display for Note {
                 kinds,
             } => write!(
                 f,
-                "{count} of {solves} solves ended with an unknown status ({}): neither feasible nor infeasible, counted as not certified",
+                "{count} of {solves} solver calls ended with an unknown status ({}): neither feasible nor infeasible, counted as not certified",
                 kinds.join(", ")
             ),
             Note::StoppedShort { detail } => write!(
@@ -187,7 +187,7 @@ impl std::fmt::Display for Note {
             ),
             Note::Rejected { count } => write!(
                 f,
-                "{count} solved points failed the independent certificate and were rejected"
+                "{count} point(s) returned by the solver failed the independent certificate and were rejected"
             ),
             Note::BalancedUnits { d, from } => {
                 let d: Vec<String> = d.iter().map(|v| format!("{v:e}")).collect();
@@ -542,9 +542,9 @@ impl GammaSearchInfo {
             String::new()
         };
         format!(
-            "γ search: best over γ ∈ [{:.4e}, {:.6}], {} log-spaced grid points ({} γ values evaluated, {} solves){walk}; local maxima at {}",
-            self.gamma_lo,
-            self.gamma_hi,
+            "γ search: best over γ ∈ [{}, {}], {} log-spaced grid points ({} γ values evaluated, {} solver calls){walk}; local maxima at {}",
+            qpv_dsl::fmt_sig(self.gamma_lo, 5),
+            qpv_dsl::fmt_sig(self.gamma_hi, 6),
             self.grid_points,
             self.points,
             self.solves,

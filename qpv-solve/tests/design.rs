@@ -541,11 +541,11 @@ fn notes_are_written_as_their_sentences_and_read_back_equal() {
     let v: serde_json::Value = serde_json::from_str(&d.to_json()).unwrap();
     assert_eq!(
         v["notes"][0],
-        "2 solved points failed the independent certificate and were rejected"
+        "2 point(s) returned by the solver failed the independent certificate and were rejected"
     );
     assert_eq!(
         v["notes"][1],
-        "1 of 7 solves ended with an unknown status (MaxIterations): neither feasible nor \
+        "1 of 7 solver calls ended with an unknown status (MaxIterations): neither feasible nor \
          infeasible, counted as not certified"
     );
     assert_eq!(v["notes"][2], "a remark");

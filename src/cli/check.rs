@@ -22,31 +22,31 @@ pub struct Options {
     /// The model file (.qpv).
     pub file: PathBuf,
     /// JSON file with `P` (rows) and `L` (per vertex, NX rows of NY).
-    #[arg(long)]
+    #[arg(long, value_name = "GAINS.json")]
     pub gains: PathBuf,
     /// Which model of the file.
-    #[arg(long)]
+    #[arg(long, value_name = "NAME")]
     pub model: Option<String>,
     /// Condition set to check: sound or paper (default: the gains
     /// file's `mode`, else sound; never the model's design blocks).
     /// Paper mode certifies nothing: it exits 3 when its conditions hold.
-    #[arg(long, value_parser = by_name(&Mode::ALL, Mode::name))]
+    #[arg(long, value_name = "sound|paper", value_parser = by_name(&Mode::ALL, Mode::name))]
     pub mode: Option<Mode>,
     /// Decay rate to check (default: the gains file's `alpha`, else the
     /// first of the model's design blocks of the checked mode that fixes it).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
     pub alpha: Option<f64>,
     /// Region scaling to check (default: the gains file's `gamma`, else
     /// the first of the model's design blocks of the checked mode that fixes it).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, value_name = "G", allow_hyphen_values = true)]
     pub gamma: Option<f64>,
     /// Check the gains at the sample period H seconds: the discrete
     /// decrease S5d of the Euler-stepped observer in place of S5
     /// (default: the gains file's `sample.h`, else continuous time).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, value_name = "H", allow_hyphen_values = true)]
     pub sample: Option<f64>,
     /// Write the JSON report to this file (`-` for stdout).
-    #[arg(long)]
+    #[arg(long, value_name = "OUT")]
     pub json: Option<String>,
 }
 

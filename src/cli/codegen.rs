@@ -24,23 +24,23 @@ pub struct Options {
     /// The model file (.qpv).
     pub file: PathBuf,
     /// Target language: `c`.
-    #[arg(long, default_value = "c")]
+    #[arg(long, value_name = "c", default_value = "c")]
     pub lang: String,
     /// Number type of the generated code: `f64` (default) or `f32`.
-    #[arg(long)]
+    #[arg(long, value_name = "f64|f32")]
     pub float: Option<String>,
     /// The design block to export, 1-based (default: the first sound one).
-    #[arg(long)]
+    #[arg(long, value_name = "N")]
     pub design: Option<usize>,
     /// Export these gains (a `qpv design --json` report) instead of
     /// solving; they are re-certified first.
-    #[arg(long)]
+    #[arg(long, value_name = "REPORT.json")]
     pub gains: Option<PathBuf>,
     /// Which model of the file.
-    #[arg(long)]
+    #[arg(long, value_name = "NAME")]
     pub model: Option<String>,
     /// The directory the files are written to.
-    #[arg(long)]
+    #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
 }
 

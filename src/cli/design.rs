@@ -21,22 +21,22 @@ pub struct Options {
     /// The model file (.qpv).
     pub file: PathBuf,
     /// Which model of the file (default: the only one, or the first).
-    #[arg(long)]
+    #[arg(long, value_name = "NAME")]
     pub model: Option<String>,
     /// Condition set: sound (default, certifies) or paper (reproduction only).
-    #[arg(long, value_parser = by_name(&Mode::ALL, Mode::name))]
+    #[arg(long, value_name = "sound|paper", value_parser = by_name(&Mode::ALL, Mode::name))]
     pub mode: Option<Mode>,
     /// Decay rate: a number or `max`.
-    #[arg(long, allow_hyphen_values = true, value_parser = parse_alpha)]
+    #[arg(long, value_name = "A|max", allow_hyphen_values = true, value_parser = parse_alpha)]
     pub alpha: Option<AlphaSpec>,
     /// Region scaling: a number in (0,1) or `search`.
-    #[arg(long, allow_hyphen_values = true, value_parser = parse_gamma)]
+    #[arg(long, value_name = "G|search", allow_hyphen_values = true, value_parser = parse_gamma)]
     pub gamma: Option<GammaSpec>,
     /// Representation of N_k, M_k: `as_written`, `symmetric` or
     /// `skew_slack` (symmetric plus a searched skew-symmetric slack;
     /// sound mode) (default: symmetric in sound mode, as_written in
     /// paper mode). Overrides the model's design blocks.
-    #[arg(long, value_parser = by_name(&Split::ALL, Split::name))]
+    #[arg(long, value_name = "as_written|symmetric|skew_slack", value_parser = by_name(&Split::ALL, Split::name))]
     pub split: Option<Split>,
     /// Rate conditions solved: `full` (all p² vertex pairs),
     /// `decoupled` (one slack per θ-vertex, 2p blocks; the certificate
@@ -44,7 +44,7 @@ pub struct Options {
     /// pair of slacks per generator, certified on the slack
     /// inequalities) or `auto` (chosen by size; the default, the report
     /// says which). Overrides the model's design blocks.
-    #[arg(long, value_parser = by_name(&Conditions::ALL, Conditions::name))]
+    #[arg(long, value_name = "full|decoupled|cube|auto", value_parser = by_name(&Conditions::ALL, Conditions::name))]
     pub conditions: Option<Conditions>,
     /// How a θ-dependent output map is handled: `double_sum` (the
     /// double-sum relaxation) or `filter` (output post-filter
@@ -53,36 +53,36 @@ pub struct Options {
     pub output_route: Option<String>,
     /// Pole a of the output filter x_y' = −a x_y + b y (implies
     /// `--output-route filter`; default 50).
-    #[arg(long = "filter-pole", allow_hyphen_values = true)]
+    #[arg(value_name = "A", long = "filter-pole", allow_hyphen_values = true)]
     pub filter_pole: Option<f64>,
     /// Gain b of the output filter (implies `--output-route filter`;
     /// default: the pole, unit DC gain).
-    #[arg(long = "filter-gain", allow_hyphen_values = true)]
+    #[arg(value_name = "B", long = "filter-gain", allow_hyphen_values = true)]
     pub filter_gain: Option<f64>,
     /// Design objective for sensor noise: `min` minimises the certified
     /// noise gain σ at the requested (fixed) alpha and gamma (sound
     /// mode); `free` (default) is the ordinary design. Every certified
     /// sound design reports its noise bound either way.
-    #[arg(long, value_parser = by_name(&NoiseObjective::ALL, NoiseObjective::name))]
+    #[arg(long, value_name = "min|free", value_parser = by_name(&NoiseObjective::ALL, NoiseObjective::name))]
     pub noise: Option<NoiseObjective>,
     /// With alpha = max: return the smallest-gain design certified at
     /// alpha >= (1 - WITHIN) x the certified supremum (a fraction, 0 to
     /// 0.5; default 0.01; 0 returns the fastest point found).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, value_name = "T", allow_hyphen_values = true)]
     pub within: Option<f64>,
     /// Bound every gain: ||L_l||_2 <= G at every vertex, imposed in the
     /// SDP and checked by the certificate from the reported gains.
-    #[arg(long = "max-gain", allow_hyphen_values = true)]
+    #[arg(value_name = "G", long = "max-gain", allow_hyphen_values = true)]
     pub max_gain: Option<f64>,
     /// Design at the sample period H seconds (e.g. 1e-4 for 10 kHz):
     /// the observer stepped by explicit Euler at H is certified by the
     /// discrete decrease V(e_k+1) <= (1 - H alpha) V(e_k) in place of
     /// the continuous rate condition (sound mode, full conditions).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, value_name = "H", allow_hyphen_values = true)]
     pub sample: Option<f64>,
     /// The largest alpha the search tries (default 1e6): a design that
     /// reaches it says so.
-    #[arg(long = "alpha-cap", allow_hyphen_values = true)]
+    #[arg(value_name = "A", long = "alpha-cap", allow_hyphen_values = true)]
     pub alpha_cap: Option<f64>,
     /// For a QPV plant, also report the alpha its linear part alone (every
     /// N_k and M_k zero) certifies globally, unbounded and at the design's
@@ -90,7 +90,7 @@ pub struct Options {
     #[arg(long = "region-cost")]
     pub region_cost: bool,
     /// Write the JSON report to this file (`-` for stdout).
-    #[arg(long)]
+    #[arg(long, value_name = "OUT")]
     pub json: Option<String>,
 }
 
@@ -131,6 +131,8 @@ fn parse_route(
 struct Planned {
     request: DesignRequest,
     skip: Option<String>,
+    /// What the flags changed of the model's design block(s), in words.
+    overridden: Option<String>,
 }
 
 /// The values of the flags that are numbers in a range, checked, and the
@@ -219,6 +221,7 @@ fn plan(
         Ok(Planned {
             request: r,
             skip: Some(why),
+            overridden: None,
         })
     };
     if let Some(w) = o.within {
@@ -252,6 +255,7 @@ fn plan(
         Ok(()) => Ok(Planned {
             request: r,
             skip: None,
+            overridden: None,
         }),
         Err(Clash::NoiseMinAlphaMax) => Err(CliError::Input(format!(
             "--noise min needs a fixed alpha ({r}): alpha = max is the fastest design, not a \
@@ -298,15 +302,68 @@ fn requests(model: &Model, o: &Options) -> Result<Vec<Planned>, CliError> {
         vec![r]
     };
     let route = parse_route(o.output_route.as_deref(), o.filter_pole, o.filter_gain)?;
-    let plan: Vec<Planned> = reqs
+    let blocks = reqs.clone();
+    let mut plan: Vec<Planned> = reqs
         .into_iter()
         .map(|r| plan(r, o, route))
         .collect::<Result<_, _>>()?;
+    if o.mode.is_some() || o.alpha.is_some() || o.gamma.is_some() {
+        // one request from the flags in place of the model's blocks
+        let changes: Vec<String> = (1..)
+            .zip(&model.designs)
+            .map(|(k, b)| (k, overridden(b, &plan[0].request)))
+            .filter(|(_, c)| !c.is_empty())
+            .map(|(k, c)| format!("design block {k}: {}", c.join(", ")))
+            .collect();
+        if !changes.is_empty() {
+            plan[0].overridden = Some(format!(
+                "--mode/--alpha/--gamma replace the model's design blocks, so their settings are not used unless a flag gives them: {}",
+                changes.join("; ")
+            ));
+        }
+    } else if !model.designs.is_empty() {
+        for (k, (p, b)) in (1..).zip(plan.iter_mut().zip(&blocks)) {
+            let c = overridden(b, &p.request);
+            if !c.is_empty() {
+                p.overridden = Some(format!(
+                    "command-line flags override design block {k}: {}",
+                    c.join(", ")
+                ));
+            }
+        }
+    }
     if plan.iter().all(|p| p.skip.is_some()) {
         let reason = plan.iter().find_map(|p| p.skip.as_deref()).unwrap_or("");
         return Err(CliError::Input(format!("nothing to run: {reason}")));
     }
     Ok(plan)
+}
+
+/// The settings of a request as `key = value` items, keyed, from its
+/// `design`-block form (`alpha = max(within = 0); gamma = search; ...`).
+fn setting_items(r: &DesignRequest) -> Vec<(String, String)> {
+    r.to_string()
+        .split("; ")
+        .map(|item| {
+            let key = item.split(" = ").next().unwrap_or(item).to_string();
+            (key, item.to_string())
+        })
+        .collect()
+}
+
+/// What the request run changed of a model's design block: every setting
+/// of the block the run does not keep, as "max_gain = 50 dropped" or
+/// "split = as_written -> split = symmetric".
+fn overridden(block: &DesignRequest, run: &DesignRequest) -> Vec<String> {
+    let now = setting_items(run);
+    setting_items(block)
+        .into_iter()
+        .filter_map(|(key, item)| match now.iter().find(|(k, _)| *k == key) {
+            None => Some(format!("{item} dropped")),
+            Some((_, other)) if *other != item => Some(format!("{item} -> {other}")),
+            Some(_) => None,
+        })
+        .collect()
 }
 
 /// Whether a design error is an outcome about the plant rather than bad
@@ -344,10 +401,10 @@ fn describe_state_bound(sb: &StateBoundInfo) -> String {
     let gmax = sb.gamma_max.map_or("-".to_string(), |g| format!("{g:.6}"));
     let mut s = match sb.source {
         BoundSource::Auto => format!(
-            "  state bound: computed (state_bound auto): h = {:.6}{}, gamma_max = {gmax} \
+            "  state bound: computed (state_bound auto): h = {}{}, gamma_max = {gmax} \
              (solver estimate for any ellipsoid around the region: {:.6}), invariance with N_k {}, \
-             {} solves, {:.3} s\n",
-            sb.h.unwrap_or(f64::NAN),
+             {} solver calls, {:.3} s\n",
+            qpv_dsl::fmt_sig(sb.h.unwrap_or(f64::NAN), 6),
             if sb.h_fixed {
                 " (fixed)"
             } else {
@@ -421,16 +478,7 @@ pub(crate) fn continuous_line(
 
 /// The verdict line(s) of a design: what is certified and how, once.
 fn describe_verdict(d: &Design) -> String {
-    let solved = d
-        .search
-        .iter()
-        .filter(|s| s.status == qpv_solve::Status::Solved)
-        .count();
-    let rejected = d
-        .search
-        .iter()
-        .filter(|s| s.status == qpv_solve::Status::Solved && !s.certified)
-        .count();
+    let searched = search_counts(d);
     let families: Vec<&str> = d.margins.keys().map(|f| f.name()).collect();
     match (d.feasible(), d.mode) {
         (true, Mode::Sound) if d.sample.is_some() => {
@@ -446,7 +494,7 @@ fn describe_verdict(d: &Design) -> String {
                 ("CERTIFIED", format!(" at gamma = {:.6}", d.gamma), " and the data check S4")
             };
             format!(
-                "  {head} at {}: alpha = {:.6} per second{at}, V(e_k+1) <= {:.6} V(e_k) per step for the observer stepped by explicit Euler at h (the discrete decrease S5d in place of S5): every condition family holds ({}){data}, by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), {rejected} of them rejected by that check and not used\n{}",
+                "  {head} at {}: alpha = {:.6} per second{at}, V(e_k+1) <= {:.6} V(e_k) per step for the observer stepped by explicit Euler at h (the discrete decrease S5d in place of S5): every condition family holds ({}){data}, by the independent eigenvalue check of the reported P and L_l; {searched}\n{}",
                 s.describe(),
                 d.alpha,
                 s.decrease,
@@ -457,15 +505,14 @@ fn describe_verdict(d: &Design) -> String {
         (true, Mode::Sound) if d.global => format!(
             "  CERTIFIED, GLOBAL: alpha = {:.6} for every initial error (LPV plant: no region, state bound or gamma): \
              P > 0 and the rate family hold ({}), by the independent eigenvalue check of the reported P and L_l; \
-             the search solved {solved} point(s), {rejected} of them rejected by that check and not used\n{}",
+             {searched}\n{}",
             d.alpha,
             families.join(", "),
             practical_line(d)
         ),
         (true, Mode::Sound) => format!(
             "  CERTIFIED: alpha = {:.6} at gamma = {:.6}: every sound condition family holds ({}) and the data check S4, \
-             by the independent eigenvalue check of the reported P and L_l; the search solved {solved} point(s), \
-             {rejected} of them rejected by that check and not used\n{}",
+             by the independent eigenvalue check of the reported P and L_l; {searched}\n{}",
             d.alpha,
             d.gamma,
             families.join(", "),
@@ -492,6 +539,31 @@ fn describe_verdict(d: &Design) -> String {
             }
         }
     }
+}
+
+/// The counts of a design's search log, each with one meaning: solver
+/// calls (every SDP solved, whatever its status), the points they returned
+/// (status solved), and of those the ones the independent certificate
+/// rejected.
+fn counts(d: &Design) -> (usize, usize, usize) {
+    let returned = |s: &&qpv_solve::SearchStep| s.status == qpv_solve::Status::Solved;
+    let calls = d.search.len();
+    let solved = d.search.iter().filter(returned).count();
+    let rejected = d
+        .search
+        .iter()
+        .filter(returned)
+        .filter(|s| !s.certified)
+        .count();
+    (calls, solved, rejected)
+}
+
+/// The counts of [`counts`] in words.
+fn search_counts(d: &Design) -> String {
+    let (calls, returned, rejected) = counts(d);
+    format!(
+        "the search made {calls} solver call(s), {returned} returned a point, {rejected} of those rejected by that check and not used"
+    )
 }
 
 /// The one line a user steps an observer by: α (and, for the practical
@@ -531,16 +603,9 @@ fn practical_line(d: &Design) -> String {
     format!("  {alpha}, ||L|| <= {}{bound}{step}\n", sig(gain))
 }
 
-/// Three significant digits, in scientific form outside [1e-3, 1e5).
+/// Three significant digits ([`qpv_dsl::fmt_sig`]).
 fn sig(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        format!("{v}")
-    } else if !(1e-3..1e5).contains(&v.abs()) {
-        format!("{v:.2e}")
-    } else {
-        let d = (2 - v.abs().log10().floor() as i32).max(0) as usize;
-        format!("{v:.d$}")
-    }
+    qpv_dsl::fmt_sig(v, 3)
 }
 
 /// A duration with its unit (s, ms, us, ns), three significant digits.
@@ -561,7 +626,14 @@ fn seconds(h: f64) -> String {
 fn describe_failure_margins(d: &Design) -> String {
     let mut s = String::new();
     if d.margins.is_empty() {
-        s.push_str("  no attempt returned a point, so there are no margins to show\n");
+        let (calls, returned, _) = counts(d);
+        s.push_str(&if returned > 0 {
+            format!(
+                "  {returned} of the {calls} solver call(s) returned a point, and none passed the independent certificate: no certified margins to show\n"
+            )
+        } else {
+            format!("  none of the {calls} solver call(s) returned a point, so there are no margins to show\n")
+        });
         return s;
     }
     let at = d
@@ -737,7 +809,7 @@ pub fn describe_design(d: &Design) -> String {
     }
     if d.feasible() {
         s.push_str(&format!(
-            "  solves: {} in {:.3} s; the reported point: {} iterations, {:.3} s (the search log is in the JSON report)\n",
+            "  solver calls: {} in {:.3} s; the reported point: {} iterations, {:.3} s (the search log is in the JSON report)\n",
             d.search.len(),
             d.seconds_total,
             d.solver.iterations,
@@ -745,7 +817,7 @@ pub fn describe_design(d: &Design) -> String {
         ));
     } else {
         s.push_str(&format!(
-            "  solves: {} in {:.3} s; the last one ended {} (Clarabel: {}); a solver status says whether a point \
+            "  solver calls: {} in {:.3} s; the last one ended {} (Clarabel: {}); a solver status says whether a point \
              was returned, not whether it certifies\n",
             d.search.len(),
             d.seconds_total,
@@ -786,7 +858,15 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     let mut designs = Vec::new();
     let mut skipped = Vec::new();
     let mut failures = Vec::new();
-    for (number, Planned { request: r, skip }) in (1..).zip(&plan) {
+    for (
+        number,
+        Planned {
+            request: r,
+            skip,
+            overridden,
+        },
+    ) in (1..).zip(&plan)
+    {
         let not_run = |reason: String| NotRun {
             request: number,
             settings: r.to_string(),
@@ -839,7 +919,10 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         let result = qpv_solve::design_with_progress(&poly, r, &settings, &mut progress);
         bar.finish_and_clear();
         match result {
-            Ok(d) => {
+            Ok(mut d) => {
+                if let Some(note) = overridden {
+                    d.notes.push(note.clone());
+                }
                 print_text(json, &describe_design(&d));
                 designs.push(d);
             }

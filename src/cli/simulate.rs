@@ -60,25 +60,40 @@ pub struct Options {
     /// The model file (.qpv).
     pub file: PathBuf,
     /// A design report written by `qpv design --json`.
-    #[arg(long)]
+    #[arg(long, value_name = "REPORT.json")]
     pub design: PathBuf,
     /// Which model of the file.
-    #[arg(long)]
+    #[arg(long, value_name = "NAME")]
     pub model: Option<String>,
     /// End time [s].
-    #[arg(long, default_value_t = 2.0, allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "T",
+        default_value_t = 2.0,
+        allow_hyphen_values = true
+    )]
     pub t_end: f64,
     /// RK4 step [s].
-    #[arg(long, default_value_t = 1e-3, allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "DT",
+        default_value_t = 1e-3,
+        allow_hyphen_values = true
+    )]
     pub dt: f64,
     /// Initial plant state, comma-separated (default: the scenario's).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "a,b,c",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
     pub x0: Option<Vec<f64>>,
     /// Ready-made scenario: `paper` (the published example's θ(t)) or `default`.
     #[arg(long, default_value = "default", value_parser = ["paper", "default"])]
     pub scenario: String,
     /// Directory for the SVG figures and the CSV of trajectories.
-    #[arg(long)]
+    #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
     /// An input as an expression of t: `NAME=EXPR` with numbers, t, pi,
     /// + - * / ^, sin, cos, exp, sqrt (repeatable; default 0).
@@ -103,7 +118,7 @@ pub struct Options {
     #[arg(long, value_name = "NU", allow_hyphen_values = true)]
     pub noise: Option<f64>,
     /// Seed of the noise.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_name = "S", default_value_t = 1)]
     pub seed: u64,
     /// Run the observer stepped at the sample period H seconds (explicit
     /// Euler on sampled y, u, θ) against the continuous plant (RK4 at

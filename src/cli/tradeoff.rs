@@ -25,19 +25,19 @@ pub struct Options {
     /// The model file (.qpv).
     pub file: PathBuf,
     /// Which model of the file.
-    #[arg(long)]
+    #[arg(long, value_name = "NAME")]
     pub model: Option<String>,
     /// Number of alpha values in the sweep (at least 2).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, value_name = "N", default_value_t = 8)]
     pub points: usize,
     /// Region scaling: a number in (0,1) or `search` (default: search).
-    #[arg(long, allow_hyphen_values = true, value_parser = super::input::parse_gamma)]
+    #[arg(long, value_name = "G|search", allow_hyphen_values = true, value_parser = super::input::parse_gamma)]
     pub gamma: Option<GammaSpec>,
     /// Write the table as JSON to this file (`-` for stdout).
-    #[arg(long)]
+    #[arg(long, value_name = "OUT")]
     pub json: Option<String>,
     /// Directory for the SVG figure (tradeoff.svg).
-    #[arg(long)]
+    #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
 }
 

@@ -12,10 +12,10 @@ pub struct Options {
     /// The model file (.qpv).
     pub file: PathBuf,
     /// Which model of the file.
-    #[arg(long)]
+    #[arg(long, value_name = "NAME")]
     pub model: Option<String>,
     /// Write the JSON to this file (`-` for stdout).
-    #[arg(long)]
+    #[arg(long, value_name = "OUT")]
     pub json: Option<String>,
 }
 
@@ -127,11 +127,7 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         s.push('\n');
         push_output(&mut s, c, m, "");
     }
-    s.push_str(&format!(
-        "\nregion: {} vertices, {} facets (a_k^T x <= 1)\n",
-        p.region.vertices.len(),
-        p.region.facets.len()
-    ));
+    s.push_str(&region_head(p));
     for (i, v) in p.region.vertices.iter().enumerate() {
         s.push_str(&format!("  x_({}) = {:?}\n", i + 1, v.as_slice()));
     }
@@ -139,6 +135,28 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         s.push_str(&format!("  a_{} = {:?}\n", k + 1, a.as_slice()));
     }
     s
+}
+
+/// The region's heading: its vertex and facet counts, or that there is
+/// none, and whether a sound design uses it (an LPV plant's is the global
+/// observer, which has no region).
+fn region_head(p: &PolytopicModel) -> String {
+    let global = "LPV plant (every N_k and M_k is zero): a sound design is the global observer, \
+                  certified for every initial error (docs/method.md §17)";
+    match (p.region.vertices.is_empty(), p.is_lpv()) {
+        (true, true) => format!("\nregion: none; {global}\n"),
+        (true, false) => "\nregion: none\n".to_string(),
+        (false, lpv) => format!(
+            "\nregion: {} vertices, {} facets (a_k^T x <= 1){}\n",
+            p.region.vertices.len(),
+            p.region.facets.len(),
+            if lpv {
+                format!("; not used by a sound design: {global}")
+            } else {
+                String::new()
+            }
+        ),
+    }
 }
 
 /// The cover: the parameters cut, their breakpoints, and for every piece

@@ -28,7 +28,7 @@ pub mod sampling;
 pub use sampled::{alpha_capacity_sampled, sampled_block};
 
 use crate::conditions::cube::CubeSlacks;
-use crate::conditions::{rate_combos, Combo, ConditionSet};
+use crate::conditions::{pair_suffix, rate_combos, Combo, ConditionSet};
 use crate::linalg::rows::{rows, rows_he};
 use crate::model::{is_double_sum, validate, StateScaling};
 use crate::vocab::{Candidate, Family};
@@ -710,7 +710,7 @@ impl Stage<'_> {
                     let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, i, j);
                     let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
                     sr.add(-lambda_max(&m), guard, || {
-                        format!("{} i={} j={}", combo.label(double), i + 1, j + 1)
+                        format!("{}{}", combo.label(double), pair_suffix(model, i, j))
                     });
                 }
             }

@@ -43,7 +43,7 @@
 //! disturbance floor (docs/method.md states the model).
 
 use crate::certificate::combo_lmi;
-use crate::conditions::{rate_combos, Combo};
+use crate::conditions::{pair_suffix, rate_combos, Combo};
 use crate::model::noise::NoiseChannels;
 use crate::model::StateScaling;
 use crate::vocab::Candidate;
@@ -292,7 +292,7 @@ pub fn check_noise(
                 let margin = -lmax;
                 let guard = 32.0 * f64::EPSILON * (n as f64 + 1.0) * m.norm();
                 out.record(margin, guard, || {
-                    format!("{} i={} j={}", combo.label(double), i + 1, j + 1)
+                    format!("{}{}", combo.label(double), pair_suffix(model, i, j))
                 });
             }
         }

@@ -30,7 +30,7 @@
 use super::noise::{bound_from, BalancedGlobal, NoiseBound, NoiseCheck};
 use super::sampled::block;
 use super::Terms;
-use crate::conditions::{rate_combos, Combo};
+use crate::conditions::{pair_suffix, rate_combos, Combo};
 use crate::model::is_double_sum;
 use crate::model::noise::NoiseChannels;
 use nalgebra::DMatrix;
@@ -111,7 +111,7 @@ impl SampledNoise<'_> {
                     let sg = &g * h.sqrt();
                     m.view_mut((nx + k, nx), (nx, k)).copy_from(&sg);
                     m.view_mut((nx, nx + k), (k, nx)).copy_from(&sg.transpose());
-                    let label = format!("{} i={} j={}", combo.label(double), i + 1, j + 1);
+                    let label = format!("{}{}", combo.label(double), pair_suffix(model, i, j));
                     let size = size + 2.0 * sg.norm();
                     out.push((Parts { m, nx, k, w, size }, label));
                 }

@@ -19,7 +19,7 @@
 //! is λ_min of that block (positive = satisfied).
 
 use super::{lambda_min, Acc, Terms, GUARD_C};
-use crate::conditions::{rate_combos, Combo, ConditionSet};
+use crate::conditions::{pair_suffix, rate_combos, Combo, ConditionSet};
 use crate::model::is_double_sum;
 use crate::vocab::Candidate;
 use nalgebra::DMatrix;
@@ -95,7 +95,7 @@ pub(super) fn check_family(
                 let (b, size) = block(terms, &combo, alpha, gamma, h, i, j);
                 let guard = GUARD_C * (2.0 * nx as f64 + 1.0) * 2.0 * (size + b.norm());
                 acc.add(lambda_min(&b), guard, || {
-                    format!("{} i={} j={}", combo.label(double), i + 1, j + 1)
+                    format!("{}{}", combo.label(double), pair_suffix(model, i, j))
                 });
             }
         }

@@ -29,7 +29,7 @@
 //! eigenvalue λ of the frozen vertex matrices F_{l,m,i,j}: a linear,
 //! frozen-parameter stability estimate ([`step_estimate_rk4`]).
 
-use crate::conditions::{is_double_sum, rows, rows_he};
+use crate::conditions::{is_double_sum, pair_suffix, rows, rows_he};
 use nalgebra::{Complex, DMatrix};
 use qpv_dsl::PolytopicModel;
 use serde::{Deserialize, Serialize};
@@ -107,8 +107,12 @@ pub fn describe_period(h: f64) -> String {
     } else {
         (f, "Hz")
     };
-    let v = format!("{v:.4}");
-    let v = v.trim_end_matches('0').trim_end_matches('.');
+    let v = if (1e-3..1e5).contains(&v) {
+        let v = format!("{v:.4}");
+        v.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        qpv_dsl::fmt_sig(v, 4)
+    };
     format!("h = {h:e} s ({v} {unit})")
 }
 
@@ -134,9 +138,9 @@ pub fn vertex_dynamics(
                     let s = rows_he(&vm.m, xj) - rows(&vm.m, xi);
                     let f = &vl.a - &l[li] * &vm.c + (r - &l[li] * s) / gamma;
                     let label = if double {
-                        format!("l={} m={} i={} j={}", li + 1, m + 1, i + 1, j + 1)
+                        format!("l={} m={}{}", li + 1, m + 1, pair_suffix(model, i, j))
                     } else {
-                        format!("l={} i={} j={}", li + 1, i + 1, j + 1)
+                        format!("l={}{}", li + 1, pair_suffix(model, i, j))
                     };
                     out.push((label, f));
                 }

@@ -213,6 +213,20 @@ impl Combo {
     }
 }
 
+/// " i=1 j=3": the region-vertex pair (i, j) (0-based) of a block, for its
+/// label; nothing for the global observer's model, whose region is the
+/// single point {0} (there are no region vertices to name).
+pub fn pair_suffix(model: &PolytopicModel, i: usize, j: usize) -> String {
+    let r = &model.region;
+    let global =
+        r.vertices.len() == 1 && r.facets.is_empty() && r.vertices[0].iter().all(|x| *x == 0.0);
+    if global {
+        String::new()
+    } else {
+        format!(" i={} j={}", i + 1, j + 1)
+    }
+}
+
 /// The rate family's combinations in report order (see [`Combo`]): one per
 /// θ-vertex for a constant output map; for a θ-dependent one the r diagonal
 /// blocks then the r(r−1) ordered off-diagonal ones, row by row.

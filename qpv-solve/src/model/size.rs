@@ -378,7 +378,7 @@ pub fn guard(model: &PolytopicModel, request: &DesignRequest) -> Verdict {
         || e.seconds_per_solve > SLOW_SECONDS
     {
         return Verdict::Slow(format!(
-            "a large design problem ({}); a search runs tens of solves{}",
+            "a large design problem ({}); a search runs tens of solver calls{}",
             describe(&e),
             if request.conditions == Conditions::Full {
                 "; `conditions = decoupled` is smaller"

@@ -604,7 +604,9 @@ pub fn compute(
         Some(h) => {
             if !(h > rmax && h.is_finite()) {
                 return Err(SolveError::StateBoundInput(format!(
-                    "h = {h} must exceed the region's largest |x_j| = {rmax}"
+                    "h = {} must exceed the region's largest |x_j| = {}",
+                    qpv_dsl::diagnostic::fmt_num(h),
+                    qpv_dsl::diagnostic::fmt_num(rmax)
                 )));
             }
             eval(h, &mut steps)?;

@@ -153,8 +153,8 @@ impl Setup {
         }
         if bound_info.source == BoundSource::Auto {
             notes.push(format!(
-                "state bound computed (state_bound auto): h = {:.6}, γ_max = {:.6}, in {} solves, {:.3} s",
-                bound_info.h.unwrap_or(f64::NAN),
+                "state bound computed (state_bound auto): h = {}, γ_max = {:.6}, in {} solver calls, {:.3} s",
+                qpv_dsl::fmt_sig(bound_info.h.unwrap_or(f64::NAN), 6),
                 bound_info.gamma_max.unwrap_or(f64::NAN),
                 bound_info.solves,
                 bound_info.seconds
@@ -885,7 +885,7 @@ pub(super) fn design_plain(
             .0
             .retain(|n| !matches!(n, Note::BalancedUnits { .. }));
         second.notes.push(format!(
-            "the design in the pilots' balanced units did not certify ({} solves); solved again in the model's own units",
+            "the design in the pilots' balanced units did not certify ({} solver calls); solved again in the model's own units",
             first.search.len()
         ));
         return Ok(second);
@@ -901,14 +901,17 @@ pub(super) fn design_plain(
     }
     let hint = first.p_matrix();
     let second = design_plain_with(model, request, settings, progress, Some(&hint))?;
-    let solves = first.search.len() + second.search.len();
-    let mut out = if second.certifies() && second.alpha >= first.alpha {
-        second
+    let (n1, n2) = (first.search.len(), second.search.len());
+    // The search log holds every solver call of the request: the other
+    // search's calls first, then the kept one's.
+    let (mut out, other) = if second.certifies() && second.alpha >= first.alpha {
+        (second, first)
     } else {
-        first
+        (first, second)
     };
+    out.search.splice(0..0, other.search);
     out.notes.push(format!(
-        "global α = max: searched twice, the second time in the units of the first result's P ({solves} solves in all)"
+        "global α = max: searched twice, the second time in the units of the first result's P ({n1} + {n2} solver calls, all in the search log)"
     ));
     // A gain bound, a pole region (a disk bounds the gain) or a sample
     // period (h‖LC‖ must stay small) already limit the gain.
@@ -946,6 +949,7 @@ fn global_knee(
     };
     let gain = |d: &Design| d.gain_norms.iter().copied().fold(0.0, f64::max);
     let mut solves = 0;
+    let mut log = design.search.clone();
     let mut at = |a: f64| -> Result<Option<Design>, SolveError> {
         let fixed = DesignRequest {
             alpha: AlphaSpec::Fixed(a),
@@ -953,12 +957,16 @@ fn global_knee(
         };
         let d = design_plain(model, &fixed, settings, progress)?;
         solves += d.search.len();
+        log.extend(d.search.iter().cloned());
         Ok(d.certifies().then_some(d))
     };
     let (alpha_t, g_t) = (design.alpha, gain(&design));
     let alpha_ref = alpha_t / KNEE_FACTOR.powi(2);
     let Some(reference) = at(alpha_ref)? else {
-        return Ok(design);
+        return Ok(Design {
+            search: log,
+            ..design
+        });
     };
     // Not below a gain of the plant's own size, ‖A_l‖₂/‖C_l‖₂: a reference
     // in the gain-free range (α below the plant's own decay) says nothing.
@@ -968,7 +976,10 @@ fn global_knee(
     });
     let g_ref = gain(&reference).max(own.fold(0.0, f64::max));
     if g_t <= KNEE_FACTOR.powi(3) * g_ref {
-        return Ok(design);
+        return Ok(Design {
+            search: log,
+            ..design
+        });
     }
     let (mut lo, mut hi, mut knee) = (alpha_ref, alpha_t, reference);
     for _ in 0..KNEE_STEPS {
@@ -992,12 +1003,14 @@ fn global_knee(
         .0
         .extend(knee.notes.0.iter().filter(|n| units(n)).cloned());
     notes.push(format!(
-        "high gain: the global observer reaches α = {alpha_t:.6} only with max ‖L_l‖₂ = {g_t:.4e}, {:.1e} times the gain at α = {alpha_ref:.6} ({g_ref:.4e}); returned the knee of the α–gain curve, the fastest α with at most {KNEE_FACTOR} times that gain: α = {:.6}, max ‖L_l‖₂ = {:.4e} ({solves} more solves). On an LPV plant any α is reachable with gain enough: `max_gain = G` or a sample period sets the real limit (docs/method.md §17)",
+        "high gain: the global observer reaches α = {alpha_t:.6} only with max ‖L_l‖₂ = {g_t:.4e}, {:.1e} times the gain at α = {alpha_ref:.6} ({g_ref:.4e}); returned the knee of the α–gain curve, the fastest α with at most {KNEE_FACTOR} times that gain: α = {:.6}, max ‖L_l‖₂ = {:.4e} ({solves} more solver calls). On an LPV plant any α is reachable with gain enough: `max_gain = G` or a sample period sets the real limit (docs/method.md §17)",
         g_t / g_ref.max(f64::MIN_POSITIVE),
         knee.alpha,
         gain(&knee)
     ));
     let mut out = knee;
+    // every solver call of the request, in the order made
+    out.search = log;
     out.summary = format!(
         "{} (high gain: the knee of the α–gain curve, α_sup = {:.6})",
         out.summary, info.alpha_sup
@@ -1175,7 +1188,7 @@ pub(super) fn prepare(
             from: if hint.is_some() && pilots == 0 {
                 "the first search's P".to_string()
             } else {
-                format!("{pilots} pilot solves")
+                format!("{pilots} pilot solver call(s), not in the search log")
             },
         });
     }

@@ -254,7 +254,7 @@ impl Ctx<'_, '_> {
             Some((p, g)) => notes.insert(
                 0,
                 format!(
-                    "alpha = max(within = {within}): α = {:.6} is {:.1} % of {of} α_sup = {:.6} (γ = {:.6}, max ‖L_l‖₂ = {gain_sup:.4e}); the smallest-gain design there has max ‖L_l‖₂ = {g:.4e} at γ = {:.6} ({solves} solves minimising κ with P ⪰ λ I, ‖Γ_l‖₂ ≤ κλ over {} values of γ)",
+                    "alpha = max(within = {within}): α = {:.6} is {:.1} % of {of} α_sup = {:.6} (γ = {:.6}, max ‖L_l‖₂ = {gain_sup:.4e}); the smallest-gain design there has max ‖L_l‖₂ = {g:.4e} at γ = {:.6} ({solves} solver calls minimising κ with P ⪰ λ I, ‖Γ_l‖₂ ≤ κλ over {} values of γ)",
                     p.alpha,
                     100.0 * p.alpha / sup.alpha,
                     sup.alpha,
@@ -264,7 +264,7 @@ impl Ctx<'_, '_> {
                 ),
             ),
             None => notes.push(format!(
-                "alpha = max(within = {within}): no smallest-gain design certified at α = {a_t:.6} ({solves} solves); the fastest certified point is reported"
+                "alpha = max(within = {within}): no smallest-gain design certified at α = {a_t:.6} ({solves} solver calls); the fastest certified point is reported"
             )),
         }
         Ok(Outcome {
