@@ -288,6 +288,25 @@ fn noise_report(
     d
 }
 
+/// The size guard of every design, before anything is built or solved
+/// (the global setup's [`super::driver::prepare`] applies it too), on the
+/// full vertex family the noise blocks are solved on whatever the
+/// request's conditions: refused when too large, else its "slow" warning.
+fn size_note(
+    model: &PolytopicModel,
+    request: &DesignRequest,
+) -> Result<Option<String>, SolveError> {
+    let full = DesignRequest {
+        conditions: qpv_dsl::Conditions::Full,
+        ..request.clone()
+    };
+    match crate::model::size::guard(model, &full) {
+        crate::model::size::Verdict::TooLarge(m) => Err(SolveError::TooLarge(m)),
+        crate::model::size::Verdict::Slow(m) => Ok(Some(m)),
+        crate::model::size::Verdict::Fits => Ok(None),
+    }
+}
+
 /// As [`design_noise`], calling `progress` after every solve.
 pub(crate) fn design_noise_with_progress(
     model: &PolytopicModel,
@@ -301,19 +320,7 @@ pub(crate) fn design_noise_with_progress(
     // An LPV plant's noise design is the global observer's (docs/method.md
     // §17): its model has the region {0}, γ is 1 and unused.
     let global = crate::model::is_global(model, request.mode);
-    // The size guard of every design, before anything is built or solved
-    // (the global setup's [`super::driver::prepare`] applies it too).
-    // The noise blocks are solved on the full vertex family, whatever the
-    // request's conditions.
-    let full = DesignRequest {
-        conditions: qpv_dsl::Conditions::Full,
-        ..request.clone()
-    };
-    let size_note = match crate::model::size::guard(model, &full) {
-        crate::model::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
-        crate::model::size::Verdict::Slow(m) => Some(m),
-        crate::model::size::Verdict::Fits => None,
-    };
+    let size_note = size_note(model, request)?;
     // The global observer's setup: its model (region {0}), its request
     // (γ = 1, the full family) and its balanced units (pilot solves at α).
     let global_setup = match global {
