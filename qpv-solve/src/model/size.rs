@@ -165,7 +165,7 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     let pole_sides: Vec<f64> = request
         .poles
         .iter()
-        .flat_map(|r| std::iter::repeat_n(r.block_side(nx_u) as f64, r.n_blocks()))
+        .flat_map(|r| std::iter::repeat(r.block_side(nx_u) as f64).take(r.n_blocks()))
         .collect();
     let rate_work = |f: &dyn Fn(f64) -> f64| {
         rate_blocks * (f(rate_side) + pole_sides.iter().map(|&d| f(d)).sum::<f64>())

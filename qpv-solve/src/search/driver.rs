@@ -623,7 +623,7 @@ impl Ctx<'_, '_> {
         let w = super::gain_walk::walk(free, request, self.settings, (bound, t.gamma), found)?;
         let solves = w.steps.len();
         self.steps.extend(w.steps);
-        let Some(mut p) = w.point.filter(|p| found.is_none_or(|a| p.alpha > a)) else {
+        let Some(mut p) = w.point.filter(|p| found.map_or(true, |a| p.alpha > a)) else {
             return Ok(());
         };
         p.cert = self.certify(p.alpha, p.gamma, &p.p, &p.l, p.cube.as_ref());

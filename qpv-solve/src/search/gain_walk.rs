@@ -111,19 +111,19 @@ fn meeting(
     let mut p = ctx.min_gain_at(a, gamma, seed.map(|s| &s.p))?;
     // The surrogate bounds the gain, it is not the gain: where its design
     // misses G, the default regularised objective's may not.
-    if p.as_ref().is_none_or(|p| max_gain(p) > bound) {
+    if p.as_ref().map_or(true, |p| max_gain(p) > bound) {
         let cand = crate::vocab::Candidate::new(a, gamma);
         let solve = super::attempt::Solve::Lmi(crate::lmi::Objective::Gains, None);
         let at = ctx.attempt(cand, solve, Phase::GainWalk)?;
         if let Some(q) = at.point.filter(|_| at.certified) {
-            if p.as_ref().is_none_or(|p| max_gain(&q) < max_gain(p)) {
+            if p.as_ref().map_or(true, |p| max_gain(&q) < max_gain(p)) {
                 p = Some(q);
             }
         }
     }
     ctx.max_gain = Some(bound);
     if let Some(p) = &p {
-        if out.smallest.is_none_or(|(sa, _)| a < sa) {
+        if out.smallest.map_or(true, |(sa, _)| a < sa) {
             out.smallest = Some((a, max_gain(p)));
         }
     }
