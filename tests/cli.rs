@@ -6,6 +6,7 @@
 //! tests/common.
 
 mod cli_claims;
+mod cli_codegen;
 mod cli_cover;
 mod cli_decoupled;
 mod cli_docs;

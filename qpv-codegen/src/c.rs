@@ -426,7 +426,7 @@ impl<'a> Ctx<'a> {
             env!("CARGO_PKG_VERSION")
         );
         for line in cert_text.lines() {
-            let _ = writeln!(h, " * {}", line.replace("*/", "* /"));
+            let _ = writeln!(h, " * {}", c_comment(line));
         }
         h.push_str(" */\n");
         let _ = write!(
@@ -1108,9 +1108,94 @@ fn has_call(e: &Expr) -> bool {
     }
 }
 
-/// A string for a C string literal.
+/// A string for a C string literal: `\\`, `"` and every `?` escaped (a
+/// `??=`, `??/`, ... would be a trigraph under `-std=c99`, which
+/// `-Wtrigraphs` turns into an error with `-Werror`; `\\?` is always `?`),
+/// control characters as octal escapes.
 fn c_escape(s: &str) -> String {
-    s.replace('\\', "\\\\").replace('"', "\\\"")
+    let mut out = String::with_capacity(s.len());
+    for ch in s.chars() {
+        match ch {
+            '\\' => out.push_str("\\\\"),
+            '"' => out.push_str("\\\""),
+            '?' => out.push_str("\\?"),
+            c if (c as u32) < 0x20 || c as u32 == 0x7f => {
+                let _ = write!(out, "\\{:03o}", c as u32);
+            }
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// A line for the inside of a C block comment: no `*/` (which would end
+/// it), no `/*` (`-Wcomment`), no `??` (a trigraph: `??/` ends in a line
+/// splice, which `-Wtrigraphs` reports), no control characters.
+fn c_comment(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    let mut prev = '\0';
+    for ch in s.chars() {
+        let c = if ch.is_control() { ' ' } else { ch };
+        let split = matches!((prev, c), ('*', '/') | ('/', '*') | ('?', '?'));
+        if split {
+            out.push(' ');
+        }
+        out.push(c);
+        prev = c;
+    }
+    out
+}
+
+/// The standard headers of C89 to C23 (without `.h`): a model of one of
+/// these names would write `<name>.h`, which shadows the system header
+/// under `-I OUT` (the generated source itself includes `<limits.h>` and
+/// may include `<math.h>`).
+pub const STANDARD_HEADERS: [&str; 31] = [
+    "assert",
+    "complex",
+    "ctype",
+    "errno",
+    "fenv",
+    "float",
+    "inttypes",
+    "iso646",
+    "limits",
+    "locale",
+    "math",
+    "setjmp",
+    "signal",
+    "stdalign",
+    "stdarg",
+    "stdatomic",
+    "stdbit",
+    "stdbool",
+    "stdckdint",
+    "stddef",
+    "stdint",
+    "stdio",
+    "stdlib",
+    "stdnoreturn",
+    "string",
+    "tgmath",
+    "threads",
+    "time",
+    "uchar",
+    "wchar",
+    "wctype",
+];
+
+/// If the model name `name` makes a header that shadows a C standard
+/// header (compared without case: on a case-insensitive file system
+/// `Math.h` is `math.h`), the reason, in words.
+pub fn shadowed_header(name: &str) -> Option<String> {
+    let lower = name.to_ascii_lowercase();
+    STANDARD_HEADERS.iter().find(|h| **h == lower).map(|h| {
+        format!(
+            "model name `{name}`: the C export would write {name}.h, which shadows the C \
+             standard header <{h}.h> wherever OUT is on the include path (-I); rename the model \
+             (e.g. `{name}_model`)"
+        )
+    })
 }
 
 /// The certificate as text: the request, α, γ, the margins per family, the
@@ -1268,6 +1353,21 @@ mod tests {
                 "{t}"
             );
         }
+    }
+
+    #[test]
+    fn baked_text_has_no_trigraph_and_ends_no_comment() {
+        let path = "d/a??=b??/c??(\"q\\\t.qpv";
+        let lit = c_escape(path);
+        assert!(!lit.contains("??"), "{lit}");
+        assert_eq!(lit, r#"d/a\?\?=b\?\?/c\?\?(\"q\\\011.qpv"#);
+        let com = c_comment("a??/ */ /* b");
+        assert!(
+            !com.contains("??") && !com.contains("*/") && !com.contains("/*"),
+            "{com}"
+        );
+        assert!(shadowed_header("math").is_some() && shadowed_header("Limits").is_some());
+        assert!(shadowed_header("paper_example").is_none() && shadowed_header("mathx").is_none());
     }
 
     #[test]

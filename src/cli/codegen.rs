@@ -70,7 +70,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     }
     let flag = float_flag(o.float.as_deref())?;
     let (model, (design, source)) = match &o.gains {
-        Some(g) => match from_gains(&o.file, o.model.as_deref(), g, o.design)? {
+        Some(g) => match from_gains(o, g)? {
             Ok(n) => n,
             Err(msg) => {
                 eprintln!("{msg}\nnothing written: only certified designs are exported");
@@ -78,7 +78,8 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             }
         },
         None => {
-            let (_, model) = load_model(&o.file, o.model.as_deref())?;
+            let (src, model) = load_model(&o.file, o.model.as_deref())?;
+            refuse_targets(o, &src, &model)?;
             let held = flag.map(|f| match f {
                 Float::F32 => qpv_dsl::Float::F32,
                 Float::F64 => qpv_dsl::Float::F64,
@@ -146,7 +147,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         float,
         notes,
     });
-    let (h, c) = write_files(&o.out, &model.name, &files)?;
+    let (h, c) = write_files(o, &model.name, &files)?;
     let at = design
         .sample_text()
         .map(|t| format!(" at {t}"))
@@ -207,23 +208,131 @@ fn certified_design(
     (design, floor_note)
 }
 
-/// Writes `<name>.h` and `<name>.c` into `out` and returns their paths.
+/// The two files `qpv codegen` writes for model `name`: `OUT/<name>.h`
+/// and `OUT/<name>.c`.
+fn targets(out: &Path, name: &str) -> [PathBuf; 2] {
+    [out.join(format!("{name}.h")), out.join(format!("{name}.c"))]
+}
+
+/// The device and inode of the file at `path`, symlinks followed (None if
+/// there is none).
+#[cfg(unix)]
+fn identity(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+}
+
+/// Elsewhere: the canonical path stands for the identity.
+#[cfg(not(unix))]
+fn identity(path: &Path) -> Option<PathBuf> {
+    std::fs::canonicalize(path).ok()
+}
+
+/// Refuses, before anything is solved or written, a model whose name makes
+/// a header that shadows a C standard header (positioned at the model's
+/// name), and any target that is (device and inode, symlinks followed, so
+/// hard links too) the model file or the gains file, or a directory.
+fn refuse_targets(o: &Options, src: &str, model: &Model) -> Result<(), CliError> {
+    if let Some(why) = qpv_codegen::c::shadowed_header(&model.name) {
+        let e = qpv_dsl::diagnostic::Error::new(src, model.span, why);
+        return Err(CliError::Input(format!("{}:{e}", o.file.display())));
+    }
+    check_targets(o, &model.name)
+}
+
+/// Refuses a target that is a directory or (device and inode, symlinks
+/// followed, so hard links too) the model file or the gains file.
+fn check_targets(o: &Options, name: &str) -> Result<(), CliError> {
+    let inputs: Vec<(&Path, &str)> = std::iter::once((o.file.as_path(), "the model file"))
+        .chain(o.gains.as_deref().map(|g| (g, "the gains file")))
+        .collect();
+    for target in targets(&o.out, name) {
+        if target.is_dir() {
+            return Err(CliError::Input(format!(
+                "{} is a directory: nothing written (the export writes {name}.h and {name}.c \
+                 there)",
+                target.display()
+            )));
+        }
+        let Some(id) = identity(&target) else {
+            continue;
+        };
+        for (input, what) in &inputs {
+            if identity(input).as_ref() == Some(&id) {
+                return Err(CliError::Input(format!(
+                    "{} is {what} {} (the same file): nothing written; choose another --out \
+                     or rename the model",
+                    target.display(),
+                    input.display()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Writes `<name>.h` and `<name>.c` into `o.out` and returns their paths:
+/// both are written to temporaries in that directory first and renamed
+/// into place only when both are complete, after the targets are checked
+/// once more ([`check_targets`]); on any failure the temporaries
+/// are removed and no target is touched.
 fn write_files(
-    out: &Path,
+    o: &Options,
     name: &str,
     files: &qpv_codegen::c::CFiles,
 ) -> Result<(PathBuf, PathBuf), CliError> {
+    let out = &o.out;
     std::fs::create_dir_all(out)
         .map_err(|e| CliError::Input(format!("--out {}: {e}", out.display())))?;
-    let write = |name: String, text: &str| -> Result<std::path::PathBuf, CliError> {
-        let path = out.join(name);
-        std::fs::write(&path, text)
-            .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
-        Ok(path)
+    let [h, c] = targets(out, name);
+    let temp = |p: &Path| {
+        let file = p.file_name().map(|f| f.to_string_lossy().into_owned());
+        out.join(format!(
+            ".{}.qpv-{}.tmp",
+            file.unwrap_or_default(),
+            std::process::id()
+        ))
     };
-    let h = write(format!("{}.h", name), &files.header)?;
-    let c = write(format!("{}.c", name), &files.source)?;
+    let (th, tc) = (temp(&h), temp(&c));
+    let cleanup = || {
+        let _ = std::fs::remove_file(&th);
+        let _ = std::fs::remove_file(&tc);
+    };
+    let written = (|| -> Result<(), CliError> {
+        for (path, text) in [(&th, &files.header), (&tc, &files.source)] {
+            write_new(path, text).map_err(|e| CliError::Io(format!("{}: {e}", path.display())))?;
+        }
+        check_targets(o, name)?;
+        Ok(())
+    })();
+    if let Err(e) = written {
+        cleanup();
+        return Err(e);
+    }
+    std::fs::rename(&th, &h).map_err(|e| {
+        cleanup();
+        CliError::Io(format!("{}: {e}", h.display()))
+    })?;
+    std::fs::rename(&tc, &c).map_err(|e| {
+        cleanup();
+        CliError::Io(format!(
+            "{}: {e} ({} was written)",
+            c.display(),
+            h.display()
+        ))
+    })?;
     Ok((h, c))
+}
+
+/// Creates `path` (which must not exist) with `text`, flushed to disk.
+fn write_new(path: &Path, text: &str) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)?;
+    f.write_all(text.as_bytes())?;
+    f.sync_all()
 }
 
 /// Solves design block `n` (1-based; default the first sound one) of the
@@ -357,18 +466,18 @@ fn describe(req: &qpv_dsl::DesignRequest) -> String {
 /// as "not certified") when the file's own verdict is short of certified,
 /// which is respected: a report may claim less than its gains achieve.
 fn from_gains(
-    file: &Path,
-    model_flag: Option<&str>,
+    o: &Options,
     gains: &Path,
-    design: Option<usize>,
 ) -> Result<Result<(Model, (Design, Source)), String>, CliError> {
-    if design.is_some() {
+    let (file, model_flag) = (o.file.as_path(), o.model.as_deref());
+    if o.design.is_some() {
         return Err(CliError::Input(
             "--design and --gains exclude each other: the gains file is the design".into(),
         ));
     }
     let claim = read_claim(gains, "gains file")?;
-    let (_, model) = load_model_for(file, model_flag, gains, claim.model())?;
+    let (src, model) = load_model_for(file, model_flag, gains, claim.model())?;
+    refuse_targets(o, &src, &model)?;
     if claim.certifies == Some(false) && claim.mode != Some(Mode::Paper) {
         return Ok(Err(format!(
             "{}: the report's verdict is not `certified`; a verdict short of certified is \
