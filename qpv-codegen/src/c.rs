@@ -1004,7 +1004,7 @@ impl<'a> Ctx<'a> {
             "void {name}_step_rk4({name}_observer *o, {r} h, const {r} *y, const {r} *u, const {r} *theta) {{\n\
              \x20   {name}_coeffs c;\n    {r} g[{up}_NZ * {up}_NY];\n    {r} s[{up}_NS], tmp[{up}_NS];\n\
              \x20   {r} a[{up}_NS], b[{up}_NS], c3[{up}_NS], d[{up}_NS];\n\
-             \x20   const {r} h2 = {half} * h;\n    const {r} h6 = h / {six};\n\
+             \x20   const {r} h2 = {half} * h;\n    const {r} h6 = h * {sixth};\n\
              \x20   const int clamped = {name}_schedule(theta, &c, g);\n{COUNT_CLAMPED}\
              \x20   {name}_load(o, s);\n    {name}_rhs(&c, g, s, y, u, a);\n{}\
              \x20   {name}_rhs(&c, g, tmp, y, u, b);\n{}\
@@ -1015,7 +1015,7 @@ impl<'a> Ctx<'a> {
             self.stage("tmp", "h2", "b"),
             self.stage("tmp", "h", "c3"),
             half = self.p.num(0.5),
-            six = self.p.num(6.0),
+            sixth = self.p.num(1.0 / 6.0),
         )
     }
 

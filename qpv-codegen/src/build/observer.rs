@@ -9,7 +9,11 @@ use crate::design::{CertifiedDesign, Shape};
 use crate::ir::{Body, Expr, Let, Sum};
 
 /// The body of `gains(μ)` (μ_l as `m<l>`): the entries g_ko, row-major
-/// (NZ rows of NY), with the baked vertex gains as constants.
+/// (NZ rows of NY), with the baked vertex gains as constants. Vertices
+/// whose gain entry is the same number share one product: `c * (m0 + m2)`
+/// for L_0 = L_2 = c (at the first such vertex's place in the sum), one
+/// multiplication instead of two; the rounding bound of the f32 floor
+/// walks this same body ([`crate::rounding`]).
 pub fn gains_body(d: &CertifiedDesign, shape: Shape) -> Body {
     let Shape { ny, nv, nz, .. } = shape;
     let mut out = Vec::with_capacity(nz * ny);
@@ -19,8 +23,19 @@ pub fn gains_body(d: &CertifiedDesign, shape: Shape) -> Body {
             if nv == 1 {
                 s.push(d.gain_entry(ny, 0, k, o), None);
             } else {
-                for l in 0..nv {
-                    s.push(d.gain_entry(ny, l, k, o), Some(Expr::var(format!("m{l}"))));
+                for (c, ls) in equal_gains((0..nv).map(|l| d.gain_entry(ny, l, k, o))) {
+                    let weight = |l: usize| Expr::var(format!("m{l}"));
+                    let factor = match ls.as_slice() {
+                        [l] => weight(*l),
+                        _ => {
+                            let mut w = Sum::default();
+                            for &l in &ls {
+                                w.push(1.0, Some(weight(l)));
+                            }
+                            Expr::paren(w.expr())
+                        }
+                    };
+                    s.push(c, Some(factor));
                 }
             }
             out.push(s.expr());
@@ -30,6 +45,22 @@ pub fn gains_body(d: &CertifiedDesign, shape: Shape) -> Body {
         lets: Vec::new(),
         out,
     }
+}
+
+/// The non-zero gains of one entry grouped by value (the same bits), in
+/// the order of each value's first vertex: (value, its vertices).
+fn equal_gains(gains: impl Iterator<Item = f64>) -> Vec<(f64, Vec<usize>)> {
+    let mut groups: Vec<(f64, Vec<usize>)> = Vec::new();
+    for (l, c) in gains.enumerate() {
+        if c == 0.0 {
+            continue;
+        }
+        match groups.iter_mut().find(|(v, _)| v.to_bits() == c.to_bits()) {
+            Some((_, ls)) => ls.push(l),
+            None => groups.push((c, vec![l])),
+        }
+    }
+    groups
 }
 
 /// The residual the gain multiplies, `r<o>` per output:
@@ -137,4 +168,85 @@ pub fn plant_bodies(
             out: h,
         },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rounding::{eval, Env, Val};
+
+    fn design(l: Vec<Vec<f64>>) -> CertifiedDesign {
+        CertifiedDesign {
+            request: String::new(),
+            mode: "sound".into(),
+            certifies: true,
+            alpha: 1.0,
+            gamma: 1.0,
+            p: vec![1.0],
+            l,
+            margins: Vec::new(),
+            status: String::new(),
+            iterations: 0,
+            filter: None,
+            float: qpv_dsl::Float::F32,
+            figures: Default::default(),
+            alpha_sup: None,
+            sample: None,
+        }
+    }
+
+    /// Vertices with the same gain entry share one product, at the first
+    /// one's place; zero gains are dropped; the f32 rounding bound walks
+    /// the folded sum and holds on sampled weights.
+    #[test]
+    fn equal_vertex_gains_share_one_product() {
+        let c = f64::from(12.777_471_f32);
+        let d = design(vec![vec![c], vec![0.25], vec![c], vec![0.0], vec![c]]);
+        let shape = Shape {
+            nx: 1,
+            ny: 1,
+            nu: 0,
+            nv: 5,
+            nz: 1,
+            ns: 1,
+            filter: None,
+        };
+        let b = gains_body(&d, shape);
+        let printed = crate::c::literal(c, crate::c::Float::F32);
+        let Expr::Sum(terms) = &b.out[0] else {
+            panic!("a sum: {:?}", b.out[0])
+        };
+        assert_eq!(terms.len(), 2, "{terms:?}");
+        assert_eq!(terms[0].0, c);
+        let Some(Expr::Paren(inner)) = &terms[0].1 else {
+            panic!("c * (m0 + m2 + m4): {terms:?}")
+        };
+        assert!(inner.uses("m0") && inner.uses("m2") && inner.uses("m4") && !inner.uses("m1"));
+        assert_eq!(terms[1], (0.25, Some(Expr::var("m1"))));
+        assert!(printed.starts_with("12.77747"), "{printed}");
+        // the bound of the folded sum holds for f32 weights summing to 1
+        let mut env = Env::new();
+        for l in 0..5 {
+            env.insert(format!("m{l}"), Val::rounded_input(0.0, 1.0));
+        }
+        let v = eval(&b.out[0], &env, &[]).expect("bounded");
+        for k in 0..500u32 {
+            let w: Vec<f64> = (0..5)
+                .map(|l| f64::from((k * 7 + l * 13) % 17 + 1))
+                .collect();
+            let total: f64 = w.iter().sum();
+            let m: Vec<f32> = w.iter().map(|x| (x / total) as f32).collect();
+            let exact = c * f64::from(m[0])
+                + 0.25 * f64::from(m[1])
+                + c * f64::from(m[2])
+                + c * f64::from(m[4]);
+            let comp = 12.777_471_f32 * (m[0] + m[2] + m[4]) + 0.25f32 * m[1];
+            assert!(
+                (f64::from(comp) - exact).abs() <= v.err,
+                "{} > {}",
+                (f64::from(comp) - exact).abs(),
+                v.err
+            );
+        }
+    }
 }

@@ -436,8 +436,12 @@ mod tests {
                     if s.starts_with(|c: char| c.is_ascii_digit())
                         && (s.contains('.') || s.contains('e'))
                     {
+                        // an f32 value: exact in f64, or printed as `to_f32`
+                        // prints the f32 it parses to (the shortest form)
                         let v: f64 = s.parse().unwrap_or(f64::NAN);
-                        if f64::from(v as f32) != v {
+                        let v32: f32 = s.parse().unwrap_or(f32::NAN);
+                        let shortest = proc_macro2::Literal::f32_unsuffixed(v32).to_string();
+                        if f64::from(v as f32) != v && shortest != s {
                             out.push(s);
                         }
                     }

@@ -212,6 +212,8 @@ fn steppers(xs: &[Ident]) -> TokenStream {
             .collect()
     };
     let (k1, k2, k3, k4) = (stage("a"), stage("b"), stage("c"), stage("d"));
+    // h/6 as a product (the C prints the same constant): no division per step
+    let sixth = crate::emit::tokens::lit(1.0 / 6.0);
     quote! {
         /// One explicit Euler step of length `dt` with y, u, θ held.
         ///
@@ -253,7 +255,7 @@ fn steppers(xs: &[Ident]) -> TokenStream {
             let (c, g, clamped) = schedule(theta);
             self.clamped = self.clamped.saturating_add(clamped as u64);
             let h2 = 0.5 * dt;
-            let h6 = dt / 6.0;
+            let h6 = dt * #sixth;
             let [#(#xs),*] = self.state;
             let [#(#k1),*] = rhs(&c, &g, &self.state, y, u);
             let [#(#k2),*] = rhs(&c, &g, &[#(#xs + h2 * #k1),*], y, u);
