@@ -450,8 +450,9 @@ fn the_design_path_refuses_paper_mode_and_exports_the_sound_design() {
     assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
 }
 
-/// The C driver of a sampled design: reads samples `y.. u.. θ..` from stdin
-/// and prints x̂ after each call of the certified `<m>_step`.
+/// The C driver of a sampled design: reads the start x̂(0) (NX numbers,
+/// given to `<m>_init_at`), then samples `y.. u.. θ..` from stdin and
+/// prints x̂ after each call of the certified `<m>_step`.
 fn sampled_driver(m: &str) -> String {
     let up = m.to_uppercase();
     format!(
@@ -462,10 +463,15 @@ fn sampled_driver(m: &str) -> String {
 int main(void) {{
     {m}_observer o;
     {m}_real y[{up}_NY], u[{up}_NU + 1], th[{up}_NTHETA + 1];
+    {m}_real x0[{up}_NX];
     char buf[64];
     int i;
     printf("%.17g\n", (double){m}_SAMPLE_PERIOD);
-    {m}_init(&o);
+    for (i = 0; i < {up}_NX; i++) {{
+        if (scanf("%63s", buf) != 1) return 3;
+        x0[i] = ({m}_real)strtod(buf, NULL);
+    }}
+    {m}_init_at(&o, x0);
     for (;;) {{
         const {m}_real *e;
         for (i = 0; i < {up}_NY; i++) {{
@@ -539,10 +545,11 @@ fn a_sampled_design_exports_its_period_and_certified_step() {
         json(&m::L)
     );
     std::fs::write(&gains, text).expect("gains file written");
-    // the scenario: the Euler plant from x(0) = (0.01, −0.005, 0.004), 1 s
+    // the scenario: the Euler plant from x(0) = (0.01, −0.005, 0.004), 1 s,
+    // the observer from x̂(0) = 0
     let mut x = [0.01, -0.005, 0.004];
     let mut obs = m::Observer::new();
-    let (mut steps, mut rust) = (String::new(), Vec::new());
+    let (mut steps, mut rust) = ("0 0 0\n".to_string(), Vec::new());
     for k in 0..1000 {
         let th = super::paper_theta(k as f64 * m::SAMPLE_PERIOD);
         let y = m::plant::output(&x, &th);
@@ -571,36 +578,8 @@ fn a_sampled_design_exports_its_period_and_certified_step() {
             out.to_str().expect("utf-8"),
         ]);
         assert!(text.contains("certified at h = "), "{text}");
-        std::fs::write(out.join("driver.c"), sampled_driver("paper_sampled")).expect("driver");
-        let exe = out.join("driver");
-        let c = Command::new(&cc)
-            .args([
-                "-std=c99",
-                "-Wall",
-                "-Wextra",
-                "-Werror",
-                "-pedantic",
-                "-O2",
-            ])
-            .arg(out.join("driver.c"))
-            .arg(out.join("paper_sampled.c"))
-            .arg("-o")
-            .arg(&exe)
-            .arg("-lm")
-            .output()
-            .expect("cc runs");
-        assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
-        let steps_file = out.join("steps.txt");
-        std::fs::write(&steps_file, &steps).expect("steps written");
-        let run = Command::new(&exe)
-            .stdin(std::fs::File::open(&steps_file).expect("steps file"))
-            .output()
-            .expect("driver runs");
-        assert!(run.status.success(), "driver failed");
-        let lines: Vec<String> = String::from_utf8_lossy(&run.stdout)
-            .lines()
-            .map(str::to_string)
-            .collect();
+        let exe = sampled_exe(&cc, &out);
+        let lines = run_lines(&exe, &out, &steps);
         let h: f64 = lines[0].parse().expect("the period");
         assert_eq!(h.to_bits(), period.to_bits(), "{float}: SAMPLE_PERIOD {h}");
         assert_eq!(lines.len(), rust.len() + 1);
@@ -616,6 +595,141 @@ fn a_sampled_design_exports_its_period_and_certified_step() {
             "{float}: C step differs from Rust step by {worst:e}"
         );
     }
+}
+
+/// Builds the sampled driver with the C export in `out`.
+fn sampled_exe(cc: &str, out: &Path) -> PathBuf {
+    std::fs::write(out.join("driver.c"), sampled_driver("paper_sampled")).expect("driver");
+    let exe = out.join("driver");
+    let c = Command::new(cc)
+        .args([
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-pedantic",
+            "-O2",
+        ])
+        .arg(out.join("driver.c"))
+        .arg(out.join("paper_sampled.c"))
+        .arg("-o")
+        .arg(&exe)
+        .arg("-lm")
+        .output()
+        .expect("cc runs");
+    assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+    exe
+}
+
+/// Runs a driver with `input` on stdin (through a file: a pipe written
+/// while the driver fills the other would deadlock); its output lines.
+fn run_lines(exe: &Path, dir: &Path, input: &str) -> Vec<String> {
+    let input_file = dir.join("input.txt");
+    std::fs::write(&input_file, input).expect("input written");
+    let run = Command::new(exe)
+        .stdin(std::fs::File::open(&input_file).expect("input file"))
+        .output()
+        .expect("driver runs");
+    assert!(run.status.success(), "driver failed");
+    String::from_utf8_lossy(&run.stdout)
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+/// The f32 export of a sampled design certifies a finite floor for its
+/// `<m>_step` at the sample period (the recursion's rounding as a bounded
+/// disturbance of the certified discrete contraction, docs/embedded.md),
+/// the header declares it with `FLOAT_BITS` 32 and the rounding split, and
+/// a run started at e(0) = 0 (`<m>_init_at`) against the Euler plant stays
+/// at or below it at every step (the recursion keeps ρ_k ≤ ρ* from ρ_0 = 0).
+#[test]
+fn a_sampled_f32_export_certifies_a_floor_for_its_step() {
+    use super::generated_sampled::paper_sampled as m;
+    let Some(cc) = c_compiler() else { return };
+    let d = dir("sampled-floor");
+    let out = d.join("f32");
+    let text = qpv(&[
+        "codegen",
+        "tests/fixtures/paper_sampled.qpv",
+        "--float",
+        "f32",
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
+    assert!(text.contains("certified at h = "), "{text}");
+    let header = std::fs::read_to_string(out.join("paper_sampled.h")).expect("C header");
+    let source = std::fs::read_to_string(out.join("paper_sampled.c")).expect("C source");
+    for item in [
+        "#define PAPER_SAMPLED_FLOAT_BITS 32",
+        "extern const paper_sampled_real paper_sampled_F32_STEP_FLOOR;",
+        "extern const paper_sampled_real paper_sampled_F32_ROUNDING_D0, paper_sampled_F32_ROUNDING_D1;",
+        "extern const paper_sampled_real paper_sampled_F32_RATE;",
+        "void paper_sampled_init_at(paper_sampled_observer *o, const paper_sampled_real *x0);",
+        "#ifndef PAPER_SAMPLED_NO_CERTIFICATE",
+    ] {
+        assert!(header.contains(item), "missing `{item}` in the header");
+    }
+    let value = |name: &str| -> f64 {
+        let key = format!("const paper_sampled_real paper_sampled_{name} = ");
+        let line = source
+            .lines()
+            .find(|l| l.starts_with(&key))
+            .unwrap_or_else(|| panic!("no {name} in the source"));
+        let v = line[key.len()..].trim_end_matches(';');
+        if v == "INFINITY" {
+            return f64::INFINITY;
+        }
+        v.trim_end_matches('f').parse().expect("a number")
+    };
+    let floor = value("F32_STEP_FLOOR");
+    let (d1, rate, alpha) = (value("F32_ROUNDING_D1"), value("F32_RATE"), value("ALPHA"));
+    assert!(floor.is_finite() && floor > 0.0, "F32_STEP_FLOOR = {floor}");
+    assert!(floor < 1e-3, "a useful floor: {floor}");
+    assert!(
+        rate > 0.0 && rate <= alpha && (alpha - 2.0 * d1 - rate).abs() <= 1e-5 * alpha,
+        "F32_RATE = {rate}, ALPHA = {alpha}, D1 = {d1}"
+    );
+    assert!(
+        header.contains("f32 floor of paper_sampled_step at SAMPLE_PERIOD"),
+        "the certificate block states the step's floor"
+    );
+    // the Euler plant (f64) from x(0), the f32 observer from x̂(0) = x(0)
+    // exactly (an f32 value): 3 s at 1 kHz, θ sweeping Θ
+    let h = f64::from(m::SAMPLE_PERIOD as f32);
+    let mut x: [f64; 3] = [0.01, -0.005, 0.004].map(|v: f64| f64::from(v as f32));
+    let mut input = format!("{:e} {:e} {:e}\n", x[0], x[1], x[2]);
+    let mut plant = Vec::new();
+    for k in 0..3000 {
+        let th = super::paper_theta(k as f64 * h);
+        let y = m::plant::output(&x, &th);
+        for v in y.iter().chain(th.iter()) {
+            input.push_str(&format!("{v:e} "));
+        }
+        input.push('\n');
+        let f = m::plant::derivative(&x, &[], &th);
+        x = core::array::from_fn(|i| x[i] + h * f[i]);
+        plant.push(x);
+    }
+    let exe = sampled_exe(&cc, &out);
+    let lines = run_lines(&exe, &out, &input);
+    assert_eq!(lines.len(), plant.len() + 1);
+    let mut worst = 0.0f64;
+    for (row, x) in lines[1..].iter().zip(&plant) {
+        let e2: f64 = row
+            .split_whitespace()
+            .zip(x)
+            .map(|(v, xi)| (xi - v.parse::<f64>().expect("a number")).powi(2))
+            .sum();
+        worst = worst.max(e2.sqrt());
+    }
+    eprintln!("sampled f32 step: largest |x - x̂| {worst:.3e}, certified floor {floor:.3e}");
+    assert!(
+        worst <= floor,
+        "|e| = {worst:e} above the certified floor {floor:e}"
+    );
+    // the observer does round: the run is not trivially exact
+    assert!(worst > 0.0);
 }
 
 #[test]

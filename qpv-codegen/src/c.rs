@@ -473,6 +473,15 @@ impl<'a> Ctx<'a> {
         }
         let _ = writeln!(
             h,
+            "#define {up}_FLOAT_BITS {} /* the width of {name}_real: 32 (float) or 64 (double) */",
+            match self.cm.float {
+                Float::F32 => 32,
+                Float::F64 => 64,
+            },
+            name = self.name
+        );
+        let _ = writeln!(
+            h,
             "#define {up}_CERTIFIES 1 /* only certified designs are exported */\n"
         );
         h
@@ -523,8 +532,21 @@ impl<'a> Ctx<'a> {
                  extern const {r} {name}_F32_EULER_FLOOR, {name}_F32_EULER_UPDATE_ROUNDING, \
                  {name}_F32_EULER_MIN_STEP; /* with step_euler at F32_EULER_MIN_STEP < h <= \
                  MAX_STEP_EULER, the state update's rounding included: lim sup |e| <= \
-                 F32_EULER_FLOOR + F32_EULER_UPDATE_ROUNDING / h (INFINITY: none certified) */"
+                 F32_EULER_FLOOR + F32_EULER_UPDATE_ROUNDING / h (INFINITY: none certified) */\n\
+                 extern const {r} {name}_F32_ROUNDING_D0, {name}_F32_ROUNDING_D1; /* the f32 \
+                 rounding of one right-hand side evaluation, d0 + d1*rho per state (rho = \
+                 sqrt(e'Pe)), in the P-norm: D0 and D1 (INFINITY: no floor certified) */\n\
+                 extern const {r} {name}_F32_RATE; /* the rate the floor is certified with, \
+                 ALPHA - 2*D1 (0: no floor certified) */"
             );
+            if self.d.sample.is_some() {
+                let _ = writeln!(
+                    h,
+                    "extern const {r} {name}_F32_STEP_FLOOR; /* {name}_step at SAMPLE_PERIOD, \
+                     against the plant stepped by the same Euler step, no noise: lim sup |e_k| \
+                     <= this, the state update's rounding included (INFINITY: none certified) */"
+                );
+            }
         }
         if self.d.alpha_sup.is_some() {
             let _ = writeln!(
@@ -556,7 +578,9 @@ impl<'a> Ctx<'a> {
         }
         let _ = writeln!(
             h,
-            "extern const char {name}_CERTIFICATE[]; /* the certificate, as text */\n"
+            "#ifndef {up}_NO_CERTIFICATE\n\
+             extern const char {name}_CERTIFICATE[]; /* the certificate, as text (about 2 KB of \
+             .rodata; define {up}_NO_CERTIFICATE to leave it out) */\n#endif\n"
         );
         h
     }
@@ -586,6 +610,10 @@ impl<'a> Ctx<'a> {
             (
                 format!("void {name}_init({name}_observer *o)"),
                 "x̂ = 0 (and filter states 0), clamped = 0.",
+            ),
+            (
+                format!("void {name}_init_at({name}_observer *o, const {r} *x0)"),
+                "x̂ = x0 (NX entries; filter states 0), clamped = 0: the certified bounds hold from an x0 whose error x(0) - x0 is in the certified set.",
             ),
             (
                 format!("void {name}_step_euler({name}_observer *o, {r} h, const {r} *y, const {r} *u, const {r} *theta)"),
@@ -648,7 +676,11 @@ impl<'a> Ctx<'a> {
         let infinite = !finite(f.sigma)
             || !finite(f.error_bound)
             || f.max_amplitude == Some(f64::INFINITY)
-            || (self.cm.float == Float::F32 && !(finite(f.f32_floor) && f.f32_euler.is_some()));
+            || (self.cm.float == Float::F32
+                && !(finite(f.f32_floor)
+                    && f.f32_euler.is_some()
+                    && f.f32_rounding.is_some()
+                    && (self.d.sample.is_none() || finite(f.f32_step_floor))));
         let mut s = String::new();
         let _ = writeln!(
             s,
@@ -708,6 +740,27 @@ impl<'a> Ctx<'a> {
                 let v = v.filter(|x| x.is_finite()).map(round_up_to_f32);
                 let _ = writeln!(s, "const {r} {name}_{k} = {};", self.fig(v, inf));
             }
+            let split = f.f32_rounding;
+            for (k, v) in [
+                ("F32_ROUNDING_D0", split.map(|x| x.d0)),
+                ("F32_ROUNDING_D1", split.map(|x| x.d1)),
+            ] {
+                let v = v.filter(|x| x.is_finite()).map(round_up_to_f32);
+                let _ = writeln!(s, "const {r} {name}_{k} = {};", self.fig(v, inf));
+            }
+            let rate = split.map(|x| x.rate).filter(|x| x.is_finite() && *x > 0.0);
+            let _ = writeln!(
+                s,
+                "const {r} {name}_F32_RATE = {};",
+                self.fig(rate.map(round_down_to_f32), &zero)
+            );
+            if d.sample.is_some() {
+                let v = f
+                    .f32_step_floor
+                    .filter(|x| x.is_finite())
+                    .map(round_up_to_f32);
+                let _ = writeln!(s, "const {r} {name}_F32_STEP_FLOOR = {};", self.fig(v, inf));
+            }
         }
         if let Some(a) = d.alpha_sup {
             let _ = writeln!(s, "const {r} {name}_ALPHA_SUP = {};", p.num(a));
@@ -748,7 +801,7 @@ impl<'a> Ctx<'a> {
         }
         let _ = writeln!(
             s,
-            "const char {name}_CERTIFICATE[] =\n{};\n",
+            "#ifndef {up}_NO_CERTIFICATE\nconst char {name}_CERTIFICATE[] =\n{};\n#endif\n",
             cert_text
                 .lines()
                 .map(|l| format!("    \"{}\\n\"", c_escape(l)))
@@ -945,8 +998,16 @@ impl<'a> Ctx<'a> {
         for k in 0..self.ns - self.nx {
             let _ = writeln!(init, "    o->filter[{k}] = {zero};");
         }
+        let mut at = String::new();
+        for i in 0..self.nx {
+            let _ = writeln!(at, "    o->xhat[{i}] = x0[{i}];");
+        }
+        for k in 0..self.ns - self.nx {
+            let _ = writeln!(at, "    o->filter[{k}] = {zero};");
+        }
         format!(
             "void {name}_init({name}_observer *o) {{\n{init}    o->clamped = 0;\n}}\n\n\
+             void {name}_init_at({name}_observer *o, const {r} *x0) {{\n{at}    o->clamped = 0;\n}}\n\n\
              const {r} *{name}_estimate(const {name}_observer *o) {{\n    return o->xhat;\n}}\n\n"
         )
     }
@@ -1072,6 +1133,12 @@ impl<'a> Ctx<'a> {
         }
         s
     }
+}
+
+/// `x` rounded down to a `float`, so that a rate printed from it never
+/// overstates `x`.
+fn round_down_to_f32(x: f64) -> f64 {
+    -round_up_to_f32(-x)
 }
 
 /// `x` rounded up to the nearest `float`, so that a constant printed from
@@ -1290,6 +1357,23 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
             ),
             None => writeln!(t, "f32 floor of step_euler: none certified"),
         };
+        if let Some(r) = f.f32_rounding {
+            let _ = writeln!(
+                t,
+                "f32 rounding of one right-hand side evaluation in the P-norm: D0 = {:.6e}, \
+                 D1 = {:.6e}; the floor is certified at the rate alpha - 2*D1 = {:.6e}",
+                r.d0, r.d1, r.rate
+            );
+        }
+        if d.sample.is_some() {
+            let _ = writeln!(
+                t,
+                "f32 floor of {}_step at SAMPLE_PERIOD, the state update's rounding included: \
+                 lim sup |e_k| <= {}",
+                m.name,
+                opt(f.f32_step_floor)
+            );
+        }
     }
     let _ = writeln!(
         t,

@@ -75,6 +75,25 @@ pub struct Figures {
     /// included: lim sup ‖e‖ ≤ base + per_step/h for min_step < h ≤ the
     /// certified Euler step.
     pub f32_euler: Option<EulerFloor>,
+    /// The split of the f32 rounding of one right-hand side evaluation
+    /// behind `f32_floor` (f32 designs with a floor).
+    pub f32_rounding: Option<F32Rounding>,
+    /// A sampled f32 design: the certified bound on lim sup ‖e_k‖ of its
+    /// fixed step at the sample period, the state update's rounding
+    /// included (docs/embedded.md, "The f32 floor of a sampled step").
+    pub f32_step_floor: Option<f64>,
+}
+
+/// The rounding of one evaluation of the f32 right-hand side, as the floor
+/// uses it: |δ_k| ≤ d₀_k + d₁_k ρ (ρ = √(eᵀPe)), and in the P-norm D₀, D₁.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct F32Rounding {
+    /// D₀: the part independent of the error, in the P-norm.
+    pub d0: f64,
+    /// D₁: the part per unit ρ, in the P-norm; it lowers the rate by 2D₁.
+    pub d1: f64,
+    /// The lowered rate α − 2D₁ (per second) the floor is certified with.
+    pub rate: f64,
 }
 
 /// The f32 floor of explicit Euler steps ([`Figures::f32_euler`]).

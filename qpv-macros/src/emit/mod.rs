@@ -269,6 +269,15 @@ mod tests {
     }
 
     fn generated_float(filter: Option<OutputFilter>, float: qpv_dsl::Float) -> String {
+        generated_edited(filter, float, |_| {})
+    }
+
+    /// The test model's code with its design edited by `edit` first.
+    fn generated_edited(
+        filter: Option<OutputFilter>,
+        float: qpv_dsl::Float,
+        edit: impl FnOnce(&mut CertifiedDesign),
+    ) -> String {
         let nz = if filter.is_some() { 3 } else { 2 };
         let models = qpv_dsl::parse(MODEL).expect("test model parses");
         let model = &models[0];
@@ -297,6 +306,8 @@ mod tests {
             sample: None,
             alpha_sup: Some(1.5),
         };
+        let mut design = design;
+        edit(&mut design);
         emit(&EmitModel {
             model,
             libm: quote!(::libm),
@@ -304,6 +315,39 @@ mod tests {
             designs: vec![design],
         })
         .to_string()
+    }
+
+    /// A sampled f32 design carries the floor of its `step`, and every f32
+    /// design the rounding split of its floor, rounded to the safe side.
+    #[test]
+    fn a_sampled_f32_design_has_the_floor_of_its_step() {
+        let code = generated_edited(None, qpv_dsl::Float::F32, |d| {
+            d.sample = Some(1e-3);
+            d.figures.f32_floor = Some(1e-6);
+            d.figures.f32_step_floor = Some(2.5e-6);
+            d.figures.f32_rounding = Some(qpv_codegen::design::F32Rounding {
+                d0: 3e-5,
+                d1: 0.125,
+                rate: 0.75,
+            });
+        });
+        assert!(syn::parse_str::<syn::File>(&code).is_ok(), "{code}");
+        for item in [
+            "pub const F32_STEP_FLOOR : f32 = 0.0000025",
+            "pub const F32_ROUNDING_D1 : f32 = 0.125",
+            "pub const F32_RATE : f32 = 0.75",
+            "pub const SAMPLE_PERIOD : f32",
+            "pub fn step (& mut self",
+        ] {
+            assert!(code.contains(item), "missing `{item}`");
+        }
+        // without a sample period, no step floor
+        let code = generated_float(None, qpv_dsl::Float::F32);
+        assert!(!code.contains("F32_STEP_FLOOR"));
+        assert!(
+            code.contains("pub const F32_RATE : f32 = 0.0"),
+            "none certified: 0"
+        );
     }
 
     #[test]
@@ -464,12 +508,19 @@ mod tests {
             "pub fn mu (theta : & [f32 ; NTHETA]) -> [f32 ; NV]",
             "pub fn derivative (x : & [f32 ; NX] , u : & [f32 ; NU] , theta : & [f32 ; NTHETA]) -> [f32 ; NX]",
             "pub const F32_ERROR_FLOOR : f32",
+            "pub const F32_ROUNDING_D0 : f32",
+            "pub const F32_ROUNDING_D1 : f32",
+            "pub const F32_RATE : f32",
+            "pub const FLOAT_BITS : u32 = 32u32",
+            "let h6 = dt * 0.16666667",
+            "pub fn with_state (x0 : & [f32 ; NX]) -> Self",
         ] {
             assert!(text.contains(item), "missing `{item}`");
         }
         let mut traces = Vec::new();
         f64_traces(module, &mut traces);
         assert!(traces.is_empty(), "f64 in the f32 design: {traces:?}");
+        assert!(generated().contains("pub const FLOAT_BITS : u32 = 64u32"));
         // and the f64 design of the same model does use f64 (the scan sees it)
         let f64_module = design_module(generated().parse().expect("tokens")).expect("design1");
         let mut traces = Vec::new();

@@ -24,6 +24,16 @@
 //! √V(e⁺) ≤ (1 − κh)ρ + h(D₀ + D₁ρ) + ‖η‖_P with
 //! κ = (1 − √(1 − h_max β))/h_max (√V is a norm, convex along h); hence
 //! lim sup ρ ≤ (D₀ + H_b + H_a/h)/(κ − D₁), H_a = ‖u x̂‖_P, H_b = ‖u(2+u)k‖_P.
+//!
+//! **A sampled design's `step`** (`sample = h`: S5d certifies
+//! V(e_{k+1}) ≤ (1 − hα)V(e_k) for the exact Euler recursion at exactly
+//! h, on the same sets): the same recursion with h_max = h and β = α, no
+//! convexity argument needed, ρ_{k+1} ≤ √(1 − hα)ρ_k + h(D₀ + D₁ρ_k) +
+//! H_a + hH_b. Its fixed point ρ* = (D₀ + H_b + H_a/h)/(κ − D₁),
+//! κ = (1 − √(1 − hα))/h, is the floor when it is below 1 (then ρ_k ≤ 1
+//! keeps ρ_{k+1} ≤ 1: the map is affine with slope below 1, so E stays
+//! invariant and the rounding bounds, computed on it, keep holding);
+//! [`RoundingFloor::sampled`].
 
 use crate::model::noise::NoiseChannels;
 use nalgebra::DMatrix;
@@ -70,6 +80,10 @@ pub struct RoundingFloor {
     /// The floor with the explicit Euler state update, when the design has
     /// a certified Euler step and some step is certified.
     pub euler: Option<EulerFloor>,
+    /// A sampled design: the certified bound on lim sup ‖e_k‖ of its fixed
+    /// step at the sample period (the update's rounding included), when
+    /// one is certified (module docs).
+    pub sampled: Option<f64>,
 }
 
 /// The inputs of [`rounding_floor`]: a certified design's numbers as baked.
@@ -87,6 +101,8 @@ pub struct FloorInputs<'a> {
     pub l: &'a [DMatrix<f64>],
     /// The certified Euler step h_max and its contraction rate β, if any.
     pub euler: Option<(f64, f64)>,
+    /// A sampled design's period h (certified V(e_{k+1}) ≤ (1 − hα)V(e_k)).
+    pub sample: Option<f64>,
 }
 
 /// The unit roundoff of IEEE single precision, 2⁻²⁴.
@@ -204,6 +220,10 @@ pub fn rounding_floor(inp: &FloorInputs<'_>, r: &RhsRounding) -> Result<Rounding
         euler: inp
             .euler
             .and_then(|e| euler_floor(inp.p, r, (d0, d1), e, scale)),
+        sampled: inp.sample.and_then(|h| {
+            euler_floor(inp.p, r, (d0, d1), (h, inp.alpha), scale)
+                .map(|e| (e.base + e.per_step / h) * (1.0 + PAD))
+        }),
     })
 }
 

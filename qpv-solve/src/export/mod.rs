@@ -222,6 +222,8 @@ impl Baked {
             rk4: sampling.map(|s| s.step_estimate_rk4).filter(|h| *h > 0.0),
             f32_floor: None,
             f32_euler: None,
+            f32_rounding: None,
+            f32_step_floor: None,
         }
     }
 
@@ -277,6 +279,12 @@ impl Baked {
         });
         if let Ok(f) = &floor {
             out.figures.f32_floor = Some(f.error_bound);
+            out.figures.f32_rounding = Some(qpv_codegen::design::F32Rounding {
+                d0: f.constant,
+                d1: f.proportional,
+                rate: d.alpha - 2.0 * f.proportional,
+            });
+            out.figures.f32_step_floor = f.sampled;
             out.figures.f32_euler = f.euler.as_ref().map(|e| qpv_codegen::design::EulerFloor {
                 base: e.base,
                 per_step: e.per_step,
@@ -331,6 +339,7 @@ impl Baked {
             p: &p,
             l: &l,
             euler: self.figures().euler,
+            sample: d.sample.map(|s| s.h),
         };
         rounding_floor(&inputs, &rounding)
     }

@@ -88,6 +88,23 @@ fn f32_design(
     let euler_floor = figure(e.map(|e| e.base), inf());
     let update = figure(e.map(|e| e.per_step), inf());
     let min_step = figure(e.map(|e| e.min_step), inf());
+    let split = d32.figures.f32_rounding;
+    let d0 = figure(split.map(|r| r.d0), inf());
+    let d1 = figure(split.map(|r| r.d1), inf());
+    let rate = figure(split.map(|r| r.rate).filter(|r| *r > 0.0), quote!(0.0));
+    let step_floor = match d.sample {
+        Some(_) => {
+            let v = figure(d32.figures.f32_step_floor, inf());
+            quote! {
+                /// `Observer::step` at `SAMPLE_PERIOD`, against the plant
+                /// stepped by the same Euler step, no noise: lim sup ‖e_k‖ ≤
+                /// this, the rounding of the state update included
+                /// (docs/embedded.md). Infinite if none is certified.
+                pub const F32_STEP_FLOOR: f64 = #v;
+            }
+        }
+        None => quote!(),
+    };
     let body = super::tokens::to_f32(
         quote! {
             /// Lower bounds of θ (f32), in declaration order.
@@ -111,6 +128,17 @@ fn f32_design(
             /// The smallest step (exclusive) of the Euler floor: below it the
             /// update's rounding is too large to certify anything.
             pub const F32_EULER_MIN_STEP: f64 = #min_step;
+            /// D₀: the part of the f32 rounding of one right-hand side
+            /// evaluation that does not shrink with the error, in the P-norm
+            /// (the rounding is d₀ + d₁ρ per state, ρ = √(eᵀPe)). Infinite if
+            /// no floor is certified.
+            pub const F32_ROUNDING_D0: f64 = #d0;
+            /// D₁: the part per unit ρ, in the P-norm; it lowers the rate
+            /// the floor is certified with to `F32_RATE` = α − 2D₁.
+            pub const F32_ROUNDING_D1: f64 = #d1;
+            /// α − 2D₁: the rate the f32 floor is certified with (0: none).
+            pub const F32_RATE: f64 = #rate;
+            #step_floor
             #constants
             #gain
             #observer
@@ -153,6 +181,12 @@ fn safe_side(d: &CertifiedDesign) -> CertifiedDesign {
     f.euler = f.euler.map(|(h, b)| (down(h), down(b)));
     f.rk4 = f.rk4.map(down);
     f.f32_floor = f.f32_floor.map(up);
+    f.f32_step_floor = f.f32_step_floor.map(up);
+    f.f32_rounding = f.f32_rounding.map(|r| qpv_codegen::design::F32Rounding {
+        d0: up(r.d0),
+        d1: up(r.d1),
+        rate: down(r.rate),
+    });
     f.f32_euler = f.f32_euler.map(|e| qpv_codegen::design::EulerFloor {
         base: up(e.base),
         per_step: up(e.per_step),
@@ -233,6 +267,10 @@ fn certified_constants(
         })
         .collect();
     let (nz_l, ns_l) = (usize_lit(nz), usize_lit(ns));
+    let bits: u32 = match d.float {
+        qpv_dsl::Float::F32 => 32,
+        qpv_dsl::Float::F64 => 64,
+    };
     let noise_consts = noise_constants(d);
     let nz_doc = docs::nz(shape.filter);
     let ns_doc = docs::ns(shape.filter);
@@ -295,6 +333,8 @@ fn certified_constants(
         pub const ALPHA: f64 = #alpha;
         #alpha_sup
         #sample_const
+        /// The width of this design's numbers: 32 (`f32`) or 64 (`f64`).
+        pub const FLOAT_BITS: u32 = #bits;
         /// Certified region scaling γ.
         pub const GAMMA: f64 = #gamma;
         /// The Lyapunov matrix P (symmetric positive definite), NZ × NZ.
