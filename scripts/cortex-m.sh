@@ -4,8 +4,10 @@
 # --lang c` in f64 and f32, then
 #   arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 -Os
 # and, for comparison, the host's cc -Os. Prints the `.text` size of every
-# object and fails if an f32 object references a double-precision helper
-# (`__aeabi_d*`, found by nm) or a file does not compile.
+# object, the M4F object's `.rodata` with and without the certificate text
+# (`-D<M>_NO_CERTIFICATE`), and fails if an f32 object references a
+# double-precision helper (`__aeabi_d*`, found by nm) or a file does not
+# compile.
 #
 # Usage: scripts/cortex-m.sh [MODEL.qpv ...]     (default: examples/*.qpv)
 # Environment: QPV (the qpv binary; default: cargo build --release),
@@ -37,7 +39,8 @@ models=("$@")
 [[ ${#models[@]} -gt 0 ]] || models=(examples/*.qpv)
 
 status=0
-printf '%-22s %-5s %10s %10s  %s\n' model float x86-64 cortex-m4f "double helpers (f32 must have none)"
+printf '%-22s %-5s %10s %10s %10s %10s  %s\n' model float x86-64 cortex-m4f m4f-rodata "no-cert" \
+    "double helpers (f32 must have none)"
 for f in "${models[@]}"; do
     base=$(basename "$f" .qpv)
     for float in f64 f32; do
@@ -53,16 +56,22 @@ for f in "${models[@]}"; do
         flags="$WARN"
         [[ $float == f32 ]] && flags="$WARN $WARN32"
         # shellcheck disable=SC2086
+        up=$(basename "$src" .c | tr '[:lower:]' '[:upper:]')
         if ! $CROSS $ARMFLAGS $flags -c "$src" -o "$dir/m4.o" 2>"$dir/m4.log" \
+            || ! $CROSS $ARMFLAGS $flags "-D${up}_NO_CERTIFICATE" -c "$src" -o "$dir/m4-nocert.o" \
+                2>>"$dir/m4.log" \
             || ! $HOSTCC -Os $flags -c "$src" -o "$dir/host.o" 2>"$dir/host.log"; then
             printf '%-22s %-5s %s\n' "$base" "$float" "DOES NOT COMPILE (see $dir/*.log)"
             status=1
             continue
         fi
         m4=$($SIZE -A "$dir/m4.o" | awk '$1 == ".text" { print $2 }')
+        ro=$($SIZE -A "$dir/m4.o" | awk '$1 == ".rodata" { s += $2 } END { print s + 0 }')
+        ro_nc=$($SIZE -A "$dir/m4-nocert.o" | awk '$1 == ".rodata" { s += $2 } END { print s + 0 }')
         host=$(size -A "$dir/host.o" | awk '$1 == ".text" { print $2 }')
         helpers=$($NM -u "$dir/m4.o" | awk '{ print $2 }' | grep '^__aeabi_d' | tr '\n' ' ' || true)
-        printf '%-22s %-5s %10s %10s  %s\n' "$base" "$float" "$host" "$m4" "${helpers:-none}"
+        printf '%-22s %-5s %10s %10s %10s %10s  %s\n' "$base" "$float" "$host" "$m4" "$ro" "$ro_nc" \
+            "${helpers:-none}"
         if [[ $float == f32 && -n $helpers ]]; then
             echo "error: the f32 object of $base references double-precision helpers: $helpers" >&2
             status=1
