@@ -159,3 +159,61 @@ fn the_continuous_plant_with_held_theta_stays_in_the_reported_bound() {
 fn the_continuous_plant_with_rate_bounded_theta_stays_in_the_reported_bound() {
     continuous_plant_stays_in_the_bound(true);
 }
+
+/// The same design baked in f32 (`float = f32`): the Rust module carries
+/// the certified floor of its `step` (as the C export does), and the f32
+/// `step` started at x̂(0) = x(0) (`with_state`) against the f64 Euler plant
+/// stays at or below it at every step (the recursion behind the floor
+/// keeps ρ_k ≤ ρ* from ρ_0 = 0; docs/embedded.md).
+mod f32_step_floor {
+    qpv::qpv! {
+        model paper_sampled_f32 {
+            state  x1, x2, x3;
+            output y1, y2;
+            param  th1 in [0, 1];
+            param  th2 in [0, 1];
+            A  = [ -4 - th1,  10,        2 + 2*th2 ;
+                   -1,        -1 - th2,  1.5 + 2*th1 ;
+                    1,         1,        -4 - 3*th1 ];
+            N1 = [ 0.5, 1 + th1, 0 ;  0, 0, -th2 ;  0, 1 + th2, 0 ];
+            N2 = [ -0.4, 0, 1 - th1 ;  1.5, 0, 1 + th2 ;  2 + th2, 0, 0 ];
+            N3 = [ 1.5, -0.5 - th1, 0 ;  3 + th1, 0, 0 ;  0, 2 - th2, 0 ];
+            C  = [ 1, 0, 0 ; 0, 1, 0 ];
+            M1 = [ 0, 0, 0 ; 0, 0, 1 ; 0, 0, 0 ];
+            M2 = [ 0, 0, 1 ; 0, 0, 0 ; 0, 0, 0 ];
+            region box(0.02);
+            state_bound Q = [ 0.0112, 0.0017, 0.0006 ; 0.0017, 0.0025, -0.0022 ; 0.0006, -0.0022, 0.0061 ];
+            design { alpha = 10; gamma = 0.1889; sample = 1e-3; float = f32; }
+        }
+    }
+
+    use paper_sampled_f32::design1 as d;
+
+    #[test]
+    fn the_f32_step_stays_below_its_certified_floor() {
+        const {
+            assert!(d::FLOAT_BITS == 32);
+            assert!(d::F32_STEP_FLOOR.is_finite() && d::F32_STEP_FLOOR > 0.0);
+            assert!(d::F32_RATE > 0.0 && d::F32_RATE <= d::ALPHA);
+        }
+        let floor = f64::from(d::F32_STEP_FLOOR);
+        let h = f64::from(d::SAMPLE_PERIOD);
+        let mut x: [f64; 3] = [0.01f32, -0.005, 0.004].map(f64::from);
+        let mut obs = d::Observer::with_state(&x.map(|v| v as f32));
+        let mut worst = 0.0f64;
+        for k in 0..3000 {
+            let th = super::paper_theta(k as f64 * h);
+            let y = paper_sampled_f32::plant::output(&x, &th);
+            obs.step(&y.map(|v| v as f32), &[], &th.map(|v| v as f32));
+            let f = paper_sampled_f32::plant::derivative(&x, &[], &th);
+            x = core::array::from_fn(|i| x[i] + h * f[i]);
+            let xh = obs.estimate();
+            let e2: f64 = (0..3).map(|i| (x[i] - f64::from(xh[i])).powi(2)).sum();
+            worst = worst.max(e2.sqrt());
+        }
+        assert!(
+            worst > 0.0 && worst <= floor,
+            "|e| = {worst:e}, floor {floor:e}"
+        );
+    }
+}
