@@ -711,6 +711,32 @@ fn a_sampled_f32_export_certifies_a_floor_for_its_step() {
         x = core::array::from_fn(|i| x[i] + h * f[i]);
         plant.push(x);
     }
+    // -D<M>_NO_CERTIFICATE compiles the certificate text out
+    for (define, has) in [
+        (None, true),
+        (Some("-DPAPER_SAMPLED_NO_CERTIFICATE"), false),
+    ] {
+        let obj = out.join("cert.o");
+        let mut c = Command::new(&cc);
+        c.args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic"]);
+        c.args(["-Wdouble-promotion", "-Wfloat-conversion"]);
+        c.args(define);
+        let c = c
+            .arg("-c")
+            .arg(out.join("paper_sampled.c"))
+            .arg("-o")
+            .arg(&obj)
+            .output()
+            .expect("cc runs");
+        assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+        let symbols = Command::new("nm").arg(&obj).output().expect("nm runs");
+        let symbols = String::from_utf8_lossy(&symbols.stdout);
+        assert_eq!(
+            symbols.contains("paper_sampled_CERTIFICATE"),
+            has,
+            "{define:?}:\n{symbols}"
+        );
+    }
     let exe = sampled_exe(&cc, &out);
     let lines = run_lines(&exe, &out, &input);
     assert_eq!(lines.len(), plant.len() + 1);
