@@ -1454,6 +1454,21 @@ mod tests {
         assert!(shadowed_header("paper_example").is_none() && shadowed_header("mathx").is_none());
     }
 
+    /// Equal vertex gains print as one product over the sum of their
+    /// weights (the tree the Rust printer prints too).
+    #[test]
+    fn equal_vertex_gains_print_as_one_product() {
+        use crate::ir::Sum;
+        let mut w = Sum::default();
+        w.push(1.0, Some(Expr::var("m0")));
+        w.push(1.0, Some(Expr::var("m1")));
+        let mut s = Sum::default();
+        s.push(12.777_471, Some(Expr::paren(w.expr())));
+        s.push(-3.5, Some(Expr::var("m2")));
+        let p = Printer { float: Float::F32 };
+        assert_eq!(p.expr(&s.expr()), "12.777471f * (m0 + m1) - 3.5f * m2");
+    }
+
     #[test]
     fn selections_clamps_and_signs_print_as_c() {
         let p = Printer { float: Float::F32 };

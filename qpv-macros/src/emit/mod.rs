@@ -568,5 +568,16 @@ mod tests {
             tokens::expr(&Sum::default().expr(), &none).to_string(),
             "0.0"
         );
+        // equal vertex gains: one product over the weights' sum, as in C
+        let mut w = Sum::default();
+        w.push(1.0, Some(Expr::var("m0")));
+        w.push(1.0, Some(Expr::var("m1")));
+        let mut g = Sum::default();
+        g.push(12.777_471, Some(Expr::paren(w.expr())));
+        g.push(-3.5, Some(Expr::var("m2")));
+        assert_eq!(
+            tokens::expr(&g.expr(), &none).to_string(),
+            "12.777471 * (m0 + m1) - 3.5 * m2"
+        );
     }
 }
