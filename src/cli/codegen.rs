@@ -461,14 +461,14 @@ fn describe(req: &qpv_dsl::DesignRequest) -> String {
     )
 }
 
+/// The model, and the design to export with where it came from.
+type Exported = (Model, (Design, Source));
+
 /// The design a gains file (a design report) claims, to be re-certified as
 /// `qpv check` does (sound mode; α and γ from the file); `Err` (exported
 /// as "not certified") when the file's own verdict is short of certified,
 /// which is respected: a report may claim less than its gains achieve.
-fn from_gains(
-    o: &Options,
-    gains: &Path,
-) -> Result<Result<(Model, (Design, Source)), String>, CliError> {
+fn from_gains(o: &Options, gains: &Path) -> Result<Result<Exported, String>, CliError> {
     let (file, model_flag) = (o.file.as_path(), o.model.as_deref());
     if o.design.is_some() {
         return Err(CliError::Input(
