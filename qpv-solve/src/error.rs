@@ -20,9 +20,11 @@ pub enum SolveError {
     BadAlpha(f64),
     /// A sampled request whose rate needs a decrease factor 1 − hα ≤ 0.
     #[error(
-        "α = {alpha} at sample = {h:e}: hα = {:.4} ≥ 1, so V(e_k+1) ≤ (1 − hα)·V(e_k) ≤ 0 cannot hold for any e_k ≠ 0 and no design exists; at this period every certified α is below 1/h = {:.4e}",
-        h * alpha,
-        1.0 / h
+        "α = {} at sample = {}: hα = {} ≥ 1, so V(e_k+1) ≤ (1 − hα)·V(e_k) ≤ 0 cannot hold for any e_k ≠ 0 and no design exists; at this period every certified α is below 1/h = {}",
+        qpv_dsl::diagnostic::fmt_num(*alpha),
+        qpv_dsl::diagnostic::fmt_num(*h),
+        qpv_dsl::fmt_sig(h * alpha, 5),
+        qpv_dsl::fmt_sig(1.0 / h, 5)
     )]
     StepTooLong {
         /// The sample period.

@@ -841,7 +841,7 @@ pub fn describe_design(d: &Design) -> String {
 
 /// Above this estimated time per solve (seconds) `qpv design` says so
 /// before the first solve.
-const SLOW_NOTICE_SECONDS: f64 = 5.0;
+const SLOW_NOTICE_SECONDS: f64 = 20.0;
 
 /// Runs `qpv design`.
 pub fn run(o: &Options) -> Result<i32, CliError> {

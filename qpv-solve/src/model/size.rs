@@ -114,6 +114,8 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     let t = tri(nx);
     let t1 = tri(nx + 1.0);
     let conditions = match request.conditions {
+        // A sampled design solves the full family (search::driver::prepare).
+        Conditions::Auto if request.sample.is_some() => Conditions::Full,
         Conditions::Auto => choose(model, request).0,
         c => c,
     };
@@ -180,7 +182,10 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     let nonzeros = rate_rows * per_rate_row + psd_blocks_plus * t1 * (t + nx) + vertex_nnz + t;
     // KKT: A, the dense t×t scaling block of every PSD cone, the dense
     // variable block; the factor about as much again; cone work ~12 d².
-    let cone_dense = rate_work(&|d| tri(tri(d))) + tri(t) + psd_blocks_plus * tri(t1);
+    // (Blocks wider than nx — the sampled and pole blocks — are counted
+    // in proportion to their rows, at the continuous blocks' measured cost
+    // per row: the dense d² law over-predicts them several times.)
+    let cone_dense = rate_work(&|d| tri(d) * tri(nx)) + tri(t) + psd_blocks_plus * tri(t1);
     // The cube's slacks each touch three blocks of their own combination,
     // so they add fill per slack entry rather than a dense block.
     let kkt = if cube {
@@ -189,7 +194,7 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
         nonzeros + cone_dense + tri(variables)
     };
     let cone_work =
-        12.0 * (rate_work(&|d| d * d) + nx * nx + psd_blocks_plus * (nx + 1.0) * (nx + 1.0));
+        12.0 * (rate_work(&|d| d * nx) + nx * nx + psd_blocks_plus * (nx + 1.0) * (nx + 1.0));
     let units = nonzeros + 2.0 * kkt + cone_work + rows;
     SizeEstimate {
         nx: nx_u,
