@@ -624,3 +624,26 @@ fn tampered_reports_of_every_claim_type_are_refused_or_rechecked() {
     assert_eq!(std::fs::read(&model).expect("model"), before);
     assert_eq!(cases, 58, "{cases} cases");
 }
+
+#[test]
+fn a_global_designs_c_certificate_claims_no_state_bound() {
+    // It used to claim coverage of "the plant state in the model's state
+    // bound F" and print "lim sup |e| <= none certified".
+    let dir = tmp("global-c");
+    let out = qpv(&[
+        "codegen",
+        "examples/three_tank.qpv",
+        "--lang",
+        "c",
+        "--float",
+        "f32",
+        "--out",
+        s(&dir),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let h = std::fs::read_to_string(dir.join("three_tank.h")).expect("header");
+    assert!(!h.contains("state bound F."), "{h}");
+    assert!(!h.contains("<= none certified"), "{h}");
+    assert!(h.contains("assumes no state bound"), "{h}");
+    assert!(h.contains("f32 error floor: none certified ("), "{h}");
+}

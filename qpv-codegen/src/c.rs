@@ -1341,13 +1341,24 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
         continuous_figures(&mut t, f, opt);
     }
     if cm.float == Float::F32 {
-        let _ = writeln!(
-            t,
-            "f32 error floor: lim sup |e| <= {} from the float rounding of one evaluation of the \
-             right-hand side (u = 2^-24, over F x Theta and the input ranges), even without \
-             noise; the rounding of the state update comes on top",
-            opt(f.f32_floor)
-        );
+        let _ = match f.f32_floor {
+            Some(x) => writeln!(
+                t,
+                "f32 error floor: lim sup |e| <= {x:.6e} from the float rounding of one evaluation \
+                 of the right-hand side (u = 2^-24, over F x Theta and the input ranges), even \
+                 without noise; the rounding of the state update comes on top"
+            ),
+            None => writeln!(
+                t,
+                "f32 error floor: none certified (the rounding bound needs the states' range: \
+                 a state bound F and input ranges{})",
+                if m.is_lpv() {
+                    "; the global observer of an LPV plant has no region or F to bound it over"
+                } else {
+                    ""
+                }
+            ),
+        };
         let _ = match f.f32_euler {
             Some(e) => writeln!(
                 t,
@@ -1377,7 +1388,14 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
     }
     let _ = writeln!(
         t,
-        "theta outside its bounds is clamped into them (NaN -> lower bound) and counted in `clamped`;\nthe certificate covers theta in its bounds and the plant state in the model's state bound F."
+        "theta outside its bounds is clamped into them (NaN -> lower bound) and counted in `clamped`;\n{}",
+        if m.is_lpv() {
+            "the certificate covers theta in its bounds and every plant state and initial error \
+             (the global observer of an LPV plant assumes no state bound)."
+        } else {
+            "the certificate covers theta in its bounds, the plant state in the model's state \
+             bound F and initial errors in the region."
+        }
     );
     for n in &cm.notes {
         let _ = writeln!(t, "{n}");
