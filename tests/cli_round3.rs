@@ -647,3 +647,51 @@ fn a_global_designs_c_certificate_claims_no_state_bound() {
     assert!(h.contains("assumes no state bound"), "{h}");
     assert!(h.contains("f32 error floor: none certified ("), "{h}");
 }
+
+#[test]
+fn a_continuous_plant_bound_wider_than_the_envelope_says_it_is_vacuous() {
+    // The arm at h = 1 ms: lim sup ‖e‖ ≤ 60 against states bounded by 10.
+    let model = write(
+        "arm-envelope.qpv",
+        &ARM.replace(
+            "    out wm = w2;\n",
+            "    out wm = w2;\n    state_bound Q = [ 2.4649, 0, 0, 0 ; 0, 100, 0, 0 ; 0, 0, 2.4649, 0 ; 0, 0, 0, 100 ];\n    design { alpha = 40; sample = 1e-3; }\n",
+        ),
+    );
+    let out = qpv(&["design", s(&model)]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(
+        t.contains("vacuous as a statement of the estimate's accuracy"),
+        "{t}"
+    );
+}
+
+#[test]
+fn a_request_predicted_to_be_slow_says_so_before_its_first_solve() {
+    // The manipulator at h = 1 ms: 8 192 discrete blocks, minutes per solve;
+    // it used to print nothing for minutes. The notice comes first (the run
+    // is stopped after it: the test needs no solve).
+    use std::io::{BufRead, BufReader};
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_qpv"))
+        .args([
+            "design",
+            "examples/manipulator.qpv",
+            "--sample",
+            "1e-3",
+            "--alpha",
+            "1",
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("qpv runs");
+    let mut line = String::new();
+    let stderr = child.stderr.take().expect("stderr");
+    BufReader::new(stderr).read_line(&mut line).expect("a line");
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(line.contains("is large"), "{line}");
+    assert!(line.contains("s per solve"), "{line}");
+}

@@ -429,6 +429,8 @@ pub fn check_sampled_run(
             ultimate: b.ultimate_v_sqrt,
             bound: f64::NAN,
             noise2: 0.0,
+            scale: 0.0,
+            floor: 0.0,
         },
         Err(_) => Recursion {
             rho: f64::NAN,
@@ -436,6 +438,8 @@ pub fn check_sampled_run(
             ultimate: f64::NAN,
             bound: f64::NAN,
             noise2: 0.0,
+            scale: 0.0,
+            floor: 0.0,
         },
     };
     let v_sqrt = |x: &[f64], xh: &[f64]| {
@@ -463,6 +467,10 @@ pub fn check_sampled_run(
         ni
     });
     rec.bound = out.v0_sqrt;
+    let p_top = ((&p + p.transpose()) * 0.5)
+        .symmetric_eigenvalues()
+        .max()
+        .max(0.0);
     // x is checked against the Q the bound assumes (for the global
     // observer, the plant's declared operating envelope).
     let envelope = bound_model(model, design).unwrap_or_else(|_| obs.clone());
@@ -476,6 +484,16 @@ pub fn check_sampled_run(
                     .map(|(a, b)| (a - b) * (a - b))
                     .sum::<f64>()
                     .sqrt();
+            // The arithmetic's resolution in √V: never a violation below it.
+            let here = r.x.iter().chain(r.xhat).fold(0.0f64, |m, v| m.max(v.abs()));
+            rec.scale = rec.scale.max(here);
+            rec.floor = p_top.sqrt()
+                * crate::analysis::simulate::arithmetic_floor(
+                    1.0,
+                    out.claim.alpha,
+                    run.h,
+                    rec.scale,
+                );
             rec.sample(r.t, v_sqrt(r.x, r.xhat), &mut out);
         }
         true
@@ -577,6 +595,10 @@ struct Recursion {
     bound: f64,
     /// hσν²: the noise term of b_{k+1} = √(ρ²b_k² + hσν²) + δ.
     noise2: f64,
+    /// The largest |x_i| or |x̂_i| so far, and the run's resolution in √V
+    /// below which nothing is compared ([`crate::simulate::arithmetic_floor`]).
+    scale: f64,
+    floor: f64,
 }
 
 /// σ of the discrete noise claim for the run's noise channels, recomputed
@@ -647,7 +669,7 @@ impl Recursion {
         if out.samples > 1 {
             out.worst_ratio = out.worst_ratio.max(ratio);
         }
-        if v > bound * (1.0 + BOUND_SLACK) + 1e-300 {
+        if v > bound * (1.0 + BOUND_SLACK) + self.floor + 1e-300 {
             let e = out.exceeded.get_or_insert((t, ratio));
             e.1 = e.1.max(ratio);
         }

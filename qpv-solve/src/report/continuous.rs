@@ -534,7 +534,7 @@ pub fn attach(model: &PolytopicModel, d: &mut Design) {
             // says nothing about the estimate's accuracy: say so.
             if let Ok(StateBound::Given(q)) = bound_model(model, d).map(|m| m.state_bound) {
                 let reach = q.symmetric_eigen().eigenvalues.max().max(0.0).sqrt();
-                if b.invariant && b.ultimate_error >= reach {
+                if b.holds() && b.ultimate_error >= reach {
                     d.notes.push(format!(
                         "sample = h: the continuous-plant bound lim sup ‖e‖ ≤ {:.4e} is not smaller than the largest ‖x‖ of the state bound F ({reach:.4e}): sound, but vacuous as a statement of the estimate's accuracy (a shorter period or a design at this h lowers it)",
                         b.ultimate_error
