@@ -695,3 +695,37 @@ fn a_request_predicted_to_be_slow_says_so_before_its_first_solve() {
     assert!(line.contains("is large"), "{line}");
     assert!(line.contains("s per solve"), "{line}");
 }
+
+#[test]
+fn a_sampled_noise_design_reads_the_plants_own_state_bound() {
+    // three_tank with a declared envelope: the sampled noise design asked
+    // to "declare state_bound Q" (it looked on the global observer's model,
+    // which has none).
+    let src = std::fs::read_to_string("examples/three_tank.qpv").expect("three_tank");
+    let end = src.rfind('}').expect("closing brace");
+    let model = write(
+        "tank-q.qpv",
+        &format!(
+            "{}    state_bound Q = [ 4, 0, 0 ; 0, 4, 0 ; 0, 0, 4 ];\n{}",
+            &src[..end],
+            &src[end..]
+        ),
+    );
+    let out = qpv(&[
+        "design",
+        s(&model),
+        "--noise",
+        "min",
+        "--alpha",
+        "0.1",
+        "--sample",
+        "1e-2",
+    ]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(!t.contains("declare the plant's operating envelope"), "{t}");
+    assert!(
+        t.contains("no bound for the continuous plant sampled at h (input"),
+        "{t}"
+    );
+}

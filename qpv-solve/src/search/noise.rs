@@ -279,9 +279,10 @@ fn noise_report(
     append_notes(&mut summary, &notes);
     d.summary = summary;
     d.notes = notes;
-    if d.certifies() && d.sample.is_some() {
-        crate::report::continuous::attach(obs, &mut d);
-    } else if d.certifies() {
+    // (A sampled design's continuous-plant bound is attached by the caller,
+    // on the plant: the observer's model of a global design has no state
+    // bound, the plant's declared one is its operating envelope.)
+    if d.certifies() && d.sample.is_none() {
         let (p, l) = (d.p_matrix(), d.l_matrices());
         d.sampling = crate::certificate::sampling::sampling(obs, alpha, d.gamma, &p, &l);
     }
@@ -418,6 +419,9 @@ pub(crate) fn design_noise_with_progress(
     let mut d = noise_report(search, request, gamma_req, best, notes);
     d.state_bound = Some(bound_info);
     d.output_route = Some(route_info);
+    if d.certifies() && d.sample.is_some() {
+        crate::report::continuous::attach(model, &mut d);
+    }
     d.seconds_total = t_start.elapsed().as_secs_f64();
     Ok(d)
 }
