@@ -586,6 +586,12 @@ impl Design {
         self.verdict.feasible()
     }
 
+    /// max_l ‖L_l‖₂ of the reported gains (0 without gains): the one
+    /// reading of `gain_norms` every summary, note and sweep uses.
+    pub fn max_gain_norm(&self) -> f64 {
+        self.gain_norms.iter().copied().fold(0.0, f64::max)
+    }
+
     /// A certified sound-mode design: [`Verdict::certifies`].
     pub fn certifies(&self) -> bool {
         self.verdict.certifies()

@@ -109,6 +109,15 @@ impl Default for KktSolver {
     }
 }
 
+impl Settings {
+    /// The coarse relative tolerance of the diagnostic and secondary α
+    /// searches (failure notes, fallbacks, the gain walk): ten times
+    /// [`Settings::bisection_rel_tol`], at most 5 %.
+    pub fn coarse_tol(&self) -> f64 {
+        (10.0 * self.bisection_rel_tol).min(0.05)
+    }
+}
+
 impl Default for Settings {
     fn default() -> Self {
         Settings {

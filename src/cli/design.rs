@@ -570,7 +570,7 @@ fn search_counts(d: &Design) -> String {
 /// α = max, its share of the certified supremum), the largest gain, the
 /// certified Euler step.
 fn practical_line(d: &Design) -> String {
-    let gain = d.gain_norms.iter().copied().fold(0.0, f64::max);
+    let gain = d.max_gain_norm();
     let alpha = match &d.practical {
         Some(p) => format!(
             "alpha = {} ({:.1} % of {} {}{})",

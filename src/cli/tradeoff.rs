@@ -89,7 +89,7 @@ struct TradeoffOutput<'a> {
 }
 
 fn max_gain(d: &Design) -> f64 {
-    d.gain_norms.iter().copied().fold(0.0, f64::max)
+    d.max_gain_norm()
 }
 
 fn opt(v: Option<f64>, prec: usize) -> String {

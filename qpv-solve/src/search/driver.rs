@@ -403,7 +403,7 @@ impl Ctx<'_, '_> {
                 "the search's certified point at the same (α, γ) is reported",
             )),
             None if fixed && out.last.is_some() => {
-                let tol = (10.0 * self.settings.bisection_rel_tol).min(0.05);
+                let tol = self.settings.coarse_tol();
                 self.alpha_max(t.gamma, None, tol, Phase::Bisect)?
                     .filter(|p| p.alpha >= a)
                     .map(|p| {
@@ -439,7 +439,7 @@ impl Ctx<'_, '_> {
         requested: AlphaSpec,
         gamma: f64,
     ) -> Result<String, SolveError> {
-        let tol = (10.0 * self.settings.bisection_rel_tol).min(0.05);
+        let tol = self.settings.coarse_tol();
         let best = self.alpha_max(gamma, None, tol, Phase::Diagnose)?;
         let at = crate::certificate::sampling::describe_period(h);
         let asked = match requested {
@@ -947,7 +947,7 @@ fn global_knee(
     let (Some(mut info), true) = (design.practical.clone(), design.certifies()) else {
         return Ok(design);
     };
-    let gain = |d: &Design| d.gain_norms.iter().copied().fold(0.0, f64::max);
+    let gain = Design::max_gain_norm;
     let mut solves = 0;
     let mut log = design.search.clone();
     let mut at = |a: f64| -> Result<Option<Design>, SolveError> {

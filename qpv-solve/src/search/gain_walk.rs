@@ -59,7 +59,7 @@ pub(super) fn walk(
     match request.alpha {
         AlphaSpec::Fixed(a) => out.point = meeting(&mut ctx, (gamma, bound), a, None, &mut out)?,
         AlphaSpec::Max => {
-            let tol = (10.0 * settings.bisection_rel_tol).min(0.05);
+            let tol = settings.coarse_tol();
             let Some(sup) = ctx.alpha_max(gamma, None, tol, Phase::GainWalk)? else {
                 out.steps = std::mem::take(&mut ctx.steps);
                 return Ok(out);

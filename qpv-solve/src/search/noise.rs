@@ -245,7 +245,7 @@ fn noise_report(
         solver,
     };
     let mut d = design_of(obs, &solved, shown, ctx.steps);
-    let (gamma_r, max_gain) = (d.gamma, d.gain_norms.iter().copied().fold(0.0, f64::max));
+    let (gamma_r, max_gain) = (d.gamma, d.max_gain_norm());
     let global = crate::model::is_global(obs, Mode::Sound);
     d.global = global;
     let mut summary = match (&d.noise, request.sample) {
@@ -602,7 +602,7 @@ fn tradeoff_point(
         sigma: nb.map(|n| n.sigma),
         error_bound: nb.map(|n| n.error_bound),
         max_amplitude: nb.map(|n| n.max_amplitude),
-        max_gain: nb.map(|_| d.gain_norms.iter().copied().fold(0.0, f64::max)),
+        max_gain: nb.map(|_| d.max_gain_norm()),
         max_step_euler: d
             .sampling
             .as_ref()

@@ -66,7 +66,7 @@ pub(super) fn attach(
     d.linear_part_alpha = lin_d.certifies().then_some(lin_d.alpha);
     // The same with the QPV design's largest gain as a bound: the linear
     // part's α is often reached only with unbounded gains.
-    let gain = d.gain_norms.iter().copied().fold(0.0, f64::max);
+    let gain = d.max_gain_norm();
     if gain.is_finite() && gain > 0.0 {
         let bounded = DesignRequest {
             max_gain: Some(gain),
