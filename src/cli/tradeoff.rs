@@ -88,10 +88,6 @@ struct TradeoffOutput<'a> {
     seconds_total: f64,
 }
 
-fn max_gain(d: &Design) -> f64 {
-    d.max_gain_norm()
-}
-
 fn opt(v: Option<f64>, prec: usize) -> String {
     v.map_or("-".to_string(), |x| format!("{x:.prec$e}"))
 }
@@ -184,7 +180,7 @@ fn json_view<'a>(
                 .as_ref()
                 .map_or(fastest.alpha, |p| p.alpha_sup),
             gamma: fastest.gamma,
-            max_gain: max_gain(fastest),
+            max_gain: fastest.max_gain_norm(),
             sigma: fastest.noise.as_ref().map(|n| n.sigma),
             error_bound: fastest.noise.as_ref().map(|n| n.error_bound),
             max_amplitude: fastest.noise.as_ref().map(|n| n.max_amplitude),
@@ -220,7 +216,7 @@ fn summary(
     over: Option<f64>,
     sweep: &Tradeoff,
 ) -> String {
-    let fast_gain = max_gain(fastest);
+    let fast_gain = fastest.max_gain_norm();
     let mut s = format!(
         "model {}: rate-noise trade-off ({} noise-optimal designs, gamma {}; noise on every output)\n",
         name,
@@ -357,7 +353,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     bar.finish_and_clear();
     let (points, knee) = (&sweep.points, sweep.knee);
     let knee_gain = knee.and_then(|k| points[k].max_gain);
-    let fast_gain = max_gain(&fastest);
+    let fast_gain = fastest.max_gain_norm();
     let over = knee_gain.filter(|g| *g > 0.0).map(|g| fast_gain / g);
     let mut s = summary(&model.name, gamma, &fastest, top, over, &sweep);
     if let Some(dir) = &o.plot {
