@@ -139,6 +139,9 @@ struct Claim {
     /// The certified bound on ‖e(t)‖ under noise, when the design certifies,
     /// carries a noise bound and ν ≤ ν_max.
     noise_bound: Option<NoiseEnvelope>,
+    /// √cond(P) and α of the design, for the arithmetic's floor of every
+    /// comparison ([`arithmetic_floor`]); None if P is not positive definite.
+    resolution: Option<(f64, f64)>,
 }
 
 /// Why the design is not certified here, or `None` if it is: its own
@@ -396,6 +399,7 @@ fn claim_of(
             _ => None,
         },
         noise_bound,
+        resolution: envelope_factor(&design.p_matrix()).map(|k| (k, design.alpha)),
         q_inv: match &obs.state_bound {
             StateBound::Given(q) if q.nrows() == obs.nx() => q.clone().try_inverse(),
             _ => None,
@@ -849,7 +853,10 @@ fn run_streamed(
         }
         if let Some(b) = &claim.noise_bound {
             let bound = b.at(r.t);
-            if r.err > bound * (1.0 + NOISE_SLACK) + 1e-300 {
+            let floor = claim.resolution.map_or(0.0, |(kf, alpha)| {
+                arithmetic_floor(kf, alpha, sc.dt, found.scale)
+            });
+            if r.err > bound * (1.0 + NOISE_SLACK) + floor {
                 let ratio = r.err / bound;
                 let e = found.noise_exceeded.get_or_insert((r.t, ratio));
                 e.1 = e.1.max(ratio);
