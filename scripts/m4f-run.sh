@@ -22,6 +22,8 @@
 #   --install: apt-get install the tools if they are missing (as root,
 #   Debian: gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm,
 #   --no-install-recommends); without it, missing tools are an error (exit 2).
+#   --install-only: the same install, then exit (CI runs it before the
+#   tests, so that the C tests cross-compile for the M4F too).
 # Environment: QPV (the qpv binary; default target/release/qpv, built if
 # absent), OUT (work directory), HOSTCC (default cc), STEPS (default 4000).
 set -euo pipefail
@@ -29,8 +31,13 @@ cd "$(dirname "$0")/.."
 start=$(date +%s)
 
 install=0
+only_install=0
 if [[ ${1:-} == --install ]]; then
     install=1
+    shift
+elif [[ ${1:-} == --install-only ]]; then
+    install=1
+    only_install=1
     shift
 fi
 PACKAGES=(gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)
@@ -56,6 +63,7 @@ if ! have_tools; then
 else
     echo "m4f-run.sh: tools already installed ($(arm-none-eabi-gcc -dumpversion), $(qemu-system-arm --version | head -n 1))"
 fi
+[[ $only_install == 0 ]] || exit 0
 
 if [[ -z "${QPV:-}" ]]; then
     [[ -x target/release/qpv ]] || cargo build --release --bin qpv >&2
