@@ -300,3 +300,61 @@ fn tradeoff_on_an_lpv_plant_sweeps_below_the_knee() {
     assert!(!s.contains("not certified"), "{s}");
     assert!(s.contains("<- knee") && s.contains(" inf "), "{s}");
 }
+
+/// A certified design whose noise claim cannot be verified says why: the
+/// global three-tank design at α = 0.9 (gains near 1.6e7) has no `noise`
+/// key; its report's note, its text and its C header give the reason and
+/// what gets a bound (`noise = min` at this α, which certifies one).
+#[test]
+fn a_certified_design_without_a_noise_bound_says_why() {
+    let model = "examples/three_tank.qpv";
+    let out = qpv(&["design", model, "--json", "-"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let doc: Value = serde_json::from_slice(&out.stdout).expect("json");
+    let d = &doc["designs"][0];
+    assert_eq!(d["verdict"], "certified", "{d}");
+    assert!(d.get("noise").map_or(true, Value::is_null), "{d}");
+    let notes: Vec<&str> = d["notes"]
+        .as_array()
+        .expect("notes")
+        .iter()
+        .filter_map(Value::as_str)
+        .filter(|n| n.starts_with("no noise bound is certified: "))
+        .collect();
+    assert_eq!(notes.len(), 1, "one reason: {d}");
+    assert!(
+        notes[0].contains("independent eigenvalue check fails")
+            && notes[0].contains("`noise = min` at this alpha"),
+        "{}",
+        notes[0]
+    );
+
+    let out = qpv(&["design", model]);
+    let s = text(&out);
+    assert!(
+        s.contains("  noise: none certified: the smallest sigma"),
+        "{s}"
+    );
+    assert_eq!(
+        s.matches("no noise bound is certified").count(),
+        0,
+        "said once: {s}"
+    );
+
+    let dir = tmp("three_tank_c");
+    let out = qpv(&["codegen", model, "--out", dir.to_str().expect("utf-8")]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let h = std::fs::read_to_string(dir.join("three_tank.h")).expect("header");
+    assert!(
+        h.contains("noise: none certified: the smallest sigma")
+            && h.contains("`noise = min` at this alpha"),
+        "{h}"
+    );
+
+    // What the note advises gets one.
+    let out = qpv(&[
+        "design", model, "--alpha", "0.9", "--noise", "min", "--json", "-",
+    ]);
+    let doc: Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert!(doc["designs"][0]["noise"]["sigma"].is_f64(), "{doc}");
+}

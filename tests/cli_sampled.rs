@@ -94,6 +94,8 @@ fn design_and_check_at_a_sample_period() {
     let s = text(&sim);
     assert_eq!(sim.status.code(), Some(0), "{s}");
     assert!(s.contains("the continuous plant by RK4 at h/20"), "{s}");
+    // the horizon from the design's rate, said (no --t-end given)
+    assert!(s.contains("default time grid: --t-end "), "{s}");
     assert!(s.contains("continuous-plant bound (recomputed)"), "{s}");
     assert!(
         s.contains("the error stays inside the certified bound"),

@@ -261,6 +261,8 @@ fn tiny_steps_are_streamed_or_refused_with_the_flag_to_change() {
         r,
         "--dt",
         "1e-9",
+        "--t-end",
+        "2",
     ]);
     assert_eq!(refused.status.code(), Some(2));
     let t = text(&refused);
@@ -403,4 +405,117 @@ fn a_problem_too_large_to_solve_is_refused_before_solving() {
     let t = text(&out);
     assert!(!t.contains("too large"), "{t}");
     assert_ne!(out.status.code(), Some(2), "{t}");
+}
+
+/// A stable two-state plant with both states measured, designed at the
+/// fixed rate `alpha` (γ = 0.09, inside γ_max = 0.1): at α = 20000 its
+/// gains are about 1e4 and the RK4 step estimate about 2.8e-4, below the
+/// usual 1e-3; at α = 0.2 it decays slowly.
+fn two_state_report(name: &str, alpha: &str) -> PathBuf {
+    let model = tmp(&format!("{name}.qpv"));
+    std::fs::write(
+        &model,
+        "model two_state {
+    state x1, x2;
+    output y1, y2;
+    param th in [0, 1];
+    der x1 = -(1 + th)*x1 + x2;
+    der x2 = -x2 + 0.5*x1*x2;
+    out y1 = x1;
+    out y2 = x2;
+    region box(0.1);
+    state_bound Q = [1, 0; 0, 1];
+}
+",
+    )
+    .expect("write model");
+    let m = model.to_str().expect("utf-8");
+    let report = design(
+        &format!("{name}.json"),
+        &[m, "--alpha", alpha, "--gamma", "0.09"],
+    );
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    assert_eq!(doc["designs"][0]["verdict"], "certified", "{doc}");
+    model
+}
+
+/// The times and errors of `qpv simulate`'s summary table.
+fn summary_table(t: &str) -> Vec<(f64, f64)> {
+    t.lines()
+        .skip_while(|l| !l.contains("||x - xhat||"))
+        .skip(1)
+        .map_while(|l| {
+            let mut cells = l.split_whitespace();
+            let time = cells.next()?.parse().ok()?;
+            let err = cells.next()?.parse().ok()?;
+            cells.next().is_none().then_some((time, err))
+        })
+        .collect()
+}
+
+#[test]
+fn the_default_step_lies_inside_a_fast_designs_rk4_step_estimate() {
+    let model = two_state_report("fast", "20000");
+    let m = model.to_str().expect("utf-8");
+    let report = tmp("fast.json");
+    let r = report.to_str().expect("utf-8");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let rk4 = doc["designs"][0]["sampling"]["step_estimate_rk4"]
+        .as_f64()
+        .expect("step_estimate_rk4");
+    assert!(rk4 < 1e-3, "the RK4 step estimate {rk4} is below 1e-3");
+
+    let out = qpv(&["simulate", m, "--design", r]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(
+        t.contains("default time grid: --dt 0.00007 (a quarter of the design's RK4 step estimate"),
+        "{t}"
+    );
+    assert!(!t.contains("diverged"), "{t}");
+    assert!(t.contains("stays inside the certified envelope"), "{t}");
+
+    // An explicit --dt wins: at 1e-3 RK4 is unstable on these gains.
+    let out = qpv(&["simulate", m, "--design", r, "--dt", "1e-3"]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{t}");
+    assert!(t.contains("diverged"), "{t}");
+    assert!(!t.contains("default time grid: --dt"), "{t}");
+}
+
+#[test]
+fn a_slow_designs_default_horizon_follows_its_rate_and_the_table_ends_there() {
+    let model = two_state_report("slow", "0.2");
+    let m = model.to_str().expect("utf-8");
+    let report = tmp("slow.json");
+    let r = report.to_str().expect("utf-8");
+    let out = qpv(&["simulate", m, "--design", r]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(
+        t.contains("--dt 0.001 (inside the design's RK4 step estimate"),
+        "{t}"
+    );
+    assert!(t.contains("--t-end 100 (20/alpha with alpha = 0.2"), "{t}");
+    // (a default horizon beyond 2e6 steps is cut there: the unit test of
+    // `default_t_end` in src/cli/simulate.rs)
+    let table = summary_table(&t);
+    let times: Vec<f64> = table.iter().map(|r| r.0).collect();
+    assert_eq!(times, [0.0, 5.0, 12.5, 25.0, 50.0, 75.0, 100.0], "{t}");
+    assert!(
+        t.contains("\n   100.0   "),
+        "times printed to the run's scale: {t}"
+    );
+    assert!(table[6].1 < 1e-3 * table[0].1, "the error fell: {t}");
+
+    // An explicit --t-end wins, and the table ends there.
+    let out = qpv(&["simulate", m, "--design", r, "--t-end", "0.3"]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(!t.contains("--t-end"), "{t}");
+    let times: Vec<f64> = summary_table(&t).iter().map(|r| r.0).collect();
+    assert_eq!(times.last(), Some(&0.3), "{t}");
+    assert_eq!(times.len(), 7, "{t}");
 }

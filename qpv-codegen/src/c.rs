@@ -1338,7 +1338,7 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
              noise bound and step figures say nothing about it; docs/method.md section 16)"
         );
     } else {
-        continuous_figures(&mut t, f, opt);
+        continuous_figures(&mut t, f, d.noise_missing.as_deref(), opt);
     }
     if cm.float == Float::F32 {
         let _ = match f.f32_floor {
@@ -1407,15 +1407,19 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
 fn continuous_figures(
     t: &mut String,
     f: &crate::design::Figures,
+    noise_missing: Option<&str>,
     opt: impl Fn(Option<f64>) -> String,
 ) {
-    let _ = writeln!(
-        t,
-        "noise: sigma {}, error bound per unit noise {}, up to amplitude {}",
-        opt(f.sigma),
-        opt(f.error_bound),
-        opt(f.max_amplitude)
-    );
+    let _ = match (f.sigma, noise_missing) {
+        (None, Some(why)) => writeln!(t, "noise: none certified: {why}"),
+        _ => writeln!(
+            t,
+            "noise: sigma {}, error bound per unit noise {}, up to amplitude {}",
+            opt(f.sigma),
+            opt(f.error_bound),
+            opt(f.max_amplitude)
+        ),
+    };
     let _ = writeln!(
         t,
         "steps: max certified Euler step {}, RK4 step estimate {} (not a proof)",

@@ -40,6 +40,9 @@ pub struct CertifiedDesign {
     /// where nothing could be certified (then the generated constants say
     /// "no bound": an infinite σ and zero steps).
     pub figures: Figures,
+    /// Why a certified design has no noise bound (`figures.sigma` is
+    /// `None`), when that is known; printed in place of "none certified".
+    pub noise_missing: Option<String>,
     /// `alpha = max`: the search's estimate of the certified supremum α_sup
     /// (the fastest α it certified, at another γ or a higher gain). An
     /// estimate of the supremum, not a certified rate of this design

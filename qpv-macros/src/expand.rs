@@ -217,6 +217,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 iterations: 0,
                 filter,
                 figures: Figures::default(),
+                noise_missing: None,
                 float: req.float,
                 sample: req.sample,
                 alpha_sup: None,

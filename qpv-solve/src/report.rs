@@ -112,6 +112,11 @@ fn unstated() -> f64 {
     f64::NAN
 }
 
+/// What gets a certified design without a noise bound one
+/// ([`Note::NoNoiseBound`]).
+pub const NOISE_MIN_ADVICE: &str =
+    "a design with `noise = min` at this alpha (or at a slightly lower alpha) carries one";
+
 /// One note of a design report: a remark on what the design did or
 /// assumed. Serialised as its sentence (`Display`), so a report reads as
 /// it always has; a report read back holds each note as [`Note::Text`],
@@ -151,6 +156,9 @@ pub enum Note {
         /// Where D came from ("2 pilot solves", "the first search's P").
         from: String,
     },
+    /// A certified design without a noise bound: why none is certified
+    /// ([`crate::certificate::noise::noise_bound_or_why`]).
+    NoNoiseBound(String),
     /// Any other remark, and every note of a report read back.
     Text(String),
 }
@@ -189,6 +197,9 @@ impl std::fmt::Display for Note {
                 f,
                 "{count} point(s) returned by the solver failed the independent certificate and were rejected"
             ),
+            Note::NoNoiseBound(why) => {
+                write!(f, "no noise bound is certified: {why}; {NOISE_MIN_ADVICE}")
+            }
             Note::BalancedUnits { d, from } => {
                 let d: Vec<String> = d.iter().map(|v| format!("{v:e}")).collect();
                 write!(

@@ -706,6 +706,12 @@ pub(super) fn describe_noise(d: &Design) -> String {
             per.join(", ")
         ));
     }
+    if let Some(why) = qpv_solve::report::figures::no_noise_bound(d) {
+        s.push_str(&format!(
+            "  noise: none certified: {why}; {}\n",
+            qpv_solve::report::NOISE_MIN_ADVICE
+        ));
+    }
     if let Some(sp) = &d.sampling {
         s.push_str(&format!(
             "  sampling: largest Euler step h = {:.4e} (certified: V contracts by (1 - h beta) per step, beta = {:.4}, \
@@ -713,6 +719,35 @@ pub(super) fn describe_noise(d: &Design) -> String {
              frozen vertex dynamics, not a proof)\n",
             sp.max_step_euler, sp.beta, sp.step_estimate_rk4
         ));
+    }
+    s
+}
+
+/// The data checks and the diagnosis of a design, one line each.
+fn describe_checks(d: &Design) -> String {
+    let mut s = String::new();
+    if !d.data_checks.is_empty() {
+        s.push_str("  data checks:\n");
+        for (k, c) in &d.data_checks {
+            s.push_str(&format!(
+                "    {k:<12} value {:>10.4} <= {:<6} {}{}  ({})\n",
+                c.value,
+                c.bound,
+                if c.passed { "pass" } else { "FAIL" },
+                if c.required { "" } else { " (not required)" },
+                c.description
+            ));
+        }
+    }
+    if let Some(found) = d.diagnosis.as_ref().filter(|f| !f.is_empty()) {
+        s.push_str("  diagnosis:\n");
+        for f in found {
+            s.push_str(&format!(
+                "    {}{}\n",
+                if f.blocking { "BLOCKING: " } else { "" },
+                f.message
+            ));
+        }
     }
     s
 }
@@ -784,29 +819,7 @@ pub fn describe_design(d: &Design) -> String {
         s.push_str(&describe_failure_margins(d));
     }
     s.push_str(&describe_noise(d));
-    if !d.data_checks.is_empty() {
-        s.push_str("  data checks:\n");
-        for (k, c) in &d.data_checks {
-            s.push_str(&format!(
-                "    {k:<12} value {:>10.4} <= {:<6} {}{}  ({})\n",
-                c.value,
-                c.bound,
-                if c.passed { "pass" } else { "FAIL" },
-                if c.required { "" } else { " (not required)" },
-                c.description
-            ));
-        }
-    }
-    if let Some(found) = d.diagnosis.as_ref().filter(|f| !f.is_empty()) {
-        s.push_str("  diagnosis:\n");
-        for f in found {
-            s.push_str(&format!(
-                "    {}{}\n",
-                if f.blocking { "BLOCKING: " } else { "" },
-                f.message
-            ));
-        }
-    }
+    s.push_str(&describe_checks(d));
     if d.feasible() {
         s.push_str(&format!(
             "  solver calls: {} in {:.3} s; the reported point: {} iterations, {:.3} s (the search log is in the JSON report)\n",
@@ -832,7 +845,11 @@ pub fn describe_design(d: &Design) -> String {
         .notes
         .iter()
         // the γ search's statement has its own line above
-        .filter(|n| !(matches!(n, Note::GammaSearch(_)) || (d.feasible() && n.is_search_log())))
+        // and so has a missing noise bound's reason (with the noise figures)
+        .filter(|n| {
+            !(matches!(n, Note::GammaSearch(_) | Note::NoNoiseBound(_))
+                || (d.feasible() && n.is_search_log()))
+        })
     {
         s.push_str(&format!("  note: {n}\n"));
     }

@@ -54,6 +54,152 @@ const ENVELOPE_SLACK: f64 = 1e-6;
 /// input jumps at every step).
 const NOISE_SLACK: f64 = 1e-4;
 
+/// The RK4 step of a run without `--dt` whose design gives no smaller one.
+pub const DEFAULT_DT: f64 = 1e-3;
+
+/// The share of a certified design's RK4 step estimate (a frozen, linear
+/// stability limit, not a proof) the default step takes when 1e-3 is above it.
+pub const DT_SHARE_OF_RK4_ESTIMATE: f64 = 0.25;
+
+/// The shortest default horizon.
+pub const DEFAULT_T_END_MIN: f64 = 2.0;
+
+/// The default horizon in units of 1/α: the envelope's e^{−αt/2} falls to
+/// e^{−10} ≈ 4.5e-5 of its start, four decades and more.
+pub const T_END_PER_RATE: f64 = 20.0;
+
+/// Most steps of a default horizon; a longer one is cut there (and said so).
+pub const DEFAULT_MAX_STEPS: f64 = 2e6;
+
+/// The time grid of a run: its RK4 step and its horizon, each as given on
+/// the command line or chosen from the design.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Grid {
+    pub dt: f64,
+    pub t_end: f64,
+}
+
+/// `v` to two significant digits (the defaults print as short numbers).
+fn two_digits(v: f64) -> f64 {
+    format!("{v:.1e}").parse().unwrap_or(v)
+}
+
+/// `v` to three significant digits, printed.
+fn three_digits(v: f64) -> String {
+    fmt_num(format!("{v:.2e}").parse().unwrap_or(v))
+}
+
+/// Refuses a `--t-end` or `--dt` that is given and not usable.
+pub(super) fn check_grid_flags(o: &Options) -> Result<(), CliError> {
+    if let Some(t) = o.t_end.filter(|t| !(t.is_finite() && *t >= 0.0)) {
+        return Err(CliError::Input(format!(
+            "--t-end {}: expected a non-negative number of seconds",
+            fmt_num(t)
+        )));
+    }
+    if let Some(dt) = o.dt.filter(|dt| !(dt.is_finite() && *dt > 0.0)) {
+        return Err(CliError::Input(format!(
+            "--dt {}: expected a positive number of seconds",
+            fmt_num(dt)
+        )));
+    }
+    Ok(())
+}
+
+/// The default RK4 step and why: [`DEFAULT_DT`], or
+/// [`DT_SHARE_OF_RK4_ESTIMATE`] of the design's RK4 step estimate when that
+/// is smaller and the design is certified here (its figures recomputed,
+/// [`qpv_solve::report::figures::attach`]).
+fn default_dt(design: &Design, certified: bool) -> (f64, String) {
+    let usual = fmt_num(DEFAULT_DT);
+    let Some(sp) = design.sampling.as_ref().filter(|_| certified) else {
+        let why = if certified {
+            "the design carries no RK4 step estimate"
+        } else {
+            "the design is not certified here, so no step estimate of its own is used"
+        };
+        return (DEFAULT_DT, format!("--dt {usual} ({why})"));
+    };
+    let share = two_digits(DT_SHARE_OF_RK4_ESTIMATE * sp.step_estimate_rk4);
+    if share >= DEFAULT_DT {
+        return (
+            DEFAULT_DT,
+            format!(
+                "--dt {usual} (inside the design's RK4 step estimate {:.3e})",
+                sp.step_estimate_rk4
+            ),
+        );
+    }
+    (
+        share,
+        format!(
+            "--dt {} (a quarter of the design's RK4 step estimate {:.3e}, below the usual {usual}; \
+             its certified Euler step is {:.3e})",
+            fmt_num(share),
+            sp.step_estimate_rk4,
+            sp.max_step_euler
+        ),
+    )
+}
+
+/// The default horizon and why: max([`DEFAULT_T_END_MIN`],
+/// [`T_END_PER_RATE`]/α), cut at [`DEFAULT_MAX_STEPS`] steps of `step`.
+pub(super) fn default_t_end(alpha: f64, step: f64) -> (f64, String) {
+    let by_rate = two_digits(T_END_PER_RATE / alpha);
+    let cap = two_digits(DEFAULT_MAX_STEPS * step);
+    let t = by_rate.max(DEFAULT_T_END_MIN);
+    let a = three_digits(alpha);
+    let why = if t > cap && by_rate <= cap {
+        format!(
+            "--t-end {} ({:.0e} steps of {}; 20/alpha = {} with alpha = {a} lies within it)",
+            fmt_num(cap),
+            DEFAULT_MAX_STEPS,
+            fmt_num(step),
+            fmt_num(by_rate)
+        )
+    } else if t > cap {
+        format!(
+            "--t-end {} (capped at {:.0e} steps of {}; max(2, 20/alpha) = {} with alpha = {a}: \
+             give --t-end for the whole decay)",
+            fmt_num(cap),
+            DEFAULT_MAX_STEPS,
+            fmt_num(step),
+            fmt_num(t)
+        )
+    } else if by_rate <= DEFAULT_T_END_MIN {
+        format!(
+            "--t-end {} (20/alpha = {} with alpha = {a} is shorter)",
+            fmt_num(t),
+            fmt_num(by_rate)
+        )
+    } else {
+        format!(
+            "--t-end {} (20/alpha with alpha = {a}: the envelope e^(-alpha t/2) falls to e^-10)",
+            fmt_num(t)
+        )
+    };
+    (t.min(cap), why)
+}
+
+/// The run's grid: `--dt` and `--t-end` when given, else the defaults of
+/// [`default_dt`] and [`default_t_end`]; and the line that says which
+/// defaults were used and why, if any were.
+fn grid_for(o: &Options, design: &Design, certified: bool) -> (Grid, Option<String>) {
+    let mut said = Vec::new();
+    let dt = o.dt.unwrap_or_else(|| {
+        let (dt, why) = default_dt(design, certified);
+        said.push(why);
+        dt
+    });
+    let t_end = o.t_end.unwrap_or_else(|| {
+        let (t, why) = default_t_end(design.alpha, dt);
+        said.push(why);
+        t
+    });
+    let line = (!said.is_empty()).then(|| format!("default time grid: {}", said.join("; ")));
+    (Grid { dt, t_end }, line)
+}
+
 /// The options of `qpv simulate`.
 #[derive(clap::Args, Debug)]
 pub struct Options {
@@ -65,22 +211,14 @@ pub struct Options {
     /// Which model of the file.
     #[arg(long, value_name = "NAME")]
     pub model: Option<String>,
-    /// End time [s].
-    #[arg(
-        long,
-        value_name = "T",
-        default_value_t = 2.0,
-        allow_hyphen_values = true
-    )]
-    pub t_end: f64,
-    /// RK4 step [s].
-    #[arg(
-        long,
-        value_name = "DT",
-        default_value_t = 1e-3,
-        allow_hyphen_values = true
-    )]
-    pub dt: f64,
+    /// End time [s] (default: from the design's rate, max(2, 20/alpha),
+    /// at most 2e6 steps of --dt).
+    #[arg(long, value_name = "T", allow_hyphen_values = true)]
+    pub t_end: Option<f64>,
+    /// RK4 step [s] (default: 1e-3, or a quarter of the design's RK4 step
+    /// estimate when that is smaller).
+    #[arg(long, value_name = "DT", allow_hyphen_values = true)]
+    pub dt: Option<f64>,
     /// Initial plant state, comma-separated (default: the scenario's).
     #[arg(
         long,
@@ -360,7 +498,11 @@ struct Row {
 struct Findings {
     /// Rows kept for the figures (at most about [`PLOT_POINTS`]).
     plot: Vec<Row>,
-    /// (target time, t, ‖e‖) at the summary's times.
+    /// The summary's times ([`summary_times`]).
+    targets: Vec<f64>,
+    /// Decimals the summary's times are printed with ([`time_decimals`]).
+    decimals: usize,
+    /// (t, ‖e‖) at the summary's times: the first row at or after each.
     table: Vec<(f64, f64)>,
     e0: f64,
     /// Time after which ‖e‖ < 1e-6 (updated as the run goes).
@@ -379,7 +521,36 @@ struct Findings {
     scale: f64,
 }
 
-const SUMMARY_TIMES: [f64; 9] = [0.0, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0, 5.0, 10.0];
+/// The envelope's decay e^{−αt/2} as RK4 at step `dt` resolves it: a mode
+/// decaying at α/2 is multiplied by R(−dtα/2) per step, R(z) = 1 + z +
+/// z²/2 + z³/6 + z⁴/24, which lies above e^z for z < 0 (on the real modes
+/// RK4 resolves, |z| < 1.5, every faster mode falls faster still): the run
+/// is compared with what its own integrator can show, never with less.
+fn resolved_decay(alpha: f64, dt: f64, t: f64) -> f64 {
+    let exact = (-alpha * t / 2.0).exp();
+    let z = -alpha * dt / 2.0;
+    let r = 1.0 + z * (1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0)));
+    if !(r > 0.0 && r < 1.0) {
+        return exact;
+    }
+    exact.max(r.powf(t / dt))
+}
+
+/// The summary table's times as shares of the run's horizon.
+const SUMMARY_SHARES: [f64; 7] = [0.0, 0.05, 0.125, 0.25, 0.5, 0.75, 1.0];
+
+/// The summary table's times of a run to `t_end`.
+fn summary_times(t_end: f64) -> Vec<f64> {
+    SUMMARY_SHARES.iter().map(|s| s * t_end).collect()
+}
+
+/// Decimals that show times up to `t_end` to about four digits.
+fn time_decimals(t_end: f64) -> usize {
+    if !(t_end.is_finite() && t_end > 0.0) {
+        return 3;
+    }
+    (3.0 - t_end.log10().floor()).clamp(0.0, 12.0) as usize
+}
 
 /// What the run is compared with: the certified envelope (no noise) or the
 /// certified noise bound, the state bound F and the region's facets; and
@@ -456,40 +627,29 @@ fn open_csv(
     Ok(Some(w))
 }
 
-/// The RK4 step count, the CSV row stride and the plot stride of a run,
-/// after checking `--t-end`, `--dt` and `--every`.
-fn step_counts(o: &Options) -> Result<(usize, usize, usize), CliError> {
-    if !(o.t_end.is_finite() && o.t_end >= 0.0) {
-        return Err(CliError::Input(format!(
-            "--t-end {}: expected a non-negative number of seconds",
-            fmt_num(o.t_end)
-        )));
-    }
-    if !(o.dt.is_finite() && o.dt > 0.0) {
-        return Err(CliError::Input(format!(
-            "--dt {}: expected a positive number of seconds",
-            fmt_num(o.dt)
-        )));
-    }
-    let steps_f = (o.t_end / o.dt - 1e-9).ceil().max(0.0);
+/// The RK4 step count, the CSV row stride and the plot stride of a run on
+/// `grid` (its flags checked by [`check_grid_flags`]), after checking `--every`.
+fn step_counts(o: &Options, grid: Grid) -> Result<(usize, usize, usize), CliError> {
+    let Grid { dt, t_end } = grid;
+    let steps_f = (t_end / dt - 1e-9).ceil().max(0.0);
     if steps_f > MAX_STEPS as f64 {
         return Err(CliError::Input(format!(
             "--t-end {} with --dt {} needs {steps_f:.3e} RK4 steps; at most {:.0e} are run: \
              increase --dt or shorten --t-end",
-            fmt_num(o.t_end),
-            fmt_num(o.dt),
+            fmt_num(t_end),
+            fmt_num(dt),
             MAX_STEPS as f64
         )));
     }
     let steps = steps_f as usize;
-    let every = o.every.unwrap_or((o.t_end / DEFAULT_ROWS).max(o.dt));
+    let every = o.every.unwrap_or((t_end / DEFAULT_ROWS).max(dt));
     if !(every.is_finite() && every > 0.0) {
         return Err(CliError::Input(format!(
             "--every {}: expected a positive number of seconds",
             fmt_num(every)
         )));
     }
-    let stride = ((every / o.dt).round() as usize).max(1);
+    let stride = ((every / dt).round() as usize).max(1);
     let plot_stride = stride.max(steps.div_ceil(PLOT_POINTS));
     Ok((steps, stride, plot_stride))
 }
@@ -497,7 +657,7 @@ fn step_counts(o: &Options) -> Result<(usize, usize, usize), CliError> {
 /// Refuses a CSV larger than [`MAX_CSV_BYTES`] before the run (the step
 /// limit alone allowed about 19 GB with a small `--every`).
 fn csv_size_guard(
-    o: &Options,
+    grid: Grid,
     obs: &PolytopicModel,
     steps: usize,
     stride: usize,
@@ -509,7 +669,7 @@ fn csv_size_guard(
     if bytes <= MAX_CSV_BYTES {
         return Ok(());
     }
-    let every = stride as f64 * o.dt;
+    let every = stride as f64 * grid.dt;
     let fits = every * bytes / MAX_CSV_BYTES * 1.01;
     Err(CliError::Input(format!(
         "--every {}: trajectories.csv would have {rows:.3e} rows of {columns} columns (about \
@@ -521,13 +681,17 @@ fn csv_size_guard(
 
 /// The scenario of `--scenario`, with the run's horizon and step, the
 /// signals and initial state given on the command line.
-pub(super) fn scenario(o: &Options, poly: &PolytopicModel) -> Result<Scenario, CliError> {
+pub(super) fn scenario(
+    o: &Options,
+    poly: &PolytopicModel,
+    grid: Grid,
+) -> Result<Scenario, CliError> {
     let mut sc = match o.scenario.as_str() {
         "paper" => Scenario::paper(poly),
         _ => Scenario::default_for(poly),
     };
-    sc.t_end = o.t_end;
-    sc.dt = o.dt;
+    sc.t_end = grid.t_end;
+    sc.dt = grid.dt;
     let given = apply_signals(&mut sc, poly, o)?;
     if !given.is_empty() {
         let names: Vec<String> = given
@@ -543,8 +707,8 @@ pub(super) fn scenario(o: &Options, poly: &PolytopicModel) -> Result<Scenario, C
             .collect();
         println!("signals given: {}", names.join(", "));
     }
-    let (steps, _, _) = step_counts(o)?;
-    check_signals(&given, steps, o.dt, o.t_end)?;
+    let (steps, _, _) = step_counts(o, grid)?;
+    check_signals(&given, steps, grid.dt, grid.t_end)?;
     let unset: Vec<&str> = poly
         .inputs
         .iter()
@@ -647,8 +811,24 @@ fn noise_setup(
     Ok((noise_gen, noise_bound))
 }
 
+/// Says when the run's step exceeds the certified Euler step of the gains
+/// (recomputed): the RK4 run says nothing about the observer stepped there.
+fn note_euler_step(design: &Design, dt: f64) {
+    if let Some(sp) = design.sampling.as_ref().filter(|sp| dt > sp.max_step_euler) {
+        println!(
+            "note: --dt {} exceeds the certified Euler step h = {} of these gains: this run \
+             integrates the continuous plant and observer together by RK4, so it says nothing \
+             about the observer stepped at that rate (stepped by Euler, the decay is certified \
+             for steps up to h only)",
+            fmt_num(dt),
+            fmt_num(sp.max_step_euler)
+        );
+    }
+}
+
 /// Runs `qpv simulate`.
 pub fn run(o: &Options) -> Result<i32, CliError> {
+    check_grid_flags(o)?;
     let claim = read_claim(&o.design, "report")?;
     let (_, model) = load_model_for(&o.file, o.model.as_deref(), &o.design, claim.model())?;
     let claims = claim.certifies;
@@ -660,15 +840,26 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             o.design.display()
         )));
     }
-    let (steps, stride, plot_stride) = step_counts(o)?;
-
-    let mut sc = scenario(o, &poly)?;
     // The gains belong to the design's observer model: for the filter route
     // the plant augmented by the output filter, whose states start at 0
     // (and the observer's filter estimate exactly there).
     let obs = design
         .observer_model(&poly)
         .map_err(|e| CliError::Input(format!("{}: {e}", o.design.display())))?;
+
+    // What is certified, and therefore what the run is compared with.
+    let reason = not_certified_reason(&design, claims, &obs);
+    // Every figure a claim rests on (σ, ν_max, the error bound, the Euler
+    // step) is recomputed from the model as it is now and the gains as
+    // given; the report's own figures are claims, never read as facts.
+    design.verdict = qpv_solve::vocab::Verdict::of(reason.is_none(), design.mode);
+    if reason.is_none() {
+        qpv_solve::report::figures::attach(&poly, &mut design);
+    }
+    let (grid, grid_line) = grid_for(o, &design, reason.is_none());
+    let (steps, stride, plot_stride) = step_counts(o, grid)?;
+
+    let mut sc = scenario(o, &poly, grid)?;
     if obs.nx() != poly.nx() {
         sc.x0.resize(obs.nx(), 0.0);
         sc.xhat0.resize(obs.nx(), 0.0);
@@ -688,10 +879,8 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         )));
     }
 
-    if o.plot.is_some() {
-        csv_size_guard(o, &obs, steps, stride)?;
-    }
     if let Some(dir) = &o.plot {
+        csv_size_guard(grid, &obs, steps, stride)?;
         let mut files: Vec<String> = ["trajectories.csv", "mu.svg", "error.svg"]
             .map(String::from)
             .to_vec();
@@ -700,38 +889,22 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         inputs.extend(o.input_csv.as_deref());
         prepare_plot_dir(dir, &files, &inputs)?;
     }
-
-    // What is certified, and therefore what the run is compared with.
-    let reason = not_certified_reason(&design, claims, &obs);
-    // Every figure a claim rests on (σ, ν_max, the error bound, the Euler
-    // step) is recomputed from the model as it is now and the gains as
-    // given; the report's own figures are claims, never read as facts.
-    design.verdict = qpv_solve::vocab::Verdict::of(reason.is_none(), design.mode);
-    if reason.is_none() {
-        qpv_solve::report::figures::attach(&poly, &mut design);
-    }
-    if let Some(sp) = design
-        .sampling
-        .as_ref()
-        .filter(|sp| o.dt > sp.max_step_euler)
-    {
-        println!(
-            "note: --dt {} exceeds the certified Euler step h = {} of these gains: this run \
-             integrates the continuous plant and observer together by RK4, so it says nothing \
-             about the observer stepped at that rate (stepped by Euler, the decay is certified \
-             for steps up to h only)",
-            fmt_num(o.dt),
-            fmt_num(sp.max_step_euler)
-        );
-    }
+    note_euler_step(&design, grid.dt);
     let e0: Vec<f64> = sc.x0.iter().zip(&sc.xhat0).map(|(a, b)| a - b).collect();
     let (mut noise_gen, noise_bound) = noise_setup(o, &design, &obs, &reason, &e0)?;
     let (claim, e0_inside) = claim_of(&design, &obs, &reason, &e0, noise_bound, o.noise.is_some());
+    if let Some(line) = grid_line {
+        println!("{line}");
+    }
 
     let mut csv = open_csv(o.plot.as_deref(), &obs)?;
 
     let gains = design.l_matrices();
-    let mut found = Findings::default();
+    let mut found = Findings {
+        targets: summary_times(grid.t_end),
+        decimals: time_decimals(grid.t_end),
+        ..Findings::default()
+    };
     run_streamed(
         &obs,
         (&gains, &sc),
@@ -752,7 +925,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         println!(
             "figures and trajectories.csv ({} rows, every {} s) written to {}",
             found.rows_written,
-            stride as f64 * o.dt,
+            fmt_num(stride as f64 * grid.dt),
             dir.display()
         );
     }
@@ -843,7 +1016,7 @@ fn run_streamed(
                 .fold(0.0f64, |m, v| m.max(v.abs()));
         found.scale = found.scale.max(here);
         if let Some((kf, alpha)) = claim.envelope {
-            let env = kf * found.e0 * (-alpha * r.t / 2.0).exp();
+            let env = kf * found.e0 * resolved_decay(alpha, sc.dt, r.t);
             let floor = arithmetic_floor(kf, alpha, sc.dt, found.scale);
             if r.err > env * (1.0 + ENVELOPE_SLACK) + floor {
                 let ratio = r.err / env;
@@ -867,9 +1040,12 @@ fn run_streamed(
         } else if found.below_from.is_none() {
             found.below_from = Some(r.t);
         }
-        while next_target < SUMMARY_TIMES.len() && r.t >= SUMMARY_TIMES[next_target] - 1e-12 {
+        let reached = |target: f64| r.t >= target - 1e-9 * sc.t_end;
+        if found.targets.get(next_target).is_some_and(|&t| reached(t)) {
             found.table.push((r.t, r.err));
-            next_target += 1;
+            while found.targets.get(next_target).is_some_and(|&t| reached(t)) {
+                next_target += 1;
+            }
         }
         let end = r.t >= sc.t_end;
         let to_csv = k % stride == 0 || end;
@@ -923,13 +1099,16 @@ fn write_csv_row(
 }
 
 fn describe(f: &Findings, claim: &Claim) -> String {
-    let mut s = String::from("      t     ||x - xhat||\n");
+    let d = f.decimals;
+    let last = f.targets.last().copied().unwrap_or(0.0);
+    let width = format!("{last:.d$}").len().max(6);
+    let mut s = format!("  {:>width$}   ||x - xhat||\n", "t");
     for (t, e) in &f.table {
-        s.push_str(&format!("  {t:>6.3}   {e:.3e}\n"));
+        s.push_str(&format!("  {t:>width$.d$}   {e:.3e}\n"));
     }
     match (f.diverged_at, f.below_from) {
         (Some(_), _) => {}
-        (None, Some(t)) => s.push_str(&format!("error below 1e-6 from t = {t:.3} s on\n")),
+        (None, Some(t)) => s.push_str(&format!("error below 1e-6 from t = {t:.d$} s on\n")),
         (None, None) => s.push_str("error not below 1e-6 at the end\n"),
     }
     if let Some((t, v)) = f.left_f {
@@ -1053,4 +1232,38 @@ fn write_figures(
         true,
     )
     .map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_horizon_follows_the_rate_and_is_cut_at_its_step_budget() {
+        let (t, why) = default_t_end(0.2, 1e-3);
+        assert_eq!(t, 100.0, "{why}");
+        assert!(why.contains("20/alpha with alpha = 0.2"), "{why}");
+        let (t, why) = default_t_end(500.0, 1e-3);
+        assert_eq!(t, 2.0, "{why}");
+        assert!(why.contains("is shorter"), "{why}");
+        // 100 s at 1e-6 is 1e8 steps: cut at 2e6 of them, and said so.
+        let (t, why) = default_t_end(0.2, 1e-6);
+        assert_eq!(t, 2.0, "{why}");
+        assert!(why.contains("capped at 2e6 steps of 1e-6"), "{why}");
+        let (t, why) = default_t_end(500.0, 1e-7);
+        assert_eq!(t, 0.2, "{why}");
+        assert!(why.contains("2e6 steps of 1e-7; 20/alpha = 0.04"), "{why}");
+    }
+
+    #[test]
+    fn the_summary_times_end_at_the_horizon_in_a_form_of_its_scale() {
+        assert_eq!(
+            summary_times(400.0),
+            [0.0, 20.0, 50.0, 100.0, 200.0, 300.0, 400.0]
+        );
+        assert_eq!(time_decimals(2.0), 3);
+        assert_eq!(time_decimals(400.0), 1);
+        assert_eq!(time_decimals(0.02), 5);
+        assert_eq!(time_decimals(1e6), 0);
+    }
 }

@@ -10,7 +10,10 @@
 
 use super::gains::read_claim;
 use super::input::{load_model_for, CliError};
-use super::simulate::{claimed_design, noisy_outputs, scenario, Options};
+use super::simulate::{
+    check_grid_flags, claimed_design, default_t_end, noisy_outputs, scenario, Grid, Options,
+    DEFAULT_DT,
+};
 use qpv_dsl::diagnostic::fmt_num;
 use qpv_solve::analysis::sampled::{check_sampled_run, SampledCheck, SampledRun, MIN_SUBSTEPS};
 use qpv_solve::certificate::sampling::describe_period;
@@ -37,6 +40,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             fmt_num(nu)
         )));
     }
+    check_grid_flags(o)?;
     let claim = read_claim(&o.design, "report")?;
     let (_, model) = load_model_for(&o.file, o.model.as_deref(), &o.design, claim.model())?;
     let withdrawn = claim.certifies == Some(false);
@@ -48,7 +52,16 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         )));
     }
     let poly = model.polytopic();
-    let mut sc = scenario(o, &poly)?;
+    // The plant's RK4 step is h/substeps, at most --dt (default 1e-3); the
+    // default horizon is the continuous run's, from the design's rate.
+    let dt = o.dt.unwrap_or(DEFAULT_DT);
+    let substeps = ((h / dt - 1e-9).ceil() as usize).max(MIN_SUBSTEPS);
+    let t_end = o.t_end.unwrap_or_else(|| {
+        let (t, why) = default_t_end(design.alpha, h / substeps as f64);
+        println!("default time grid: {why}");
+        t.max(h)
+    });
+    let mut sc = scenario(o, &poly, Grid { dt, t_end })?;
     let obs = design
         .observer_model(&poly)
         .map_err(|e| CliError::Input(format!("{}: {e}", o.design.display())))?;
@@ -62,7 +75,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         )));
     }
     let mut run = SampledRun::for_model(&obs, h);
-    run.substeps = ((h / o.dt - 1e-9).ceil() as usize).max(MIN_SUBSTEPS);
+    run.substeps = substeps;
     run.noise = o.noise.map(|nu| {
         let outputs = noisy_outputs(&design, &obs);
         let names: Vec<&str> = outputs.iter().map(|&i| obs.outputs[i].as_str()).collect();

@@ -190,6 +190,7 @@ mod tests {
             filter: None,
             float: qpv_dsl::Float::F32,
             figures: Default::default(),
+            noise_missing: None,
             alpha_sup: None,
             sample: None,
         }

@@ -301,6 +301,7 @@ mod tests {
             status: "Solved".into(),
             iterations: 7,
             figures: Figures::default(),
+            noise_missing: None,
             filter,
             float,
             sample: None,

@@ -332,12 +332,85 @@ pub fn noise_bound(
     p: &DMatrix<f64>,
     l: &[DMatrix<f64>],
 ) -> Option<NoiseBound> {
+    noise_bound_or_why(model, channels, alpha, gamma, p, l).ok()
+}
+
+/// [`noise_bound`], or why there is none, in words: the gains do not fit
+/// P, the channels do not fit the model, a rate block S is not negative
+/// definite in floating point at α (then no σ exists), the independent
+/// check fails up to 1 % above the smallest σ (the rate condition leaves
+/// too little room at α for a finite σ to be verified), or P is not
+/// positive definite.
+pub fn noise_bound_or_why(
+    model: &PolytopicModel,
+    channels: &NoiseChannels,
+    alpha: f64,
+    gamma: f64,
+    p: &DMatrix<f64>,
+    l: &[DMatrix<f64>],
+) -> Result<NoiseBound, String> {
     if l.iter().any(|li| li.nrows() != p.ncols()) {
-        return None;
+        return Err("the gains do not fit P".into());
     }
     let gammas: Vec<DMatrix<f64>> = l.iter().map(|li| p * li).collect();
-    let (sigma, check) = sigma_for(model, channels, alpha, gamma, p, &gammas)?;
+    let Some((sigma, check)) = sigma_for(model, channels, alpha, gamma, p, &gammas) else {
+        return Err(no_sigma_reason(model, channels, (alpha, gamma), p, &gammas));
+    };
     bound_from(model, channels, alpha, p, sigma, check)
+        .ok_or_else(|| "P is not positive definite".into())
+}
+
+/// Why [`sigma_for`] found no σ for these (P, Γ_l), in words.
+fn no_sigma_reason(
+    model: &PolytopicModel,
+    channels: &NoiseChannels,
+    (alpha, gamma): (f64, f64),
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+) -> String {
+    if let Err(e) = channels.validate(model) {
+        return format!("the noise channels do not fit the model ({e})");
+    }
+    if gammas.len() != model.nv() || p.shape() != (model.nx(), model.nx()) {
+        return "P or the gains do not fit the model".into();
+    }
+    let double = crate::conditions::is_double_sum(model);
+    let np = model.region.vertices.len();
+    for combo in rate_combos(model) {
+        for i in 0..np {
+            for j in 0..np {
+                let b = block_parts(model, channels, (alpha, gamma), p, gammas, &combo, (i, j));
+                if (-&b.s).cholesky().is_none() {
+                    let top = b.s.symmetric_eigenvalues().max();
+                    return format!(
+                        "the decay block at {}{} is not negative definite in floating point \
+                         (largest eigenvalue {top:.3e}): the rate condition holds at alpha = {} \
+                         with no room there, so no finite sigma is certified",
+                        combo.label(double),
+                        pair_suffix(model, i, j),
+                        fmt_alpha(alpha)
+                    );
+                }
+            }
+        }
+    }
+    match sigma_min_for(model, channels, alpha, gamma, p, gammas) {
+        Some(s0) => format!(
+            "the smallest sigma the Schur complement gives is {s0:.3e}, but the independent \
+             eigenvalue check fails up to 1 % above it: the rate condition leaves too little \
+             room at alpha = {} for a finite sigma to be verified",
+            fmt_alpha(alpha)
+        ),
+        None => "the noise blocks are not finite for these P and gains".into(),
+    }
+}
+
+/// α in the reports' short form.
+fn fmt_alpha(alpha: f64) -> String {
+    format!("{alpha:.6}")
+        .trim_end_matches('0')
+        .trim_end_matches('.')
+        .to_string()
 }
 
 pub(crate) fn bound_from(

@@ -260,6 +260,9 @@ impl Baked {
                 OutputRoute::DoubleSum => None,
             },
             figures: self.figures(),
+            noise_missing: crate::report::figures::no_noise_bound(d)
+                .filter(|_| d.sample.is_none())
+                .map(|why| format!("{why}; {}", crate::report::NOISE_MIN_ADVICE)),
             float: self.float,
             sample: d.sample.map(|s| s.h),
             alpha_sup: self.alpha_sup(alpha),

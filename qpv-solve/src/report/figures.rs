@@ -2,9 +2,9 @@
 //! on the model's channels and the sampling figures, computed on its observer
 //! model.
 
-use crate::certificate::noise::noise_bound;
+use crate::certificate::noise::noise_bound_or_why;
 use crate::model::noise::NoiseChannels;
-use crate::report::Design;
+use crate::report::{Design, Note};
 use qpv_dsl::PolytopicModel;
 
 /// The channels to use on a design's observer model: `channels` as given
@@ -25,7 +25,8 @@ pub(crate) fn channels_on_observer(
 /// [`NoiseChannels::from_model`]) and the
 /// sampling figures ([`crate::certificate::sampling`]) to a certified sound-mode design,
 /// computed on its observer model; leaves other designs untouched. Nothing
-/// is added that its check did not pass.
+/// is added that its check did not pass; a missing noise bound is said
+/// with its reason ([`Note::NoNoiseBound`], [`no_noise_bound`]).
 pub fn attach(plant: &PolytopicModel, design: &mut Design) {
     if !design.certifies() {
         return;
@@ -47,7 +48,39 @@ pub fn attach(plant: &PolytopicModel, design: &mut Design) {
     }
     let channels = channels_on_observer(plant, design, &NoiseChannels::from_model(plant));
     let (p, l) = (design.p_matrix(), design.l_matrices());
-    design.noise = noise_bound(&obs, &channels, design.alpha, design.gamma, &p, &l);
+    // Why a certified design carries no noise bound is said once (the
+    // figures are attached again when a design is baked or re-checked).
+    design
+        .notes
+        .0
+        .retain(|n| !matches!(n, Note::NoNoiseBound(_)));
+    design.noise = match noise_bound_or_why(&obs, &channels, design.alpha, design.gamma, &p, &l) {
+        Ok(nb) => Some(nb),
+        Err(why) => {
+            let note = Note::NoNoiseBound(why);
+            if !design.notes.contains(&note) {
+                design.notes.push(note);
+            }
+            None
+        }
+    };
     design.sampling =
         crate::certificate::sampling::sampling(&obs, design.alpha, design.gamma, &p, &l);
+}
+
+/// Why a certified design carries no noise bound, when its figures said
+/// so ([`Note::NoNoiseBound`]; also read back from a report's notes).
+pub fn no_noise_bound(design: &Design) -> Option<String> {
+    if design.noise.is_some() {
+        return None;
+    }
+    design.notes.iter().find_map(|n| match n {
+        Note::NoNoiseBound(why) => Some(why.clone()),
+        Note::Text(t) => t
+            .strip_prefix("no noise bound is certified: ")
+            .and_then(|rest| rest.strip_suffix(crate::report::NOISE_MIN_ADVICE))
+            .and_then(|rest| rest.strip_suffix("; "))
+            .map(str::to_string),
+        _ => None,
+    })
 }
