@@ -1341,50 +1341,7 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
         continuous_figures(&mut t, f, d.noise_missing.as_deref(), opt);
     }
     if cm.float == Float::F32 {
-        let _ = match f.f32_floor {
-            Some(x) => writeln!(
-                t,
-                "f32 error floor: lim sup |e| <= {x:.6e} from the float rounding of one evaluation \
-                 of the right-hand side (u = 2^-24, over F x Theta and the input ranges), even \
-                 without noise; the rounding of the state update comes on top"
-            ),
-            None => writeln!(
-                t,
-                "f32 error floor: none certified (the rounding bound needs the states' range: \
-                 a state bound F and input ranges{})",
-                if m.is_lpv() {
-                    "; the global observer of an LPV plant has no region or F to bound it over"
-                } else {
-                    ""
-                }
-            ),
-        };
-        let _ = match f.f32_euler {
-            Some(e) => writeln!(
-                t,
-                "f32 floor of step_euler, the state update's rounding included: lim sup |e| <= \
-                 {:.6e} + {:.6e} / h for {:.6e} < h <= MAX_STEP_EULER",
-                e.base, e.per_step, e.min_step
-            ),
-            None => writeln!(t, "f32 floor of step_euler: none certified"),
-        };
-        if let Some(r) = f.f32_rounding {
-            let _ = writeln!(
-                t,
-                "f32 rounding of one right-hand side evaluation in the P-norm: D0 = {:.6e}, \
-                 D1 = {:.6e}; the floor is certified at the rate alpha - 2*D1 = {:.6e}",
-                r.d0, r.d1, r.rate
-            );
-        }
-        if d.sample.is_some() {
-            let _ = writeln!(
-                t,
-                "f32 floor of {}_step at SAMPLE_PERIOD, the state update's rounding included: \
-                 lim sup |e_k| <= {}",
-                m.name,
-                opt(f.f32_step_floor)
-            );
-        }
+        f32_figures(&mut t, cm);
     }
     let _ = writeln!(
         t,
@@ -1401,6 +1358,58 @@ fn certificate_text(cm: &CModel<'_>, shape: Shape) -> String {
         let _ = writeln!(t, "{n}");
     }
     t
+}
+
+/// The f32 figures of the certificate text: the error floor (or why none),
+/// the Euler step's floor, the rounding's D0 and D1, a sampled step's floor.
+fn f32_figures(t: &mut String, cm: &CModel<'_>) {
+    let (d, m) = (cm.design, cm.model);
+    let f = &d.figures;
+    let opt = |v: Option<f64>| v.map_or("none certified".to_string(), |x| format!("{x:.6e}"));
+    let _ = match f.f32_floor {
+        Some(x) => writeln!(
+            t,
+            "f32 error floor: lim sup |e| <= {x:.6e} from the float rounding of one evaluation \
+             of the right-hand side (u = 2^-24, over F x Theta and the input ranges), even \
+             without noise; the rounding of the state update comes on top"
+        ),
+        None => writeln!(
+            t,
+            "f32 error floor: none certified (the rounding bound needs the states' range: \
+             a state bound F and input ranges{})",
+            if m.is_lpv() {
+                "; the global observer of an LPV plant has no region or F to bound it over"
+            } else {
+                ""
+            }
+        ),
+    };
+    let _ = match f.f32_euler {
+        Some(e) => writeln!(
+            t,
+            "f32 floor of step_euler, the state update's rounding included: lim sup |e| <= \
+             {:.6e} + {:.6e} / h for {:.6e} < h <= MAX_STEP_EULER",
+            e.base, e.per_step, e.min_step
+        ),
+        None => writeln!(t, "f32 floor of step_euler: none certified"),
+    };
+    if let Some(r) = f.f32_rounding {
+        let _ = writeln!(
+            t,
+            "f32 rounding of one right-hand side evaluation in the P-norm: D0 = {:.6e}, \
+             D1 = {:.6e}; the floor is certified at the rate alpha - 2*D1 = {:.6e}",
+            r.d0, r.d1, r.rate
+        );
+    }
+    if d.sample.is_some() {
+        let _ = writeln!(
+            t,
+            "f32 floor of {}_step at SAMPLE_PERIOD, the state update's rounding included: \
+             lim sup |e_k| <= {}",
+            m.name,
+            opt(f.f32_step_floor)
+        );
+    }
 }
 
 /// The noise and step figures of a continuous design, for the certificate text.
