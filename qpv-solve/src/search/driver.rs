@@ -605,9 +605,34 @@ fn data_notes(
 }
 
 impl Ctx<'_, '_> {
-    /// `max_gain = G` with α = max in sound mode: the gain walk
-    /// ([`super::gain_walk`]) from the bounded search's α; its design
-    /// replaces the target when it is faster.
+    /// The gain walk ([`super::gain_walk`]) of a `max_gain = G` request in
+    /// sound mode at `gamma` (from the certified α `from` for α = max): its
+    /// solves join the search log, and its point is returned re-certified
+    /// by this search's certificate (with the bound), with the walk's
+    /// solve count. None without a bound, in paper mode, or when nothing
+    /// the walk found passes.
+    fn walked(
+        &mut self,
+        setup: &Setup,
+        request: &DesignRequest,
+        gamma: f64,
+        from: Option<f64>,
+    ) -> Result<Option<(Point, f64, usize)>, SolveError> {
+        let (Some(bound), Mode::Sound) = (request.max_gain, request.mode) else {
+            return Ok(None);
+        };
+        let free = (&setup.model, setup.problem(&free_of(request))?);
+        let w = super::gain_walk::walk(free, request, self.settings, (bound, gamma), from)?;
+        let solves = w.steps.len();
+        self.steps.extend(w.steps);
+        Ok(w.point.and_then(|mut p| {
+            p.cert = self.certify(p.alpha, p.gamma, &p.p, &p.l, p.cube.as_ref());
+            p.cert.passed.then_some((p, bound, solves))
+        }))
+    }
+
+    /// `max_gain = G` with α = max: the walk's design replaces the target
+    /// when it is faster.
     fn gain_walk(
         &mut self,
         setup: &Setup,
@@ -615,23 +640,15 @@ impl Ctx<'_, '_> {
         t: &mut Target,
         notes: &mut Notes,
     ) -> Result<(), SolveError> {
-        let (Some(bound), Mode::Sound) = (request.max_gain, request.mode) else {
-            return Ok(());
-        };
         let found = t.ready.as_ref().or(t.searched.as_ref()).map(|p| p.alpha);
-        let free = (&setup.model, setup.problem(&free_of(request))?);
-        let w = super::gain_walk::walk(free, request, self.settings, (bound, t.gamma), found)?;
-        let solves = w.steps.len();
-        self.steps.extend(w.steps);
-        let Some(mut p) = w.point.filter(|p| found.map_or(true, |a| p.alpha > a)) else {
+        let Some((p, bound, solves)) = self
+            .walked(setup, request, t.gamma, found)?
+            .filter(|(p, _, _)| found.map_or(true, |a| p.alpha > a))
+        else {
             return Ok(());
         };
-        p.cert = self.certify(p.alpha, p.gamma, &p.p, &p.l, p.cube.as_ref());
-        if !p.cert.passed {
-            return Ok(());
-        }
         notes.push(format!(
-            "max_gain = {bound}: the SDP's gain constraint (‖Γ_l‖₂ ≤ G·λ with P ⪰ λI) is sufficient, not necessary; the smallest-gain designs of the same conditions without it, each certified with ‖L_l‖₂ ≤ {bound} required, reach α = {:.6}{} (max ‖L_l‖₂ = {:.4e}; {solves} more solves, bisection in ln α to 1 %): that design is reported",
+            "max_gain = {bound}: the SDP's gain constraint (‖Γ_l‖₂ ≤ G·λ with P ⪰ λI) is sufficient, not necessary; the smallest-gain designs of the same conditions without it, each certified with ‖L_l‖₂ ≤ {bound} required, reach α = {:.6}{} (max ‖L_l‖₂ = {:.4e}; {solves} more solver calls, bisection in ln α to 1 %): that design is reported",
             p.alpha,
             found.map(|a| format!(" where the constrained search reached {a:.6}")).unwrap_or_default(),
             super::practical::max_gain(&p)
@@ -653,19 +670,9 @@ impl Ctx<'_, '_> {
         fin: &mut Final,
         notes: &mut Notes,
     ) -> Result<(), SolveError> {
-        let (Some(bound), Mode::Sound) = (request.max_gain, request.mode) else {
+        let Some((p, bound, _)) = self.walked(setup, request, gamma, None)? else {
             return Ok(());
         };
-        let free = (&setup.model, setup.problem(&free_of(request))?);
-        let w = super::gain_walk::walk(free, request, self.settings, (bound, gamma), None)?;
-        self.steps.extend(w.steps);
-        let Some(mut p) = w.point else {
-            return Ok(());
-        };
-        p.cert = self.certify(p.alpha, p.gamma, &p.p, &p.l, p.cube.as_ref());
-        if !p.cert.passed {
-            return Ok(());
-        }
         notes.push(format!(
             "max_gain = {bound}: the constrained solve certified nothing (its gain constraint ‖Γ_l‖₂ ≤ G·λ, P ⪰ λI, is sufficient, not necessary); the smallest-gain design at this α without it has max ‖L_l‖₂ = {:.4e} ≤ {bound}, certified with the bound required: reported",
             super::practical::max_gain(&p)
