@@ -729,3 +729,43 @@ fn a_sampled_noise_design_reads_the_plants_own_state_bound() {
         "{t}"
     );
 }
+
+#[test]
+fn codegen_says_so_before_a_slow_solve_too() {
+    // `qpv codegen` solves the design block as `qpv design` does: the same
+    // notice before its first solve (the run is stopped after it).
+    use std::io::{BufRead, BufReader};
+    let src = std::fs::read_to_string("examples/manipulator.qpv").expect("manipulator");
+    let (start, end) = (
+        src.find("design {").expect("a block"),
+        src.rfind('}').expect("}"),
+    );
+    let model = write(
+        "manipulator-sampled.qpv",
+        &format!(
+            "{}design {{ alpha = 1; sample = 1e-3; }}\n{}",
+            &src[..start],
+            &src[end..]
+        ),
+    );
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_qpv"))
+        .args([
+            "codegen",
+            s(&model),
+            "--lang",
+            "c",
+            "--out",
+            s(&tmp("slow-c")),
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("qpv runs");
+    let mut line = String::new();
+    let stderr = child.stderr.take().expect("stderr");
+    BufReader::new(stderr).read_line(&mut line).expect("a line");
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(line.contains("is large"), "{line}");
+}

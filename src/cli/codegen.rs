@@ -386,6 +386,9 @@ fn solved(
     }
     let settings = qpv_solve::Settings::default();
     let poly = model.polytopic();
+    if let Some(notice) = super::design::slow_notice(&poly, req, index + 1) {
+        eprintln!("{notice}");
+    }
     let Some(design) = solve_held(&poly, req, &settings, float.unwrap_or(req.float)) else {
         return Ok(Err(format!("{here}: nothing solved")));
     };

@@ -856,9 +856,30 @@ pub fn describe_design(d: &Design) -> String {
     s
 }
 
-/// Above this estimated time per solve (seconds) `qpv design` says so
+/// Above this estimated time per solve (seconds) a command says so
 /// before the first solve.
 const SLOW_NOTICE_SECONDS: f64 = 20.0;
+
+/// The notice a request predicted to be slow prints (on stderr) before
+/// its first solve, from the size estimate; None for a request that is
+/// not (`qpv design`, `qpv codegen`).
+pub(super) fn slow_notice(
+    poly: &qpv_dsl::PolytopicModel,
+    request: &qpv_dsl::DesignRequest,
+    number: usize,
+) -> Option<String> {
+    let size = qpv_solve::model::size::estimate(poly, request);
+    (size.seconds_per_solve > SLOW_NOTICE_SECONDS).then(|| {
+        format!(
+            "note: design request {number} is large ({:.3e} PSD blocks, {:.3e} constraint \
+             nonzeros): about {:.0} s per solve on this estimate, and a search runs several \
+             solves",
+            size.psd_blocks + size.psd_blocks_plus,
+            size.nonzeros,
+            size.seconds_per_solve
+        )
+    })
+}
 
 /// Runs `qpv design`.
 pub fn run(o: &Options) -> Result<i32, CliError> {
@@ -907,18 +928,8 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         // to be slow says so before its first solve (on stderr, so that
         // `--json -` stays one document).
         bar.enable_steady_tick(std::time::Duration::from_millis(250));
-        let size = qpv_solve::model::size::estimate(&poly, r);
-        if size.seconds_per_solve > SLOW_NOTICE_SECONDS {
-            bar.suspend(|| {
-                eprintln!(
-                    "note: design request {number} is large ({:.3e} PSD blocks, {:.3e} constraint \
-                     nonzeros): about {:.0} s per solve on this estimate, and a search runs several \
-                     solves; progress follows",
-                    size.psd_blocks + size.psd_blocks_plus,
-                    size.nonzeros,
-                    size.seconds_per_solve
-                )
-            });
+        if let Some(notice) = slow_notice(&poly, r, number) {
+            bar.suspend(|| eprintln!("{notice}; progress follows"));
         }
         let mut n = 0usize;
         let mut progress = |step: &qpv_solve::SearchStep| {
