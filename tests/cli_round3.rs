@@ -672,26 +672,14 @@ fn a_request_predicted_to_be_slow_says_so_before_its_first_solve() {
     // The manipulator at h = 1 ms: 8 192 discrete blocks, minutes per solve;
     // it used to print nothing for minutes. The notice comes first (the run
     // is stopped after it: the test needs no solve).
-    use std::io::{BufRead, BufReader};
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_qpv"))
-        .args([
-            "design",
-            "examples/manipulator.qpv",
-            "--sample",
-            "1e-3",
-            "--alpha",
-            "1",
-        ])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("qpv runs");
-    let mut line = String::new();
-    let stderr = child.stderr.take().expect("stderr");
-    BufReader::new(stderr).read_line(&mut line).expect("a line");
-    let _ = child.kill();
-    let _ = child.wait();
+    let line = first_stderr_line(&[
+        "design",
+        "examples/manipulator.qpv",
+        "--sample",
+        "1e-3",
+        "--alpha",
+        "1",
+    ]);
     assert!(line.contains("is large"), "{line}");
     assert!(line.contains("s per solve"), "{line}");
 }
@@ -734,7 +722,6 @@ fn a_sampled_noise_design_reads_the_plants_own_state_bound() {
 fn codegen_says_so_before_a_slow_solve_too() {
     // `qpv codegen` solves the design block as `qpv design` does: the same
     // notice before its first solve (the run is stopped after it).
-    use std::io::{BufRead, BufReader};
     let src = std::fs::read_to_string("examples/manipulator.qpv").expect("manipulator");
     let (start, end) = (
         src.find("design {").expect("a block"),
@@ -748,15 +735,23 @@ fn codegen_says_so_before_a_slow_solve_too() {
             &src[end..]
         ),
     );
+    let line = first_stderr_line(&[
+        "codegen",
+        s(&model),
+        "--lang",
+        "c",
+        "--out",
+        s(&tmp("slow-c")),
+    ]);
+    assert!(line.contains("is large"), "{line}");
+}
+
+/// The first line `qpv ARGS` writes to stderr; the run is then stopped
+/// (the tests that use it need no solve, only what is said before one).
+fn first_stderr_line(args: &[&str]) -> String {
+    use std::io::{BufRead, BufReader};
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_qpv"))
-        .args([
-            "codegen",
-            s(&model),
-            "--lang",
-            "c",
-            "--out",
-            s(&tmp("slow-c")),
-        ])
+        .args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())
@@ -767,5 +762,5 @@ fn codegen_says_so_before_a_slow_solve_too() {
     BufReader::new(stderr).read_line(&mut line).expect("a line");
     let _ = child.kill();
     let _ = child.wait();
-    assert!(line.contains("is large"), "{line}");
+    line
 }

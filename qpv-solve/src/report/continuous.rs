@@ -508,10 +508,27 @@ fn design_bound(
     alpha: f64,
     h: f64,
 ) -> Result<ContinuousBound, String> {
-    let m = bound_model(model, design)?;
-    let mut b = continuous_bound(&m, alpha, h, &design.p_matrix())?;
+    bound_on(&bound_model(model, design)?, model, design, (alpha, h))
+}
+
+/// [`design_bound`] on the bound's model `m` ([`bound_model`]) already built.
+fn bound_on(
+    m: &PolytopicModel,
+    model: &PolytopicModel,
+    design: &Design,
+    (alpha, h): (f64, f64),
+) -> Result<ContinuousBound, String> {
+    let mut b = continuous_bound(m, alpha, h, &design.p_matrix())?;
     b.global = crate::model::is_global(model, design.mode);
     Ok(b)
+}
+
+/// The largest ‖x‖ of the state bound F of `m`, if it has one.
+fn envelope_reach(m: &PolytopicModel) -> Option<f64> {
+    match &m.state_bound {
+        StateBound::Given(q) => Some(q.symmetric_eigenvalues().max().max(0.0).sqrt()),
+        _ => None,
+    }
 }
 
 /// Adds the continuous-plant bound to a certified sampled design's `sample`
@@ -520,9 +537,12 @@ pub fn attach(model: &PolytopicModel, d: &mut Design) {
     let Some(h) = d.sample.map(|s| s.h) else {
         return;
     };
-    let bound = design_bound(model, d, d.alpha, h);
+    let bound = bound_model(model, d).and_then(|m| {
+        let b = bound_on(&m, model, d, (d.alpha, h))?;
+        Ok((b, envelope_reach(&m)))
+    });
     match bound {
-        Ok(b) => {
+        Ok((b, reach)) => {
             let b = match &d.noise {
                 Some(nb) => b.with_noise((h, d.alpha), nb.sigma, nb.error_bound),
                 None => b,
@@ -532,8 +552,7 @@ pub fn attach(model: &PolytopicModel, d: &mut Design) {
             }
             // A bound wider than the plant's own envelope is sound but
             // says nothing about the estimate's accuracy: say so.
-            if let Ok(StateBound::Given(q)) = bound_model(model, d).map(|m| m.state_bound) {
-                let reach = q.symmetric_eigen().eigenvalues.max().max(0.0).sqrt();
+            if let Some(reach) = reach {
                 if b.holds() && b.ultimate_error >= reach {
                     d.notes.push(format!(
                         "sample = h: the continuous-plant bound lim sup ‖e‖ ≤ {:.4e} is not smaller than the largest ‖x‖ of the state bound F ({reach:.4e}): sound, but vacuous as a statement of the estimate's accuracy (a shorter period or a design at this h lowers it)",
