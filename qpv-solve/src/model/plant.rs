@@ -132,13 +132,43 @@ pub fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
     Ok(())
 }
 
-/// Whether a design of `mode` on `model` is the global observer: an LPV
-/// plant (every N_k and M_k zero, [`PolytopicModel::is_lpv`]) in sound
-/// mode. Its conditions are P ⪰ I and He{P A_l − Γ_l C_m} + αP ≺ 0 over the
-/// rate combinations, with no region, state bound or γ (docs/method.md,
-/// "The global observer"); paper mode keeps the printed conditions.
+/// Whether a design of `mode` on `model` is the global observer
+/// ([`ObserverKind::of`]); kept for the callers that have not yet been
+/// handed the kind.
 pub fn is_global(model: &PolytopicModel, mode: qpv_dsl::Mode) -> bool {
-    mode == qpv_dsl::Mode::Sound && model.is_lpv()
+    ObserverKind::of(model, mode).is_global()
+}
+
+/// Which observer a design builds. Decided once, from the plant and the
+/// mode ([`ObserverKind::of`]), and carried as a value from there: a
+/// design's setup, its report (`global`, [`crate::Design::kind`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObserverKind {
+    /// The regional QPV observer: (S1)-(S5) on the region and the state
+    /// bound, convergence for e(0) in the region.
+    Regional,
+    /// The global observer of an LPV plant (every N_k and M_k zero, sound
+    /// mode): P ⪰ I and He{P A_l − Γ_l C_m} + αP ≺ 0 over the rate
+    /// combinations, with no region, state bound or γ (docs/method.md, "The
+    /// global observer"); paper mode keeps the printed conditions.
+    Global,
+}
+
+impl ObserverKind {
+    /// The observer a design of `mode` on `model` builds: the global one
+    /// for an LPV plant ([`PolytopicModel::is_lpv`]) in sound mode.
+    pub fn of(model: &PolytopicModel, mode: qpv_dsl::Mode) -> ObserverKind {
+        if mode == qpv_dsl::Mode::Sound && model.is_lpv() {
+            ObserverKind::Global
+        } else {
+            ObserverKind::Regional
+        }
+    }
+
+    /// Whether this is the global observer.
+    pub fn is_global(self) -> bool {
+        self == ObserverKind::Global
+    }
 }
 
 /// The model a global design is solved and analysed on: the plant with its

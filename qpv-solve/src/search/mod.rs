@@ -53,13 +53,15 @@ mod attempt;
 mod driver;
 mod gain_walk;
 pub mod gamma;
+mod global;
 pub mod noise;
 mod practical;
 pub mod region_cost;
+mod setup;
 pub(crate) mod skew;
+mod verdict;
 
 use attempt::{Attempt, Point, Solve};
-use driver::design_plain;
 pub use driver::{alpha_profile, ProfilePoint};
 
 use crate::backend::Status;
@@ -524,6 +526,24 @@ fn design_skew(
     }
     d.seconds_total = t_start.elapsed().as_secs_f64();
     Ok(d)
+}
+
+/// [`design_with_progress`] for every split but `skew_slack`, without the
+/// noise and sampling figures: the global observer's design
+/// ([`global::design`]) or the regional one ([`driver::design_plain_with`]),
+/// by the observer's kind.
+fn design_plain(
+    model: &PolytopicModel,
+    request: &DesignRequest,
+    settings: &Settings,
+    progress: &mut dyn FnMut(&SearchStep),
+) -> Result<Design, SolveError> {
+    match crate::model::ObserverKind::of(model, request.mode) {
+        crate::model::ObserverKind::Global => global::design(model, request, settings, progress),
+        crate::model::ObserverKind::Regional => {
+            driver::design_plain_with(model, request, settings, progress, None)
+        }
+    }
 }
 
 /// As [`design`], calling `progress` after every solve. A request with

@@ -1,7 +1,7 @@
 //! The noise-optimal design (`noise = min`) and the rate–noise trade-off:
 //! a γ search of noise-optimal SDPs at fixed α, and a sweep of α.
 
-use super::attempt::{append_notes, design_of, Point, Shown, Solve};
+use super::attempt::{design_of, Point, Shown, Solve};
 use super::Ctx;
 use crate::backend::Status;
 use crate::conditions::ConditionSet;
@@ -11,7 +11,7 @@ use crate::lmi::Problem;
 use crate::model::noise::NoiseChannels;
 use crate::model::output_filter::OutputRouteInfo;
 use crate::model::state_bound::StateBoundInfo;
-use crate::model::{ObserverModel, ObserverOptions, StateBoundClaim};
+use crate::model::ObserverKind;
 use crate::report::{Design, Note, Notes, SearchStep, SolverInfo};
 use crate::settings::Settings;
 use crate::vocab::{BoundSource, Candidate, Phase};
@@ -160,7 +160,7 @@ fn global_noise_note(model: &PolytopicModel, request: &DesignRequest) -> String 
 /// channels, and what of the request the noise SDP does not use.
 fn noise_notes(
     request: &DesignRequest,
-    alpha: f64,
+    (kind, alpha): (ObserverKind, f64),
     declared: &NoiseChannels,
     ch: &NoiseChannels,
     obs: &PolytopicModel,
@@ -174,7 +174,7 @@ fn noise_notes(
     let mut notes = vec![format!(
         "noise = min: σ of {claim} minimised at α = {alpha}{}; noise on {}{}",
         match request.gamma {
-            _ if crate::model::is_global(obs, request.mode) => String::new(),
+            _ if kind.is_global() => String::new(),
             GammaSpec::Fixed(_) => String::new(),
             GammaSpec::Search => ", γ searched for the smallest error bound √(σ/(α λ_min(P))) (grid and golden section)".to_string(),
         },
@@ -211,7 +211,7 @@ fn noise_notes(
 fn noise_report(
     search: NoiseSearch<'_, '_>,
     request: &DesignRequest,
-    gamma_req: f64,
+    (kind, gamma_req): (ObserverKind, f64),
     best: Option<Point>,
     notes: Vec<String>,
 ) -> Design {
@@ -245,39 +245,21 @@ fn noise_report(
         solver,
     };
     let mut d = design_of(obs, &solved, shown, ctx.steps);
-    let (gamma_r, max_gain) = (d.gamma, d.max_gain_norm());
-    let global = crate::model::is_global(obs, Mode::Sound);
-    d.global = global;
-    let mut summary = match (&d.noise, request.sample) {
-        (Some(nb), Some(h)) if global => format!(
-            "CERTIFIED, GLOBAL at {} (LPV plant: P ≻ 0, the discrete decrease S5d and the discrete noise block LMI, no region terms): V(e_k+1) − (1 − hα)V(e_k) ≤ hσ(|w_k|² + |v_k|²) with α = {alpha:.6}, σ = {:.6e}, for every e(0), every θ_k in the box and every noise amplitude ν; lim sup ‖e_k‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
-            crate::certificate::sampling::describe_period(h),
-            nb.sigma, nb.error_bound
-        ),
-        (Some(nb), None) if global => format!(
-            "CERTIFIED, GLOBAL (LPV plant: P ≻ 0 and the noise block LMI, no region terms): V' + αV ≤ σ(|w|² + |v|²) with α = {alpha:.6}, σ = {:.6e}, for every e(0), every θ(t) in the box and every noise amplitude ν; ‖e(∞)‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
-            nb.sigma, nb.error_bound
-        ),
-        (Some(nb), Some(h)) => format!(
-            "CERTIFIED at {} (sound conditions S1-S3, the discrete decrease S5d and the discrete noise block LMI): V(e_k+1) − (1 − hα)V(e_k) ≤ hσ(|w_k|² + |v_k|²) with α = {alpha:.6}, γ = {gamma_r:.6}, σ = {:.6e}; E stays invariant for noise amplitude up to ν_max = {:.4e}; lim sup ‖e_k‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
-            crate::certificate::sampling::describe_period(h),
-            nb.sigma, nb.max_amplitude, nb.error_bound
-        ),
-        (Some(nb), None) => format!(
-            "CERTIFIED (sound conditions S1-S5 and the noise block LMI): V' + αV ≤ σ(|w|² + |v|²) with α = {alpha:.6}, γ = {gamma_r:.6}, σ = {:.6e}; E stays invariant for noise amplitude up to ν_max = {:.4e}; ‖e(∞)‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
-            nb.sigma, nb.max_amplitude, nb.error_bound
-        ),
-        (None, _) => format!(
-            "NOT CERTIFIED (noise = min{}) at α = {alpha:.6}, γ = {gamma_r:.6}: solver {status}.",
-            request.sample.map_or(String::new(), |h| format!(
-                ", {}",
-                crate::certificate::sampling::describe_period(h)
-            ))
-        ),
-    };
     let notes: Notes = notes.into();
-    append_notes(&mut summary, &notes);
-    d.summary = summary;
+    d.global = kind.is_global();
+    d.summary = super::verdict::Verdict {
+        kind,
+        mode: Mode::Sound,
+        certified: d.noise.is_some(),
+        alpha,
+        gamma: d.gamma,
+        sample: request.sample,
+        status,
+        failed: &[],
+        max_gain: d.max_gain_norm(),
+        noise: Some(d.noise.as_ref()),
+    }
+    .summary(&notes);
     d.notes = notes;
     // (A sampled design's continuous-plant bound is attached by the caller,
     // on the plant: the observer's model of a global design has no state
@@ -287,25 +269,6 @@ fn noise_report(
         d.sampling = crate::certificate::sampling::sampling(obs, alpha, d.gamma, &p, &l);
     }
     d
-}
-
-/// The size guard of every design, before anything is built or solved
-/// (the global setup's [`super::driver::prepare`] applies it too), on the
-/// full vertex family the noise blocks are solved on whatever the
-/// request's conditions: refused when too large, else its "slow" warning.
-fn size_note(
-    model: &PolytopicModel,
-    request: &DesignRequest,
-) -> Result<Option<String>, SolveError> {
-    let full = DesignRequest {
-        conditions: qpv_dsl::Conditions::Full,
-        ..request.clone()
-    };
-    match crate::model::size::guard(model, &full) {
-        crate::model::size::Verdict::TooLarge(m) => Err(SolveError::TooLarge(m)),
-        crate::model::size::Verdict::Slow(m) => Ok(Some(m)),
-        crate::model::size::Verdict::Fits => Ok(None),
-    }
 }
 
 /// As [`design_noise`], calling `progress` after every solve.
@@ -318,48 +281,6 @@ pub(crate) fn design_noise_with_progress(
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
     let alpha = noise_request_alpha(request)?;
-    // An LPV plant's noise design is the global observer's (docs/method.md
-    // §17): its model has the region {0}, γ is 1 and unused.
-    let global = crate::model::is_global(model, request.mode);
-    let size_note = size_note(model, request)?;
-    // The global observer's setup: its model (region {0}), its request
-    // (γ = 1, the full family) and its balanced units (pilot solves at α).
-    let global_setup = match global {
-        true => Some(super::driver::prepare(model, request, settings, None)?),
-        false => None,
-    };
-    let (obs_model, bound_info, route_info) = match &global_setup {
-        Some((_, setup, _)) => (
-            setup.model.clone(),
-            setup.bound_info.clone(),
-            setup.route_info.clone(),
-        ),
-        None => {
-            let p = ObserverModel::prepare(
-                model,
-                &ObserverOptions::for_request(request),
-                StateBoundClaim::Compute(settings),
-            )?;
-            (p.model, p.state_bound, p.output_route)
-        }
-    };
-    let obs: &PolytopicModel = &obs_model;
-    channels.validate(model)?;
-    let ch = match &route_info.filter {
-        Some(f) => channels.through_filter(model.nx(), model.ny(), model.nv(), f.gain),
-        None => channels.clone(),
-    };
-    ch.validate(obs)?;
-    let gamma_hi = if global {
-        1.0
-    } else {
-        let gmax = crate::conditions::gamma_max(obs)
-            .ok_or_else(|| SolveError::MissingStateBound(obs.name.clone()))?;
-        if !(gmax.is_finite() && gmax > 0.0) && matches!(request.gamma, GammaSpec::Search) {
-            return Err(SolveError::NoGammaRange(gmax));
-        }
-        gmax.min(1.0) * (1.0 - 1e-6)
-    };
     if let Some(h) = request.sample {
         if h * alpha >= 1.0 {
             return Err(SolveError::Unsupported(format!(
@@ -367,9 +288,33 @@ pub(crate) fn design_noise_with_progress(
             )));
         }
     }
-    let prob = match &global_setup {
-        Some((resolved, setup, _)) => setup.problem(resolved)?,
-        None => Problem::new(obs, ConditionSet::Sound)?.with_sample(request.sample)?,
+    // The one setup of every design ([`super::setup::prepare`]) on the full
+    // vertex family the noise blocks are solved on, whatever the request's
+    // conditions: the size guard, the observer's kind and model, the γ
+    // range; for an LPV plant the global observer's request (γ = 1, unused)
+    // and its balanced units (pilot solves at α).
+    let full = DesignRequest {
+        conditions: qpv_dsl::Conditions::Full,
+        ..request.clone()
+    };
+    let (resolved, setup, setup_notes) = super::setup::prepare(model, &full, settings, None)?;
+    let kind = setup.kind;
+    let global = kind.is_global();
+    let obs: &PolytopicModel = &setup.model;
+    let (bound_info, route_info) = (&setup.bound_info, &setup.route_info);
+    channels.validate(model)?;
+    let ch = match &route_info.filter {
+        Some(f) => channels.through_filter(model.nx(), model.ny(), model.nv(), f.gain),
+        None => channels.clone(),
+    };
+    ch.validate(obs)?;
+    let gamma_hi = setup.gamma_hi;
+    // The regional noise SDP is solved in the model's own units.
+    let prob = match kind {
+        ObserverKind::Global => setup.problem(&resolved)?,
+        ObserverKind::Regional => {
+            Problem::new(obs, ConditionSet::Sound)?.with_sample(request.sample)?
+        }
     };
     let mut ctx = Ctx::new(obs, Mode::Sound, settings, prob, progress);
     ctx.sample = request.sample;
@@ -399,11 +344,18 @@ pub(crate) fn design_noise_with_progress(
             (search.search(gamma_hi, refine)?, gamma_hi)
         }
     };
-    let mut notes = noise_notes(request, alpha, channels, &ch, obs, &route_info, &bound_info);
+    let mut notes = noise_notes(
+        request,
+        (kind, alpha),
+        channels,
+        &ch,
+        obs,
+        route_info,
+        bound_info,
+    );
     if !global {
-        notes.extend(size_note);
-    }
-    if let Some((_, _, setup_notes)) = &global_setup {
+        notes.extend(setup.size_note.clone());
+    } else {
         notes.insert(0, global_noise_note(model, request));
         // The balanced units, if any (the global request's own note is
         // replaced by the noise design's).
@@ -416,9 +368,9 @@ pub(crate) fn design_noise_with_progress(
             true => notes.push("the noise design in balanced units did not certify; solved again in the model's own units".into()),
         }
     }
-    let mut d = noise_report(search, request, gamma_req, best, notes);
-    d.state_bound = Some(bound_info);
-    d.output_route = Some(route_info);
+    let mut d = noise_report(search, request, (kind, gamma_req), best, notes);
+    d.state_bound = Some(bound_info.clone());
+    d.output_route = Some(route_info.clone());
     if d.certifies() && d.sample.is_some() {
         crate::report::continuous::attach(model, &mut d);
     }

@@ -3,7 +3,7 @@
 //! and M_k dropped: an LPV plant, designed by the global observer of §17,
 //! with no region, state bound or γ) next to the certified QPV α.
 
-use super::driver::design_plain;
+use super::design_plain;
 use crate::error::SolveError;
 use crate::report::Design;
 use crate::settings::Settings;
