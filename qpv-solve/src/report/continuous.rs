@@ -490,7 +490,7 @@ pub fn bound_model(model: &PolytopicModel, design: &Design) -> Result<PolytopicM
     if obs.nx() != model.nx() {
         return Err("the output filter route: not computed for this route".into());
     }
-    if crate::model::is_global(model, design.mode) {
+    if design.kind_on(model).is_global() {
         match &model.state_bound {
             StateBound::Given(q) => obs.state_bound = StateBound::Given(q.clone()),
             _ => return Err(GLOBAL_WITHOUT_Q.into()),
@@ -519,7 +519,7 @@ fn bound_on(
     (alpha, h): (f64, f64),
 ) -> Result<ContinuousBound, String> {
     let mut b = continuous_bound(m, alpha, h, &design.p_matrix())?;
-    b.global = crate::model::is_global(model, design.mode);
+    b.global = design.kind_on(model).is_global();
     Ok(b)
 }
 

@@ -68,6 +68,7 @@ use crate::backend::Status;
 use crate::error::SolveError;
 use crate::linalg::matrix_to_rows;
 use crate::lmi::{Objective, Problem};
+use crate::model::ObserverKind;
 use crate::report::{Design, GammaSearchInfo, SearchStep};
 use crate::settings::Settings;
 use crate::vocab::{Candidate, Phase};
@@ -538,9 +539,9 @@ fn design_plain(
     settings: &Settings,
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
-    match crate::model::ObserverKind::of(model, request.mode) {
-        crate::model::ObserverKind::Global => global::design(model, request, settings, progress),
-        crate::model::ObserverKind::Regional => {
+    match ObserverKind::of(model, request.mode) {
+        ObserverKind::Global => global::design(model, request, settings, progress),
+        ObserverKind::Regional => {
             driver::design_plain_with(model, request, settings, progress, None)
         }
     }
@@ -555,7 +556,7 @@ pub fn design_with_progress(
     settings: &Settings,
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
-    if crate::model::is_global(model, request.mode) && request.split == Split::SkewSlack {
+    if ObserverKind::of(model, request.mode).is_global() && request.split == Split::SkewSlack {
         return Err(SolveError::Unsupported(format!(
             "model `{}`: split = skew_slack (its slack reshapes N_k, which is zero) is not built for an LPV plant, whose observer is the global one (docs/method.md §17); design with the symmetric split",
             model.name
