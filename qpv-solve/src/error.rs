@@ -41,6 +41,23 @@ pub enum SolveError {
     /// A requested option that this version does not implement.
     #[error("not implemented: {0}")]
     Unsupported(String),
+    /// Options of one design request that cannot be combined (the
+    /// language's rule, [`qpv_dsl::DesignRequest::validate`]).
+    #[error("{0}")]
+    Clash(qpv_dsl::Clash),
+    /// Paper mode on an LPV plant written without a region: the printed
+    /// conditions need a region; the plant's sound design is the global
+    /// observer.
+    #[error("model `{0}`: paper mode reproduces the printed conditions on a region, and this LPV plant has none; its sound design is the global observer (docs/method.md §17)")]
+    PaperWithoutRegion(String),
+    /// `split = skew_slack` on an LPV plant: the slack reshapes N_k, which
+    /// is zero there.
+    #[error("model `{0}`: split = skew_slack (its slack reshapes N_k, which is zero) is not built for an LPV plant, whose observer is the global one (docs/method.md §17); design with the symmetric split")]
+    SkewOnLpv(String),
+    /// `split = skew_slack` in paper mode, or from a design that does not
+    /// certify: the alternation starts from a certified sound design.
+    #[error("split = skew_slack needs mode = sound and starts from a certified sound design (the paper's conditions are reproduced as printed)")]
+    SkewNeedsSound,
     /// `state_bound auto` ran and found no usable state bound (no invariant
     /// ellipsoid in any box tried), or a claimed Q does not hold for the
     /// model: an outcome about the plant, not a mistake in the input.

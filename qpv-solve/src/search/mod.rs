@@ -454,10 +454,7 @@ fn design_skew(
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
     if request.mode != Mode::Sound {
-        return Err(SolveError::Unsupported(
-            "split = skew_slack needs mode = sound (the paper's conditions are reproduced as printed)"
-                .into(),
-        ));
+        return Err(SolveError::SkewNeedsSound);
     }
     // The alternation maximises α from the fastest symmetric point: the
     // practical tolerance does not apply to it (noted).
@@ -557,10 +554,7 @@ pub fn design_with_progress(
     progress: &mut dyn FnMut(&SearchStep),
 ) -> Result<Design, SolveError> {
     if ObserverKind::of(model, request.mode).is_global() && request.split == Split::SkewSlack {
-        return Err(SolveError::Unsupported(format!(
-            "model `{}`: split = skew_slack (its slack reshapes N_k, which is zero) is not built for an LPV plant, whose observer is the global one (docs/method.md §17); design with the symmetric split",
-            model.name
-        )));
+        return Err(SolveError::SkewOnLpv(model.name.clone()));
     }
     if request.noise == qpv_dsl::NoiseObjective::Min {
         let channels = crate::model::noise::NoiseChannels::from_model(model);

@@ -119,17 +119,11 @@ fn noise_request_alpha(request: &DesignRequest) -> Result<f64, SolveError> {
         noise: qpv_dsl::NoiseObjective::Min,
         ..request.clone()
     };
-    request
-        .validate()
-        .map_err(|c| SolveError::Unsupported(c.to_string()))?;
+    request.validate().map_err(SolveError::Clash)?;
     let alpha = match request.alpha {
         AlphaSpec::Fixed(a) if a.is_finite() && a > 0.0 => a,
         AlphaSpec::Fixed(a) => return Err(SolveError::BadAlpha(a)),
-        AlphaSpec::Max => {
-            return Err(SolveError::Unsupported(
-                qpv_dsl::Clash::NoiseMinAlphaMax.to_string(),
-            ))
-        }
+        AlphaSpec::Max => return Err(SolveError::Clash(qpv_dsl::Clash::NoiseMinAlphaMax)),
     };
     if let GammaSpec::Fixed(g) = request.gamma {
         if !(g.is_finite() && g > 0.0 && g < 1.0) {
@@ -281,17 +275,10 @@ pub(crate) fn design_noise_with_progress(
 ) -> Result<Design, SolveError> {
     let t_start = Instant::now();
     let alpha = noise_request_alpha(request)?;
-    if let Some(h) = request.sample {
-        if h * alpha >= 1.0 {
-            return Err(SolveError::Unsupported(format!(
-                "sample = {h:e} with α = {alpha}: hα ≥ 1, no Lyapunov function decreases by a factor 1 − hα ≤ 0 per step"
-            )));
-        }
-    }
     // The one setup of every design ([`super::setup::prepare`]) on the full
     // vertex family the noise blocks are solved on, whatever the request's
-    // conditions: the size guard, the observer's kind and model, the γ
-    // range; for an LPV plant the global observer's request (γ = 1, unused)
+    // conditions: the size guard, the observer's kind and model, the α, γ
+    // and hα < 1 checks, the γ range; for an LPV plant the global observer's request (γ = 1, unused)
     // and its balanced units (pilot solves at α).
     let full = DesignRequest {
         conditions: qpv_dsl::Conditions::Full,

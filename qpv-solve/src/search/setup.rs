@@ -56,10 +56,7 @@ impl Setup {
         let kind = ObserverKind::of(model, request.mode);
         let global = kind.is_global();
         if request.mode == Mode::Paper && !model.has_region() {
-            return Err(SolveError::Unsupported(format!(
-                "model `{}`: paper mode reproduces the printed conditions on a region, and this LPV plant has none; its sound design is the global observer (docs/method.md §17)",
-                model.name
-            )));
+            return Err(SolveError::PaperWithoutRegion(model.name.clone()));
         }
         let global_model = crate::model::global_model(model);
         let model: &PolytopicModel = if global { &global_model } else { model };

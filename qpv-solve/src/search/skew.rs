@@ -92,9 +92,7 @@ pub fn alternate(
     alpha_search: &mut AlphaSearch<'_>,
 ) -> Result<SkewResult, SolveError> {
     if !start.certifies() {
-        return Err(SolveError::Unsupported(
-            "the skew-slack search starts from a certified sound design".into(),
-        ));
+        return Err(SolveError::SkewNeedsSound);
     }
     let gamma = start.gamma;
     let base = start.observer_model(model)?;
