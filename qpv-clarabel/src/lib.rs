@@ -50,14 +50,61 @@ pub struct Solved {
     pub timers: Option<Timers>,
 }
 
+/// What a solve reports after each of its iterations, for a progress
+/// display ([`solve_observed`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Iteration {
+    /// The iteration's number (from 1).
+    pub number: u32,
+    /// The relative duality gap.
+    pub gap_rel: f64,
+    /// The primal residual.
+    pub res_primal: f64,
+    /// The dual residual.
+    pub res_dual: f64,
+}
+
+/// [`solve`], calling `observe` after every iteration (a plain function:
+/// the solver holds it for the whole solve). Observing changes nothing in
+/// the iteration.
+pub fn solve_observed(
+    sdp: Sdp,
+    settings: DefaultSettings<f64>,
+    observe: fn(&Iteration),
+) -> Result<Solved, SolverError> {
+    run(sdp, settings, Some(observe))
+}
+
 /// Sets Clarabel up on `sdp` and solves it. The problem data are dropped
 /// once the solver holds its own (scaled) copy, so the peak memory is one
 /// copy, not two. An error is a setup error (inconsistent dimensions or
 /// settings); every outcome of the iteration itself is a status in
 /// [`Solved::solution`].
 pub fn solve(sdp: Sdp, settings: DefaultSettings<f64>) -> Result<Solved, SolverError> {
+    run(sdp, settings, None)
+}
+
+/// [`solve`] with an optional observer of every iteration.
+fn run(
+    sdp: Sdp,
+    settings: DefaultSettings<f64>,
+    observe: Option<fn(&Iteration)>,
+) -> Result<Solved, SolverError> {
     let mut solver = DefaultSolver::new(&sdp.p, &sdp.q, &sdp.a, &sdp.b, &sdp.cones, settings)?;
     drop(sdp);
+    if let Some(observe) = observe {
+        // Clarabel's termination callback runs after every iteration; it
+        // never asks to stop (false).
+        solver.set_termination_callback(move |info: &DefaultInfo<f64>| {
+            observe(&Iteration {
+                number: info.iterations,
+                gap_rel: info.gap_rel,
+                res_primal: info.res_primal,
+                res_dual: info.res_dual,
+            });
+            false
+        });
+    }
     solver.solve();
     Ok(Solved {
         solution: solver.solution,

@@ -126,8 +126,12 @@ pub fn has_point(s: SolverStatus) -> bool {
 /// ([`qpv_clarabel::solve`]), so the peak memory is one copy, not two.
 pub fn run_sdp(sdp: Sdp, settings: DefaultSettings<f64>) -> Result<SdpRun, SolveError> {
     ensure_lapack();
-    let solved =
-        qpv_clarabel::solve(sdp, settings).map_err(|e| SolveError::Setup(format!("{e:?}")))?;
+    let observed = ITERATION_HOOK.with(|h| h.borrow().is_some());
+    let solved = match observed {
+        true => qpv_clarabel::solve_observed(sdp, settings, forward_iteration),
+        false => qpv_clarabel::solve(sdp, settings),
+    }
+    .map_err(|e| SolveError::Setup(format!("{e:?}")))?;
     let sol = solved.solution;
     let point = has_point(sol.status) && sol.x.iter().all(|v| v.is_finite());
     Ok(SdpRun {
@@ -137,6 +141,43 @@ pub fn run_sdp(sdp: Sdp, settings: DefaultSettings<f64>) -> Result<SdpRun, Solve
         solve_seconds: sol.solve_time,
         x: point.then_some(sol.x),
     })
+}
+
+pub use qpv_clarabel::Iteration;
+
+/// A function of every solver iteration on this thread
+/// ([`with_iteration_progress`]).
+type IterationHook = Box<dyn FnMut(&Iteration)>;
+
+thread_local! {
+    /// The hook of [`with_iteration_progress`] while it runs.
+    static ITERATION_HOOK: std::cell::RefCell<Option<IterationHook>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// Hands one iteration to this thread's hook, if any.
+fn forward_iteration(it: &Iteration) {
+    ITERATION_HOOK.with(|h| {
+        if let Ok(mut h) = h.try_borrow_mut() {
+            if let Some(f) = h.as_mut() {
+                f(it);
+            }
+        }
+    });
+}
+
+/// Runs `f` with `hook` called after every iteration of every SDP solve
+/// it makes on this thread (a progress display inside a long solve: a
+/// search reports between solves, a solve of minutes says nothing else).
+/// The hook sees the solver's progress only; it changes no result.
+pub fn with_iteration_progress<R>(
+    hook: impl FnMut(&Iteration) + 'static,
+    f: impl FnOnce() -> R,
+) -> R {
+    let previous = ITERATION_HOOK.with(|h| h.borrow_mut().replace(Box::new(hook)));
+    let out = f();
+    ITERATION_HOOK.with(|h| *h.borrow_mut() = previous);
+    out
 }
 
 /// Makes sure the BLAS/LAPACK symbols Clarabel's PSD cones call are linked.

@@ -389,7 +389,17 @@ fn solved(
     if let Some(notice) = super::design::slow_notice(&poly, req, index + 1) {
         eprintln!("{notice}");
     }
-    let Some(design) = solve_held(&poly, req, &settings, float.unwrap_or(req.float)) else {
+    let bar = super::design::spinner(format!(
+        "designing {} (design block {})",
+        model.name,
+        index + 1
+    ));
+    let held =
+        qpv_solve::backend::with_iteration_progress(super::design::iteration_message(&bar), || {
+            solve_held(&poly, req, &settings, float.unwrap_or(req.float))
+        });
+    bar.finish_and_clear();
+    let Some(design) = held else {
         return Ok(Err(format!("{here}: nothing solved")));
     };
     let design = match design {

@@ -881,6 +881,42 @@ pub(super) fn slow_notice(
     })
 }
 
+/// A spinner on stderr (drawn only on a terminal) with the elapsed time
+/// and `message`, ticking on its own between updates.
+pub(super) fn spinner(message: String) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    bar.set_message(message);
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
+    bar
+}
+
+/// The spinner's message after each iteration of a long solve: the
+/// message the last solve left, then the running solve's iteration and
+/// relative duality gap (a search reports between solves only, and one
+/// solve of a large design takes minutes).
+pub(super) fn iteration_message(
+    bar: &indicatif::ProgressBar,
+) -> impl FnMut(&qpv_solve::backend::Iteration) + 'static {
+    let bar = bar.clone();
+    let started = std::time::Instant::now();
+    move |it| {
+        // Quiet for solves that are quick anyway.
+        if started.elapsed().as_secs_f64() < 2.0 {
+            return;
+        }
+        let base = bar.message();
+        let base = base.split(" | solving:").next().unwrap_or("");
+        bar.set_message(format!(
+            "{base} | solving: iteration {}, relative gap {:.1e}",
+            it.number, it.gap_rel
+        ));
+    }
+}
+
 /// Runs `qpv design`.
 pub fn run(o: &Options) -> Result<i32, CliError> {
     let json = o.json.as_deref();
@@ -918,16 +954,10 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             skipped.push(not_run(reason.clone()));
             continue;
         }
-        let bar = indicatif::ProgressBar::new_spinner();
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-        );
-        bar.set_message(format!("designing {} ({r})", model.name));
         // The solver's clock runs between solves too; a request predicted
         // to be slow says so before its first solve (on stderr, so that
         // `--json -` stays one document).
-        bar.enable_steady_tick(std::time::Duration::from_millis(250));
+        let bar = spinner(format!("designing {} ({r})", model.name));
         if let Some(notice) = slow_notice(&poly, r, number) {
             bar.suspend(|| eprintln!("{notice}; progress follows"));
         }
@@ -944,7 +974,9 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             ));
             bar.tick();
         };
-        let result = qpv_solve::design_with_progress(&poly, r, &settings, &mut progress);
+        let result = qpv_solve::backend::with_iteration_progress(iteration_message(&bar), || {
+            qpv_solve::design_with_progress(&poly, r, &settings, &mut progress)
+        });
         bar.finish_and_clear();
         match result {
             Ok(mut d) => {
