@@ -6,9 +6,10 @@
 
 use super::Problem;
 use crate::backend::builder::{Psd, SdpBuilder};
+use crate::conditions::{rows, rows_he};
 use crate::linalg::svec::svec_index;
 use crate::model::noise::NoiseChannels;
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 
 /// K and the gain terms (l, H_l) of a block He{P̂K − Σ_l Γ̂_l H_l}, the
 /// terms sorted by l.
@@ -39,6 +40,28 @@ pub(crate) fn sites(
             Box::new((0..n_vertices).flat_map(move |i| (0..n_vertices).map(move |j| Some((i, j)))))
         };
         pairs.map(move |pair| Site { c, pair })
+    })
+}
+
+/// Where the nonlinear part of a block is evaluated: at a region vertex
+/// (rows(N_l, x) from the precomputed [`crate::conditions::PairTerms`]) or at a vector g (a
+/// cube generator; computed on the spot).
+#[derive(Debug, Clone, Copy)]
+pub(super) enum At<'a> {
+    Vertex(usize),
+    Vector(&'a DVector<f64>),
+}
+
+/// The unit directions of P̂: per packed entry v = (r, c), r ≤ c, column
+/// by column, v and the symmetric E_v with ones at (r, c) and (c, r).
+pub(super) fn p_units(nx: usize) -> impl Iterator<Item = (usize, DMatrix<f64>)> {
+    (0..nx).flat_map(move |c| {
+        (0..=c).map(move |r| {
+            let mut e = DMatrix::zeros(nx, nx);
+            e[(r, c)] = 1.0;
+            e[(c, r)] = 1.0;
+            (svec_index(r, c), e)
+        })
     })
 }
 
@@ -97,49 +120,73 @@ impl Problem<'_> {
         })
     }
 
-    /// K and the gain terms of the block at `site`: [`Problem::rate_kh`] at
-    /// a pair, [`Problem::linear_kh`] for a combination's one block.
+    /// K and the gain terms of the block at `site` in scaled form (see
+    /// [`crate::conditions::Combo`]): at a pair (i, j), for a constant
+    /// output map (combination c is θ-vertex c), He{P̂K − Γ̂_c H} with
+    /// K = γA_c + σR_{c,i,j} + (γα/2)I, H = γC + S_{i,j}; for the one block
+    /// of a linear combination ([`Problem::combo_is_linear`]) K = γA +
+    /// (γα/2)I, H = γC, the block every vertex pair shares.
     pub(super) fn site_kh(&self, alpha: f64, gamma: f64, site: Site) -> Kh {
-        match site.pair {
-            Some((i, j)) => self.rate_kh(alpha, gamma, site.c, i, j),
-            None => self.linear_kh(alpha, gamma, site.c),
-        }
+        let (e, x) = (site.pair.map(|p| p.0), site.pair.map(|p| p.1));
+        self.combo_kh(
+            (alpha, gamma),
+            site.c,
+            (true, 1.0),
+            e.map(At::Vertex),
+            x.map(At::Vertex),
+        )
     }
 
-    /// K and the gain terms H_l of combination `c` at the e-vertex `e`
-    /// and/or the x-vertex `x`, so that the block is He{P̂K − Σ_l Γ̂_l H_l}:
-    /// for each term (l, m, w) the linear part (when `linear` holds) adds
-    /// w(γA_l + (γα/2)I) to K and wγC_m to H_l; the e-part adds
-    /// −wσ rows(N_l, x_e) to K and −w rows(M_m, x_e) to H_l; the x-part adds
-    /// wσ rowsHe(N_l, x_x) to K and w rowsHe(M_m, x_x) to H_l.
-    fn combo_kh(
+    /// K and the gain terms H_l of combination `c` (its weights times
+    /// `sign`) at the e-point `e` and/or the x-point `x`, so that the block
+    /// is He{P̂K − Σ_l Γ̂_l H_l}: for each term (l, m, w) the linear part
+    /// (when `linear` holds) adds w(γA_l + (γα/2)I) to K and wγC_m to H_l;
+    /// the e-part adds −wσ rows(N_l, x_e) to K and −w rows(M_m, x_e) to
+    /// H_l; the x-part adds wσ rowsHe(N_l, x_x) to K and w rowsHe(M_m, x_x)
+    /// to H_l.
+    pub(super) fn combo_kh(
         &self,
         (alpha, gamma): (f64, f64),
         c: usize,
-        linear: bool,
-        e: Option<usize>,
-        x: Option<usize>,
+        (linear, sign): (bool, f64),
+        e: Option<At>,
+        x: Option<At>,
     ) -> Kh {
         let sigma = self.set.nonlinear_sign();
-        let terms = self.terms();
         let mut k = DMatrix::zeros(self.nx, self.nx);
         let mut hs: Vec<(usize, DMatrix<f64>)> = Vec::new();
         for &(l, m, w) in &self.combos[c].terms {
+            let (vl, vm) = (&self.model.vertices[l], &self.model.vertices[m]);
+            let w = w * sign;
             let mut h = DMatrix::zeros(self.ny, self.nx);
             if linear {
-                k += &self.model.vertices[l].a * (gamma * w);
+                k += &vl.a * (gamma * w);
                 for d in 0..self.nx {
                     k[(d, d)] += 0.5 * gamma * alpha * w;
                 }
-                h += &self.model.vertices[m].c * (gamma * w);
+                h += &vm.c * (gamma * w);
             }
-            if let Some(i) = e {
-                k -= &terms.nrw[l][i] * (sigma * w);
-                h -= &terms.mrw[m][i] * w;
+            match e {
+                Some(At::Vertex(i)) => {
+                    k -= &self.terms().nrw[l][i] * (sigma * w);
+                    h -= &self.terms().mrw[m][i] * w;
+                }
+                Some(At::Vector(g)) => {
+                    k -= rows(&vl.n, g) * (sigma * w);
+                    h -= rows(&vm.m, g) * w;
+                }
+                None => {}
             }
-            if let Some(j) = x {
-                k += &terms.nhe[l][j] * (sigma * w);
-                h += &terms.mhe[m][j] * w;
+            match x {
+                Some(At::Vertex(j)) => {
+                    k += &self.terms().nhe[l][j] * (sigma * w);
+                    h += &self.terms().mhe[m][j] * w;
+                }
+                Some(At::Vector(g)) => {
+                    k += rows_he(&vl.n, g) * (sigma * w);
+                    h += rows_he(&vm.m, g) * w;
+                }
+                None => {}
             }
             add_term(&mut hs, l, h);
         }
@@ -147,32 +194,17 @@ impl Problem<'_> {
         (k, hs)
     }
 
-    /// K and the gain terms of the rate block (combination c, pair i, j) in
-    /// scaled form (see [`crate::conditions::Combo`]); for a constant output
-    /// map combination c is θ-vertex c and this is He{P̂K − Γ̂_c H} with
-    /// K = γA_c + σR_{c,i,j} + (γα/2)I, H = γC + S_{i,j}.
-    pub(super) fn rate_kh(&self, alpha: f64, gamma: f64, c: usize, i: usize, j: usize) -> Kh {
-        self.combo_kh((alpha, gamma), c, true, Some(i), Some(j))
-    }
-
-    /// K and the gain terms of the one block of a linear combination c
-    /// ([`Problem::combo_is_linear`]): K = γA + (γα/2)I, H = γC, the block
-    /// every vertex pair of c shares.
-    pub(super) fn linear_kh(&self, alpha: f64, gamma: f64, c: usize) -> Kh {
-        self.combo_kh((alpha, gamma), c, true, None, None)
-    }
-
     /// The e-vertex part F0_c + G_c(x_i) of the decoupled conditions (module
     /// doc of [`crate::conditions`]).
     pub(super) fn decoupled_e_kh(&self, alpha: f64, gamma: f64, c: usize, i: usize) -> Kh {
-        self.combo_kh((alpha, gamma), c, true, Some(i), None)
+        self.combo_kh((alpha, gamma), c, (true, 1.0), Some(At::Vertex(i)), None)
     }
 
     /// The x-vertex part H_c(x_j) of the decoupled conditions. With
     /// [`Problem::decoupled_e_kh`] at (c, i) it adds up to
-    /// [`Problem::rate_kh`] at (c, i, j).
+    /// [`Problem::site_kh`] at (c, (i, j)).
     pub(super) fn decoupled_x_kh(&self, c: usize, j: usize) -> Kh {
-        self.combo_kh((0.0, 0.0), c, false, None, Some(j))
+        self.combo_kh((0.0, 0.0), c, (false, 1.0), None, Some(At::Vertex(j)))
     }
 
     /// Pushes the coefficients of He{P̂K − Σ_l Γ̂_l H_l} (svec, √2 off the

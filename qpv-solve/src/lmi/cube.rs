@@ -60,11 +60,10 @@
 //! inequalities per combination.
 
 use super::blocks::RateMargins;
-use super::blocks::{add_term, Kh};
+use super::blocks::{add_term, At, Kh};
 use super::Problem;
 use crate::backend::builder::SdpBuilder;
 use crate::conditions::cube::CubeSlacks;
-use crate::conditions::{rows, rows_he};
 use crate::linalg::svec::svec_index;
 use nalgebra::{DMatrix, DVector};
 
@@ -129,33 +128,12 @@ impl Problem<'_> {
     /// K and the gain terms of one part of combination c's rate matrix, so
     /// that the part is He{P̂K − Σ_l Γ̂_l H_l}, times `sign`.
     fn cube_kh(&self, alpha: f64, gamma: f64, c: usize, part: Part, sign: f64) -> Kh {
-        let sigma = self.set.nonlinear_sign();
-        let mut k = DMatrix::zeros(self.nx, self.nx);
-        let mut hs: Vec<(usize, DMatrix<f64>)> = Vec::new();
-        for &(l, m, w) in &self.combos[c].terms {
-            let (vl, vm) = (&self.model.vertices[l], &self.model.vertices[m]);
-            let w = w * sign;
-            let h = match part {
-                Part::Constant => {
-                    k += &vl.a * (gamma * w);
-                    for d in 0..self.nx {
-                        k[(d, d)] += 0.5 * gamma * alpha * w;
-                    }
-                    &vm.c * (gamma * w)
-                }
-                Part::E(g) => {
-                    k -= rows(&vl.n, g) * (sigma * w);
-                    -rows(&vm.m, g) * w
-                }
-                Part::X(g) => {
-                    k += rows_he(&vl.n, g) * (sigma * w);
-                    rows_he(&vm.m, g) * w
-                }
-            };
-            add_term(&mut hs, l, h);
+        let ab = (alpha, gamma);
+        match part {
+            Part::Constant => self.combo_kh(ab, c, (true, sign), None, None),
+            Part::E(g) => self.combo_kh(ab, c, (false, sign), Some(At::Vector(g)), None),
+            Part::X(g) => self.combo_kh(ab, c, (false, sign), None, Some(At::Vector(g))),
         }
-        hs.sort_by_key(|(g, _)| *g);
-        (k, hs)
     }
 
     /// The region's vertex condition through D (see the module doc).

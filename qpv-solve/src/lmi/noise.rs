@@ -2,7 +2,7 @@
 //! block family (docs/method.md, "Noise and disturbances"), in the
 //! variables (P̂, Γ̂_l, σ̂).
 
-use super::blocks::RateFamily;
+use super::blocks::{p_units, RateFamily};
 use super::Problem;
 use crate::backend::builder::SdpBuilder;
 use crate::backend::{clarabel_settings, run_sdp, Status};
@@ -153,7 +153,7 @@ impl NoiseBlock<'_> {
     }
 
     /// Appends the block of one (combination, region-vertex pair): `kk` and
-    /// `hs` from [`Problem::rate_kh`], the combination's data `cn`, the
+    /// `hs` from [`Problem::site_kh`], the combination's data `cn`, the
     /// index of each Γ̂_l entry from `gvar`.
     fn push(
         &self,
@@ -166,22 +166,17 @@ impl NoiseBlock<'_> {
         let blk = out.psd(nb, self.eps);
         let mut coef = DMatrix::<f64>::zeros(nb, nb);
         // P̂ variables: top-left He{E K}, top-right γ E B_w.
-        for pc in 0..nx {
-            for pr in 0..=pc {
-                coef.fill(0.0);
-                let mut e = DMatrix::<f64>::zeros(nx, nx);
-                e[(pr, pc)] = 1.0;
-                e[(pc, pr)] = 1.0;
-                let ek = &e * kk;
-                let he = &ek + ek.transpose();
-                coef.view_mut((0, 0), (nx, nx)).copy_from(&he);
-                if nw > 0 {
-                    let eb = &e * &cn.bw * gamma;
-                    coef.view_mut((0, nx), (nx, nw)).copy_from(&eb);
-                    coef.view_mut((nx, 0), (nw, nx)).copy_from(&eb.transpose());
-                }
-                out.matrix(&blk, crate::linalg::svec::svec_index(pr, pc), &coef, 1.0);
+        for (v, e) in p_units(nx) {
+            coef.fill(0.0);
+            let ek = &e * kk;
+            let he = &ek + ek.transpose();
+            coef.view_mut((0, 0), (nx, nx)).copy_from(&he);
+            if nw > 0 {
+                let eb = &e * &cn.bw * gamma;
+                coef.view_mut((0, nx), (nx, nw)).copy_from(&eb);
+                coef.view_mut((nx, 0), (nw, nx)).copy_from(&eb.transpose());
             }
+            out.matrix(&blk, v, &coef, 1.0);
         }
         // Γ̂_l variables: top-left −He{D H_l}, noise columns −γ w_l D E.
         for (l, &wl_l) in cn.wl.iter().enumerate() {

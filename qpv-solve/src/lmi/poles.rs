@@ -3,10 +3,10 @@
 //! combination whose N and M vanish), written through the one builder
 //! (docs/method.md §18, "Pole regions").
 
+use super::blocks::{p_units, sites};
 use super::Problem;
 use crate::backend::builder::{Psd, SdpBuilder};
 use crate::conditions::poles::{blocks, data_size};
-use crate::linalg::svec::svec_index;
 use nalgebra::DMatrix;
 use qpv_dsl::PoleRegion;
 
@@ -66,7 +66,7 @@ impl<'m> Problem<'m> {
         // One site for a combination whose N and M vanish (or without
         // region vertices): its blocks are the same at every pair.
         let np = self.xs_hat.len();
-        let sites = super::blocks::sites(self.combos.len(), np, |c| self.linear[c] || np == 0);
+        let sites = sites(self.combos.len(), np, |c| self.linear[c] || np == 0);
         for site in sites {
             let g = gamma * self.combos[site.c].weight();
             let (k, hs) = self.site_kh(0.0, gamma, site);
@@ -99,14 +99,8 @@ impl<'m> Problem<'m> {
                     out.matrix(blk, var, &m, 1.0);
                 }
             };
-            for pc in 0..nx {
-                for pr in 0..=pc {
-                    let mut e = DMatrix::zeros(nx, nx);
-                    e[(pr, pc)] = 1.0;
-                    e[(pc, pr)] = 1.0;
-                    let x = &e * k;
-                    push(out, svec_index(pr, pc), &x, &e);
-                }
+            for (v, e) in p_units(nx) {
+                push(out, v, &(&e * k), &e);
             }
             let zero = DMatrix::zeros(nx, nx);
             for (l, h) in hs {

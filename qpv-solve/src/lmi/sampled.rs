@@ -5,7 +5,7 @@
 //! at the pair (i, j) is [W(1 − hα)P, Mᵀ; M, WP] ⪰ 0 with
 //! M = WP + h Σ_t w_t Φ_t, Φ = PA_l − Γ_l C_m + (P R_{l,i,j} − Γ_l S_{m,i,j})/γ.
 //! In the scaled variables (P = sP̂, Γ_l = sΓ̂_l, divided by s) and in the
-//! notation of [`Problem::rate_kh`] at α = 0 (K₀ = Σ_t w_t(γA_l + R),
+//! notation of [`Problem::site_kh`] at α = 0 (K₀ = Σ_t w_t(γA_l + R),
 //! H_l = Σ_t w_t(γC_m + S)), γΦ/s = P̂K₀ − Σ_l Γ̂_l H_l, so
 //!
 //! ```text
@@ -21,12 +21,11 @@
 //! [W(1 − hα)P̂ − t̂ c Ŵ, Mᵀ; M, WP̂] ⪰ 0 with c = t/(1 + t), Ŵ the metric
 //! of [`super::Objective::MaxMargin`]: t̂ > 0 leaves room for a larger α.
 
-use super::blocks::RateMargins;
+use super::blocks::{p_units, RateMargins};
 use super::noise::ComboNoise;
 use super::Problem;
 use crate::backend::builder::{Psd, SdpBuilder};
 use crate::error::SolveError;
-use crate::linalg::svec::svec_index;
 use crate::model::noise::NoiseChannels;
 use nalgebra::DMatrix;
 use qpv_dsl::Conditions;
@@ -203,21 +202,16 @@ impl Problem<'_> {
         extra: impl Fn(&DMatrix<f64>, &mut DMatrix<f64>),
     ) {
         let (nx, x2, w) = (self.nx, at.x2, at.w);
-        for pc in 0..nx {
-            for pr in 0..=pc {
-                dm.fill(0.0);
-                let mut e = DMatrix::<f64>::zeros(nx, nx);
-                e[(pr, pc)] = 1.0;
-                e[(pc, pr)] = 1.0;
-                let m = &e * w + &e * at.k0 * (at.h / at.gamma);
-                dm.view_mut((0, 0), (nx, nx))
-                    .copy_from(&(&e * (w * (1.0 - at.h * at.alpha))));
-                dm.view_mut((x2, x2), (nx, nx)).copy_from(&(&e * w));
-                dm.view_mut((x2, 0), (nx, nx)).copy_from(&m);
-                dm.view_mut((0, x2), (nx, nx)).copy_from(&m.transpose());
-                extra(&e, dm);
-                out.matrix(blk, svec_index(pr, pc), dm, -1.0);
-            }
+        for (v, e) in p_units(nx) {
+            dm.fill(0.0);
+            let m = &e * w + &e * at.k0 * (at.h / at.gamma);
+            dm.view_mut((0, 0), (nx, nx))
+                .copy_from(&(&e * (w * (1.0 - at.h * at.alpha))));
+            dm.view_mut((x2, x2), (nx, nx)).copy_from(&(&e * w));
+            dm.view_mut((x2, 0), (nx, nx)).copy_from(&m);
+            dm.view_mut((0, x2), (nx, nx)).copy_from(&m.transpose());
+            extra(&e, dm);
+            out.matrix(blk, v, dm, -1.0);
         }
     }
 }
