@@ -54,17 +54,22 @@ pub enum ConditionSet {
     Paper,
 }
 
-/// The region conditions of one mode.
+/// The condition on the region vertices of one mode.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum RegionForm {
+pub(crate) enum VertexForm {
     /// (S2): xᵢᵀ P xᵢ ≤ 1, a scalar per region vertex.
-    VertexQuadratic,
+    Quadratic,
     /// (13): [1 xᵢᵀ; xᵢ P] ⪰ 0, an (nx+1)-block per region vertex.
-    VertexSchur,
+    Schur,
+}
+
+/// The condition on the region facets of one mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum FacetForm {
     /// (S3): [1 γaₖᵀ; γaₖ P] ⪰ 0, an (nx+1)-block per facet.
-    FacetSchur,
+    Schur,
     /// (14): [1 γaₖᵀP; γPaₖ P] ⪰ 0, an (nx+1)-block per facet.
-    FacetSchurP,
+    SchurP,
 }
 
 impl ConditionSet {
@@ -98,18 +103,18 @@ impl ConditionSet {
     }
 
     /// The condition on the region vertices.
-    pub(crate) fn vertex_form(self) -> RegionForm {
+    pub(crate) fn vertex_form(self) -> VertexForm {
         match self {
-            ConditionSet::Sound => RegionForm::VertexQuadratic,
-            ConditionSet::Paper => RegionForm::VertexSchur,
+            ConditionSet::Sound => VertexForm::Quadratic,
+            ConditionSet::Paper => VertexForm::Schur,
         }
     }
 
     /// The condition on the region facets.
-    pub(crate) fn facet_form(self) -> RegionForm {
+    pub(crate) fn facet_form(self) -> FacetForm {
         match self {
-            ConditionSet::Sound => RegionForm::FacetSchur,
-            ConditionSet::Paper => RegionForm::FacetSchurP,
+            ConditionSet::Sound => FacetForm::Schur,
+            ConditionSet::Paper => FacetForm::SchurP,
         }
     }
 

@@ -59,10 +59,11 @@
 //! (recomputed by that split), and the certificate checks all 4r + 1
 //! inequalities per combination.
 
-use super::{Problem, RateMargins};
+use super::blocks::RateMargins;
+use super::blocks::{add_term, At, Kh};
+use super::Problem;
 use crate::backend::builder::SdpBuilder;
 use crate::conditions::cube::CubeSlacks;
-use crate::conditions::{rows, rows_he};
 use crate::linalg::svec::svec_index;
 use nalgebra::{DMatrix, DVector};
 
@@ -76,8 +77,6 @@ enum Part<'a> {
     /// H(g): the x-vertex terms, linear in g.
     X(&'a DVector<f64>),
 }
-
-type Kh = (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>);
 
 impl Problem<'_> {
     /// Number of generators r (cube conditions; 0 otherwise).
@@ -129,36 +128,12 @@ impl Problem<'_> {
     /// K and the gain terms of one part of combination c's rate matrix, so
     /// that the part is He{P̂K − Σ_l Γ̂_l H_l}, times `sign`.
     fn cube_kh(&self, alpha: f64, gamma: f64, c: usize, part: Part, sign: f64) -> Kh {
-        let sigma = self.set.nonlinear_sign();
-        let mut k = DMatrix::zeros(self.nx, self.nx);
-        let mut hs: Vec<(usize, DMatrix<f64>)> = Vec::new();
-        for &(l, m, w) in &self.combos[c].terms {
-            let (vl, vm) = (&self.model.vertices[l], &self.model.vertices[m]);
-            let w = w * sign;
-            let h = match part {
-                Part::Constant => {
-                    k += &vl.a * (gamma * w);
-                    for d in 0..self.nx {
-                        k[(d, d)] += 0.5 * gamma * alpha * w;
-                    }
-                    &vm.c * (gamma * w)
-                }
-                Part::E(g) => {
-                    k -= rows(&vl.n, g) * (sigma * w);
-                    -rows(&vm.m, g) * w
-                }
-                Part::X(g) => {
-                    k += rows_he(&vl.n, g) * (sigma * w);
-                    rows_he(&vm.m, g) * w
-                }
-            };
-            match hs.iter_mut().find(|(g, _)| *g == l) {
-                Some((_, acc)) => *acc += h,
-                None => hs.push((l, h)),
-            }
+        let ab = (alpha, gamma);
+        match part {
+            Part::Constant => self.combo_kh(ab, c, (true, sign), None, None),
+            Part::E(g) => self.combo_kh(ab, c, (false, sign), Some(At::Vector(g)), None),
+            Part::X(g) => self.combo_kh(ab, c, (false, sign), None, Some(At::Vector(g))),
         }
-        hs.sort_by_key(|(g, _)| *g);
-        (k, hs)
     }
 
     /// The region's vertex condition through D (see the module doc).
@@ -230,7 +205,7 @@ impl Problem<'_> {
         let mut df = vec![0.0; nx * nx];
         let mut block = |out: &mut SdpBuilder, kh: &Kh, eps: f64, vars: &[(usize, f64)]| {
             let blk = out.psd(nx, eps);
-            self.push_he_block(out, &blk, &kh.0, &kh.1, &mut df);
+            self.push_he_block(out, &blk, kh, &mut df);
             for &(first, sign) in vars {
                 self.push_sym_var(out, &blk, first, sign);
             }
@@ -308,19 +283,8 @@ impl Problem<'_> {
         if self.gens.is_empty() {
             return None;
         }
-        let s = self.scale;
         let (p, gs) = self.unpack(x);
-        let sym = |first: usize| {
-            let mut m = DMatrix::zeros(self.nx, self.nx);
-            for c in 0..self.nx {
-                for r in 0..=c {
-                    let v = s * x[first + svec_index(r, c)];
-                    m[(r, c)] = v;
-                    m[(c, r)] = v;
-                }
-            }
-            m
-        };
+        let sym = |first: usize| self.sym_at(x, first);
         let d = (0..self.gens.len()).map(|k| x[self.dvar(k)]).collect();
         if self.cube_one_slack {
             let (mut ys, mut xs) = (Vec::new(), Vec::new());
@@ -367,13 +331,7 @@ impl Problem<'_> {
             "only cube problems have these slacks"
         );
         let (p, gs) = self.unpack(x);
-        let mut put = |first: usize, m: &DMatrix<f64>| {
-            for c in 0..self.nx {
-                for r in 0..=c {
-                    x[first + svec_index(r, c)] = m[(r, c)] / self.scale;
-                }
-            }
-        };
+        let mut put = |first: usize, m: &DMatrix<f64>| self.put_sym(x, first, m);
         for c in 0..self.combos.len() {
             for k in 0..self.gens.len() {
                 if self.cube_one_slack {
@@ -401,10 +359,7 @@ impl Problem<'_> {
 fn add_kh(acc: &mut Kh, kh: &Kh) {
     acc.0 += &kh.0;
     for (l, h) in &kh.1 {
-        match acc.1.iter_mut().find(|(g, _)| g == l) {
-            Some((_, a)) => *a += h,
-            None => acc.1.push((*l, h.clone())),
-        }
+        add_term(&mut acc.1, *l, h.clone());
     }
     acc.1.sort_by_key(|(g, _)| *g);
 }

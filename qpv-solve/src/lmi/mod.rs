@@ -40,140 +40,35 @@
 //! which changes no sign of any eigenvalue; (4) is the printed LMI divided
 //! by s > 0. The objective is ½ w Σ_l ‖Γ̂_l‖_F² (or 0 for pure feasibility).
 
+mod blocks;
 mod cube;
 pub(crate) mod noise;
-pub mod poles;
+mod objective;
+mod poles;
+mod rate;
+mod region;
 mod sampled;
 pub(crate) mod skew;
+mod solve;
 
-use crate::backend::builder::{Psd, SdpBuilder};
-use crate::backend::{clarabel_settings, ensure_lapack, run_sdp, Sdp, Status};
-use crate::conditions::{rate_combos, rows, rows_he, Combo, ConditionSet, PairTerms, RegionForm};
+pub(crate) use blocks::RateFamily;
+pub use objective::Objective;
+pub use solve::SolveResult;
+
+use crate::backend::builder::SdpBuilder;
+use crate::backend::Sdp;
+use crate::conditions::{rate_combos, rows, rows_he, Combo, ConditionSet, PairTerms};
 use crate::error::SolveError;
-use crate::linalg::svec::{svec_index, svec_len, svec_scale};
-use crate::model::noise::NoiseChannels;
+use crate::linalg::svec::{svec_index, svec_len};
 use crate::model::{region_radius, validate, StateScaling};
 use crate::settings::Settings;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::Conditions;
 use qpv_dsl::PolytopicModel;
 use std::sync::OnceLock;
-use std::time::Instant;
-
-/// The relative step above α at which the global observer's gain objective
-/// is solved (see [`Problem::solve_with_metric`]).
-pub(crate) const GLOBAL_BACKOFF: f64 = 1e-3;
-
-/// W = M/λ_min(M) (symmetrised) and W^{-1/2}, for a finite positive
-/// definite n × n metric M; None otherwise.
-fn normalised_metric(m: &DMatrix<f64>, n: usize) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
-    if m.shape() != (n, n) || !m.iter().all(|v| v.is_finite()) {
-        return None;
-    }
-    let sym = (m + m.transpose()) * 0.5;
-    let eig = sym.clone().symmetric_eigen();
-    let lmin = eig.eigenvalues.min();
-    let lmax = eig.eigenvalues.max();
-    if !(lmin > 0.0 && lmax / lmin < 1e12) {
-        return None;
-    }
-    let w = &sym / lmin;
-    let d = DMatrix::from_diagonal(&eig.eigenvalues.map(|v| (lmin / v).sqrt()));
-    let w_inv_half = &eig.eigenvectors * d * eig.eigenvectors.transpose();
-    Some((w, w_inv_half))
-}
-
-/// The max-margin variable t̂ and its coefficients svec(κW) in a rate block.
-struct MarginColumn {
-    var: usize,
-    coef: Vec<f64>,
-}
-
-/// The margins of the rate blocks: `eps` on the blocks that carry the rate
-/// (zero for the max-margin objective, whose column `column` sits there
-/// instead), `slack_eps` on the cube slack inequalities (always).
-struct RateMargins<'a> {
-    eps: f64,
-    slack_eps: f64,
-    column: Option<&'a MarginColumn>,
-}
-
-impl RateMargins<'_> {
-    /// Adds the max-margin column to the block `blk`, if any.
-    fn push_column(&self, out: &mut SdpBuilder, blk: &Psd) {
-        if let Some(m) = self.column {
-            for (idx, &w) in m.coef.iter().enumerate() {
-                out.a(blk.row0 + idx, m.var, w);
-            }
-        }
-    }
-}
-
-/// The family of blocks that holds the rate of decay.
-#[derive(Debug, Clone, Copy)]
-pub(crate) enum RateFamily<'a> {
-    /// The decay conditions of the problem's conditions ((S5), its
-    /// decoupled or cube relaxation, or the discrete decrease).
-    Decay,
-    /// The noise blocks on these channels (the bounded-real form of the
-    /// rate block, docs/method.md "Noise and disturbances").
-    Noise(&'a NoiseChannels),
-}
-
-/// What the solve optimises.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Objective {
-    /// None: a pure feasibility problem (the rate LMIs keep their margin).
-    Feasibility,
-    /// The default: ½ w Σ_l ‖Γ̂_l‖_F² (w = `Settings::gain_weight`), keeping
-    /// the gains moderate; rate LMIs ⪯ −ε κ I.
-    Gains,
-    /// Maximise the common margin t of the rate LMIs: −He{P̂K − Γ̂H} ⪰ κ t̂ W,
-    /// t̂ ≤ 1 (t̂ free below, so the problem is feasible whenever the region
-    /// conditions are), with W = I or, given a reference P_ref,
-    /// W = P̂_ref/λ_max(P̂_ref) (the metric of the generalised eigenvalue
-    /// problem in α, which makes the capacity lift of the α search nearly
-    /// exact in one step). t̂ < 0 at the optimum means no (P, Γ) satisfies
-    /// the rate LMIs at this α.
-    MaxMargin,
-    /// Minimise a bound κ on every ‖L_l‖₂: the problem is homogenised
-    /// (Charnes–Cooper: every right-hand side b becomes c·b with a new
-    /// scalar c ≥ 0, so a point (x, c) with c > 0 is a feasible x·c
-    /// scaled), normalised by P̂ ⪰ I, and ‖Γ̂_l‖₂ ≤ κ is the block
-    /// [κI, Γ̂_lᵀ; Γ̂_l, κI] ⪰ 0. Then ‖L_l‖₂ = ‖P⁻¹Γ_l‖₂ ≤
-    /// ‖Γ̂_l‖₂/λ_min(P̂) ≤ κ: the minimum over the design's feasible set of
-    /// max_l ‖Γ_l‖₂/λ_min(P), a convex surrogate of the largest gain
-    /// (docs/method.md, the practical α = max).
-    MinGain,
-}
 
 /// One assembled problem in Clarabel's standard form (the backend's [`Sdp`]).
 pub(crate) type Assembled = Sdp;
-
-/// The raw result of one solve, unscaled to the model's units.
-#[derive(Debug, Clone)]
-pub struct SolveResult {
-    /// Interpreted status.
-    pub status: Status,
-    /// Clarabel's status name.
-    pub detail: String,
-    /// Iterations.
-    pub iterations: u32,
-    /// Clarabel's solve time, seconds.
-    pub solve_seconds: f64,
-    /// Assembly time, seconds.
-    pub assembly_seconds: f64,
-    /// P (model units) if Clarabel returned a point (Solved / AlmostSolved / …).
-    pub p: Option<DMatrix<f64>>,
-    /// Γ_l (model units).
-    pub gammas: Vec<DMatrix<f64>>,
-    /// [`Objective::MaxMargin`]: the optimal normalised margin t̂;
-    /// [`Objective::MinGain`]: the optimal gain bound κ (the solver's, not
-    /// certified); NaN otherwise.
-    pub margin: f64,
-    /// The slacks of cube conditions (model units), with the point.
-    pub cube: Option<crate::conditions::cube::CubeSlacks>,
-}
 
 /// The precomputed, (α, γ)-independent part of a design problem.
 pub struct Problem<'m> {
@@ -329,20 +224,12 @@ impl<'m> Problem<'m> {
     fn max_r_fro(&self) -> f64 {
         *self.max_r_fro.get_or_init(|| {
             let terms = self.terms();
-            let (nx, np) = (self.nx, self.model.region.vertices.len());
             let mut max_r_fro: f64 = 0.0;
-            for l in 0..self.nv {
-                for i in 0..np {
-                    for j in 0..np {
-                        let mut acc = 0.0;
-                        let (h, w) = (&terms.nhe[l][j], &terms.nrw[l][i]);
-                        for k in 0..nx * nx {
-                            let d = h[k] - w[k];
-                            acc += d * d;
-                        }
-                        max_r_fro = max_r_fro.max(acc.sqrt());
-                    }
-                }
+            for site in blocks::sites(self.nv, self.xs_hat.len(), |_| false) {
+                let Some((i, j)) = site.pair else { continue };
+                let (h, w) = (&terms.nhe[site.c][j], &terms.nrw[site.c][i]);
+                let acc: f64 = h.iter().zip(w.iter()).map(|(h, w)| (h - w) * (h - w)).sum();
+                max_r_fro = max_r_fro.max(acc.sqrt());
             }
             max_r_fro
         })
@@ -499,195 +386,6 @@ impl<'m> Problem<'m> {
         self.gains_end() + c * self.np + idx
     }
 
-    /// K and the gain terms H_l of combination `c` at the e-vertex `e`
-    /// and/or the x-vertex `x`, so that the block is He{P̂K − Σ_l Γ̂_l H_l}:
-    /// for each term (l, m, w) the e-part adds w(γA_l + (γα/2)I − σ rows(N_l, x_e))
-    /// to K and w(γC_m − rows(M_m, x_e)) to H_l; the x-part adds
-    /// wσ rowsHe(N_l, x_x) to K and w rowsHe(M_m, x_x) to H_l.
-    fn combo_kh(
-        &self,
-        alpha: f64,
-        gamma: f64,
-        c: usize,
-        e: Option<usize>,
-        x: Option<usize>,
-    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
-        self.combo_kh_parts(alpha, gamma, c, e.is_some(), e, x)
-    }
-
-    /// As [`Problem::combo_kh`] with the linear part (γA_l + (γα/2)I and
-    /// γC_m) added when `linear` holds, whether or not an e-vertex is given.
-    fn combo_kh_parts(
-        &self,
-        alpha: f64,
-        gamma: f64,
-        c: usize,
-        linear: bool,
-        e: Option<usize>,
-        x: Option<usize>,
-    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
-        let sigma = self.set.nonlinear_sign();
-        let terms = self.terms();
-        let mut k = DMatrix::zeros(self.nx, self.nx);
-        let mut hs: Vec<(usize, DMatrix<f64>)> = Vec::new();
-        for &(l, m, w) in &self.combos[c].terms {
-            let mut h = DMatrix::zeros(self.ny, self.nx);
-            if linear {
-                k += &self.model.vertices[l].a * (gamma * w);
-                for d in 0..self.nx {
-                    k[(d, d)] += 0.5 * gamma * alpha * w;
-                }
-                h += &self.model.vertices[m].c * (gamma * w);
-            }
-            if let Some(i) = e {
-                k -= &terms.nrw[l][i] * (sigma * w);
-                h -= &terms.mrw[m][i] * w;
-            }
-            if let Some(j) = x {
-                k += &terms.nhe[l][j] * (sigma * w);
-                h += &terms.mhe[m][j] * w;
-            }
-            match hs.iter_mut().find(|(g, _)| *g == l) {
-                Some((_, acc)) => *acc += h,
-                None => hs.push((l, h)),
-            }
-        }
-        hs.sort_by_key(|(g, _)| *g);
-        (k, hs)
-    }
-
-    /// K and the gain terms of the rate block (combination c, pair i, j) in
-    /// scaled form (see [`crate::conditions::Combo`]); for a constant output
-    /// map combination c is θ-vertex c and this is He{P̂K − Γ̂_c H} with
-    /// K = γA_c + σR_{c,i,j} + (γα/2)I, H = γC + S_{i,j}.
-    pub fn rate_kh(
-        &self,
-        alpha: f64,
-        gamma: f64,
-        c: usize,
-        i: usize,
-        j: usize,
-    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
-        self.combo_kh(alpha, gamma, c, Some(i), Some(j))
-    }
-
-    /// K and the gain terms of the one block of a linear combination c
-    /// ([`Problem::combo_is_linear`]): K = γA + (γα/2)I, H = γC, the block
-    /// every vertex pair of c shares.
-    pub(crate) fn linear_kh(
-        &self,
-        alpha: f64,
-        gamma: f64,
-        c: usize,
-    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
-        self.combo_kh_parts(alpha, gamma, c, true, None, None)
-    }
-
-    /// The e-vertex part F0_c + G_c(x_i) of the decoupled conditions (module
-    /// doc of [`crate::conditions`]).
-    pub fn decoupled_e_kh(
-        &self,
-        alpha: f64,
-        gamma: f64,
-        c: usize,
-        i: usize,
-    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
-        self.combo_kh(alpha, gamma, c, Some(i), None)
-    }
-
-    /// The x-vertex part H_c(x_j) of the decoupled conditions. With
-    /// [`Problem::decoupled_e_kh`] at (c, i) it adds up to
-    /// [`Problem::rate_kh`] at (c, i, j).
-    pub(crate) fn decoupled_x_kh(
-        &self,
-        c: usize,
-        j: usize,
-    ) -> (DMatrix<f64>, Vec<(usize, DMatrix<f64>)>) {
-        self.combo_kh(0.0, 0.0, c, None, Some(j))
-    }
-
-    /// Pushes the coefficients of He{P̂K − Σ_l Γ̂_l H_l} (svec, √2 off the
-    /// diagonal) into the block starting at `row0`; `df` is scratch of nx².
-    fn push_he_block(
-        &self,
-        out: &mut SdpBuilder,
-        blk: &Psd,
-        k: &DMatrix<f64>,
-        hs: &[(usize, DMatrix<f64>)],
-        df: &mut [f64],
-    ) {
-        let nx = self.nx;
-        // P̂ variables.
-        for pc in 0..nx {
-            for pr in 0..=pc {
-                let v = svec_index(pr, pc);
-                // W = E K; ∂F = W + Wᵀ, computed on the upper triangle.
-                df.iter_mut().for_each(|x| *x = 0.0);
-                for cc in 0..nx {
-                    for rr in 0..=cc {
-                        let mut w = 0.0;
-                        if pr == pc {
-                            if rr == pr {
-                                w += k[(pr, cc)];
-                            }
-                            if cc == pr {
-                                w += k[(pr, rr)];
-                            }
-                        } else {
-                            if rr == pr {
-                                w += k[(pc, cc)];
-                            }
-                            if rr == pc {
-                                w += k[(pr, cc)];
-                            }
-                            if cc == pr {
-                                w += k[(pc, rr)];
-                            }
-                            if cc == pc {
-                                w += k[(pr, rr)];
-                            }
-                        }
-                        df[svec_index(rr, cc)] = w;
-                    }
-                }
-                for cc in 0..nx {
-                    for rr in 0..=cc {
-                        out.entry(blk, rr, cc, v, df[svec_index(rr, cc)]);
-                    }
-                }
-            }
-        }
-        // Γ̂_l variables: ∂F/∂Γ_rc = −(E_rc H + Hᵀ E_rcᵀ),
-        // entry (a, b) = −([a==r] H[c,b] + [b==r] H[c,a]).
-        for (l, h) in hs {
-            self.push_gain_columns(out, blk, *l, h);
-        }
-    }
-
-    /// The Γ̂_l columns of one block: −He{Γ̂_l H}.
-    fn push_gain_columns(&self, out: &mut SdpBuilder, blk: &Psd, l: usize, h: &DMatrix<f64>) {
-        let (nx, ny) = (self.nx, self.ny);
-        for gr in 0..nx {
-            for gc in 0..ny {
-                let v = self.gvar(l, gr, gc);
-                for cc in 0..nx {
-                    for rr in 0..=cc {
-                        let mut w = 0.0;
-                        if rr == gr {
-                            w += h[(gc, cc)];
-                        }
-                        if cc == gr {
-                            w += h[(gc, rr)];
-                        }
-                        if w != 0.0 {
-                            out.entry(blk, rr, cc, v, -w);
-                        }
-                    }
-                }
-            }
-        }
-    }
-
     /// Assembles the problem at (α, γ) with the given objective.
     pub fn assemble(
         &self,
@@ -723,6 +421,9 @@ impl<'m> Problem<'m> {
     /// As [`Problem::assemble_with_metric`] with the rate family chosen:
     /// the decay conditions of the problem's conditions, or the noise
     /// blocks in their place (with σ̂ after the other variables, minimised).
+    /// The families in row order: the region (or the global observer's
+    /// normalisation), the rate family, the pole regions, the gain bound,
+    /// then the objective's own rows.
     pub(crate) fn assemble_family(
         &self,
         (alpha, gamma): (f64, f64),
@@ -732,131 +433,30 @@ impl<'m> Problem<'m> {
         family: RateFamily,
     ) -> Assembled {
         let max_margin = objective == Objective::MaxMargin;
-        let min_gain = objective == Objective::MinGain;
         // The global observer's blocks are homogeneous: γ plays no role.
         let gamma = if self.global { 1.0 } else { gamma };
-        // Extra variables after the problem's: t̂ (max margin), or c and κ
-        // (min gain).
-        let n = self.n_vars() + usize::from(max_margin) + 2 * usize::from(min_gain);
-        let tvar = self.n_vars();
         let kappa = self.rate_scale(alpha, gamma);
         let eps = settings.margin_rel;
-        let eps_rate = if max_margin { 0.0 } else { eps * kappa };
-        let margin = max_margin.then(|| MarginColumn {
-            var: tvar,
-            coef: self.margin_column(metric, kappa),
-        });
-        let mut out = self.builder(max_margin, min_gain);
-        debug_assert_eq!(out.n_vars(), n);
-        let sigma = matches!(family, RateFamily::Noise(_)).then(|| out.var("sigma"));
-        if self.global && sigma.is_some() {
-            self.push_global_noise_normalisation(&mut out);
-        } else if self.global {
-            self.push_global_normalisation(&mut out, eps, max_margin);
-        } else {
-            self.push_s1(&mut out, eps);
-            match self.conditions {
-                Conditions::Cube => self.push_cube_region(&mut out, eps),
-                _ => self.push_region_vertices(&mut out, eps),
-            }
-            self.push_region_facets(&mut out, gamma, eps);
-        }
-        let rate = RateMargins {
-            eps: eps_rate,
+        let margin = max_margin.then(|| self.margin_column(metric, kappa));
+        let rate = blocks::RateMargins {
+            eps: if max_margin { 0.0 } else { eps * kappa },
             slack_eps: eps * kappa,
             column: margin.as_ref(),
         };
-        match (family, sigma) {
-            (RateFamily::Noise(channels), Some(svar)) => {
-                match self.sample {
-                    Some(h) => {
-                        let fam = sampled::SampledNoiseFamily {
-                            channels,
-                            svar,
-                            eps: rate.eps,
-                        };
-                        self.push_rate_noise_sampled(&mut out, (alpha, gamma, h), &fam);
-                    }
-                    None => {
-                        self.push_rate_noise(&mut out, (alpha, gamma), channels, svar, rate.eps)
-                    }
-                }
-                out.cost(svar, 1.0);
-            }
-            _ => match self.conditions {
-                Conditions::Full | Conditions::Auto => match self.sample {
-                    Some(h) => self.push_rate_sampled(&mut out, alpha, gamma, h, &rate),
-                    None => self.push_rate_full(&mut out, alpha, gamma, &rate),
-                },
-                Conditions::Decoupled => self.push_rate_decoupled(&mut out, alpha, gamma, &rate),
-                Conditions::Cube => self.push_rate_cube(&mut out, alpha, gamma, &rate),
-            },
-        }
+        let mut out = self.builder(objective);
+        let noise = matches!(family, RateFamily::Noise(_));
+        self.push_region(&mut out, (gamma, eps), max_margin, noise);
+        self.push_rate(&mut out, (alpha, gamma), family, &rate);
         self.push_poles(&mut out, gamma, eps, max_margin);
-        if let Some(g) = self.max_gain_z() {
-            self.push_gain_bound(&mut out, g);
-        }
-        if min_gain {
-            self.homogenise_for_min_gain(&mut out, metric);
-        }
-        if max_margin {
-            // t̂ ≤ 1.
-            let row = out.nonneg(1);
-            out.set_b(row, 1.0);
-            out.a(row, tvar, 1.0);
-        }
-        self.objective(&mut out, settings, objective);
+        self.push_gain_bound(&mut out);
+        self.push_objective(&mut out, settings, objective, metric);
         out.finish()
-    }
-
-    /// The noise block family in place of the rate family: one block per
-    /// rate combination and region-vertex pair (see [`noise::NoiseBlock`]),
-    /// with margin `eps` (ε κ) and σ̂ the variable `svar`.
-    fn push_rate_noise(
-        &self,
-        out: &mut SdpBuilder,
-        (alpha, gamma): (f64, f64),
-        channels: &NoiseChannels,
-        svar: usize,
-        eps: f64,
-    ) {
-        let outs = channels.noisy_outputs(self.ny);
-        let block = noise::NoiseBlock {
-            nx: self.nx,
-            ny: self.ny,
-            nw: channels.n_w(),
-            outs: &outs,
-            svar,
-            gamma,
-            eps,
-        };
-        let np = self.xs_hat.len();
-        for (c, combo) in self.combos.iter().enumerate() {
-            // B_w of the combination, and the weight of each Γ̂_l in −γΓ̂E.
-            let mut cn = noise::ComboNoise {
-                bw: DMatrix::zeros(block.nx, block.nw),
-                wl: vec![0.0; self.nv],
-                wsum: combo.weight(),
-            };
-            for &(l, _, w) in &combo.terms {
-                if let Some(bb) = &channels.b_w {
-                    cn.bw += &bb[l] * w;
-                }
-                cn.wl[l] += w;
-            }
-            for i in 0..np {
-                for j in 0..np {
-                    let (kk, hs) = self.rate_kh(alpha, gamma, c, i, j);
-                    block.push(out, (&kk, &hs), &cn, |l, r, c| self.gvar(l, r, c));
-                }
-            }
-        }
     }
 
     /// A builder with the problem's variables declared, in the order of
     /// [`Problem::n_vars`]: P̂, Γ̂_l, the slacks of the conditions, the
     /// gain bound's p̂; then t̂ (max margin) or c and κ (min gain).
-    fn builder(&self, max_margin: bool, min_gain: bool) -> SdpBuilder {
+    fn builder(&self, objective: Objective) -> SdpBuilder {
         let mut out = SdpBuilder::new();
         out.sym_var("P", self.nx);
         out.vars("Gamma", self.nv * self.nx * self.ny);
@@ -864,359 +464,54 @@ impl<'m> Problem<'m> {
         if self.max_gain.is_some() {
             out.var("gain_bound");
         }
-        if max_margin {
+        if objective == Objective::MaxMargin {
             out.var("margin");
         }
-        if min_gain {
+        if objective == Objective::MinGain {
             out.var("homogeniser");
             out.var("gain_norm");
         }
         out
     }
 
-    /// The global observer's normalisation in place of the region rows
-    /// (its conditions are homogeneous in (P, Γ_l)): P̂ − I ⪰ 0; for the
-    /// max-margin objective P̂ − εI ⪰ 0 and I − P̂ ⪰ 0 instead, which bound
-    /// P̂ so that the optimal margin measures the depth of the point rather
-    /// than the size of P̂ (any strictly feasible (P̂, Γ̂) scaled into
-    /// εI ⪯ P̂ ⪯ I is feasible for it).
-    fn push_global_normalisation(&self, out: &mut SdpBuilder, eps: f64, max_margin: bool) {
-        if !max_margin {
-            self.push_s1(out, 1.0);
-            return;
-        }
-        self.push_s1(out, eps);
-        // I − P̂ ⪰ 0: s = svec(I) − svec(P̂) ⇒ b = svec(I), A = svec(E_v).
-        let blk = out.psd(self.nx, -1.0);
-        self.push_sym_var(out, &blk, 0, 1.0);
-    }
-
-    /// The global observer's normalisation for the noise objective: P ⪰ cI
-    /// in the model's own coordinates (P̂_z ⪰ cD² in balanced ones, P =
-    /// D⁻¹P̂_zD⁻¹). The noise block is homogeneous in (P, Γ_l, σ), so with
-    /// λ_min(P) ≥ 1 the smallest σ is the smallest certified error bound
-    /// √(σ/(α λ_min(P))) per unit noise (docs/method.md §17).
-    fn push_global_noise_normalisation(&self, out: &mut SdpBuilder) {
-        let blk = out.psd(self.nx, 0.0);
-        self.push_sym_var(out, &blk, 0, -1.0);
-        // The blocks are homogeneous, so P ⪰ cI for any c > 0 gives the
-        // same smallest bound; c = 1/max_i d_i² keeps P̂_z ⪰ D²c ⪯ I.
-        let dmax = self.scaling.as_ref().map_or(1.0, |s| s.max());
-        for d in 0..self.nx {
-            let di = self.scaling.as_ref().map_or(1.0, |s| s.d[d]) / dmax;
-            out.rhs(&blk, d, d, -di * di / self.scale);
-        }
-    }
-
-    /// `max_gain = G`: P̂ − p̂I ⪰ 0, then [G'p̂ I_ny, Γ̂_lᵀ; Γ̂_l, G'p̂ I_nx] ⪰ 0
-    /// per θ-vertex (see [`Problem::with_max_gain`]).
-    fn push_gain_bound(&self, out: &mut SdpBuilder, g: f64) {
-        let nx = self.nx;
-        let pvar = self.gain_bound_var();
-        // P̂ − p̂ I ⪰ 0.
-        let blk = out.psd(nx, 0.0);
-        self.push_sym_var(out, &blk, 0, -1.0);
-        for d in 0..nx {
-            out.entry(&blk, d, d, pvar, 1.0);
-        }
-        let g = g * (1.0 - 1e-4);
-        for l in 0..self.nv {
-            self.push_gain_block(out, l, pvar, g);
-        }
-    }
-
-    /// [w·v I_ny, Γ̂_lᵀ; Γ̂_l, w·v I_nx] ⪰ 0 for the scalar variable v:
-    /// s = −A x with A holding −w on the diagonal (column v) and −√2 at
-    /// the Γ̂_l entries (row ny + r, column c < ny: packed at (c, ny + r)).
-    fn push_gain_block(&self, out: &mut SdpBuilder, l: usize, v: usize, w: f64) {
-        let (nx, ny) = (self.nx, self.ny);
-        let blk = out.psd(nx + ny, 0.0);
-        for k in 0..nx + ny {
-            out.entry(&blk, k, k, v, -w);
-        }
-        for r in 0..nx {
-            for c in 0..ny {
-                out.entry(&blk, c, ny + r, self.gvar(l, r, c), -1.0);
-            }
-        }
-    }
-
-    /// [`Objective::MinGain`]: every row so far becomes homogeneous (its
-    /// right-hand side b moves into the column of c: A x − c b + s = 0),
-    /// then c ≥ 0, P̂ − W ⪰ 0 and the blocks ‖W^{-1/2} Γ̂_l‖₂ ≤ κ, with
-    /// W = I or, given a usable `metric` P_ref (a certified point's P, in
-    /// the problem's coordinates), W = P_ref/λ_min(P_ref) ⪰ I: then
-    /// ‖P̂⁻¹Γ̂‖₂ ≤ ‖W^{-1/2}‖ ‖W^{-1/2}Γ̂‖₂ ≤ κ as well (Γ̂ᵀP̂⁻¹Γ̂ ⪯ Γ̂ᵀW⁻¹Γ̂),
-    /// and the normalisation follows the shape of a P that certifies,
-    /// where P̂ ⪰ I alone leaves the solver a badly scaled problem.
-    fn homogenise_for_min_gain(&self, out: &mut SdpBuilder, metric: Option<&DMatrix<f64>>) {
-        let (nx, ny) = (self.nx, self.ny);
-        let (cvar, kvar) = (self.n_vars(), self.n_vars() + 1);
-        out.homogenise(cvar);
-        // c ≥ 0 (s = c).
-        let row = out.nonneg(1);
-        out.a(row, cvar, -1.0);
-        let w = metric.and_then(|m| normalised_metric(m, nx));
-        let Some((w, w_inv_half)) = w else {
-            // P̂ − I ⪰ 0, ‖Γ̂_l‖₂ ≤ κ.
-            self.push_s1(out, 1.0);
-            for l in 0..self.nv {
-                self.push_gain_block(out, l, kvar, 1.0);
-            }
-            return;
-        };
-        // P̂ − W ⪰ 0: s = svec(P̂) − svec(W).
-        let blk = out.psd(nx, 0.0);
-        for c in 0..nx {
-            for r in 0..=c {
-                out.rhs(&blk, r, c, -w[(r, c)]);
-                out.entry(&blk, r, c, svec_index(r, c), -1.0);
-            }
-        }
-        // [κ I, Γ̂_lᵀ W^{-1/2}; W^{-1/2} Γ̂_l, κ I] ⪰ 0.
-        let d = nx + ny;
-        for l in 0..self.nv {
-            let blk = out.psd(d, 0.0);
-            for k in 0..d {
-                out.entry(&blk, k, k, kvar, -1.0);
-            }
-            for k in 0..nx {
-                for c in 0..ny {
-                    for r in 0..nx {
-                        out.entry(&blk, c, ny + r, self.gvar(l, k, c), -w_inv_half[(r, k)]);
-                    }
-                }
-            }
-        }
-    }
-
-    /// svec(W)·κ, the coefficients of the max-margin column t̂ in a rate
-    /// block (upper triangle, √2 off the diagonal), W of [`Problem::margin_metric`].
-    fn margin_column(&self, metric: Option<&DMatrix<f64>>, kappa: f64) -> Vec<f64> {
-        let nx = self.nx;
-        let wm = self.margin_metric(metric);
-        let mut w = vec![0.0; svec_len(nx)];
-        for c in 0..nx {
-            for r in 0..=c {
-                w[svec_index(r, c)] = svec_scale(r, c) * wm[(r, c)] * kappa;
-            }
-        }
-        w
-    }
-
-    /// W of the max-margin objective: P_ref/λ_max(P_ref) for a usable
-    /// `metric`, else I.
-    fn margin_metric(&self, metric: Option<&DMatrix<f64>>) -> DMatrix<f64> {
-        let nx = self.nx;
-        let m = metric
-            .filter(|m| m.shape() == (nx, nx) && m.iter().all(|v| v.is_finite()))
-            .map(|m| (m + m.transpose()) * 0.5);
-        let lmax = m
-            .as_ref()
-            .map(|m| m.clone().symmetric_eigenvalues().max())
-            .unwrap_or(0.0);
-        match m {
-            Some(m) if lmax > 0.0 => m / lmax,
-            _ => DMatrix::identity(nx, nx),
-        }
-    }
-
-    /// (S1): P̂ − εI ⪰ 0: s = svec(P̂) − ε svec(I) ⇒ b = −ε svec(I), A = −svec(E_v).
-    fn push_s1(&self, out: &mut SdpBuilder, eps: f64) {
-        let blk = out.psd(self.nx, eps);
-        self.push_sym_var(out, &blk, 0, -1.0);
-    }
-
-    /// The region vertices: (S2) 1 − ε − x̂ᵀP̂x̂ ≥ 0 per vertex (one
-    /// nonnegative cone), or (13) [1 x̂ᵀ; x̂ P̂] − εI ⪰ 0 per vertex.
-    fn push_region_vertices(&self, out: &mut SdpBuilder, eps: f64) {
-        let nx = self.nx;
-        match self.set.vertex_form() {
-            RegionForm::VertexQuadratic => {
-                // 1 − ε − x̂ᵀP̂x̂ ≥ 0: b = 1 − ε, A[v] = x̂ᵀ E_v x̂.
-                let row0 = out.nonneg(self.xs_hat.len());
-                for (i, x) in self.xs_hat.iter().enumerate() {
-                    out.set_b(row0 + i, 1.0 - eps);
-                    for c in 0..nx {
-                        for r in 0..=c {
-                            let v = if r == c {
-                                x[r] * x[r]
-                            } else {
-                                2.0 * x[r] * x[c]
-                            };
-                            out.a(row0 + i, svec_index(r, c), v);
-                        }
-                    }
-                }
-            }
-            RegionForm::VertexSchur => {
-                // [1 x̂ᵀ; x̂ P̂] − εI ⪰ 0 (indices: 0 = the scalar, 1.. = P̂).
-                for x in &self.xs_hat {
-                    let blk = out.psd(nx + 1, eps);
-                    out.rhs(&blk, 0, 0, 1.0 - eps);
-                    for c in 0..nx {
-                        out.rhs(&blk, 0, c + 1, x[c]);
-                    }
-                    for c in 0..nx {
-                        for r in 0..=c {
-                            out.entry(&blk, r + 1, c + 1, svec_index(r, c), -1.0);
-                        }
-                    }
-                }
-            }
-            _ => unreachable!("vertex form"),
-        }
-    }
-
-    /// The region facets: (S3) [1 γâₖᵀ; γâₖ P̂] − εI ⪰ 0 or (14)
-    /// [1 γâₖᵀP̂; γP̂âₖ P̂] − εI ⪰ 0 per facet.
-    fn push_region_facets(&self, out: &mut SdpBuilder, gamma: f64, eps: f64) {
-        let nx = self.nx;
-        let facet_form = self.set.facet_form();
-        for a in &self.as_hat {
-            let blk = out.psd(nx + 1, eps);
-            out.rhs(&blk, 0, 0, 1.0 - eps);
-            match facet_form {
-                RegionForm::FacetSchur => {
-                    for c in 0..nx {
-                        out.rhs(&blk, 0, c + 1, gamma * a[c]);
-                    }
-                    for c in 0..nx {
-                        for r in 0..=c {
-                            out.entry(&blk, r + 1, c + 1, svec_index(r, c), -1.0);
-                        }
-                    }
-                }
-                RegionForm::FacetSchurP => {
-                    // Off-diagonal block row 0, column m+1: γ (P̂ â)_m, linear in P̂.
-                    // ∂(P̂â)_m/∂P̂_rc = [m==r] a_c + [m==c] a_r (r≠c); [m==r] a_r (r==c).
-                    for c in 0..nx {
-                        for r in 0..=c {
-                            let v = svec_index(r, c);
-                            // Entries (0, m+1) for m ∈ {r, c}, and (r+1, c+1).
-                            if r == c {
-                                out.entry(&blk, 0, r + 1, v, -gamma * a[r]);
-                            } else {
-                                out.entry(&blk, 0, r + 1, v, -gamma * a[c]);
-                                out.entry(&blk, 0, c + 1, v, -gamma * a[r]);
-                            }
-                            out.entry(&blk, r + 1, c + 1, v, -1.0);
-                        }
-                    }
-                }
-                _ => unreachable!("facet form"),
-            }
-        }
-    }
-
-    /// Full rate family: −He{P̂K − Γ̂H} − ε κ I ⪰ 0 per (combination, i, j):
-    /// b = −ε_rate svec(I), A[v] = svec(∂F/∂v).
-    fn push_rate_full(&self, out: &mut SdpBuilder, alpha: f64, gamma: f64, rate: &RateMargins) {
-        let p_reg = self.xs_hat.len();
-        let mut df = vec![0.0; self.nx * self.nx];
-        for c in 0..self.combos.len() {
-            if self.linear[c] {
-                // N and M vanish: every pair (i, j) has the same block.
-                let (k, hs) = self.linear_kh(alpha, gamma, c);
-                let blk = out.psd(self.nx, rate.eps);
-                self.push_he_block(out, &blk, &k, &hs, &mut df);
-                rate.push_column(out, &blk);
-                continue;
-            }
-            for i in 0..p_reg {
-                for j in 0..p_reg {
-                    let (k, hs) = self.rate_kh(alpha, gamma, c, i, j);
-                    let blk = out.psd(self.nx, rate.eps);
-                    self.push_he_block(out, &blk, &k, &hs, &mut df);
-                    rate.push_column(out, &blk);
-                }
-            }
-        }
-    }
-
-    /// Decoupled rate family, per combination c: F0_c + G_c(x_i) + Ẑ_c ⪯ −ε κ I
-    /// (the margin, and the max-margin column, sit here), then
-    /// H_c(x_j) − Ẑ_c ⪯ 0.
-    fn push_rate_decoupled(
-        &self,
-        out: &mut SdpBuilder,
-        alpha: f64,
-        gamma: f64,
-        rate: &RateMargins,
-    ) {
-        let p_reg = self.xs_hat.len();
-        let mut df = vec![0.0; self.nx * self.nx];
-        for c in 0..self.combos.len() {
-            for i in 0..p_reg {
-                let (k, hs) = self.decoupled_e_kh(alpha, gamma, c, i);
-                let blk = out.psd(self.nx, rate.eps);
-                self.push_he_block(out, &blk, &k, &hs, &mut df);
-                self.push_sym_var(out, &blk, self.zvar(c, 0), 1.0);
-                rate.push_column(out, &blk);
-            }
-            for j in 0..p_reg {
-                let (k, hs) = self.decoupled_x_kh(c, j);
-                let blk = out.psd(self.nx, 0.0);
-                self.push_he_block(out, &blk, &k, &hs, &mut df);
-                self.push_sym_var(out, &blk, self.zvar(c, 0), -1.0);
-            }
-        }
-    }
-
-    /// The columns of ±Ŝ in an nx-block, Ŝ a symmetric variable whose upper
-    /// triangle starts at variable `first`: ∂(±Ŝ)/∂Ŝ_rc = ±E_rc, svec entry
-    /// ±1 (diagonal) or ±√2.
-    fn push_sym_var(&self, out: &mut SdpBuilder, blk: &Psd, first: usize, sign: f64) {
-        for c in 0..self.nx {
-            for r in 0..=c {
-                out.entry(blk, r, c, first + svec_index(r, c), sign);
-            }
-        }
-    }
-
-    /// The objective: ½ w Σ Γ̂² (diagonal on the Γ̂ columns) for
-    /// [`Objective::Gains`], −t̂ for [`Objective::MaxMargin`], κ for
-    /// [`Objective::MinGain`].
-    fn objective(&self, out: &mut SdpBuilder, settings: &Settings, objective: Objective) {
-        if objective == Objective::Gains && settings.gain_weight > 0.0 {
-            for v in self.np..self.gains_end() {
-                out.quadratic(v, settings.gain_weight);
-            }
-        }
-        match objective {
-            Objective::MaxMargin => out.cost(self.n_vars(), -1.0),
-            Objective::MinGain => out.cost(self.n_vars() + 1, 1.0),
-            Objective::Feasibility | Objective::Gains => {}
-        }
-    }
-
     /// Unpacks a solution vector into (P, Γ_l) in model units.
     pub fn unpack(&self, x: &[f64]) -> (DMatrix<f64>, Vec<DMatrix<f64>>) {
-        let nx = self.nx;
         let s = self.scale;
-        let mut p = DMatrix::zeros(nx, nx);
-        for c in 0..nx {
+        let gammas = (0..self.nv)
+            .map(|l| DMatrix::from_fn(self.nx, self.ny, |r, c| s * x[self.gvar(l, r, c)]))
+            .collect();
+        (self.sym_at(x, 0), gammas)
+    }
+
+    /// The symmetric nx × nx matrix (model units) whose scaled upper
+    /// triangle starts at variable `first` of `x`.
+    fn sym_at(&self, x: &[f64], first: usize) -> DMatrix<f64> {
+        let mut m = DMatrix::zeros(self.nx, self.nx);
+        for c in 0..self.nx {
             for r in 0..=c {
-                let v = s * x[svec_index(r, c)];
-                p[(r, c)] = v;
-                p[(c, r)] = v;
+                let v = self.scale * x[first + svec_index(r, c)];
+                m[(r, c)] = v;
+                m[(c, r)] = v;
             }
         }
-        let gammas = (0..self.nv)
-            .map(|l| DMatrix::from_fn(nx, self.ny, |r, c| s * x[self.gvar(l, r, c)]))
-            .collect();
-        (p, gammas)
+        m
+    }
+
+    /// Writes the upper triangle of `m` (model units) scaled into `x` from
+    /// variable `first` on (the inverse of [`Problem::sym_at`]).
+    fn put_sym(&self, x: &mut [f64], first: usize, m: &DMatrix<f64>) {
+        for c in 0..self.nx {
+            for r in 0..=c {
+                x[first + svec_index(r, c)] = m[(r, c)] / self.scale;
+            }
+        }
     }
 
     /// Packs (P, Γ_l) in model units into a scaled variable vector (the
     /// inverse of [`Problem::unpack`]; used by tests).
     pub fn pack(&self, p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Vec<f64> {
         let mut x = vec![0.0; self.n_vars()];
-        for c in 0..self.nx {
-            for r in 0..=c {
-                x[svec_index(r, c)] = p[(r, c)] / self.scale;
-            }
-        }
+        self.put_sym(&mut x, 0, p);
         for (l, g) in gammas.iter().enumerate() {
             for r in 0..self.nx {
                 for c in 0..self.ny {
@@ -1233,19 +528,8 @@ impl<'m> Problem<'m> {
         if self.conditions == Conditions::Full {
             return Vec::new();
         }
-        let nx = self.nx;
         (0..self.combos.len())
-            .map(|l| {
-                let mut z = DMatrix::zeros(nx, nx);
-                for c in 0..nx {
-                    for r in 0..=c {
-                        let v = self.scale * x[self.zvar(l, svec_index(r, c))];
-                        z[(r, c)] = v;
-                        z[(c, r)] = v;
-                    }
-                }
-                z
-            })
+            .map(|l| self.sym_at(x, self.zvar(l, 0)))
             .collect()
     }
 
@@ -1258,121 +542,7 @@ impl<'m> Problem<'m> {
             "only decoupled problems have slacks"
         );
         for (l, zl) in z.iter().enumerate() {
-            for c in 0..self.nx {
-                for r in 0..=c {
-                    x[self.zvar(l, svec_index(r, c))] = zl[(r, c)] / self.scale;
-                }
-            }
+            self.put_sym(x, self.zvar(l, 0), zl);
         }
-    }
-
-    /// Assembles and solves at (α, γ).
-    pub fn solve(
-        &self,
-        alpha: f64,
-        gamma: f64,
-        settings: &Settings,
-        objective: Objective,
-    ) -> Result<SolveResult, SolveError> {
-        self.solve_with_metric(alpha, gamma, settings, objective, None)
-    }
-
-    /// As [`Problem::solve`] with the [`Objective::MaxMargin`] metric P_ref.
-    pub fn solve_with_metric(
-        &self,
-        alpha: f64,
-        gamma: f64,
-        settings: &Settings,
-        objective: Objective,
-        metric: Option<&DMatrix<f64>>,
-    ) -> Result<SolveResult, SolveError> {
-        ensure_lapack();
-        // The global observer's conditions bound P̂ from below only (P̂ ⪰
-        // I): ½ Σ‖Γ̂_l‖² may be approached only as P̂ grows without bound
-        // along some direction, and the solver does not stop. Its gain
-        // objective is the min-gain one (homogeneous, normalised, bounded).
-        // The min-gain point lies on the boundary of the rate conditions
-        // (its margin ε κ is tiny against gains of the size this objective
-        // often has to accept), so it is solved at α(1 + GLOBAL_BACKOFF):
-        // at α it then holds with the margin of that step, γ-free.
-        let (objective, alpha) = if self.global && objective == Objective::Gains {
-            (Objective::MinGain, alpha * (1.0 + GLOBAL_BACKOFF))
-        } else {
-            (objective, alpha)
-        };
-        let t0 = Instant::now();
-        let metric_z = match (&self.scaling, metric) {
-            (Some(s), Some(m)) if m.shape() == (self.nx, self.nx) => {
-                Some(DMatrix::from_fn(self.nx, self.nx, |r, c| {
-                    m[(r, c)] * s.d[r] * s.d[c]
-                }))
-            }
-            _ => None,
-        };
-        let metric = metric_z.as_ref().or(metric);
-        let prob = self.assemble_with_metric(alpha, gamma, settings, objective, metric);
-        let assembly_seconds = t0.elapsed().as_secs_f64();
-        let mut cs = clarabel_settings(settings);
-        if objective == Objective::MaxMargin {
-            // Search steps only need a good interior point: the certificate
-            // and the capacity are computed independently of the solver's
-            // accuracy, and these problems are always feasible.
-            cs.tol_gap_abs = cs.tol_gap_abs.max(settings.search_tol);
-            cs.tol_gap_rel = cs.tol_gap_rel.max(settings.search_tol);
-            cs.tol_feas = cs.tol_feas.max(settings.search_tol);
-        }
-        let mut run = run_sdp(prob, cs)?;
-        let mut margin = f64::NAN;
-        if objective == Objective::MinGain {
-            // Divide the homogenised point by c (no point without c > 0).
-            let nv = self.n_vars();
-            run.x = run.x.take().and_then(|x| {
-                let c = x[nv];
-                (c.is_finite() && c > 0.0).then(|| {
-                    margin = x[nv + 1];
-                    x[..nv].iter().map(|v| v / c).collect()
-                })
-            });
-        }
-        let (p, gammas, cube) = match &run.x {
-            Some(x) => {
-                let (p, g) = self.unpack(x);
-                (Some(p), g, self.unpack_cube(x))
-            }
-            None => (None, Vec::new(), None),
-        };
-        if let Some(x) = run.x.as_ref().filter(|_| objective == Objective::MaxMargin) {
-            margin = x[self.n_vars()];
-        }
-        let (p, gammas, cube) = match &self.scaling {
-            // Back to the user's coordinates.
-            Some(s) => (
-                p.map(|p| s.p_from_z(&p)),
-                gammas.iter().map(|g| s.gamma_from_z(g)).collect(),
-                cube.map(|c| crate::conditions::cube::CubeSlacks {
-                    y: c.y
-                        .iter()
-                        .map(|r| r.iter().map(|m| s.p_from_z(m)).collect())
-                        .collect(),
-                    x: c.x
-                        .iter()
-                        .map(|r| r.iter().map(|m| s.p_from_z(m)).collect())
-                        .collect(),
-                    d: c.d,
-                }),
-            ),
-            None => (p, gammas, cube),
-        };
-        Ok(SolveResult {
-            status: run.status,
-            detail: run.detail,
-            iterations: run.iterations,
-            solve_seconds: run.solve_seconds,
-            assembly_seconds,
-            p,
-            gammas,
-            margin,
-            cube,
-        })
     }
 }

@@ -2,9 +2,11 @@
 //! block family (docs/method.md, "Noise and disturbances"), in the
 //! variables (P̂, Γ̂_l, σ̂).
 
-use super::{Problem, RateFamily};
+use super::blocks::{p_units, RateFamily};
+use super::Problem;
 use crate::backend::builder::SdpBuilder;
 use crate::backend::{clarabel_settings, run_sdp, Status};
+use crate::conditions::Combo;
 use crate::error::SolveError;
 use crate::linalg::svec::svec_len;
 use crate::lmi::Objective;
@@ -48,15 +50,10 @@ pub(crate) fn solve_noise_sdp(
     );
     let assembly_seconds = t0.elapsed().as_secs_f64();
     let run = run_sdp(sdp, clarabel_settings(settings))?;
-    let point = run.x.as_ref().map(|x| {
+    let point = run.x.as_ref().and_then(|x| {
         let (p, g) = prob.unpack(&x[..prob.n_vars()]);
-        match prob.scaling() {
-            Some(s) => (
-                s.p_from_z(&p),
-                g.iter().map(|g| s.gamma_from_z(g)).collect(),
-            ),
-            None => (p, g),
-        }
+        let (p, g, _) = prob.in_user_coordinates((Some(p), g, None));
+        p.map(|p| (p, g))
     });
     Ok(NoiseSolve {
         status: run.status,
@@ -77,29 +74,88 @@ pub(super) struct ComboNoise {
     pub(super) wsum: f64,
 }
 
+impl ComboNoise {
+    /// The data of `combo` on `channels` (None: no channels, B_w empty)
+    /// for nx states and nv θ-vertices.
+    pub(super) fn of(
+        combo: &Combo,
+        channels: Option<&NoiseChannels>,
+        nx: usize,
+        nv: usize,
+    ) -> Self {
+        let nw = channels.map_or(0, NoiseChannels::n_w);
+        let mut cn = ComboNoise {
+            bw: DMatrix::zeros(nx, nw),
+            wl: vec![0.0; nv],
+            wsum: combo.weight(),
+        };
+        for &(l, _, w) in &combo.terms {
+            if let Some(bb) = channels.and_then(|ch| ch.b_w.as_ref()) {
+                cn.bw += &bb[l] * w;
+            }
+            cn.wl[l] += w;
+        }
+        cn
+    }
+}
+
+impl Problem<'_> {
+    /// The noise block family in place of the rate family: one block per
+    /// rate combination and region-vertex pair (see [`NoiseBlock`]), with
+    /// margin `eps` (ε κ) and σ̂ the variable `svar`.
+    pub(super) fn push_rate_noise(
+        &self,
+        out: &mut SdpBuilder,
+        (alpha, gamma): (f64, f64),
+        channels: &NoiseChannels,
+        svar: usize,
+        eps: f64,
+    ) {
+        let outs = channels.noisy_outputs(self.ny);
+        let block = NoiseBlock {
+            nx: self.nx,
+            ny: self.ny,
+            nw: channels.n_w(),
+            outs: &outs,
+            svar,
+            gamma,
+            eps,
+        };
+        let cn: Vec<ComboNoise> = self
+            .combos
+            .iter()
+            .map(|combo| ComboNoise::of(combo, Some(channels), self.nx, self.nv))
+            .collect();
+        for site in self.rate_sites(false) {
+            let (kk, hs) = self.site_kh(alpha, gamma, site);
+            block.push(out, (&kk, &hs), &cn[site.c], |l, r, c| self.gvar(l, r, c));
+        }
+    }
+}
+
 /// One noise block of the SDP, in the variables (P̂, Γ̂_l, σ̂): the rate
 /// block He{P̂K − Γ̂H} bordered by the disturbance columns γP̂B_w and the
 /// noise columns −γΓ̂E, with −γσ̂I in the bottom-right corner, ⪯ −εI.
-pub(super) struct NoiseBlock<'a> {
-    pub(super) nx: usize,
-    pub(super) ny: usize,
-    pub(super) nw: usize,
-    pub(super) outs: &'a [usize],
-    pub(super) svar: usize,
-    pub(super) gamma: f64,
-    pub(super) eps: f64,
+struct NoiseBlock<'a> {
+    nx: usize,
+    ny: usize,
+    nw: usize,
+    outs: &'a [usize],
+    svar: usize,
+    gamma: f64,
+    eps: f64,
 }
 
 impl NoiseBlock<'_> {
     /// Side of the block: states, disturbances, noisy outputs.
-    pub(super) fn size(&self) -> usize {
+    fn size(&self) -> usize {
         self.nx + self.nw + self.outs.len()
     }
 
     /// Appends the block of one (combination, region-vertex pair): `kk` and
-    /// `hs` from [`Problem::rate_kh`], the combination's data `cn`, the
+    /// `hs` from [`Problem::site_kh`], the combination's data `cn`, the
     /// index of each Γ̂_l entry from `gvar`.
-    pub(super) fn push(
+    fn push(
         &self,
         out: &mut SdpBuilder,
         (kk, hs): (&DMatrix<f64>, &[(usize, DMatrix<f64>)]),
@@ -110,22 +166,17 @@ impl NoiseBlock<'_> {
         let blk = out.psd(nb, self.eps);
         let mut coef = DMatrix::<f64>::zeros(nb, nb);
         // P̂ variables: top-left He{E K}, top-right γ E B_w.
-        for pc in 0..nx {
-            for pr in 0..=pc {
-                coef.fill(0.0);
-                let mut e = DMatrix::<f64>::zeros(nx, nx);
-                e[(pr, pc)] = 1.0;
-                e[(pc, pr)] = 1.0;
-                let ek = &e * kk;
-                let he = &ek + ek.transpose();
-                coef.view_mut((0, 0), (nx, nx)).copy_from(&he);
-                if nw > 0 {
-                    let eb = &e * &cn.bw * gamma;
-                    coef.view_mut((0, nx), (nx, nw)).copy_from(&eb);
-                    coef.view_mut((nx, 0), (nw, nx)).copy_from(&eb.transpose());
-                }
-                out.matrix(&blk, crate::linalg::svec::svec_index(pr, pc), &coef, 1.0);
+        for (v, e) in p_units(nx) {
+            coef.fill(0.0);
+            let ek = &e * kk;
+            let he = &ek + ek.transpose();
+            coef.view_mut((0, 0), (nx, nx)).copy_from(&he);
+            if nw > 0 {
+                let eb = &e * &cn.bw * gamma;
+                coef.view_mut((0, nx), (nx, nw)).copy_from(&eb);
+                coef.view_mut((nx, 0), (nw, nx)).copy_from(&eb.transpose());
             }
+            out.matrix(&blk, v, &coef, 1.0);
         }
         // Γ̂_l variables: top-left −He{D H_l}, noise columns −γ w_l D E.
         for (l, &wl_l) in cn.wl.iter().enumerate() {

@@ -3,10 +3,10 @@
 //! combination whose N and M vanish), written through the one builder
 //! (docs/method.md §18, "Pole regions").
 
+use super::blocks::{p_units, sites};
 use super::Problem;
 use crate::backend::builder::{Psd, SdpBuilder};
 use crate::conditions::poles::{blocks, data_size};
-use crate::linalg::svec::svec_index;
 use nalgebra::DMatrix;
 use qpv_dsl::PoleRegion;
 
@@ -17,10 +17,10 @@ use qpv_dsl::PoleRegion;
 /// certificate, which checks the region as written, sees it inside. Small
 /// enough not to move a disk tangent to the imaginary axis off the decay
 /// rates searched (its right edge moves by step·radius).
-pub const POLE_BACKOFF: f64 = 1e-6;
+pub(crate) const POLE_BACKOFF: f64 = 1e-6;
 
 /// `region` tightened by [`POLE_BACKOFF`] (see there).
-pub fn tightened(region: &PoleRegion) -> PoleRegion {
+pub(crate) fn tightened(region: &PoleRegion) -> PoleRegion {
     let s = POLE_BACKOFF;
     match *region {
         PoleRegion::Disk { centre, radius } => PoleRegion::Disk {
@@ -54,12 +54,6 @@ impl<'m> Problem<'m> {
         &self.poles
     }
 
-    /// Number of pole-region blocks assembled.
-    pub fn n_pole_blocks(&self) -> usize {
-        let per: usize = self.poles.iter().map(PoleRegion::n_blocks).sum();
-        per * self.n_full_rate_blocks()
-    }
-
     /// The pole-region blocks at γ (see the module documentation) of the
     /// tightened regions ([`tightened`]), each −B − ε κ_D I ⪰ 0 with κ_D
     /// the size of the rate data and the region's constants; with `margin`
@@ -69,20 +63,14 @@ impl<'m> Problem<'m> {
         if self.poles.is_empty() {
             return;
         }
+        // One site for a combination whose N and M vanish (or without
+        // region vertices): its blocks are the same at every pair.
         let np = self.xs_hat.len();
-        for c in 0..self.combos.len() {
-            let g = gamma * self.combos[c].weight();
-            if self.linear[c] || np == 0 {
-                let (k, hs) = self.linear_kh(0.0, gamma, c);
-                self.push_pole_pair(out, (&k, &hs), (g, gamma), eps, max_margin);
-                continue;
-            }
-            for i in 0..np {
-                for j in 0..np {
-                    let (k, hs) = self.rate_kh(0.0, gamma, c, i, j);
-                    self.push_pole_pair(out, (&k, &hs), (g, gamma), eps, max_margin);
-                }
-            }
+        let sites = sites(self.combos.len(), np, |c| self.linear[c] || np == 0);
+        for site in sites {
+            let g = gamma * self.combos[site.c].weight();
+            let (k, hs) = self.site_kh(0.0, gamma, site);
+            self.push_pole_pair(out, (&k, &hs), (g, gamma), eps, max_margin);
         }
     }
 
@@ -111,14 +99,8 @@ impl<'m> Problem<'m> {
                     out.matrix(blk, var, &m, 1.0);
                 }
             };
-            for pc in 0..nx {
-                for pr in 0..=pc {
-                    let mut e = DMatrix::zeros(nx, nx);
-                    e[(pr, pc)] = 1.0;
-                    e[(pc, pr)] = 1.0;
-                    let x = &e * k;
-                    push(out, svec_index(pr, pc), &x, &e);
-                }
+            for (v, e) in p_units(nx) {
+                push(out, v, &(&e * k), &e);
             }
             let zero = DMatrix::zeros(nx, nx);
             for (l, h) in hs {

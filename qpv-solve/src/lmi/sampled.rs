@@ -5,7 +5,7 @@
 //! at the pair (i, j) is [W(1 − hα)P, Mᵀ; M, WP] ⪰ 0 with
 //! M = WP + h Σ_t w_t Φ_t, Φ = PA_l − Γ_l C_m + (P R_{l,i,j} − Γ_l S_{m,i,j})/γ.
 //! In the scaled variables (P = sP̂, Γ_l = sΓ̂_l, divided by s) and in the
-//! notation of [`Problem::rate_kh`] at α = 0 (K₀ = Σ_t w_t(γA_l + R),
+//! notation of [`Problem::site_kh`] at α = 0 (K₀ = Σ_t w_t(γA_l + R),
 //! H_l = Σ_t w_t(γC_m + S)), γΦ/s = P̂K₀ − Σ_l Γ̂_l H_l, so
 //!
 //! ```text
@@ -21,10 +21,12 @@
 //! [W(1 − hα)P̂ − t̂ c Ŵ, Mᵀ; M, WP̂] ⪰ 0 with c = t/(1 + t), Ŵ the metric
 //! of [`super::Objective::MaxMargin`]: t̂ > 0 leaves room for a larger α.
 
-use super::{Problem, RateMargins};
+use super::blocks::{p_units, RateMargins};
+use super::noise::ComboNoise;
+use super::Problem;
 use crate::backend::builder::{Psd, SdpBuilder};
 use crate::error::SolveError;
-use crate::linalg::svec::svec_index;
+use crate::model::noise::NoiseChannels;
 use nalgebra::DMatrix;
 use qpv_dsl::Conditions;
 
@@ -81,61 +83,93 @@ impl Problem<'_> {
         }
     }
 
-    /// The discrete family: one PSD(2nx) block per (combination, i, j).
+    /// The discrete family: one block per (combination, i, j), PSD(2nx)
+    /// [W(1 − hα)P̂, Mᵀ; M, WP̂] − δI ⪰ 0 (the max-margin column, if any, on
+    /// its top-left block), or with `noise` the PSD(2nx + k) noise block
+    /// [W(1 − hα)P̂, 0, Mᵀ; 0, Wσ̂I, √h Ĝᵀ; M, √h Ĝ, WP̂] − δI ⪰ 0 with
+    /// Ĝ = [P̂ B_w, −Σ_l w_l Γ̂_l E] (the model-unit block divided by s;
+    /// σ̂ = σ/s; docs/method.md §16, "Noise at the sample period").
     pub(super) fn push_rate_sampled(
         &self,
         out: &mut SdpBuilder,
-        alpha: f64,
-        gamma: f64,
-        h: f64,
+        (alpha, gamma, h): (f64, f64, f64),
         rate: &RateMargins,
+        noise: Option<&SampledNoise<'_>>,
     ) {
         let nx = self.nx;
-        let d = 2 * nx;
+        let outs = noise.map_or(Vec::new(), |n| n.channels.noisy_outputs(self.ny));
+        let nw = noise.map_or(0, |n| n.channels.n_w());
+        let k = nw + outs.len();
+        let (d, x2, sh) = (2 * nx + k, nx + k, h.sqrt());
         let kappa = self.rate_scale(alpha, gamma);
         let c = self.sampled_factor(alpha, gamma, h);
         // rate.eps is ε κ (0 for the max-margin objective).
         let delta = self.sampled_margin(rate.eps, alpha, gamma, h);
-        let p_reg = self.xs_hat.len();
+        let cn: Vec<ComboNoise> = self
+            .combos
+            .iter()
+            .map(|combo| ComboNoise::of(combo, noise.map(|n| n.channels), nx, self.nv))
+            .collect();
         let mut dm = DMatrix::<f64>::zeros(d, d);
-        for ci in 0..self.combos.len() {
-            let w = self.combos[ci].weight();
-            for i in 0..p_reg {
-                for j in 0..p_reg {
-                    let (k0, hs) = self.rate_kh(0.0, gamma, ci, i, j);
-                    let blk = out.psd(d, delta);
-                    // P̂ columns: −∂block/∂P̂_v.
-                    let at = PColumns {
-                        w,
-                        k0: &k0,
-                        alpha,
-                        gamma,
-                        h,
-                        x2: nx,
-                    };
-                    self.push_p_columns(out, &blk, &mut dm, &at, |_, _| {});
-                    // Γ̂_l columns: ∂M/∂Γ̂_l[gr, gc] = −(h/γ) E_{gr,gc} H_l.
-                    for (l, hl) in &hs {
-                        for gr in 0..nx {
-                            for gc in 0..self.ny {
-                                dm.fill(0.0);
-                                for b in 0..nx {
-                                    let v = -(h / gamma) * hl[(gc, b)];
-                                    dm[(nx + gr, b)] = v;
-                                    dm[(b, nx + gr)] = v;
-                                }
-                                out.matrix(&blk, self.gvar(*l, gr, gc), &dm, -1.0);
+        for site in self.rate_sites(false) {
+            let cn = &cn[site.c];
+            let (k0, hs) = self.site_kh(0.0, gamma, site);
+            let blk = out.psd(d, delta);
+            let at = PColumns {
+                w: cn.wsum,
+                k0: &k0,
+                alpha,
+                gamma,
+                h,
+                x2,
+            };
+            // P̂ columns: −∂block/∂P̂_v (with the noise block's P̂ B_w column).
+            self.push_p_columns(out, &blk, &mut dm, &at, |e, dm| {
+                if nw > 0 {
+                    let eb = e * &cn.bw * sh;
+                    dm.view_mut((x2, nx), (nx, nw)).copy_from(&eb);
+                    dm.view_mut((nx, x2), (nw, nx)).copy_from(&eb.transpose());
+                }
+            });
+            // Γ̂_l columns: ∂M/∂Γ̂_l[gr, gc] = −(h/γ) E_{gr,gc} H_l, and the
+            // noise columns −√h w_l E.
+            for (l, &wl_l) in cn.wl.iter().enumerate() {
+                let hl = hs.iter().find(|(g, _)| *g == l).map(|(_, h)| h);
+                if hl.is_none() && wl_l == 0.0 {
+                    continue;
+                }
+                for gr in 0..nx {
+                    for gc in 0..self.ny {
+                        dm.fill(0.0);
+                        if let Some(hl) = hl {
+                            for b in 0..nx {
+                                let v = -(h / gamma) * hl[(gc, b)];
+                                dm[(x2 + gr, b)] = v;
+                                dm[(b, x2 + gr)] = v;
                             }
                         }
-                    }
-                    if let Some(mc) = rate.column {
-                        // The top-left nx block of a 2nx svec has the same
-                        // packed indices as an nx svec: coef = svec(κŴ).
-                        let scale = if kappa > 0.0 { c / kappa } else { 0.0 };
-                        for (idx, &v) in mc.coef.iter().enumerate() {
-                            out.a(blk.row0 + idx, mc.var, v * scale);
+                        if let Some(pos) = outs.iter().position(|&o| o == gc) {
+                            let v = -sh * wl_l;
+                            dm[(x2 + gr, nx + nw + pos)] = v;
+                            dm[(nx + nw + pos, x2 + gr)] = v;
                         }
+                        out.matrix(&blk, self.gvar(l, gr, gc), &dm, -1.0);
                     }
+                }
+            }
+            if let Some(noise) = noise {
+                dm.fill(0.0);
+                for t in nx..nx + k {
+                    dm[(t, t)] = cn.wsum;
+                }
+                out.matrix(&blk, noise.svar, &dm, -1.0);
+            }
+            if let Some(mc) = rate.column {
+                // The top-left nx block of a 2nx svec has the same packed
+                // indices as an nx svec: coef = svec(κŴ), times c/κ.
+                let scale = if kappa > 0.0 { c / kappa } else { 0.0 };
+                for (idx, &v) in mc.coef.iter().enumerate() {
+                    out.a(blk.row0 + idx, mc.var, v * scale);
                 }
             }
         }
@@ -168,115 +202,22 @@ impl Problem<'_> {
         extra: impl Fn(&DMatrix<f64>, &mut DMatrix<f64>),
     ) {
         let (nx, x2, w) = (self.nx, at.x2, at.w);
-        for pc in 0..nx {
-            for pr in 0..=pc {
-                dm.fill(0.0);
-                let mut e = DMatrix::<f64>::zeros(nx, nx);
-                e[(pr, pc)] = 1.0;
-                e[(pc, pr)] = 1.0;
-                let m = &e * w + &e * at.k0 * (at.h / at.gamma);
-                dm.view_mut((0, 0), (nx, nx))
-                    .copy_from(&(&e * (w * (1.0 - at.h * at.alpha))));
-                dm.view_mut((x2, x2), (nx, nx)).copy_from(&(&e * w));
-                dm.view_mut((x2, 0), (nx, nx)).copy_from(&m);
-                dm.view_mut((0, x2), (nx, nx)).copy_from(&m.transpose());
-                extra(&e, dm);
-                out.matrix(blk, svec_index(pr, pc), dm, -1.0);
-            }
+        for (v, e) in p_units(nx) {
+            dm.fill(0.0);
+            let m = &e * w + &e * at.k0 * (at.h / at.gamma);
+            dm.view_mut((0, 0), (nx, nx))
+                .copy_from(&(&e * (w * (1.0 - at.h * at.alpha))));
+            dm.view_mut((x2, x2), (nx, nx)).copy_from(&(&e * w));
+            dm.view_mut((x2, 0), (nx, nx)).copy_from(&m);
+            dm.view_mut((0, x2), (nx, nx)).copy_from(&m.transpose());
+            extra(&e, dm);
+            out.matrix(blk, v, dm, -1.0);
         }
     }
 }
 
-/// The discrete noise block family's data (docs/method.md §16, "Noise at
-/// the sample period"): the channels, σ̂'s column, the margin εκ.
-pub(super) struct SampledNoiseFamily<'a> {
-    pub(super) channels: &'a crate::model::noise::NoiseChannels,
+/// The noise part of a discrete noise block: the channels and σ̂'s column.
+pub(super) struct SampledNoise<'a> {
+    pub(super) channels: &'a NoiseChannels,
     pub(super) svar: usize,
-    pub(super) eps: f64,
-}
-
-impl Problem<'_> {
-    /// The discrete noise family in place of the rate family: per rate
-    /// combination and pair (i, j) the PSD(2nx + k) block
-    /// [W(1 − hα)P̂, 0, Mᵀ; 0, Wσ̂I, √h Ĝᵀ; M, √h Ĝ, WP̂] − δI ⪰ 0 with M as in
-    /// [`Problem::push_rate_sampled`] and Ĝ = [P̂ B_w, −Σ_l w_l Γ̂_l E]
-    /// (the model-unit block divided by s; σ̂ = σ/s).
-    pub(super) fn push_rate_noise_sampled(
-        &self,
-        out: &mut SdpBuilder,
-        (alpha, gamma, h): (f64, f64, f64),
-        fam: &SampledNoiseFamily<'_>,
-    ) {
-        let nx = self.nx;
-        let outs = fam.channels.noisy_outputs(self.ny);
-        let nw = fam.channels.n_w();
-        let k = nw + outs.len();
-        let d = 2 * nx + k;
-        let (x2, sh) = (nx + k, h.sqrt());
-        let delta = self.sampled_margin(fam.eps, alpha, gamma, h);
-        let p_reg = self.xs_hat.len();
-        let mut dm = DMatrix::<f64>::zeros(d, d);
-        for ci in 0..self.combos.len() {
-            let combo = &self.combos[ci];
-            let w = combo.weight();
-            let mut bw = DMatrix::<f64>::zeros(nx, nw);
-            let mut wl = vec![0.0; self.nv];
-            for &(l, _, wt) in &combo.terms {
-                if let Some(bb) = &fam.channels.b_w {
-                    bw += &bb[l] * wt;
-                }
-                wl[l] += wt;
-            }
-            for i in 0..p_reg {
-                for j in 0..p_reg {
-                    let (k0, hs) = self.rate_kh(0.0, gamma, ci, i, j);
-                    let blk = out.psd(d, delta);
-                    let at = PColumns {
-                        w,
-                        k0: &k0,
-                        alpha,
-                        gamma,
-                        h,
-                        x2,
-                    };
-                    self.push_p_columns(out, &blk, &mut dm, &at, |e, dm| {
-                        if nw > 0 {
-                            let eb = e * &bw * sh;
-                            dm.view_mut((x2, nx), (nx, nw)).copy_from(&eb);
-                            dm.view_mut((nx, x2), (nw, nx)).copy_from(&eb.transpose());
-                        }
-                    });
-                    for (l, &wl_l) in wl.iter().enumerate() {
-                        let hl = hs.iter().find(|(g, _)| *g == l).map(|(_, h)| h);
-                        if hl.is_none() && wl_l == 0.0 {
-                            continue;
-                        }
-                        for gr in 0..nx {
-                            for gc in 0..self.ny {
-                                dm.fill(0.0);
-                                if let Some(hl) = hl {
-                                    for b in 0..nx {
-                                        let v = -(h / gamma) * hl[(gc, b)];
-                                        dm[(x2 + gr, b)] = v;
-                                        dm[(b, x2 + gr)] = v;
-                                    }
-                                }
-                                if let Some(pos) = outs.iter().position(|&o| o == gc) {
-                                    let v = -sh * wl_l;
-                                    dm[(x2 + gr, nx + nw + pos)] = v;
-                                    dm[(nx + nw + pos, x2 + gr)] = v;
-                                }
-                                out.matrix(&blk, self.gvar(l, gr, gc), &dm, -1.0);
-                            }
-                        }
-                    }
-                    dm.fill(0.0);
-                    for t in nx..nx + k {
-                        dm[(t, t)] = w;
-                    }
-                    out.matrix(&blk, fam.svar, &dm, -1.0);
-                }
-            }
-        }
-    }
 }

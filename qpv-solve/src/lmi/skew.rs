@@ -1,6 +1,7 @@
 //! Step 1 of the skew-slack alternation: with P fixed, the largest α over
 //! the gains Γ_l and the skew slack K_{k,l} jointly (one SDP).
 
+use super::blocks::{add_term, sites};
 use crate::backend::builder::{Psd, SdpBuilder};
 use crate::backend::{clarabel_settings, run_sdp, Status};
 use crate::conditions::rate_combos;
@@ -12,7 +13,7 @@ use qpv_dsl::PolytopicModel;
 
 /// The answer of [`max_alpha_fixed_p`]: α, the gains L_l and the skew
 /// increments K_{k,l} (per θ-vertex l, per state k).
-pub type FixedP = (f64, Vec<DMatrix<f64>>, Vec<Vec<DMatrix<f64>>>);
+pub(crate) type FixedP = (f64, Vec<DMatrix<f64>>, Vec<Vec<DMatrix<f64>>>);
 
 /// Step 1: with P fixed, the largest α (and the gains Γ_l, the skew
 /// increments K_{k,l}) such that every rate block of `model` at γ holds,
@@ -172,54 +173,51 @@ fn push_rate_blocks(
     let (nx, ny) = (vars.nx, vars.ny);
     let xs = &model.region.vertices;
     let k_basis = skew_basis(ph, xs, nx);
-    for combo in rate_combos(model) {
-        for (i, xi) in xs.iter().enumerate() {
-            for xj in xs {
-                let mut f0 = DMatrix::zeros(nx, nx);
-                let mut fg: Vec<(usize, DMatrix<f64>)> = Vec::new(); // (l, Σ w H_m)
-                let mut fk: Vec<(usize, f64)> = Vec::new(); // (l, Σ w)
-                for &(l, m, w) in &combo.terms {
-                    let (vl, vm) = (&model.vertices[l], &model.vertices[m]);
-                    let r = rows_he(&vl.n, xj) - rows(&vl.n, xi);
-                    let h = &vm.c * gamma + (rows_he(&vm.m, xj) - rows(&vm.m, xi));
-                    f0 += he(&(ph * (&vl.a * gamma + &r))) * w;
-                    match fg.iter_mut().find(|(g, _)| *g == l) {
-                        Some((_, acc)) => *acc += h * w,
-                        None => fg.push((l, h * w)),
-                    }
-                    match fk.iter_mut().find(|(g, _)| *g == l) {
-                        Some((_, acc)) => *acc += w,
-                        None => fk.push((l, w)),
-                    }
-                }
-                let blk = out.psd(nx, 0.0);
-                let mut rhs = -f0;
-                for d in 0..nx {
-                    rhs[(d, d)] -= eps;
-                }
-                out.rhs_matrix(&blk, &rhs);
-                fg.sort_by_key(|(l, _)| *l);
-                fk.sort_by_key(|(l, _)| *l);
-                // Γ_l entries: −He{E_rc H}.
-                for (l, h) in &fg {
-                    for gr in 0..nx {
-                        for gc in 0..ny {
-                            let mut e = DMatrix::zeros(nx, ny);
-                            e[(gr, gc)] = 1.0;
-                            push(out, &blk, vars.gamma_col(*l, gr, gc), &(-he(&(e * h))));
-                        }
-                    }
-                }
-                // K_{k,l} entries.
-                for &(l, w) in &fk {
-                    for (idx, term) in k_basis[i].iter().enumerate() {
-                        push(out, &blk, vars.k_col(l, idx), &(term * w));
-                    }
-                }
-                // α: (Σ w) γP̂.
-                push(out, &blk, vars.alpha, &(ph * (gamma * combo.weight())));
+    let combos = rate_combos(model);
+    for site in sites(combos.len(), xs.len(), |_| false) {
+        let Some((i, j)) = site.pair else { continue };
+        let combo = &combos[site.c];
+        let (xi, xj) = (&xs[i], &xs[j]);
+        let mut f0 = DMatrix::zeros(nx, nx);
+        let mut fg: Vec<(usize, DMatrix<f64>)> = Vec::new(); // (l, Σ w H_m)
+        let mut fk: Vec<(usize, f64)> = Vec::new(); // (l, Σ w)
+        for &(l, m, w) in &combo.terms {
+            let (vl, vm) = (&model.vertices[l], &model.vertices[m]);
+            let r = rows_he(&vl.n, xj) - rows(&vl.n, xi);
+            let h = &vm.c * gamma + (rows_he(&vm.m, xj) - rows(&vm.m, xi));
+            f0 += he(&(ph * (&vl.a * gamma + &r))) * w;
+            add_term(&mut fg, l, h * w);
+            match fk.iter_mut().find(|(g, _)| *g == l) {
+                Some((_, acc)) => *acc += w,
+                None => fk.push((l, w)),
             }
         }
+        let blk = out.psd(nx, 0.0);
+        let mut rhs = -f0;
+        for d in 0..nx {
+            rhs[(d, d)] -= eps;
+        }
+        out.rhs_matrix(&blk, &rhs);
+        fg.sort_by_key(|(l, _)| *l);
+        fk.sort_by_key(|(l, _)| *l);
+        // Γ_l entries: −He{E_rc H}.
+        for (l, h) in &fg {
+            for gr in 0..nx {
+                for gc in 0..ny {
+                    let mut e = DMatrix::zeros(nx, ny);
+                    e[(gr, gc)] = 1.0;
+                    push(out, &blk, vars.gamma_col(*l, gr, gc), &(-he(&(e * h))));
+                }
+            }
+        }
+        // K_{k,l} entries.
+        for &(l, w) in &fk {
+            for (idx, term) in k_basis[i].iter().enumerate() {
+                push(out, &blk, vars.k_col(l, idx), &(term * w));
+            }
+        }
+        // α: (Σ w) γP̂.
+        push(out, &blk, vars.alpha, &(ph * (gamma * combo.weight())));
     }
 }
 
