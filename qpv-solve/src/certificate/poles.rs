@@ -15,7 +15,8 @@
 //! e ∈ E and x ∈ F) lies in every region; with a disk, ‖F − cI‖₂ ≤ r√κ(P),
 //! whence the gain bound of [`disk_gain_bound`].
 
-use super::{balanced_for, gammas_of, lambda_max, sigma, Acc, Terms, GUARD_C};
+use super::rate::sigma;
+use super::{balanced_for, gammas_of, lambda_max, Acc, Terms, GUARD_C};
 use super::{Certificate, Gains};
 use crate::conditions::{rate_combos, Combo, ConditionSet};
 use crate::model::is_double_sum;

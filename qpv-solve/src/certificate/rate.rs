@@ -1,0 +1,196 @@
+//! The rate blocks Σ_t w_t Ξ_{l_t m_t}(i, j) from their per-vertex pieces,
+//! and the single blocks tests and other checks evaluate.
+
+use crate::conditions::{Combo, ConditionSet};
+use crate::linalg::rows::{rows, rows_he};
+use crate::vocab::Candidate;
+use nalgebra::{DMatrix, DVector};
+use qpv_dsl::{Mode, PolytopicModel};
+
+/// Whether every term (l, m) of `combo` has N_l = 0 and M_m = 0 exactly:
+/// then R_{l,i,j} and S_{m,i,j} vanish and the p² blocks are one.
+pub fn combo_is_linear(model: &PolytopicModel, combo: &Combo) -> bool {
+    let zero = |ms: &[DMatrix<f64>]| ms.iter().all(|m| m.iter().all(|v| *v == 0.0));
+    combo
+        .terms
+        .iter()
+        .all(|&(l, m, _)| zero(&model.vertices[l].n) && zero(&model.vertices[m].m))
+}
+
+pub(super) fn sigma(set: ConditionSet) -> f64 {
+    set.nonlinear_sign()
+}
+
+/// The per-vertex pieces of the rate matrices Ξ_{lm}(i, j), precomputed once.
+pub(super) struct Terms<'a> {
+    pub(super) model: &'a PolytopicModel,
+    pub(super) p: &'a DMatrix<f64>,
+    pub(super) gammas: &'a [DMatrix<f64>],
+    /// γ P A_l.
+    pub(super) pa: Vec<DMatrix<f64>>,
+    /// rowsHe(N_l, x_j), rows(N_l, x_i).
+    pub(super) nhe: Vec<Vec<DMatrix<f64>>>,
+    pub(super) nrw: Vec<Vec<DMatrix<f64>>>,
+    /// rowsHe(M_m, x_j), rows(M_m, x_i).
+    pub(super) mhe: Vec<Vec<DMatrix<f64>>>,
+    pub(super) mrw: Vec<Vec<DMatrix<f64>>>,
+    /// ‖L_l‖‖P‖ + ‖Γ_l‖ (error size of Γ_l).
+    pub(super) gn: Vec<f64>,
+}
+
+impl<'a> Terms<'a> {
+    /// The pieces at the region vertices `xs` (indices i, j below refer to
+    /// `xs`): the whole region for a certificate, a single pair for one block.
+    pub(super) fn new(
+        model: &'a PolytopicModel,
+        xs: &[DVector<f64>],
+        p: &'a DMatrix<f64>,
+        gammas: &'a [DMatrix<f64>],
+        lnorm: &[f64],
+        gamma: f64,
+    ) -> Self {
+        let per = |f: &dyn Fn(&qpv_dsl::Vertex, &DVector<f64>) -> DMatrix<f64>| {
+            model
+                .vertices
+                .iter()
+                .map(|v| xs.iter().map(|x| f(v, x)).collect())
+                .collect()
+        };
+        let pn = p.norm();
+        Terms {
+            model,
+            p,
+            gammas,
+            pa: model.vertices.iter().map(|v| p * &v.a * gamma).collect(),
+            nhe: per(&|v, x| rows_he(&v.n, x)),
+            nrw: per(&|v, x| rows(&v.n, x)),
+            mhe: per(&|v, x| rows_he(&v.m, x)),
+            mrw: per(&|v, x| rows(&v.m, x)),
+            gn: gammas
+                .iter()
+                .enumerate()
+                .map(|(l, g)| lnorm.get(l).copied().unwrap_or(0.0) * pn + g.norm())
+                .collect(),
+        }
+    }
+
+    /// Ξ_{lm}(i, j) without its γαP term, and the size of its terms (for the guard).
+    pub(super) fn xi0(
+        &self,
+        sigma: f64,
+        gamma: f64,
+        l: usize,
+        m: usize,
+        i: usize,
+        j: usize,
+    ) -> (DMatrix<f64>, f64) {
+        let (x, size) = self.phi(sigma, gamma, l, m, i, j);
+        (&x + x.transpose(), size)
+    }
+
+    /// γ(PA_l − Γ_lC_m) + σP R_{l,i,j} − Γ_l S_{m,i,j} (γ·PF at the vertex,
+    /// for σ = +1), whose He is [`Terms::xi0`], and the size of its terms.
+    pub(super) fn phi(
+        &self,
+        sigma: f64,
+        gamma: f64,
+        l: usize,
+        m: usize,
+        i: usize,
+        j: usize,
+    ) -> (DMatrix<f64>, f64) {
+        let g = &self.gammas[l];
+        let (vl, vm) = (&self.model.vertices[l], &self.model.vertices[m]);
+        let r = &self.nhe[l][j] - &self.nrw[l][i];
+        let s = &self.mhe[m][j] - &self.mrw[m][i];
+        let x = &self.pa[l] - g * &vm.c * gamma + self.p * &r * sigma - g * &s;
+        let pn = self.p.norm();
+        let size = gamma * pn * vl.a.norm()
+            + gamma * self.gn[l] * vm.c.norm()
+            + pn * r.norm()
+            + self.gn[l] * s.norm();
+        (x, size)
+    }
+
+    /// Σ_t w_t Ξ_{l_t m_t}(i, j) (with its γαP terms) and its size.
+    pub(super) fn combo(
+        &self,
+        c: &Combo,
+        sigma: f64,
+        alpha: f64,
+        gamma: f64,
+        i: usize,
+        j: usize,
+    ) -> (DMatrix<f64>, f64) {
+        let (mut m, size) = self.combo0(c, sigma, gamma, i, j);
+        m += self.p * (gamma * alpha * c.weight());
+        (m, size + gamma * alpha * self.p.norm() * c.weight())
+    }
+
+    /// As [`Terms::combo`] without the γαP terms.
+    pub(super) fn combo0(
+        &self,
+        c: &Combo,
+        sigma: f64,
+        gamma: f64,
+        i: usize,
+        j: usize,
+    ) -> (DMatrix<f64>, f64) {
+        let nx = self.p.nrows();
+        let mut out = DMatrix::zeros(nx, nx);
+        let mut size = 0.0;
+        for &(l, m, w) in &c.terms {
+            let (x, s) = self.xi0(sigma, gamma, l, m, i, j);
+            out += x * w;
+            size += s * w.abs();
+        }
+        (out, size)
+    }
+}
+
+/// The rate LMI matrix Ξ_{ll} of block (l, i, j) (0-based) in model units:
+/// He{γ(PA_l − Γ_lC_l) + σ P R_{l,i,j} − Γ_l S_{l,i,j}} + γαP with σ = +1 for
+/// (S5) and −1 for (26) — required ≺ 0. For e = x_(i)/γ and x = x_(j)/γ it
+/// equals γ·He{P F(θ_l, e, x)} + γαP, F being the error-dynamics matrix.
+/// (With a constant output map these are the whole rate family.) `at`
+/// gives α and γ; `(l, i, j)` the block.
+pub fn rate_lmi(
+    model: &PolytopicModel,
+    mode: Mode,
+    at: Candidate,
+    p: &DMatrix<f64>,
+    gamma_l: &DMatrix<f64>,
+    (l, i, j): (usize, usize, usize),
+) -> DMatrix<f64> {
+    let mut gammas = vec![DMatrix::zeros(gamma_l.nrows(), gamma_l.ncols()); model.nv()];
+    gammas[l] = gamma_l.clone();
+    let own = Combo {
+        terms: vec![(l, l, 1.0)],
+    };
+    combo_lmi(model, mode, at, p, &gammas, &own, (i, j))
+}
+
+/// The rate block of combination `combo` at the pair (i, j) (0-based):
+/// Σ_t w_t Ξ_{l_t m_t}(i, j) in model units, required ≺ 0 (the family the
+/// certificate checks; see [`crate::conditions::Combo`]) at the candidate
+/// `at` (α, γ).
+pub fn combo_lmi(
+    model: &PolytopicModel,
+    mode: Mode,
+    at: Candidate,
+    p: &DMatrix<f64>,
+    gammas: &[DMatrix<f64>],
+    combo: &Combo,
+    (i, j): (usize, usize),
+) -> DMatrix<f64> {
+    let Candidate { alpha, gamma, .. } = at;
+    let set = ConditionSet::from_mode(mode);
+    let lnorm = vec![0.0; gammas.len()];
+    let pair = [
+        model.region.vertices[i].clone(),
+        model.region.vertices[j].clone(),
+    ];
+    Terms::new(model, &pair, p, gammas, &lnorm, gamma)
+        .combo(combo, sigma(set), alpha, gamma, 0, 1)
+        .0
+}
