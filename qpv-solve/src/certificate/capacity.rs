@@ -3,8 +3,8 @@
 
 use super::cube::CubeTerms;
 use super::margins::lambda_max;
-use super::rate::{combo_is_linear, sigma, Terms};
-use super::units::{balanced, balanced_for, cube_to_z, gammas_to_z};
+use super::rate::Terms;
+use super::units::{balanced, balanced_for, block_model, cube_to_z, gammas_to_z};
 use crate::conditions::cube::CubeSlacks;
 use crate::conditions::{rate_combos, ConditionSet};
 use crate::vocab::Candidate;
@@ -31,49 +31,45 @@ pub fn alpha_capacity(
     capacity_inner(model, mode, gamma, p, gammas)
 }
 
-pub(super) fn capacity_inner(
+fn capacity_inner(
     model: &PolytopicModel,
     mode: Mode,
     gamma: f64,
     p: &DMatrix<f64>,
     gammas: &[DMatrix<f64>],
 ) -> f64 {
-    let set = ConditionSet::from_mode(mode);
-    let global_model = crate::model::global_model(model);
-    let (model, gamma) = if crate::model::is_global(model, mode) {
-        (&*global_model, 1.0)
-    } else {
-        (model, gamma)
-    };
-    let ps = (p + p.transpose()) * 0.5;
-    let Some(ch) = ps.clone().cholesky() else {
+    let sigma = ConditionSet::from_mode(mode).nonlinear_sign();
+    let (model, gamma, _) = block_model(model, mode, gamma);
+    let Some((ps, linv)) = sym_and_linv(p) else {
         return 0.0;
     };
-    let linv = match ch.l().try_inverse() {
-        Some(li) => li,
-        None => return 0.0,
-    };
-    let xs = &model.region.vertices;
-    let lnorm = vec![0.0; gammas.len()];
-    let terms = Terms::new(model, xs, &ps, gammas, &lnorm, gamma);
+    let terms = Terms::new(&model, &model.region.vertices, &ps, gammas, &[], gamma);
+    least(rate_combos(&model).iter().flat_map(|combo| {
+        let (terms, linv) = (&terms, &linv);
+        combo.pairs(&model).into_iter().map(move |(i, j)| {
+            let (m0, _) = terms.combo0(combo, sigma, gamma, i, j);
+            let w = linv * m0 * linv.transpose();
+            -lambda_max(&w) / (gamma * combo.weight())
+        })
+    }))
+}
+
+/// The symmetric part of P and L⁻¹ (P = LLᵀ), if P is positive definite.
+pub(super) fn sym_and_linv(p: &DMatrix<f64>) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    let ps = (p + p.transpose()) * 0.5;
+    let linv = ps.clone().cholesky()?.l().try_inverse()?;
+    Some((ps, linv))
+}
+
+/// The smallest of the blocks' capacities, at least 0; 0 as soon as one is
+/// NaN (not even α → 0⁺ is shown to work).
+pub(super) fn least(caps: impl IntoIterator<Item = f64>) -> f64 {
     let mut worst = f64::INFINITY;
-    for combo in rate_combos(model) {
-        let n = if combo_is_linear(model, &combo) {
-            xs.len().min(1)
-        } else {
-            xs.len()
-        };
-        for i in 0..n {
-            for j in 0..n {
-                let (m0, _) = terms.combo0(&combo, sigma(set), gamma, i, j);
-                let w = &linv * m0 * linv.transpose();
-                let a = -lambda_max(&w) / (gamma * combo.weight());
-                if a.is_nan() {
-                    return 0.0;
-                }
-                worst = worst.min(a);
-            }
+    for a in caps {
+        if a.is_nan() {
+            return 0.0;
         }
+        worst = worst.min(a);
     }
     worst.max(0.0)
 }
@@ -81,7 +77,7 @@ pub(super) fn capacity_inner(
 /// [`alpha_capacity`] for a design of `conditions = cube`: the largest α
 /// at which F0_c(α) + Σ_k Y_{c,k} + Σ_k X_{c,k} ≺ 0 for the same (P, Γ_l) and
 /// slacks (the slack inequalities and the region conditions do not depend
-/// on α; [`check_cube`] checks them). 0 if P is not positive definite.
+/// on α; the certificate checks them). 0 if P is not positive definite.
 pub(crate) fn alpha_capacity_cube(
     model: &PolytopicModel,
     mode: Mode,
@@ -100,7 +96,7 @@ pub(crate) fn alpha_capacity_cube(
     capacity_cube_inner(model, mode, gamma, p, gammas, slacks)
 }
 
-pub(super) fn capacity_cube_inner(
+fn capacity_cube_inner(
     model: &PolytopicModel,
     mode: Mode,
     gamma: f64,
@@ -109,26 +105,18 @@ pub(super) fn capacity_cube_inner(
     slacks: &CubeSlacks,
 ) -> f64 {
     let set = ConditionSet::from_mode(mode);
-    let ps = (p + p.transpose()) * 0.5;
-    let Some(ch) = ps.clone().cholesky() else {
-        return 0.0;
-    };
-    let Some(linv) = ch.l().try_inverse() else {
+    let Some((ps, linv)) = sym_and_linv(p) else {
         return 0.0;
     };
     let combos = rate_combos(model);
     if slacks.y.len() != combos.len() || slacks.x.len() != combos.len() {
         return 0.0;
     }
-    let lnorm = vec![0.0; gammas.len()];
-    let ct = CubeTerms::new(model, &ps, gammas, &lnorm, set, Candidate::new(0.0, gamma));
-    let mut worst = f64::INFINITY;
-    for (ci, combo) in combos.iter().enumerate() {
-        let a = ct.capacity(combo, ci, &linv, slacks);
-        if a.is_nan() {
-            return 0.0;
-        }
-        worst = worst.min(a);
-    }
-    worst.max(0.0)
+    let ct = CubeTerms::new(model, &ps, gammas, &[], set, Candidate::new(0.0, gamma));
+    least(
+        combos
+            .iter()
+            .enumerate()
+            .map(|(ci, combo)| ct.capacity(combo, ci, &linv, slacks)),
+    )
 }

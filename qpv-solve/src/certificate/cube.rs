@@ -2,8 +2,8 @@
 //! slacks a design carries: its region condition through D and its rate
 //! family through Y and X per generator.
 
-use super::margins::{lambda_max, lambda_min, Acc, GUARD_C};
-use super::rate::sigma;
+use super::margins::{block_guard, lambda_max, lambda_min, Acc, GUARD_C};
+use super::rate::gain_sizes;
 use crate::conditions::cube::CubeSlacks;
 use crate::conditions::{Combo, ConditionSet};
 use crate::linalg::rows::{rows, rows_he};
@@ -71,17 +71,12 @@ impl<'a> CubeTerms<'a> {
         set: ConditionSet,
         at: Candidate,
     ) -> Self {
-        let pn = p.norm();
         CubeTerms {
             model,
             p,
             gammas,
-            gn: gammas
-                .iter()
-                .enumerate()
-                .map(|(l, g)| lnorm.get(l).copied().unwrap_or(0.0) * pn + g.norm())
-                .collect(),
-            sigma: sigma(set),
+            gn: gain_sizes(p, gammas, lnorm),
+            sigma: set.nonlinear_sign(),
             gamma: at.gamma,
             alpha: at.alpha,
         }
@@ -145,8 +140,7 @@ impl<'a> CubeTerms<'a> {
         let alpha = self.alpha;
         let nx = self.p.nrows();
         let g0 = DVector::zeros(nx);
-        let guard =
-            |size: f64, m: &DMatrix<f64>| GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
+        let guard = |size: f64, m: &DMatrix<f64>| block_guard(nx, size, m);
         let sym = |m: &DMatrix<f64>| (m + m.transpose()) * 0.5;
         let (mut sum, mut size) = self.part(c, alpha, 0, &g0);
         for (k, g) in gens.iter().enumerate() {

@@ -2,8 +2,8 @@
 //! facet families and the rate family (vertex, cube or sampled form).
 
 use super::cube::{cube_region, CubeTerms};
-use super::margins::{lambda_max, lambda_min, Acc, FamilyMargin, GUARD_C};
-use super::rate::{combo_is_linear, sigma, Terms};
+use super::margins::{block_guard, lambda_max, lambda_min, Acc, FamilyMargin, GUARD_C};
+use super::rate::Terms;
 use super::{sampled, RateCheck, Witness};
 use crate::conditions::cube::CubeSlacks;
 use crate::conditions::{pair_suffix, rate_combos, ConditionSet};
@@ -62,9 +62,9 @@ impl Stage<'_> {
         if let Some(c) = self.cube() {
             cube_region(&mut sv, self.set, ps, &self.gens, &c.d);
         }
-        let xs: &[DVector<f64>] = match self.cube() {
+        let xs = match self.cube() {
             Some(_) => &[],
-            None => &self.model.region.vertices,
+            None => &self.model.region.vertices[..],
         };
         for (i, x) in xs.iter().enumerate() {
             match self.set {
@@ -107,44 +107,39 @@ impl Stage<'_> {
         let (alpha, gamma) = (self.alpha, self.gamma);
         let double = is_double_sum(model);
         let mut sr = Acc::new(family);
-        if let Some(c) = self.cube() {
-            let at = Candidate::new(alpha, gamma);
-            let ct = CubeTerms::new(model, &self.ps, self.w.gammas, self.w.lnorm, set, at);
-            for (ci, combo) in rate_combos(model).iter().enumerate() {
-                ct.check(&mut sr, (combo, ci, double), &self.gens, c);
+        let xs = &model.region.vertices;
+        let terms = || Terms::new(model, xs, &self.ps, self.w.gammas, self.w.lnorm, gamma);
+        match self.rate {
+            RateCheck::Cube(c) => {
+                let at = Candidate::new(alpha, gamma);
+                let ct = CubeTerms::new(model, &self.ps, self.w.gammas, self.w.lnorm, set, at);
+                for (ci, combo) in rate_combos(model).iter().enumerate() {
+                    ct.check(&mut sr, (combo, ci, double), &self.gens, c);
+                }
             }
-        }
-        let xs: &[DVector<f64>] = match self.cube() {
-            Some(_) => &[],
-            None => &model.region.vertices,
-        };
-        let terms = Terms::new(model, xs, &self.ps, self.w.gammas, self.w.lnorm, gamma);
-        if let RateCheck::Sampled(h) = self.rate {
-            sampled::check_family(&mut sr, &terms, model, alpha, gamma, h);
-        }
-        let vertex = matches!(self.rate, RateCheck::Vertex | RateCheck::Cube(_));
-        for combo in rate_combos(model).into_iter().filter(|_| vertex) {
-            if !xs.is_empty() && combo_is_linear(model, &combo) {
-                // N and M vanish in every term: every pair (i, j) gives this
-                // same block (rows(0, x) = 0 exactly), so it is checked once.
-                let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, 0, 0);
-                let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
-                sr.add(-lambda_max(&m), guard, || {
-                    if self.global {
-                        combo.label(double)
-                    } else {
-                        format!("{} (every pair: N = M = 0)", combo.label(double))
+            RateCheck::Sampled(h) => {
+                sampled::check_family(&mut sr, &terms(), model, alpha, gamma, h);
+            }
+            RateCheck::Vertex => {
+                let terms = terms();
+                for combo in rate_combos(model) {
+                    // A linear combination (N and M vanish in every term):
+                    // every pair (i, j) gives the same block (rows(0, x) = 0
+                    // exactly), so it is checked once.
+                    let linear = combo.is_linear(model);
+                    for (i, j) in combo.pairs(model) {
+                        let sigma = set.nonlinear_sign();
+                        let (m, size) = terms.combo(&combo, sigma, alpha, gamma, i, j);
+                        sr.add(-lambda_max(&m), block_guard(nx, size, &m), || {
+                            match (linear, self.global) {
+                                (true, true) => combo.label(double),
+                                (true, false) => {
+                                    format!("{} (every pair: N = M = 0)", combo.label(double))
+                                }
+                                _ => format!("{}{}", combo.label(double), pair_suffix(model, i, j)),
+                            }
+                        });
                     }
-                });
-                continue;
-            }
-            for i in 0..xs.len() {
-                for j in 0..xs.len() {
-                    let (m, size) = terms.combo(&combo, sigma(set), alpha, gamma, i, j);
-                    let guard = GUARD_C * (nx as f64 + 1.0) * 2.0 * (size + m.norm());
-                    sr.add(-lambda_max(&m), guard, || {
-                        format!("{}{}", combo.label(double), pair_suffix(model, i, j))
-                    });
                 }
             }
         }

@@ -81,11 +81,7 @@ pub(super) fn input_errors(
     }
     // The caller's condition set decides, as in the check itself: paper
     // mode has no global observer.
-    let mode = match set {
-        ConditionSet::Sound => Mode::Sound,
-        ConditionSet::Paper => Mode::Paper,
-    };
-    let global = crate::model::is_global(model, mode);
+    let global = crate::model::is_global(model, set.mode());
     let gamma_ok = gamma.is_finite() && gamma > 0.0 && gamma < 1.0;
     if !(global || gamma_ok) {
         errs.push(format!("γ = {gamma} is not in (0, 1)"));

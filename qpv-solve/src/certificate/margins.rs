@@ -198,6 +198,12 @@ impl Acc {
     }
 }
 
+/// The guard of an n × n block required ≺ 0 or ⪰ 0 whose terms have size
+/// `size`.
+pub(super) fn block_guard(n: usize, size: f64, m: &DMatrix<f64>) -> f64 {
+    GUARD_C * (n as f64 + 1.0) * 2.0 * (size + m.norm())
+}
+
 pub(super) fn sym_eigs(m: &DMatrix<f64>) -> DVector<f64> {
     m.clone().symmetric_eigenvalues()
 }

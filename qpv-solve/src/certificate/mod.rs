@@ -36,7 +36,7 @@ pub use capacity::alpha_capacity;
 pub(crate) use capacity::alpha_capacity_cube;
 pub use inputs::data_checks;
 pub use margins::{gain_check, Certificate, DataCheck, FamilyMargin};
-pub use rate::{combo_is_linear, combo_lmi, rate_lmi};
+pub use rate::{combo_lmi, rate_lmi};
 pub use sampled::{alpha_capacity_sampled, sampled_block};
 
 use crate::conditions::cube::CubeSlacks;
@@ -45,12 +45,10 @@ use crate::model::StateScaling;
 use crate::vocab::{Candidate, Family};
 use families::Stage;
 use inputs::check_inputs;
-use margins::{lambda_max, lambda_min, Acc, GUARD_C};
 use nalgebra::DMatrix;
 use qpv_dsl::{Mode, PolytopicModel};
-use rate::Terms;
 use std::collections::BTreeMap;
-use units::{balanced, balanced_for, cube_to_z, gammas_of, l_to_z};
+use units::{balanced, balanced_for, block_model, cube_to_z, gammas_of, l_to_z};
 
 /// The gains a certificate judges: P, the gains L_l per θ-vertex (Γ_l =
 /// P L_l is recomputed) and, for a `conditions = cube` design, the slacks
@@ -191,19 +189,12 @@ fn check_inner(
 ) -> Certificate {
     let (alpha, gamma) = (at.alpha, at.gamma);
     let set = ConditionSet::from_mode(mode);
-    let global = crate::model::is_global(model, mode);
-    let global_model = crate::model::global_model(model);
-    // The global observer: the region is the point {0} (its one pair has
-    // no nonlinear terms), no state bound, and γ = 1 in the rate blocks.
-    let (model, gamma_blocks): (&PolytopicModel, f64) = if global {
-        (&global_model, 1.0)
-    } else {
-        (model, gamma)
-    };
+    // The global observer: the region is the point {0}, no state bound,
+    // and γ = 1 in the rate blocks.
+    let (model, gamma_blocks, global) = block_model(model, mode, gamma);
+    let model = &*model;
     let (errs, gens) = check_inputs(model, set, at, w, rate);
-    let data = if global {
-        BTreeMap::new()
-    } else if errs.is_empty() || w.p.nrows() == model.nx() {
+    let data = if !global && (errs.is_empty() || w.p.nrows() == model.nx()) {
         data_checks(model, mode, gamma.clamp(0.0, 1.0))
     } else {
         BTreeMap::new()

@@ -28,8 +28,8 @@
 //! (σν²/α)(1 − (1 − hα)^k), {V ≤ 1} invariant for ν ≤ √(α/σ).
 
 use super::noise::{bound_from, BalancedGlobal, NoiseBound, NoiseCheck};
+use super::rate::Terms;
 use super::sampled::block;
-use super::Terms;
 use crate::conditions::{pair_suffix, rate_combos, Combo};
 use crate::model::is_double_sum;
 use crate::model::noise::NoiseChannels;
@@ -88,8 +88,7 @@ impl SampledNoise<'_> {
         let nw = self.channels.n_w();
         let k = nw + outs.len();
         let xs = &model.region.vertices;
-        let lnorm = vec![0.0; gammas.len()];
-        let terms = Terms::new(model, xs, p, gammas, &lnorm, self.gamma);
+        let terms = Terms::new(model, xs, p, gammas, &[], self.gamma);
         let double = is_double_sum(model);
         let mut out = Vec::new();
         for combo in rate_combos(model) {

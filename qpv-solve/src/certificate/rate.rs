@@ -1,25 +1,10 @@
 //! The rate blocks Σ_t w_t Ξ_{l_t m_t}(i, j) from their per-vertex pieces,
 //! and the single blocks tests and other checks evaluate.
 
-use crate::conditions::{Combo, ConditionSet};
-use crate::linalg::rows::{rows, rows_he};
+use crate::conditions::{Combo, ConditionSet, PairTerms};
 use crate::vocab::Candidate;
 use nalgebra::{DMatrix, DVector};
 use qpv_dsl::{Mode, PolytopicModel};
-
-/// Whether every term (l, m) of `combo` has N_l = 0 and M_m = 0 exactly:
-/// then R_{l,i,j} and S_{m,i,j} vanish and the p² blocks are one.
-pub fn combo_is_linear(model: &PolytopicModel, combo: &Combo) -> bool {
-    let zero = |ms: &[DMatrix<f64>]| ms.iter().all(|m| m.iter().all(|v| *v == 0.0));
-    combo
-        .terms
-        .iter()
-        .all(|&(l, m, _)| zero(&model.vertices[l].n) && zero(&model.vertices[m].m))
-}
-
-pub(super) fn sigma(set: ConditionSet) -> f64 {
-    set.nonlinear_sign()
-}
 
 /// The per-vertex pieces of the rate matrices Ξ_{lm}(i, j), precomputed once.
 pub(super) struct Terms<'a> {
@@ -27,20 +12,29 @@ pub(super) struct Terms<'a> {
     pub(super) p: &'a DMatrix<f64>,
     pub(super) gammas: &'a [DMatrix<f64>],
     /// γ P A_l.
-    pub(super) pa: Vec<DMatrix<f64>>,
-    /// rowsHe(N_l, x_j), rows(N_l, x_i).
-    pub(super) nhe: Vec<Vec<DMatrix<f64>>>,
-    pub(super) nrw: Vec<Vec<DMatrix<f64>>>,
-    /// rowsHe(M_m, x_j), rows(M_m, x_i).
-    pub(super) mhe: Vec<Vec<DMatrix<f64>>>,
-    pub(super) mrw: Vec<Vec<DMatrix<f64>>>,
+    pa: Vec<DMatrix<f64>>,
+    /// rowsHe / rows of N_l and M_m at the points.
+    rows: PairTerms,
     /// ‖L_l‖‖P‖ + ‖Γ_l‖ (error size of Γ_l).
-    pub(super) gn: Vec<f64>,
+    gn: Vec<f64>,
+}
+
+/// ‖L_l‖‖P‖ + ‖Γ_l‖, the error size of each Γ_l (‖L_l‖ = 0 where `lnorm`
+/// gives none: Γ_l given directly).
+pub(super) fn gain_sizes(p: &DMatrix<f64>, gammas: &[DMatrix<f64>], lnorm: &[f64]) -> Vec<f64> {
+    let pn = p.norm();
+    let at = |l: usize| lnorm.get(l).copied().unwrap_or(0.0);
+    gammas
+        .iter()
+        .enumerate()
+        .map(|(l, g)| at(l) * pn + g.norm())
+        .collect()
 }
 
 impl<'a> Terms<'a> {
     /// The pieces at the region vertices `xs` (indices i, j below refer to
-    /// `xs`): the whole region for a certificate, a single pair for one block.
+    /// `xs`): the whole region for a certificate, a single pair for one
+    /// block; `lnorm` the ‖L_l‖ (empty: Γ_l given directly).
     pub(super) fn new(
         model: &'a PolytopicModel,
         xs: &[DVector<f64>],
@@ -49,29 +43,34 @@ impl<'a> Terms<'a> {
         lnorm: &[f64],
         gamma: f64,
     ) -> Self {
-        let per = |f: &dyn Fn(&qpv_dsl::Vertex, &DVector<f64>) -> DMatrix<f64>| {
-            model
-                .vertices
-                .iter()
-                .map(|v| xs.iter().map(|x| f(v, x)).collect())
-                .collect()
-        };
-        let pn = p.norm();
         Terms {
             model,
             p,
             gammas,
             pa: model.vertices.iter().map(|v| p * &v.a * gamma).collect(),
-            nhe: per(&|v, x| rows_he(&v.n, x)),
-            nrw: per(&|v, x| rows(&v.n, x)),
-            mhe: per(&|v, x| rows_he(&v.m, x)),
-            mrw: per(&|v, x| rows(&v.m, x)),
-            gn: gammas
-                .iter()
-                .enumerate()
-                .map(|(l, g)| lnorm.get(l).copied().unwrap_or(0.0) * pn + g.norm())
-                .collect(),
+            rows: PairTerms::at(model, xs),
+            gn: gain_sizes(p, gammas, lnorm),
         }
+    }
+
+    /// The pieces at the region's pair (x_(i), x_(j)) alone (0-based), as
+    /// the points 0 and 1, for Γ_l given directly: one block.
+    pub(super) fn pair(
+        model: &'a PolytopicModel,
+        p: &'a DMatrix<f64>,
+        gammas: &'a [DMatrix<f64>],
+        gamma: f64,
+        (i, j): (usize, usize),
+    ) -> Self {
+        let xs = &model.region.vertices;
+        Terms::new(
+            model,
+            &[xs[i].clone(), xs[j].clone()],
+            p,
+            gammas,
+            &[],
+            gamma,
+        )
     }
 
     /// Ξ_{lm}(i, j) without its γαP term, and the size of its terms (for the guard).
@@ -101,8 +100,9 @@ impl<'a> Terms<'a> {
     ) -> (DMatrix<f64>, f64) {
         let g = &self.gammas[l];
         let (vl, vm) = (&self.model.vertices[l], &self.model.vertices[m]);
-        let r = &self.nhe[l][j] - &self.nrw[l][i];
-        let s = &self.mhe[m][j] - &self.mrw[m][i];
+        let t = &self.rows;
+        let r = &t.nhe[l][j] - &t.nrw[l][i];
+        let s = &t.mhe[m][j] - &t.mrw[m][i];
         let x = &self.pa[l] - g * &vm.c * gamma + self.p * &r * sigma - g * &s;
         let pn = self.p.norm();
         let size = gamma * pn * vl.a.norm()
@@ -184,13 +184,8 @@ pub fn combo_lmi(
     (i, j): (usize, usize),
 ) -> DMatrix<f64> {
     let Candidate { alpha, gamma, .. } = at;
-    let set = ConditionSet::from_mode(mode);
-    let lnorm = vec![0.0; gammas.len()];
-    let pair = [
-        model.region.vertices[i].clone(),
-        model.region.vertices[j].clone(),
-    ];
-    Terms::new(model, &pair, p, gammas, &lnorm, gamma)
-        .combo(combo, sigma(set), alpha, gamma, 0, 1)
+    let sigma = ConditionSet::from_mode(mode).nonlinear_sign();
+    Terms::pair(model, p, gammas, gamma, (i, j))
+        .combo(combo, sigma, alpha, gamma, 0, 1)
         .0
 }

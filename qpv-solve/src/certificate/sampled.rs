@@ -18,7 +18,10 @@
 //! [W(1 − hα)P, Mᵀ; M, WP], M = WP + h Σ_t w_t Φ_t. The family's margin
 //! is λ_min of that block (positive = satisfied).
 
-use super::{lambda_min, Acc, Terms, GUARD_C};
+use super::capacity::sym_and_linv;
+use super::margins::block_guard;
+use super::margins::{lambda_min, Acc};
+use super::rate::Terms;
 use crate::conditions::{pair_suffix, rate_combos, Combo, ConditionSet};
 use crate::model::is_double_sum;
 use crate::vocab::Candidate;
@@ -93,8 +96,7 @@ pub(super) fn check_family(
         for i in 0..np {
             for j in 0..np {
                 let (b, size) = block(terms, &combo, alpha, gamma, h, i, j);
-                let guard = GUARD_C * (2.0 * nx as f64 + 1.0) * 2.0 * (size + b.norm());
-                acc.add(lambda_min(&b), guard, || {
+                acc.add(lambda_min(&b), block_guard(2 * nx, size, &b), || {
                     format!("{}{}", combo.label(double), pair_suffix(model, i, j))
                 });
             }
@@ -121,12 +123,7 @@ pub fn sampled_block(
         sample,
     } = at;
     let h = sample?;
-    let lnorm = vec![0.0; gammas.len()];
-    let pair = [
-        model.region.vertices[i].clone(),
-        model.region.vertices[j].clone(),
-    ];
-    let terms = Terms::new(model, &pair, p, gammas, &lnorm, gamma);
+    let terms = Terms::pair(model, p, gammas, gamma, (i, j));
     Some(block(&terms, combo, alpha, gamma, h, 0, 1).0)
 }
 
@@ -145,17 +142,12 @@ pub fn alpha_capacity_sampled(
     if !(h.is_finite() && h > 0.0) {
         return 0.0;
     }
-    let ps = (p + p.transpose()) * 0.5;
-    let Some(ch) = ps.clone().cholesky() else {
-        return 0.0;
-    };
-    let Some(linv) = ch.l().try_inverse() else {
+    let Some((ps, linv)) = sym_and_linv(p) else {
         return 0.0;
     };
     let nx = ps.nrows();
     let xs = &model.region.vertices;
-    let lnorm = vec![0.0; gammas.len()];
-    let terms = Terms::new(model, xs, &ps, gammas, &lnorm, gamma);
+    let terms = Terms::new(model, xs, &ps, gammas, &[], gamma);
     let mut worst = f64::INFINITY;
     for combo in rate_combos(model) {
         let w = combo.weight();

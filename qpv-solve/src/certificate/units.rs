@@ -6,6 +6,7 @@ use crate::conditions::cube::CubeSlacks;
 use crate::model::StateScaling;
 use nalgebra::DMatrix;
 use qpv_dsl::{Mode, PolytopicModel};
+use std::borrow::Cow;
 
 /// Γ_l = P L_l as the certificate sees them (empty where the sizes do not
 /// fit, which the certificate then reports), and ‖L_l‖_F.
@@ -21,6 +22,22 @@ pub(super) fn gammas_of(p: &DMatrix<f64>, l: &[DMatrix<f64>]) -> (Vec<DMatrix<f6
         })
         .collect();
     (gammas, l.iter().map(|li| li.norm()).collect())
+}
+
+/// The model and γ the blocks use, and whether the observer is global: for
+/// the global observer its region-free model ([`crate::model::global_model`]:
+/// the region the point {0}, whose one pair has no nonlinear terms, and no
+/// state bound) and γ = 1; else the model and γ as given.
+pub(super) fn block_model(
+    model: &PolytopicModel,
+    mode: Mode,
+    gamma: f64,
+) -> (Cow<'_, PolytopicModel>, f64, bool) {
+    if crate::model::is_global(model, mode) {
+        (crate::model::global_model(model), 1.0, true)
+    } else {
+        (Cow::Borrowed(model), gamma, false)
+    }
 }
 
 /// The model in balanced coordinates x = D z ([`StateScaling`]: sound mode,
