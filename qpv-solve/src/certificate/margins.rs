@@ -118,7 +118,7 @@ pub(super) const GUARD_C: f64 = 16.0 * f64::EPSILON;
 
 /// The data check of `max_gain = G`: max_l ‖L_l‖₂ (largest singular
 /// value, from the gains as given) ≤ G. A non-finite gain or bound fails.
-pub fn gain_check(l: &[DMatrix<f64>], bound: f64) -> DataCheck {
+pub(super) fn gain_check(l: &[DMatrix<f64>], bound: f64) -> DataCheck {
     let value = l
         .iter()
         .map(|li| {

@@ -35,9 +35,9 @@ mod units;
 pub use capacity::alpha_capacity;
 pub(crate) use capacity::alpha_capacity_cube;
 pub use inputs::data_checks;
-pub use margins::{gain_check, Certificate, DataCheck, FamilyMargin};
+pub use margins::{Certificate, DataCheck, FamilyMargin};
 pub use rate::{combo_lmi, rate_lmi};
-pub use sampled::{alpha_capacity_sampled, sampled_block};
+pub use sampled::alpha_capacity_sampled;
 
 use crate::conditions::cube::CubeSlacks;
 use crate::conditions::ConditionSet;

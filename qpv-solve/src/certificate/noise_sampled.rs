@@ -148,7 +148,7 @@ impl SampledNoise<'_> {
     /// the Schur complements of the module doc (no margin); None if some
     /// block fails for every σ (the discrete decrease itself fails) or the
     /// input does not fit.
-    pub fn sigma_min(&self, p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Option<f64> {
+    pub(crate) fn sigma_min(&self, p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Option<f64> {
         self.fits(p, gammas).ok()?;
         let mut worst: f64 = 0.0;
         for (b, _) in self.blocks(p, gammas) {
@@ -221,7 +221,7 @@ impl SampledNoise<'_> {
     /// σ for these (P, Γ_l) with the margin the check needs:
     /// [`SampledNoise::sigma_min`] times (1 + δ), δ = 1e-6 raised tenfold
     /// (to 1e-2 at most) until [`SampledNoise::check`] passes.
-    pub fn sigma_for(
+    pub(crate) fn sigma_for(
         &self,
         p: &DMatrix<f64>,
         gammas: &[DMatrix<f64>],

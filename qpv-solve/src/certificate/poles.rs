@@ -51,7 +51,7 @@ impl Certificate {
 /// Family "D": the worst margin of every region's blocks (see the module
 /// documentation), in balanced coordinates where the rest of the
 /// certificate uses them.
-pub fn check_poles(
+fn check_poles(
     model: &PolytopicModel,
     mode: qpv_dsl::Mode,
     at: &Candidate,

@@ -24,7 +24,6 @@ use super::margins::{lambda_min, Acc};
 use super::rate::Terms;
 use crate::conditions::{pair_suffix, rate_combos, Combo, ConditionSet};
 use crate::model::is_double_sum;
-use crate::vocab::Candidate;
 use nalgebra::DMatrix;
 use qpv_dsl::PolytopicModel;
 
@@ -102,29 +101,6 @@ pub(super) fn check_family(
             }
         }
     }
-}
-
-/// The discrete block of combination `combo` at the pair (i, j) (0-based)
-/// in model units, [W(1 − hα)P, Mᵀ; M, WP], required ⪰ 0 (the family the
-/// certificate checks for a `sample = h` design) at the candidate `at`
-/// (α, γ and its sample period h; None for a continuous-time candidate,
-/// which has no discrete block).
-pub fn sampled_block(
-    model: &PolytopicModel,
-    at: Candidate,
-    p: &DMatrix<f64>,
-    gammas: &[DMatrix<f64>],
-    combo: &Combo,
-    (i, j): (usize, usize),
-) -> Option<DMatrix<f64>> {
-    let Candidate {
-        alpha,
-        gamma,
-        sample,
-    } = at;
-    let h = sample?;
-    let terms = Terms::pair(model, p, gammas, gamma, (i, j));
-    Some(block(&terms, combo, alpha, gamma, h, 0, 1).0)
 }
 
 /// The largest α at which the *same* (P, Γ_l) satisfy every discrete block

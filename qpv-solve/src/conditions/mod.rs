@@ -210,7 +210,7 @@ impl Combo {
     /// Whether every term (l, m) has N_l = 0 and M_m = 0 exactly: then
     /// R_{l,i,j} and S_{m,i,j} vanish and the p² blocks of the combination
     /// are one (the one definition the assembly and the certificate share).
-    pub fn is_linear(&self, model: &PolytopicModel) -> bool {
+    pub(crate) fn is_linear(&self, model: &PolytopicModel) -> bool {
         let zero = |ms: &[DMatrix<f64>]| ms.iter().all(|m| m.iter().all(|v| *v == 0.0));
         self.terms
             .iter()
@@ -220,7 +220,7 @@ impl Combo {
     /// The region-vertex pairs (i, j) (0-based) whose blocks the
     /// combination needs: every pair, or the first alone for a linear
     /// combination ([`Combo::is_linear`]: every pair gives the same block).
-    pub fn pairs(&self, model: &PolytopicModel) -> Vec<(usize, usize)> {
+    pub(crate) fn pairs(&self, model: &PolytopicModel) -> Vec<(usize, usize)> {
         let np = model.region.vertices.len();
         let n = if self.is_linear(model) { np.min(1) } else { np };
         (0..n).flat_map(|i| (0..n).map(move |j| (i, j))).collect()
@@ -240,7 +240,7 @@ impl Combo {
 /// " i=1 j=3": the region-vertex pair (i, j) (0-based) of a block, for its
 /// label; nothing for the global observer's model, whose region is the
 /// single point {0} (there are no region vertices to name).
-pub fn pair_suffix(model: &PolytopicModel, i: usize, j: usize) -> String {
+pub(crate) fn pair_suffix(model: &PolytopicModel, i: usize, j: usize) -> String {
     let r = &model.region;
     let global =
         r.vertices.len() == 1 && r.facets.is_empty() && r.vertices[0].iter().all(|x| *x == 0.0);
