@@ -47,7 +47,7 @@ fn capacity_inner(
     least(rate_combos(&model).iter().flat_map(|combo| {
         let (terms, linv) = (&terms, &linv);
         combo.pairs(&model).into_iter().map(move |(i, j)| {
-            let (m0, _) = terms.combo0(combo, sigma, gamma, i, j);
+            let (m0, _) = terms.combo0(combo, sigma, (i, j));
             let w = linv * m0 * linv.transpose();
             -lambda_max(&w) / (gamma * combo.weight())
         })

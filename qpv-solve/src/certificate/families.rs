@@ -35,6 +35,24 @@ impl Stage<'_> {
         }
     }
 
+    /// Every family of the check in report order: (S1) and the rate family
+    /// for the global observer, else (S1), the region's vertex and facet
+    /// families and the rate family.
+    pub(super) fn families(&self) -> Vec<FamilyMargin> {
+        let [f1, fv, ff, fr] = self.set.families();
+        let fr = match self.rate {
+            RateCheck::Sampled(_) => Family::S5d,
+            _ if self.global => Family::G5,
+            _ => fr,
+        };
+        let mut out = vec![self.s1(f1)];
+        if !self.global {
+            out.extend([self.vertices(fv), self.facets(ff)]);
+        }
+        out.push(self.rate(fr));
+        out
+    }
+
     /// (S1) P ≻ 0, P symmetric.
     pub(super) fn s1(&self, family: Family) -> FamilyMargin {
         let (p, nx) = (self.w.p, self.model.nx());
@@ -118,7 +136,7 @@ impl Stage<'_> {
                 }
             }
             RateCheck::Sampled(h) => {
-                sampled::check_family(&mut sr, &terms(), model, alpha, gamma, h);
+                sampled::check_family(&mut sr, &terms(), alpha, h);
             }
             RateCheck::Vertex => {
                 let terms = terms();
@@ -129,7 +147,7 @@ impl Stage<'_> {
                     let linear = combo.is_linear(model);
                     for (i, j) in combo.pairs(model) {
                         let sigma = set.nonlinear_sign();
-                        let (m, size) = terms.combo(&combo, sigma, alpha, gamma, i, j);
+                        let (m, size) = terms.combo(&combo, sigma, alpha, (i, j));
                         sr.add(-lambda_max(&m), block_guard(nx, size, &m), || {
                             match (linear, self.global) {
                                 (true, true) => combo.label(double),

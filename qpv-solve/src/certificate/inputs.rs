@@ -1,7 +1,7 @@
 //! The checks on a certificate's input (shapes, finiteness, α, γ, the
 //! sample period, the cube slacks) and on the data alone: (S4) and P ⊂ F.
 
-use super::margins::{finite, DataCheck};
+use super::margins::DataCheck;
 use super::{sampled, RateCheck, Witness};
 use crate::conditions::cube::CubeSlacks;
 use crate::conditions::{rate_combos, ConditionSet};
@@ -108,17 +108,8 @@ pub fn data_checks(model: &PolytopicModel, mode: Mode, gamma: f64) -> BTreeMap<S
             "(15)/(S4) max_k γ² a_kᵀ Q a_k ≤ 1: assumed by the paper, not enforced by (13),(14),(26)"
         }
     };
-    out.insert(
-        Family::S4.name().to_string(),
-        DataCheck {
-            value: finite(s4),
-            bound: 1.0,
-            margin: finite(1.0 - s4),
-            passed: s4 <= 1.0,
-            required: set.requires_s4(),
-            description: s4_desc.to_string(),
-        },
-    );
+    let s4 = DataCheck::at_most(s4, 1.0, set.requires_s4(), s4_desc);
+    out.insert(Family::S4.name().to_string(), s4);
     let inf = match q.clone().cholesky() {
         Some(ch) => model
             .region
@@ -128,18 +119,10 @@ pub fn data_checks(model: &PolytopicModel, mode: Mode, gamma: f64) -> BTreeMap<S
             .fold(f64::NEG_INFINITY, f64::max),
         None => f64::INFINITY,
     };
+    let desc = "max_i x_(i)ᵀ Q⁻¹ x_(i) ≤ 1: the region P lies in the state bound F (Assumption 2)";
     out.insert(
         Family::RegionInF.name().to_string(),
-        DataCheck {
-            value: finite(inf),
-            bound: 1.0,
-            margin: finite(1.0 - inf),
-            passed: inf <= 1.0,
-            required: false,
-            description:
-                "max_i x_(i)ᵀ Q⁻¹ x_(i) ≤ 1: the region P lies in the state bound F (Assumption 2)"
-                    .to_string(),
-        },
+        DataCheck::at_most(inf, 1.0, false, desc),
     );
     out
 }

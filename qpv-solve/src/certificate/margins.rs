@@ -3,7 +3,7 @@
 //! eigenvalue helpers every check uses.
 
 use crate::vocab::Family;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use qpv_dsl::Mode;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -129,14 +129,24 @@ pub(super) fn gain_check(l: &[DMatrix<f64>], bound: f64) -> DataCheck {
             }
         })
         .fold(0.0, f64::max);
-    let passed = bound.is_finite() && bound > 0.0 && value <= bound;
+    let desc = "max_gain: every ‖L_l‖₂ ≤ G (the design's gain bound)";
     DataCheck {
-        value: finite(value),
-        bound: finite(bound),
-        margin: finite(bound - value),
-        passed,
-        required: true,
-        description: "max_gain: every ‖L_l‖₂ ≤ G (the design's gain bound)".into(),
+        passed: bound.is_finite() && bound > 0.0 && value <= bound,
+        ..DataCheck::at_most(value, bound, true, desc)
+    }
+}
+
+impl DataCheck {
+    /// The check value ≤ bound (JSON-safe numbers, see [`finite`]).
+    pub(super) fn at_most(value: f64, bound: f64, required: bool, description: &str) -> Self {
+        DataCheck {
+            value: finite(value),
+            bound: finite(bound),
+            margin: finite(bound - value),
+            passed: value <= bound,
+            required,
+            description: description.to_string(),
+        }
     }
 }
 
@@ -204,22 +214,20 @@ pub(super) fn block_guard(n: usize, size: f64, m: &DMatrix<f64>) -> f64 {
     GUARD_C * (n as f64 + 1.0) * 2.0 * (size + m.norm())
 }
 
-pub(super) fn sym_eigs(m: &DMatrix<f64>) -> DVector<f64> {
-    m.clone().symmetric_eigenvalues()
-}
-
+/// The smallest eigenvalue of the symmetric `m` (NaN if any is NaN).
 pub(super) fn lambda_min(m: &DMatrix<f64>) -> f64 {
-    let e = sym_eigs(m);
-    if e.iter().any(|v| v.is_nan()) {
-        return f64::NAN;
-    }
-    e.iter().copied().fold(f64::INFINITY, f64::min)
+    extreme(m, f64::INFINITY, f64::min)
 }
 
+/// The largest eigenvalue of the symmetric `m` (NaN if any is NaN).
 pub(super) fn lambda_max(m: &DMatrix<f64>) -> f64 {
-    let e = sym_eigs(m);
+    extreme(m, f64::NEG_INFINITY, f64::max)
+}
+
+fn extreme(m: &DMatrix<f64>, start: f64, pick: fn(f64, f64) -> f64) -> f64 {
+    let e = m.clone().symmetric_eigenvalues();
     if e.iter().any(|v| v.is_nan()) {
         return f64::NAN;
     }
-    e.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+    e.iter().copied().fold(start, pick)
 }

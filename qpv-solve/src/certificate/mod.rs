@@ -199,45 +199,24 @@ fn check_inner(
     } else {
         BTreeMap::new()
     };
-    if !errs.is_empty() {
-        return Certificate {
-            mode,
+    let families = if errs.is_empty() {
+        let stage = Stage {
+            model,
+            set,
+            global,
             alpha,
-            gamma,
-            families: Vec::new(),
-            data_checks: data,
-            passed: false,
-            input_errors: errs,
+            gamma: gamma_blocks,
+            w,
+            ps: (w.p + w.p.transpose()) * 0.5,
+            rate,
+            gens,
         };
-    }
-    let [f1, fv, ff, fr] = set.families();
-    let fr = match rate {
-        RateCheck::Sampled(_) => Family::S5d,
-        _ if global => Family::G5,
-        _ => fr,
-    };
-    let stage = Stage {
-        model,
-        set,
-        global,
-        alpha,
-        gamma: gamma_blocks,
-        w,
-        ps: (w.p + w.p.transpose()) * 0.5,
-        rate,
-        gens,
-    };
-    let families = if global {
-        vec![stage.s1(f1), stage.rate(fr)]
+        stage.families()
     } else {
-        vec![
-            stage.s1(f1),
-            stage.vertices(fv),
-            stage.facets(ff),
-            stage.rate(fr),
-        ]
+        Vec::new()
     };
-    let passed = families.iter().all(|f| f.passed)
+    let passed = errs.is_empty()
+        && families.iter().all(|f| f.passed)
         && data.values().filter(|d| d.required).all(|d| d.passed)
         && (global || !set.requires_s4() || data.contains_key(Family::S4.name()));
     Certificate {
@@ -247,6 +226,6 @@ fn check_inner(
         families,
         data_checks: data,
         passed,
-        input_errors: Vec::new(),
+        input_errors: errs,
     }
 }

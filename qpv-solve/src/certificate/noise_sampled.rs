@@ -96,7 +96,7 @@ impl SampledNoise<'_> {
             let w = combo.weight();
             for i in 0..xs.len() {
                 for j in 0..xs.len() {
-                    let (b, size) = block(&terms, &combo, self.alpha, self.gamma, h, i, j);
+                    let (b, size) = block(&terms, &combo, self.alpha, h, (i, j));
                     let n = 2 * nx + k;
                     let mut m = DMatrix::zeros(n, n);
                     m.view_mut((0, 0), (nx, nx))

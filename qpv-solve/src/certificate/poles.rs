@@ -20,7 +20,7 @@ use super::rate::Terms;
 use super::units::{balanced_for, block_model, gammas_of, l_to_z};
 use super::{Certificate, Gains};
 use crate::conditions::poles::{blocks, data_size};
-use crate::conditions::{rate_combos, Combo, ConditionSet};
+use crate::conditions::{rate_combos, ConditionSet};
 use crate::model::is_double_sum;
 use crate::vocab::{Candidate, Family};
 use nalgebra::DMatrix;
@@ -89,7 +89,7 @@ fn check_in(
     for combo in rate_combos(model) {
         let g = gamma * combo.weight();
         for (i, j) in combo.pairs(model) {
-            let (x, size) = combo_x(&terms, &combo, sg, gamma, i, j);
+            let (x, size) = terms.weighted(&combo, sg, (i, j), |x| x);
             for region in poles {
                 for (k, m) in blocks(region, &x, &ps, g).iter().enumerate() {
                     let size = 2.0 * (size + g * pn * data_size(region));
@@ -111,26 +111,6 @@ fn check_in(
         }
     }
     acc.finish()
-}
-
-/// X of one combination at the pair (i, j): Σ_t w_t γ·PF, and its size.
-fn combo_x(
-    terms: &Terms,
-    combo: &Combo,
-    sg: f64,
-    gamma: f64,
-    i: usize,
-    j: usize,
-) -> (DMatrix<f64>, f64) {
-    let n = terms.p.nrows();
-    let mut x = DMatrix::zeros(n, n);
-    let mut size = 0.0;
-    for &(l, m, w) in &combo.terms {
-        let (xi, s) = terms.phi(sg, gamma, l, m, i, j);
-        x += xi * w;
-        size += s * w.abs();
-    }
-    (x, size)
 }
 
 /// The bound on every ‖L_l‖₂ that a passed disk |λ − c| < r implies for the

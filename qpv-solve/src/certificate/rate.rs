@@ -17,7 +17,12 @@ pub(super) struct Terms<'a> {
     rows: PairTerms,
     /// ‖L_l‖‖P‖ + ‖Γ_l‖ (error size of Γ_l).
     gn: Vec<f64>,
+    /// The γ of the blocks.
+    pub(super) gamma: f64,
 }
+
+/// A pair (i, j) of points (0-based): e = x_(i)/γ, x = x_(j)/γ.
+pub(super) type Pair = (usize, usize);
 
 /// ‖L_l‖‖P‖ + ‖Γ_l‖, the error size of each Γ_l (‖L_l‖ = 0 where `lnorm`
 /// gives none: Γ_l given directly).
@@ -50,6 +55,7 @@ impl<'a> Terms<'a> {
             pa: model.vertices.iter().map(|v| p * &v.a * gamma).collect(),
             rows: PairTerms::at(model, xs),
             gn: gain_sizes(p, gammas, lnorm),
+            gamma,
         }
     }
 
@@ -73,32 +79,16 @@ impl<'a> Terms<'a> {
         )
     }
 
-    /// Ξ_{lm}(i, j) without its γαP term, and the size of its terms (for the guard).
-    pub(super) fn xi0(
-        &self,
-        sigma: f64,
-        gamma: f64,
-        l: usize,
-        m: usize,
-        i: usize,
-        j: usize,
-    ) -> (DMatrix<f64>, f64) {
-        let (x, size) = self.phi(sigma, gamma, l, m, i, j);
-        (&x + x.transpose(), size)
-    }
-
-    /// γ(PA_l − Γ_lC_m) + σP R_{l,i,j} − Γ_l S_{m,i,j} (γ·PF at the vertex,
-    /// for σ = +1), whose He is [`Terms::xi0`], and the size of its terms.
+    /// φ = γ(PA_l − Γ_lC_m) + σP R_{l,i,j} − Γ_l S_{m,i,j} (γ·PF at the
+    /// vertex, for σ = +1; He φ is Ξ_{lm}(i, j) without its γαP term), and
+    /// the size of its terms (for the guard).
     pub(super) fn phi(
         &self,
         sigma: f64,
-        gamma: f64,
-        l: usize,
-        m: usize,
-        i: usize,
-        j: usize,
+        (l, m): (usize, usize),
+        (i, j): Pair,
     ) -> (DMatrix<f64>, f64) {
-        let g = &self.gammas[l];
+        let (g, gamma) = (&self.gammas[l], self.gamma);
         let (vl, vm) = (&self.model.vertices[l], &self.model.vertices[m]);
         let t = &self.rows;
         let r = &t.nhe[l][j] - &t.nrw[l][i];
@@ -112,39 +102,43 @@ impl<'a> Terms<'a> {
         (x, size)
     }
 
+    /// Σ_t w_t f(φ_t) over the combination's terms at the pair, and
+    /// Σ_t |w_t| size_t.
+    pub(super) fn weighted(
+        &self,
+        c: &Combo,
+        sigma: f64,
+        pair: Pair,
+        f: impl Fn(DMatrix<f64>) -> DMatrix<f64>,
+    ) -> (DMatrix<f64>, f64) {
+        let nx = self.p.nrows();
+        let mut out = DMatrix::zeros(nx, nx);
+        let mut size = 0.0;
+        for &(l, m, w) in &c.terms {
+            let (x, s) = self.phi(sigma, (l, m), pair);
+            out += f(x) * w;
+            size += s * w.abs();
+        }
+        (out, size)
+    }
+
     /// Σ_t w_t Ξ_{l_t m_t}(i, j) (with its γαP terms) and its size.
     pub(super) fn combo(
         &self,
         c: &Combo,
         sigma: f64,
         alpha: f64,
-        gamma: f64,
-        i: usize,
-        j: usize,
+        pair: Pair,
     ) -> (DMatrix<f64>, f64) {
-        let (mut m, size) = self.combo0(c, sigma, gamma, i, j);
+        let gamma = self.gamma;
+        let (mut m, size) = self.combo0(c, sigma, pair);
         m += self.p * (gamma * alpha * c.weight());
         (m, size + gamma * alpha * self.p.norm() * c.weight())
     }
 
     /// As [`Terms::combo`] without the γαP terms.
-    pub(super) fn combo0(
-        &self,
-        c: &Combo,
-        sigma: f64,
-        gamma: f64,
-        i: usize,
-        j: usize,
-    ) -> (DMatrix<f64>, f64) {
-        let nx = self.p.nrows();
-        let mut out = DMatrix::zeros(nx, nx);
-        let mut size = 0.0;
-        for &(l, m, w) in &c.terms {
-            let (x, s) = self.xi0(sigma, gamma, l, m, i, j);
-            out += x * w;
-            size += s * w.abs();
-        }
-        (out, size)
+    pub(super) fn combo0(&self, c: &Combo, sigma: f64, pair: Pair) -> (DMatrix<f64>, f64) {
+        self.weighted(c, sigma, pair, |x| &x + x.transpose())
     }
 }
 
@@ -186,6 +180,6 @@ pub fn combo_lmi(
     let Candidate { alpha, gamma, .. } = at;
     let sigma = ConditionSet::from_mode(mode).nonlinear_sign();
     Terms::pair(model, p, gammas, gamma, (i, j))
-        .combo(combo, sigma, alpha, gamma, 0, 1)
+        .combo(combo, sigma, alpha, (0, 1))
         .0
 }

@@ -18,10 +18,10 @@
 //! [W(1 − hα)P, Mᵀ; M, WP], M = WP + h Σ_t w_t Φ_t. The family's margin
 //! is λ_min of that block (positive = satisfied).
 
-use super::capacity::sym_and_linv;
+use super::capacity::{least, sym_and_linv};
 use super::margins::block_guard;
 use super::margins::{lambda_min, Acc};
-use super::rate::Terms;
+use super::rate::{Pair, Terms};
 use crate::conditions::{pair_suffix, rate_combos, Combo, ConditionSet};
 use crate::model::is_double_sum;
 use nalgebra::DMatrix;
@@ -52,12 +52,10 @@ pub(super) fn block(
     terms: &Terms<'_>,
     combo: &Combo,
     alpha: f64,
-    gamma: f64,
     h: f64,
-    i: usize,
-    j: usize,
+    pair: Pair,
 ) -> (DMatrix<f64>, f64) {
-    let p = terms.p;
+    let (p, gamma) = (terms.p, terms.gamma);
     let nx = p.nrows();
     let w = combo.weight();
     let pn = p.norm();
@@ -65,7 +63,7 @@ pub(super) fn block(
     let mut size = w.abs() * pn;
     for &(l, mm, wt) in &combo.terms {
         // phi = γΦ (σ = +1: the sound error dynamics).
-        let (phi, sz) = terms.phi(1.0, gamma, l, mm, i, j);
+        let (phi, sz) = terms.phi(1.0, (l, mm), pair);
         m += phi * (h * wt / gamma);
         size += h * wt.abs() * sz / gamma;
     }
@@ -79,26 +77,24 @@ pub(super) fn block(
     (b, size)
 }
 
-/// Adds every discrete block (combination, i, j) to `acc` (λ_min ⪰ 0).
-pub(super) fn check_family(
-    acc: &mut Acc,
-    terms: &Terms<'_>,
-    model: &PolytopicModel,
-    alpha: f64,
-    gamma: f64,
-    h: f64,
-) {
-    let double = is_double_sum(model);
+/// Every region-vertex pair (i, j) of the model (0-based): the discrete
+/// family has no shortcut for linear combinations.
+fn all_pairs(model: &PolytopicModel) -> impl Iterator<Item = Pair> + Clone {
     let np = model.region.vertices.len();
+    (0..np).flat_map(move |i| (0..np).map(move |j| (i, j)))
+}
+
+/// Adds every discrete block (combination, i, j) to `acc` (λ_min ⪰ 0).
+pub(super) fn check_family(acc: &mut Acc, terms: &Terms<'_>, alpha: f64, h: f64) {
+    let model = terms.model;
+    let double = is_double_sum(model);
     let nx = model.nx();
     for combo in rate_combos(model) {
-        for i in 0..np {
-            for j in 0..np {
-                let (b, size) = block(terms, &combo, alpha, gamma, h, i, j);
-                acc.add(lambda_min(&b), block_guard(2 * nx, size, &b), || {
-                    format!("{}{}", combo.label(double), pair_suffix(model, i, j))
-                });
-            }
+        for (i, j) in all_pairs(model) {
+            let (b, size) = block(terms, &combo, alpha, h, (i, j));
+            acc.add(lambda_min(&b), block_guard(2 * nx, size, &b), || {
+                format!("{}{}", combo.label(double), pair_suffix(model, i, j))
+            });
         }
     }
 }
@@ -122,25 +118,16 @@ pub fn alpha_capacity_sampled(
         return 0.0;
     };
     let nx = ps.nrows();
-    let xs = &model.region.vertices;
-    let terms = Terms::new(model, xs, &ps, gammas, &[], gamma);
-    let mut worst = f64::INFINITY;
-    for combo in rate_combos(model) {
-        let w = combo.weight();
-        for i in 0..xs.len() {
-            for j in 0..xs.len() {
-                // α = 0 gives top-left WP; M is the lower-left block.
-                let (b, _) = block(&terms, &combo, 0.0, gamma, h, i, j);
-                let m = b.view((nx, 0), (nx, nx)).into_owned();
-                let n = &linv * m * linv.transpose();
-                let smax = crate::linalg::norm2(&n);
-                let a = (1.0 - (smax / w).powi(2)) / h;
-                if a.is_nan() {
-                    return 0.0;
-                }
-                worst = worst.min(a);
-            }
-        }
-    }
-    worst.max(0.0)
+    let terms = Terms::new(model, &model.region.vertices, &ps, gammas, &[], gamma);
+    least(rate_combos(model).iter().flat_map(|combo| {
+        let (terms, linv) = (&terms, &linv);
+        all_pairs(model).map(move |pair| {
+            // α = 0 gives top-left WP; M is the lower-left block.
+            let (b, _) = block(terms, combo, 0.0, h, pair);
+            let m = b.view((nx, 0), (nx, nx)).into_owned();
+            let n = linv * m * linv.transpose();
+            let smax = crate::linalg::norm2(&n);
+            (1.0 - (smax / combo.weight()).powi(2)) / h
+        })
+    }))
 }
