@@ -45,7 +45,7 @@ pub struct FamilyMargin {
     pub count: usize,
 }
 
-/// Result of [`check`].
+/// Result of [`check`](super::check).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Certificate {
     /// Mode checked ("sound" / "paper").
