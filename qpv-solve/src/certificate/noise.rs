@@ -105,7 +105,7 @@ fn block_parts(
 /// (P, Γ_l), by the Schur complement: max over blocks of
 /// λ_max(Gᵀ(−S)⁻¹G)/(γW) (no margin). `None` if some S is not negative
 /// definite (no σ works) or the input is malformed.
-pub fn sigma_min_for(
+pub(crate) fn sigma_min_for(
     model: &PolytopicModel,
     channels: &NoiseChannels,
     alpha: f64,
@@ -144,7 +144,7 @@ pub fn sigma_min_for(
 /// observer's blocks are checked in balanced coordinates
 /// ([`BalancedGlobal`]) and, failing that, in the model's own (the two are
 /// exactly congruent: either check proves the claim).
-pub fn sigma_for(
+pub(crate) fn sigma_for(
     model: &PolytopicModel,
     channels: &NoiseChannels,
     alpha: f64,
@@ -341,7 +341,7 @@ pub fn noise_bound(
 /// check fails up to 1 % above the smallest σ (the rate condition leaves
 /// too little room at α for a finite σ to be verified), or P is not
 /// positive definite.
-pub fn noise_bound_or_why(
+pub(crate) fn noise_bound_or_why(
     model: &PolytopicModel,
     channels: &NoiseChannels,
     alpha: f64,
@@ -456,7 +456,7 @@ pub type Boxes = Vec<(f64, f64)>;
 /// √Q_kk) ⊂ P̃ (the region scaled by 1/γ), e ∈ E = {eᵀPe ≤ 1}, |e_k| ≤
 /// √((P⁻¹)_kk). Returns (box of x, box of x̂); None if P is not positive
 /// definite.
-pub fn observer_boxes(
+pub(crate) fn observer_boxes(
     model: &PolytopicModel,
     gamma: f64,
     p: &DMatrix<f64>,

@@ -28,8 +28,8 @@
 //! (σν²/α)(1 − (1 − hα)^k), {V ≤ 1} invariant for ν ≤ √(α/σ).
 
 use super::noise::{bound_from, BalancedGlobal, NoiseBound, NoiseCheck};
+use super::rate::Terms;
 use super::sampled::block;
-use super::Terms;
 use crate::conditions::{pair_suffix, rate_combos, Combo};
 use crate::model::is_double_sum;
 use crate::model::noise::NoiseChannels;
@@ -88,8 +88,7 @@ impl SampledNoise<'_> {
         let nw = self.channels.n_w();
         let k = nw + outs.len();
         let xs = &model.region.vertices;
-        let lnorm = vec![0.0; gammas.len()];
-        let terms = Terms::new(model, xs, p, gammas, &lnorm, self.gamma);
+        let terms = Terms::new(model, xs, p, gammas, &[], self.gamma);
         let double = is_double_sum(model);
         let mut out = Vec::new();
         for combo in rate_combos(model) {
@@ -97,7 +96,7 @@ impl SampledNoise<'_> {
             let w = combo.weight();
             for i in 0..xs.len() {
                 for j in 0..xs.len() {
-                    let (b, size) = block(&terms, &combo, self.alpha, self.gamma, h, i, j);
+                    let (b, size) = block(&terms, &combo, self.alpha, h, (i, j));
                     let n = 2 * nx + k;
                     let mut m = DMatrix::zeros(n, n);
                     m.view_mut((0, 0), (nx, nx))
@@ -149,7 +148,7 @@ impl SampledNoise<'_> {
     /// the Schur complements of the module doc (no margin); None if some
     /// block fails for every σ (the discrete decrease itself fails) or the
     /// input does not fit.
-    pub fn sigma_min(&self, p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Option<f64> {
+    pub(crate) fn sigma_min(&self, p: &DMatrix<f64>, gammas: &[DMatrix<f64>]) -> Option<f64> {
         self.fits(p, gammas).ok()?;
         let mut worst: f64 = 0.0;
         for (b, _) in self.blocks(p, gammas) {
@@ -222,7 +221,7 @@ impl SampledNoise<'_> {
     /// σ for these (P, Γ_l) with the margin the check needs:
     /// [`SampledNoise::sigma_min`] times (1 + δ), δ = 1e-6 raised tenfold
     /// (to 1e-2 at most) until [`SampledNoise::check`] passes.
-    pub fn sigma_for(
+    pub(crate) fn sigma_for(
         &self,
         p: &DMatrix<f64>,
         gammas: &[DMatrix<f64>],

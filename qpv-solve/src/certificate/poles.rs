@@ -15,9 +15,12 @@
 //! e ∈ E and x ∈ F) lies in every region; with a disk, ‖F − cI‖₂ ≤ r√κ(P),
 //! whence the gain bound of [`disk_gain_bound`].
 
-use super::{balanced_for, gammas_of, lambda_max, sigma, Acc, Terms, GUARD_C};
+use super::margins::{block_guard, lambda_max, Acc, FamilyMargin};
+use super::rate::Terms;
+use super::units::{balanced_for, block_model, gammas_of, l_to_z};
 use super::{Certificate, Gains};
-use crate::conditions::{rate_combos, Combo, ConditionSet};
+use crate::conditions::poles::{blocks, data_size};
+use crate::conditions::{rate_combos, ConditionSet};
 use crate::model::is_double_sum;
 use crate::vocab::{Candidate, Family};
 use nalgebra::DMatrix;
@@ -48,30 +51,25 @@ impl Certificate {
 /// Family "D": the worst margin of every region's blocks (see the module
 /// documentation), in balanced coordinates where the rest of the
 /// certificate uses them.
-pub fn check_poles(
+fn check_poles(
     model: &PolytopicModel,
     mode: qpv_dsl::Mode,
     at: &Candidate,
     gains: &Gains,
     poles: &[PoleRegion],
-) -> super::FamilyMargin {
-    let global = crate::model::is_global(model, mode);
-    let gm = crate::model::global_model(model);
-    let (model, gamma) = if global {
-        (&*gm, 1.0)
-    } else {
-        (model, at.gamma)
-    };
-    if let Some((zm, s)) = balanced_for(model, mode, gains.p) {
-        let lz: Option<Vec<DMatrix<f64>>> = gains.l.iter().map(|x| s.l_to_z(x)).collect();
-        if let (Some(pz), Some(lz)) = (s.p_to_z(gains.p), lz) {
+) -> FamilyMargin {
+    let (model, gamma, _) = block_model(model, mode, at.gamma);
+    if let Some((zm, s)) = balanced_for(&model, mode, gains.p) {
+        if let (Some(pz), Some(lz)) = (s.p_to_z(gains.p), l_to_z(&s, gains.l)) {
             return check_in(&zm, mode, gamma, &pz, &lz, poles);
         }
     }
-    check_in(model, mode, gamma, gains.p, gains.l, poles)
+    check_in(&model, mode, gamma, gains.p, gains.l, poles)
 }
 
-/// Family "D" in the model's coordinates as given.
+/// Family "D" in the model's coordinates as given: the blocks of
+/// [`crate::conditions::poles::blocks`] at X = Σ_t w_t γ·PF of every
+/// combination and pair, each required ≺ 0.
 fn check_in(
     model: &PolytopicModel,
     mode: qpv_dsl::Mode,
@@ -79,31 +77,23 @@ fn check_in(
     p: &DMatrix<f64>,
     l: &[DMatrix<f64>],
     poles: &[PoleRegion],
-) -> super::FamilyMargin {
+) -> FamilyMargin {
     let mut acc = Acc::new(Family::D);
     let ps = (p + p.transpose()) * 0.5;
     let (gammas, lnorm) = gammas_of(&ps, l);
     let xs = &model.region.vertices;
     let terms = Terms::new(model, xs, &ps, &gammas, &lnorm, gamma);
-    let sg = sigma(ConditionSet::from_mode(mode));
+    let sg = ConditionSet::from_mode(mode).nonlinear_sign();
     let double = is_double_sum(model);
     let pn = ps.norm();
     for combo in rate_combos(model) {
         let g = gamma * combo.weight();
-        let pairs: Vec<(usize, usize)> = if xs.len() <= 1 || super::combo_is_linear(model, &combo) {
-            vec![(0, 0)]
-        } else {
-            (0..xs.len())
-                .flat_map(|i| (0..xs.len()).map(move |j| (i, j)))
-                .collect()
-        };
-        for (i, j) in pairs {
-            let (x, size) = combo_x(&terms, &combo, sg, gamma, i, j);
+        for (i, j) in combo.pairs(model) {
+            let (x, size) = terms.weighted(&combo, sg, (i, j), |x| x);
             for region in poles {
-                for (k, m) in region_matrices(region, &x, &ps, g).iter().enumerate() {
-                    let size = 2.0 * (size + g * pn * region_size(region));
-                    let guard = GUARD_C * (m.nrows() as f64 + 1.0) * 2.0 * (size + m.norm());
-                    acc.add(-lambda_max(m), guard, || {
+                for (k, m) in blocks(region, &x, &ps, g).iter().enumerate() {
+                    let size = 2.0 * (size + g * pn * data_size(region));
+                    acc.add(-lambda_max(m), block_guard(m.nrows(), size, m), || {
                         let side = match (region, k) {
                             (PoleRegion::Strip { .. }, 0) => " Re < hi",
                             (PoleRegion::Strip { .. }, _) => " Re > lo",
@@ -121,72 +111,6 @@ fn check_in(
         }
     }
     acc.finish()
-}
-
-/// X of one combination at the pair (i, j): Σ_t w_t γ·PF, and its size.
-fn combo_x(
-    terms: &Terms,
-    combo: &Combo,
-    sg: f64,
-    gamma: f64,
-    i: usize,
-    j: usize,
-) -> (DMatrix<f64>, f64) {
-    let n = terms.p.nrows();
-    let mut x = DMatrix::zeros(n, n);
-    let mut size = 0.0;
-    for &(l, m, w) in &combo.terms {
-        let (xi, s) = terms.phi(sg, gamma, l, m, i, j);
-        x += xi * w;
-        size += s * w.abs();
-    }
-    (x, size)
-}
-
-/// |c| + r, 1, |lo| + |hi|: the region's constants, for the guard.
-fn region_size(region: &PoleRegion) -> f64 {
-    match *region {
-        PoleRegion::Disk { centre, radius } => centre.abs() + radius,
-        PoleRegion::Sector { .. } => 1.0,
-        PoleRegion::Strip { lo, hi } => lo.abs() + hi.abs(),
-    }
-}
-
-/// The matrices required ≺ 0 for one region (module documentation).
-fn region_matrices(
-    region: &PoleRegion,
-    x: &DMatrix<f64>,
-    p: &DMatrix<f64>,
-    g: f64,
-) -> Vec<DMatrix<f64>> {
-    let n = p.nrows();
-    let sym = x + x.transpose();
-    let stack = |a: &DMatrix<f64>, b: &DMatrix<f64>, d: &DMatrix<f64>| {
-        let mut m = DMatrix::zeros(2 * n, 2 * n);
-        for r in 0..n {
-            for c in 0..n {
-                m[(r, c)] = a[(r, c)];
-                m[(r, n + c)] = b[(r, c)];
-                m[(n + c, r)] = b[(r, c)];
-                m[(n + r, n + c)] = d[(r, c)];
-            }
-        }
-        m
-    };
-    match *region {
-        PoleRegion::Disk { centre, radius } => {
-            let d = p * (-radius * g);
-            let b = x - p * (centre * g);
-            vec![stack(&d, &b, &d)]
-        }
-        PoleRegion::Sector { angle } => {
-            let (s, c) = angle.to_radians().sin_cos();
-            let d = &sym * s;
-            let b = (x - x.transpose()) * c;
-            vec![stack(&d, &b, &d)]
-        }
-        PoleRegion::Strip { lo, hi } => vec![&sym - p * (2.0 * hi * g), p * (2.0 * lo * g) - &sym],
-    }
 }
 
 /// The bound on every ‖L_l‖₂ that a passed disk |λ − c| < r implies for the

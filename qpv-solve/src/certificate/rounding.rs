@@ -88,7 +88,7 @@ pub struct RoundingFloor {
 
 /// The inputs of [`rounding_floor`]: a certified design's numbers as baked.
 #[derive(Debug, Clone, Copy)]
-pub struct FloorInputs<'a> {
+pub(crate) struct FloorInputs<'a> {
     /// The observer's model the numbers are certified on.
     pub model: &'a PolytopicModel,
     /// The certified rate α.
@@ -173,7 +173,10 @@ fn via_noise(inp: &FloorInputs<'_>, d0: &[f64], alpha_eff: f64) -> Option<f64> {
 /// rounding `r` of their generated right-hand side (module docs). `Err`
 /// says why none is certified (the proportional part eats the rate, or the
 /// floor would leave E).
-pub fn rounding_floor(inp: &FloorInputs<'_>, r: &RhsRounding) -> Result<RoundingFloor, String> {
+pub(crate) fn rounding_floor(
+    inp: &FloorInputs<'_>,
+    r: &RhsRounding,
+) -> Result<RoundingFloor, String> {
     let n = inp.model.nx();
     let sizes = [&r.constant, &r.proportional, &r.derivative, &r.state];
     if sizes.iter().any(|v| v.len() != n)

@@ -18,10 +18,12 @@
 //! [W(1 − hα)P, Mᵀ; M, WP], M = WP + h Σ_t w_t Φ_t. The family's margin
 //! is λ_min of that block (positive = satisfied).
 
-use super::{lambda_min, Acc, Terms, GUARD_C};
+use super::capacity::{least, sym_and_linv};
+use super::margins::block_guard;
+use super::margins::{lambda_min, Acc};
+use super::rate::{Pair, Terms};
 use crate::conditions::{pair_suffix, rate_combos, Combo, ConditionSet};
 use crate::model::is_double_sum;
-use crate::vocab::Candidate;
 use nalgebra::DMatrix;
 use qpv_dsl::PolytopicModel;
 
@@ -50,12 +52,10 @@ pub(super) fn block(
     terms: &Terms<'_>,
     combo: &Combo,
     alpha: f64,
-    gamma: f64,
     h: f64,
-    i: usize,
-    j: usize,
+    pair: Pair,
 ) -> (DMatrix<f64>, f64) {
-    let p = terms.p;
+    let (p, gamma) = (terms.p, terms.gamma);
     let nx = p.nrows();
     let w = combo.weight();
     let pn = p.norm();
@@ -63,7 +63,7 @@ pub(super) fn block(
     let mut size = w.abs() * pn;
     for &(l, mm, wt) in &combo.terms {
         // phi = γΦ (σ = +1: the sound error dynamics).
-        let (phi, sz) = terms.phi(1.0, gamma, l, mm, i, j);
+        let (phi, sz) = terms.phi(1.0, (l, mm), pair);
         m += phi * (h * wt / gamma);
         size += h * wt.abs() * sz / gamma;
     }
@@ -77,57 +77,26 @@ pub(super) fn block(
     (b, size)
 }
 
-/// Adds every discrete block (combination, i, j) to `acc` (λ_min ⪰ 0).
-pub(super) fn check_family(
-    acc: &mut Acc,
-    terms: &Terms<'_>,
-    model: &PolytopicModel,
-    alpha: f64,
-    gamma: f64,
-    h: f64,
-) {
-    let double = is_double_sum(model);
+/// Every region-vertex pair (i, j) of the model (0-based): the discrete
+/// family has no shortcut for linear combinations.
+fn all_pairs(model: &PolytopicModel) -> impl Iterator<Item = Pair> + Clone {
     let np = model.region.vertices.len();
-    let nx = model.nx();
-    for combo in rate_combos(model) {
-        for i in 0..np {
-            for j in 0..np {
-                let (b, size) = block(terms, &combo, alpha, gamma, h, i, j);
-                let guard = GUARD_C * (2.0 * nx as f64 + 1.0) * 2.0 * (size + b.norm());
-                acc.add(lambda_min(&b), guard, || {
-                    format!("{}{}", combo.label(double), pair_suffix(model, i, j))
-                });
-            }
-        }
-    }
+    (0..np).flat_map(move |i| (0..np).map(move |j| (i, j)))
 }
 
-/// The discrete block of combination `combo` at the pair (i, j) (0-based)
-/// in model units, [W(1 − hα)P, Mᵀ; M, WP], required ⪰ 0 (the family the
-/// certificate checks for a `sample = h` design) at the candidate `at`
-/// (α, γ and its sample period h; None for a continuous-time candidate,
-/// which has no discrete block).
-pub fn sampled_block(
-    model: &PolytopicModel,
-    at: Candidate,
-    p: &DMatrix<f64>,
-    gammas: &[DMatrix<f64>],
-    combo: &Combo,
-    (i, j): (usize, usize),
-) -> Option<DMatrix<f64>> {
-    let Candidate {
-        alpha,
-        gamma,
-        sample,
-    } = at;
-    let h = sample?;
-    let lnorm = vec![0.0; gammas.len()];
-    let pair = [
-        model.region.vertices[i].clone(),
-        model.region.vertices[j].clone(),
-    ];
-    let terms = Terms::new(model, &pair, p, gammas, &lnorm, gamma);
-    Some(block(&terms, combo, alpha, gamma, h, 0, 1).0)
+/// Adds every discrete block (combination, i, j) to `acc` (λ_min ⪰ 0).
+pub(super) fn check_family(acc: &mut Acc, terms: &Terms<'_>, alpha: f64, h: f64) {
+    let model = terms.model;
+    let double = is_double_sum(model);
+    let nx = model.nx();
+    for combo in rate_combos(model) {
+        for (i, j) in all_pairs(model) {
+            let (b, size) = block(terms, &combo, alpha, h, (i, j));
+            acc.add(lambda_min(&b), block_guard(2 * nx, size, &b), || {
+                format!("{}{}", combo.label(double), pair_suffix(model, i, j))
+            });
+        }
+    }
 }
 
 /// The largest α at which the *same* (P, Γ_l) satisfy every discrete block
@@ -145,34 +114,20 @@ pub fn alpha_capacity_sampled(
     if !(h.is_finite() && h > 0.0) {
         return 0.0;
     }
-    let ps = (p + p.transpose()) * 0.5;
-    let Some(ch) = ps.clone().cholesky() else {
-        return 0.0;
-    };
-    let Some(linv) = ch.l().try_inverse() else {
+    let Some((ps, linv)) = sym_and_linv(p) else {
         return 0.0;
     };
     let nx = ps.nrows();
-    let xs = &model.region.vertices;
-    let lnorm = vec![0.0; gammas.len()];
-    let terms = Terms::new(model, xs, &ps, gammas, &lnorm, gamma);
-    let mut worst = f64::INFINITY;
-    for combo in rate_combos(model) {
-        let w = combo.weight();
-        for i in 0..xs.len() {
-            for j in 0..xs.len() {
-                // α = 0 gives top-left WP; M is the lower-left block.
-                let (b, _) = block(&terms, &combo, 0.0, gamma, h, i, j);
-                let m = b.view((nx, 0), (nx, nx)).into_owned();
-                let n = &linv * m * linv.transpose();
-                let smax = crate::linalg::norm2(&n);
-                let a = (1.0 - (smax / w).powi(2)) / h;
-                if a.is_nan() {
-                    return 0.0;
-                }
-                worst = worst.min(a);
-            }
-        }
-    }
-    worst.max(0.0)
+    let terms = Terms::new(model, &model.region.vertices, &ps, gammas, &[], gamma);
+    least(rate_combos(model).iter().flat_map(|combo| {
+        let (terms, linv) = (&terms, &linv);
+        all_pairs(model).map(move |pair| {
+            // α = 0 gives top-left WP; M is the lower-left block.
+            let (b, _) = block(terms, combo, 0.0, h, pair);
+            let m = b.view((nx, 0), (nx, nx)).into_owned();
+            let n = linv * m * linv.transpose();
+            let smax = crate::linalg::norm2(&n);
+            (1.0 - (smax / combo.weight()).powi(2)) / h
+        })
+    }))
 }

@@ -476,7 +476,7 @@ impl ContinuousBound {
     /// §16, "with noise"): ‖e_{k+1}‖_P ≤ √(ρ²‖e_k‖²_P + hσν²) + δ, whose
     /// fixed point is at most δ/(1 − ρ) + ν√(σ/α) (the two bounds add), and
     /// {V ≤ 1} stays invariant while √(ρ² + hσν²) + δ ≤ 1.
-    pub fn with_noise(mut self, (h, alpha): (f64, f64), sigma: f64, per_unit: f64) -> Self {
+    pub(crate) fn with_noise(mut self, (h, alpha): (f64, f64), sigma: f64, per_unit: f64) -> Self {
         self.noise_amplitude_max = Some(self.amplitude_limit((h, alpha), sigma));
         self.noise_per_unit = Some(per_unit);
         self
@@ -485,7 +485,7 @@ impl ContinuousBound {
     /// ν_c for a discrete noise bound σ at (h, α): the largest noise
     /// amplitude with √(ρ² + hσν²) + δ ≤ 1 (0 if none; ∞ for the global
     /// observer, whose recursion holds for every e).
-    pub fn amplitude_limit(&self, (h, alpha): (f64, f64), sigma: f64) -> f64 {
+    pub(crate) fn amplitude_limit(&self, (h, alpha): (f64, f64), sigma: f64) -> f64 {
         let room = (1.0 - self.delta).powi(2) - (1.0 - h * alpha);
         match (self.global, room > 0.0) {
             (true, _) => f64::INFINITY,

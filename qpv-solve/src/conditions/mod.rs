@@ -162,7 +162,12 @@ pub(crate) struct PairTerms {
 impl PairTerms {
     /// Precomputes the terms at every region vertex and parameter vertex.
     pub fn new(model: &PolytopicModel) -> Self {
-        let xs = &model.region.vertices;
+        Self::at(model, &model.region.vertices)
+    }
+
+    /// The terms at the points `xs` (indices i, j refer to `xs`) and every
+    /// parameter vertex.
+    pub fn at(model: &PolytopicModel, xs: &[DVector<f64>]) -> Self {
         let per_vertex = |f: &dyn Fn(&qpv_dsl::Vertex, &DVector<f64>) -> DMatrix<f64>| {
             model
                 .vertices
@@ -207,6 +212,25 @@ impl Combo {
         self.terms.iter().map(|t| t.2).sum()
     }
 
+    /// Whether every term (l, m) has N_l = 0 and M_m = 0 exactly: then
+    /// R_{l,i,j} and S_{m,i,j} vanish and the p² blocks of the combination
+    /// are one (the one definition the assembly and the certificate share).
+    pub(crate) fn is_linear(&self, model: &PolytopicModel) -> bool {
+        let zero = |ms: &[DMatrix<f64>]| ms.iter().all(|m| m.iter().all(|v| *v == 0.0));
+        self.terms
+            .iter()
+            .all(|&(l, m, _)| zero(&model.vertices[l].n) && zero(&model.vertices[m].m))
+    }
+
+    /// The region-vertex pairs (i, j) (0-based) whose blocks the
+    /// combination needs: every pair, or the first alone for a linear
+    /// combination ([`Combo::is_linear`]: every pair gives the same block).
+    pub(crate) fn pairs(&self, model: &PolytopicModel) -> Vec<(usize, usize)> {
+        let np = model.region.vertices.len();
+        let n = if self.is_linear(model) { np.min(1) } else { np };
+        (0..n).flat_map(|i| (0..n).map(move |j| (i, j))).collect()
+    }
+
     /// A 1-based label for reports: "l=2" (single sum), "l=m=2" or "l=2 m=3".
     pub fn label(&self, double: bool) -> String {
         let (l, m, _) = self.terms[0];
@@ -221,7 +245,7 @@ impl Combo {
 /// " i=1 j=3": the region-vertex pair (i, j) (0-based) of a block, for its
 /// label; nothing for the global observer's model, whose region is the
 /// single point {0} (there are no region vertices to name).
-pub fn pair_suffix(model: &PolytopicModel, i: usize, j: usize) -> String {
+pub(crate) fn pair_suffix(model: &PolytopicModel, i: usize, j: usize) -> String {
     let r = &model.region;
     let global =
         r.vertices.len() == 1 && r.facets.is_empty() && r.vertices[0].iter().all(|x| *x == 0.0);

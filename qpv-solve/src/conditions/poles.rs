@@ -68,7 +68,7 @@ fn two_by_two(a: &DMatrix<f64>, b: &DMatrix<f64>, d: &DMatrix<f64>) -> DMatrix<f
 
 /// The size of a region's constants (|c| + r, 1, |lo| + |hi|): what the
 /// margin of its blocks scales with, beside the data of X.
-pub fn data_size(region: &PoleRegion) -> f64 {
+pub(crate) fn data_size(region: &PoleRegion) -> f64 {
     match *region {
         PoleRegion::Disk { centre, radius } => centre.abs() + radius,
         PoleRegion::Sector { .. } => 1.0,
