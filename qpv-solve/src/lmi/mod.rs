@@ -132,15 +132,7 @@ impl<'m> Problem<'m> {
             r => r,
         };
         let combos = rate_combos(model);
-        let zero = |ms: &[DMatrix<f64>]| ms.iter().all(|m| m.iter().all(|v| *v == 0.0));
-        let linear = combos
-            .iter()
-            .map(|c| {
-                c.terms
-                    .iter()
-                    .all(|&(l, m, _)| zero(&model.vertices[l].n) && zero(&model.vertices[m].m))
-            })
-            .collect();
+        let linear = combos.iter().map(|c| c.is_linear(model)).collect();
         Ok(Problem {
             global,
             linear,
