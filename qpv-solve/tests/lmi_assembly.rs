@@ -624,3 +624,79 @@ fn cube_assembly_with_one_slack_per_generator_matches_direct_matrices() {
     check_cube_assembly(&symmetrised(synthetic_model(4)), Mode::Sound, true);
     check_cube_assembly(&symmetrised(varying_output_model()), Mode::Sound, true);
 }
+
+// The bench's independent formulation of the cube relaxation (written on
+// Clarabel's standard form without `qpv_solve::lmi`) and its plant
+// generator (issue 40).
+#[allow(dead_code)]
+#[path = "../benches/cube_reference.rs"]
+mod cube_reference;
+#[path = "../benches/plant_gen.rs"]
+mod plant_gen;
+
+/// On small generated plants the generator was not tuned on (a chain with
+/// θ-dependent N_k on rate products; a random sparse plant in unbalanced
+/// units, so the unit balancing runs), the library's cube problem is as
+/// sparse as the independent formulation of the same relaxation: nnz(A)
+/// within 1.5× of its lean form (same variables and rows) and below its
+/// form with four slack blocks per generator.
+#[test]
+fn cube_nnz_matches_the_independent_formulation_on_generated_plants() {
+    use cube_reference::{Form, Reference};
+    use plant_gen::Spec;
+    use qpv_dsl::Split;
+    use qpv_solve::model::StateScaling;
+    let specs = [
+        Spec {
+            nx: 6,
+            n_theta: 2,
+            chain: true,
+            n_quad: 3,
+            ny: 2,
+            bound: true,
+            spread: false,
+            seed: 1,
+        },
+        Spec {
+            nx: 6,
+            n_theta: 1,
+            chain: false,
+            n_quad: 4,
+            ny: 2,
+            bound: false,
+            spread: true,
+            seed: 2,
+        },
+    ];
+    let settings = Settings::default();
+    for spec in specs {
+        let plant = spec.build();
+        let split = plant.model.with_split(Split::Symmetric);
+        let (model, scaling) = match StateScaling::of(&split, Mode::Sound)
+            .and_then(|s| s.model(&split).map(|m| (m, s)))
+        {
+            Some((m, s)) => (m, Some(s)),
+            None => (split, None),
+        };
+        assert_eq!(scaling.is_some(), spec.spread, "{}", plant.name);
+        let lib = Problem::new(&model, ConditionSet::Sound)
+            .and_then(|p| p.with_conditions(Conditions::Cube))
+            .expect("a box region")
+            .with_scaling(scaling)
+            .assemble(1.0, plant.gamma, &settings, Objective::Gains);
+        let at = (1.0, plant.gamma);
+        let (eps, w) = (settings.margin_rel, settings.gain_weight);
+        let (_, lean) = Reference::new(&model, at, eps, w, Form::Lean);
+        let (_, pairs) = Reference::new(&model, at, eps, w, Form::Pairs);
+        let nnz = |s: &qpv_solve::backend::Sdp| s.a.nzval.len() as f64;
+        assert_eq!((lib.a.n, lib.a.m), (lean.a.n, lean.a.m), "{}", plant.name);
+        assert!(
+            nnz(&lib) <= 1.5 * nnz(&lean) && nnz(&lib) <= nnz(&pairs),
+            "{}: nnz(A) {} against the reference's {} (lean) and {} (pairs)",
+            plant.name,
+            nnz(&lib),
+            nnz(&lean),
+            nnz(&pairs)
+        );
+    }
+}
