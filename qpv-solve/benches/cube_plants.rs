@@ -52,7 +52,13 @@ fn cpu_seconds() -> f64 {
 
 /// The model a design solves: the symmetric split, in balanced units.
 fn solved_model(model: &PolytopicModel) -> (PolytopicModel, Option<StateScaling>) {
-    let split = model.with_split(Split::Symmetric);
+    // `aswritten`: N_k, M_k as written (no symmetric split; the library
+    // then solves a pair of slacks per generator).
+    let split = if std::env::args().any(|a| a == "aswritten") {
+        model.with_split(Split::AsWritten)
+    } else {
+        model.with_split(Split::Symmetric)
+    };
     match StateScaling::of(&split, Mode::Sound).and_then(|s| s.model(&split).map(|m| (m, s))) {
         Some((m, s)) => (m, Some(s)),
         None => (split, None),
@@ -163,7 +169,18 @@ fn run(plant: &Plant, do_solve: bool, do_design: bool) {
         zm.nv(),
         scaling.is_some()
     );
+    let mut req = qpv_solve::request(
+        AlphaSpec::Fixed(alpha),
+        GammaSpec::Fixed(gamma),
+        Mode::Sound,
+    );
+    req.conditions = Conditions::Cube;
+    let est = qpv_solve::model::size::estimate(&plant.model, &req);
     println!("  library   {} (assembly {asm:.2} s)", size(&lib));
+    println!(
+        "            estimated before assembly: {:.0} vars, {:.0} rows, nnz(A) {:.0}, {:.1} s per solve",
+        est.variables, est.rows, est.nonzeros, est.seconds_per_solve
+    );
     println!(
         "            {}",
         families(&lib, prob.combos().len(), prob.n_generators(), per)
@@ -171,7 +188,12 @@ fn run(plant: &Plant, do_solve: bool, do_design: bool) {
     let eps = settings.margin_rel;
     let w = settings.gain_weight;
     let (_, pairs) = Reference::new(&zm, (alpha, gamma), eps, w, Form::Pairs);
-    let (_, lean) = Reference::new(&zm, (alpha, gamma), eps, w, Form::Lean);
+    let lean_form = if prob.cube_one_slack() {
+        Form::Lean
+    } else {
+        Form::Pairs
+    };
+    let (_, lean) = Reference::new(&zm, (alpha, gamma), eps, w, lean_form);
     println!("  ref pairs {}", size(&pairs));
     println!("  ref lean  {}", size(&lean));
     println!(
@@ -185,12 +207,6 @@ fn run(plant: &Plant, do_solve: bool, do_design: bool) {
         println!("  solve ref lean  {}", solve(lean, &settings));
     }
     if do_design && matches!(plant.model.state_bound, StateBound::Given(_)) {
-        let mut req = qpv_solve::request(
-            AlphaSpec::Fixed(alpha),
-            GammaSpec::Fixed(gamma),
-            Mode::Sound,
-        );
-        req.conditions = Conditions::Cube;
         let (cpu0, t) = (cpu_seconds(), Instant::now());
         let d = qpv_solve::design(&plant.model, &req, &settings).expect("design");
         println!(
@@ -222,7 +238,10 @@ fn main() {
     let wanted: Vec<&String> = args
         .iter()
         .filter(|a| {
-            !matches!(a.as_str(), "solve" | "design" | "timers" | "--bench") && !a.contains('=')
+            !matches!(
+                a.as_str(),
+                "solve" | "design" | "timers" | "aswritten" | "--bench"
+            ) && !a.contains('=')
         })
         .collect();
     for s in specs {

@@ -128,13 +128,7 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     // symmetric (H = −2G; the symmetric split makes them so), else a pair,
     // and one facet block per pair of opposite facets (a zonotope's come in
     // pairs); the certificate checks all 4r + 1 inequalities per combination.
-    let symmetric = |ms: &[nalgebra::DMatrix<f64>]| ms.iter().all(|m| m == &m.transpose());
-    let one_slack = request.split == Split::Symmetric
-        || model
-            .vertices
-            .iter()
-            .all(|v| symmetric(&v.n) && symmetric(&v.m));
-    let per_k = if one_slack { 1.0 } else { 2.0 };
+    let per_k = cube_slacks_per_generator(model, request);
     let q = model.region.facets.len() as f64 / if cube { 2.0 } else { 1.0 };
     let rate_blocks = match conditions {
         Conditions::Full | Conditions::Auto => c * p * p,
@@ -164,11 +158,7 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     // (lmi/sampled.rs); each pole region adds its blocks (side nx or 2nx)
     // beside every rate block (conditions/poles.rs).
     let rate_side = if request.sample.is_some() { 2.0 } else { 1.0 } * nx;
-    let pole_sides: Vec<f64> = request
-        .poles
-        .iter()
-        .flat_map(|r| std::iter::repeat(r.block_side(nx_u) as f64).take(r.n_blocks()))
-        .collect();
+    let pole_sides = pole_sides(request, nx_u);
     let rate_work = |f: &dyn Fn(f64) -> f64| {
         rate_blocks * (f(rate_side) + pole_sides.iter().map(|&d| f(d)).sum::<f64>())
     };
@@ -176,10 +166,29 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     let psd_blocks = rate_blocks * (1.0 + pole_sides.len() as f64) + 1.0;
     let psd_blocks_plus = q + vertex_psd;
     let rows = rate_rows + t + psd_blocks_plus * t1 + vertex_rows + 1.0;
-    // Each rate row depends on P̂ (t), the Γ̂ of its terms, its slack and the margin.
+    // Each rate row depends on P̂ (t), the Γ̂ of its terms, its slack and the
+    // margin: a bound for dense data. The cube family is counted from the
+    // data's sparsity instead (cheap: c(2r + 1) blocks), where the bound is
+    // tens of times too large on a sparse plant (issue 40).
     let per_rate_row = t + terms * nx * ny + 2.0;
+    let gains = if double { 2.0 } else { 1.0 };
+    let rate_nnz = match cube_rate_nonzeros(model, nx_u, per_k, gains)
+        .filter(|_| cube && request.sample.is_none())
+    {
+        Some(n) => {
+            n * c + rate_blocks * pole_sides.iter().map(|&d| tri(d)).sum::<f64>() * per_rate_row
+        }
+        None => rate_rows * per_rate_row,
+    };
     let vertex_nnz = if cube { vertex_rows * t } else { p * t };
-    let nonzeros = rate_rows * per_rate_row + psd_blocks_plus * t1 * (t + nx) + vertex_nnz + t;
+    // A facet block holds P̂ once (t entries) and, in paper mode, γP̂â in its
+    // border (at most nx² more); a paper vertex block P̂ and its constant.
+    let facet_nnz = t + if request.mode == Mode::Paper {
+        nx * nx
+    } else {
+        0.0
+    };
+    let nonzeros = rate_nnz + psd_blocks_plus * facet_nnz + vertex_nnz + t;
     // KKT: A, the dense t×t scaling block of every PSD cone, the dense
     // variable block; the factor about as much again; cone work ~12 d².
     // (Blocks wider than nx — the sampled and pole blocks — are counted
@@ -211,6 +220,97 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
         certificate_blocks: if cube { c * (4.0 * r + 1.0) } else { c * p * p }
             * (1.0 + pole_sides.len() as f64),
     }
+}
+
+/// The side of every pole-region block beside a rate block.
+fn pole_sides(request: &DesignRequest, nx_u: usize) -> Vec<f64> {
+    request
+        .poles
+        .iter()
+        .flat_map(|r| std::iter::repeat(r.block_side(nx_u) as f64).take(r.n_blocks()))
+        .collect()
+}
+
+/// Slacks per cube generator: one when N_k and M_k are symmetric (H = −2G;
+/// the symmetric split makes them so), else a pair.
+fn cube_slacks_per_generator(model: &PolytopicModel, request: &DesignRequest) -> f64 {
+    let symmetric = |ms: &[nalgebra::DMatrix<f64>]| ms.iter().all(|m| m == &m.transpose());
+    let one_slack = request.split == Split::Symmetric
+        || model
+            .vertices
+            .iter()
+            .all(|v| symmetric(&v.n) && symmetric(&v.m));
+    if one_slack {
+        1.0
+    } else {
+        2.0
+    }
+}
+
+/// The structural nonzeros of one combination's cube rate blocks (2·per_k·r
+/// slack blocks and the main block, lmi/cube.rs) from the support of the
+/// model's data, over every θ-vertex (None without zonotope generators).
+///
+/// A block He{P̂K − Γ̂_l H} has at most nx·nnz(K) nonzeros in the columns of
+/// P̂ (the column of P̂_ij holds rows i and j of K) and nx·nnz(H) in those of
+/// Γ̂_l; a slack adds its t entries. K is γA_l + (γα/2)I for the constant
+/// part and rows(N_l, g_k) (row j = g_kᵀN_{l,j}) for the part of generator k,
+/// H is C_m and rows(M_m, g_k); supports are taken of N + Nᵀ (the symmetric
+/// split, and rowsHe), unions over the θ-vertices (and the main block's
+/// over the generators), so the count bounds the assembly's; `gains` is the
+/// number of Γ̂_l per block (2 for the double sum's combinations).
+fn cube_rate_nonzeros(model: &PolytopicModel, nx_u: usize, per_k: f64, gains: f64) -> Option<f64> {
+    let nx = model.nx();
+    if nx_u != nx || model.vertices.is_empty() {
+        return None;
+    }
+    let gens = model.region.zonotope_generators()?;
+    let nzf = |x: f64| x != 0.0;
+    // supp(rows(T, g)) for the matrices T_j (one per row j of the result).
+    let rows_support =
+        |ts: &[nalgebra::DMatrix<f64>], g: &nalgebra::DVector<f64>, out: &mut Vec<bool>| {
+            for (j, tj) in ts.iter().enumerate() {
+                for i in (0..g.len()).filter(|&i| nzf(g[i])) {
+                    for col in 0..tj.ncols() {
+                        if nzf(tj[(i, col)]) || nzf(tj[(col, i)]) {
+                            out[j * tj.ncols() + col] = true;
+                        }
+                    }
+                }
+            }
+        };
+    let ny = model.ny();
+    let (mut k_main, mut h_main) = (vec![false; nx * nx], vec![false; ny * nx]);
+    for v in &model.vertices {
+        for r in 0..nx {
+            k_main[r * nx + r] = true;
+            for c in 0..nx {
+                k_main[r * nx + c] |= nzf(v.a[(r, c)]);
+            }
+        }
+        for r in 0..ny {
+            for c in 0..nx {
+                h_main[r * nx + c] |= nzf(v.c[(r, c)]);
+            }
+        }
+    }
+    let t = tri(nx as f64);
+    let count = |m: &[bool]| m.iter().filter(|&&b| b).count() as f64;
+    let mut slack_blocks = 0.0;
+    for g in &gens {
+        let (mut k, mut h) = (vec![false; nx * nx], vec![false; ny * nx]);
+        for v in &model.vertices {
+            rows_support(&v.n, g, &mut k);
+            rows_support(&v.m, g, &mut h);
+        }
+        // Ŝ alone (t), Ŝ ± G (t + the data's), per slack of the generator.
+        slack_blocks += per_k * (2.0 * t + nx as f64 * (count(&k) + gains * count(&h)));
+        k_main.iter_mut().zip(&k).for_each(|(a, b)| *a |= *b);
+        h_main.iter_mut().zip(&h).for_each(|(a, b)| *a |= *b);
+    }
+    let main =
+        per_k * gens.len() as f64 * t + nx as f64 * (count(&k_main) + gains * count(&h_main));
+    Some(slack_blocks + main)
 }
 
 /// Largest full family (c·p² rate blocks) that `conditions = auto` solves
