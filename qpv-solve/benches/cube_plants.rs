@@ -14,10 +14,15 @@
 //! and with `solve` the solve of both (wall, CPU, Clarabel iterations,
 //! status) in this process with the same settings.
 //!
-//! `cargo bench --bench cube_plants -- [solve] [design] [NAME...]`
+//! `cargo bench --bench cube_plants -- [solve] [design] [timers] [aswritten] [alpha=A] [gamma=G] [NAME...]`
 //! (`list` prints the names; no name: every plant). `design` also runs the
-//! whole fixed design (`qpv_solve::design`, α = 1 and the plant's γ) and
-//! prints its wall and CPU time.
+//! whole fixed design (`qpv_solve::design`, plants with a state bound) and
+//! prints its wall and CPU time; `timers` prints Clarabel's timers per
+//! solve; `aswritten` keeps N_k, M_k as written (no symmetric split: the
+//! library then has a pair of slacks per generator, compared with the
+//! pairs reference); α = 1 and γ = 0.2 unless given. The problem sizes also
+//! show the size estimate made before assembly (`model::size::estimate`).
+//! docs/method.md, "Held-out plants (issue 40)", has the table.
 
 // The reference is also read for its solution elsewhere (cube_scale).
 #[allow(dead_code)]
