@@ -462,7 +462,7 @@ fn print_claim(
 ) {
     match (reason, check.envelope) {
         (None, None) if noisy => {}
-        (None, Some((k, a))) if qpv_solve::model::is_global(obs, design.mode) => println!(
+        (None, Some((k, a))) if design.kind_on(obs).is_global() => println!(
             "certified, global (independent re-check on this model, an LPV plant): V(t) <= V(0) e^(-alpha t) \
              with alpha = {a:.6} for every e(0), ||e(t)|| <= {k:.4} ||e(0)|| e^(-alpha t/2)"
         ),
