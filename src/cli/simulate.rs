@@ -230,8 +230,10 @@ pub struct Options {
     /// + - * / ^, sin, cos, exp, sqrt (repeatable; default 0).
     #[arg(long = "input", value_name = "NAME=EXPR")]
     pub inputs: Vec<String>,
-    /// A parameter θ(t) as an expression of t, like `--input`
-    /// (repeatable; default: the scenario's).
+    /// A parameter θ(t) as an expression of t, like `--input`, or a state's
+    /// name (`p=x1`: fed with the plant's state as the run goes, for a
+    /// parameter scheduling on a measured state) (repeatable; default: the
+    /// scenario's).
     #[arg(long = "param", value_name = "NAME=EXPR")]
     pub params: Vec<String>,
     /// Inputs and/or parameters from a CSV file: a header `t,NAME,...`,
@@ -311,6 +313,14 @@ fn apply_signals(
     poly: &PolytopicModel,
     o: &Options,
 ) -> Result<Vec<Given>, CliError> {
+    // Parameters fed with a plant state first: a name given again below
+    // is refused like any name given twice.
+    let mut tied: Vec<&String> = Vec::new();
+    for a in &o.params {
+        if tie_to_state(sc, poly, a)? {
+            tied.push(a);
+        }
+    }
     let mut given: Vec<Given> = Vec::new();
     let mut set = |name: &str, f: TimeFn, source: String, flag: &str| -> Result<(), CliError> {
         if let Some(first) = given.iter().find(|g| g.name == name) {
@@ -331,6 +341,12 @@ fn apply_signals(
             if flag == "--input" {
                 return Err(CliError::Input(format!(
                     "{source}: `{name}` is a parameter; use --param"
+                )));
+            }
+            if let Signal::State(k) = sc.theta[i] {
+                return Err(CliError::Input(format!(
+                    "{source}: `{name}` is given twice (first by --param {name}={}); give each input or parameter once",
+                    poly.states[k]
                 )));
             }
             sc.theta[i] = Signal::Custom(f.clone());
@@ -365,11 +381,44 @@ fn apply_signals(
     }
     for (flag, args) in [("--param", &o.params), ("--input", &o.inputs)] {
         for a in args {
+            if flag == "--param" && tied.contains(&a) {
+                continue;
+            }
             let (name, e) = parse_assignment(flag, a)?;
             set(&name, expr_signal(e), format!("{flag} {a}"), flag)?;
         }
     }
     Ok(given)
+}
+
+/// `--param NAME=STATE`: the parameter fed with the plant's state as the
+/// run goes ([`Signal::State`]; a parameter that schedules a term on a
+/// measured state), so that the plant is simulated as written. True if
+/// `arg` named a state (and the parameter was tied); false for an
+/// expression of t. Whether θ stays in Θ is checked as the run goes
+/// ([`ContinuousCheck::left_theta`]).
+fn tie_to_state(sc: &mut Scenario, poly: &PolytopicModel, arg: &str) -> Result<bool, CliError> {
+    let Some((name, rhs)) = arg.split_once('=') else {
+        return Ok(false);
+    };
+    let (name, rhs) = (name.trim(), rhs.trim());
+    let Some(k) = poly.states.iter().position(|s| s == rhs) else {
+        return Ok(false);
+    };
+    let Some(i) = poly.params.iter().position(|p| p.name == name) else {
+        return Err(CliError::Input(format!(
+            "--param {arg}: `{name}` is not a parameter of model {}; a state ({rhs}) can only feed a parameter",
+            poly.name
+        )));
+    };
+    if matches!(sc.theta[i], Signal::State(_)) {
+        return Err(CliError::Input(format!(
+            "--param {arg}: `{name}` is given twice; give each parameter once"
+        )));
+    }
+    sc.theta[i] = Signal::State(k);
+    println!("parameter {name} is fed with the plant's state {rhs} as the run goes");
+    Ok(true)
 }
 
 /// Checks every signal given on the command line at every time the run
@@ -789,7 +838,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         w.flush()
             .map_err(|e| CliError::Io(format!("cannot write trajectories.csv: {e}")))?;
     }
-    println!("{}", describe(&found, &check));
+    println!("{}", describe(&found, &check, &obs));
 
     if let Some(dir) = &o.plot {
         write_figures(dir, &obs, &found, &check)?;
@@ -878,7 +927,7 @@ fn write_csv_row(
     Ok(())
 }
 
-fn describe(f: &Findings, check: &ContinuousCheck) -> String {
+fn describe(f: &Findings, check: &ContinuousCheck, obs: &PolytopicModel) -> String {
     let d = f.decimals;
     let last = f.targets.last().copied().unwrap_or(0.0);
     let width = format!("{last:.d$}").len().max(6);
@@ -891,6 +940,16 @@ fn describe(f: &Findings, check: &ContinuousCheck) -> String {
         (Some(_), _) => {}
         (None, Some(t)) => s.push_str(&format!("error below {settled} from t = {t:.d$} s on\n")),
         (None, None) => s.push_str(&format!("error not below {settled} at the end\n")),
+    }
+    if let Some((t, i)) = check.left_theta {
+        let p = &obs.params[i];
+        s.push_str(&format!(
+            "warning: the parameter {} leaves its interval [{}, {}] at t = {t:.4}; \
+             the certificate holds for θ in that box only, so it says nothing about this run\n",
+            p.name,
+            fmt_num(p.lo),
+            fmt_num(p.hi)
+        ));
     }
     if let Some((t, v)) = check.left_f {
         s.push_str(&format!(

@@ -86,6 +86,11 @@ pub struct ContinuousCheck {
     pub noise_exceeded: Option<(f64, f64)>,
     /// First time and largest xᵀQ⁻¹x above 1.
     pub left_f: Option<(f64, f64)>,
+    /// First time and the parameter (0-based) whose θ left its interval Θ
+    /// (a parameter tied to the plant's state, [`crate::simulate::Signal::State`],
+    /// is only known as the run goes): the plant is then outside the box
+    /// the design was certified for.
+    pub left_theta: Option<(f64, usize)>,
     /// The time from which ‖e‖ < [`SETTLED`] (as the run goes on).
     pub below_from: Option<f64>,
     /// When the run produced a non-finite value (the caller sets it).
@@ -95,6 +100,8 @@ pub struct ContinuousCheck {
     resolution: Option<(f64, f64)>,
     /// Q⁻¹ of the observer model's state bound F, when there is one.
     q_inv: Option<DMatrix<f64>>,
+    /// Θ: the interval of every parameter.
+    theta_box: Vec<(f64, f64)>,
     /// The run's RK4 step.
     dt: f64,
     /// Rows seen.
@@ -134,10 +141,12 @@ impl ContinuousCheck {
             envelope_exceeded: None,
             noise_exceeded: None,
             left_f: None,
+            left_theta: None,
             below_from: None,
             diverged_at: None,
             resolution,
             q_inv: q_inv_of(obs),
+            theta_box: obs.params.iter().map(|p| (p.lo, p.hi)).collect(),
             dt,
             rows: 0,
             scale: 0.0,
@@ -152,6 +161,14 @@ impl ContinuousCheck {
         }
         self.rows += 1;
         see_f(&self.q_inv, (r.t, r.x), &mut self.left_f);
+        if self.left_theta.is_none() {
+            let out = |(v, &(lo, hi)): (&f64, &(f64, f64))| {
+                let tol = 1e-12 * lo.abs().max(hi.abs()).max(hi - lo);
+                !(lo - tol..=hi + tol).contains(v)
+            };
+            let first = r.theta.iter().zip(&self.theta_box).position(out);
+            self.left_theta = first.map(|i| (r.t, i));
+        }
         let here = r.x.iter().chain(r.xhat).fold(0.0f64, |m, v| m.max(v.abs()));
         self.scale = self.scale.max(here);
         let floor = self.resolution.map_or(0.0, |(kf, alpha)| {
@@ -173,11 +190,12 @@ impl ContinuousCheck {
     }
 
     /// The run left the certified envelope or noise bound although e(0)
-    /// was in the region and x stayed in F.
+    /// was in the region, x stayed in F and θ in Θ.
     pub fn violated(&self) -> bool {
         (self.envelope_exceeded.is_some() || self.noise_exceeded.is_some())
             && self.e0_inside
             && self.left_f.is_none()
+            && self.left_theta.is_none()
     }
 
     /// The run failed: it diverged, or [`ContinuousCheck::violated`].

@@ -131,7 +131,7 @@ struct Plant<'a> {
 fn signals(
     sc: &Scenario,
     run: &SampledRun,
-    t: f64,
+    (t, x): (f64, &[f64]),
     th_k: &[f64],
     u_k: &[f64],
 ) -> (Vec<f64>, Vec<f64>) {
@@ -141,7 +141,7 @@ fn signals(
                 if held[i] {
                     sampled[i]
                 } else {
-                    signals[i].at(t)
+                    signals[i].value(t, x)
                 }
             })
             .collect()
@@ -158,7 +158,7 @@ impl Plant<'_> {
     fn rk4(&mut self, t: f64, dt: f64, x: &mut [f64], th_k: &[f64], u_k: &[f64]) -> bool {
         let (model, sc, run, frozen) = (self.model, self.scenario, self.run, &mut self.frozen);
         let mut f = |t: f64, x: &[f64], out: &mut [f64]| {
-            let (th, u) = signals(sc, run, t, th_k, u_k);
+            let (th, u) = signals(sc, run, (t, x), th_k, u_k);
             if th.iter().chain(&u).any(|v| !v.is_finite()) {
                 return false;
             }
@@ -217,7 +217,7 @@ pub(crate) fn simulate_sampled_each(
     let mut noise = run.noise.clone();
     for k in 0..=samples {
         let tk = k as f64 * h;
-        let th_k: Vec<f64> = scenario.theta.iter().map(|s| s.at(tk)).collect();
+        let th_k: Vec<f64> = scenario.theta.iter().map(|s| s.value(tk, &x)).collect();
         let u_k: Vec<f64> = scenario.u.iter().map(|s| s.at(tk)).collect();
         let all = th_k.iter().chain(&u_k).chain(&x).chain(&xh);
         if all.clone().any(|v| !v.is_finite()) {
@@ -255,7 +255,7 @@ pub(crate) fn simulate_sampled_each(
                 return Ok(Some(t + dt));
             }
             if n + 1 < run.substeps {
-                let (theta, inputs) = signals(scenario, run, t + dt, &th_k, &u_k);
+                let (theta, inputs) = signals(scenario, run, (t + dt, &x), &th_k, &u_k);
                 let row = SampledRow {
                     t: t + dt,
                     sample: false,

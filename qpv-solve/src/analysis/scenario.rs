@@ -42,6 +42,12 @@ pub enum Signal {
     },
     /// Any function of time.
     Custom(Arc<dyn Fn(f64) -> f64 + Send + Sync>),
+    /// The plant's state k (0-based) as it runs: a parameter fed with a
+    /// measured state (`param p in [lo, hi]` scheduling a term of degree 3
+    /// on a measured factor), so that the run simulates the plant as
+    /// written rather than a prescribed p(t). Only a parameter can be tied
+    /// to a state; its value is [`Signal::value`]'s.
+    State(usize),
 }
 
 impl Signal {
@@ -50,9 +56,20 @@ impl Signal {
         Signal::Custom(Arc::new(f))
     }
 
-    /// The signal's value at time `t`.
+    /// The signal's value at time `t` and plant state `x` (only
+    /// [`Signal::State`] reads `x`; a state index outside `x` is NaN).
+    pub fn value(&self, t: f64, x: &[f64]) -> f64 {
+        match self {
+            Signal::State(k) => x.get(*k).copied().unwrap_or(f64::NAN),
+            other => other.at(t),
+        }
+    }
+
+    /// The signal's value at time `t` (NaN for [`Signal::State`], which
+    /// needs the plant's state: [`Signal::value`]).
     pub fn at(&self, t: f64) -> f64 {
         match self {
+            Signal::State(_) => f64::NAN,
             Signal::Constant(c) => *c,
             Signal::Sin {
                 offset,
@@ -88,6 +105,7 @@ impl fmt::Debug for Signal {
                 phase,
             } => write!(f, "{offset} + {amplitude}·cos({omega}·t + {phase})"),
             Signal::Custom(_) => write!(f, "Custom(..)"),
+            Signal::State(k) => write!(f, "x{}(t)", k + 1),
         }
     }
 }
@@ -170,10 +188,10 @@ impl Scenario {
         }
     }
 
-    /// θ(t) into `out`.
-    pub(crate) fn theta_into(&self, t: f64, out: &mut [f64]) {
+    /// θ(t) at the plant's state `x` into `out`.
+    pub(crate) fn theta_into(&self, t: f64, x: &[f64], out: &mut [f64]) {
         for (o, s) in out.iter_mut().zip(&self.theta) {
-            *o = s.at(t);
+            *o = s.value(t, x);
         }
     }
 

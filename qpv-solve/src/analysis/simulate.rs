@@ -99,13 +99,13 @@ impl<'a> Closed<'a> {
 
     /// dz = f(t, z); false if θ(t) or u(t) is not finite.
     pub(crate) fn rhs(&mut self, t: f64, z: &[f64], dz: &mut [f64]) -> bool {
-        self.scenario.theta_into(t, &mut self.theta);
+        let nx = self.model.nx();
+        self.scenario.theta_into(t, &z[..nx], &mut self.theta);
         self.scenario.u_into(t, &mut self.u);
         if self.theta.iter().chain(&self.u).any(|v| !v.is_finite()) {
             return false;
         }
         self.frozen.set(self.model, self.gains, &self.theta);
-        let nx = self.model.nx();
         let (x, xhat) = z.split_at(nx);
         let (dx, dxhat) = dz.split_at_mut(nx);
         self.frozen.plant(x, &self.u, dx);
@@ -130,7 +130,7 @@ impl<'a> Closed<'a> {
         each: &mut dyn FnMut(&Row<'_>) -> bool,
     ) -> bool {
         let nx = self.model.nx();
-        self.scenario.theta_into(t, &mut self.theta);
+        self.scenario.theta_into(t, &z[..nx], &mut self.theta);
         self.scenario.u_into(t, &mut self.u);
         let mu = self.model.mu(&self.theta);
         each(&Row {
@@ -245,7 +245,11 @@ pub fn simulate_each(
     let mut sys = Closed::new(model, gains, scenario);
     let mut z: Vec<f64> = scenario.x0.iter().chain(&scenario.xhat0).copied().collect();
     let mut rk4 = Rk4::new(z.len());
-    if !scenario.theta.iter().all(|s| s.at(0.0).is_finite()) {
+    if !scenario
+        .theta
+        .iter()
+        .all(|s| s.value(0.0, &scenario.x0).is_finite())
+    {
         return Ok(Some(0.0));
     }
     if !sys.emit(0.0, &z, each) {
@@ -265,7 +269,11 @@ pub fn simulate_each(
         if !rk4.step(&mut f, (t, t_next - t, t_next), &mut z) {
             return Ok(Some(t));
         }
-        let theta_ok = scenario.theta.iter().all(|s| s.at(t_next).is_finite());
+        let x = &z[..model.nx()];
+        let theta_ok = scenario
+            .theta
+            .iter()
+            .all(|s| s.value(t_next, x).is_finite());
         if !theta_ok || z.iter().any(|v| !v.is_finite()) {
             return Ok(Some(t_next));
         }
