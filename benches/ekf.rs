@@ -455,10 +455,11 @@ impl<const NX: usize, const NY: usize> Setup<NX, NY> {
     }
 }
 
-/// ns per step of `step(k)` over k in 0..n (best of 5 passes).
+/// ns per step of a pass over n steps (best of 20 passes: the machine may
+/// be shared).
 fn ns_per_step(n: usize, mut pass: impl FnMut() -> f64) -> f64 {
     let mut best = f64::INFINITY;
-    for _ in 0..5 {
+    for _ in 0..20 {
         let t0 = Instant::now();
         black_box(pass());
         best = best.min(t0.elapsed().as_nanos() as f64 / n as f64);
@@ -607,21 +608,33 @@ fn print_table<const NX: usize, const NY: usize>(
     let names = ["qpv".to_string()]
         .into_iter()
         .chain(QS.iter().map(|q| format!("EKF q={q:.0e}")));
+    let rms = |li: usize, f: usize| (tally[li][f].0 / tally[li][f].1 as f64).sqrt();
     for (f, name) in names.enumerate() {
         let (med, max) = median_max(tally[0][f].2.clone());
-        let rms = |li: usize| (tally[li][f].0 / tally[li][f].1 as f64).sqrt();
         let c = cost[f.min(1)];
         println!(
             "  {name:<14} {:>9.3} s {:>7.3} s {:>5}/{runs} {:>10.3e} {:>10.3e} {:>9.0} {:>9.0}",
             med,
             max,
             tally[0][f].3,
-            rms(1),
-            rms(2),
+            rms(1, f),
+            rms(2, f),
             c[0],
             c[1]
         );
     }
+    let ratios: Vec<String> = QS
+        .iter()
+        .enumerate()
+        .map(|(i, q)| {
+            let r = |li| rms(li, 0) / rms(li, 1 + i);
+            format!("{:.2}× / {:.2}× (EKF q={q:.0e})", r(1), r(2))
+        })
+        .collect();
+    println!(
+        "  qpv's RMS ÷ the EKF's at 1 % / 5 %: {}",
+        ratios.join(", ")
+    );
     println!(
         "  qpv certificate V ≤ V0·e^(−αt), noise-free: held in {held}/{runs} runs (largest V/(V0·e^(−αt)) over t > 0: {worst:.6}); x left F in {left_f} runs"
     );
