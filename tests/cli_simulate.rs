@@ -519,3 +519,41 @@ fn a_slow_designs_default_horizon_follows_its_rate_and_the_table_ends_there() {
     assert_eq!(times.last(), Some(&0.3), "{t}");
     assert_eq!(times.len(), 7, "{t}");
 }
+
+#[test]
+fn a_parameter_fed_with_a_plant_state_is_checked_against_its_interval_as_the_run_goes() {
+    let report = certified_paper();
+    let r = report.to_str().expect("utf-8");
+    let run = |extra: &[&str]| {
+        let mut all = vec!["simulate", "examples/paper.qpv", "--design", r];
+        all.extend_from_slice(extra);
+        qpv(&all)
+    };
+    // x1 starts below 0, outside Θ = [0, 1] of th1: said as it happens,
+    // and the certificate claims nothing about such a run.
+    let out = run(&["--param", "th1=x1", "--x0", "-0.01,0,0", "--t-end", "0.2"]);
+    let t = text(&out);
+    assert!(
+        t.contains("parameter th1 is fed with the plant's state x1 as the run goes"),
+        "{t}"
+    );
+    assert!(
+        t.contains("warning: the parameter th1 leaves its interval [0, 1] at t = 0.0000"),
+        "{t}"
+    );
+    // A parameter given twice, or a state feeding something else, is bad input.
+    let twice = run(&["--param", "th1=x1", "--param", "th1=0.5"]);
+    assert_eq!(twice.status.code(), Some(2), "{}", text(&twice));
+    assert!(
+        text(&twice).contains("`th1` is given twice (first by --param th1=x1)"),
+        "{}",
+        text(&twice)
+    );
+    let not_param = run(&["--param", "x2=x1"]);
+    assert_eq!(not_param.status.code(), Some(2), "{}", text(&not_param));
+    assert!(
+        text(&not_param).contains("`x2` is not a parameter of model paper_example"),
+        "{}",
+        text(&not_param)
+    );
+}

@@ -24,6 +24,7 @@ macro_rules! inline_model {
     };
 }
 
+mod ekf_baseline;
 mod generated_f32;
 mod generated_lpv;
 mod generated_noise;

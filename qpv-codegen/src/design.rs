@@ -194,9 +194,9 @@ pub fn vertex_count(m: &qpv_dsl::Model, scheduling: &[usize]) -> usize {
 }
 
 /// "h = 1e-4 s (10 kHz)", "h = 2e-3 s (500 Hz)": a sample period and its
-/// rate, worded as the solver's report words it
-/// (`qpv_solve::certificate::sampling::describe_period`, which qpv-macros' tests compare
-/// with this one).
+/// rate, the shortest round-tripping form of h; the one wording of the
+/// solver's reports and the generated code's comments
+/// (`qpv_solve::certificate::sampling::describe_period` is this function).
 pub fn describe_period(h: f64) -> String {
     let f = 1.0 / h;
     let (v, unit) = if f >= 1e6 {
@@ -206,7 +206,13 @@ pub fn describe_period(h: f64) -> String {
     } else {
         (f, "Hz")
     };
-    let v = format!("{v:.4}");
-    let v = v.trim_end_matches('0').trim_end_matches('.');
+    // Four decimals in the usual range, four significant digits beyond it
+    // (never a 300-digit number for a huge h).
+    let v = if (1e-3..1e5).contains(&v) {
+        let v = format!("{v:.4}");
+        v.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        qpv_dsl::fmt_sig(v, 4)
+    };
     format!("h = {h:e} s ({v} {unit})")
 }

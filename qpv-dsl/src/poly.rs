@@ -471,10 +471,11 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
                     span,
                     format!(
                         "{} contains the term {} of degree {} in the states: the system class \
-                         allows at most quadratic terms (x' = A(θ)x + N(θ,x)x + B(θ)u)",
+                         allows at most quadratic terms (x' = A(θ)x + N(θ,x)x + B(θ)u){}",
                         quote(scope.src, span),
                         names.term_text(&counts, &vars),
-                        vars.len()
+                        vars.len(),
+                        schedule_hint(names, &counts, &vars)
                     ),
                 ));
             }
@@ -487,6 +488,34 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
     }
     check_finite(&out, span, scope)?;
     Ok(out)
+}
+
+/// The rewrite a term of degree 3 or more in the states admits when one
+/// factor is measured: that factor as a scheduling parameter fed with the
+/// measurement, the rest a quadratic term (the factor written most often,
+/// else the first). Worded as a condition: whether the state is measured
+/// is the user's to say.
+fn schedule_hint(names: &Names, counts: &[(usize, u32)], vars: &[Var]) -> String {
+    let Some(&factor) = vars.iter().max_by_key(|v| {
+        (
+            vars.iter().filter(|w| w == v).count(),
+            std::cmp::Reverse(**v),
+        )
+    }) else {
+        return String::new();
+    };
+    let mut rest = vars.to_vec();
+    if let Some(i) = rest.iter().position(|v| *v == factor) {
+        rest.remove(i);
+    }
+    let x = names.var(factor);
+    if rest.len() > 2 {
+        return ". If some factors are measured, schedule on them: one `param` per measured factor, fed with its measurement, until two states remain".to_string();
+    }
+    format!(
+        ". If `{x}` is measured (an output equal to it, `out y = {x}`), schedule on it: declare `param p in [lo, hi];` with [lo, hi] covering every value `{x}` takes while the plant runs, write the term as `p*{}`, and feed p with the measurement",
+        names.term_text(counts, &rest)
+    )
 }
 
 /// Evaluates an expression into a polynomial, enforcing `scope.allowed`.

@@ -173,6 +173,8 @@ fn cases() -> Vec<(
         ("constant term", r("A = [-1, th; 0, -2];", "der x1 = -x1 + th*x2; der x2 = -2*x2 + 5;"), 5, 44, "5", "`der x2` has a constant term (`5`)"),
         ("parameter-only term", r("A = [-1, th; 0, -2];", "der x1 = -x1 + th; der x2 = -2*x2;"), 5, 20, "th", "`der x1` has the term th without a state"),
         ("cubic term", r("A = [-1, th; 0, -2];", "der x1 = -x1 + x1*x2*x1; der x2 = -2*x2;"), 5, 20, "x1*x2*x1", "of degree 3 in the states"),
+        ("cubic term: the scheduling rewrite", r("A = [-1, th; 0, -2];", "der x1 = -x1 + x1*x2*x1; der x2 = -2*x2;"), 5, 20, "x1*x2*x1", "If `x1` is measured (an output equal to it, `out y = x1`), schedule on it: declare `param p in [lo, hi];` with [lo, hi] covering every value `x1` takes while the plant runs, write the term as `p*x2*x1`"),
+        ("Van der Pol as written", r("A = [-1, th; 0, -2];", "der x1 = x2; der x2 = th*x2 - th*x1^2*x2 - x1;"), 5, 35, "th*x1^2*x2", "write the term as `p*th*x1*x2`"),
         ("input times state", r("A = [-1, th; 0, -2];", "der x1 = -x1 + u*x1; der x2 = -2*x2;").replace("output y;", "output y; input u;"), 5, 20, "u*x1", "input `u` multiplied by state `x1`: inputs may only enter linearly"),
         ("missing der", r("A = [-1, th; 0, -2];", "der x1 = -x1 + th*x2;"), 1, 7, "m", "no equation for the state `x2`: add `der x2 = ...;`"),
         ("duplicate der", r("A = [-1, th; 0, -2];", "der x1 = -x1; der x2 = -x2; der x1 = x2;"), 5, 37, "x1", "`der x1` is given twice (first at 5:5)"),

@@ -553,3 +553,33 @@ fn notes_are_written_as_their_sentences_and_read_back_equal() {
     assert_eq!(back.notes, d.notes);
     assert!(matches!(back.notes[0], Note::Text(_)));
 }
+
+#[test]
+fn iteration_progress_sees_every_iteration_and_changes_nothing() {
+    use std::cell::Cell;
+    use std::rc::Rc;
+    let model = paper_model();
+    let r = fixed(5.0, 0.18898, Mode::Sound);
+    let plain = run(&model, &r);
+    let seen = Rc::new(Cell::new(0usize));
+    let last = Rc::new(Cell::new(0u32));
+    let (s, l) = (seen.clone(), last.clone());
+    let observed = qpv_solve::backend::with_iteration_progress(
+        move |it| {
+            s.set(s.get() + 1);
+            l.set(it.number);
+            assert!(it.gap_rel.is_finite() || it.number == 0, "{it:?}");
+        },
+        || run(&model, &r),
+    );
+    assert!(seen.get() > 0, "the hook saw no iteration");
+    assert!(last.get() >= 1);
+    // Observing changes no result: the same point, bit for bit.
+    assert_eq!(observed.alpha, plain.alpha);
+    assert_eq!(observed.p_matrix(), plain.p_matrix());
+    assert_eq!(observed.l_matrices(), plain.l_matrices());
+    // The hook is gone once `with_iteration_progress` returns.
+    let before = seen.get();
+    let _ = run(&model, &r);
+    assert_eq!(seen.get(), before);
+}

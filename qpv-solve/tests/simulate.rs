@@ -334,18 +334,20 @@ fn csv_has_a_header_and_one_row_per_step() {
     scenario.t_end = 0.01;
     let traj = simulate(&model, &zero_gains(&model), &scenario).unwrap();
     let mut buf = Vec::new();
-    traj.write_csv(&mut buf).unwrap();
+    // The one trajectory writer, `qpv simulate --plot`'s: the model's names
+    // and the outputs y between the inputs and the weights.
+    traj.write_csv(&model, &mut buf).unwrap();
     let text = String::from_utf8(buf).unwrap();
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(
         lines[0],
-        "t,x1,x2,x3,xhat1,xhat2,xhat3,theta1,theta2,mu1,mu2,mu3,mu4,error_norm"
+        "t,x1,x2,x3,xhat1,xhat2,xhat3,theta1,theta2,y1,y2,mu1,mu2,mu3,mu4,error_norm"
     );
     assert_eq!(lines.len(), traj.len() + 1);
     let first: Vec<f64> = lines[1].split(',').map(|c| c.parse().unwrap()).collect();
-    assert_eq!(first.len(), 14);
+    assert_eq!(first.len(), 16);
     assert_eq!(&first[1..4], &[-0.02; 3]);
-    assert!((first[13] - 0.02 * 3f64.sqrt()).abs() < 1e-15);
+    assert!((first[15] - 0.02 * 3f64.sqrt()).abs() < 1e-15);
     let json = serde_json::to_string(&traj).unwrap();
     assert!(json.contains("\"error_norm\""));
 }

@@ -22,13 +22,13 @@ use super::signal::{expr_signal, parse_assignment, table_signal, Table, TimeFn};
 use nalgebra::DMatrix;
 use qpv::plot::{line_chart, Series, PALETTE};
 use qpv_dsl::diagnostic::fmt_num;
-use qpv_dsl::{PolytopicModel, StateBound};
+use qpv_dsl::PolytopicModel;
+use qpv_solve::analysis::continuous::not_certified_reason;
 use qpv_solve::report::Design;
 use qpv_solve::simulate::{
-    arithmetic_floor, envelope_factor, plant_output, simulate_each, MeasurementNoise,
-    NoiseEnvelope, Scenario, Signal, MAX_STEPS,
+    simulate_each, ContinuousCheck, MeasurementNoise, Scenario, Signal, Trajectory, TrajectoryCsv,
+    MAX_STEPS, SETTLED,
 };
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -46,13 +46,6 @@ pub const MAX_CSV_BYTES: f64 = 1024.0 * 1024.0 * 1024.0;
 /// Bytes per CSV cell in that estimate (a shortest round-trip number and
 /// its comma).
 pub const CSV_CELL_BYTES: f64 = 24.0;
-
-/// Relative slack of the envelope comparison (RK4 and rounding errors).
-const ENVELOPE_SLACK: f64 = 1e-6;
-
-/// Relative slack of the noise-bound comparison (RK4 error of a run whose
-/// input jumps at every step).
-const NOISE_SLACK: f64 = 1e-4;
 
 /// The RK4 step of a run without `--dt` whose design gives no smaller one.
 pub const DEFAULT_DT: f64 = 1e-3;
@@ -237,8 +230,10 @@ pub struct Options {
     /// + - * / ^, sin, cos, exp, sqrt (repeatable; default 0).
     #[arg(long = "input", value_name = "NAME=EXPR")]
     pub inputs: Vec<String>,
-    /// A parameter θ(t) as an expression of t, like `--input`
-    /// (repeatable; default: the scenario's).
+    /// A parameter θ(t) as an expression of t, like `--input`, or a state's
+    /// name (`p=x1`: fed with the plant's state as the run goes, for a
+    /// parameter scheduling on a measured state) (repeatable; default: the
+    /// scenario's).
     #[arg(long = "param", value_name = "NAME=EXPR")]
     pub params: Vec<String>,
     /// Inputs and/or parameters from a CSV file: a header `t,NAME,...`,
@@ -264,61 +259,6 @@ pub struct Options {
     /// continuous-plant bound (docs/method.md §16).
     #[arg(long, value_name = "H", allow_hyphen_values = true)]
     pub sample: Option<f64>,
-}
-
-/// What the simulation is compared with.
-struct Claim {
-    /// √cond(P) and α, when the design is certified on the model as it is now.
-    envelope: Option<(f64, f64)>,
-    /// Q⁻¹ of the observer model's state bound F, when there is one.
-    q_inv: Option<DMatrix<f64>>,
-    /// Facets of the region (a_kᵀ e ≤ 1): where e(0) must start.
-    facets: Vec<nalgebra::DVector<f64>>,
-    /// The certified bound on ‖e(t)‖ under noise, when the design certifies,
-    /// carries a noise bound and ν ≤ ν_max.
-    noise_bound: Option<NoiseEnvelope>,
-    /// √cond(P) and α of the design, for the arithmetic's floor of every
-    /// comparison ([`arithmetic_floor`]); None if P is not positive definite.
-    resolution: Option<(f64, f64)>,
-}
-
-/// Why the design is not certified here, or `None` if it is: its own
-/// verdict may only withdraw a claim (`certifies: false`); a claim is made
-/// only when the independent re-check ([`Design::recheck_on`], the one
-/// `qpv check` runs) passes on `obs`, the observer model built from the
-/// model as it is now.
-fn not_certified_reason(
-    design: &Design,
-    claims: Option<bool>,
-    obs: &PolytopicModel,
-) -> Option<String> {
-    if design.mode == qpv_dsl::Mode::Paper {
-        return Some("the report is a paper-mode reproduction, which certifies nothing".into());
-    }
-    if claims == Some(false) {
-        return Some("the report does not certify (its verdict is not `certified`)".into());
-    }
-    let cert = design.recheck_on(obs);
-    if cert.passed {
-        return None;
-    }
-    let mut why: Vec<String> = cert.input_errors.clone();
-    why.extend(
-        cert.families
-            .iter()
-            .filter(|f| !f.passed)
-            .map(|f| format!("{} (margin {:.3e} at {})", f.name, f.margin, f.worst_at)),
-    );
-    why.extend(
-        cert.data_checks
-            .iter()
-            .filter(|(_, c)| c.required && !c.passed)
-            .map(|(k, c)| format!("{k} ({:.4} > {})", c.value, c.bound)),
-    );
-    Some(format!(
-        "the independent certificate fails on the model as it is now: {}",
-        why.join(", ")
-    ))
 }
 
 /// The design a report's gains are simulated and re-checked with: its
@@ -373,6 +313,14 @@ fn apply_signals(
     poly: &PolytopicModel,
     o: &Options,
 ) -> Result<Vec<Given>, CliError> {
+    // Parameters fed with a plant state first: a name given again below
+    // is refused like any name given twice.
+    let mut tied: Vec<&String> = Vec::new();
+    for a in &o.params {
+        if tie_to_state(sc, poly, a)? {
+            tied.push(a);
+        }
+    }
     let mut given: Vec<Given> = Vec::new();
     let mut set = |name: &str, f: TimeFn, source: String, flag: &str| -> Result<(), CliError> {
         if let Some(first) = given.iter().find(|g| g.name == name) {
@@ -393,6 +341,12 @@ fn apply_signals(
             if flag == "--input" {
                 return Err(CliError::Input(format!(
                     "{source}: `{name}` is a parameter; use --param"
+                )));
+            }
+            if let Signal::State(k) = sc.theta[i] {
+                return Err(CliError::Input(format!(
+                    "{source}: `{name}` is given twice (first by --param {name}={}); give each input or parameter once",
+                    poly.states[k]
                 )));
             }
             sc.theta[i] = Signal::Custom(f.clone());
@@ -427,11 +381,44 @@ fn apply_signals(
     }
     for (flag, args) in [("--param", &o.params), ("--input", &o.inputs)] {
         for a in args {
+            if flag == "--param" && tied.contains(&a) {
+                continue;
+            }
             let (name, e) = parse_assignment(flag, a)?;
             set(&name, expr_signal(e), format!("{flag} {a}"), flag)?;
         }
     }
     Ok(given)
+}
+
+/// `--param NAME=STATE`: the parameter fed with the plant's state as the
+/// run goes ([`Signal::State`]; a parameter that schedules a term on a
+/// measured state), so that the plant is simulated as written. True if
+/// `arg` named a state (and the parameter was tied); false for an
+/// expression of t. Whether θ stays in Θ is checked as the run goes
+/// ([`ContinuousCheck::left_theta`]).
+fn tie_to_state(sc: &mut Scenario, poly: &PolytopicModel, arg: &str) -> Result<bool, CliError> {
+    let Some((name, rhs)) = arg.split_once('=') else {
+        return Ok(false);
+    };
+    let (name, rhs) = (name.trim(), rhs.trim());
+    let Some(k) = poly.states.iter().position(|s| s == rhs) else {
+        return Ok(false);
+    };
+    let Some(i) = poly.params.iter().position(|p| p.name == name) else {
+        return Err(CliError::Input(format!(
+            "--param {arg}: `{name}` is not a parameter of model {}; a state ({rhs}) can only feed a parameter",
+            poly.name
+        )));
+    };
+    if matches!(sc.theta[i], Signal::State(_)) {
+        return Err(CliError::Input(format!(
+            "--param {arg}: `{name}` is given twice; give each parameter once"
+        )));
+    }
+    sc.theta[i] = Signal::State(k);
+    println!("parameter {name} is fed with the plant's state {rhs} as the run goes");
+    Ok(true)
 }
 
 /// Checks every signal given on the command line at every time the run
@@ -482,58 +469,19 @@ fn check_signals(given: &[Given], steps: usize, dt: f64, t_end: f64) -> Result<(
     Ok(())
 }
 
-/// The recorded sample of one time instant.
-#[derive(Clone)]
-struct Row {
-    t: f64,
-    x: Vec<f64>,
-    xhat: Vec<f64>,
-    theta: Vec<f64>,
-    mu: Vec<f64>,
-    err: f64,
-}
-
-/// What a streamed run found.
+/// What a streamed run found besides its verdict ([`ContinuousCheck`]).
 #[derive(Default)]
 struct Findings {
     /// Rows kept for the figures (at most about [`PLOT_POINTS`]).
-    plot: Vec<Row>,
+    plot: Trajectory,
     /// The summary's times ([`summary_times`]).
     targets: Vec<f64>,
     /// Decimals the summary's times are printed with ([`time_decimals`]).
     decimals: usize,
     /// (t, ‖e‖) at the summary's times: the first row at or after each.
     table: Vec<(f64, f64)>,
-    e0: f64,
-    /// Time after which ‖e‖ < 1e-6 (updated as the run goes).
-    below_from: Option<f64>,
-    diverged_at: Option<f64>,
-    /// First time and worst ratio ‖e‖/envelope above 1.
-    envelope_exceeded: Option<(f64, f64)>,
-    /// First time and largest xᵀQ⁻¹x above 1.
-    left_f: Option<(f64, f64)>,
-    /// First time and worst ratio ‖e‖/(certified noise bound) above 1.
-    noise_exceeded: Option<(f64, f64)>,
     rows_written: usize,
     t_last: f64,
-    /// The largest |x_i| or |x̂_i| so far: the scale of the run's rounding
-    /// ([`arithmetic_floor`]).
-    scale: f64,
-}
-
-/// The envelope's decay e^{−αt/2} as RK4 at step `dt` resolves it: a mode
-/// decaying at α/2 is multiplied by R(−dtα/2) per step, R(z) = 1 + z +
-/// z²/2 + z³/6 + z⁴/24, which lies above e^z for z < 0 (on the real modes
-/// RK4 resolves, |z| < 1.5, every faster mode falls faster still): the run
-/// is compared with what its own integrator can show, never with less.
-fn resolved_decay(alpha: f64, dt: f64, t: f64) -> f64 {
-    let exact = (-alpha * t / 2.0).exp();
-    let z = -alpha * dt / 2.0;
-    let r = 1.0 + z * (1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0)));
-    if !(r > 0.0 && r < 1.0) {
-        return exact;
-    }
-    exact.max(r.powf(t / dt))
 }
 
 /// The summary table's times as shares of the run's horizon.
@@ -552,34 +500,18 @@ fn time_decimals(t_end: f64) -> usize {
     (3.0 - t_end.log10().floor()).clamp(0.0, 12.0) as usize
 }
 
-/// What the run is compared with: the certified envelope (no noise) or the
-/// certified noise bound, the state bound F and the region's facets; and
-/// whether e(0) lies in the region (outside it, nothing is guaranteed).
-/// Prints the claim.
-fn claim_of(
-    design: &Design,
-    obs: &PolytopicModel,
+/// Prints what the run is compared with ([`ContinuousCheck`]: the certified
+/// envelope without noise, the noise bound's lines are [`noise_setup`]'s),
+/// and whether e(0) lies in the region (outside it, nothing is guaranteed).
+fn print_claim(
+    (design, obs): (&Design, &PolytopicModel),
     reason: &Option<String>,
-    e0: &[f64],
-    noise_bound: Option<NoiseEnvelope>,
+    check: &ContinuousCheck,
     noisy: bool,
-) -> (Claim, bool) {
-    let claim = Claim {
-        envelope: match reason {
-            None if !noisy => envelope_factor(&design.p_matrix()).map(|k| (k, design.alpha)),
-            _ => None,
-        },
-        noise_bound,
-        resolution: envelope_factor(&design.p_matrix()).map(|k| (k, design.alpha)),
-        q_inv: match &obs.state_bound {
-            StateBound::Given(q) if q.nrows() == obs.nx() => q.clone().try_inverse(),
-            _ => None,
-        },
-        facets: obs.region.facets.clone(),
-    };
-    match (reason, claim.envelope) {
+) {
+    match (reason, check.envelope) {
         (None, None) if noisy => {}
-        (None, Some((k, a))) if qpv_solve::model::is_global(obs, design.mode) => println!(
+        (None, Some((k, a))) if design.kind_on(obs).is_global() => println!(
             "certified, global (independent re-check on this model, an LPV plant): V(t) <= V(0) e^(-alpha t) \
              with alpha = {a:.6} for every e(0), ||e(t)|| <= {k:.4} ||e(0)|| e^(-alpha t/2)"
         ),
@@ -595,25 +527,16 @@ fn claim_of(
             "NOT certified: {why}; simulating its gains anyway (no decay rate is claimed, no envelope drawn)"
         ),
     }
-    let e0_inside = claim.facets.iter().all(|a| {
-        let s: f64 = a.iter().zip(e0).map(|(a, e)| a * e).sum();
-        s <= 1.0 + 1e-9
-    });
-    if (claim.envelope.is_some() || claim.noise_bound.is_some()) && !e0_inside {
+    if (check.envelope.is_some() || check.noise_bound.is_some()) && !check.e0_inside {
         println!(
             "note: e(0) = x(0) - xhat(0) is outside the region of guaranteed convergence; \
              the envelope is not a guarantee for this run"
         );
     }
-
-    (claim, e0_inside)
 }
 
 /// The CSV writer of `--plot DIR` (DIR/trajectories.csv, header written).
-fn open_csv(
-    dir: Option<&Path>,
-    obs: &PolytopicModel,
-) -> Result<Option<std::io::BufWriter<std::fs::File>>, CliError> {
+fn open_csv<'a>(dir: Option<&Path>, obs: &'a PolytopicModel) -> Result<Option<Csv<'a>>, CliError> {
     let Some(dir) = dir else {
         return Ok(None);
     };
@@ -622,10 +545,12 @@ fn open_csv(
     let path = dir.join("trajectories.csv");
     let f = std::fs::File::create(&path)
         .map_err(|e| CliError::Io(format!("cannot write {}: {e}", path.display())))?;
-    let mut w = std::io::BufWriter::new(f);
-    write_header(&mut w, obs).map_err(|e| CliError::Io(e.to_string()))?;
-    Ok(Some(w))
+    let w = TrajectoryCsv::new(obs, std::io::BufWriter::new(f));
+    Ok(Some(w.map_err(|e| CliError::Io(e.to_string()))?))
 }
+
+/// The `trajectories.csv` of `--plot DIR`.
+type Csv<'a> = TrajectoryCsv<'a, std::io::BufWriter<std::fs::File>>;
 
 /// The RK4 step count, the CSV row stride and the plot stride of a run on
 /// `grid` (its flags checked by [`check_grid_flags`]), after checking `--every`.
@@ -750,15 +675,14 @@ pub(super) fn noisy_outputs(design: &Design, obs: &PolytopicModel) -> Vec<usize>
 }
 
 /// The measurement-noise generator of `--noise` (on the report's noisy
-/// outputs) and, when the design is certified for that amplitude, the
-/// certified bound to compare the run with; prints what is claimed.
+/// outputs); prints what is claimed with it (the certified bound the run
+/// is compared with, [`ContinuousCheck::noise_bound`], or why there is none).
 fn noise_setup(
     o: &Options,
-    design: &Design,
-    obs: &PolytopicModel,
+    (design, obs): (&Design, &PolytopicModel),
     reason: &Option<String>,
-    e0: &[f64],
-) -> Result<(Option<MeasurementNoise>, Option<NoiseEnvelope>), CliError> {
+    check: &ContinuousCheck,
+) -> Result<Option<MeasurementNoise>, CliError> {
     if let Some(nu) = o.noise {
         if !(nu.is_finite() && nu >= 0.0) {
             return Err(CliError::Input(format!(
@@ -770,12 +694,7 @@ fn noise_setup(
     let noise_gen = o
         .noise
         .map(|nu| MeasurementNoise::new(o.seed, nu, noisy_outputs(design, obs)));
-    let noise_bound = match (o.noise, reason, &design.noise) {
-        (Some(nu), None, Some(nb)) if nu <= nb.max_amplitude => {
-            NoiseEnvelope::new(&design.p_matrix(), e0, design.alpha, nb, nu)
-        }
-        _ => None,
-    };
+    let noise_bound = check.noise_bound;
     if let (Some(nu), Some(g)) = (o.noise, &noise_gen) {
         let names: Vec<&str> = g
             .outputs()
@@ -808,7 +727,7 @@ fn noise_setup(
             (Some(_), _) => {}
         }
     }
-    Ok((noise_gen, noise_bound))
+    Ok(noise_gen)
 }
 
 /// Says when the run's step exceeds the certified Euler step of the gains
@@ -891,8 +810,10 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     }
     note_euler_step(&design, grid.dt);
     let e0: Vec<f64> = sc.x0.iter().zip(&sc.xhat0).map(|(a, b)| a - b).collect();
-    let (mut noise_gen, noise_bound) = noise_setup(o, &design, &obs, &reason, &e0)?;
-    let (claim, e0_inside) = claim_of(&design, &obs, &reason, &e0, noise_bound, o.noise.is_some());
+    let certified = reason.is_none();
+    let mut check = ContinuousCheck::new(&design, &obs, certified, &e0, (o.noise, grid.dt));
+    let mut noise_gen = noise_setup(o, (&design, &obs), &reason, &check)?;
+    print_claim((&design, &obs), &reason, &check, o.noise.is_some());
     if let Some(line) = grid_line {
         println!("{line}");
     }
@@ -908,20 +829,19 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     run_streamed(
         &obs,
         (&gains, &sc),
-        &claim,
+        (&mut check, &mut found),
         (stride, plot_stride),
         &mut csv,
-        &mut found,
         noise_gen.as_mut(),
     )?;
     if let Some(w) = csv.as_mut() {
         w.flush()
             .map_err(|e| CliError::Io(format!("cannot write trajectories.csv: {e}")))?;
     }
-    println!("{}", describe(&found, &claim));
+    println!("{}", describe(&found, &check, &obs));
 
     if let Some(dir) = &o.plot {
-        write_figures(dir, &obs, &found, &claim)?;
+        write_figures(dir, &obs, &found, &check)?;
         println!(
             "figures and trajectories.csv ({} rows, every {} s) written to {}",
             found.rows_written,
@@ -929,120 +849,29 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
             dir.display()
         );
     }
-    let violated = (found.envelope_exceeded.is_some() || found.noise_exceeded.is_some())
-        && e0_inside
-        && found.left_f.is_none();
-    Ok(if found.diverged_at.is_some() || violated {
-        1
-    } else {
-        0
-    })
-}
-
-/// The CSV header: t, the states (model names), their estimates
-/// (`xhat1`, … in state order), parameters, inputs and outputs (model
-/// names), the vertex weights `mu1`, … and `error_norm`.
-fn write_header(w: &mut impl Write, m: &PolytopicModel) -> std::io::Result<()> {
-    let mut h: Vec<String> = vec!["t".into()];
-    h.extend(m.states.iter().cloned());
-    h.extend((1..=m.nx()).map(|i| format!("xhat{i}")));
-    h.extend(m.params.iter().map(|p| p.name.clone()));
-    h.extend(m.inputs.iter().cloned());
-    h.extend(m.outputs.iter().cloned());
-    h.extend((1..=m.nv()).map(|l| format!("mu{l}")));
-    h.push("error_norm".into());
-    writeln!(w, "{}", h.join(","))
-}
-
-fn write_row(
-    w: &mut impl Write,
-    m: &PolytopicModel,
-    sc: &Scenario,
-    r: &Row,
-) -> std::io::Result<()> {
-    let mut cells: Vec<f64> = vec![r.t];
-    cells.extend(&r.x);
-    cells.extend(&r.xhat);
-    cells.extend(&r.theta);
-    cells.extend(sc.u.iter().map(|s| s.at(r.t)));
-    let y = plant_output(m, &r.x, &r.theta).unwrap_or_else(|_| vec![f64::NAN; m.ny()]);
-    cells.extend(y);
-    cells.extend(&r.mu);
-    cells.push(r.err);
-    let text: Vec<String> = cells.iter().map(|&v| fmt_num(v)).collect();
-    writeln!(w, "{}", text.join(","))
+    Ok(if check.failed() { 1 } else { 0 })
 }
 
 /// Integrates with the library's RK4 ([`simulate_each`], with the noise
-/// of `--noise` if any), handing every step to the checks and every
-/// `stride`-th to the CSV.
+/// of `--noise` if any), handing every step to the check and the summary,
+/// every `stride`-th to the CSV and every `plot_stride`-th to the figures.
 fn run_streamed(
     obs: &PolytopicModel,
     (gains, sc): (&[DMatrix<f64>], &Scenario),
-    claim: &Claim,
+    (check, found): (&mut ContinuousCheck, &mut Findings),
     (stride, plot_stride): (usize, usize),
-    csv: &mut Option<impl Write>,
-    found: &mut Findings,
+    csv: &mut Option<Csv<'_>>,
     noise: Option<&mut MeasurementNoise>,
 ) -> Result<(), CliError> {
     let mut k = 0usize;
     let mut next_target = 0usize;
     let mut failed = None;
-    let mut last: Option<(Row, bool, bool)> = None;
-    let mut each = |row: &qpv_solve::simulate::Row<'_>| {
-        let r = Row {
-            t: row.t,
-            x: row.x.to_vec(),
-            xhat: row.xhat.to_vec(),
-            theta: row.theta.to_vec(),
-            mu: row.mu.to_vec(),
-            err: row.error_norm,
-        };
-        if k == 0 {
-            found.e0 = r.err;
-        }
-        // The certificate's premises and claim.
-        if let Some(qi) = &claim.q_inv {
-            let xs = nalgebra::DVector::from_column_slice(&r.x);
-            let s = xs.dot(&(qi * &xs));
-            if s > 1.0 + 1e-9 {
-                let e = found.left_f.get_or_insert((r.t, s));
-                e.1 = e.1.max(s);
-            }
-        }
-        let here =
-            r.x.iter()
-                .chain(&r.xhat)
-                .fold(0.0f64, |m, v| m.max(v.abs()));
-        found.scale = found.scale.max(here);
-        if let Some((kf, alpha)) = claim.envelope {
-            let env = kf * found.e0 * resolved_decay(alpha, sc.dt, r.t);
-            let floor = arithmetic_floor(kf, alpha, sc.dt, found.scale);
-            if r.err > env * (1.0 + ENVELOPE_SLACK) + floor {
-                let ratio = r.err / env;
-                let e = found.envelope_exceeded.get_or_insert((r.t, ratio));
-                e.1 = e.1.max(ratio);
-            }
-        }
-        if let Some(b) = &claim.noise_bound {
-            let bound = b.at(r.t);
-            let floor = claim.resolution.map_or(0.0, |(kf, alpha)| {
-                arithmetic_floor(kf, alpha, sc.dt, found.scale)
-            });
-            if r.err > bound * (1.0 + NOISE_SLACK) + floor {
-                let ratio = r.err / bound;
-                let e = found.noise_exceeded.get_or_insert((r.t, ratio));
-                e.1 = e.1.max(ratio);
-            }
-        }
-        if r.err.is_nan() || r.err >= 1e-6 {
-            found.below_from = None;
-        } else if found.below_from.is_none() {
-            found.below_from = Some(r.t);
-        }
+    let mut last: Option<(Trajectory, bool, bool)> = None;
+    let mut each = |r: &qpv_solve::simulate::Row<'_>| {
+        check.see(r);
         let reached = |target: f64| r.t >= target - 1e-9 * sc.t_end;
         if found.targets.get(next_target).is_some_and(|&t| reached(t)) {
-            found.table.push((r.t, r.err));
+            found.table.push((r.t, r.error_norm));
             while found.targets.get(next_target).is_some_and(|&t| reached(t)) {
                 next_target += 1;
             }
@@ -1050,7 +879,7 @@ fn run_streamed(
         let end = r.t >= sc.t_end;
         let to_csv = k % stride == 0 || end;
         if to_csv {
-            if let Err(e) = write_csv_row(csv, obs, sc, &r, found) {
+            if let Err(e) = write_csv_row(csv, r, found) {
                 failed = Some(e);
                 return false;
             }
@@ -1058,9 +887,11 @@ fn run_streamed(
         found.t_last = r.t;
         let to_plot = k % plot_stride == 0 || end;
         if to_plot {
-            found.plot.push(r.clone());
+            found.plot.push(r);
         }
-        last = Some((r, to_csv, to_plot));
+        let mut one = Trajectory::with_capacity(1);
+        one.push(r);
+        last = Some((one, to_csv, to_plot));
         k += 1;
         true
     };
@@ -1069,14 +900,14 @@ fn run_streamed(
     if let Some(e) = failed {
         return Err(e);
     }
-    found.diverged_at = diverged;
+    check.diverged_at = diverged;
     // A run that stopped early: its last row closes the CSV and the figures.
     if let Some((r, to_csv, to_plot)) = last {
         if !to_csv {
-            write_csv_row(csv, obs, sc, &r, found)?;
+            write_csv_row(csv, &r.row(0), found)?;
         }
         if !to_plot {
-            found.plot.push(r);
+            found.plot.push(&r.row(0));
         }
     }
     Ok(())
@@ -1084,21 +915,19 @@ fn run_streamed(
 
 /// Writes `r` to the CSV of `--plot`, if there is one, and counts it.
 fn write_csv_row(
-    csv: &mut Option<impl Write>,
-    obs: &PolytopicModel,
-    sc: &Scenario,
-    r: &Row,
+    csv: &mut Option<Csv<'_>>,
+    r: &qpv_solve::simulate::Row<'_>,
     found: &mut Findings,
 ) -> Result<(), CliError> {
     if let Some(w) = csv.as_mut() {
-        write_row(w, obs, sc, r)
+        w.row(r)
             .map_err(|e| CliError::Io(format!("cannot write trajectories.csv: {e}")))?;
         found.rows_written += 1;
     }
     Ok(())
 }
 
-fn describe(f: &Findings, claim: &Claim) -> String {
+fn describe(f: &Findings, check: &ContinuousCheck, obs: &PolytopicModel) -> String {
     let d = f.decimals;
     let last = f.targets.last().copied().unwrap_or(0.0);
     let width = format!("{last:.d$}").len().max(6);
@@ -1106,34 +935,45 @@ fn describe(f: &Findings, claim: &Claim) -> String {
     for (t, e) in &f.table {
         s.push_str(&format!("  {t:>width$.d$}   {e:.3e}\n"));
     }
-    match (f.diverged_at, f.below_from) {
+    let settled = fmt_num(SETTLED);
+    match (check.diverged_at, check.below_from) {
         (Some(_), _) => {}
-        (None, Some(t)) => s.push_str(&format!("error below 1e-6 from t = {t:.d$} s on\n")),
-        (None, None) => s.push_str("error not below 1e-6 at the end\n"),
+        (None, Some(t)) => s.push_str(&format!("error below {settled} from t = {t:.d$} s on\n")),
+        (None, None) => s.push_str(&format!("error not below {settled} at the end\n")),
     }
-    if let Some((t, v)) = f.left_f {
+    if let Some((t, i)) = check.left_theta {
+        let p = &obs.params[i];
+        s.push_str(&format!(
+            "warning: the parameter {} leaves its interval [{}, {}] at t = {t:.4}; \
+             the certificate holds for θ in that box only, so it says nothing about this run\n",
+            p.name,
+            fmt_num(p.lo),
+            fmt_num(p.hi)
+        ));
+    }
+    if let Some((t, v)) = check.left_f {
         s.push_str(&format!(
             "warning: the plant leaves the state bound F at t = {t:.4} (x^T Q^-1 x up to {v:.4} > 1); \
              the certificate assumes x stays in F, so it says nothing about this run\n"
         ));
     }
-    if claim.envelope.is_some() {
-        match f.envelope_exceeded {
+    if check.envelope.is_some() {
+        match check.envelope_exceeded {
             Some((t, r)) => s.push_str(&format!(
                 "the error LEAVES the certified envelope at t = {t:.4} (up to {r:.4} times the envelope)\n"
             )),
             None => s.push_str("the error stays inside the certified envelope\n"),
         }
     }
-    if claim.noise_bound.is_some() {
-        match f.noise_exceeded {
+    if check.noise_bound.is_some() {
+        match check.noise_exceeded {
             Some((t, r)) => s.push_str(&format!(
                 "the error LEAVES the certified noise bound at t = {t:.4} (up to {r:.4} times the bound)\n"
             )),
             None => s.push_str("the error stays inside the certified noise bound\n"),
         }
     }
-    if let Some(t) = f.diverged_at {
+    if let Some(t) = check.diverged_at {
         s.push_str(&format!("simulation diverged at t = {t}\n"));
     }
     s.trim_end().to_string()
@@ -1145,13 +985,13 @@ fn write_figures(
     dir: &Path,
     poly: &PolytopicModel,
     f: &Findings,
-    claim: &Claim,
+    check: &ContinuousCheck,
 ) -> Result<(), CliError> {
     let io = |e: String| CliError::Io(e);
-    let col = |get: &dyn Fn(&Row) -> Option<f64>| -> Vec<(f64, f64)> {
-        f.plot
-            .iter()
-            .filter_map(|r| get(r).map(|v| (r.t, v)))
+    let col = |get: &dyn Fn(&qpv_solve::simulate::Row) -> Option<f64>| -> Vec<(f64, f64)> {
+        (0..f.plot.len())
+            .map(|i| f.plot.row(i))
+            .filter_map(|r| get(&r).map(|v| (r.t, v)))
             .collect()
     };
     for (k, name) in poly.states.iter().enumerate() {
@@ -1199,13 +1039,13 @@ fn write_figures(
     .map_err(io)?;
     let mut series = vec![Series::new(
         "||x - xhat||",
-        col(&|r| Some(r.err)),
+        col(&|r| Some(r.error_norm)),
         PALETTE[0],
         false,
     )];
     // ||e(t)|| <= sqrt(cond P) ||e(0)|| e^{-alpha t / 2}, only when certified.
-    if let Some((k, alpha)) = claim.envelope.filter(|_| f.e0 > 0.0) {
-        let k = k * f.e0;
+    if let Some((k, alpha)) = check.envelope.filter(|_| check.e0 > 0.0) {
+        let k = k * check.e0;
         series.push(Series::new(
             format!("certified envelope sqrt(cond P)||e0|| e^(-{alpha:.2} t/2)"),
             col(&|r| Some(k * (-alpha * r.t / 2.0).exp())),
@@ -1213,7 +1053,7 @@ fn write_figures(
             true,
         ));
     }
-    if let Some(b) = claim.noise_bound {
+    if let Some(b) = check.noise_bound {
         series.push(Series::new(
             format!(
                 "certified noise bound sqrt(V(t)/lambda_min(P)) (ultimate {:.2e})",

@@ -2,7 +2,10 @@
 //! the sampling figures of a design ([`crate::certificate::sampling`]) claim about, run
 //! on a scenario.
 
-use crate::analysis::simulate::{check_gains, check_model, Frozen, Scenario, SimError, Trajectory};
+use crate::analysis::integrate::euler;
+use crate::analysis::scenario::check_run;
+use crate::analysis::simulate::{Closed, Scenario, SimError, Trajectory};
+use crate::analysis::trajectory::recorded;
 use nalgebra::DMatrix;
 use qpv_dsl::PolytopicModel;
 
@@ -17,78 +20,29 @@ pub fn simulate_euler(
     gains: &[DMatrix<f64>],
     scenario: &Scenario,
 ) -> Result<Trajectory, SimError> {
-    check_model(model)?;
-    check_gains(model, gains)?;
-    let nx = model.nx();
-    for (what, v) in [("x0", &scenario.x0), ("xhat0", &scenario.xhat0)] {
-        if v.len() != nx {
-            return Err(SimError::Length {
-                what: what.into(),
-                expected: nx,
-                got: v.len(),
-            });
-        }
-    }
-    if scenario.theta.len() != model.ntheta() || scenario.u.len() != model.nu() {
-        return Err(SimError::Length {
-            what: "scenario theta / u".into(),
-            expected: model.ntheta() + model.nu(),
-            got: scenario.theta.len() + scenario.u.len(),
-        });
-    }
+    check_run(model, gains, scenario)?;
     // The time grid as the RK4 simulator checks it, every step recorded.
-    let steps = crate::analysis::simulate::recorded(scenario.steps()?)?;
+    let steps = recorded(scenario.steps()?)?;
     let h = scenario.dt;
-    let mut frozen = Frozen::new(model);
+    let mut sys = Closed::new(model, gains, scenario);
     let mut traj = Trajectory::with_capacity(steps + 1);
-    let mut x = scenario.x0.clone();
-    let mut xh = scenario.xhat0.clone();
-    let (mut dx, mut dxh) = (vec![0.0; nx], vec![0.0; nx]);
-    let (mut y, mut yh) = (vec![0.0; model.ny()], vec![0.0; model.ny()]);
+    let mut z: Vec<f64> = scenario.x0.iter().chain(&scenario.xhat0).copied().collect();
+    let mut dz = vec![0.0; z.len()];
     for k in 0..=steps {
         let t = k as f64 * h;
-        let theta: Vec<f64> = scenario.theta.iter().map(|s| s.at(t)).collect();
-        let u: Vec<f64> = scenario.u.iter().map(|s| s.at(t)).collect();
-        if theta
-            .iter()
-            .chain(&u)
-            .chain(&x)
-            .chain(&xh)
-            .any(|v| !v.is_finite())
-        {
+        // f(t_k, z_k), and whether θ(t_k), u(t_k) and z_k are finite.
+        if !sys.rhs(t, &z, &mut dz) || z.iter().any(|v| !v.is_finite()) {
             traj.diverged_at = Some(t);
             break;
         }
-        let err = x
-            .iter()
-            .zip(&xh)
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum::<f64>()
-            .sqrt();
-        traj.t.push(t);
-        traj.x.push(x.clone());
-        traj.xhat.push(xh.clone());
-        traj.mu.push(model.mu(&theta));
-        traj.theta.push(theta.clone());
-        traj.error_norm.push(err);
+        sys.emit(t, &z, &mut |r| {
+            traj.push(r);
+            true
+        });
         if k == steps {
             break;
         }
-        frozen.set(model, gains, &theta);
-        frozen.drift(&x, &mut dx);
-        frozen.add_input(&u, &mut dx);
-        frozen.output(&x, &mut y);
-        frozen.output(&xh, &mut yh);
-        for (a, b) in y.iter_mut().zip(&yh) {
-            *a -= b;
-        }
-        frozen.drift(&xh, &mut dxh);
-        frozen.add_input(&u, &mut dxh);
-        frozen.add_gain(&y, &mut dxh);
-        for i in 0..nx {
-            x[i] += h * dx[i];
-            xh[i] += h * dxh[i];
-        }
+        euler(&mut z, h, &dz);
     }
     Ok(traj)
 }

@@ -31,7 +31,8 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use crate::analysis::simulate::{check_gains, check_model, Frozen, SimError};
+use crate::analysis::checks::{check_gains, check_model, SimError};
+use crate::analysis::rhs::Frozen;
 use crate::report::Design;
 use crate::vocab::Candidate;
 use nalgebra::{DMatrix, DVector};

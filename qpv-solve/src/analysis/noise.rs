@@ -81,8 +81,9 @@ pub fn falsify_noise(
     samples: usize,
     seed: u64,
 ) -> Result<NoiseFalsification, crate::analysis::simulate::SimError> {
+    use crate::analysis::checks::{check_gains, check_model, SimError};
     use crate::analysis::falsify::{draw_e, draw_theta, draw_x, factor, Rng};
-    use crate::analysis::simulate::{check_gains, check_model, Frozen, SimError};
+    use crate::analysis::rhs::Frozen;
     let nb = design
         .noise
         .as_ref()

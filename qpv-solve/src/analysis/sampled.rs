@@ -13,20 +13,23 @@
 //! its limit δ/(1 − ρ) the ultimate bound, with α and δ recomputed from the
 //! model and the gains ([`crate::report::continuous::sampled_claim`]).
 
-use crate::analysis::simulate::{
-    check_gains, check_model, Frozen, MeasurementNoise, Scenario, SimError, MAX_STEPS,
-};
+use crate::analysis::continuous::{q_inv_of, record, see_f};
+use crate::analysis::integrate::{euler, Rk4};
+use crate::analysis::rhs::Frozen;
+use crate::analysis::scenario::check_run;
+use crate::analysis::simulate::{MeasurementNoise, Scenario, SimError, MAX_STEPS};
+use crate::analysis::trajectory::error_norm;
 use crate::report::continuous::{bound_model, sampled_claim, SampledClaim};
 use crate::report::Design;
 use nalgebra::{DMatrix, DVector};
-use qpv_dsl::{PolytopicModel, StateBound};
+use qpv_dsl::PolytopicModel;
 
 /// The fewest RK4 substeps per sample period (the plant at h/20 or finer).
 pub const MIN_SUBSTEPS: usize = 20;
 
 /// Relative slack of the comparison with the certified recursion (RK4's own
 /// error at h/20 and rounding).
-pub const BOUND_SLACK: f64 = 1e-6;
+pub(crate) const BOUND_SLACK: f64 = 1e-6;
 
 /// How the continuous plant and the sampled observer are run.
 #[derive(Debug, Clone)]
@@ -65,19 +68,19 @@ impl SampledRun {
 /// One instant of a sampled run: every plant substep, and `sample` set at
 /// the sample instants t_k = kh (after the observer's state is x̂_k).
 #[derive(Debug, Clone, Copy)]
-pub struct SampledRow<'a> {
+pub(crate) struct SampledRow<'a> {
     /// Time.
-    pub t: f64,
+    pub(crate) t: f64,
     /// True at t_k = kh.
-    pub sample: bool,
+    pub(crate) sample: bool,
     /// Plant state x(t).
-    pub x: &'a [f64],
+    pub(crate) x: &'a [f64],
     /// The observer's state x̂_k (held between samples).
-    pub xhat: &'a [f64],
+    pub(crate) xhat: &'a [f64],
     /// θ(t) as the plant sees it.
-    pub theta: &'a [f64],
+    pub(crate) theta: &'a [f64],
     /// u(t) as the plant sees it.
-    pub u: &'a [f64],
+    pub(crate) u: &'a [f64],
 }
 
 /// Checks the run's input; returns the number of samples.
@@ -87,8 +90,7 @@ fn samples_of(
     scenario: &Scenario,
     run: &SampledRun,
 ) -> Result<usize, SimError> {
-    check_model(model)?;
-    check_gains(model, gains)?;
+    check_run(model, gains, scenario)?;
     let h = run.h;
     if !(h.is_finite() && h > 0.0) {
         return Err(SimError::Argument(format!("sample period h = {h}")));
@@ -101,22 +103,6 @@ fn samples_of(
             "substeps {} (at least {MIN_SUBSTEPS}), one hold flag per parameter and input",
             run.substeps
         )));
-    }
-    if scenario.theta.len() != model.ntheta() || scenario.u.len() != model.nu() {
-        return Err(SimError::Length {
-            what: "scenario theta / u".into(),
-            expected: model.ntheta() + model.nu(),
-            got: scenario.theta.len() + scenario.u.len(),
-        });
-    }
-    for (what, v) in [("x0", &scenario.x0), ("xhat0", &scenario.xhat0)] {
-        if v.len() != model.nx() || v.iter().any(|x| !x.is_finite()) {
-            return Err(SimError::Length {
-                what: what.into(),
-                expected: model.nx(),
-                got: v.len(),
-            });
-        }
     }
     if !(scenario.t_end.is_finite() && scenario.t_end >= 0.0) {
         return Err(SimError::TimeGrid(format!("t_end = {}", scenario.t_end)));
@@ -138,66 +124,49 @@ struct Plant<'a> {
     scenario: &'a Scenario,
     run: &'a SampledRun,
     frozen: Frozen,
-    th: Vec<f64>,
-    u: Vec<f64>,
-    stages: [Vec<f64>; 4],
-    tmp: Vec<f64>,
+    rk4: Rk4,
+}
+
+/// θ(t) and u(t) as the plant sees them (held ones at their samples).
+fn signals(
+    sc: &Scenario,
+    run: &SampledRun,
+    (t, x): (f64, &[f64]),
+    th_k: &[f64],
+    u_k: &[f64],
+) -> (Vec<f64>, Vec<f64>) {
+    let at = |held: &[bool], sampled: &[f64], signals: &[crate::analysis::simulate::Signal]| {
+        (0..sampled.len())
+            .map(|i| {
+                if held[i] {
+                    sampled[i]
+                } else {
+                    signals[i].value(t, x)
+                }
+            })
+            .collect()
+    };
+    (
+        at(&run.hold_params, th_k, &sc.theta),
+        at(&run.hold_inputs, u_k, &sc.u),
+    )
 }
 
 impl Plant<'_> {
-    /// θ(t) and u(t) as the plant sees them (held ones at their samples).
-    fn signals(&self, t: f64, th_k: &[f64], u_k: &[f64]) -> (Vec<f64>, Vec<f64>) {
-        let sc = self.scenario;
-        let th = (0..th_k.len())
-            .map(|i| {
-                if self.run.hold_params[i] {
-                    th_k[i]
-                } else {
-                    sc.theta[i].at(t)
-                }
-            })
-            .collect();
-        let u = (0..u_k.len())
-            .map(|j| {
-                if self.run.hold_inputs[j] {
-                    u_k[j]
-                } else {
-                    sc.u[j].at(t)
-                }
-            })
-            .collect();
-        (th, u)
-    }
-
-    /// out = f(x, u(t), θ(t)); false if a signal is not finite.
-    fn rhs(&mut self, t: f64, x: &[f64], out: usize, th_k: &[f64], u_k: &[f64]) -> bool {
-        (self.th, self.u) = self.signals(t, th_k, u_k);
-        if self.th.iter().chain(&self.u).any(|v| !v.is_finite()) {
-            return false;
-        }
-        self.frozen.set(self.model, &[], &self.th);
-        self.frozen.drift(x, &mut self.stages[out]);
-        self.frozen.add_input(&self.u, &mut self.stages[out]);
-        true
-    }
-
     /// One classical RK4 step of length dt from (t, x); false if a signal
     /// was not finite (x unchanged then).
     fn rk4(&mut self, t: f64, dt: f64, x: &mut [f64], th_k: &[f64], u_k: &[f64]) -> bool {
-        let mut ok = self.rhs(t, x, 0, th_k, u_k);
-        for (stage, c) in [(1, 0.5), (2, 0.5), (3, 1.0)] {
-            let mut tmp = std::mem::take(&mut self.tmp);
-            axpy(&mut tmp, x, c * dt, &self.stages[stage - 1]);
-            ok = ok && self.rhs(t + c * dt, &tmp, stage, th_k, u_k);
-            self.tmp = tmp;
-        }
-        if ok {
-            let [k1, k2, k3, k4] = &self.stages;
-            for i in 0..x.len() {
-                x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        let (model, sc, run, frozen) = (self.model, self.scenario, self.run, &mut self.frozen);
+        let mut f = |t: f64, x: &[f64], out: &mut [f64]| {
+            let (th, u) = signals(sc, run, (t, x), th_k, u_k);
+            if th.iter().chain(&u).any(|v| !v.is_finite()) {
+                return false;
             }
-        }
-        ok
+            frozen.set(model, &[], &th);
+            frozen.plant(x, &u, out);
+            true
+        };
+        self.rk4.step(&mut f, (t, dt, t + dt), x)
     }
 }
 
@@ -214,27 +183,18 @@ fn observer_step(
     let mut dxh = vec![0.0; model.nx()];
     frozen.set(model, gains, th_k);
     frozen.output(x, &mut y);
-    frozen.output(xh, &mut yh);
     // The measurement y_k + v_k against the observer's output.
-    for ((a, b), vi) in y
-        .iter_mut()
-        .zip(&yh)
-        .zip(v.iter().chain(std::iter::repeat(&0.0)))
-    {
-        *a += vi - b;
+    for (a, vi) in y.iter_mut().zip(v) {
+        *a += vi;
     }
-    frozen.drift(xh, &mut dxh);
-    frozen.add_input(u_k, &mut dxh);
-    frozen.add_gain(&y, &mut dxh);
-    for (v, d) in xh.iter_mut().zip(&dxh) {
-        *v += h * d;
-    }
+    frozen.observer((xh, u_k), (&mut y, &mut yh), &mut dxh);
+    euler(xh, h, &dxh);
 }
 
 /// Runs the continuous plant (RK4 at h/substeps) against the observer
 /// stepped at h, handing every substep's row to `each` (false stops the
 /// run). Returns the time a non-finite value appeared, if one did.
-pub fn simulate_sampled_each(
+pub(crate) fn simulate_sampled_each(
     model: &PolytopicModel,
     gains: &[DMatrix<f64>],
     scenario: &Scenario,
@@ -250,17 +210,14 @@ pub fn simulate_sampled_each(
         scenario,
         run,
         frozen: Frozen::new(model),
-        th: Vec::new(),
-        u: Vec::new(),
-        stages: [vec![0.0; nx], vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]],
-        tmp: vec![0.0; nx],
+        rk4: Rk4::new(nx),
     };
     let mut x = scenario.x0.clone();
     let mut xh = scenario.xhat0.clone();
     let mut noise = run.noise.clone();
     for k in 0..=samples {
         let tk = k as f64 * h;
-        let th_k: Vec<f64> = scenario.theta.iter().map(|s| s.at(tk)).collect();
+        let th_k: Vec<f64> = scenario.theta.iter().map(|s| s.value(tk, &x)).collect();
         let u_k: Vec<f64> = scenario.u.iter().map(|s| s.at(tk)).collect();
         let all = th_k.iter().chain(&u_k).chain(&x).chain(&xh);
         if all.clone().any(|v| !v.is_finite()) {
@@ -298,7 +255,7 @@ pub fn simulate_sampled_each(
                 return Ok(Some(t + dt));
             }
             if n + 1 < run.substeps {
-                let (theta, inputs) = plant.signals(t + dt, &th_k, &u_k);
+                let (theta, inputs) = signals(scenario, run, (t + dt, &x), &th_k, &u_k);
                 let row = SampledRow {
                     t: t + dt,
                     sample: false,
@@ -314,13 +271,6 @@ pub fn simulate_sampled_each(
         }
     }
     Ok(None)
-}
-
-/// dst = x + c·k.
-fn axpy(dst: &mut [f64], x: &[f64], c: f64, k: &[f64]) {
-    for ((d, xi), ki) in dst.iter_mut().zip(x).zip(k) {
-        *d = xi + c * ki;
-    }
 }
 
 /// The noise of a sampled run and what bounds it (see
@@ -478,17 +428,12 @@ pub fn check_sampled_run(
     let mut each = |r: &SampledRow<'_>| {
         premises.see(r, &mut out);
         if r.sample {
-            out.last_error =
-                r.x.iter()
-                    .zip(r.xhat)
-                    .map(|(a, b)| (a - b) * (a - b))
-                    .sum::<f64>()
-                    .sqrt();
+            out.last_error = error_norm(r.x, r.xhat);
             // The arithmetic's resolution in √V: never a violation below it.
             let here = r.x.iter().chain(r.xhat).fold(0.0f64, |m, v| m.max(v.abs()));
             rec.scale = rec.scale.max(here);
             rec.floor = p_top.sqrt()
-                * crate::analysis::simulate::arithmetic_floor(
+                * crate::analysis::envelope::arithmetic_floor(
                     1.0,
                     out.claim.alpha,
                     run.h,
@@ -514,10 +459,7 @@ struct Premises {
 
 impl Premises {
     fn of(obs: &PolytopicModel, run: &SampledRun) -> Premises {
-        let q_inv = match &obs.state_bound {
-            StateBound::Given(q) => q.clone().try_inverse(),
-            _ => None,
-        };
+        let q_inv = q_inv_of(obs);
         let input = |j: usize| {
             (
                 obs.input_rates.get(j).copied().flatten(),
@@ -555,14 +497,7 @@ impl Premises {
 
     /// Records in `out` the first broken premise of row `r`.
     fn see(&mut self, r: &SampledRow<'_>, out: &mut SampledCheck) {
-        if let Some(qi) = &self.q_inv {
-            let xs = DVector::from_column_slice(r.x);
-            let s = xs.dot(&(qi * &xs));
-            if s > 1.0 + 1e-9 {
-                let f = out.left_f.get_or_insert((r.t, s));
-                f.1 = f.1.max(s);
-            }
-        }
+        see_f(&self.q_inv, (r.t, r.x), &mut out.left_f);
         let now: Vec<f64> = r.theta.iter().chain(r.u).copied().collect();
         let outside = self
             .ranges
@@ -596,7 +531,7 @@ struct Recursion {
     /// hσν²: the noise term of b_{k+1} = √(ρ²b_k² + hσν²) + δ.
     noise2: f64,
     /// The largest |x_i| or |x̂_i| so far, and the run's resolution in √V
-    /// below which nothing is compared ([`crate::simulate::arithmetic_floor`]).
+    /// below which nothing is compared ([`crate::analysis::envelope::arithmetic_floor`]).
     scale: f64,
     floor: f64,
 }
@@ -670,8 +605,7 @@ impl Recursion {
             out.worst_ratio = out.worst_ratio.max(ratio);
         }
         if v > bound * (1.0 + BOUND_SLACK) + self.floor + 1e-300 {
-            let e = out.exceeded.get_or_insert((t, ratio));
-            e.1 = e.1.max(ratio);
+            record(&mut out.exceeded, t, ratio);
         }
         if v <= self.ultimate * (1.0 + BOUND_SLACK) {
             out.entered_at.get_or_insert(t);

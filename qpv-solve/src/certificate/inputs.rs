@@ -81,7 +81,7 @@ pub(super) fn input_errors(
     }
     // The caller's condition set decides, as in the check itself: paper
     // mode has no global observer.
-    let global = crate::model::is_global(model, set.mode());
+    let global = super::units::is_global(model, set.mode());
     let gamma_ok = gamma.is_finite() && gamma > 0.0 && gamma < 1.0;
     if !(global || gamma_ok) {
         errs.push(format!("γ = {gamma} is not in (0, 1)"));

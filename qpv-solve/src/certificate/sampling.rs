@@ -96,25 +96,9 @@ impl SampleInfo {
     }
 }
 
-/// "h = 1e-4 s (10 kHz)", "h = 0.002 s (500 Hz)": a sample period and its
-/// rate, the shortest round-tripping form of h.
-pub fn describe_period(h: f64) -> String {
-    let f = 1.0 / h;
-    let (v, unit) = if f >= 1e6 {
-        (f / 1e6, "MHz")
-    } else if f >= 1e3 {
-        (f / 1e3, "kHz")
-    } else {
-        (f, "Hz")
-    };
-    let v = if (1e-3..1e5).contains(&v) {
-        let v = format!("{v:.4}");
-        v.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        qpv_dsl::fmt_sig(v, 4)
-    };
-    format!("h = {h:e} s ({v} {unit})")
-}
+/// "h = 1e-4 s (10 kHz)": a sample period and its rate, worded once for
+/// the reports and the generated code.
+pub use qpv_codegen::design::describe_period;
 
 /// The error-dynamics matrices at every vertex (l, m, i, j), labelled
 /// (1-based): F = A_l − L_l C_m + (rowsHe(N_l, x_j) − rows(N_l, x_i))/γ

@@ -3,7 +3,7 @@
 //! floating point), and Γ_l = P L_l as the certificate sees them.
 
 use crate::conditions::cube::CubeSlacks;
-use crate::model::StateScaling;
+use crate::model::{ObserverKind, StateScaling};
 use nalgebra::DMatrix;
 use qpv_dsl::{Mode, PolytopicModel};
 use std::borrow::Cow;
@@ -24,6 +24,13 @@ pub(super) fn gammas_of(p: &DMatrix<f64>, l: &[DMatrix<f64>]) -> (Vec<DMatrix<f6
     (gammas, l.iter().map(|li| li.norm()).collect())
 }
 
+/// Whether the certificate checks the global observer: decided here, once
+/// for the whole certificate, from the model as it is now and the caller's
+/// mode ([`ObserverKind::of`]), never from a report's claim.
+pub(super) fn is_global(model: &PolytopicModel, mode: Mode) -> bool {
+    ObserverKind::of(model, mode).is_global()
+}
+
 /// The model and γ the blocks use, and whether the observer is global: for
 /// the global observer its region-free model ([`crate::model::global_model`]:
 /// the region the point {0}, whose one pair has no nonlinear terms, and no
@@ -33,7 +40,7 @@ pub(super) fn block_model(
     mode: Mode,
     gamma: f64,
 ) -> (Cow<'_, PolytopicModel>, f64, bool) {
-    if crate::model::is_global(model, mode) {
+    if is_global(model, mode) {
         (crate::model::global_model(model), 1.0, true)
     } else {
         (Cow::Borrowed(model), gamma, false)
@@ -65,7 +72,7 @@ pub(super) fn balanced_for(
     if let Some(b) = balanced(model, mode) {
         return Some(b);
     }
-    if !crate::model::is_global(model, mode) || p.shape() != (model.nx(), model.nx()) {
+    if !is_global(model, mode) || p.shape() != (model.nx(), model.nx()) {
         return None;
     }
     let s = StateScaling::of_p(p)?;

@@ -109,7 +109,7 @@ pub struct Problem<'m> {
     /// `sample = h`: the discrete decrease replaces the rate family (see
     /// [`Problem::with_sample`]).
     sample: Option<f64>,
-    /// The global observer ([`crate::model::is_global`]): no region rows,
+    /// The global observer ([`crate::model::ObserverKind`]): no region rows,
     /// P̂ ⪰ I as the normalisation, γ = 1 in the rate blocks.
     global: bool,
     /// Per rate combination: whether its nonlinear terms vanish (N_l = 0
@@ -126,7 +126,7 @@ impl<'m> Problem<'m> {
     pub fn new(model: &'m PolytopicModel, set: ConditionSet) -> Result<Self, SolveError> {
         validate(model)?;
         let nx = model.nx();
-        let global = crate::model::is_global(model, set.mode());
+        let global = crate::model::ObserverKind::of(model, set.mode()).is_global();
         let rho = match region_radius(model) {
             r if global || r <= 0.0 => 1.0,
             r => r,
@@ -337,7 +337,7 @@ impl<'m> Problem<'m> {
     }
 
     /// Whether this is the global observer of an LPV plant
-    /// ([`crate::model::is_global`]).
+    /// ([`crate::model::ObserverKind`]).
     pub fn is_global(&self) -> bool {
         self.global
     }

@@ -14,7 +14,7 @@ pub mod state_bound;
 
 pub use observer::{ClaimedBound, ObserverModel, ObserverOptions, StateBoundClaim};
 pub use plant::{
-    gamma_max, gamma_max_for, global_model, is_double_sum, is_global, region_radius, validate,
-    with_split, ObserverKind,
+    gamma_max, gamma_max_for, global_model, is_double_sum, region_radius, validate, with_split,
+    ObserverKind,
 };
 pub use scaling::StateScaling;

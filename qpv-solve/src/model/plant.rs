@@ -132,13 +132,6 @@ pub fn validate(model: &PolytopicModel) -> Result<(), SolveError> {
     Ok(())
 }
 
-/// Whether a design of `mode` on `model` is the global observer
-/// ([`ObserverKind::of`]); kept for the callers that have not yet been
-/// handed the kind.
-pub fn is_global(model: &PolytopicModel, mode: qpv_dsl::Mode) -> bool {
-    ObserverKind::of(model, mode).is_global()
-}
-
 /// Which observer a design builds. Decided once, from the plant and the
 /// mode ([`ObserverKind::of`]), and carried as a value from there: a
 /// design's setup, its report (`global`, [`crate::Design::kind`]).
