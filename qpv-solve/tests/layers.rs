@@ -595,7 +595,15 @@ fn file_table() -> String {
                 .map(|l| l.trim_start_matches("//!").trim())
                 .collect();
             let doc = doc.join(" ");
-            let end = doc.find([':', '.', ';']).unwrap_or(doc.len());
+            // The first clause: up to a `:`, `.` or `;` that ends a word
+            // (not the `::` of a path or the `.` of a file name).
+            let b = doc.as_bytes();
+            let end = (0..b.len())
+                .find(|&i| {
+                    matches!(b[i], b':' | b'.' | b';')
+                        && b.get(i + 1).map_or(true, |c| c.is_ascii_whitespace())
+                })
+                .unwrap_or(doc.len());
             rows.push((layer, rel, doc[..end].replace('|', "\\|")));
         }
     }

@@ -1,8 +1,9 @@
 //! The global observer of an LPV plant ([`crate::model::ObserverKind::Global`],
-//! docs/method.md §17): its request (γ fixed and unused, the full family),
-//! its balanced units (pilot solves), its α = max searched twice, and the
-//! knee of its α–gain curve. The regional driver ([`super::driver`]) runs
-//! its searches; this module is everything only the global observer does.
+//! docs/method.md §17): its fixed-α retry in the model's own units, its
+//! α = max searched twice, and the knee of its α–gain curve. Its request
+//! (γ fixed and unused, the full family) and its balanced units (pilot
+//! solves) are the setup's ([`super::setup`]); the regional driver
+//! ([`super::driver`]) runs its searches.
 
 use super::design_plain;
 use super::driver::design_plain_with;
