@@ -375,6 +375,17 @@ impl<const NX: usize, const NY: usize> Setup<NX, NY> {
     /// One run from e(0) = `e0` at the noise `level`: every filter's stats
     /// and qpv's certificate.
     fn run(&self, e0: Vector<NX>, level: f64, seed: u64) -> ([RunStats; FILTERS], CertStats) {
+        self.run_traced(e0, level, seed, None)
+    }
+
+    /// [`Setup::run`], recording every filter's r(t) into `trace` if given.
+    fn run_traced(
+        &self,
+        e0: Vector<NX>,
+        level: f64,
+        seed: u64,
+        mut trace: Option<&mut Vec<(f64, [f64; FILTERS])>>,
+    ) -> ([RunStats; FILTERS], CertStats) {
         let sigma = self.range * level;
         let rs = self.range * if level > 0.0 { level } else { 0.01 };
         let r = Mat::<NY, NY>::from_diagonal(&rs.component_mul(&rs));
@@ -407,6 +418,13 @@ impl<const NX: usize, const NY: usize> Setup<NX, NY> {
             stats[0].see(t, self.rel(&eq), late);
             for (s, ekf) in stats[1..].iter_mut().zip(&ekfs) {
                 s.see(t, self.rel(&(x - ekf.x)), late);
+            }
+            if let Some(tr) = trace.as_deref_mut() {
+                let mut r = [self.rel(&eq); FILTERS];
+                for (ri, ekf) in r[1..].iter_mut().zip(&ekfs) {
+                    *ri = self.rel(&(x - ekf.x));
+                }
+                tr.push((t, r));
             }
             let bound = v0 * (-self.alpha * t).exp();
             let vt = eq.dot(&(self.p * eq));
@@ -566,6 +584,7 @@ fn measure_sized<const NX: usize, const NY: usize>(case: &Case, runs: usize) {
         }
     }
     let sim_s = t0.elapsed().as_secs_f64();
+    figure(&s, &mut Rng(0x5EED));
     let cost = s.timing();
     print_table(&s, case, &tally, runs, (held, worst, left_f), cost);
     eprintln!(
@@ -573,6 +592,47 @@ fn measure_sized<const NX: usize, const NY: usize>(case: &Case, runs: usize) {
         s.name,
         LEVELS.len()
     );
+}
+
+/// The relative error r(t) of every filter on the first run at 1 % noise
+/// (the first initial error the table's runs draw), as an SVG under
+/// target/ekf-baseline/ (docs/baseline.md shows the paper plant's).
+fn figure<const NX: usize, const NY: usize>(s: &Setup<NX, NY>, rng: &mut Rng) {
+    let e0 = s.draw_e(rng);
+    let mut trace = Vec::new();
+    s.run_traced(e0, 0.01, 1, Some(&mut trace));
+    let names = ["qpv".to_string()]
+        .into_iter()
+        .chain(QS.iter().map(|q| format!("EKF q={q:.0e}")));
+    let series: Vec<qpv::plot::Series> = names
+        .enumerate()
+        .map(|(f, name)| {
+            let every = (trace.len() / 600).max(1);
+            let points = trace
+                .iter()
+                .step_by(every)
+                .map(|(t, r)| (*t, r[f]))
+                .collect();
+            qpv::plot::Series::new(name, points, qpv::plot::PALETTE[f], f > 0)
+        })
+        .collect();
+    let dir = std::path::Path::new("target/ekf-baseline");
+    let path = dir.join(format!("{}.svg", s.name));
+    let drawn = std::fs::create_dir_all(dir)
+        .map_err(|e| e.to_string())
+        .and_then(|_| {
+            qpv::plot::line_chart(
+                &path,
+                &format!("{}: relative error at 1 % output noise, one run", s.name),
+                "‖diag(h)⁻¹e‖/√nx",
+                &series,
+                true,
+            )
+        });
+    match drawn {
+        Ok(()) => eprintln!("figure: {}", path.display()),
+        Err(e) => eprintln!("figure not drawn: {e}"),
+    }
 }
 
 fn print_table<const NX: usize, const NY: usize>(
