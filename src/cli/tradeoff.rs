@@ -291,24 +291,19 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         ..DesignRequest::default()
     };
     let bad = |e: qpv_solve::SolveError| CliError::Input(format!("{}: {e}", o.file.display()));
-    let bar = indicatif::ProgressBar::new_spinner();
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} {elapsed} {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-    );
-    bar.set_message(format!(
+    let bar = super::design::spinner(format!(
         "{}: the fastest certified design (alpha = max)",
         model.name
     ));
-    let fastest = qpv_solve::design(
-        &poly,
-        &DesignRequest {
-            alpha: AlphaSpec::Max,
-            ..base.clone()
-        },
-        &settings,
-    )
-    .map_err(bad)?;
+    let fast_request = DesignRequest {
+        alpha: AlphaSpec::Max,
+        ..base.clone()
+    };
+    let fastest =
+        qpv_solve::backend::with_iteration_progress(super::design::iteration_message(&bar), || {
+            qpv_solve::design(&poly, &fast_request, &settings)
+        })
+        .map_err(bad)?;
     if !fastest.certifies() {
         bar.finish_and_clear();
         print_text(
@@ -331,25 +326,30 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     // The range: up to 99 % of the certified supremum, extended below
     // 5 % while the gain still falls steeply ([`Sweep::under`]).
     let channels = NoiseChannels::from_model(&poly);
-    let sweep = tradeoff_with_progress(
-        &poly,
-        &base,
-        &channels,
-        &Sweep::under(top, o.points),
-        &settings,
-        &mut |step| {
-            let (what, a) = match *step {
-                SweepStep::Point { index, of, alpha } => (format!("{}/{of}", index + 1), alpha),
-                SweepStep::Below { alpha } => ("below the range".into(), alpha),
-            };
-            bar.set_message(format!(
-                "{}: noise-optimal design {what} at alpha = {a:.4}",
-                model.name
-            ));
-            bar.tick();
-        },
-    )
-    .map_err(bad)?;
+    let sweep =
+        qpv_solve::backend::with_iteration_progress(super::design::iteration_message(&bar), || {
+            tradeoff_with_progress(
+                &poly,
+                &base,
+                &channels,
+                &Sweep::under(top, o.points),
+                &settings,
+                &mut |step| {
+                    let (what, a) = match *step {
+                        SweepStep::Point { index, of, alpha } => {
+                            (format!("{}/{of}", index + 1), alpha)
+                        }
+                        SweepStep::Below { alpha } => ("below the range".into(), alpha),
+                    };
+                    bar.set_message(format!(
+                        "{}: noise-optimal design {what} at alpha = {a:.4}",
+                        model.name
+                    ));
+                    bar.tick();
+                },
+            )
+        })
+        .map_err(bad)?;
     bar.finish_and_clear();
     let (points, knee) = (&sweep.points, sweep.knee);
     let knee_gain = knee.and_then(|k| points[k].max_gain);
