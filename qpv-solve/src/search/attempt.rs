@@ -42,6 +42,13 @@ pub(super) struct Point {
     pub noise: Option<NoiseBound>,
 }
 
+impl Point {
+    /// The point's (α, γ).
+    pub fn at(&self) -> Candidate {
+        Candidate::new(self.alpha, self.gamma)
+    }
+}
+
 /// The result of one attempt at (α, γ).
 pub(super) struct Attempt {
     pub status: Status,
@@ -118,14 +125,13 @@ impl Ctx<'_, '_> {
     /// slack inequalities when the point carries cube slacks.
     pub(super) fn certify(
         &self,
-        alpha: f64,
-        gamma: f64,
+        at: Candidate,
         p: &DMatrix<f64>,
         l: &[DMatrix<f64>],
         cube: Option<&CubeSlacks>,
     ) -> Certificate {
         let gains = Gains::new(p, l).with_cube(cube);
-        let at = Candidate::new(alpha, gamma).at_sample(self.sample);
+        let at = at.at_sample(self.sample);
         check(self.model, &gains, &at, self.mode)
             .with_gain_bound(l, self.max_gain)
             .with_poles(self.model, &gains, &at, self.prob.poles())
@@ -147,7 +153,12 @@ impl Ctx<'_, '_> {
             return None;
         }
         let a = a.min(self.settings.alpha_cap);
-        let cert = self.certify(a, gamma, &base.p, &base.l, base.cube.as_ref());
+        let cert = self.certify(
+            Candidate::new(a, gamma),
+            &base.p,
+            &base.l,
+            base.cube.as_ref(),
+        );
         if self.accepts(&cert) {
             Some(Point {
                 alpha: a,
@@ -261,7 +272,7 @@ impl Ctx<'_, '_> {
         if let Some(p) = res.p.clone() {
             if let Some(l) = gains(&p, &res.gammas) {
                 let tc = Instant::now();
-                let cert = self.certify(alpha, gamma, &p, &l, res.cube.as_ref());
+                let cert = self.certify(Candidate::new(alpha, gamma), &p, &l, res.cube.as_ref());
                 let passed = self.accepts(&cert);
                 if res.status == Status::Solved {
                     self.claims.solved += 1;

@@ -225,7 +225,7 @@ impl Ctx<'_, '_> {
             None => None,
         };
         if let Some((mut p, how)) = fallback {
-            p.cert = self.certify(a, t.gamma, &p.p, &p.l, p.cube.as_ref());
+            p.cert = self.certify(Candidate::new(a, t.gamma), &p.p, &p.l, p.cube.as_ref());
             if p.cert.passed {
                 p.alpha = a;
                 notes.push(format!(
@@ -435,7 +435,7 @@ impl Ctx<'_, '_> {
         let solves = w.steps.len();
         self.steps.extend(w.steps);
         Ok(w.point.and_then(|mut p| {
-            p.cert = self.certify(p.alpha, p.gamma, &p.p, &p.l, p.cube.as_ref());
+            p.cert = self.certify(p.at(), &p.p, &p.l, p.cube.as_ref());
             p.cert.passed.then_some((p, bound, solves))
         }))
     }
@@ -521,7 +521,7 @@ fn gain_bound_failure(
         AlphaSpec::Fixed(a) => a,
         AlphaSpec::Max => settings.alpha_floor,
     };
-    let p = ctx.min_gain_at(a, gamma, None)?;
+    let p = ctx.min_gain_at(Candidate::new(a, gamma), None)?;
     Ok(match p {
         // Never a bound below G: a gain that meets it would have been
         // reported (the gain walk), so this one is above it.

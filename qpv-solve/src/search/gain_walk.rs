@@ -18,7 +18,7 @@ use crate::error::SolveError;
 use crate::lmi::Problem;
 use crate::report::SearchStep;
 use crate::settings::Settings;
-use crate::vocab::Phase;
+use crate::vocab::{Candidate, Phase};
 use qpv_dsl::{AlphaSpec, DesignRequest, PolytopicModel};
 
 /// The walk's relative tolerance in α.
@@ -108,7 +108,7 @@ fn meeting(
     out: &mut Walk,
 ) -> Result<Option<Point>, SolveError> {
     ctx.max_gain = None;
-    let mut p = ctx.min_gain_at(a, gamma, seed.map(|s| &s.p))?;
+    let mut p = ctx.min_gain_at(Candidate::new(a, gamma), seed.map(|s| &s.p))?;
     // The surrogate bounds the gain, it is not the gain: where its design
     // misses G, the default regularised objective's may not.
     if p.as_ref().map_or(true, |p| max_gain(p) > bound) {
@@ -128,7 +128,7 @@ fn meeting(
         }
     }
     Ok(p.and_then(|mut p| {
-        p.cert = ctx.certify(p.alpha, p.gamma, &p.p, &p.l, p.cube.as_ref());
+        p.cert = ctx.certify(p.at(), &p.p, &p.l, p.cube.as_ref());
         p.cert.passed.then_some(p)
     }))
 }

@@ -111,11 +111,9 @@ impl Ctx<'_, '_> {
     /// the same either way.
     pub(super) fn min_gain_at(
         &mut self,
-        alpha: f64,
-        gamma: f64,
+        cand: Candidate,
         seed: Option<&DMatrix<f64>>,
     ) -> Result<Option<Point>, SolveError> {
-        let cand = Candidate::new(alpha, gamma);
         if let Some(m) = self.margin_cut {
             // A cut margin was needed at another γ: start with it there.
             if let Some(p) = self.min_gain_with_margin(cand, seed, m)? {
@@ -221,7 +219,7 @@ impl Ctx<'_, '_> {
         };
         line.minimise(
             &cands,
-            &mut |g, _| self.try_gamma(a_t, g, &sup.p, &mut best),
+            &mut |g, _| self.try_gamma(Candidate::new(a_t, g), &sup.p, &mut best),
             &|| false,
         )?;
         // The surrogate bounds the gain, it is not the gain: the default
@@ -380,7 +378,9 @@ impl Ctx<'_, '_> {
                 let (ka, kg) = (on_curve.alpha, on_curve.gamma);
                 // A smaller gain at the same point, if a smallest-gain solve
                 // certifies within the tolerance below it.
-                let knee = match self.min_gain_at((1.0 - within) * ka, kg, Some(&on_curve.p))? {
+                let knee = match self
+                    .min_gain_at(Candidate::new((1.0 - within) * ka, kg), Some(&on_curve.p))?
+                {
                     Some(p) if max_gain(&p) < max_gain(&on_curve) => p,
                     _ => on_curve,
                 };
@@ -416,12 +416,11 @@ impl Ctx<'_, '_> {
     /// certify), kept in `best` if smaller.
     fn try_gamma(
         &mut self,
-        alpha: f64,
-        gamma: f64,
+        cand: Candidate,
         seed: &DMatrix<f64>,
         best: &mut Option<(Point, f64)>,
     ) -> Result<Option<f64>, SolveError> {
-        Ok(self.min_gain_at(alpha, gamma, Some(seed))?.map(|p| {
+        Ok(self.min_gain_at(cand, Some(seed))?.map(|p| {
             let g = max_gain(&p);
             if best.as_ref().map_or(true, |(_, bg)| g < *bg) {
                 *best = Some((p, g));
