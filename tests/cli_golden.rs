@@ -120,6 +120,42 @@ const CASES: &[(&str, &[&str])] = &[
             "0.18898",
         ],
     ),
+    (
+        "paper_noise_sampled",
+        &[
+            "examples/paper.qpv",
+            "--noise",
+            "min",
+            "--alpha",
+            "5",
+            "--gamma",
+            "0.18898",
+            "--sample",
+            "1e-3",
+        ],
+    ),
+    (
+        "three_tank_noise",
+        &[
+            "examples/three_tank.qpv",
+            "--noise",
+            "min",
+            "--alpha",
+            "0.5",
+        ],
+    ),
+    (
+        "three_tank_noise_sampled",
+        &[
+            "examples/three_tank.qpv",
+            "--noise",
+            "min",
+            "--alpha",
+            "0.5",
+            "--sample",
+            "1e-2",
+        ],
+    ),
     ("paper_sector", &["tests/fixtures/golden/paper_sector.qpv"]),
     (
         "tank_lpv_poles",
