@@ -5,7 +5,7 @@
 //! combinatorial adjacency test, under a work limit. The region's own
 //! module does the scaling, the polarity and the verification around it.
 
-use super::{MAX_ENUMERATION_WORK, MAX_RAYS, MAX_REGION_VERTICES, TOL};
+use super::{MAX_RAYS, MAX_REGION_VERTICES, TOL};
 use nalgebra::{DMatrix, DVector};
 
 /// Failure of the vertex enumeration.
@@ -56,12 +56,8 @@ fn normalize(z: &mut [f64]) -> f64 {
 /// the other rows one at a time (in the given order, which did best on
 /// degenerate inputs), combining each pair of adjacent rays on both sides of
 /// the new hyperplane; adjacency is the combinatorial test with an inverted
-/// index from rows to the rays tight on them.
-pub(super) fn enumerate_vertices(a: &[DVector<f64>], n: usize) -> Result<Vec<DVector<f64>>, Enum> {
-    enumerate_within(a, n, MAX_ENUMERATION_WORK)
-}
-
-/// [`enumerate_vertices`] with the work limit `limit` (word operations).
+/// index from rows to the rays tight on them. The work is limited to
+/// `limit` word operations (`MAX_ENUMERATION_WORK` for user input).
 pub(super) fn enumerate_within(
     a: &[DVector<f64>],
     n: usize,

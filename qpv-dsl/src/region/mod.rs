@@ -23,7 +23,7 @@
 
 mod dd;
 
-use dd::{enumerate_vertices, enumerate_within, Enum};
+use dd::{enumerate_within, Enum};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 use std::fmt;
@@ -504,39 +504,82 @@ fn verify(
     Ok(())
 }
 
+/// The half the two hulls share (each region is the polar of the other):
+/// the rows scaled to balanced columns, the points of their polar
+/// {b : rowᵢᵀb ≤ 1} and the rows those points keep as irredundant.
+struct Polar {
+    /// The column scales s.
+    scales: Vec<f64>,
+    /// The rows divided by s.
+    rows: Vec<DVector<f64>>,
+    /// The polar's points, in scaled coordinates.
+    dual: Vec<DVector<f64>>,
+    /// Indices of the rows kept.
+    keep: Vec<usize>,
+}
+
+impl Polar {
+    /// Scales `rows`, enumerates their polar within the work limit `work`
+    /// and keeps the irredundant rows; an unbounded polar is the error
+    /// `unbounded` gives for the direction (unscaled to the caller's
+    /// coordinates).
+    fn of(
+        rows: &[DVector<f64>],
+        work: u64,
+        unbounded: impl Fn(DVector<f64>) -> RegionError,
+    ) -> Result<(Polar, usize), RegionError> {
+        let n = check_points(rows)?;
+        let scales = column_scales(rows, n);
+        let scaled = divide(rows, &scales);
+        let dual = match enumerate_within(&scaled, n, work) {
+            Ok(v) => v,
+            // rowᵢᵀd ≤ 0 for all i in scaled coordinates: d/s in the caller's
+            Err(Enum::Unbounded(d)) => return Err(unbounded(unscale_direction(&d, &scales))),
+            Err(Enum::Degenerate(reason)) => return Err(RegionError::Degenerate { reason }),
+            Err(Enum::TooComplex) => return Err(RegionError::TooComplex),
+        };
+        let keep = irredundant(&scaled, &dual, n);
+        let polar = Polar {
+            scales,
+            rows: scaled,
+            dual,
+            keep,
+        };
+        Ok((polar, n))
+    }
+
+    /// The kept rows (scaled).
+    fn kept(&self) -> Vec<DVector<f64>> {
+        self.keep.iter().map(|&i| self.rows[i].clone()).collect()
+    }
+
+    /// The indices of the rows not kept.
+    fn dropped(&self) -> Vec<usize> {
+        (0..self.rows.len())
+            .filter(|i| !self.keep.contains(i))
+            .collect()
+    }
+}
+
 /// [`Region::from_vertices`], also returning the indices of the dropped points.
 pub(crate) fn hull_from_vertices(
     points: &[DVector<f64>],
 ) -> Result<(Region, Vec<usize>), RegionError> {
-    let n = check_points(points)?;
-    let scales = column_scales(points, n);
-    let y = divide(points, &scales);
     // facets of Co{y_i} = vertices of the polar {b : y_iᵀ b ≤ 1}
-    let facets_y = match enumerate_vertices(&y, n) {
-        Ok(f) => f,
-        Err(Enum::Unbounded(d)) => {
-            // yᵢᵀd ≤ 0 for all i, and yᵢᵀd = xᵢᵀ(d/s)
-            return Err(RegionError::OriginNotInterior {
-                direction: unscale_direction(&d, &scales),
-            });
-        }
-        Err(Enum::Degenerate(reason)) => return Err(RegionError::Degenerate { reason }),
-        Err(Enum::TooComplex) => return Err(RegionError::TooComplex),
-    };
-    let keep = irredundant(&y, &facets_y, n);
-    let kept: Vec<DVector<f64>> = keep.iter().map(|&i| y[i].clone()).collect();
-    verify(&kept, &facets_y, &y, n)?;
+    let (p, n) = Polar::of(points, MAX_ENUMERATION_WORK, |direction| {
+        RegionError::OriginNotInterior { direction }
+    })?;
+    verify(&p.kept(), &p.dual, &p.rows, n)?;
     // bᵀy = bᵀ(x/s) = (b/s)ᵀx
-    let facets = unscale(&facets_y, &scales, "facet normal")?;
-    let dropped = (0..points.len()).filter(|i| !keep.contains(i)).collect();
-    let vertices = keep.iter().map(|&i| points[i].clone()).collect();
+    let facets = unscale(&p.dual, &p.scales, "facet normal")?;
+    let vertices = p.keep.iter().map(|&i| points[i].clone()).collect();
     Ok((
         Region {
             vertices,
             facets,
             generators: Vec::new(),
         },
-        dropped,
+        p.dropped(),
     ))
 }
 
@@ -549,36 +592,22 @@ pub(crate) fn hull_from_halfspaces(
 
 /// [`hull_from_halfspaces`] with the enumeration's work limit `work`.
 fn hull_within(normals: &[DVector<f64>], work: u64) -> Result<(Region, Vec<usize>), RegionError> {
-    let n = check_points(normals)?;
-    let scales = column_scales(normals, n);
     // aᵀx = (a/s)ᵀ(s·x): rows b = a/s, coordinates y = s·x
-    let b = divide(normals, &scales);
-    let vertices_y = match enumerate_within(&b, n, work) {
-        Ok(v) => v,
-        Err(Enum::Unbounded(d)) => {
-            // y = s·x, so the direction in x is d/s
-            return Err(RegionError::Unbounded {
-                direction: unscale_direction(&d, &scales),
-            });
-        }
-        Err(Enum::Degenerate(reason)) => return Err(RegionError::Degenerate { reason }),
-        Err(Enum::TooComplex) => return Err(RegionError::TooComplex),
-    };
-    let keep = irredundant(&b, &vertices_y, n);
-    let kept: Vec<DVector<f64>> = keep.iter().map(|&i| b[i].clone()).collect();
-    verify(&vertices_y, &kept, &vertices_y, n)?;
+    let (p, n) = Polar::of(normals, work, |direction| RegionError::Unbounded {
+        direction,
+    })?;
+    verify(&p.dual, &p.kept(), &p.dual, n)?;
     // the vertices also satisfy the rows that were dropped as redundant
-    verify(&vertices_y, &b, &vertices_y, n)?;
-    let vertices = unscale(&vertices_y, &scales, "vertex")?;
-    let dropped = (0..normals.len()).filter(|i| !keep.contains(i)).collect();
-    let facets = keep.iter().map(|&i| normals[i].clone()).collect();
+    verify(&p.dual, &p.rows, &p.dual, n)?;
+    let vertices = unscale(&p.dual, &p.scales, "vertex")?;
+    let facets = p.keep.iter().map(|&i| normals[i].clone()).collect();
     Ok((
         Region {
             vertices,
             facets,
             generators: Vec::new(),
         },
-        dropped,
+        p.dropped(),
     ))
 }
 
