@@ -1,4 +1,4 @@
-//! The baseline a practitioner would run instead of qpv (issue 39, item 3),
+//! The baseline a practitioner would run instead of qpv (docs/baseline.md),
 //! measured side by side with the qpv observer: a continuous-discrete EKF
 //! (benches/ekf/filter.rs) on the models of the language, against the
 //! observer of the file's first sound design (designed here with

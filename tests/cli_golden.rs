@@ -1,8 +1,9 @@
-//! The reports stay as they were: every example's design but the elastic arm's (slow; and one case of
-//! each design family: sampled, noise, cube, decoupled, skew slack,
-//! `max_gain`, pole regions, the global observer, paper mode) compared,
-//! key by key, with the JSON written before the engine was reorganised
-//! (issue 37: "behaviour, JSON and numbers stay as they are").
+//! The reports stay as they were: every example's design but the elastic
+//! arm's (slow), and one case of each design family (sampled, noise, cube,
+//! decoupled, skew slack, `max_gain`, pole regions, the global observer,
+//! paper mode), compared key by key with the JSON written before the
+//! engine was reorganised
+//! (a reorganisation changes where code lives, never what a design says).
 //!
 //! Timings (keys naming seconds, durations in notes) are left out; numbers
 //! agree to 1e-6 relative (the solver's arithmetic is the same; the BLAS

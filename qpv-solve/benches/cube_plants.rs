@@ -1,4 +1,4 @@
-//! Bench: the cube assembly on plants it was not tuned on (issue 40).
+//! Bench: the cube assembly on plants it was not tuned on.
 //!
 //! A generator of QPV plants ([`plants`]): mass-spring chains (half the
 //! states positions, half rates) with θ-dependent quadratic terms N_k(θ) on
@@ -22,7 +22,7 @@
 //! library then has a pair of slacks per generator, compared with the
 //! pairs reference); α = 1 and γ = 0.2 unless given. The problem sizes also
 //! show the size estimate made before assembly (`model::size::estimate`).
-//! docs/method.md, "Held-out plants (issue 40)", has the table.
+//! docs/method.md, "Held-out plants", has the table.
 
 // The reference is also read for its solution elsewhere (cube_scale).
 #[allow(dead_code)]

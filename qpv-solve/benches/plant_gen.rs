@@ -1,4 +1,4 @@
-//! The plant generator of the `cube_plants` bench (issue 40), shared with
+//! The plant generator of the `cube_plants` bench, shared with
 //! the test that compares the cube assembly's nnz(A) with the independent
 //! formulation's (tests/lmi_assembly.rs): mass-spring chains (half the
 //! states positions, half rates) with θ-dependent quadratic terms N_k(θ) on
@@ -266,7 +266,7 @@ pub fn plants() -> Vec<Spec> {
         seed: 40 + nx as u64,
     };
     vec![
-        // The held-out plant of issue 40: 12-state chain, two θ, θ-dependent
+        // The held-out plant of docs/method.md, "Held-out plants": 12-state chain, two θ, θ-dependent
         // N_k on four rate products, three outputs, box region.
         s(12, 2, true, 4, 3, true, false),
         s(12, 2, true, 4, 3, true, true),

@@ -627,7 +627,7 @@ fn cube_assembly_with_one_slack_per_generator_matches_direct_matrices() {
 
 // The bench's independent formulation of the cube relaxation (written on
 // Clarabel's standard form without `qpv_solve::lmi`) and its plant
-// generator (issue 40).
+// generator (docs/method.md, "Held-out plants").
 #[allow(dead_code)]
 #[path = "../benches/cube_reference.rs"]
 mod cube_reference;
