@@ -42,18 +42,9 @@ use qpv_solve::model::StateScaling;
 use qpv_solve::Settings;
 use std::time::Instant;
 
-/// CPU time (user + system) of this process so far, in seconds.
-fn cpu_seconds() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let rest = s.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    match (f.get(11), f.get(12)) {
-        (Some(u), Some(st)) => {
-            (u.parse::<f64>().unwrap_or(f64::NAN) + st.parse::<f64>().unwrap_or(f64::NAN)) / 100.0
-        }
-        _ => f64::NAN,
-    }
-}
+#[path = "cpu.rs"]
+mod cpu;
+use cpu::cpu_seconds;
 
 /// The model a design solves: the symmetric split, in balanced units.
 fn solved_model(model: &PolytopicModel) -> (PolytopicModel, Option<StateScaling>) {

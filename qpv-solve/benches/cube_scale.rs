@@ -62,6 +62,10 @@ use qpv_solve::{design, request, Design, KktSolver, Settings};
 use std::process::Command;
 use std::time::Instant;
 
+#[path = "cpu.rs"]
+mod cpu;
+use cpu::cpu_seconds;
+
 fn vm_hwm_mib() -> f64 {
     let s = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
     s.lines()
@@ -69,24 +73,6 @@ fn vm_hwm_mib() -> f64 {
         .and_then(|l| l.split_whitespace().nth(1))
         .and_then(|kb| kb.parse::<f64>().ok())
         .map_or(f64::NAN, |kb| kb / 1024.0)
-}
-
-/// CPU time (user + system) of this process so far, in seconds.
-fn cpu_seconds() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    // Fields after the command name (which is in parentheses): utime and
-    // stime are fields 14 and 15 of the whole line, in clock ticks (100/s).
-    let rest = s.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    // f[0] is field 3 (the state), so field k is f[k - 3].
-    match (f.get(11), f.get(12)) {
-        (Some(u), Some(st)) => {
-            let ticks =
-                u.parse::<f64>().unwrap_or(f64::NAN) + st.parse::<f64>().unwrap_or(f64::NAN);
-            ticks / 100.0
-        }
-        _ => f64::NAN,
-    }
 }
 
 fn gamma_for(model: &PolytopicModel) -> f64 {

@@ -11,23 +11,9 @@ use qpv_solve::conditions::reference::paper_model;
 use qpv_solve::{design, request, Settings};
 use std::time::Instant;
 
-/// User + system CPU seconds of this process (less sensitive to other load
-/// on the machine than wall time).
-fn cpu_seconds() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let f: Vec<&str> = s
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let tick = |i: usize| {
-        f.get(i)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(f64::NAN)
-    };
-    (tick(11) + tick(12)) / 100.0
-}
+#[path = "cpu.rs"]
+mod cpu;
+use cpu::cpu_seconds;
 
 fn main() {
     let repeats: usize = std::env::args()

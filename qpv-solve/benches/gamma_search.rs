@@ -22,30 +22,16 @@ use qpv_dsl::{AlphaSpec, Conditions, GammaSpec, Mode, PolytopicModel};
 use qpv_solve::{alpha_profile, design, request, Design, Settings};
 use std::time::Instant;
 
+#[path = "cpu.rs"]
+mod cpu;
+use cpu::cpu_seconds;
+
 /// The one-minute load average (NaN if unreadable).
 fn load() -> f64 {
     std::fs::read_to_string("/proc/loadavg")
         .ok()
         .and_then(|s| s.split_whitespace().next()?.parse().ok())
         .unwrap_or(f64::NAN)
-}
-
-/// User + system CPU seconds of this process (less sensitive to other load
-/// on the machine than wall time).
-fn cpu_seconds() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let f: Vec<&str> = s
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let tick = |i: usize| {
-        f.get(i)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(f64::NAN)
-    };
-    (tick(11) + tick(12)) / 100.0
 }
 
 fn parse(name: &str, src: &str) -> (String, PolytopicModel) {

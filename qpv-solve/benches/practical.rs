@@ -9,22 +9,9 @@
 use qpv_dsl::{AlphaSpec, GammaSpec, Mode};
 use qpv_solve::{design_with_progress, request, Design, Settings};
 
-/// User + system CPU seconds of this process.
-fn cpu_seconds() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let f: Vec<&str> = s
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let tick = |i: usize| {
-        f.get(i)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(f64::NAN)
-    };
-    (tick(11) + tick(12)) / 100.0
-}
+#[path = "cpu.rs"]
+mod cpu;
+use cpu::cpu_seconds;
 
 const PLANTS: [&str; 11] = [
     "paper",
