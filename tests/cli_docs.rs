@@ -5,7 +5,7 @@
 //! `scripts/doc-numbers.sh` (the release binary).
 
 #[path = "common/doc_numbers.rs"]
-mod doc_numbers;
+pub(crate) mod doc_numbers;
 
 use doc_numbers::{Cost, Precision, Record};
 use std::path::Path;

@@ -11,6 +11,7 @@
 //! the files (only when a change of output is intended, and said so in the
 //! commit).
 
+use super::cli_docs::doc_numbers::number_len;
 use super::common::qpv;
 use serde_json::Value;
 use std::path::PathBuf;
@@ -233,8 +234,8 @@ struct Token {
     number: Option<f64>,
 }
 
-/// Splits `s` into numbers (digits with an optional fraction and exponent)
-/// and the text between them.
+/// Splits `s` into numbers (as the docs check reads them,
+/// [`number_len`]) and the text between them.
 fn tokens(s: &str) -> Vec<Token> {
     let b = s.as_bytes();
     let mut out: Vec<Token> = Vec::new();
@@ -242,22 +243,9 @@ fn tokens(s: &str) -> Vec<Token> {
     let mut text = String::new();
     while i < b.len() {
         if b[i].is_ascii_digit() {
+            // the docs check's scanner: digits, a fraction, an exponent
             let start = i;
-            while i < b.len() && (b[i].is_ascii_digit() || b[i] == b'.') {
-                i += 1;
-            }
-            if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
-                let mut j = i + 1;
-                if j < b.len() && (b[j] == b'-' || b[j] == b'+') {
-                    j += 1;
-                }
-                if j < b.len() && b[j].is_ascii_digit() {
-                    i = j;
-                    while i < b.len() && b[i].is_ascii_digit() {
-                        i += 1;
-                    }
-                }
-            }
+            i += number_len(&s[i..]).max(1);
             let lit = &s[start..i];
             if !text.is_empty() {
                 out.push(Token {
@@ -267,7 +255,7 @@ fn tokens(s: &str) -> Vec<Token> {
             }
             out.push(Token {
                 text: lit.to_string(),
-                number: lit.trim_end_matches('.').parse().ok(),
+                number: lit.parse().ok(),
             });
         } else {
             let ch = s[i..].chars().next().expect("a char");

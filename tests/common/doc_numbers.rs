@@ -197,7 +197,7 @@ const SUPERSCRIPTS: [(char, char); 11] = [
 
 /// The length in bytes of the number at the start of `s`: `12`, `-0.5`,
 /// `1.82e-6`, `1.4·10¹²`.
-fn number_len(s: &str) -> usize {
+pub fn number_len(s: &str) -> usize {
     let b = s.as_bytes();
     let mut i = 0;
     if i < b.len() && b[i] == b'-' {
