@@ -168,9 +168,8 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     let rows = rate_rows + t + psd_blocks_plus * t1 + vertex_rows + 1.0;
     // Each rate row depends on P̂ (t), the Γ̂ of its terms, its slack and the
     // margin: a bound for dense data. The cube family is counted from the
-    // data's sparsity instead (cheap: c(2r + 1) blocks), where the bound is
-    // tens of times too large on a sparse plant (docs/method.md, "Held-out
-    // plants").
+    // data's sparsity instead (cheap: c(2r + 1) blocks): there the bound is
+    // tens of times too large on a sparse plant (method.md, "Held-out plants").
     let per_rate_row = t + terms * nx * ny + 2.0;
     let gains = if double { 2.0 } else { 1.0 };
     let rate_nnz = match cube_rate_nonzeros(model, nx_u, per_k, gains)
