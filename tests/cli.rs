@@ -19,6 +19,7 @@ mod cli_round3;
 mod cli_sampled;
 mod cli_simulate;
 mod cli_state_bound;
+mod cli_time_unit;
 mod common;
 
 use common::{json_stdout, qpv};

@@ -559,7 +559,8 @@ impl<'a> Ctx<'a> {
         if let Some(t) = self.d.sample_text() {
             let _ = writeln!(
                 h,
-                "extern const {r} {name}_SAMPLE_PERIOD; /* the sample period the design is certified at, seconds: {t} */"
+                "extern const {r} {name}_SAMPLE_PERIOD; /* the sample period the design is certified at, {}: {t} */",
+                self.d.time_unit.plural()
             );
         }
         let _ = writeln!(

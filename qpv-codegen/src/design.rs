@@ -54,6 +54,8 @@ pub struct CertifiedDesign {
     /// emitted observer has `SAMPLE_PERIOD` and a fixed-step `step`.
     /// `None`: a continuous-time design.
     pub sample: Option<f64>,
+    /// The model's unit of time: α is per this unit, h is in it.
+    pub time_unit: qpv_dsl::TimeUnit,
 }
 
 /// The noise bound and the sampling figures of a certified design, each
@@ -114,7 +116,7 @@ impl CertifiedDesign {
     /// "h = 1e-4 s (10 kHz)": the sample period of a sampled design and
     /// its rate (the shortest round-tripping form of h), or `None`.
     pub fn sample_text(&self) -> Option<String> {
-        self.sample.map(describe_period)
+        self.sample.map(|h| self.time_unit.describe_period(h))
     }
 
     /// Entry `[k][o]` of the vertex gain L_l (0 if missing).
@@ -191,28 +193,4 @@ impl Shape {
 pub fn vertex_count(m: &qpv_dsl::Model, scheduling: &[usize]) -> usize {
     let pieces = m.cover.as_ref().map_or(1, |c| c.len());
     pieces << (scheduling.len() + m.derived.len())
-}
-
-/// "h = 1e-4 s (10 kHz)", "h = 2e-3 s (500 Hz)": a sample period and its
-/// rate, the shortest round-tripping form of h; the one wording of the
-/// solver's reports and the generated code's comments
-/// (`qpv_solve::certificate::sampling::describe_period` is this function).
-pub fn describe_period(h: f64) -> String {
-    let f = 1.0 / h;
-    let (v, unit) = if f >= 1e6 {
-        (f / 1e6, "MHz")
-    } else if f >= 1e3 {
-        (f / 1e3, "kHz")
-    } else {
-        (f, "Hz")
-    };
-    // Four decimals in the usual range, four significant digits beyond it
-    // (never a 300-digit number for a huge h).
-    let v = if (1e-3..1e5).contains(&v) {
-        let v = format!("{v:.4}");
-        v.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        qpv_dsl::fmt_sig(v, 4)
-    };
-    format!("h = {h:e} s ({v} {unit})")
 }

@@ -61,6 +61,9 @@ pub enum Item {
     Noise(Vec<Ident>, Span),
     /// `disturbance w1, w2;`
     Disturbances(Vec<Ident>),
+    /// `time = hours;`: the word naming the model's unit of time, and the
+    /// statement's span.
+    Time(Ident, Span),
     /// `let NAME = EXPR;`: a named scheduling function of the parameters.
     Let(Ident, Expr, Span),
     /// `const NAME = EXPR;`: a named number.

@@ -11,6 +11,7 @@ mod poly;
 pub mod region;
 pub mod sched;
 mod syntax;
+pub mod time_unit;
 pub mod vertices;
 
 pub use cover::{Cover, CoverAxis, Piece};
@@ -23,6 +24,7 @@ pub use model::{
 };
 pub use region::{Region, RegionError};
 pub use sched::{Derived, RangeInfo, SchedExpr};
+pub use time_unit::TimeUnit;
 pub use vertices::{NoiseDecl, PolytopicModel, Vertex};
 
 /// Not part of the API (it may change at any time): the internals that the

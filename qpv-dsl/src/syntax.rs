@@ -67,6 +67,7 @@ fn is_token(rule: Rule) -> bool {
             | Rule::kw_state_bound
             | Rule::kw_design
             | Rule::kw_noise
+            | Rule::kw_time
             | Rule::kw_disturbance
             | Rule::q_name
             | Rule::kw_auto
@@ -217,6 +218,11 @@ fn parse_statement(pair: Pair<'_, Rule>) -> Result<Item> {
         Rule::design_block => Ok(Item::Design(parse_design_block(pair)?)),
         Rule::noise_decl => Ok(Item::Noise(parse_decl(pair)?, span)),
         Rule::disturbance_decl => Ok(Item::Disturbances(parse_decl(pair)?)),
+        Rule::time_decl => {
+            let mut it = children(pair).filter(|p| p.as_rule() == Rule::ident);
+            let unit = next(&mut it, span, "time unit")?;
+            Ok(Item::Time(parse_ident(unit), span))
+        }
         Rule::let_decl | Rule::const_decl => {
             let is_let = pair.as_rule() == Rule::let_decl;
             let mut it = children(pair);
@@ -591,6 +597,8 @@ fn want(rule: Rule) -> Option<Want> {
         | Rule::let_decl
         | Rule::const_decl
         | Rule::noise_decl
+        | Rule::time_decl
+        | Rule::kw_time
         | Rule::disturbance_decl
         | Rule::matrix_name
         | Rule::state_decl
@@ -653,8 +661,8 @@ fn want_text(w: Want) -> &'static str {
         Want::Model => "a model `model NAME { ... }`",
         Want::Statement => {
             "a statement (`state`, `input`, `output`, `param`, `let`, `const`, `der`, `out`, \
-             `region`, `state_bound`, `design`, `noise`, `disturbance`, `cover` or a matrix such \
-             as `A = [...]`)"
+             `region`, `state_bound`, `design`, `noise`, `disturbance`, `cover`, `time` or a \
+             matrix such as `A = [...]`)"
         }
         Want::DesignKey => {
             "a design setting (`alpha`, `gamma`, `mode`, `split`, `conditions`, `output_route` \
@@ -712,6 +720,7 @@ const STATEMENT_KEYWORDS: &[&str] = &[
     "let",
     "const",
     "cover",
+    "time",
 ];
 
 fn is_ident_start(c: char) -> bool {
@@ -837,8 +846,8 @@ fn pest_error(src: &str, e: pest::error::Error<Rule>) -> Diag {
                     None => format!(
                         "unknown statement `{w}`: a statement starts with `state`, `input`, `output`, \
                          `param`, `let`, `const`, `der`, `out`, `region`, `state_bound`, `design`, \
-                         `noise`, `disturbance` or `cover`, or is a matrix definition such as \
-                         `A = [...];`"
+                         `noise`, `disturbance`, `cover` or `time`, or is a matrix definition \
+                         such as `A = [...];`"
                     ),
                 };
                 return Diag::new(wspan, msg);

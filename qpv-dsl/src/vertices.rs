@@ -80,6 +80,12 @@ pub struct PolytopicModel {
     /// the piece that contains θ only.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cover: Option<Cover>,
+    /// The unit of the model's time ([`crate::Model::time_unit`]).
+    #[serde(
+        skip_serializing_if = "crate::time_unit::TimeUnit::is_seconds",
+        default
+    )]
+    pub time_unit: crate::time_unit::TimeUnit,
 }
 
 /// The noise channels a model declares: which outputs are measured with
@@ -403,6 +409,7 @@ impl crate::model::Model {
             },
             derived: self.derived.clone(),
             cover: self.cover.clone(),
+            time_unit: self.time_unit,
         }
     }
 

@@ -150,6 +150,8 @@ fn cases() -> Vec<(
         ("noise declared twice", r("region box(1);", "region box(1); noise y; noise y;"), 7, 29, "noise y;", "`noise` is declared twice (first at 7:20)"),
         ("noise output listed twice", r("region box(1);", "region box(1); noise y, y;"), 7, 29, "y", "`y` is listed twice in the `noise` declaration"),
         ("disturbance without B_w", r("region box(1);", "region box(1); disturbance w;"), 7, 32, "w", "declares disturbances (w) but gives no `B_w = [...];` (2×1, one column per disturbance)"),
+        ("unknown unit of time", r("region box(1);", "region box(1); time = fortnights;"), 7, 27, "fortnights", "unknown unit of time `fortnights`: expected `seconds`, `milliseconds`, `minutes`, `hours`, `days`"),
+        ("time declared twice", r("region box(1);", "region box(1); time = h; time = days;"), 7, 30, "time = days;", "`time` is declared twice (first at 7:20)"),
         ("B_w without disturbance", r("region box(1);", "region box(1); B_w = [1; 0];"), 7, 20, "B_w", "B_w is given but the model declares no disturbances"),
         ("B_w of the wrong size", r("region box(1);", "region box(1); disturbance w; B_w = [1, 0; 0, 1];"), 7, 42, "1, 0", "row 1 of B_w has 2 entries, expected 1 (one per disturbance)"),
         ("B_w with too few rows", r("region box(1);", "region box(1); disturbance w; B_w = [1];"), 7, 41, "[1]", "B_w must have 2 rows (one per state), found 1"),

@@ -26,6 +26,7 @@ mod sched_gradient;
 mod sched_range;
 mod soundness;
 mod syntax;
+mod time_unit;
 
 /// Test files that are not listed above would silently not run: refuse them.
 #[test]

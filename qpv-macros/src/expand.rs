@@ -220,6 +220,7 @@ fn one_model(input: &Input, model: &Model) -> Result<TokenStream, (Failure, Toke
                 noise_missing: None,
                 float: req.float,
                 sample: req.sample,
+                time_unit: model.time_unit,
                 alpha_sup: None,
             }
         };
@@ -651,12 +652,10 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         // the generated code's wording of h is the report's (one function),
         // and a huge or tiny h stays short
-        assert_eq!(
-            qpv_solve::certificate::sampling::describe_period(2e-3),
-            "h = 2e-3 s (500 Hz)"
-        );
+        let seconds = qpv_dsl::TimeUnit::Seconds;
+        assert_eq!(seconds.describe_period(2e-3), "h = 2e-3 s (500 Hz)");
         for h in [1e305, 1e-300] {
-            let text = qpv_codegen::design::describe_period(h);
+            let text = seconds.describe_period(h);
             assert!(text.len() < 48, "{text}");
         }
     }

@@ -244,6 +244,7 @@ impl Spec {
             noise: Default::default(),
             derived: Vec::new(),
             cover: None,
+            time_unit: Default::default(),
         };
         Plant {
             name: self.name(),

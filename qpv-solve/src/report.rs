@@ -37,7 +37,7 @@ use crate::model::{ClaimedBound, ObserverKind, ObserverModel, ObserverOptions, S
 use crate::settings::Settings;
 use crate::vocab::{Candidate, Family, Phase, Verdict};
 use nalgebra::DMatrix;
-use qpv_dsl::{Conditions, Mode, PolytopicModel, Split, StateBound};
+use qpv_dsl::{Conditions, Mode, PolytopicModel, Split, StateBound, TimeUnit};
 
 pub use crate::backend::Status;
 pub use crate::certificate::DataCheck;
@@ -251,6 +251,10 @@ pub struct Design {
     /// family. Absent for continuous-time designs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sample: Option<crate::certificate::sampling::SampleInfo>,
+    /// The model's unit of time (`time = hours;`): α is per this unit, h
+    /// and every step are in it. Left out for seconds (the default).
+    #[serde(default, skip_serializing_if = "TimeUnit::is_seconds")]
+    pub time_unit: TimeUnit,
     /// The global observer of an LPV plant (every N_k and M_k zero, sound
     /// mode): the conditions are P ⪰ I and He{P A_l − Γ_l C_m} + αP ≺ 0
     /// (certificate family "G5"), with no region, state bound or γ, and the
@@ -637,6 +641,7 @@ impl Design {
             max_gain: None,
             practical: None,
             sample: None,
+            time_unit: TimeUnit::Seconds,
             global: false,
             poles: Vec::new(),
             pole_gain_bound: None,

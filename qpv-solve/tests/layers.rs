@@ -13,7 +13,8 @@
 //!
 //! ```text
 //! 0 vocabulary   diagnostic (spans, messages), expr (θ-polynomials),
-//!                func (the callable functions), region (polytope geometry)
+//!                func (the callable functions), region (polytope geometry),
+//!                time_unit (the model's unit of time)
 //! 1 text → AST   ast, syntax (the pest grammar's tree walk)
 //! 2 expressions  poly (AST → polynomials), sched (scheduling functions and
 //!                their ranges), equations (`der`/`out` → matrices), cover
@@ -79,6 +80,7 @@ const OTHERS: &[Crate] = &[
             ("expr", 0),
             ("func", 0),
             ("region", 0),
+            ("time_unit", 0),
             ("ast", 1),
             ("syntax", 1),
             ("poly", 2),

@@ -279,7 +279,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         (mode, mode_source),
         (alpha, &alpha_source),
         (gamma, &gamma_source),
-        sample,
+        sample.map(|(h, source)| (h, source, model.time_unit)),
     );
     if let Some((h, _)) = sample {
         s.push_str(&sampled_lines(&model, &design, h, cert.passed));
@@ -302,7 +302,7 @@ fn report_text(
     (mode, mode_source): (Mode, &str),
     (alpha, alpha_source): (f64, &str),
     (gamma, gamma_source): (f64, &str),
-    sample: Option<(f64, &str)>,
+    sample: Option<(f64, &str, qpv_dsl::TimeUnit)>,
 ) -> String {
     let mut s = format!(
         "check of {} against {} mode ({}) at alpha = {} ({alpha_source}), gamma = {} ({gamma_source}):\n",
@@ -319,10 +319,10 @@ fn report_text(
         fmt_num(alpha),
         fmt_num(gamma)
     );
-    if let Some((h, source)) = sample {
+    if let Some((h, source, unit)) = sample {
         s.push_str(&format!(
             "  sampled at {} ({source}): the observer stepped by explicit Euler, V(e_k+1) <= {} V(e_k) (family S5d in place of S5)\n",
-            qpv_solve::certificate::sampling::describe_period(h),
+            unit.describe_period(h),
             fmt_num(1.0 - h * alpha)
         ));
     }

@@ -494,9 +494,10 @@ fn describe_verdict(d: &Design) -> String {
                 ("CERTIFIED", format!(" at gamma = {:.6}", d.gamma), " and the data check S4")
             };
             format!(
-                "  {head} at {}: alpha = {:.6} per second{at}, V(e_k+1) <= {:.6} V(e_k) per step for the observer stepped by explicit Euler at h (the discrete decrease S5d in place of S5): every condition family holds ({}){data}, by the independent eigenvalue check of the reported P and L_l; {searched}\n{}",
-                s.describe(),
+                "  {head} at {}: alpha = {:.6} per {}{at}, V(e_k+1) <= {:.6} V(e_k) per step for the observer stepped by explicit Euler at h (the discrete decrease S5d in place of S5): every condition family holds ({}){data}, by the independent eigenvalue check of the reported P and L_l; {searched}\n{}",
+                s.describe(d.time_unit),
                 d.alpha,
+                d.time_unit.singular(),
                 s.decrease,
                 families.join(", "),
                 practical_line(d)
@@ -592,7 +593,10 @@ fn practical_line(d: &Design) -> String {
     };
     let step = match &d.sampling {
         Some(sp) if sp.max_step_euler > 0.0 => {
-            format!(", Euler step <= {}", seconds(sp.max_step_euler))
+            format!(
+                ", Euler step <= {}",
+                d.time_unit.duration(sp.max_step_euler)
+            )
         }
         _ => String::new(),
     };
@@ -606,20 +610,6 @@ fn practical_line(d: &Design) -> String {
 /// Three significant digits ([`qpv_dsl::fmt_sig`]).
 fn sig(v: f64) -> String {
     qpv_dsl::fmt_sig(v, 3)
-}
-
-/// A duration with its unit (s, ms, us, ns), three significant digits.
-fn seconds(h: f64) -> String {
-    let (v, unit) = if h >= 1.0 {
-        (h, "s")
-    } else if h >= 1e-3 {
-        (h * 1e3, "ms")
-    } else if h >= 1e-6 {
-        (h * 1e6, "us")
-    } else {
-        (h * 1e9, "ns")
-    };
-    format!("{} {unit}", sig(v))
 }
 
 /// The margins of a design that failed: per family, of its best attempt.

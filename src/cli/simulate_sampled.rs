@@ -15,8 +15,8 @@ use super::simulate::{
     DEFAULT_DT,
 };
 use qpv_dsl::diagnostic::fmt_num;
+use qpv_dsl::TimeUnit;
 use qpv_solve::analysis::sampled::{check_sampled_run, SampledCheck, SampledRun, MIN_SUBSTEPS};
-use qpv_solve::certificate::sampling::describe_period;
 use qpv_solve::simulate::MeasurementNoise;
 
 /// Runs `qpv simulate --sample H`.
@@ -99,7 +99,7 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     println!(
         "sampled run: the observer stepped at {} (explicit Euler on y, u, theta sampled at t_k), \
          the continuous plant by RK4 at h/{}",
-        describe_period(h),
+        poly.time_unit.describe_period(h),
         run.substeps
     );
     if !held.is_empty() {
@@ -115,23 +115,23 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
         // did not claim is compared, whatever the gains achieve.
         check.withdraw("the report does not certify (its verdict is not `certified`)");
     }
-    println!("{}", describe(&check));
+    println!("{}", describe(&check, poly.time_unit));
     Ok(if check.violated() { 1 } else { 0 })
 }
 
 /// The claim recomputed, the premises and the verdict, in words.
-fn describe(c: &SampledCheck) -> String {
+fn describe(c: &SampledCheck, unit: TimeUnit) -> String {
     let cl = &c.claim;
     let mut s = String::new();
     if let Some(why) = &c.withdrawn {
         s.push_str(&format!(
             "NOT certified at {}: {why}; no bound is claimed and nothing is compared\n",
-            describe_period(cl.h)
+            unit.describe_period(cl.h)
         ));
     } else if cl.certificate.passed {
         s.push_str(&format!(
             "certified at {} (independent certificate, family S5d) with alpha = {} (the gains reach alpha = {:.6} at this h): V(e_k+1) <= {} V(e_k) for the Euler plant\n",
-            describe_period(cl.h),
+            unit.describe_period(cl.h),
             fmt_num(cl.alpha),
             cl.capacity,
             fmt_num(1.0 - cl.h * cl.alpha)
@@ -139,7 +139,7 @@ fn describe(c: &SampledCheck) -> String {
     } else {
         s.push_str(&format!(
             "NOT certified at {}: the gains reach alpha = {:.6} there (capacity of the discrete family); no bound is certified and nothing is compared\n",
-            describe_period(cl.h),
+            unit.describe_period(cl.h),
             cl.capacity
         ));
     }

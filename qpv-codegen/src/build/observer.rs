@@ -193,6 +193,7 @@ mod tests {
             noise_missing: None,
             alpha_sup: None,
             sample: None,
+            time_unit: Default::default(),
         }
     }
 

@@ -3,9 +3,10 @@
 //! steps in order.
 
 use super::Model;
-use crate::ast::{Expr, ModelAst};
+use crate::ast::{Expr, Item, ModelAst};
 use crate::diagnostic::{line_col, Diag, Span, Warning};
 use crate::poly::{eval, Allowed, NameRef, Names, Scope};
+use crate::time_unit::TimeUnit;
 use std::collections::HashMap;
 
 pub(super) type R<T> = Result<T, Diag>;
@@ -69,6 +70,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
     let region = b.region(lpv)?;
     let state_bound = b.state_bound(&region, lpv)?;
     let designs = b.designs(&region)?;
+    let time_unit = b.time_unit()?;
     let mut model = Model {
         name: ast.name.name.clone(),
         span: ast.name.span,
@@ -91,6 +93,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         designs,
         derived,
         cover: None,
+        time_unit,
         warnings: Vec::new(),
     };
     b.usage(&model)?;
@@ -100,6 +103,43 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
 }
 
 impl<'a> Builder<'a> {
+    /// The unit of `time = UNIT;` (seconds when not declared); a second
+    /// declaration or an unknown word is an error at its position.
+    fn time_unit(&self) -> R<TimeUnit> {
+        let mut found: Option<(TimeUnit, Span)> = None;
+        for item in &self.ast.items {
+            let Item::Time(word, span) = item else {
+                continue;
+            };
+            if let Some((_, prev)) = found {
+                return Err(Diag::new(
+                    *span,
+                    format!(
+                        "`time` is declared twice (first at {}): a model has one unit of time",
+                        pos(self.src, prev)
+                    ),
+                ));
+            }
+            let unit = TimeUnit::from_word(&word.name).ok_or_else(|| {
+                let words: Vec<String> = TimeUnit::ALL
+                    .iter()
+                    .map(|u| format!("`{}`", u.plural()))
+                    .collect();
+                Diag::new(
+                    word.span,
+                    format!(
+                        "unknown unit of time `{}`: expected {} (or their symbols s, ms, min, \
+                         h, d)",
+                        word.name,
+                        words.join(", ")
+                    ),
+                )
+            })?;
+            found = Some((unit, *span));
+        }
+        Ok(found.map_or(TimeUnit::Seconds, |(u, _)| u))
+    }
+
     /// The scope for evaluating an expression that may use `allowed` names.
     pub(super) fn scope(&self, allowed: Allowed, context: &'a str) -> Scope<'_> {
         Scope {

@@ -92,6 +92,13 @@ pub struct Model {
     /// vertices are the corners of the one box of (θ, φ).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cover: Option<crate::cover::Cover>,
+    /// The unit of the model's time (`time = hours;`; seconds by default):
+    /// every rate, step and period of its designs is in this unit.
+    #[serde(
+        skip_serializing_if = "crate::time_unit::TimeUnit::is_seconds",
+        default
+    )]
+    pub time_unit: crate::time_unit::TimeUnit,
     /// Non-fatal remarks found while building the model.
     pub warnings: Vec<Warning>,
 }

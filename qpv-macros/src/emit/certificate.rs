@@ -25,7 +25,7 @@ pub(super) fn types() -> TokenStream {
         /// (`Observer::step`), V(e_{k+1}) ≤ `decrease` · V(e_k).
         #[derive(Clone, Copy, Debug, PartialEq)]
         pub struct Sampled {
-            /// The sample period h, seconds.
+            /// The sample period h, in the model's unit of time.
             pub period: f64,
             /// 1 − hα, the certified decrease of V per step.
             pub decrease: f64,

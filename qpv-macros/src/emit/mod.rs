@@ -305,6 +305,7 @@ mod tests {
             filter,
             float,
             sample: None,
+            time_unit: Default::default(),
             alpha_sup: Some(1.5),
         };
         let mut design = design;

@@ -31,7 +31,7 @@
 
 use crate::conditions::{is_double_sum, pair_suffix, rows, rows_he};
 use nalgebra::{Complex, DMatrix};
-use qpv_dsl::PolytopicModel;
+use qpv_dsl::{PolytopicModel, TimeUnit};
 use serde::{Deserialize, Serialize};
 
 /// The sampling figures of a design (the report's `sampling` key).
@@ -90,15 +90,12 @@ impl SampleInfo {
         }
     }
 
-    /// "h = 1e-4 s (10 kHz)": the period and its rate.
-    pub fn describe(&self) -> String {
-        describe_period(self.h)
+    /// "h = 1e-4 s (10 kHz)": the period and its rate, in the model's
+    /// unit of time.
+    pub fn describe(&self, unit: TimeUnit) -> String {
+        unit.describe_period(self.h)
     }
 }
-
-/// "h = 1e-4 s (10 kHz)": a sample period and its rate, worded once for
-/// the reports and the generated code.
-pub use qpv_codegen::design::describe_period;
 
 /// The error-dynamics matrices at every vertex (l, m, i, j), labelled
 /// (1-based): F = A_l − L_l C_m + (rowsHe(N_l, x_j) − rows(N_l, x_i))/γ

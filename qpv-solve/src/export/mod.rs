@@ -265,6 +265,7 @@ impl Baked {
                 .map(|why| format!("{why}; {}", crate::report::NOISE_MIN_ADVICE)),
             float: self.float,
             sample: d.sample.map(|s| s.h),
+            time_unit: model.time_unit,
             alpha_sup: self.alpha_sup(alpha),
         };
         if self.float != Float::F32 {

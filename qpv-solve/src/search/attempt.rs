@@ -380,6 +380,7 @@ pub(super) fn design_of(
     d.sample = request
         .sample
         .map(|h| crate::certificate::sampling::SampleInfo::new(h, at.alpha));
+    d.time_unit = model.time_unit;
     let Some(pt) = point else {
         d.data_checks = data_checks(model, mode, at.gamma);
         return d;

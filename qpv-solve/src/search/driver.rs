@@ -250,7 +250,8 @@ impl Ctx<'_, '_> {
     ) -> Result<String, SolveError> {
         let tol = self.settings.coarse_tol();
         let best = self.alpha_max(gamma, None, tol, Phase::Diagnose)?;
-        let at = crate::certificate::sampling::describe_period(h);
+        let unit = self.model.time_unit;
+        let at = unit.describe_period(h);
         let asked = match requested {
             AlphaSpec::Fixed(a) => format!("α = {a}"),
             AlphaSpec::Max => "any α".to_string(),
@@ -261,12 +262,14 @@ impl Ctx<'_, '_> {
         };
         let shorter = match self.longest_period(target, gamma, h)? {
             Some((hs, hf)) => format!(
-                "α = {target} certifies at the shorter period {} at γ = {gamma:.6} and fails at {hf:.4e} s in this search (not a proof that no design certifies there)",
-                crate::certificate::sampling::describe_period(hs),
+                "α = {target} certifies at the shorter period {} at γ = {gamma:.6} and fails at {hf:.4e} {} in this search (not a proof that no design certifies there)",
+                unit.describe_period(hs),
+                unit.symbol(),
             ),
             None => format!(
-                "this search found no design certifying α = {target} at γ = {gamma:.6} at any period down to h = {:.3e} s (not a proof that none exists)",
-                h / LONGEST_PERIOD_SHRINK.powi(LONGEST_PERIOD_DOWN as i32)
+                "this search found no design certifying α = {target} at γ = {gamma:.6} at any period down to h = {:.3e} {} (not a proof that none exists)",
+                h / LONGEST_PERIOD_SHRINK.powi(LONGEST_PERIOD_DOWN as i32),
+                unit.symbol()
             ),
         };
         let tail = if target >= self.settings.alpha_cap {
@@ -635,6 +638,7 @@ impl Ctx<'_, '_> {
             alpha: at.alpha,
             gamma: at.gamma,
             sample: request.sample,
+            unit: setup.model.time_unit,
             status: fin.status,
             failed: &failed,
             max_gain: d.max_gain_norm(),

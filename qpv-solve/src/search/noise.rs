@@ -248,6 +248,7 @@ fn noise_report(
         alpha,
         gamma: d.gamma,
         sample: request.sample,
+        unit: obs.time_unit,
         status,
         failed: &[],
         max_gain: d.max_gain_norm(),

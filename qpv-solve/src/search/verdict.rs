@@ -5,10 +5,9 @@
 use super::attempt::append_notes;
 use crate::backend::Status;
 use crate::certificate::noise::NoiseBound;
-use crate::certificate::sampling::describe_period;
 use crate::model::ObserverKind;
 use crate::report::Note;
-use qpv_dsl::Mode;
+use qpv_dsl::{Mode, TimeUnit};
 
 /// What a design's verdict line states.
 pub(super) struct Verdict<'a> {
@@ -24,6 +23,8 @@ pub(super) struct Verdict<'a> {
     pub gamma: f64,
     /// The sample period of a `sample = h` design.
     pub sample: Option<f64>,
+    /// The model's unit of time (of α and h).
+    pub unit: TimeUnit,
     /// The final solve's status (named when nothing certified).
     pub status: Status,
     /// The families the shown point fails, with their worst margins.
@@ -65,16 +66,17 @@ impl Verdict<'_> {
 
     fn regional_line(&self) -> String {
         let (alpha, gamma, max_norm) = (self.alpha, self.gamma, self.max_gain);
+        let per = self.unit.singular();
         let (status, failed) = (self.status, self.failed());
         match (self.mode, self.certified, self.sample) {
             (Mode::Sound, true, Some(h)) => format!(
-                "CERTIFIED at {} (sound conditions S1-S4 and the discrete decrease S5d): the Euler-stepped observer has V(e_(k+1)) ≤ (1 − hα)V(e_k) = {:.6}·V(e_k) with α = {alpha:.6} per second, γ = {gamma:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {max_norm:.4}.",
-                describe_period(h),
+                "CERTIFIED at {} (sound conditions S1-S4 and the discrete decrease S5d): the Euler-stepped observer has V(e_(k+1)) ≤ (1 − hα)V(e_k) = {:.6}·V(e_k) with α = {alpha:.6} per {per}, γ = {gamma:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {max_norm:.4}.",
+                self.unit.describe_period(h),
                 1.0 - h * alpha
             ),
             (Mode::Sound, false, Some(h)) => format!(
                 "NOT CERTIFIED at {} (sound conditions S1-S4 and the discrete decrease S5d) at α = {alpha:.6}, γ = {gamma:.6}: solver {status}{failed}.",
-                describe_period(h)
+                self.unit.describe_period(h)
             ),
             (Mode::Sound, true, None) => format!(
                 "CERTIFIED (sound conditions S1-S5): V' ≤ −αV with α = {alpha:.6}, γ = {gamma:.6}; every e(0) in the region converges. max ‖L_l‖₂ = {max_norm:.4}."
@@ -93,19 +95,20 @@ impl Verdict<'_> {
 
     fn global_line(&self) -> String {
         let (alpha, max_norm) = (self.alpha, self.max_gain);
+        let per = self.unit.singular();
         match (self.certified, self.sample) {
             (true, None) => format!(
                 "CERTIFIED, GLOBAL (LPV plant: P ≻ 0 and G5): V' ≤ −αV with α = {alpha:.6} for every e(0) and every θ(t) in the box; max ‖L_l‖₂ = {max_norm:.4}."
             ),
             (true, Some(h)) => format!(
-                "CERTIFIED, GLOBAL at {} (LPV plant: P ≻ 0 and the discrete decrease S5d): the Euler-stepped observer has V(e_(k+1)) ≤ (1 − hα)V(e_k) = {:.6}·V(e_k) with α = {alpha:.6} per second for every e(0) and every θ_k in the box; max ‖L_l‖₂ = {max_norm:.4}.",
-                describe_period(h),
+                "CERTIFIED, GLOBAL at {} (LPV plant: P ≻ 0 and the discrete decrease S5d): the Euler-stepped observer has V(e_(k+1)) ≤ (1 − hα)V(e_k) = {:.6}·V(e_k) with α = {alpha:.6} per {per} for every e(0) and every θ_k in the box; max ‖L_l‖₂ = {max_norm:.4}.",
+                self.unit.describe_period(h),
                 1.0 - h * alpha
             ),
             (false, _) => {
                 let at = self
                     .sample
-                    .map(|h| format!(" at {}", describe_period(h)))
+                    .map(|h| format!(" at {}", self.unit.describe_period(h)))
                     .unwrap_or_default();
                 format!(
                     "NOT CERTIFIED, GLOBAL (LPV plant){at} at α = {alpha:.6}: solver {}{}.",
@@ -122,15 +125,17 @@ impl Verdict<'_> {
         let Some(nb) = bound.filter(|_| self.certified) else {
             return format!(
                 "NOT CERTIFIED (noise = min{}) at α = {alpha:.6}, γ = {gamma:.6}: solver {}.",
-                self.sample
-                    .map_or(String::new(), |h| format!(", {}", describe_period(h))),
+                self.sample.map_or(String::new(), |h| format!(
+                    ", {}",
+                    self.unit.describe_period(h)
+                )),
                 self.status
             );
         };
         match self.sample {
             Some(h) if global => format!(
                 "CERTIFIED, GLOBAL at {} (LPV plant: P ≻ 0, the discrete decrease S5d and the discrete noise block LMI, no region terms): V(e_k+1) − (1 − hα)V(e_k) ≤ hσ(|w_k|² + |v_k|²) with α = {alpha:.6}, σ = {:.6e}, for every e(0), every θ_k in the box and every noise amplitude ν; lim sup ‖e_k‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
-                describe_period(h),
+                self.unit.describe_period(h),
                 nb.sigma, nb.error_bound
             ),
             None if global => format!(
@@ -139,7 +144,7 @@ impl Verdict<'_> {
             ),
             Some(h) => format!(
                 "CERTIFIED at {} (sound conditions S1-S3, the discrete decrease S5d and the discrete noise block LMI): V(e_k+1) − (1 − hα)V(e_k) ≤ hσ(|w_k|² + |v_k|²) with α = {alpha:.6}, γ = {gamma:.6}, σ = {:.6e}; E stays invariant for noise amplitude up to ν_max = {:.4e}; lim sup ‖e_k‖ ≤ {:.4}·ν. max ‖L_l‖₂ = {max_gain:.4}.",
-                describe_period(h),
+                self.unit.describe_period(h),
                 nb.sigma, nb.max_amplitude, nb.error_bound
             ),
             None => format!(

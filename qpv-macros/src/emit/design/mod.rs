@@ -275,17 +275,19 @@ fn certified_constants(
     let nz_doc = docs::nz(shape.filter);
     let ns_doc = docs::ns(shape.filter);
     let alpha_doc = match d.sample {
-        Some(_) => " Certified decay rate per second: each `Observer::step` (one Euler step of \
-                     SAMPLE_PERIOD) gives V(e_{k+1}) ≤ (1 − SAMPLE_PERIOD·ALPHA) V(e_k), \
-                     V = eᵀPe."
-            .to_string(),
+        Some(_) => format!(
+            " Certified decay rate per {}: each `Observer::step` (one Euler step of \
+             SAMPLE_PERIOD) gives V(e_{{k+1}}) ≤ (1 − SAMPLE_PERIOD·ALPHA) V(e_k), V = eᵀPe.",
+            d.time_unit.singular()
+        ),
         None => " Certified decay rate: V = eᵀPe satisfies V' ≤ −α V.".to_string(),
     };
     let sample_const = match d.sample {
         Some(h) => {
             let doc = format!(
-                " The sample period this design is certified at, seconds ({}): \
+                " The sample period this design is certified at, {} ({}): \
                  `Observer::step` is one explicit Euler step of exactly this length.",
+                d.time_unit.plural(),
                 d.sample_text().unwrap_or_default()
             );
             let h = lit(h);
