@@ -128,7 +128,7 @@ fn bad_sample_periods_are_refused() {
             "--sample 0: expected a positive sample period",
         ),
         (
-            vec!["--sample", "1e-3", "--conditions", "decoupled"],
+            vec!["--sample", "1e-3", "--conditions", "cube"],
             "--sample does not apply here",
         ),
     ] {
@@ -801,4 +801,57 @@ fn a_sampled_run_with_noise_stays_inside_the_bound_with_noise() {
         "{s}"
     );
     assert!(!s.contains("stays inside the certified bound"), "{s}");
+}
+
+/// The decoupled discrete family (2p blocks per combination in place of
+/// p²): sufficient for the full one, which the certificate re-checks, and
+/// on Lotka–Volterra and Lorenz within 1 % of the full family's α at
+/// h = 1 ms; `qpv check --sample` passes on its report.
+#[test]
+fn the_decoupled_discrete_family_certifies_close_to_the_full_one() {
+    for file in ["examples/lotka_volterra.qpv", "examples/lorenz.qpv"] {
+        let mut alpha = Vec::new();
+        for conditions in ["full", "decoupled"] {
+            let report = tmp(&format!("decoupled_sampled_{conditions}.json"));
+            let out = qpv(&[
+                "design",
+                file,
+                "--sample",
+                "1e-3",
+                "--alpha",
+                "max",
+                "--within",
+                "0",
+                "--conditions",
+                conditions,
+                "--json",
+                report.to_str().unwrap(),
+            ]);
+            assert_eq!(
+                out.status.code(),
+                Some(0),
+                "{file} {conditions}: {}",
+                text(&out)
+            );
+            let doc: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+            let d = &doc["designs"][0];
+            assert_eq!(d["verdict"], "certified", "{file} {conditions}");
+            assert_eq!(d["conditions"], conditions, "{file}");
+            alpha.push(d["alpha"].as_f64().unwrap());
+            let check = qpv(&["check", file, "--gains", report.to_str().unwrap()]);
+            assert_eq!(
+                check.status.code(),
+                Some(0),
+                "{file} {conditions}: {}",
+                text(&check)
+            );
+        }
+        assert!(
+            alpha[1] >= 0.99 * alpha[0],
+            "{file}: decoupled α {} against full α {}",
+            alpha[1],
+            alpha[0]
+        );
+    }
 }

@@ -120,7 +120,6 @@ fn cases() -> Vec<(
         ("negative sample", r("region box(1);", "region box(1); design { sample = -1e-3; }"), 7, 38, "-1e-3", "`sample` must be a positive sample period in seconds"),
         ("zero sample", r("region box(1);", "region box(1); design { sample = 0; }"), 7, 38, "0", "`sample` must be a positive sample period in seconds (e.g. `sample = 1e-4` for 10 kHz), found `0`"),
         ("state in sample", r("region box(1);", "region box(1); design { sample = x1; }"), 7, 38, "x1", "x1"),
-        ("sample with decoupled", r("region box(1);", "region box(1); design { conditions = decoupled; sample = 1e-3; }"), 7, 29, "conditions", "`sample` is designed with the full vertex family"),
         ("sample with cube", r("region box(1);", "region box(1); design { conditions = cube; sample = 1e-3; }"), 7, 29, "conditions", "has no discrete-time form in qpv yet"),
         ("sample in paper mode", r("region box(1);", "region box(1); design { mode = paper; sample = 1e-3; }"), 7, 29, "mode", "`sample` needs `mode = sound`"),
         ("sample twice", r("region box(1);", "region box(1); design { sample = 1e-3; sample = 1e-2; }"), 7, 44, "sample", "`sample` is set twice in this design block"),

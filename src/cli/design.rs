@@ -192,10 +192,9 @@ fn culprit(clash: Clash, o: &Options) -> &'static str {
         Clash::MaxGainNoiseMin => (("--max-gain", o.max_gain.is_some()), noise),
         Clash::MaxGainSkewSlack => (("--max-gain", o.max_gain.is_some()), skew),
         Clash::MaxGainPaper => (("--max-gain", o.max_gain.is_some()), paper),
-        Clash::SamplePaper
-        | Clash::SampleDecoupled
-        | Clash::SampleCube
-        | Clash::SampleSkewSlack => (("--sample", o.sample.is_some()), noise),
+        Clash::SamplePaper | Clash::SampleCube | Clash::SampleSkewSlack => {
+            (("--sample", o.sample.is_some()), noise)
+        }
         // `poles` has no flag: the model's design block set it.
         Clash::PolesPaper => (("`poles`", false), paper),
         Clash::PolesNoiseMin => (("`poles`", false), noise),

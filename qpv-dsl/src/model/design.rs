@@ -355,8 +355,6 @@ impl DesignRequest {
             None
         } else if !sound {
             Some(Clash::SamplePaper)
-        } else if self.conditions == Conditions::Decoupled {
-            Some(Clash::SampleDecoupled)
         } else if self.conditions == Conditions::Cube {
             Some(Clash::SampleCube)
         } else if skew {
@@ -397,8 +395,6 @@ pub enum Clash {
     PolesSample,
     /// `sample` in paper mode.
     SamplePaper,
-    /// `sample` with `conditions = decoupled`.
-    SampleDecoupled,
     /// `sample` with `conditions = cube`.
     SampleCube,
     /// `sample` with `split = skew_slack`.
@@ -415,7 +411,7 @@ impl Clash {
             Clash::NoiseMinPaper | Clash::SamplePaper => "mode",
             Clash::NoiseMinSkewSlack | Clash::SampleSkewSlack => "split",
             Clash::MaxGainNoiseMin | Clash::MaxGainSkewSlack | Clash::MaxGainPaper => "max_gain",
-            Clash::SampleDecoupled | Clash::SampleCube => "conditions",
+            Clash::SampleCube => "conditions",
             Clash::PolesPaper
             | Clash::PolesNoiseMin
             | Clash::PolesSkewSlack
@@ -473,14 +469,9 @@ impl std::fmt::Display for Clash {
                 "`sample` needs `mode = sound`: the paper's printed conditions have no \
                  discrete-time form and certify nothing"
             }
-            Clash::SampleDecoupled => {
-                "`sample` is designed with the full vertex family (`conditions = full` or \
-                 `auto`): the decoupled split bounds the e- and x-vertex terms of a sum, and \
-                 the discrete decrease is not a sum of them (its h² term couples e and x)"
-            }
             Clash::SampleCube => {
-                "`sample` is designed with the full vertex family (`conditions = full` or \
-                 `auto`): the matrix-cube relaxation of `conditions = cube` has no \
+                "`sample` is designed with the full or the decoupled vertex family \
+                 (`conditions = full`, `decoupled` or `auto`): the matrix-cube relaxation of `conditions = cube` has no \
                  discrete-time form in qpv yet"
             }
             Clash::SampleSkewSlack => {

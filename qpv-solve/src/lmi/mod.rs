@@ -48,6 +48,7 @@ mod poles;
 mod rate;
 mod region;
 mod sampled;
+mod sampled_decoupled;
 pub(crate) mod skew;
 mod solve;
 

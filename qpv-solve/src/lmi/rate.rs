@@ -40,7 +40,10 @@ impl Problem<'_> {
                 (Conditions::Full | Conditions::Auto, None) => {
                     self.push_rate_full(out, alpha, gamma, rate)
                 }
-                (Conditions::Decoupled, _) => self.push_rate_decoupled(out, alpha, gamma, rate),
+                (Conditions::Decoupled, Some(h)) => {
+                    self.push_rate_sampled_decoupled(out, (alpha, gamma, h), rate)
+                }
+                (Conditions::Decoupled, None) => self.push_rate_decoupled(out, alpha, gamma, rate),
                 (Conditions::Cube, _) => self.push_rate_cube(out, alpha, gamma, rate),
             },
         }

@@ -32,9 +32,9 @@ use qpv_dsl::Conditions;
 
 impl Problem<'_> {
     /// The same problem at the sample period h (None: continuous time):
-    /// the rate family becomes the discrete decrease. Full conditions only
-    /// (the decoupled and cube relaxations split the rate matrix into a sum
-    /// of e- and x-vertex terms, which the discrete block is not).
+    /// the rate family becomes the discrete decrease: the full family, or
+    /// its decoupled form (lmi/sampled_decoupled.rs). The cube relaxation
+    /// has no discrete form.
     pub fn with_sample(mut self, h: Option<f64>) -> Result<Self, SolveError> {
         if let Some(h) = h {
             if !(h.is_finite() && h > 0.0) {
@@ -42,9 +42,9 @@ impl Problem<'_> {
                     "sample = {h}: the sample period must be a positive finite number of seconds"
                 )));
             }
-            if !matches!(self.conditions, Conditions::Full) {
+            if !matches!(self.conditions, Conditions::Full | Conditions::Decoupled) {
                 return Err(SolveError::Unsupported(format!(
-                    "sample = {h} needs the full vertex conditions, not conditions = {}: the discrete decrease has no decoupled or cube form in qpv",
+                    "sample = {h} needs the full or decoupled vertex conditions, not conditions = {}: the discrete decrease has no cube form in qpv",
                     self.conditions.name()
                 )));
             }

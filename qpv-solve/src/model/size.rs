@@ -114,8 +114,9 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     let t = tri(nx);
     let t1 = tri(nx + 1.0);
     let conditions = match request.conditions {
-        // A sampled design solves the full family (search::driver::prepare).
-        Conditions::Auto if request.sample.is_some() => Conditions::Full,
+        // A sampled design solves the full or the decoupled family
+        // (search::setup::prepare).
+        Conditions::Auto if request.sample.is_some() => choose_sampled(model, request).0,
         Conditions::Auto => choose(model, request).0,
         c => c,
     };
@@ -385,6 +386,22 @@ pub fn choose(model: &PolytopicModel, request: &DesignRequest) -> (Conditions, S
             ),
         ),
     }
+}
+
+/// The conditions `conditions = auto` stands for in a sampled design, and
+/// why (a clause): the full discrete family while it has at most the
+/// limit of [`choose`], else its decoupled form (the discrete decrease has
+/// no cube form).
+pub fn choose_sampled(model: &PolytopicModel, request: &DesignRequest) -> (Conditions, String) {
+    let (c, why) = choose(model, request);
+    if c == Conditions::Full {
+        return (c, why);
+    }
+    let p = model.region.vertices.len();
+    (
+        Conditions::Decoupled,
+        format!("2·{p} blocks per rate combination in place of {p}²"),
+    )
 }
 
 /// What the guard decided.

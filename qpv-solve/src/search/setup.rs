@@ -215,12 +215,18 @@ pub(super) fn prepare(
     hint: Option<&nalgebra::DMatrix<f64>>,
 ) -> Result<(DesignRequest, Setup, Notes), SolveError> {
     let (chosen_conditions, auto_note) = match request.sample {
-        Some(h) if request.conditions == Conditions::Auto => (
-            Conditions::Full,
-            Some(Note::Text(format!(
-                "sample = {h:e}: the discrete decrease is solved and certified on the full vertex family (conditions = full)"
-            ))),
-        ),
+        Some(h) if request.conditions == Conditions::Auto => {
+            let (c, why) = crate::model::size::choose_sampled(model, request);
+            let text = match c {
+                Conditions::Full => format!(
+                    "sample = {h:e}: the discrete decrease is solved and certified on the full vertex family (conditions = full)"
+                ),
+                _ => format!(
+                    "sample = {h:e}: the discrete decrease is solved on its decoupled form (conditions = decoupled: {why}) and certified on the full vertex family"
+                ),
+            };
+            (c, Some(Note::Text(text)))
+        }
         _ => {
             let (c, why) = crate::model::size::choose(model, request);
             (c, (!why.is_empty()).then_some(Note::ConditionsChosen(why)))
