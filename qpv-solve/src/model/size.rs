@@ -114,8 +114,7 @@ pub fn estimate(model: &PolytopicModel, request: &DesignRequest) -> SizeEstimate
     let t = tri(nx);
     let t1 = tri(nx + 1.0);
     let conditions = match request.conditions {
-        // A sampled design solves the full or the decoupled family
-        // (search::setup::prepare).
+        // A sampled design: the full or the decoupled family.
         Conditions::Auto if request.sample.is_some() => choose_sampled(model, request).0,
         Conditions::Auto => choose(model, request).0,
         c => c,
