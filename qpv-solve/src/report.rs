@@ -222,6 +222,11 @@ pub struct Design {
     /// sound-mode designs whose noise check passed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<NoiseBound>,
+    /// `noise = rms`: the certified bound on the time-averaged RMS error
+    /// under the request's white noise ([`crate::certificate::rms`]), in
+    /// total and per state; [`Design::recheck`] recomputes it from P and L.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rms: Option<crate::certificate::rms::RmsBound>,
     /// The largest safe Euler step and the RK4 step estimate
     /// ([`crate::certificate::sampling::Sampling`]); only on certified sound-mode designs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -588,9 +593,15 @@ impl Design {
         let p = self.p_matrix();
         let gains = Gains::new(&p, &l).with_cube(slacks.as_ref());
         let at = self.candidate();
-        crate::certificate::check(obs, &gains, &at, self.mode)
+        let mut cert = crate::certificate::check(obs, &gains, &at, self.mode)
             .with_gain_bound(&l, self.max_gain)
-            .with_poles(obs, &gains, &at, &self.poles)
+            .with_poles(obs, &gains, &at, &self.poles);
+        if let Some(claimed) = &self.rms {
+            let c = crate::certificate::rms::rms_check(obs, claimed, self.gamma, &p, &l);
+            cert.passed &= c.passed;
+            cert.data_checks.insert("rms".to_string(), c);
+        }
+        cert
     }
 
     /// A design that holds only the claim of a gains file: P and L_l (rows)
@@ -631,6 +642,7 @@ impl Design {
             skew: None,
             diagnosis: None,
             noise: None,
+            rms: None,
             sampling: None,
             gamma_search: None,
             cube: None,

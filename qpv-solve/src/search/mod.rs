@@ -57,6 +57,7 @@ mod global;
 pub mod noise;
 mod practical;
 pub mod region_cost;
+pub mod rms;
 mod setup;
 pub(crate) mod skew;
 mod verdict;
@@ -555,6 +556,9 @@ pub fn design_with_progress(
 ) -> Result<Design, SolveError> {
     if ObserverKind::of(model, request.mode).is_global() && request.split == Split::SkewSlack {
         return Err(SolveError::SkewOnLpv(model.name.clone()));
+    }
+    if request.noise == qpv_dsl::NoiseObjective::Rms {
+        return rms::design_rms_with_progress(model, request, settings, progress);
     }
     if request.noise == qpv_dsl::NoiseObjective::Min {
         let channels = crate::model::noise::NoiseChannels::from_model(model);
