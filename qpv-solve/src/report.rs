@@ -660,7 +660,8 @@ impl Design {
     /// The part of a report a re-check reads: P, L_l, α, γ, the mode, the
     /// model's name and the representation the gains were designed in
     /// (split, conditions, skew and cube slacks, the state bound's Q with
-    /// its h and split, output route, `max_gain`, the sample period).
+    /// its h and split, output route, `max_gain`, the sample period, the claimed RMS bound of a
+    /// `noise = rms` design, which the re-check recomputes).
     /// Everything the report says about itself (verdict, margins, data
     /// checks, σ and sampling figures, search, notes) is dropped, to be
     /// recomputed from the model as it is now (docs/schema.md, "What a
@@ -683,6 +684,7 @@ impl Design {
         d.cube = self.cube;
         d.max_gain = self.max_gain;
         d.poles = self.poles;
+        d.rms = self.rms;
         d.output_route = self.output_route;
         d.sample = sample;
         d.state_bound = self

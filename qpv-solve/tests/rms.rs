@@ -164,7 +164,7 @@ fn simulated_ms(d: &Design, runs: u64, t_end: f64) -> Vec<f64> {
     let l = d.l_matrices();
     let scenario = Scenario::paper(&model);
     let steps = (t_end / DT).round() as usize;
-    let mut ms = vec![0.0; 3];
+    let mut ms = [0.0; 3];
     let mut count = 0usize;
     for seed in 0..runs {
         let mut rng = Rng(seed + 1);
