@@ -87,3 +87,39 @@ fn incomplete_rms_requests_exit_2_naming_the_flag() {
     let out = qpv(&["design", "examples/paper.qpv", "--output-std", "-1"]);
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
 }
+
+#[test]
+fn codegen_bakes_the_rms_bound_into_the_c_export() {
+    let paper = std::fs::read_to_string("examples/paper.qpv").expect("paper.qpv");
+    let start = paper.find("design {").expect("a design block");
+    let model = format!(
+        "{}design {{ gamma = 0.18898; noise = rms; output_std = 4e-4; noise_period = 1e-3; }}\n}}\n",
+        &paper[..start]
+    );
+    let file = tmp("paper_rms.qpv");
+    std::fs::write(&file, model).unwrap();
+    let dir = tmp("paper_rms_c");
+    let out = qpv(&[
+        "codegen",
+        file.to_str().unwrap(),
+        "--lang",
+        "c",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out));
+    let h = std::fs::read_to_string(dir.join("paper_example.h")).expect("header");
+    let c = std::fs::read_to_string(dir.join("paper_example.c")).expect("source");
+    assert!(h.contains("paper_example_RMS_BOUND;"), "{h}");
+    assert!(h.contains("paper_example_RMS_BOUND_PER_STATE[3]"), "{h}");
+    let line = c
+        .lines()
+        .find(|l| l.contains("paper_example_RMS_BOUND ="))
+        .expect("the bound's definition");
+    let v: f64 = line
+        .split('=')
+        .nth(1)
+        .and_then(|s| s.trim().trim_end_matches(';').parse().ok())
+        .expect("a number");
+    assert!(v > 0.0 && v < 4e-4, "{line}");
+}

@@ -281,13 +281,16 @@ pub struct DesignRequest {
     pub poles: Vec<super::poles::PoleRegion>,
     /// `output_std = s` or `s1, s2, ..`: the standard deviation of the white
     /// noise on each noisy output (one value for all), for `noise = rms`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub output_std: Vec<f64>,
     /// `process_std = q` or `q1, ..`: the standard deviation of white process
     /// noise on each state (one value for all; empty: none), for `noise = rms`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub process_std: Vec<f64>,
     /// `noise_period = dt`: the period (seconds) at which the noise samples
     /// of `output_std` and `process_std` are drawn and held; the white-noise
     /// intensity is std²·dt. Needed by `noise = rms`.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub noise_period: Option<f64>,
     /// The `design` block in the source, for errors about this request.
     pub span: Span,
