@@ -547,7 +547,8 @@ fn design_plain(
 
 /// As [`design`], calling `progress` after every solve. A request with
 /// `noise = min` is the noise-optimal design of [`noise::design_noise`]
-/// on the model's declared channels.
+/// on the model's declared channels; one with `noise = rms` the
+/// RMS-optimal design of [`rms::design_rms`].
 pub fn design_with_progress(
     model: &PolytopicModel,
     request: &DesignRequest,
