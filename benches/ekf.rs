@@ -24,6 +24,10 @@
 //! Euler step of the mean), μ(θ) given. For qpv, whether its certificate
 //! V(t) ≤ V(0)·e^{−αt} (V = eᵀPe) held in every noise-free run.
 //!
+//! After each table, the `noise = rms` design at each noise level
+//! (benches/ekf/rms.rs): its design time, certified RMS bound and simulated
+//! RMS on the same runs.
+//!
 //! `cargo bench --bench ekf` (500 initial errors per plant;
 //! `-- --runs N` for another count; `-- FILE.qpv ...` for other models).
 
@@ -36,6 +40,8 @@ use std::time::Instant;
 #[path = "ekf/filter.rs"]
 mod filter;
 use filter::{rk4, Ekf, Frozen, Mat, Qpv, Vector};
+#[path = "ekf/rms.rs"]
+mod rms;
 
 /// splitmix64: uniform and Gaussian samples, the same on every platform.
 struct Rng(u64);
@@ -587,6 +593,13 @@ fn measure_sized<const NX: usize, const NY: usize>(case: &Case, runs: usize) {
     figure(&s, &mut Rng(0x5EED));
     let cost = s.timing();
     print_table(&s, case, &tally, runs, (held, worst, left_f), cost);
+    let rms_of = |li: usize, f: usize| (tally[li][f].0 / tally[li][f].1 as f64).sqrt();
+    let rows: Vec<rms::RmsRow> = LEVELS[1..]
+        .iter()
+        .map(|&level| s.rms_row(case, level, runs))
+        .collect();
+    let ekf = [[rms_of(1, 1), rms_of(2, 1)], [rms_of(1, 2), rms_of(2, 2)]];
+    rms::print_rms_rows(&rows, &ekf);
     eprintln!(
         "{}: {runs} × {} runs simulated in {sim_s:.1} s",
         s.name,

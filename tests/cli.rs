@@ -15,6 +15,7 @@ mod cli_noise;
 mod cli_output;
 mod cli_output_route;
 mod cli_practical;
+mod cli_rms;
 mod cli_round3;
 mod cli_sampled;
 mod cli_simulate;

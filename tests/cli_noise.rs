@@ -131,7 +131,7 @@ fn noise_min_refuses_alpha_max_and_bad_values() {
     let out = qpv(&["design", "examples/paper.qpv", "--noise", "lots"]);
     let t = text(&out);
     assert_eq!(out.status.code(), Some(2), "{t}");
-    assert!(t.contains("expected `min` or `free`"), "{t}");
+    assert!(t.contains("expected `min`, `rms` or `free`"), "{t}");
 }
 
 fn simulate_with_noise(nu: f64, dir: &str) -> std::process::Output {

@@ -144,3 +144,54 @@ fn a_step_above_the_certified_euler_step_is_a_debug_assertion() {
         &th,
     );
 }
+
+// The paper's example, the RMS-optimal design for white output noise of
+// std 4e-4 sampled every 1 ms, at γ = 0.18898 and any certified rate.
+inline_model! {
+    PAPER_RMS_TEXT,
+    model paper_rms {
+        state x1, x2, x3;
+        output y1, y2;
+        param th1 in [0, 1];
+        param th2 in [0, 1];
+        A = [-4 - th1, 10, 2 + 2*th2; -1, -1 - th2, 1.5 + 2*th1; 1, 1, -4 - 3*th1];
+        N1 = [0.5, 1 + th1, 0; 0, 0, -th2; 0, 1 + th2, 0];
+        N2 = [-0.4, 0, 1 - th1; 1.5, 0, 1 + th2; 2 + th2, 0, 0];
+        N3 = [1.5, -0.5 - th1, 0; 3 + th1, 0, 0; 0, 2 - th2, 0];
+        C = [1, 0, 0; 0, 1, 0];
+        M1 = [0, 0, 0; 0, 0, 1; 0, 0, 0];
+        M2 = [0, 0, 1; 0, 0, 0; 0, 0, 0];
+        region box(0.02);
+        state_bound Q = [0.0112, 0.0017, 0.0006; 0.0017, 0.0025, -0.0022; 0.0006, -0.0022, 0.0061];
+        design { gamma = 0.18898; noise = rms; output_std = 4e-4; noise_period = 1e-3; }
+    }
+}
+
+#[test]
+fn qpv_bakes_the_rms_bound_it_recomputes() {
+    const { assert!(paper_rms::CERTIFIES) };
+    let per = paper_rms::RMS_BOUND_PER_STATE;
+    const _: () = assert!(paper_rms::RMS_BOUND > 0.0 && paper_rms::RMS_BOUND < 4e-4);
+    assert!(per
+        .iter()
+        .all(|&v| v > 0.0 && v <= paper_rms::RMS_BOUND * (1.0 + 1e-12)));
+    // The baked bound is the certificate's recomputation on the baked P, L.
+    let model = polytopic(PAPER_RMS_TEXT);
+    let d = qpv::solve::design(
+        &model,
+        &qpv::dsl::parse(PAPER_RMS_TEXT).unwrap()[0].designs[0],
+        &qpv::solve::Settings::default(),
+    )
+    .unwrap();
+    let obs = d.observer_model(&model).unwrap();
+    let p = DMatrix::from_fn(3, 3, |i, j| paper_rms::P[i][j]);
+    let b = qpv::solve::certificate::rms::rms_bound(
+        &obs,
+        &d.rms.as_ref().unwrap().noise,
+        paper_rms::GAMMA,
+        &p,
+        &gains(&paper_rms::L),
+    )
+    .unwrap();
+    assert!((b.total - paper_rms::RMS_BOUND).abs() <= 1e-9 * b.total);
+}

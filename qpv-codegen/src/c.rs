@@ -523,6 +523,13 @@ impl<'a> Ctx<'a> {
         for (k, doc) in scalars {
             let _ = writeln!(h, "extern const {r} {name}_{k}; /* {doc} */");
         }
+        if let Some((_, per)) = &self.d.figures.rms {
+            let _ = writeln!(
+                h,
+                "extern const {r} {name}_RMS_BOUND; /* noise = rms: certified bound on the time-averaged RMS error under the design's white noise (while x in F, e in the region/gamma) */\nextern const {r} {name}_RMS_BOUND_PER_STATE[{}]; /* the same bound per state */",
+                per.len()
+            );
+        }
         if self.cm.float == Float::F32 {
             let _ = writeln!(
                 h,
@@ -723,6 +730,16 @@ impl<'a> Ctx<'a> {
         let mut s = String::new();
         for (k, v) in values {
             let _ = writeln!(s, "const {r} {name}_{k} = {v};");
+        }
+        if let Some((total, per)) = &self.d.figures.rms {
+            let per: Vec<String> = per.iter().map(|v| self.p.num(*v)).collect();
+            let _ = writeln!(
+                s,
+                "const {r} {name}_RMS_BOUND = {};\nconst {r} {name}_RMS_BOUND_PER_STATE[{}] = {{{}}};",
+                self.p.num(*total),
+                per.len(),
+                per.join(", ")
+            );
         }
         if self.cm.float == Float::F32 {
             let v = f.f32_floor.filter(|x| x.is_finite()).map(round_up_to_f32);

@@ -60,7 +60,7 @@ pub struct CertifiedDesign {
 
 /// The noise bound and the sampling figures of a certified design, each
 /// present only if its own check passed on the baked P and L_l.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Figures {
     /// σ in V' + αV ≤ σ(|v|² + |w|²) on the model's noise channels.
     pub sigma: Option<f64>,
@@ -87,6 +87,10 @@ pub struct Figures {
     /// fixed step at the sample period, the state update's rounding
     /// included (docs/embedded.md, "The f32 floor of a sampled step").
     pub f32_step_floor: Option<f64>,
+    /// `noise = rms`: the certified bound on the time-averaged RMS error
+    /// under the design's white noise, in total and per state (recomputed
+    /// from the baked P and L_l); None for other designs.
+    pub rms: Option<(f64, Vec<f64>)>,
 }
 
 /// The rounding of one evaluation of the f32 right-hand side, as the floor

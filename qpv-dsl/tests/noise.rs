@@ -95,3 +95,41 @@ fn noise_free_is_the_default_objective() {
     assert_eq!(m.designs[0].noise, NoiseObjective::Free);
     assert_eq!(m.designs[1].noise, NoiseObjective::Free);
 }
+
+#[test]
+fn noise_rms_keys_are_read_with_one_or_several_values() {
+    let src = |design: &str| {
+        format!(
+            "model m {{ state x1, x2; output y1, y2; A = [-1, 1; 0, -2]; C = [1, 0; 0, 1];
+               region box(1); state_bound Q = [1, 0; 0, 1]; design {{ {design} }} }}"
+        )
+    };
+    let m = one(&src("noise = rms; output_std = 0.01; noise_period = 1e-3;"));
+    let d = &m.designs[0];
+    assert_eq!(d.noise, NoiseObjective::Rms);
+    assert_eq!(d.output_std, [0.01]);
+    assert_eq!(d.noise_period, Some(1e-3));
+    assert!(d.process_std.is_empty());
+    let m = one(&src(
+        "noise = rms; output_std = 0.01, 0.02; process_std = 1e-3; noise_period = 1e-3;",
+    ));
+    assert_eq!(m.designs[0].output_std, [0.01, 0.02]);
+    assert_eq!(m.designs[0].process_std, [1e-3]);
+    assert!(m.designs[0].to_string().contains("output_std = 0.01, 0.02"));
+    // Positioned errors: a bad value, a missing key, keys without rms.
+    let err = |design: &str| parse(&src(design)).unwrap_err().to_string();
+    let e = err("noise = rms; output_std = -1; noise_period = 1e-3;");
+    // On line 2, where the design block is.
+    assert!(e.contains("2:"), "{e}");
+    assert!(e.contains("positive standard deviation"), "{e}");
+    let e = err("noise = rms; noise_period = 1e-3;");
+    assert!(e.contains("needs the output noise"), "{e}");
+    let e = err("noise = rms; output_std = 0.01;");
+    assert!(e.contains("noise_period"), "{e}");
+    let e = err("output_std = 0.01;");
+    assert!(e.contains("add `noise = rms;`"), "{e}");
+    let e = err("noise = rms; output_std = 0.01; noise_period = 0;");
+    assert!(e.contains("positive period"), "{e}");
+    let e = err("noise = rms; output_std = 0.01; noise_period = 1e-3; sample = 1e-3;");
+    assert!(e.contains("not implemented yet"), "{e}");
+}

@@ -126,6 +126,19 @@ pub fn describe(req: &DesignRequest) -> String {
     if req.noise == NoiseObjective::Min {
         text.push_str("; noise = min");
     }
+    if req.noise == NoiseObjective::Rms {
+        let list = |v: &[f64]| v.iter().map(f64::to_string).collect::<Vec<_>>().join(", ");
+        text.push_str(&format!(
+            "; noise = rms; output_std = {}",
+            list(&req.output_std)
+        ));
+        if !req.process_std.is_empty() {
+            text.push_str(&format!("; process_std = {}", list(&req.process_std)));
+        }
+        if let Some(dt) = req.noise_period {
+            text.push_str(&format!("; noise_period = {dt}"));
+        }
+    }
     if let Some(h) = req.sample {
         text.push_str(&format!("; sample = {h}"));
     }

@@ -222,6 +222,11 @@ pub struct Design {
     /// sound-mode designs whose noise check passed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise: Option<NoiseBound>,
+    /// `noise = rms`: the certified bound on the time-averaged RMS error
+    /// under the request's white noise ([`crate::certificate::rms`]), in
+    /// total and per state; [`Design::recheck`] recomputes it from P and L.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rms: Option<crate::certificate::rms::RmsBound>,
     /// The largest safe Euler step and the RK4 step estimate
     /// ([`crate::certificate::sampling::Sampling`]); only on certified sound-mode designs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -592,9 +597,15 @@ impl Design {
         let p = self.p_matrix();
         let gains = Gains::new(&p, &l).with_cube(slacks.as_ref());
         let at = self.candidate();
-        crate::certificate::check(obs, &gains, &at, self.mode)
+        let mut cert = crate::certificate::check(obs, &gains, &at, self.mode)
             .with_gain_bound(&l, self.max_gain)
-            .with_poles(obs, &gains, &at, &self.poles)
+            .with_poles(obs, &gains, &at, &self.poles);
+        if let Some(claimed) = &self.rms {
+            let c = crate::certificate::rms::rms_check(obs, claimed, self.gamma, &p, &l);
+            cert.passed &= c.passed;
+            cert.data_checks.insert("rms".to_string(), c);
+        }
+        cert
     }
 
     /// A design that holds only the claim of a gains file: P and L_l (rows)
@@ -635,6 +646,7 @@ impl Design {
             skew: None,
             diagnosis: None,
             noise: None,
+            rms: None,
             sampling: None,
             gamma_search: None,
             cube: None,
@@ -653,7 +665,8 @@ impl Design {
     /// The part of a report a re-check reads: P, L_l, α, γ, the mode, the
     /// model's name and the representation the gains were designed in
     /// (split, conditions, skew and cube slacks, the state bound's Q with
-    /// its h and split, output route, `max_gain`, the sample period).
+    /// its h and split, output route, `max_gain`, the sample period, the claimed RMS bound of a
+    /// `noise = rms` design, which the re-check recomputes).
     /// Everything the report says about itself (verdict, margins, data
     /// checks, σ and sampling figures, search, notes) is dropped, to be
     /// recomputed from the model as it is now (docs/schema.md, "What a
@@ -676,6 +689,7 @@ impl Design {
         d.cube = self.cube;
         d.max_gain = self.max_gain;
         d.poles = self.poles;
+        d.rms = self.rms;
         d.output_route = self.output_route;
         d.sample = sample;
         d.state_bound = self

@@ -308,6 +308,10 @@ named_enum! {
         NoiseGrid = "noise-grid",
         /// The γ refinement of the noise-optimal design.
         NoiseRefine = "noise-refine",
+        /// The margin grid of the RMS-optimal design at one γ.
+        Rms = "rms",
+        /// The margin refinement of the RMS-optimal design.
+        RmsRefine = "rms-refine",
     }
 }
 

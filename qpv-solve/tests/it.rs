@@ -34,6 +34,7 @@ mod output_filter;
 mod output_route;
 mod poles;
 mod practical;
+mod rms;
 mod rounding;
 mod sampled;
 mod simulate;

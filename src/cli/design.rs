@@ -61,10 +61,35 @@ pub struct Options {
     pub filter_gain: Option<f64>,
     /// Design objective for sensor noise: `min` minimises the certified
     /// noise gain σ at the requested (fixed) alpha and gamma (sound
-    /// mode); `free` (default) is the ordinary design. Every certified
+    /// mode); `rms` minimises the certified RMS error for white noise of
+    /// --output-std (and --process-std) drawn every --noise-period
+    /// seconds; `free` (default) is the ordinary design. Every certified
     /// sound design reports its noise bound either way.
-    #[arg(long, value_name = "min|free", value_parser = by_name(&NoiseObjective::ALL, NoiseObjective::name))]
+    #[arg(long, value_name = "min|rms|free", value_parser = by_name(&NoiseObjective::ALL, NoiseObjective::name))]
     pub noise: Option<NoiseObjective>,
+    /// With --noise rms: the standard deviation of the white noise on each
+    /// noisy output, in its units (S,S,...: one per noisy output, or one
+    /// value for all).
+    #[arg(
+        long = "output-std",
+        value_name = "S[,S...]",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    pub output_std: Vec<f64>,
+    /// With --noise rms: the standard deviation of white process noise on
+    /// each state (one per state, or one value for all; default none).
+    #[arg(
+        long = "process-std",
+        value_name = "Q[,Q...]",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    pub process_std: Vec<f64>,
+    /// With --noise rms: the period (seconds) at which the noise samples
+    /// are drawn and held (the white-noise intensity is std^2 x DT).
+    #[arg(long = "noise-period", value_name = "DT", allow_hyphen_values = true)]
+    pub noise_period: Option<f64>,
     /// With alpha = max: return the smallest-gain design certified at
     /// alpha >= (1 - WITHIN) x the certified supremum (a fraction, 0 to
     /// 0.5; default 0.01; 0 returns the fastest point found).
@@ -159,6 +184,21 @@ fn check_flags(o: &Options) -> Result<(), CliError> {
             ));
         }
     }
+    let good = |v: &[f64]| v.iter().all(|s| s.is_finite() && *s > 0.0);
+    if !good(&o.output_std) || !good(&o.process_std) {
+        return Err(CliError::Input(
+            "--output-std/--process-std: expected positive standard deviations, separated by \
+             commas (e.g. --output-std 0.01 or --output-std 0.01,0.02)"
+                .into(),
+        ));
+    }
+    if let Some(dt) = o.noise_period {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(CliError::Input(format!(
+                "--noise-period {dt}: expected a positive period in seconds (e.g. 1e-3)"
+            )));
+        }
+    }
     if let Some(h) = o.sample {
         if !(h.is_finite() && h > 0.0) {
             return Err(CliError::Input(format!(
@@ -200,6 +240,17 @@ fn culprit(clash: Clash, o: &Options) -> &'static str {
         Clash::PolesNoiseMin => (("`poles`", false), noise),
         Clash::PolesSkewSlack => (("`poles`", false), skew),
         Clash::PolesSample => (("`poles`", false), ("--sample", o.sample.is_some())),
+        Clash::RmsKeysWithoutRms
+        | Clash::RmsNoOutputStd
+        | Clash::RmsNoPeriod
+        | Clash::RmsPaper
+        | Clash::RmsSkewSlack
+        | Clash::RmsMaxGain
+        | Clash::RmsPoles
+        | Clash::RmsSample => (
+            ("--noise rms", o.noise == Some(NoiseObjective::Rms)),
+            ("the design block's noise settings", true),
+        ),
     };
     if first.1 || !second.1 {
         first.0
@@ -244,6 +295,15 @@ fn plan(
     if let Some(n) = o.noise {
         r.noise = n;
     }
+    if !o.output_std.is_empty() {
+        r.output_std = o.output_std.clone();
+    }
+    if !o.process_std.is_empty() {
+        r.process_std = o.process_std.clone();
+    }
+    if let Some(dt) = o.noise_period {
+        r.noise_period = Some(dt);
+    }
     if let Some(g) = o.max_gain {
         r.max_gain = Some(g);
     }
@@ -263,6 +323,9 @@ fn plan(
         Err(Clash::NoiseMinSkewSlack) => Err(CliError::Input(format!(
             "--noise min with split = skew_slack ({r}): use --split symmetric or as_written"
         ))),
+        Err(c @ (Clash::RmsNoOutputStd | Clash::RmsNoPeriod | Clash::RmsKeysWithoutRms)) => Err(
+            CliError::Input(format!("{c} (flags: --output-std, --noise-period)")),
+        ),
         Err(clash) => {
             let why = format!("{} does not apply here: {clash}", culprit(clash, o));
             skip(r, why)
@@ -694,6 +757,24 @@ pub(super) fn describe_noise(d: &Design) -> String {
             "    per-state |e_k(inf)| per unit noise <= [{}]\n",
             per.join(", ")
         ));
+    }
+    if let Some(b) = &d.rms {
+        let std: Vec<String> = b
+            .noise
+            .output_std
+            .iter()
+            .map(|v| format!("{v:.4e}"))
+            .collect();
+        s.push_str(&format!(
+            "  RMS error (certified, time-averaged, white noise std [{}] on output(s) {} every {} s{}; while x in F and e in the region/gamma):\n",
+            std.join(", "),
+            b.noise.outputs.iter().map(|o| (o + 1).to_string()).collect::<Vec<_>>().join(", "),
+            b.noise.period,
+            if b.noise.process_std.is_empty() { String::new() } else { ", with process noise".to_string() }
+        ));
+        s.push_str(&format!("    total RMS <= {:.4e}\n", b.total));
+        let per: Vec<String> = b.per_state.iter().map(|v| format!("{v:.4e}")).collect();
+        s.push_str(&format!("    per-state RMS <= [{}]\n", per.join(", ")));
     }
     if let Some(why) = qpv_solve::report::figures::no_noise_bound(d) {
         s.push_str(&format!(

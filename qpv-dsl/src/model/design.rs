@@ -72,17 +72,26 @@ pub enum NoiseObjective {
     /// (and over γ too with `gamma = search`): the smallest certified
     /// error bound per unit noise at that rate.
     Min,
+    /// Minimise a certified bound on the steady-state mean-square error for
+    /// white output noise (and optional process noise) of the standard
+    /// deviations `output_std` (`process_std`), drawn every `noise_period`.
+    Rms,
 }
 
 impl NoiseObjective {
     /// Every objective: `min` first, the one that changes the design.
-    pub const ALL: [NoiseObjective; 2] = [NoiseObjective::Min, NoiseObjective::Free];
+    pub const ALL: [NoiseObjective; 3] = [
+        NoiseObjective::Min,
+        NoiseObjective::Rms,
+        NoiseObjective::Free,
+    ];
 
     /// The name used in the language and the CLI ("free" or "min").
     pub fn name(self) -> &'static str {
         match self {
             NoiseObjective::Free => "free",
             NoiseObjective::Min => "min",
+            NoiseObjective::Rms => "rms",
         }
     }
 }
@@ -270,6 +279,19 @@ pub struct DesignRequest {
     /// the eigenvalues of the frozen error dynamics must lie in, imposed with
     /// the design's P and certified (family "D"); empty: none.
     pub poles: Vec<super::poles::PoleRegion>,
+    /// `output_std = s` or `s1, s2, ..`: the standard deviation of the white
+    /// noise on each noisy output (one value for all), for `noise = rms`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub output_std: Vec<f64>,
+    /// `process_std = q` or `q1, ..`: the standard deviation of white process
+    /// noise on each state (one value for all; empty: none), for `noise = rms`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub process_std: Vec<f64>,
+    /// `noise_period = dt`: the period (seconds) at which the noise samples
+    /// of `output_std` and `process_std` are drawn and held; the white-noise
+    /// intensity is std²·dt. Needed by `noise = rms`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise_period: Option<f64>,
     /// The `design` block in the source, for errors about this request.
     pub span: Span,
 }
@@ -310,6 +332,9 @@ impl Default for DesignRequest {
             sample: None,
             float: Float::F64,
             poles: Vec::new(),
+            output_std: Vec::new(),
+            process_std: Vec::new(),
+            noise_period: None,
             span: Span::default(),
         }
     }
@@ -329,6 +354,9 @@ impl DesignRequest {
         let sound = self.mode == Mode::Sound;
         let skew = self.split == Split::SkewSlack;
         let noise_min = self.noise == NoiseObjective::Min;
+        if let Some(c) = self.rms_clash() {
+            return Err(c);
+        }
         let clash = if skew && !sound {
             Some(Clash::SkewSlackPaper)
         } else if noise_min && !sound {
@@ -366,6 +394,36 @@ impl DesignRequest {
     }
 }
 
+impl DesignRequest {
+    /// The first clash of `noise = rms` (or of its keys without it), if any.
+    fn rms_clash(&self) -> Option<Clash> {
+        let rms = self.noise == NoiseObjective::Rms;
+        let keys = !self.output_std.is_empty()
+            || !self.process_std.is_empty()
+            || self.noise_period.is_some();
+        if !rms {
+            return keys.then_some(Clash::RmsKeysWithoutRms);
+        }
+        if self.mode != Mode::Sound {
+            Some(Clash::RmsPaper)
+        } else if self.split == Split::SkewSlack {
+            Some(Clash::RmsSkewSlack)
+        } else if self.max_gain.is_some() {
+            Some(Clash::RmsMaxGain)
+        } else if !self.poles.is_empty() {
+            Some(Clash::RmsPoles)
+        } else if self.sample.is_some() {
+            Some(Clash::RmsSample)
+        } else if self.output_std.is_empty() {
+            Some(Clash::RmsNoOutputStd)
+        } else if self.noise_period.is_none() {
+            Some(Clash::RmsNoPeriod)
+        } else {
+            None
+        }
+    }
+}
+
 /// Two settings of a design request that cannot be combined
 /// ([`DesignRequest::validate`]). `Display` says why, in the language's
 /// words (`noise = min`, `alpha = max`).
@@ -399,6 +457,22 @@ pub enum Clash {
     SampleCube,
     /// `sample` with `split = skew_slack`.
     SampleSkewSlack,
+    /// `output_std`, `process_std` or `noise_period` without `noise = rms`.
+    RmsKeysWithoutRms,
+    /// `noise = rms` in paper mode.
+    RmsPaper,
+    /// `noise = rms` with `split = skew_slack`.
+    RmsSkewSlack,
+    /// `noise = rms` with `max_gain`.
+    RmsMaxGain,
+    /// `noise = rms` with `poles`.
+    RmsPoles,
+    /// `noise = rms` with `sample` (not implemented yet).
+    RmsSample,
+    /// `noise = rms` without `output_std`.
+    RmsNoOutputStd,
+    /// `noise = rms` without `noise_period`.
+    RmsNoPeriod,
 }
 
 impl Clash {
@@ -416,6 +490,14 @@ impl Clash {
             | Clash::PolesNoiseMin
             | Clash::PolesSkewSlack
             | Clash::PolesSample => "poles",
+            Clash::RmsKeysWithoutRms
+            | Clash::RmsNoOutputStd
+            | Clash::RmsNoPeriod
+            | Clash::RmsPaper
+            | Clash::RmsSkewSlack
+            | Clash::RmsMaxGain
+            | Clash::RmsPoles
+            | Clash::RmsSample => "noise",
         }
     }
 }
@@ -478,6 +560,37 @@ impl std::fmt::Display for Clash {
                 "`split = skew_slack` searches its slack with the continuous rate \
                  conditions: use `split = symmetric` or `as_written` with `sample`"
             }
+            Clash::RmsKeysWithoutRms => {
+                "`output_std`, `process_std` and `noise_period` describe the white noise of \
+                 `noise = rms`: add `noise = rms;` or remove them"
+            }
+            Clash::RmsPaper => {
+                "`noise = rms` needs `mode = sound`: the paper's printed conditions certify \
+                 nothing, so they give no RMS bound"
+            }
+            Clash::RmsSkewSlack => {
+                "`noise = rms` does not search the skew slack: use `split = symmetric` or \
+                 `split = as_written`"
+            }
+            Clash::RmsMaxGain => {
+                "`max_gain` cannot be combined with `noise = rms` (its SDP has no gain bound)"
+            }
+            Clash::RmsPoles => {
+                "`poles` cannot be combined with `noise = rms` (its SDP has no pole-region \
+                 blocks)"
+            }
+            Clash::RmsSample => {
+                "`noise = rms` is a continuous-time design: its sampled form (`sample = h`) \
+                 is not implemented yet"
+            }
+            Clash::RmsNoOutputStd => {
+                "`noise = rms` needs the output noise: `output_std = s;` (one standard \
+                 deviation per noisy output, in its units, or one value for all)"
+            }
+            Clash::RmsNoPeriod => {
+                "`noise = rms` needs `noise_period = dt;`: the period (seconds) at which the \
+                 noise samples are drawn and held (the white-noise intensity is std²·dt)"
+            }
         })
     }
 }
@@ -513,8 +626,13 @@ impl std::fmt::Display for DesignRequest {
                 o.pole, o.gain
             )?;
         }
-        if self.noise == NoiseObjective::Min {
-            f.write_str("; noise = min")?;
+        if self.noise != NoiseObjective::Free {
+            write!(f, "; noise = {}", self.noise.name())?;
+        }
+        write_list(f, "output_std", &self.output_std)?;
+        write_list(f, "process_std", &self.process_std)?;
+        if let Some(dt) = self.noise_period {
+            write!(f, "; noise_period = {dt}")?;
         }
         if let Some(g) = self.max_gain {
             write!(f, "; max_gain = {g}")?;
@@ -532,8 +650,24 @@ impl std::fmt::Display for DesignRequest {
     }
 }
 
+/// `; key = v1, v2` for a non-empty list.
+fn write_list(f: &mut std::fmt::Formatter<'_>, key: &str, v: &[f64]) -> std::fmt::Result {
+    for (k, x) in v.iter().enumerate() {
+        write!(
+            f,
+            "{}{x}",
+            if k == 0 {
+                format!("; {key} = ")
+            } else {
+                ", ".into()
+            }
+        )?;
+    }
+    Ok(())
+}
+
 /// The keys of a `design { ... }` block.
-const DESIGN_KEYS: [&str; 11] = [
+const DESIGN_KEYS: [&str; 14] = [
     "alpha",
     "gamma",
     "mode",
@@ -545,6 +679,9 @@ const DESIGN_KEYS: [&str; 11] = [
     "sample",
     "float",
     "poles",
+    "output_std",
+    "process_std",
+    "noise_period",
 ];
 
 impl Builder<'_> {
@@ -613,12 +750,13 @@ impl Builder<'_> {
                 ),
             ));
         }
-        if let (Some((v, _)), false) = (entry.more.first(), key == "poles") {
+        let list = matches!(key, "poles" | "output_std" | "process_std");
+        if let (Some((v, _)), false) = (entry.more.first(), list) {
             return Err(Diag::new(
                 v.span,
                 format!(
-                    "`{key}` takes one value (only `poles` takes a list: `poles = disk(..), \
-                     sector(..)`)"
+                    "`{key}` takes one value (only `poles`, `output_std` and `process_std` \
+                     take a list: `poles = disk(..), sector(..)`)"
                 ),
             ));
         }
@@ -658,6 +796,9 @@ impl Builder<'_> {
             "noise" => req.noise = self.noise_value(&entry.value)?,
             "float" => req.float = self.float_value(&entry.value)?,
             "poles" => req.poles = self.poles_value(entry)?,
+            "output_std" => req.output_std = self.std_values(entry, "output_std")?,
+            "process_std" => req.process_std = self.std_values(entry, "process_std")?,
+            "noise_period" => req.noise_period = Some(self.noise_period_value(&entry.value)?),
             _ => {
                 let hint = suggest(key, DESIGN_KEYS)
                     .map(|s| format!(" (did you mean `{s}`?)"))
@@ -666,12 +807,55 @@ impl Builder<'_> {
                     entry.key.span,
                     format!(
                         "unknown design setting `{key}`: expected `alpha`, `gamma`, `mode`, \
-                         `split`, `conditions`, `output_route`, `noise`, `max_gain`, `sample`, `float` or `poles`{hint}"
+                         `split`, `conditions`, `output_route`, `noise`, `max_gain`, `sample`, `float`, `poles`, `output_std`, `process_std` or `noise_period`{hint}"
                     ),
                 ));
             }
         }
         Ok(())
+    }
+
+    /// `output_std` / `process_std`: one or more standard deviations, each
+    /// positive and finite (options in parentheses are refused).
+    fn std_values(&self, entry: &ast::DesignEntry, key: &str) -> R<Vec<f64>> {
+        let mut out = Vec::new();
+        let values = std::iter::once((&entry.value, &entry.options))
+            .chain(entry.more.iter().map(|(v, o)| (v, o)));
+        for (v, opts) in values {
+            if let Some((_, ospan)) = opts {
+                return Err(Diag::new(
+                    *ospan,
+                    format!("`{key}` takes numbers, without options"),
+                ));
+            }
+            let s = self.constant(v, "a noise standard deviation")?;
+            if !(s.is_finite() && s > 0.0) {
+                return Err(bad_value(
+                    v.span,
+                    key,
+                    "a positive standard deviation (in the units of the output or state), or a \
+                     list of them",
+                    &fmt_num(s),
+                ));
+            }
+            out.push(s);
+        }
+        Ok(out)
+    }
+
+    /// `noise_period = dt`: seconds, positive and finite.
+    fn noise_period_value(&self, v: &Expr) -> R<f64> {
+        let h = self.constant(v, "the noise period `noise_period`")?;
+        if !(h.is_finite() && h > 0.0) {
+            return Err(bad_value(
+                v.span,
+                "noise_period",
+                "a positive period in seconds (e.g. `noise_period = 1e-3` for noise samples \
+                 drawn at 1 kHz)",
+                &fmt_num(h),
+            ));
+        }
+        Ok(h)
     }
 
     /// `sample = h`: the sample period in seconds, positive and finite.
@@ -748,7 +932,7 @@ impl Builder<'_> {
             None => Err(bad_value(
                 v.span,
                 "noise",
-                "`free` (the default) or `min`",
+                "`free` (the default), `min` or `rms`",
                 &self.found(v),
             )),
         }

@@ -78,6 +78,14 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
         Some(_) => quote!(pub use self::#primary::SAMPLE_PERIOD;),
         None => quote!(),
     };
+    let primary_rms = match em
+        .designs
+        .get(primary_index - 1)
+        .map(|d| d.figures.rms.is_some())
+    {
+        Some(true) => quote!(pub use self::#primary::{RMS_BOUND, RMS_BOUND_PER_STATE};),
+        _ => quote!(),
+    };
     let primary_sup = match em.designs.get(primary_index - 1).and_then(|d| d.alpha_sup) {
         Some(_) => quote!(pub use self::#primary::ALPHA_SUP;),
         None => quote!(),
@@ -123,6 +131,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
             };
             #primary_filter
             #primary_sample
+            #primary_rms
             #primary_sup
 
             #(#designs)*

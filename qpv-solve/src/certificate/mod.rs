@@ -27,6 +27,7 @@ pub mod noise;
 pub mod noise_sampled;
 pub mod poles;
 mod rate;
+pub mod rms;
 pub mod rounding;
 mod sampled;
 pub mod sampling;

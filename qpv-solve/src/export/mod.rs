@@ -119,7 +119,21 @@ impl Baked {
         let observer = design.observer_model(plant).map_err(BakeError::Model)?;
         match float {
             Float::F64 => Baked::finish(plant, design, observer, float),
-            Float::F32 => Baked::rechecked(plant, rounded_to_f32(&design), observer, float),
+            Float::F32 => {
+                let mut rounded = rounded_to_f32(&design);
+                // The RMS claim of the rounded numbers is their own.
+                if let Some(b) = &design.rms {
+                    let (p, l) = (rounded.p_matrix(), rounded.l_matrices());
+                    rounded.rms = crate::certificate::rms::rms_bound(
+                        &observer,
+                        &b.noise,
+                        rounded.gamma,
+                        &p,
+                        &l,
+                    );
+                }
+                Baked::rechecked(plant, rounded, observer, float)
+            }
         }
     }
 
@@ -199,6 +213,21 @@ impl Baked {
         &self.observer
     }
 
+    /// The RMS bound of a `noise = rms` design, recomputed on the baked P
+    /// and L_l (its claim is only baked when that recomputation holds it).
+    fn rms(&self) -> Option<(f64, Vec<f64>)> {
+        let claimed = self.design.rms.as_ref()?;
+        let (p, l) = (self.design.p_matrix(), self.design.l_matrices());
+        let b = crate::certificate::rms::rms_bound(
+            &self.observer,
+            &claimed.noise,
+            self.design.gamma,
+            &p,
+            &l,
+        )?;
+        Some((b.total, b.per_state))
+    }
+
     /// The figures of the baked numbers, each present only if its own check
     /// passed (none for a sampled design, whose continuous-time figures say
     /// nothing, docs/method.md §16, nor for a cube design too large for
@@ -224,6 +253,7 @@ impl Baked {
             f32_euler: None,
             f32_rounding: None,
             f32_step_floor: None,
+            rms: self.rms(),
         }
     }
 

@@ -47,6 +47,7 @@ mod objective;
 mod poles;
 mod rate;
 mod region;
+pub(crate) mod rms;
 mod sampled;
 mod sampled_decoupled;
 pub(crate) mod skew;

@@ -52,7 +52,13 @@ impl Problem<'_> {
     /// Full rate family: −He{P̂K − Γ̂H} − ε κ I ⪰ 0 per (combination, i, j),
     /// one block for a linear combination (every pair has the same block):
     /// b = −ε_rate svec(I), A[v] = svec(∂F/∂v).
-    fn push_rate_full(&self, out: &mut SdpBuilder, alpha: f64, gamma: f64, rate: &RateMargins) {
+    pub(super) fn push_rate_full(
+        &self,
+        out: &mut SdpBuilder,
+        alpha: f64,
+        gamma: f64,
+        rate: &RateMargins,
+    ) {
         let mut df = vec![0.0; self.nx * self.nx];
         for site in self.rate_sites(true) {
             let kh = self.site_kh(alpha, gamma, site);

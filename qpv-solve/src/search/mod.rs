@@ -57,6 +57,7 @@ mod global;
 pub mod noise;
 mod practical;
 pub mod region_cost;
+pub mod rms;
 mod setup;
 pub(crate) mod skew;
 mod verdict;
@@ -546,7 +547,8 @@ fn design_plain(
 
 /// As [`design`], calling `progress` after every solve. A request with
 /// `noise = min` is the noise-optimal design of [`noise::design_noise`]
-/// on the model's declared channels.
+/// on the model's declared channels; one with `noise = rms` the
+/// RMS-optimal design of [`rms::design_rms`].
 pub fn design_with_progress(
     model: &PolytopicModel,
     request: &DesignRequest,
@@ -555,6 +557,9 @@ pub fn design_with_progress(
 ) -> Result<Design, SolveError> {
     if ObserverKind::of(model, request.mode).is_global() && request.split == Split::SkewSlack {
         return Err(SolveError::SkewOnLpv(model.name.clone()));
+    }
+    if request.noise == qpv_dsl::NoiseObjective::Rms {
+        return rms::design_rms_with_progress(model, request, settings, progress);
     }
     if request.noise == qpv_dsl::NoiseObjective::Min {
         let channels = crate::model::noise::NoiseChannels::from_model(model);

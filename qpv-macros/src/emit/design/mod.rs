@@ -373,7 +373,25 @@ fn noise_constants(d: &CertifiedDesign) -> TokenStream {
     let euler = figure(f.euler.map(|e| e.0), quote!(0.0));
     let beta = figure(f.euler.map(|e| e.1), quote!(0.0));
     let rk4 = figure(f.rk4, quote!(0.0));
+    let rms = match &f.rms {
+        Some((total, per)) => {
+            let total = lit(*total);
+            let n = per.len();
+            let per = per.iter().map(|v| lit(*v));
+            quote! {
+                /// `noise = rms`: the certified bound on the time-averaged RMS
+                /// estimation error √(mean E|e|²) under the design's white noise
+                /// (its report's `rms` key), while x stays in F and e in the
+                /// region scaled by 1/γ (docs/method.md, "RMS-optimal gains").
+                pub const RMS_BOUND: f64 = #total;
+                /// The certified RMS bound of each state's error.
+                pub const RMS_BOUND_PER_STATE: [f64; #n] = [#(#per),*];
+            }
+        }
+        None => quote!(),
+    };
     quote! {
+        #rms
         /// Certified noise gain σ: V' + αV ≤ σ(|v|² + |w|²) for the model's
         /// measurement noise v (y_meas = y + v on the declared noisy outputs)
         /// and process disturbances w, on the certified set. Infinite if no
