@@ -356,6 +356,7 @@ fn rms_report(search: RmsSearch<'_, '_>, request: &DesignRequest, gamma_req: f64
         alpha: d.alpha,
         gamma: d.gamma,
         sample: None,
+        unit: obs.time_unit,
         status,
         failed: &[],
         max_gain: d.max_gain_norm(),
