@@ -6,6 +6,7 @@ pub mod diagnostic;
 mod equations;
 pub mod expr;
 pub mod func;
+mod measured;
 pub mod model;
 mod poly;
 pub mod region;
@@ -18,8 +19,9 @@ pub use diagnostic::{fmt_sig, Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
 pub use func::Func;
 pub use model::{
-    AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Mode, Model, NoiseObjective,
-    OutputFilter, OutputRoute, Param, PoleRegion, Split, StateBound, MAX_COEFFICIENT,
+    AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Measured, MeasuredOrigin, Mode,
+    Model, NoiseObjective, OutputFilter, OutputRoute, Param, PoleRegion, Split, StateBound,
+    MAX_COEFFICIENT,
 };
 pub use region::{Region, RegionError};
 pub use sched::{Derived, RangeInfo, SchedExpr};

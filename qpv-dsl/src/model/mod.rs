@@ -10,6 +10,7 @@ mod cover;
 mod derived;
 mod design;
 mod matrices;
+mod measured;
 mod names;
 mod poles;
 mod region;
@@ -21,6 +22,7 @@ pub use design::{
     AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Mode, NoiseObjective,
     OutputFilter, OutputRoute, Split,
 };
+pub use measured::{Measured, MeasuredOrigin};
 pub use names::{Param, MAX_DIM, MAX_PARAMS};
 pub use poles::PoleRegion;
 pub use state_bound::StateBound;
