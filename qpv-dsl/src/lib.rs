@@ -18,10 +18,10 @@ pub use cover::{Cover, CoverAxis, Piece};
 pub use diagnostic::{fmt_sig, Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
 pub use func::Func;
+pub use measured::{Measured, MeasuredOrigin};
 pub use model::{
-    AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Measured, MeasuredOrigin, Mode,
-    Model, NoiseObjective, OutputFilter, OutputRoute, Param, PoleRegion, Split, StateBound,
-    MAX_COEFFICIENT,
+    AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Mode, Model, NoiseObjective,
+    OutputFilter, OutputRoute, Param, PoleRegion, Split, StateBound, MAX_COEFFICIENT,
 };
 pub use region::{Region, RegionError};
 pub use sched::{Derived, RangeInfo, SchedExpr};

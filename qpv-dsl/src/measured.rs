@@ -1,15 +1,101 @@
-//! Terms of degree 3 or more in the states whose extra factors are measured:
-//! a state that an output measures directly (y_k = a·x_i, a constant a ≠ 0)
+//! Parameters computed from a measured output, as data: [`Measured`] (what
+//! a `param p = y1` parameter is computed from, its interval's origin, the
+//! terms rewritten onto it) and the records of the rewrite of terms of
+//! degree 3 or more whose extra factors are measured (the rewrite itself is
+//! the model builder's, `model::measured`).
+//!
+//! A state that an output measures directly (y_k = a·x_i, a constant a ≠ 0)
 //! is replaced in such a term by the parameter computed from that output
 //! (x_i = p/a with p = y_k), every such factor while a state remains
-//! (x1²·x2 → p²·x2 with y = x1; a power of p is a derived variable).
-//! The rewrite is exact (p equals the output at every instant), recorded,
-//! and reported with the model ([`Rewrite`]).
+//! (x1²·x2 → p²·x2 with y = x1; a power of p is a derived variable). The
+//! rewrite is exact (p equals the output at every instant), recorded, and
+//! reported with the model.
 
-use crate::diagnostic::{Diag, Span};
-use crate::expr::bits;
-use crate::poly::{Names, Var};
-use std::cmp::Reverse;
+use crate::diagnostic::{fmt_num, Span};
+use serde::Serialize;
+
+/// Where a measured parameter's interval comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MeasuredOrigin {
+    /// `param p = y1 in [lo, hi];`: declared.
+    Declared,
+    /// `param p = y1;`: derived from the output's range over F.
+    Derived,
+    /// Added to schedule a term of degree 3 on a measured factor, its
+    /// interval derived from F.
+    Automatic,
+}
+
+/// A parameter computed from a measured output.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Measured {
+    /// The output's index.
+    pub output: usize,
+    /// The output's name.
+    pub output_name: String,
+    /// The output as a row c of constants: y = cᵀx.
+    pub row: Vec<f64>,
+    /// Declared, derived, or added by a rewrite.
+    pub origin: MeasuredOrigin,
+    /// The terms scheduled on it ("`x1^2*x2` at 5:20 as `y1^2*x2`").
+    pub rewrites: Vec<String>,
+    /// The model's given state bound Q (row-major), kept for the designs
+    /// whose own model drops it (the global observer of an LPV plant);
+    /// `None` for `state_bound auto` (the design's computed F is used).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bound: Option<Vec<f64>>,
+}
+
+impl Measured {
+    /// The output's range over F = {xᵀQ⁻¹x ≤ 1}: √(cᵀQc) (Q row-major,
+    /// nx × nx); NaN if Q has the wrong size.
+    pub fn reach(&self, q: &[f64]) -> f64 {
+        let n = self.row.len();
+        if q.len() != n * n {
+            return f64::NAN;
+        }
+        let mut s = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                s += self.row[i] * q[i * n + j] * self.row[j];
+            }
+        }
+        s.max(0.0).sqrt()
+    }
+
+    /// A sentence for reports: what the parameter is and why its interval
+    /// holds (`q`: the design's F, row-major).
+    pub fn describe(&self, name: &str, lo: f64, hi: f64, q: Option<&[f64]>) -> String {
+        let origin = match self.origin {
+            MeasuredOrigin::Declared => "declared",
+            MeasuredOrigin::Derived => "derived from the state bound F",
+            MeasuredOrigin::Automatic => {
+                "added to schedule terms on a measured factor, derived from F"
+            }
+        };
+        let mut s = format!(
+            "parameter `{name}` is computed from the measured output {} (the observer reads it \
+             from y): interval [{}, {}] ({origin})",
+            self.output_name,
+            fmt_num(lo),
+            fmt_num(hi)
+        );
+        if let Some(q) = q {
+            let r = self.reach(q);
+            s.push_str(&format!(
+                "; {} ranges over [{}, {}] on F",
+                self.output_name,
+                fmt_num(-r),
+                fmt_num(r)
+            ));
+        }
+        if !self.rewrites.is_empty() {
+            s.push_str(&format!("; rewritten: {}", self.rewrites.join(", ")));
+        }
+        s
+    }
+}
 
 /// A state measured directly: output `output` is `scale`·x_`state`.
 #[derive(Clone, Debug)]
@@ -48,101 +134,4 @@ pub(crate) struct Wanted {
     pub degree: usize,
     pub state: usize,
     pub scheduled: String,
-}
-
-/// The term `theta · vars` with measured factors moved into the
-/// parameters until at most two states remain (or no measured factor is
-/// left): the new mask, variables and the factor 1/a the coefficient takes
-/// for each factor moved. A measured factor without a parameter is
-/// recorded in [`Names::wanted`] and the term is left as it is.
-pub(crate) fn schedule(
-    names: &Names,
-    mut theta: u64,
-    mut vars: Vec<Var>,
-    span: Span,
-    src: &str,
-) -> Result<(u64, Vec<Var>, f64), Diag> {
-    if vars.len() <= 2 || names.measured_states.is_empty() {
-        return Ok((theta, vars, 1.0));
-    }
-    let (theta0, vars0) = (theta, vars.clone());
-    let mut factor = 1.0;
-    // Every measured factor goes while a state remains (x1²·x2 → p²·x2,
-    // x1³ → p²·x1): a factor left in the states would be bounded
-    // independently of p in the error dynamics, p·x1 ranging over ±|p||x1|
-    // where p·x1 = x1² ≥ 0.
-    while vars.len() > 1 {
-        // the measured factor written most often, else the first state
-        let pick = names
-            .measured_states
-            .iter()
-            .filter(|m| vars.contains(&Var::State(m.state)))
-            .max_by_key(|m| {
-                (
-                    vars.iter().filter(|v| **v == Var::State(m.state)).count(),
-                    Reverse(m.state),
-                )
-            });
-        let Some(m) = pick else { break };
-        let Some(bit) = m.param else {
-            if vars.len() <= 2 {
-                break;
-            }
-            let mut wanted = names.wanted.borrow_mut();
-            if !wanted.iter().any(|w| w.output == m.output) {
-                let x = Var::State(m.state);
-                let c = vars.iter().filter(|v| **v == x).count();
-                let k = if c == vars.len() { c - 1 } else { c };
-                let mut rest = vars.clone();
-                for _ in 0..k {
-                    if let Some(i) = rest.iter().rposition(|v| *v == x) {
-                        rest.remove(i);
-                    }
-                }
-                let p = if k == 1 {
-                    "p".to_string()
-                } else {
-                    format!("p^{k}")
-                };
-                wanted.push(Wanted {
-                    output: m.output,
-                    span,
-                    term: names.term_text(&counts(theta0), &vars0),
-                    degree: vars0.len(),
-                    state: m.state,
-                    scheduled: format!("{p}*{}", names.term_text(&counts(theta), &rest)),
-                });
-            }
-            break;
-        };
-        // the last occurrence goes: the first factors keep their order
-        if let Some(i) = vars.iter().rposition(|v| *v == Var::State(m.state)) {
-            vars.remove(i);
-        }
-        theta = names.combine(theta, 1 << bit, span, src)?;
-        factor /= m.scale;
-    }
-    if vars.len() < vars0.len() {
-        let mut rewrites = names.rewrites.borrow_mut();
-        let param = names
-            .measured_states
-            .iter()
-            .filter(|m| vars0.contains(&Var::State(m.state)))
-            .find_map(|m| m.param)
-            .unwrap_or(0);
-        if !rewrites.iter().any(|r| r.span == span) {
-            rewrites.push(Rewrite {
-                param,
-                span,
-                from: names.term_text(&counts(theta0), &vars0),
-                to: names.term_text(&counts(theta), &vars),
-                degree: vars0.len(),
-            });
-        }
-    }
-    Ok((theta, vars, factor))
-}
-
-fn counts(theta: u64) -> Vec<(usize, u32)> {
-    bits(theta).map(|i| (i, 1)).collect()
 }

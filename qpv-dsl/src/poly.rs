@@ -121,7 +121,15 @@ pub(crate) struct Names {
     pub wanted: RefCell<Vec<crate::measured::Wanted>>,
     /// The terms rewritten onto measured parameters.
     pub rewrites: RefCell<Vec<crate::measured::Rewrite>>,
+    /// What a product of degree 3 or more in the states goes through first
+    /// (the model builder's rewrite onto measured parameters), if set.
+    pub scheduler: Option<Scheduler>,
 }
+
+/// A rewrite of a term (mask, variables) at `span`: the new mask and
+/// variables and the factor its coefficient takes.
+pub(crate) type Scheduler =
+    fn(&Names, u64, Vec<Var>, Span, &str) -> Result<(u64, Vec<Var>, f64), Diag>;
 
 impl Names {
     fn var(&self, v: Var) -> &str {
@@ -419,7 +427,10 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
             let mut vars = ma.vars.clone();
             vars.extend_from_slice(&mb.vars);
             let theta = names.combine(ma.theta, mb.theta, span, scope.src)?;
-            let (theta, vars, k) = crate::measured::schedule(names, theta, vars, span, scope.src)?;
+            let (theta, vars, k) = match names.scheduler {
+                Some(f) if vars.len() > 2 => f(names, theta, vars, span, scope.src)?,
+                _ => (theta, vars, 1.0),
+            };
             let disturbance = vars.iter().find(|v| matches!(v, Var::Disturbance(_)));
             if let (Some(&w), true) = (disturbance, vars.len() > 1) {
                 let other = vars.iter().find(|v| **v != w).copied().unwrap_or(w);

@@ -22,7 +22,6 @@ pub use design::{
     AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Mode, NoiseObjective,
     OutputFilter, OutputRoute, Split,
 };
-pub use measured::{Measured, MeasuredOrigin};
 pub use names::{Param, MAX_DIM, MAX_PARAMS};
 pub use poles::PoleRegion;
 pub use state_bound::StateBound;

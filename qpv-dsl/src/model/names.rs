@@ -27,7 +27,7 @@ pub struct Param {
     /// generated observer reads it from y); `None` for a parameter fed by
     /// the caller.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub measured: Option<super::measured::Measured>,
+    pub measured: Option<crate::measured::Measured>,
 }
 
 /// Most states, inputs or outputs of a model.
