@@ -6,7 +6,7 @@
 //! of what is still refused.
 
 use crate::common::{self, qpv, text};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn tmp(name: &str) -> PathBuf {
@@ -42,7 +42,7 @@ fn design(example: &str) -> PathBuf {
 }
 
 /// `qpv check` on the report exits 0 (the measured check included).
-fn recheck(example: &str, report: &PathBuf) {
+fn recheck(example: &str, report: &Path) {
     let path = format!("examples/{example}.qpv");
     let out = qpv(&["check", &path, "--gains", report.to_str().expect("utf-8")]);
     let t = text(&out);
@@ -53,7 +53,7 @@ fn recheck(example: &str, report: &PathBuf) {
 /// `qpv simulate` from each x0 (x̂(0) = 0: e(0) = x0) with `extra` flags:
 /// y1 follows the plant's output without `--param`, and the error stays
 /// inside the certified envelope.
-fn simulate(example: &str, report: &PathBuf, x0s: &[&str], extra: &[&str]) {
+fn simulate(example: &str, report: &Path, x0s: &[&str], extra: &[&str]) {
     let path = format!("examples/{example}.qpv");
     for x0 in x0s {
         let mut args = vec![
