@@ -200,3 +200,39 @@ fn euler_substeps(f: Rhs, t: f64, mut x: [f64; 2]) -> [f64; 2] {
     }
     x
 }
+
+// An f32 design beside the f64 one: its steppers take y and no θ either.
+qpv::qpv! {
+    model duffing_f32 {
+        state x1, x2;
+        input u in [-1, 1];
+        output y1;
+        der x1 = x2;
+        der x2 = -0.3*x2 - x1 - 0.5*x1^3 + u;
+        out y1 = x1;
+        state_bound Q = [4, 0; 0, 4];
+        design { alpha = max; max_gain = 100; }
+        design { alpha = 5; max_gain = 100; float = f32; }
+    }
+}
+
+#[test]
+fn an_f32_design_computes_theta_from_y_too() {
+    use duffing_f32::design2;
+    assert_eq!(design2::NTHETA_IN, 0);
+    let _: [f32; 1] = design2::theta_of(&[0.5f32], &[]);
+    let mut o = design2::Observer::new();
+    let mut x = [1.5f64, 0.0];
+    for k in 0..4000 {
+        let u = duffing_u(k as f64 * 1e-3);
+        o.step_rk4(1e-3f32, &[x[0] as f32], &[u as f32], &[]);
+        for i in 0..100 {
+            let d = duffing_plant(k as f64 * 1e-3 + i as f64 * 1e-5, &x);
+            x = [x[0] + 1e-5 * d[0], x[1] + 1e-5 * d[1]];
+        }
+    }
+    let xh = o.estimate();
+    let err = (x[0] - f64::from(xh[0])).hypot(x[1] - f64::from(xh[1]));
+    assert!(err < 1e-2, "{x:?} {xh:?}");
+    assert_eq!(o.clamped(), 0);
+}
