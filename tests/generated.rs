@@ -27,6 +27,7 @@ macro_rules! inline_model {
 mod ekf_baseline;
 mod generated_f32;
 mod generated_lpv;
+mod generated_measured;
 mod generated_noise;
 mod generated_practical;
 mod generated_sampled;

@@ -267,9 +267,10 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
     let header = [
         cx.header_preamble(&cert_text),
         cx.header_sizes(),
+        crate::measured::c_header(cx.m, &cx.up),
         cx.header_constants(),
         cx.header_observer(),
-        cx.header_api(),
+        crate::measured::c_api_docs(cx.m, &cx.header_api()),
     ]
     .concat();
     let source = [
@@ -284,9 +285,10 @@ pub fn emit(cm: &CModel<'_>) -> CFiles {
         cx.gains_fn(&b.gains),
         cx.rhs_fn(&b.rhs),
         cx.schedule_fns(),
+        crate::measured::c_theta_of(cx.m, cx.name, &cx.real),
         cx.init_fns(),
-        cx.derivative_and_euler_fns(),
-        cx.rk4_fn(),
+        crate::measured::c_steps(cx.m, cx.name, &cx.real, &cx.derivative_and_euler_fns()),
+        crate::measured::c_steps(cx.m, cx.name, &cx.real, &cx.rk4_fn()),
         cx.schedule_api_fns(),
         cx.plant_fns(&b.plant_f, &b.plant_h),
     ]

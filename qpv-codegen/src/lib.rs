@@ -14,12 +14,17 @@
 //!
 //! [`rounding`] bounds the f32 rounding error of those bodies as generated.
 //!
-//! Layers: `ir` and `design` (0), `build` (1), `c` and `rounding` (2).
+//! [`measured`] computes θ from y for parameters computed from a measured
+//! output.
+//!
+//! Layers: `ir`, `design` and `measured` (0), `build` (1), `c` and
+//! `rounding` (2).
 
 pub mod build;
 pub mod c;
 pub mod design;
 pub mod ir;
+pub mod measured;
 pub mod rounding;
 
 pub use design::{CertifiedDesign, Figures, Shape};

@@ -94,17 +94,17 @@ pub enum BoundDecl {
     Auto(Vec<DesignEntry>),
 }
 
-/// `param NAMES in [lo, hi];`
+/// `param NAMES in [lo, hi];`, or `param NAME = OUTPUT in [lo, hi];` (the
+/// interval optional) for a parameter computed from a measured output.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamDecl {
     /// The declared names (they share the bounds).
     pub names: Vec<Ident>,
-    /// Lower bound expression.
-    pub lo: Expr,
-    /// Upper bound expression.
-    pub hi: Expr,
-    /// The `[lo, hi]` interval.
-    pub interval: Span,
+    /// `= OUTPUT`: the output the parameter is computed from.
+    pub measured: Option<Ident>,
+    /// The bounds `[lo, hi]` and the interval's span (`None` only for a
+    /// measured parameter, whose interval is then derived).
+    pub range: Option<(Expr, Expr, Span)>,
     /// `rate EXPR`: the bound on |θ'| and the clause's span.
     pub rate: Option<(Expr, Span)>,
 }

@@ -115,7 +115,21 @@ pub(crate) struct Names {
     pub lets: Vec<(String, Option<(LetValue, SchedExpr)>)>,
     /// The derived scheduling variables created so far.
     pub atoms: RefCell<Atoms>,
+    /// The states measured directly by an output (`crate::measured`).
+    pub measured_states: Vec<crate::measured::MeasuredState>,
+    /// Measured factors of degree-3 terms that have no parameter yet.
+    pub wanted: RefCell<Vec<crate::measured::Wanted>>,
+    /// The terms rewritten onto measured parameters.
+    pub rewrites: RefCell<Vec<crate::measured::Rewrite>>,
+    /// What a product of degree 3 or more in the states goes through first
+    /// (the model builder's rewrite onto measured parameters), if set.
+    pub scheduler: Option<Scheduler>,
 }
+
+/// A rewrite of a term (mask, variables) at `span`: the new mask and
+/// variables and the factor its coefficient takes.
+pub(crate) type Scheduler =
+    fn(&Names, u64, Vec<Var>, Span, &str) -> Result<(u64, Vec<Var>, f64), Diag>;
 
 impl Names {
     fn var(&self, v: Var) -> &str {
@@ -128,7 +142,7 @@ impl Names {
 
     /// `th1^2*x1*x2`-style text of a term given by parameter multiplicities
     /// and variables.
-    fn term_text(&self, theta_counts: &[(usize, u32)], vars: &[Var]) -> String {
+    pub(crate) fn term_text(&self, theta_counts: &[(usize, u32)], vars: &[Var]) -> String {
         let mut parts: Vec<String> = theta_counts
             .iter()
             .map(|&(i, k)| {
@@ -239,7 +253,7 @@ impl Names {
 
     /// `a ∪ b` as a multi-affine mask: a variable in both becomes the
     /// derived variable of its square (θ·θ = φ with φ = θ²), repeatedly.
-    fn combine(&self, a: u64, b: u64, span: Span, src: &str) -> Result<u64, Diag> {
+    pub(crate) fn combine(&self, a: u64, b: u64, span: Span, src: &str) -> Result<u64, Diag> {
         let mut m = a;
         for i in bits(b) {
             m = self.insert(m, i, span, src)?;
@@ -413,6 +427,10 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
             let mut vars = ma.vars.clone();
             vars.extend_from_slice(&mb.vars);
             let theta = names.combine(ma.theta, mb.theta, span, scope.src)?;
+            let (theta, vars, k) = match names.scheduler {
+                Some(f) if vars.len() > 2 => f(names, theta, vars, span, scope.src)?,
+                _ => (theta, vars, 1.0),
+            };
             let disturbance = vars.iter().find(|v| matches!(v, Var::Disturbance(_)));
             if let (Some(&w), true) = (disturbance, vars.len() > 1) {
                 let other = vars.iter().find(|v| **v != w).copied().unwrap_or(w);
@@ -479,7 +497,7 @@ fn mul(a: &Poly, b: &Poly, span: Span, scope: &Scope<'_>) -> Result<Poly, Diag> 
                     ),
                 ));
             }
-            out.add_term(Mono { theta, vars }, ta.coef * tb.coef, span);
+            out.add_term(Mono { theta, vars }, ta.coef * tb.coef * k, span);
             if out.terms.len() > MAX_TERMS {
                 // stop before the product grows to |a|·|b| terms
                 return Err(too_many_terms(scope.src, span));
@@ -513,7 +531,7 @@ fn schedule_hint(names: &Names, counts: &[(usize, u32)], vars: &[Var]) -> String
         return ". If some factors are measured, schedule on them: one `param` per measured factor, fed with its measurement, until two states remain".to_string();
     }
     format!(
-        ". If `{x}` is measured (an output equal to it, `out y = {x}`), schedule on it: declare `param p in [lo, hi];` with [lo, hi] covering every value `{x}` takes while the plant runs, write the term as `p*{}`, and feed p with the measurement",
+        ". If `{x}` is measured, say so (`output y; out y = {x};`): a factor that is a measured output is scheduled on it automatically, or write it yourself as `param p = y in [lo, hi];` and `p*{}`",
         names.term_text(counts, &rest)
     )
 }

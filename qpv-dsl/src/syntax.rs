@@ -276,14 +276,22 @@ fn parse_param_decl(pair: Pair<'_, Rule>) -> Result<ParamDecl> {
     let span = span_of(&pair);
     let mut it = children(pair);
     let names = parse_name_list(next(&mut it, span, "parameter names")?);
-    let interval = next(&mut it, span, "parameter interval")?;
-    let (lo, hi, interval) = parse_interval(interval)?;
-    let rate = it.next().map(parse_rate).transpose()?;
+    let (mut measured, mut range, mut rate) = (None, None, None);
+    for p in it {
+        match p.as_rule() {
+            Rule::measured => {
+                let mspan = span_of(&p);
+                let mut inner = children(p);
+                measured = Some(parse_ident(next(&mut inner, mspan, "output name")?));
+            }
+            Rule::rate_clause => rate = Some(parse_rate(p)?),
+            _ => range = Some(parse_interval(p)?),
+        }
+    }
     Ok(ParamDecl {
         names,
-        lo,
-        hi,
-        interval,
+        measured,
+        range,
         rate,
     })
 }
@@ -636,6 +644,7 @@ fn want(rule: Rule) -> Option<Want> {
         Rule::lparen => Token("`(`"),
         Rule::rparen => Token("`)`"),
         Rule::kw_in => Token("`in`"),
+        Rule::measured => Token("`=`"),
         Rule::kw_into => Token("`into`"),
         Rule::kw_rate | Rule::rate_clause => Token("`rate`"),
         Rule::cover_axis => Name,

@@ -16,6 +16,7 @@
 mod errors;
 mod fuzz;
 mod limits;
+mod measured;
 mod noise;
 mod options;
 mod paper;

@@ -225,7 +225,15 @@ fn all_examples_parse_and_their_bounds_contain_the_region() {
                     "{}: LPV with a region",
                     path.display()
                 );
-                assert!(model.warnings.is_empty(), "{}", path.display());
+                // a term scheduled on a measured output is reported
+                assert!(
+                    model
+                        .warnings
+                        .iter()
+                        .all(|w| w.message.contains("is scheduled on the measured output")),
+                    "{}",
+                    path.display()
+                );
                 count += 1;
                 continue;
             }

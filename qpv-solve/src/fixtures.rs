@@ -17,6 +17,7 @@ pub fn param(name: &str, lo: f64, hi: f64) -> Param {
         hi,
         span: Span::default(),
         rate: None,
+        measured: None,
     }
 }
 

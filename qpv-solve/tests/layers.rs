@@ -85,6 +85,7 @@ const OTHERS: &[Crate] = &[
             ("syntax", 1),
             ("poly", 2),
             ("sched", 2),
+            ("measured", 2),
             ("equations", 2),
             ("cover", 2),
             ("model", 3),
@@ -111,6 +112,7 @@ const OTHERS: &[Crate] = &[
         layers: &[
             ("ir", 0),
             ("design", 0),
+            ("measured", 0),
             ("build", 1),
             ("rounding", 2),
             ("c", 2),

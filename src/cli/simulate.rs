@@ -343,6 +343,9 @@ fn apply_signals(
                     "{source}: `{name}` is a parameter; use --param"
                 )));
             }
+            if let Some(m) = &poly.params[i].measured {
+                return Err(measured_given(&source, name, &m.output_name));
+            }
             if let Signal::State(k) = sc.theta[i] {
                 return Err(CliError::Input(format!(
                     "{source}: `{name}` is given twice (first by --param {name}={}); give each input or parameter once",
@@ -391,6 +394,17 @@ fn apply_signals(
     Ok(given)
 }
 
+/// The error for a parameter computed from a measured output given on the
+/// command line: the run computes it from the plant's output, as the
+/// generated observer does from y.
+fn measured_given(source: &str, name: &str, output: &str) -> CliError {
+    CliError::Input(format!(
+        "{source}: `{name}` is computed from the measured output {output} (`param {name} = \
+         {output}`): the run feeds it with the plant's output as it goes, as the generated \
+         observer computes it from y; it cannot be given"
+    ))
+}
+
 /// `--param NAME=STATE`: the parameter fed with the plant's state as the
 /// run goes ([`Signal::State`]; a parameter that schedules a term on a
 /// measured state), so that the plant is simulated as written. True if
@@ -411,6 +425,13 @@ fn tie_to_state(sc: &mut Scenario, poly: &PolytopicModel, arg: &str) -> Result<b
             poly.name
         )));
     };
+    if let Some(m) = &poly.params[i].measured {
+        return Err(measured_given(
+            &format!("--param {arg}"),
+            name,
+            &m.output_name,
+        ));
+    }
     if matches!(sc.theta[i], Signal::State(_)) {
         return Err(CliError::Input(format!(
             "--param {arg}: `{name}` is given twice; give each parameter once"
@@ -617,6 +638,14 @@ pub(super) fn scenario(
     };
     sc.t_end = grid.t_end;
     sc.dt = grid.dt;
+    for p in &poly.params {
+        if let Some(m) = &p.measured {
+            eprintln!(
+                "note: parameter {} is computed from the plant's output {} as the run goes",
+                p.name, m.output_name
+            );
+        }
+    }
     let given = apply_signals(&mut sc, poly, o)?;
     if !given.is_empty() {
         let names: Vec<String> = given

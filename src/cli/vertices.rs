@@ -30,6 +30,21 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     Ok(0)
 }
 
+/// The parameters computed from a measured output: where each comes
+/// from, its interval, the output's range over F, and the terms rewritten
+/// onto it.
+fn push_measured(s: &mut String, p: &PolytopicModel) {
+    let q = match &p.state_bound {
+        qpv_dsl::StateBound::Given(q) => Some(q.as_slice()),
+        _ => None,
+    };
+    for par in &p.params {
+        if let Some(m) = &par.measured {
+            s.push_str(&format!("{}\n", m.describe(&par.name, par.lo, par.hi, q)));
+        }
+    }
+}
+
 /// A human-readable listing of the polytopic model.
 pub fn describe_vertices(p: &PolytopicModel) -> String {
     let mut s = format!(
@@ -51,6 +66,7 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         "vertex order: corners of ({}), first most significant, lo before hi\n",
         sched.join(", ")
     ));
+    push_measured(&mut s, p);
     if let Some(c) = &p.cover {
         s.push_str(&format!(
             "vertices: {} piece(s) x 2^{} = {} ({} parameter(s) and {} derived scheduling \

@@ -34,6 +34,13 @@ pub(super) struct Builder<'a> {
     pub(super) warnings: Vec<Warning>,
     /// max(|lo|, |hi|) of each declared parameter, once the parameters are read.
     pub(super) param_reach: Vec<f64>,
+    /// Every output as a constant row c (y = cᵀx) where it is one.
+    pub(super) rows: Vec<Option<Vec<f64>>>,
+    /// The measured factors a rewrite needs parameters for (second build).
+    pub(super) auto: Vec<crate::measured::Wanted>,
+    /// Whether some parameter is computed from an output (the state bound
+    /// then bounds it, whatever the design uses).
+    pub(super) measured_params: bool,
 }
 
 /// `line:column` of a span, for messages that point at an earlier definition.
@@ -47,8 +54,24 @@ pub(super) fn bad_value(span: Span, key: &str, expected: &str, found: &str) -> D
     Diag::new(span, format!("`{key}` must be {expected}, found `{found}`"))
 }
 
-/// Builds and validates one model.
+/// Builds and validates one model. A model whose terms of degree 3 have
+/// measured factors without a parameter is built a second time, with the
+/// parameters those factors are scheduled on (`crate::measured`).
 pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
+    let (first, wanted) = build_with(src, ast, Vec::new());
+    match first {
+        Err(_) if !wanted.is_empty() => build_with(src, ast, wanted).0,
+        result => result,
+    }
+}
+
+/// One build, with the parameters `auto` asks for; also what a rewrite
+/// still wants.
+fn build_with(
+    src: &str,
+    ast: &ModelAst,
+    auto: Vec<crate::measured::Wanted>,
+) -> (R<Model>, Vec<crate::measured::Wanted>) {
     let mut b = Builder {
         src,
         ast,
@@ -56,50 +79,66 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         decl_spans: HashMap::new(),
         warnings: Vec::new(),
         param_reach: Vec::new(),
+        rows: Vec::new(),
+        auto,
+        measured_params: false,
     };
-    b.declare()?;
-    b.consts()?;
-    let params = b.params()?;
-    let input_ranges = b.input_ranges()?;
-    b.lets(&params)?;
-    let (mut a, mut n, mut bm, mut b_w) = b.dynamics()?;
-    let noise_outputs = b.noise_outputs()?;
-    let (mut c, mut m) = b.outputs()?;
-    let derived = b.derived(&mut a, &mut n, &mut bm, &mut b_w, &mut c, &mut m)?;
-    let lpv = n.iter().chain(&m).all(crate::expr::PolyMatrix::is_zero);
-    let region = b.region(lpv)?;
-    let state_bound = b.state_bound(&region, lpv)?;
-    let designs = b.designs(&region)?;
-    let time_unit = b.time_unit()?;
-    let mut model = Model {
-        name: ast.name.name.clone(),
-        span: ast.name.span,
-        states: b.names.states.clone(),
-        inputs: b.names.inputs.clone(),
-        input_ranges,
-        input_rates: b.input_rates()?,
-        outputs: b.names.outputs.clone(),
-        params,
-        a,
-        n,
-        b: bm,
-        disturbances: b.names.disturbances.clone(),
-        b_w,
-        noise_outputs,
-        c,
-        m,
-        region,
-        state_bound,
-        designs,
-        derived,
-        cover: None,
-        time_unit,
-        warnings: Vec::new(),
-    };
-    b.usage(&model)?;
-    model.cover = b.cover(&model)?;
-    model.warnings = b.warnings;
-    Ok(model)
+    let model = b.run();
+    let wanted = b.names.wanted.borrow().clone();
+    (model, wanted)
+}
+
+impl Builder<'_> {
+    fn run(&mut self) -> R<Model> {
+        let b = self;
+        let ast = b.ast;
+        b.declare()?;
+        b.consts()?;
+        b.rows = b.linear_outputs();
+        let mut params = b.params()?;
+        let input_ranges = b.input_ranges()?;
+        b.lets(&params)?;
+        let (mut a, mut n, mut bm, mut b_w) = b.dynamics()?;
+        let noise_outputs = b.noise_outputs()?;
+        let (mut c, mut m) = b.outputs()?;
+        b.report_rewrites(&mut params);
+        let derived = b.derived(&mut a, &mut n, &mut bm, &mut b_w, &mut c, &mut m)?;
+        let lpv = n.iter().chain(&m).all(crate::expr::PolyMatrix::is_zero);
+        let region = b.region(lpv)?;
+        let state_bound = b.state_bound(&region, lpv)?;
+        b.measured_bound(&params, &state_bound, lpv)?;
+        let designs = b.designs(&region)?;
+        let time_unit = b.time_unit()?;
+        let mut model = Model {
+            name: ast.name.name.clone(),
+            span: ast.name.span,
+            states: b.names.states.clone(),
+            inputs: b.names.inputs.clone(),
+            input_ranges,
+            input_rates: b.input_rates()?,
+            outputs: b.names.outputs.clone(),
+            params,
+            a,
+            n,
+            b: bm,
+            disturbances: b.names.disturbances.clone(),
+            b_w,
+            noise_outputs,
+            c,
+            m,
+            region,
+            state_bound,
+            designs,
+            derived,
+            cover: None,
+            time_unit,
+            warnings: Vec::new(),
+        };
+        b.usage(&model)?;
+        model.cover = b.cover(&model)?;
+        model.warnings = std::mem::take(&mut b.warnings);
+        Ok(model)
+    }
 }
 
 impl<'a> Builder<'a> {

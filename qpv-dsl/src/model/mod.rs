@@ -10,6 +10,7 @@ mod cover;
 mod derived;
 mod design;
 mod matrices;
+mod measured;
 mod names;
 mod poles;
 mod region;

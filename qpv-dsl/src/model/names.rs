@@ -23,6 +23,11 @@ pub struct Param {
     /// `rate r`: the declared bound |θ_i'| ≤ r (None: no rate declared;
     /// a sampled design then assumes θ constant over each step).
     pub rate: Option<f64>,
+    /// `param p = y1 ...`: the output the parameter is computed from (the
+    /// generated observer reads it from y); `None` for a parameter fed by
+    /// the caller.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub measured: Option<crate::measured::Measured>,
 }
 
 /// Most states, inputs or outputs of a model.
@@ -267,11 +272,51 @@ impl Builder<'_> {
         let mut out = Vec::new();
         for item in &self.ast.items {
             let Item::Params(p) = item else { continue };
-            let lo = self.constant(&p.lo, "a parameter bound")?;
-            let hi = self.constant(&p.hi, "a parameter bound")?;
+            if let Some(output) = &p.measured {
+                let param = self.measured_param(p, output)?;
+                self.param_reach.push(param.lo.abs().max(param.hi.abs()));
+                out.push(param);
+                continue;
+            }
+            let Some((lo, hi, interval)) = &p.range else {
+                return Err(Diag::new(
+                    p.names[0].span,
+                    "internal error: a parameter without an interval",
+                ));
+            };
+            let (lo, hi) = self.param_bounds(lo, hi, *interval)?;
+            let rate = self.rate(&p.rate, "parameter")?;
+            for id in &p.names {
+                self.param_reach.push(lo.abs().max(hi.abs()));
+                out.push(Param {
+                    name: id.name.clone(),
+                    lo,
+                    hi,
+                    span: id.span,
+                    rate,
+                    measured: None,
+                });
+            }
+        }
+        self.auto_params(&mut out)?;
+        self.measured_params = out.iter().any(|p| p.measured.is_some());
+        Ok(out)
+    }
+
+    /// The bounds of a parameter's `[lo, hi]`: constants, lo < hi, finite
+    /// and within the coefficient limit.
+    pub(super) fn param_bounds(
+        &self,
+        lo: &ast::Expr,
+        hi: &ast::Expr,
+        interval: Span,
+    ) -> R<(f64, f64)> {
+        {
+            let lo = self.constant(lo, "a parameter bound")?;
+            let hi = self.constant(hi, "a parameter bound")?;
             if lo == hi {
                 return Err(Diag::new(
-                    p.interval,
+                    interval,
                     format!(
                         "empty parameter range [{}, {}]: the upper bound must be greater than the lower \
                          bound (a parameter with a fixed value is a constant: write the number instead)",
@@ -282,7 +327,7 @@ impl Builder<'_> {
             }
             if lo > hi {
                 return Err(Diag::new(
-                    p.interval,
+                    interval,
                     format!(
                         "reversed parameter range [{}, {}]: the lower bound comes first, write [{}, {}]",
                         fmt_num(lo),
@@ -294,7 +339,7 @@ impl Builder<'_> {
             }
             if !(hi - lo).is_finite() || lo.abs().max(hi.abs()) > MAX_COEFFICIENT {
                 return Err(Diag::new(
-                    p.interval,
+                    interval,
                     format!(
                         "parameter range [{}, {}] is too wide: bounds up to {MAX_COEFFICIENT:e} in \
                          magnitude are supported (rescale the parameter)",
@@ -303,19 +348,8 @@ impl Builder<'_> {
                     ),
                 ));
             }
-            let rate = self.rate(&p.rate, "parameter")?;
-            for id in &p.names {
-                self.param_reach.push(lo.abs().max(hi.abs()));
-                out.push(Param {
-                    name: id.name.clone(),
-                    lo,
-                    hi,
-                    span: id.span,
-                    rate,
-                });
-            }
+            Ok((lo, hi))
         }
-        Ok(out)
     }
 
     /// The value of a `rate` clause: a constant ≥ 0 and finite.

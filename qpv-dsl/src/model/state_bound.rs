@@ -54,7 +54,7 @@ impl Builder<'_> {
         let Some((bound, span)) = decl else {
             return Ok(StateBound::None);
         };
-        if lpv {
+        if lpv && !self.measured_params {
             self.warnings.push(Warning {
                 message: "the plant is LPV (every N_k and M_k is zero): its observer is global, \
                           so the state bound is not used by the design (a `sample = h` design \

@@ -21,6 +21,7 @@
 mod certificate;
 mod coefficients;
 mod design;
+mod measured;
 mod plant;
 mod tokens;
 mod weights;

@@ -204,7 +204,13 @@ pub(super) fn destructure_names(arr: &Ident, names: &[String], body: &TokenStrea
 
 /// The model-level helpers an f32 design module defines itself: a
 /// `super::` before them is dropped by [`to_f32`].
-const LOCAL: [&str; 3] = ["clamp_theta", "mu_clamped", "coeffs"];
+const LOCAL: [&str; 5] = [
+    "clamp_theta",
+    "mu_clamped",
+    "coeffs",
+    "theta_of",
+    "NTHETA_IN",
+];
 /// The libm functions of scheduling functions; `libm::sin(..)` becomes `libm::sinf(..)`.
 const MATH: [&str; 9] = [
     "sqrt", "exp", "log", "sin", "cos", "tan", "tanh", "atan", "fabs",
@@ -213,8 +219,8 @@ const MATH: [&str; 9] = [
 /// The same code in single precision: the type `f64` becomes `f32`, every
 /// float literal is rounded to the nearest f32 (printed in the shortest
 /// form that parses back to it), a libm call gets its f32 name (`sinf`),
-/// and `super::clamp_theta`/`mu_clamped`/`coeffs` refer to the f32 copies
-/// in the same module. Integer and string literals are untouched.
+/// and `super::clamp_theta`/`mu_clamped`/`coeffs`/`theta_of`/`NTHETA_IN`
+/// refer to the f32 copies in the same module. Integer and string literals are untouched.
 pub(super) fn to_f32(ts: TokenStream, local: bool) -> TokenStream {
     use proc_macro2::{Group, TokenTree as T};
     let tts: Vec<T> = ts.into_iter().collect();

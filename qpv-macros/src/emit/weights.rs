@@ -21,8 +21,11 @@ pub(super) fn items(m: &Model, scheduling: &[usize], libm: &TokenStream) -> Toke
     let mu_body = mu_body(m, scheduling, libm);
     let theta = format_ident!("theta");
     let mu_bind = destructure(&theta, "t", m.ntheta(), &mu_body);
+    let measured = super::measured::items(m);
     quote! {
         #clamp
+
+        #measured
 
         #phi
 

@@ -48,6 +48,11 @@ pub enum Signal {
     /// written rather than a prescribed p(t). Only a parameter can be tied
     /// to a state; its value is [`Signal::value`]'s.
     State(usize),
+    /// The plant's output cᵀx as the run goes (the row c, one entry per
+    /// state): a parameter computed from a measured output (`param p =
+    /// y1`), tied to it by [`Scenario::default_for`] and
+    /// [`Scenario::paper`].
+    Output(Vec<f64>),
 }
 
 impl Signal {
@@ -61,6 +66,8 @@ impl Signal {
     pub fn value(&self, t: f64, x: &[f64]) -> f64 {
         match self {
             Signal::State(k) => x.get(*k).copied().unwrap_or(f64::NAN),
+            Signal::Output(c) if c.len() == x.len() => c.iter().zip(x).map(|(a, b)| a * b).sum(),
+            Signal::Output(_) => f64::NAN,
             other => other.at(t),
         }
     }
@@ -69,7 +76,7 @@ impl Signal {
     /// needs the plant's state: [`Signal::value`]).
     pub fn at(&self, t: f64) -> f64 {
         match self {
-            Signal::State(_) => f64::NAN,
+            Signal::State(_) | Signal::Output(_) => f64::NAN,
             Signal::Constant(c) => *c,
             Signal::Sin {
                 offset,
@@ -106,6 +113,7 @@ impl fmt::Debug for Signal {
             } => write!(f, "{offset} + {amplitude}·cos({omega}·t + {phase})"),
             Signal::Custom(_) => write!(f, "Custom(..)"),
             Signal::State(k) => write!(f, "x{}(t)", k + 1),
+            Signal::Output(c) => write!(f, "{c:?}·x(t)"),
         }
     }
 }
@@ -157,6 +165,20 @@ impl Scenario {
             t_end: 2.0,
             dt: 1e-3,
         }
+        .with_measured(model)
+    }
+
+    /// Every parameter computed from a measured output (`param p = y1`)
+    /// tied to the plant's output ([`Signal::Output`]): the plant runs as
+    /// written, and the parameter is what the deployed observer computes
+    /// from the (noise-free) measurement.
+    pub fn with_measured(mut self, model: &PolytopicModel) -> Self {
+        for (s, p) in self.theta.iter_mut().zip(&model.params) {
+            if let Some(m) = &p.measured {
+                *s = Signal::Output(m.row.clone());
+            }
+        }
+        self
     }
 
     /// A generic scenario for any model: x(0) = the first vertex of the
@@ -186,6 +208,7 @@ impl Scenario {
             t_end: 2.0,
             dt: 1e-3,
         }
+        .with_measured(model)
     }
 
     /// θ(t) at the plant's state `x` into `out`.

@@ -23,6 +23,7 @@ mod cube;
 mod families;
 mod inputs;
 mod margins;
+pub mod measured;
 pub mod noise;
 pub mod noise_sampled;
 pub mod poles;
@@ -107,7 +108,7 @@ pub fn check(model: &PolytopicModel, gains: &Gains, at: &Candidate, mode: Mode) 
         }
         (None, None) => (RateCheck::Vertex, balanced_for(model, mode, gains.p)),
     };
-    check_in_units(model, mode, at, gains, balance, rate)
+    measured::attach(model, check_in_units(model, mode, at, gains, balance, rate))
 }
 
 /// [`check_inner`] in the balanced coordinates `balance` when given and

@@ -563,7 +563,10 @@ pub fn design_with_progress(
     }
     if request.noise == qpv_dsl::NoiseObjective::Min {
         let channels = crate::model::noise::NoiseChannels::from_model(model);
-        return noise::design_noise_with_progress(model, request, &channels, settings, progress);
+        let mut d =
+            noise::design_noise_with_progress(model, request, &channels, settings, progress)?;
+        d.notes.extend(crate::certificate::measured::notes(model));
+        return Ok(d);
     }
     let mut d = if request.split == Split::SkewSlack {
         design_skew(model, request, settings, progress)?
@@ -581,6 +584,7 @@ pub fn design_with_progress(
         );
         crate::report::continuous::attach(model, &mut d);
     }
+    d.notes.extend(crate::certificate::measured::notes(model));
     Ok(d)
 }
 

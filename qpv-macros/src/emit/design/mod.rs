@@ -39,7 +39,16 @@ pub(super) fn emit_design(
     }
     let constants = certified_constants(d, shape, &certificate);
     let gain = gain::items(d, shape);
-    let observer = observer::items(&em.model.name, index, d, shape, state_eqs, out_eqs, coeffs);
+    let th = crate::emit::measured::Theta::of(em.model);
+    let observer = observer::items(
+        &em.model.name,
+        index,
+        d,
+        shape,
+        (state_eqs, out_eqs),
+        coeffs,
+        &th,
+    );
     quote! {
         #[doc = #doc]
         pub mod #modname {
@@ -77,7 +86,16 @@ fn f32_design(
     let plant = super::plant::Plant::render(state_eqs, out_eqs, &mut local, &em.libm);
     let constants = certified_constants(&d32, shape, &TokenStream::new());
     let gain = gain::items(&d32, shape);
-    let observer = observer::items(&m.name, index, &d32, shape, state_eqs, out_eqs, &mut local);
+    let th = crate::emit::measured::Theta::of(m);
+    let observer = observer::items(
+        &m.name,
+        index,
+        &d32,
+        shape,
+        (state_eqs, out_eqs),
+        &mut local,
+        &th,
+    );
     let weights = super::weights::items(m, &em.scheduling, &em.libm);
     let coefficients = super::coefficients::items(&local, m.ntheta(), m.derived.len(), &em.libm);
     let lo: Vec<TokenStream> = m.params.iter().map(|p| lit(p.lo)).collect();

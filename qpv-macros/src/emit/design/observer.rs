@@ -4,6 +4,7 @@
 //! `Observer` type with its constructors and Euler / RK4 steppers.
 
 use super::{docs, Shape};
+use crate::emit::measured::Theta;
 use crate::emit::tokens::{body_array, destructure, destructure_names, uses};
 use crate::emit::CertifiedDesign;
 use proc_macro2::{Ident, Span, TokenStream};
@@ -18,14 +19,14 @@ pub(super) fn items(
     index: usize,
     d: &CertifiedDesign,
     shape: Shape,
-    state_eqs: &[Equation],
-    out_eqs: &[Equation],
+    (state_eqs, out_eqs): (&[Equation], &[Equation]),
     coeffs: &mut Coeffs,
+    th: &Theta,
 ) -> TokenStream {
     let body = qpv_codegen::build::observer::rhs_body(d, shape, state_eqs, out_eqs, coeffs);
     let body = body_array(&body, &TokenStream::new());
     let rhs = rhs_fn(shape, &body);
-    let observer = observer_type(model_name, index, shape, d.sample.is_some());
+    let observer = observer_type(model_name, index, shape, d.sample.is_some(), th);
     quote! {
         #rhs
 
@@ -94,7 +95,14 @@ fn rhs_fn(shape: Shape, body: &TokenStream) -> TokenStream {
 
 /// The `Observer` struct, its `Default`, constructors, accessors,
 /// `derivative` and the steppers.
-fn observer_type(model_name: &str, index: usize, shape: Shape, sampled: bool) -> TokenStream {
+fn observer_type(
+    model_name: &str,
+    index: usize,
+    shape: Shape,
+    sampled: bool,
+    th: &Theta,
+) -> TokenStream {
+    let (th_ty, th_arg) = (&th.ty, &th.arg);
     let Shape { nx, ns, .. } = shape;
     let xs: Vec<Ident> = (0..ns).map(|i| format_ident!("s{}", i)).collect();
     // estimate(): the first NX entries; with_state(x0): x0 then zeros.
@@ -108,8 +116,12 @@ fn observer_type(model_name: &str, index: usize, shape: Shape, sampled: bool) ->
     let obs_doc = docs::observer(model_name, index, shape.filter);
     let ns_doc = docs::ns(shape.filter);
     let from_state_doc = docs::from_state(shape.filter);
-    let steppers = steppers(&xs);
-    let step = if sampled { fixed_step(&xs) } else { quote!() };
+    let steppers = steppers(&xs, th);
+    let step = if sampled {
+        fixed_step(&xs, th)
+    } else {
+        quote!()
+    };
     quote! {
         #[doc = #obs_doc]
         #[derive(Clone, Copy, Debug, PartialEq)]
@@ -166,8 +178,8 @@ fn observer_type(model_name: &str, index: usize, shape: Shape, sampled: bool) ->
             /// The derivative of the whole observer state ([`NS`] entries) at
             /// the current state, θ clamped into Θ.
             #[inline]
-            pub fn derivative(&self, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) -> [f64; NS] {
-                let (c, g, _) = schedule(theta);
+            pub fn derivative(&self, y: &[f64; NY], u: &[f64; NU], theta: &#th_ty) -> [f64; NS] {
+                let (c, g, _) = schedule(#th_arg);
                 rhs(&c, &g, &self.state, y, u)
             }
 
@@ -181,7 +193,8 @@ fn observer_type(model_name: &str, index: usize, shape: Shape, sampled: bool) ->
 /// `step`, the certified fixed step of a sampled design: one explicit Euler
 /// step of exactly `SAMPLE_PERIOD` (no step argument, no debug check: the
 /// step is the one certified).
-fn fixed_step(xs: &[Ident]) -> TokenStream {
+fn fixed_step(xs: &[Ident], th: &Theta) -> TokenStream {
+    let (th_ty, th_arg) = (&th.ty, &th.arg);
     let k1: Vec<Ident> = (0..xs.len()).map(|i| format_ident!("a{}", i)).collect();
     quote! {
         /// The certified step: one explicit Euler step of exactly
@@ -193,8 +206,8 @@ fn fixed_step(xs: &[Ident]) -> TokenStream {
         /// design proves V(e_{k+1}) ≤ (1 − SAMPLE_PERIOD·ALPHA) V(e_k)
         /// (see [`CERTIFICATE`]). Call it once per sample period.
         #[inline]
-        pub fn step(&mut self, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
-            let (c, g, clamped) = schedule(theta);
+        pub fn step(&mut self, y: &[f64; NY], u: &[f64; NU], theta: &#th_ty) {
+            let (c, g, clamped) = schedule(#th_arg);
             self.clamped = self.clamped.saturating_add(clamped as u64);
             let [#(#k1),*] = rhs(&c, &g, &self.state, y, u);
             let [#(#xs),*] = self.state;
@@ -205,7 +218,8 @@ fn fixed_step(xs: &[Ident]) -> TokenStream {
 
 /// `step_euler` and `step_rk4` over the whole observer state (named `xs`),
 /// unrolled.
-fn steppers(xs: &[Ident]) -> TokenStream {
+fn steppers(xs: &[Ident], th: &Theta) -> TokenStream {
+    let (th_ty, th_arg) = (&th.ty, &th.arg);
     let stage = |prefix: &str| -> Vec<Ident> {
         (0..xs.len())
             .map(|i| format_ident!("{}{}", prefix, i))
@@ -228,14 +242,14 @@ fn steppers(xs: &[Ident]) -> TokenStream {
         /// `debug_assert!` (not when `MAX_STEP_EULER` is 0, i.e. no step
         /// could be proven); release builds do not check.
         #[inline]
-        pub fn step_euler(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
+        pub fn step_euler(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &#th_ty) {
             debug_assert!(
                 !(MAX_STEP_EULER > 0.0 && dt > MAX_STEP_EULER),
                 "step_euler: dt = {} exceeds MAX_STEP_EULER = {}, the certified Euler step",
                 dt,
                 MAX_STEP_EULER
             );
-            let (c, g, clamped) = schedule(theta);
+            let (c, g, clamped) = schedule(#th_arg);
             self.clamped = self.clamped.saturating_add(clamped as u64);
             let [#(#k1),*] = rhs(&c, &g, &self.state, y, u);
             let [#(#xs),*] = self.state;
@@ -251,8 +265,8 @@ fn steppers(xs: &[Ident]) -> TokenStream {
         /// `MAX_STEP_EULER` where a proof is needed. No step size is
         /// checked here, in debug or release builds.
         #[inline]
-        pub fn step_rk4(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &[f64; NTHETA]) {
-            let (c, g, clamped) = schedule(theta);
+        pub fn step_rk4(&mut self, dt: f64, y: &[f64; NY], u: &[f64; NU], theta: &#th_ty) {
+            let (c, g, clamped) = schedule(#th_arg);
             self.clamped = self.clamped.saturating_add(clamped as u64);
             let h2 = 0.5 * dt;
             let h6 = dt * #sixth;
