@@ -6,6 +6,7 @@ pub mod diagnostic;
 mod equations;
 pub mod expr;
 pub mod func;
+pub mod jacobian;
 pub mod model;
 mod poly;
 pub mod region;
@@ -17,6 +18,7 @@ pub use cover::{Cover, CoverAxis, Piece};
 pub use diagnostic::{fmt_sig, Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
 pub use func::Func;
+pub use jacobian::{Jacobian, JacobianBound, JacobianEntry, NonlinearTerm};
 pub use model::{
     AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Mode, Model, NoiseObjective,
     OutputFilter, OutputRoute, Param, PoleRegion, Split, StateBound, MAX_COEFFICIENT,

@@ -244,6 +244,7 @@ impl Spec {
             noise: Default::default(),
             derived: Vec::new(),
             cover: None,
+            jacobian: None,
         };
         Plant {
             name: self.name(),

@@ -128,6 +128,7 @@ pub fn paper_model() -> PolytopicModel {
         noise: Default::default(),
         derived: Vec::new(),
         cover: None,
+        jacobian: None,
     }
 }
 
@@ -200,5 +201,6 @@ pub fn synthetic_model(nx: usize) -> PolytopicModel {
         noise: Default::default(),
         derived: Vec::new(),
         cover: None,
+        jacobian: None,
     }
 }

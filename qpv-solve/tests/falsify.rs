@@ -40,6 +40,7 @@ fn stable_linear(nx: usize) -> PolytopicModel {
         noise: Default::default(),
         derived: Vec::new(),
         cover: None,
+        jacobian: None,
     }
 }
 

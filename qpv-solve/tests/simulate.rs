@@ -36,6 +36,7 @@ fn scalar_model(a0: f64, a1: f64, b: f64, nu: usize) -> PolytopicModel {
         noise: Default::default(),
         derived: Vec::new(),
         cover: None,
+        jacobian: None,
     }
 }
 

@@ -33,6 +33,8 @@ pub(super) struct Builder<'a> {
     pub(super) warnings: Vec<Warning>,
     /// max(|lo|, |hi|) of each declared parameter, once the parameters are read.
     pub(super) param_reach: Vec<f64>,
+    /// The nonlinear terms of the `der` equations, as they are read.
+    pub(super) nonlinear: Vec<crate::jacobian::NonlinearTerm>,
 }
 
 /// `line:column` of a span, for messages that point at an earlier definition.
@@ -55,6 +57,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         decl_spans: HashMap::new(),
         warnings: Vec::new(),
         param_reach: Vec::new(),
+        nonlinear: Vec::new(),
     };
     b.declare()?;
     b.consts()?;
@@ -65,7 +68,8 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
     let noise_outputs = b.noise_outputs()?;
     let (mut c, mut m) = b.outputs()?;
     let derived = b.derived(&mut a, &mut n, &mut bm, &mut b_w, &mut c, &mut m)?;
-    let lpv = n.iter().chain(&m).all(crate::expr::PolyMatrix::is_zero);
+    let lpv =
+        n.iter().chain(&m).all(crate::expr::PolyMatrix::is_zero) && b.nonlinear_is_lpv(&params)?;
     let region = b.region(lpv)?;
     let state_bound = b.state_bound(&region, lpv)?;
     let designs = b.designs(&region)?;
@@ -91,6 +95,7 @@ pub(crate) fn build(src: &str, ast: &ModelAst) -> R<Model> {
         designs,
         derived,
         cover: None,
+        nonlinear: std::mem::take(&mut b.nonlinear),
         warnings: Vec::new(),
     };
     b.usage(&model)?;

@@ -228,6 +228,7 @@ pub fn augment(model: &PolytopicModel, f: &OutputFilter) -> Result<PolytopicMode
         noise: Default::default(),
         derived: model.derived.clone(),
         cover: model.cover.clone(),
+        jacobian: None,
     })
 }
 

@@ -39,7 +39,7 @@ pub(super) fn emit_design(
     }
     let constants = certified_constants(d, shape, &certificate);
     let gain = gain::items(d, shape);
-    let observer = observer::items(&em.model.name, index, d, shape, state_eqs, out_eqs, coeffs);
+    let observer = observer::items(em, index, d, shape, state_eqs, out_eqs, coeffs);
     quote! {
         #[doc = #doc]
         pub mod #modname {
@@ -74,10 +74,10 @@ fn f32_design(
            bounds the error that f32 arithmetic alone leaves, even without noise.";
     let d32 = safe_side(d);
     let mut local = Coeffs::default();
-    let plant = super::plant::Plant::render(state_eqs, out_eqs, &mut local, &em.libm);
+    let plant = super::plant::Plant::render(m, (state_eqs, out_eqs), &mut local, &em.libm);
     let constants = certified_constants(&d32, shape, &TokenStream::new());
     let gain = gain::items(&d32, shape);
-    let observer = observer::items(&m.name, index, &d32, shape, state_eqs, out_eqs, &mut local);
+    let observer = observer::items(em, index, &d32, shape, state_eqs, out_eqs, &mut local);
     let weights = super::weights::items(m, &em.scheduling, &em.libm);
     let coefficients = super::coefficients::items(&local, m.ntheta(), m.derived.len(), &em.libm);
     let lo: Vec<TokenStream> = m.params.iter().map(|p| lit(p.lo)).collect();
