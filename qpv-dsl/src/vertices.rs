@@ -7,6 +7,9 @@ use crate::region::Region;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
+mod jacobian;
+pub use jacobian::s_box;
+
 /// The numeric data at one vertex l of the parameter box.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Vertex {
@@ -444,7 +447,7 @@ impl crate::model::Model {
             cover: self.cover.clone(),
             jacobian: None,
         };
-        out.jacobian = crate::jacobian::of_model(self);
+        out.jacobian = jacobian::of_model(self);
         // A global bound does not depend on the design: expanded here.
         match out.jacobian.as_ref().and_then(|j| j.global.as_ref()) {
             Some(_) => out.with_jacobian(None).unwrap_or(out),

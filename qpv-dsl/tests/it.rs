@@ -17,6 +17,7 @@ mod errors;
 mod fuzz;
 mod limits;
 mod noise;
+mod nonlinear;
 mod options;
 mod paper;
 mod poles;

@@ -83,6 +83,7 @@ const OTHERS: &[Crate] = &[
             ("syntax", 1),
             ("poly", 2),
             ("sched", 2),
+            ("jacobian", 2),
             ("equations", 2),
             ("cover", 2),
             ("model", 3),

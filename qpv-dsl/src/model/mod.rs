@@ -215,7 +215,17 @@ impl Model {
     /// Nonlinear terms without a global Jacobian bound need the region.
     pub fn is_lpv(&self) -> bool {
         self.n.iter().chain(&self.m).all(PolyMatrix::is_zero)
-            && crate::jacobian::of_model(self).map_or(true, |j| j.global.is_some())
+            && (self.nonlinear.is_empty() || {
+                let j = crate::jacobian::Jacobian {
+                    terms: self.nonlinear.clone(),
+                    global: None,
+                    bound: None,
+                };
+                let params: Vec<String> = self.params.iter().map(|p| p.name.clone()).collect();
+                let theta: Vec<(f64, f64)> = self.params.iter().map(|p| (p.lo, p.hi)).collect();
+                crate::jacobian::global_entries(&j.rows(self.nx()), &self.states, &params, &theta)
+                    .is_some()
+            })
     }
 
     /// Whether C or some M_k depends on θ (such a model is

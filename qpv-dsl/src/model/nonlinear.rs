@@ -171,7 +171,7 @@ impl Builder<'_> {
     /// Whether the nonlinear terms read so far leave the plant LPV in the
     /// sense of the global observer: none, or every Jacobian entry bounded
     /// globally (then no region is needed).
-    pub(super) fn nonlinear_is_lpv(&self, params: &[crate::Param]) -> R<bool> {
+    pub(super) fn nonlinear_is_lpv(&self, params: &[super::Param]) -> R<bool> {
         if self.nonlinear.is_empty() {
             return Ok(true);
         }

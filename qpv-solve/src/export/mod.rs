@@ -253,8 +253,7 @@ impl Baked {
             gamma: d.gamma,
             p: d.p.concat(),
             // one gain per θ-vertex: the Jacobian corners of a vertex share it
-            l: d
-                .l
+            l: d.l
                 .iter()
                 .step_by(1 << self.observer.gain_shift())
                 .map(|l| l.concat())
