@@ -67,6 +67,10 @@ pub struct Jacobian {
     /// The bounds on all of R^nx (× Θ), when every entry has one; `None`
     /// when some entry grows without bound (then the set S is needed).
     pub global: Option<Vec<JacobianEntry>>,
+    /// Bound on the set S even where a global bound exists (a tighter box
+    /// for a regional observer; [`crate::PolytopicModel::with_jacobian_on_set`]).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub on_set: bool,
     /// The bound the model's vertices are expanded with; `None` before.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bound: Option<JacobianBound>,

@@ -219,6 +219,7 @@ impl Model {
                 let j = crate::jacobian::Jacobian {
                     terms: self.nonlinear.clone(),
                     global: None,
+                    on_set: false,
                     bound: None,
                 };
                 let params: Vec<String> = self.params.iter().map(|p| p.name.clone()).collect();

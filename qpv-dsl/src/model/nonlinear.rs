@@ -178,6 +178,7 @@ impl Builder<'_> {
         let j = Jacobian {
             terms: self.nonlinear.clone(),
             global: None,
+            on_set: false,
             bound: None,
         };
         let names: Vec<String> = params.iter().map(|p| p.name.clone()).collect();

@@ -18,6 +18,7 @@ pub(crate) fn of_model(model: &crate::model::Model) -> Option<Jacobian> {
     let mut j = Jacobian {
         terms: model.nonlinear.clone(),
         global: None,
+        on_set: false,
         bound: None,
     };
     j.global = global_entries(&j.rows(model.nx()), &model.states, &params, &theta);
@@ -84,7 +85,28 @@ impl PolytopicModel {
     /// no global bound): then the observer is regional and the bound
     /// depends on γ.
     pub fn jacobian_needs_set(&self) -> bool {
-        self.jacobian.as_ref().is_some_and(|j| j.global.is_none())
+        self.jacobian
+            .as_ref()
+            .is_some_and(|j| j.global.is_none() || j.on_set)
+    }
+
+    /// The same model with its nonlinear terms bounded on the set S even
+    /// where a global bound exists (a narrower box, for the regional
+    /// observer at a fixed γ), its vertices back to the θ-vertices until
+    /// [`Self::with_jacobian`] expands them at that γ. Unchanged without
+    /// nonlinear terms.
+    pub fn with_jacobian_on_set(&self) -> PolytopicModel {
+        let mut out = self.clone();
+        if let Some(j) = &mut out.jacobian {
+            out.vertices = self.theta_vertices();
+            let q = self.gain_shift();
+            if q > 0 && !out.noise.b_w.is_empty() {
+                out.noise.b_w = out.noise.b_w.iter().step_by(1 << q).cloned().collect();
+            }
+            j.on_set = true;
+            j.bound = None;
+        }
+        out
     }
 
     /// The model with its vertices expanded by the Jacobian box: the
@@ -105,29 +127,29 @@ impl PolytopicModel {
         let params: Vec<String> = self.params.iter().map(|p| p.name.clone()).collect();
         let theta: Vec<(f64, f64)> = self.params.iter().map(|p| (p.lo, p.hi)).collect();
         let rows = jac.rows(self.nx());
-        let (entries, state_box, set, gamma) =
-            match global_entries(&rows, &self.states, &params, &theta) {
-                Some(e) => (e, None, "all of R^nx (a global bound)".to_string(), None),
-                None => {
-                    let g = gamma.ok_or_else(|| {
-                        "the Jacobian of the nonlinear terms has no global bound, and no γ was \
+        let global = global_entries(&rows, &self.states, &params, &theta).filter(|_| !jac.on_set);
+        let (entries, state_box, set, gamma) = match global {
+            Some(e) => (e, None, "all of R^nx (a global bound)".to_string(), None),
+            None => {
+                let g = gamma.ok_or_else(|| {
+                    "the Jacobian of the nonlinear terms has no global bound, and no γ was \
                          given for the set S"
-                            .to_string()
-                    })?;
-                    let sb = s_box(&base, g).ok_or_else(|| {
-                        "the Jacobian of the nonlinear terms has no global bound: the set S needs \
+                        .to_string()
+                })?;
+                let sb = s_box(&base, g).ok_or_else(|| {
+                    "the Jacobian of the nonlinear terms has no global bound: the set S needs \
                          a region and a given state bound (`state_bound Q = [...]`)"
-                            .to_string()
-                    })?;
-                    let e = entries_on(&rows, &self.states, &params, &sb, &theta)?;
-                    let text: Vec<String> = sb.iter().map(|(_, r)| format!("{r:.6e}")).collect();
-                    let set = format!(
+                        .to_string()
+                })?;
+                let e = entries_on(&rows, &self.states, &params, &sb, &theta)?;
+                let text: Vec<String> = sb.iter().map(|(_, r)| format!("{r:.6e}")).collect();
+                let set = format!(
                     "S = box hull of F ⊕ (−P/γ), γ = {g}: |z_k| ≤ √Q_kk + max_i |x_(i),k|/γ = [{}]",
                     text.join(", ")
                 );
-                    (e, Some(sb), set, Some(g))
-                }
-            };
+                (e, Some(sb), set, Some(g))
+            }
+        };
         let dims: Vec<usize> = (0..entries.len())
             .filter(|&d| entries[d].lo < entries[d].hi)
             .collect();
@@ -173,6 +195,7 @@ impl PolytopicModel {
         out.jacobian = Some(Jacobian {
             terms: jac.terms.clone(),
             global: jac.global.clone(),
+            on_set: jac.on_set,
             bound: Some(JacobianBound {
                 set,
                 state_box,
