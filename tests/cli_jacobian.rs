@@ -226,4 +226,19 @@ fn qpv_vertices_shows_the_jacobian_dimension() {
     assert_eq!(out.status.code(), Some(0), "{t}");
     assert!(t.contains("d(der w1)/d(q1) = -20"), "{t}");
     assert!(t.contains("d(der w1)/d(q1) = 20"), "{t}");
+    assert!(t.contains("der w1: -(mgl/Jl)*sin(q1)"), "{t}");
+    assert!(
+        t.contains("Jacobian bounded on all of R^nx (a global bound)"),
+        "{t}"
+    );
+    // a bound on S: expanded at the γ a searching design fixes
+    let out = qpv(&["vertices", "examples/duffing_position.qpv"]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{t}");
+    assert!(
+        t.contains("Jacobian bounded on S = box hull of F ⊕ (−P/γ)"),
+        "{t}"
+    );
+    assert!(t.contains("1 robust vertex dimension(s)"), "{t}");
+    assert!(t.contains("2 vertices"), "{t}");
 }
