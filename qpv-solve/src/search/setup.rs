@@ -60,8 +60,14 @@ impl Setup {
         }
         let global_model = crate::model::global_model(model);
         let model: &PolytopicModel = if global { &global_model } else { model };
-        // Refuse before anything is assembled or solved.
-        let size_note = match crate::model::size::guard(model, request) {
+        // Refuse before anything is assembled or solved (with the vertices
+        // a Jacobian box on the set S adds counted).
+        let expanded = model
+            .jacobian_needs_set()
+            .then(|| crate::model::jacobian::expand(model.clone(), None).ok())
+            .flatten();
+        let size_note = match crate::model::size::guard(expanded.as_ref().unwrap_or(model), request)
+        {
             crate::model::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
             crate::model::size::Verdict::Slow(m) => Some(m),
             crate::model::size::Verdict::Fits => None,
