@@ -11,6 +11,7 @@ mod cli_cover;
 mod cli_decoupled;
 mod cli_docs;
 mod cli_golden;
+mod cli_jacobian;
 mod cli_measured;
 mod cli_noise;
 mod cli_output;

@@ -26,6 +26,7 @@ macro_rules! inline_model {
 
 mod ekf_baseline;
 mod generated_f32;
+mod generated_jacobian;
 mod generated_lpv;
 mod generated_measured;
 mod generated_noise;

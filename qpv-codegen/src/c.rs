@@ -314,8 +314,11 @@ impl Bodies {
         let m = cm.model;
         let (state_eqs, out_eqs) = equations(m);
         let mut coeffs = Coeffs::default();
-        let (plant_f, plant_h) = plant_bodies(&state_eqs, &out_eqs, &mut coeffs);
-        let rhs = rhs_body(cm.design, shape, &state_eqs, &out_eqs, &mut coeffs);
+        let (mut plant_f, plant_h) = plant_bodies(&state_eqs, &out_eqs, &mut coeffs);
+        let mut rhs = rhs_body(cm.design, shape, &state_eqs, &out_eqs, &mut coeffs);
+        let nl = crate::build::equations::nonlinear_lets(m);
+        plant_f.lets.splice(0..0, nl.clone());
+        rhs.lets.splice(0..0, nl);
         let gains = gains_body(cm.design, shape);
         let mu = mu_body(m, cm.scheduling);
         Bodies {
@@ -329,10 +332,10 @@ impl Bodies {
         }
     }
 
-    /// True if a scheduling body calls a math function (then the source
-    /// includes `<math.h>`).
+    /// True if a scheduling body or a nonlinear term of the plant calls a
+    /// math function (then the source includes `<math.h>`).
     fn uses_math(&self) -> bool {
-        [&self.mu, &self.phi, &self.coeffs]
+        [&self.mu, &self.phi, &self.coeffs, &self.rhs, &self.plant_f]
             .iter()
             .any(|b| b.lets.iter().any(|l| has_call(&l.value)) || b.out.iter().any(has_call))
     }

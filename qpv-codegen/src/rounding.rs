@@ -500,6 +500,8 @@ fn residual_radius(
                     Mono::X(j) => e(j),
                     Mono::XX(i, j) => e(i) * x(j) + (x(i) + e(i)) * e(j),
                     Mono::U(_) => 0.0,
+                    // output equations have no nonlinear terms
+                    Mono::F(_) => f64::INFINITY,
                 };
             }
             Ok(r * (1.0 + PAD))
@@ -527,6 +529,11 @@ pub fn rhs_error(
 ) -> Result<RhsError, String> {
     if shape.filter.is_some() {
         return Err("the f32 floor is not computed for the filter route".into());
+    }
+    if !m.nonlinear.is_empty() {
+        return Err(
+            "the f32 floor is not computed for nonlinear terms of unmeasured states".into(),
+        );
     }
     // With a cover, piece by piece (θ in the piece, its arm selected): the
     // piece's thin box is what keeps its weights, and so the gain, tight.

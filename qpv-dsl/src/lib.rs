@@ -6,6 +6,7 @@ pub mod diagnostic;
 mod equations;
 pub mod expr;
 pub mod func;
+pub mod jacobian;
 mod measured;
 pub mod model;
 mod poly;
@@ -19,6 +20,7 @@ pub use cover::{Cover, CoverAxis, Piece};
 pub use diagnostic::{fmt_sig, Error, Span, Warning};
 pub use expr::{PolyMatrix, ThetaPoly};
 pub use func::Func;
+pub use jacobian::{Jacobian, JacobianBound, JacobianEntry, NonlinearTerm};
 pub use measured::{Measured, MeasuredOrigin};
 pub use model::{
     AlphaSpec, Clash, Conditions, DesignRequest, Float, GammaSpec, Mode, Model, NoiseObjective,

@@ -14,7 +14,7 @@
 pub use crate::func::Func;
 
 mod gradient;
-pub use gradient::{enclose_gradient, gradient_bound, GradientEnclosure};
+pub use gradient::{enclose_gradient, gradient_bound, gradient_hull, GradientEnclosure};
 use serde::Serialize;
 use std::fmt::Write as _;
 

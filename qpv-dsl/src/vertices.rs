@@ -7,6 +7,9 @@ use crate::region::Region;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
+mod jacobian;
+pub use jacobian::s_box;
+
 /// The numeric data at one vertex l of the parameter box.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Vertex {
@@ -86,6 +89,12 @@ pub struct PolytopicModel {
         default
     )]
     pub time_unit: crate::time_unit::TimeUnit,
+    /// The nonlinear terms of unmeasured states and, once the vertices are
+    /// expanded by their Jacobian box, that box
+    /// ([`crate::jacobian`]): every θ-vertex is then repeated at the 2^q
+    /// corners of the box, q = [`PolytopicModel::gain_shift`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub jacobian: Option<crate::jacobian::Jacobian>,
 }
 
 /// The noise channels a model declares: which outputs are measured with
@@ -129,7 +138,25 @@ impl PolytopicModel {
     /// first, so the weights are always ≥ 0 and sum to 1. With a cover, the
     /// weights are the multilinear weights of the box of the piece that
     /// contains the clamped θ ([`Cover::locate`]), zero on every other piece.
+    ///
+    /// With a Jacobian box (q = [`PolytopicModel::gain_shift`] > 0), each
+    /// θ-weight is shared equally by its 2^q corners: the gains of those
+    /// corners are equal, so Σ_l μ_l L_l is L(θ), and Σ_l μ_l A_l is
+    /// A(θ) plus the middle of the box.
     pub fn mu(&self, theta: &[f64]) -> Vec<f64> {
+        let q = self.gain_shift();
+        let mu = self.mu_theta(theta);
+        if q == 0 {
+            return mu;
+        }
+        let w = 1.0 / (1u64 << q) as f64;
+        mu.iter()
+            .flat_map(|m| std::iter::repeat(m * w).take(1 << q))
+            .collect()
+    }
+
+    /// The weights of the θ-vertices (without the Jacobian corners).
+    fn mu_theta(&self, theta: &[f64]) -> Vec<f64> {
         let s = self.scheduling.len() + self.derived.len();
         let piece = self
             .cover
@@ -173,7 +200,7 @@ impl PolytopicModel {
         match piece {
             None => local.collect(),
             Some((_, k)) => {
-                let mut out = vec![0.0; self.nv()];
+                let mut out = vec![0.0; self.nv() >> self.gain_shift()];
                 for (o, v) in out[k << s..].iter_mut().zip(local) {
                     *o = v;
                 }
@@ -205,7 +232,7 @@ impl PolytopicModel {
 
     /// The piece of the cover that vertex `l` belongs to (0 without a cover).
     pub fn piece_of(&self, l: usize) -> usize {
-        l >> (self.scheduling.len() + self.derived.len())
+        l >> (self.scheduling.len() + self.derived.len() + self.gain_shift())
     }
 
     /// The derived scheduling variables φ_j(θ) for a full parameter vector,
@@ -290,10 +317,15 @@ impl PolytopicModel {
     /// error dynamics e' = (A(θ) − L(θ)C(θ))e are linear and the observer's
     /// guarantee is global (no region, state bound or γ; docs/method.md,
     /// "The global observer").
+    /// Nonlinear terms whose Jacobian has a global bound keep the plant
+    /// LPV in this sense (their box is a vertex dimension); others need
+    /// the region.
     pub fn is_lpv(&self) -> bool {
-        self.vertices
-            .iter()
-            .all(|v| v.n.iter().chain(&v.m).all(|m| m.iter().all(|x| *x == 0.0)))
+        !self.jacobian_needs_set()
+            && self
+                .vertices
+                .iter()
+                .all(|v| v.n.iter().chain(&v.m).all(|m| m.iter().all(|x| *x == 0.0)))
     }
 
     /// Whether the model has a region (an LPV plant may omit it).
@@ -338,9 +370,12 @@ impl PolytopicModel {
     /// parameters, followed by the derived variables at their corner of the
     /// box (of the piece of the cover that owns vertex `l`), as
     /// `(name, value)` pairs (for reports).
+    /// With a Jacobian box, its entries at vertex `l`'s corner follow.
     pub fn corner(&self, l: usize) -> Vec<(&str, f64)> {
         let nd = self.derived.len();
         let k = self.piece_of(l);
+        let q = self.gain_shift();
+        let (lq, l) = (l, l >> q);
         let mut out: Vec<(&str, f64)> = self
             .scheduling
             .iter()
@@ -353,6 +388,13 @@ impl PolytopicModel {
             };
             let up = (l >> (nd - 1 - j)) & 1 == 1;
             out.push((d.name.as_str(), if up { hi } else { lo }));
+        }
+        if let Some(b) = self.jacobian.as_ref().and_then(|j| j.bound.as_ref()) {
+            for (d, &e) in b.dims.iter().enumerate() {
+                let e = &b.entries[e];
+                let up = (lq >> (q - 1 - d)) & 1 == 1;
+                out.push((e.name.as_str(), if up { e.hi } else { e.lo }));
+            }
         }
         out
     }
@@ -385,7 +427,7 @@ impl crate::model::Model {
         for (theta_box, phi_box) in boxes {
             self.box_corners(&scheduling, theta_box, phi_box, &mut vertices, &mut b_w);
         }
-        PolytopicModel {
+        let mut out = PolytopicModel {
             name: self.name.clone(),
             states: self.states.clone(),
             inputs: self.inputs.clone(),
@@ -410,6 +452,13 @@ impl crate::model::Model {
             derived: self.derived.clone(),
             cover: self.cover.clone(),
             time_unit: self.time_unit,
+            jacobian: None,
+        };
+        out.jacobian = jacobian::of_model(self);
+        // A global bound does not depend on the design: expanded here.
+        match out.jacobian.as_ref().and_then(|j| j.global.as_ref()) {
+            Some(_) => out.with_jacobian(None).unwrap_or(out),
+            None => out,
         }
     }
 

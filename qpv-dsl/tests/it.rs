@@ -18,6 +18,7 @@ mod fuzz;
 mod limits;
 mod measured;
 mod noise;
+mod nonlinear;
 mod options;
 mod paper;
 mod poles;

@@ -245,6 +245,7 @@ impl Spec {
             derived: Vec::new(),
             cover: None,
             time_unit: Default::default(),
+            jacobian: None,
         };
         Plant {
             name: self.name(),

@@ -130,6 +130,7 @@ pub fn paper_model() -> PolytopicModel {
         derived: Vec::new(),
         cover: None,
         time_unit: Default::default(),
+        jacobian: None,
     }
 }
 
@@ -203,5 +204,6 @@ pub fn synthetic_model(nx: usize) -> PolytopicModel {
         derived: Vec::new(),
         cover: None,
         time_unit: Default::default(),
+        jacobian: None,
     }
 }

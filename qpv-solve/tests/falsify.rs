@@ -41,6 +41,7 @@ fn stable_linear(nx: usize) -> PolytopicModel {
         derived: Vec::new(),
         cover: None,
         time_unit: Default::default(),
+        jacobian: None,
     }
 }
 

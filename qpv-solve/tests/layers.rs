@@ -86,6 +86,7 @@ const OTHERS: &[Crate] = &[
             ("poly", 2),
             ("sched", 2),
             ("measured", 2),
+            ("jacobian", 2),
             ("equations", 2),
             ("cover", 2),
             ("model", 3),

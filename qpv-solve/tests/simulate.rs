@@ -37,6 +37,7 @@ fn scalar_model(a0: f64, a1: f64, b: f64, nu: usize) -> PolytopicModel {
         derived: Vec::new(),
         cover: None,
         time_unit: Default::default(),
+        jacobian: None,
     }
 }
 

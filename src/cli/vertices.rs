@@ -24,7 +24,9 @@ pub fn run(o: &Options) -> Result<i32, CliError> {
     let json = o.json.as_deref();
     check_json_target(json, &[&o.file])?;
     let (_, m) = load_model(&o.file, o.model.as_deref())?;
+    // nonlinear terms bounded on S: expanded at the γ a searching design uses
     let poly = m.polytopic();
+    let poly = qpv_solve::model::jacobian::expand(poly.clone(), None).unwrap_or(poly);
     emit_json(json, &VerticesOutput::new(&poly))?;
     print_text(json, &describe_vertices(&poly));
     Ok(0)
@@ -67,6 +69,7 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
         sched.join(", ")
     ));
     push_measured(&mut s, p);
+    push_jacobian(&mut s, p);
     if let Some(c) = &p.cover {
         s.push_str(&format!(
             "vertices: {} piece(s) x 2^{} = {} ({} parameter(s) and {} derived scheduling \
@@ -156,6 +159,35 @@ pub fn describe_vertices(p: &PolytopicModel) -> String {
 /// The region's heading: its vertex and facet counts, or that there is
 /// none, and whether a sound design uses it (an LPV plant's is the global
 /// observer, which has no region).
+/// The nonlinear terms of unmeasured states, their Jacobian box and the
+/// vertex dimensions it adds (nothing without such terms).
+fn push_jacobian(s: &mut String, p: &PolytopicModel) {
+    let Some(j) = &p.jacobian else { return };
+    s.push_str(
+        "nonlinear terms of unmeasured states (kept as written, bounded through their Jacobian):\n",
+    );
+    for t in &j.terms {
+        s.push_str(&format!("  der {}: {}\n", p.states[t.row], t.text));
+    }
+    match &j.bound {
+        Some(b) => {
+            s.push_str(&format!("  Jacobian bounded on {}\n", b.set));
+            for e in &b.entries {
+                s.push_str(&format!("    {} in [{}, {}]\n", e.name, e.lo, e.hi));
+            }
+            s.push_str(&format!(
+                "  {} robust vertex dimension(s), after the θ-corners (one gain per θ-vertex): x 2^{} = {} vertices\n",
+                b.dims.len(),
+                b.dims.len(),
+                p.nv()
+            ));
+        }
+        None => s.push_str(
+            "  no bound yet: the set S needs a region and a given state bound (`state_bound Q = [...]`)\n",
+        ),
+    }
+}
+
 fn region_head(p: &PolytopicModel) -> String {
     let global = "LPV plant (every N_k and M_k is zero): a sound design is the global observer, \
                   certified for every initial error (docs/method.md §17)";

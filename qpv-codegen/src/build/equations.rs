@@ -17,6 +17,9 @@ pub enum Mono {
     XX(usize, usize),
     /// u_j
     U(usize),
+    /// The k-th nonlinear term of unmeasured states, as written (`nl<k>`,
+    /// bound by [`nonlinear_lets`]).
+    F(usize),
 }
 
 /// The right-hand side of one polynomial equation: monomial → θ-polynomial.
@@ -72,12 +75,17 @@ fn equation(
 pub fn equations(m: &Model) -> (Vec<Equation>, Vec<Equation>) {
     let nx = m.nx();
     let ny = m.ny();
-    let states = (0..nx)
+    let mut states: Vec<Equation> = (0..nx)
         .map(|k| {
             let b = (m.nu() > 0).then_some(&m.b);
             equation(&m.a, m.n.get(k), b, k)
         })
         .collect();
+    for (k, t) in m.nonlinear.iter().enumerate() {
+        if let Some(eq) = states.get_mut(t.row) {
+            add_poly(eq, Mono::F(k), &ThetaPoly::constant(1.0));
+        }
+    }
     let outputs = (0..ny)
         .map(|o| equation(&m.c, m.m.get(o), None, o))
         .collect();
@@ -90,6 +98,40 @@ fn mono_expr(m: Mono) -> Expr {
         Mono::X(j) => Expr::var(format!("x{j}")),
         Mono::XX(i, j) => Expr::var(format!("x{i}x{j}")),
         Mono::U(j) => Expr::var(format!("u{j}")),
+        Mono::F(k) => Expr::var(format!("nl{k}")),
+    }
+}
+
+/// `let nl<k> = ...;` for every nonlinear term of unmeasured states of the
+/// model, as written (over `x<i>`, in the evaluation order of the model
+/// compiler): the lets a body that reads [`Mono::F`] starts with.
+pub fn nonlinear_lets(m: &Model) -> Vec<Let> {
+    m.nonlinear
+        .iter()
+        .enumerate()
+        .map(|(k, t)| Let::real(format!("nl{k}"), state_expr(&t.expr)))
+        .collect()
+}
+
+/// A nonlinear term over the states (variable i is `x<i>`).
+fn state_expr(e: &qpv_dsl::SchedExpr) -> Expr {
+    use crate::ir::Op;
+    use qpv_dsl::SchedExpr;
+    match e {
+        SchedExpr::Num(c) => Expr::paren(Expr::Num(*c)),
+        SchedExpr::Param(i) => Expr::var(format!("x{i}")),
+        SchedExpr::Named(_, e) => state_expr(e),
+        SchedExpr::Neg(e) => Expr::paren(Expr::Neg(Box::new(state_expr(e)))),
+        SchedExpr::Sum(terms) => terms.iter().fold(Expr::Num(0.0), |acc, (neg, t)| {
+            let op = if *neg { Op::Sub } else { Op::Add };
+            Expr::paren(Expr::bin(op, acc, state_expr(t)))
+        }),
+        SchedExpr::Product(factors) => factors.iter().fold(Expr::Num(1.0), |acc, (div, f)| {
+            let op = if *div { Op::Div } else { Op::Mul };
+            Expr::paren(Expr::bin(op, acc, state_expr(f)))
+        }),
+        SchedExpr::Pow(e, n) => Expr::PowI(Box::new(state_expr(e)), *n),
+        SchedExpr::Call(f, e) => Expr::Call(*f, Box::new(state_expr(e))),
     }
 }
 

@@ -41,6 +41,8 @@ pub(super) struct Builder<'a> {
     /// Whether some parameter is computed from an output (the state bound
     /// then bounds it, whatever the design uses).
     pub(super) measured_params: bool,
+    /// The nonlinear terms of the `der` equations, as they are read.
+    pub(super) nonlinear: Vec<crate::jacobian::NonlinearTerm>,
 }
 
 /// `line:column` of a span, for messages that point at an earlier definition.
@@ -82,6 +84,7 @@ fn build_with(
         rows: Vec::new(),
         auto,
         measured_params: false,
+        nonlinear: Vec::new(),
     };
     let model = b.run();
     let wanted = b.names.wanted.borrow().clone();
@@ -103,7 +106,8 @@ impl Builder<'_> {
         let (mut c, mut m) = b.outputs()?;
         b.report_rewrites(&mut params);
         let derived = b.derived(&mut a, &mut n, &mut bm, &mut b_w, &mut c, &mut m)?;
-        let lpv = n.iter().chain(&m).all(crate::expr::PolyMatrix::is_zero);
+        let lpv = n.iter().chain(&m).all(crate::expr::PolyMatrix::is_zero)
+            && b.nonlinear_is_lpv(&params)?;
         let region = b.region(lpv)?;
         let state_bound = b.state_bound(&region, lpv)?;
         b.measured_bound(&params, &state_bound, lpv)?;
@@ -131,6 +135,7 @@ impl Builder<'_> {
             designs,
             derived,
             cover: None,
+            nonlinear: std::mem::take(&mut b.nonlinear),
             time_unit,
             warnings: Vec::new(),
         };

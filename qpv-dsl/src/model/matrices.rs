@@ -345,10 +345,14 @@ impl<'a> Builder<'a> {
             self.missing_equation(true, &ders)?;
             let scope = self.scope(Allowed::Equation, "an equation");
             let mut polys = vec![Poly::default(); nx];
+            let mut nonlinear = Vec::new();
             for (i, eq) in &ders {
-                polys[*i] = eval(&eq.rhs, &scope)?;
+                let (poly, terms) = super::nonlinear::split(*i, &eq.rhs, &scope)?;
+                polys[*i] = poly;
+                nonlinear.extend(terms);
                 self.check_equation_magnitude(&polys[*i])?;
             }
+            self.nonlinear = nonlinear;
             let d = equations::dynamics(self.src, &self.names, &polys, TermSplit::AsWritten)?;
             for (j, w) in self.names.disturbances.iter().enumerate() {
                 if (0..nx).all(|i| d.b_w.get(i, j).is_zero()) {

@@ -12,6 +12,7 @@ mod design;
 mod matrices;
 mod measured;
 mod names;
+mod nonlinear;
 mod poles;
 mod region;
 mod state_bound;
@@ -100,6 +101,12 @@ pub struct Model {
         default
     )]
     pub time_unit: crate::time_unit::TimeUnit,
+    /// The nonlinear terms of unmeasured states in the `der` equations
+    /// (a state inside a function, a denominator, or a term of degree three
+    /// or more), kept as written ([`crate::jacobian`]); the right-hand side
+    /// is A(θ)x + N(θ,x)x + B(θ)u + f(x, θ) with f their sum per row.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub nonlinear: Vec<crate::jacobian::NonlinearTerm>,
     /// Non-fatal remarks found while building the model.
     pub warnings: Vec<Warning>,
 }
@@ -168,6 +175,11 @@ impl Model {
         for (k, nk) in self.eval_n(theta).iter().enumerate() {
             f[k] += (x.transpose() * nk * x)[(0, 0)];
         }
+        let mut v: Vec<f64> = x.iter().copied().collect();
+        v.extend((0..self.ntheta()).map(|i| theta.get(i).copied().unwrap_or(0.0)));
+        for t in &self.nonlinear {
+            f[t.row] += t.expr.eval(&v);
+        }
         f
     }
     /// The output h(x, θ) = C(θ) x + M(θ, x)x.
@@ -208,8 +220,21 @@ impl Model {
 
     /// Whether the plant is LPV (every N_k and M_k is zero): its observer
     /// is global and needs no region or state bound.
+    /// Nonlinear terms without a global Jacobian bound need the region.
     pub fn is_lpv(&self) -> bool {
         self.n.iter().chain(&self.m).all(PolyMatrix::is_zero)
+            && (self.nonlinear.is_empty() || {
+                let j = crate::jacobian::Jacobian {
+                    terms: self.nonlinear.clone(),
+                    global: None,
+                    on_set: false,
+                    bound: None,
+                };
+                let params: Vec<String> = self.params.iter().map(|p| p.name.clone()).collect();
+                let theta: Vec<(f64, f64)> = self.params.iter().map(|p| (p.lo, p.hi)).collect();
+                crate::jacobian::global_entries(&j.rows(self.nx()), &self.states, &params, &theta)
+                    .is_some()
+            })
     }
 
     /// Whether C or some M_k depends on θ (such a model is

@@ -47,15 +47,29 @@ const GRID_CELLS: usize = 4096;
 const GRID_PER_DIM: usize = 64;
 
 /// sup |∂e/∂θ_i| over the box `theta`, one per declared parameter (0 for
-/// the parameters `e` does not depend on): the hull of
-/// [`enclose_gradient`] over a uniform grid of sub-boxes (at most
-/// 64 pieces per parameter and 4096 boxes), which removes most of the
-/// dependency overestimate of one enclosure on the whole box.
+/// the parameters `e` does not depend on): the largest magnitude of
+/// [`gradient_hull`].
 pub fn gradient_bound(
     e: &SchedExpr,
     theta: &[(f64, f64)],
     names: &[String],
 ) -> Result<Vec<f64>, String> {
+    Ok(gradient_hull(e, theta, names)?
+        .into_iter()
+        .map(|(lo, hi)| 0.0f64.max(lo.abs()).max(hi.abs()))
+        .collect())
+}
+
+/// An interval (lo, hi) containing ∂e/∂θ_i at every point of the box
+/// `theta`, one per variable ((0, 0) for the variables `e` does not depend
+/// on): the hull of [`enclose_gradient`] over a uniform grid of sub-boxes
+/// (at most 64 pieces per variable and 4096 boxes), which removes most of
+/// the dependency overestimate of one enclosure on the whole box.
+pub fn gradient_hull(
+    e: &SchedExpr,
+    theta: &[(f64, f64)],
+    names: &[String],
+) -> Result<Vec<(f64, f64)>, String> {
     let dims: Vec<usize> = crate::expr::bits(e.param_mask()).collect();
     let per = if dims.is_empty() {
         1
@@ -64,7 +78,7 @@ pub fn gradient_bound(
         m.clamp(1, GRID_PER_DIM)
     };
     let cells = per.saturating_pow(dims.len() as u32);
-    let mut worst = vec![0.0f64; theta.len()];
+    let mut hull: Vec<Option<(f64, f64)>> = vec![None; theta.len()];
     let mut b = theta.to_vec();
     for cell in 0..cells {
         let mut rest = cell;
@@ -83,11 +97,14 @@ pub fn gradient_bound(
             b[d] = (a, z);
         }
         let g = enclose_gradient(e, &b, names)?;
-        for (w, &(lo, hi)) in worst.iter_mut().zip(&g.grad) {
-            *w = w.max(lo.abs()).max(hi.abs());
+        for (h, &(lo, hi)) in hull.iter_mut().zip(&g.grad) {
+            *h = Some(match *h {
+                None => (lo, hi),
+                Some((l, u)) => (l.min(lo), u.max(hi)),
+            });
         }
     }
-    Ok(worst)
+    Ok(hull.into_iter().map(|h| h.unwrap_or((0.0, 0.0))).collect())
 }
 
 /// Value and gradient enclosures of `e` on the box `b`.

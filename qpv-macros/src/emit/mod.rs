@@ -68,7 +68,7 @@ pub fn emit(em: &EmitModel<'_>) -> TokenStream {
     let mut coeffs = Coeffs::default();
     // The plant, then the designs, intern the θ-dependent coefficients; the
     // `Coeffs` struct built after them covers all of them.
-    let plant = Plant::render(&state_eqs, &out_eqs, &mut coeffs, &em.libm);
+    let plant = Plant::render(m, (&state_eqs, &out_eqs), &mut coeffs, &em.libm);
     let primary_index = em.designs.iter().position(|d| d.certifies).unwrap_or(0) + 1;
     let primary = format_ident!("design{}", primary_index);
     let primary_filter = match em.designs.get(primary_index - 1).and_then(|d| d.filter) {

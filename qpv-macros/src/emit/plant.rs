@@ -17,13 +17,17 @@ pub(super) struct Plant {
 impl Plant {
     /// Renders the state and output equations (interning their θ-dependent
     /// coefficients into `coeffs`).
+    /// The model's nonlinear terms of unmeasured states are evaluated as
+    /// written at the start of the derivative.
     pub(super) fn render(
-        state_eqs: &[Equation],
-        out_eqs: &[Equation],
+        m: &qpv_dsl::Model,
+        (state_eqs, out_eqs): (&[Equation], &[Equation]),
         coeffs: &mut Coeffs,
         libm: &TokenStream,
     ) -> Self {
-        let (f, h) = qpv_codegen::build::observer::plant_bodies(state_eqs, out_eqs, coeffs);
+        let (mut f, h) = qpv_codegen::build::observer::plant_bodies(state_eqs, out_eqs, coeffs);
+        f.lets
+            .splice(0..0, qpv_codegen::build::equations::nonlinear_lets(m));
         Plant {
             derivative: body_array(&f, libm),
             output: body_array(&h, libm),

@@ -111,7 +111,9 @@ pub(crate) fn check_model(model: &PolytopicModel) -> Result<(), SimError> {
             model.ntheta()
         )));
     }
-    // 2^s corners per piece of the cover (one piece without a cover)
+    // 2^s corners per piece of the cover (one piece without a cover), each
+    // repeated at the 2^q corners of a Jacobian box
+    let s = s + model.gain_shift();
     let pieces = model.pieces();
     if let Some(c) = &model.cover {
         if c.pieces.iter().any(|p| {

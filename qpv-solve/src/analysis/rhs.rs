@@ -46,6 +46,11 @@ pub(crate) struct Frozen {
     c: DMatrix<f64>,
     m: Vec<DMatrix<f64>>,
     l: DMatrix<f64>,
+    /// The nonlinear terms of unmeasured states and the middle of their
+    /// Jacobian box (which Σ_l μ_l A_l carries), if the model has them.
+    nonlinear: Option<(qpv_dsl::Jacobian, DMatrix<f64>)>,
+    /// The θ of the last [`Frozen::set`] (the nonlinear terms read it).
+    theta: Vec<f64>,
 }
 
 impl Frozen {
@@ -60,6 +65,14 @@ impl Frozen {
             c: DMatrix::zeros(ny, nx),
             m: vec![DMatrix::zeros(nx, nx); ny],
             l: DMatrix::zeros(nx, ny),
+            nonlinear: model.jacobian.as_ref().map(|j| {
+                let mid = j
+                    .bound
+                    .as_ref()
+                    .map_or_else(|| DMatrix::zeros(nx, nx), |b| b.mid.clone());
+                (j.clone(), mid)
+            }),
+            theta: vec![0.0; model.ntheta()],
         }
     }
 
@@ -67,6 +80,8 @@ impl Frozen {
     /// With `gains` empty, L(θ) = 0.
     pub(crate) fn set(&mut self, model: &PolytopicModel, gains: &[DMatrix<f64>], theta: &[f64]) {
         self.mu = model.mu(theta);
+        self.theta.clear();
+        self.theta.extend_from_slice(theta);
         self.a.fill(0.0);
         self.b.fill(0.0);
         self.c.fill(0.0);
@@ -90,12 +105,22 @@ impl Frozen {
         }
     }
 
-    /// out = A(θ) x + N(θ, x) x: the drift without input.
+    /// out = A(θ) x + N(θ, x) x + f(x, θ): the drift without input, with
+    /// the nonlinear terms of unmeasured states evaluated as written (the
+    /// middle of their Jacobian box, which the weighted A carries, taken
+    /// off again).
     pub(crate) fn drift(&self, x: &[f64], out: &mut [f64]) {
         out.fill(0.0);
         add_mul(out, &self.a, x);
         for (o, nk) in out.iter_mut().zip(&self.n) {
             *o += quad(nk, x);
+        }
+        if let Some((j, mid)) = &self.nonlinear {
+            let f = j.eval(out.len(), x, &self.theta);
+            for (o, fk) in out.iter_mut().zip(f) {
+                *o += fk;
+            }
+            add_mul(out, &(-mid), x);
         }
     }
 

@@ -22,6 +22,7 @@ mod capacity;
 mod cube;
 mod families;
 mod inputs;
+mod jacobian;
 mod margins;
 pub mod measured;
 pub mod noise;
@@ -84,7 +85,20 @@ impl<'a> Gains<'a> {
 /// slack inequalities when they carry cube slacks, the discrete decrease
 /// S5d when the candidate has a sample period (sound mode), else the
 /// vertex family (S5)/(26) (G5 for the global observer).
+///
+/// A model with nonlinear terms of unmeasured states is checked on its
+/// vertices expanded by the Jacobian box recomputed here from the terms
+/// (at the candidate's γ when the box is on the set S), with the gains of
+/// every θ-vertex's corners required to be equal.
 pub fn check(model: &PolytopicModel, gains: &Gains, at: &Candidate, mode: Mode) -> Certificate {
+    let rebuilt = match jacobian::recompute(model, at.gamma) {
+        Ok(m) => m,
+        Err(e) => return Certificate::refused(mode, at.alpha, at.gamma, e),
+    };
+    let model = rebuilt.as_ref().unwrap_or(model);
+    if let Err(e) = jacobian::tied(model, gains.l) {
+        return Certificate::refused(mode, at.alpha, at.gamma, e);
+    }
     let (rate, balance) = match (gains.cube, at.sample) {
         (Some(_), Some(h)) => {
             return Certificate::refused(

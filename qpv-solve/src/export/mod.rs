@@ -264,6 +264,7 @@ impl Baked {
     /// (`alpha`), the supremum estimate ([`Baked::alpha_sup`]); for f32
     /// numbers also the certified error floors of the generated arithmetic
     /// ([`Baked::f32_floor`] over [`qpv_codegen::rounding::design_error`],
+    /// one gain per θ-vertex: Jacobian corners share theirs,
     /// `scheduling` being the plant's scheduling parameters). The second
     /// value is that floor, or why an f32 design has none (None for f64).
     pub fn certified_design(
@@ -281,7 +282,12 @@ impl Baked {
             alpha: d.alpha,
             gamma: d.gamma,
             p: d.p.concat(),
-            l: d.l.iter().map(|l| l.concat()).collect(),
+            // one gain per θ-vertex: the Jacobian corners of a vertex share it
+            l: d.l
+                .iter()
+                .step_by(1 << self.observer.gain_shift())
+                .map(|l| l.concat())
+                .collect(),
             margins: d.margins.iter().map(|(k, m)| (k.to_string(), *m)).collect(),
             status: d.solver.detail.clone(),
             iterations: d.solver.iterations,

@@ -120,6 +120,10 @@ pub struct Problem<'m> {
     linear: Vec<bool>,
     /// `poles = ...`: the pole regions imposed (see [`Problem::with_poles`]).
     poles: Vec<qpv_dsl::PoleRegion>,
+    /// The Jacobian vertex dimensions q of the model
+    /// ([`PolytopicModel::gain_shift`]): vertices l and l' share one Γ̂
+    /// when l >> q == l' >> q (the gain cannot depend on the unmeasured H).
+    tie: usize,
 }
 
 impl<'m> Problem<'m> {
@@ -164,6 +168,7 @@ impl<'m> Problem<'m> {
             scaling: None,
             sample: None,
             poles: Vec::new(),
+            tie: model.gain_shift(),
         })
     }
 
@@ -288,7 +293,12 @@ impl<'m> Problem<'m> {
 
     /// One past the last Γ̂ variable (the first Ẑ variable).
     fn gains_end(&self) -> usize {
-        self.np + self.nv * self.nx * self.ny
+        self.np + (self.nv >> self.tie) * self.nx * self.ny
+    }
+
+    /// One vertex per gain: the first of each group that shares its Γ̂.
+    pub(super) fn gain_vertices(&self) -> impl Iterator<Item = usize> {
+        (0..self.nv).step_by(1 << self.tie)
     }
 
     /// Number of slack variables: Ẑ_c, one per rate combination
@@ -371,7 +381,7 @@ impl<'m> Problem<'m> {
 
     #[inline]
     fn gvar(&self, l: usize, r: usize, c: usize) -> usize {
-        self.np + l * self.nx * self.ny + r * self.ny + c
+        self.np + (l >> self.tie) * self.nx * self.ny + r * self.ny + c
     }
 
     /// Variable of Ẑ_c's packed upper-triangle entry `idx` (decoupled only).
@@ -453,7 +463,7 @@ impl<'m> Problem<'m> {
     fn builder(&self, objective: Objective) -> SdpBuilder {
         let mut out = SdpBuilder::new();
         out.sym_var("P", self.nx);
-        out.vars("Gamma", self.nv * self.nx * self.ny);
+        out.vars("Gamma", (self.nv >> self.tie) * self.nx * self.ny);
         out.vars("slacks", self.n_slack_vars());
         if self.max_gain.is_some() {
             out.var("gain_bound");

@@ -107,7 +107,7 @@ impl Problem<'_> {
             out.entry(&blk, d, d, pvar, 1.0);
         }
         let g = g * (1.0 - 1e-4);
-        for l in 0..self.nv {
+        for l in self.gain_vertices() {
             self.push_gain_block(out, l, (pvar, g), None);
         }
     }
@@ -180,7 +180,7 @@ impl Problem<'_> {
         let Some((w, w_inv_half)) = w else {
             // P̂ − I ⪰ 0, ‖Γ̂_l‖₂ ≤ κ.
             self.push_s1(out, 1.0);
-            for l in 0..self.nv {
+            for l in self.gain_vertices() {
                 self.push_gain_block(out, l, (kvar, 1.0), None);
             }
             return;
@@ -194,7 +194,7 @@ impl Problem<'_> {
             }
         }
         // [κ I, Γ̂_lᵀ W^{-1/2}; W^{-1/2} Γ̂_l, κ I] ⪰ 0.
-        for l in 0..self.nv {
+        for l in self.gain_vertices() {
             self.push_gain_block(out, l, (kvar, 1.0), Some(&w_inv_half));
         }
     }

@@ -3,6 +3,7 @@
 //! and the skew slack, each a transformation of the [`PolytopicModel`].
 
 pub mod diagnosis;
+pub mod jacobian;
 pub mod noise;
 pub(crate) mod observer;
 pub mod output_filter;

@@ -101,6 +101,7 @@ impl ObserverModel {
         bound: StateBoundClaim<'_>,
     ) -> Result<ObserverModel, SolveError> {
         validate(plant)?;
+        super::jacobian::refuse_unsupported(plant, options.output_route, options.skew.is_some())?;
         // An LPV plant written without a region: the global observer's
         // model (region {0}, whose one pair carries the linear block).
         let global = super::global_model(plant);
@@ -126,6 +127,7 @@ impl ObserverModel {
             }
             None => split,
         };
+        let model = super::jacobian::expand(model, None)?;
         Ok(ObserverModel {
             plant: resolved,
             model,

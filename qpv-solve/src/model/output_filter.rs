@@ -229,6 +229,7 @@ pub fn augment(model: &PolytopicModel, f: &OutputFilter) -> Result<PolytopicMode
         derived: model.derived.clone(),
         cover: model.cover.clone(),
         time_unit: model.time_unit,
+        jacobian: None,
     })
 }
 

@@ -154,7 +154,8 @@ impl StateScaling {
     pub fn model(&self, m: &PolytopicModel) -> Option<PolytopicModel> {
         let d = &self.d;
         let n = d.len();
-        if m.nx() != n {
+        // Nonlinear terms are bounded in the model's own units.
+        if m.nx() != n || m.jacobian.is_some() {
             return None;
         }
         let mut out = m.clone();

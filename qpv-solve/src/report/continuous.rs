@@ -375,6 +375,13 @@ pub fn continuous_bound(
     p: &DMatrix<f64>,
 ) -> Result<ContinuousBound, String> {
     let nx = model.nx();
+    if model.jacobian.is_some() {
+        return Err(
+            "not computed for nonlinear terms of unmeasured states (the acceleration bound \
+             covers A, N_k and B only)"
+                .into(),
+        );
+    }
     let (x, u, urates) = boxes(model)?;
     if p.shape() != (nx, nx) {
         return Err(

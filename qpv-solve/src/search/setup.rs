@@ -60,8 +60,14 @@ impl Setup {
         }
         let global_model = crate::model::global_model(model);
         let model: &PolytopicModel = if global { &global_model } else { model };
-        // Refuse before anything is assembled or solved.
-        let size_note = match crate::model::size::guard(model, request) {
+        // Refuse before anything is assembled or solved (with the vertices
+        // a Jacobian box on the set S adds counted).
+        let expanded = model
+            .jacobian_needs_set()
+            .then(|| crate::model::jacobian::expand(model.clone(), None).ok())
+            .flatten();
+        let size_note = match crate::model::size::guard(expanded.as_ref().unwrap_or(model), request)
+        {
             crate::model::size::Verdict::TooLarge(m) => return Err(SolveError::TooLarge(m)),
             crate::model::size::Verdict::Slow(m) => Some(m),
             crate::model::size::Verdict::Fits => None,
@@ -71,7 +77,12 @@ impl Setup {
             &ObserverOptions::for_request(request),
             StateBoundClaim::Compute(settings),
         )?;
-        let model = prepared.model;
+        let model = match request.gamma {
+            GammaSpec::Fixed(g) if prepared.model.jacobian_needs_set() => {
+                crate::model::jacobian::expand(prepared.model, Some(g))?
+            }
+            _ => prepared.model,
+        };
         let has_q = matches!(model.state_bound, StateBound::Given(_));
         if set.requires_s4() && !has_q && !global {
             return Err(SolveError::MissingStateBound(model.name.clone()));
@@ -178,6 +189,7 @@ impl Setup {
                     .into(),
             );
         }
+        notes.extend(jacobian_note(&self.model));
         if request.conditions == Conditions::Decoupled {
             notes.push(format!(
                 "conditions = decoupled: solved with {} rate blocks (one slack Z per rate combination, sufficient) instead of {}; the certificate checks the full family of {} blocks",
@@ -239,6 +251,7 @@ pub(super) fn prepare(
     let mut notes = Notes::default();
     if ObserverKind::of(model, request.mode) == ObserverKind::Regional {
         notes.extend(auto_note);
+        let resolved = jacobian_request(model, resolved, &mut notes)?;
         let setup = Setup::new(model, &resolved, settings)?;
         return Ok((resolved, setup, notes));
     }
@@ -256,6 +269,57 @@ pub(super) fn prepare(
         });
     }
     Ok((resolved, setup, notes))
+}
+
+/// How the nonlinear terms of `model` were bounded, for the notes.
+fn jacobian_note(model: &PolytopicModel) -> Option<String> {
+    let b = model.jacobian.as_ref()?.bound.as_ref()?;
+    let entries: Vec<String> = b
+        .entries
+        .iter()
+        .map(|e| format!("{} ∈ [{:.6e}, {:.6e}]", e.name, e.lo, e.hi))
+        .collect();
+    let q = b.dims.len();
+    Some(format!(
+        "nonlinear terms of unmeasured states: Jacobian bounded on {} (interval gradients, outward rounding): {}; {q} non-constant entr{} = {q} robust vertex dimension{} (×{} vertices, {} in all; one gain per θ-vertex, shared by its {} corners)",
+        b.set,
+        entries.join(", "),
+        if q == 1 { "y" } else { "ies" },
+        if q == 1 { "" } else { "s" },
+        1usize << q,
+        model.nv(),
+        1usize << q
+    ))
+}
+
+/// The request of a model whose nonlinear terms need the set S (a
+/// Jacobian entry without a global bound): S depends on γ, so a searched γ
+/// is fixed at the top of its range ([`crate::model::jacobian::gamma_for_set`],
+/// where S is smallest), with a note; the skew slack is refused.
+fn jacobian_request(
+    model: &PolytopicModel,
+    request: DesignRequest,
+    notes: &mut Notes,
+) -> Result<DesignRequest, SolveError> {
+    if model.jacobian.is_some() && request.split == Split::SkewSlack {
+        return Err(SolveError::Unsupported(format!(
+            "model `{}` has nonlinear terms of unmeasured states; the skew slack (`split = skew_slack`) is not supported with them",
+            model.name
+        )));
+    }
+    if !model.jacobian_needs_set() || request.gamma != GammaSpec::Search {
+        return Ok(request);
+    }
+    let Some(g) = crate::model::jacobian::gamma_for_set(model) else {
+        return Ok(request);
+    };
+    notes.push(Note::Text(format!(
+        "γ fixed at {g:.6} (the top of its range): the Jacobian bound of the nonlinear terms holds on S = F ⊕ (−P/γ), which depends on γ"
+    )));
+    Ok(DesignRequest {
+        gamma: GammaSpec::Fixed(g),
+        ..request
+    })
 }
 
 /// The request of a global design ([`crate::model::ObserverKind::Global`]): γ is fixed at 1 (unused: the conditions are

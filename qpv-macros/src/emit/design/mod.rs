@@ -40,15 +40,7 @@ pub(super) fn emit_design(
     let constants = certified_constants(d, shape, &certificate);
     let gain = gain::items(d, shape);
     let th = crate::emit::measured::Theta::of(em.model);
-    let observer = observer::items(
-        &em.model.name,
-        index,
-        d,
-        shape,
-        (state_eqs, out_eqs),
-        coeffs,
-        &th,
-    );
+    let observer = observer::items(em, index, d, shape, (state_eqs, out_eqs), coeffs, &th);
     quote! {
         #[doc = #doc]
         pub mod #modname {
@@ -83,12 +75,12 @@ fn f32_design(
            bounds the error that f32 arithmetic alone leaves, even without noise.";
     let d32 = safe_side(d);
     let mut local = Coeffs::default();
-    let plant = super::plant::Plant::render(state_eqs, out_eqs, &mut local, &em.libm);
+    let plant = super::plant::Plant::render(m, (state_eqs, out_eqs), &mut local, &em.libm);
     let constants = certified_constants(&d32, shape, &TokenStream::new());
     let gain = gain::items(&d32, shape);
     let th = crate::emit::measured::Theta::of(m);
     let observer = observer::items(
-        &m.name,
+        em,
         index,
         &d32,
         shape,

@@ -13,9 +13,10 @@ use qpv_codegen::build::equations::Equation;
 use quote::{format_ident, quote};
 
 /// `rhs`, `schedule`, `Observer` and its methods for design `index` of
-/// model `model_name`.
+/// model `em.model` (its nonlinear terms of unmeasured states evaluated at
+/// x̂ as written, with `em.libm`'s math functions).
 pub(super) fn items(
-    model_name: &str,
+    em: &crate::emit::EmitModel<'_>,
     index: usize,
     d: &CertifiedDesign,
     shape: Shape,
@@ -23,8 +24,16 @@ pub(super) fn items(
     coeffs: &mut Coeffs,
     th: &Theta,
 ) -> TokenStream {
-    let body = qpv_codegen::build::observer::rhs_body(d, shape, state_eqs, out_eqs, coeffs);
-    let body = body_array(&body, &TokenStream::new());
+    let model_name = em.model.name.as_str();
+    let mut body = qpv_codegen::build::observer::rhs_body(d, shape, state_eqs, out_eqs, coeffs);
+    let nl = qpv_codegen::build::equations::nonlinear_lets(em.model);
+    let libm = if nl.is_empty() {
+        TokenStream::new()
+    } else {
+        em.libm.clone()
+    };
+    body.lets.splice(0..0, nl);
+    let body = body_array(&body, &libm);
     let rhs = rhs_fn(shape, &body);
     let observer = observer_type(model_name, index, shape, d.sample.is_some(), th);
     quote! {
