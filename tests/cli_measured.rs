@@ -220,12 +220,6 @@ fn duffing_as_written_certifies_checks_simulates_and_exports() {
 fn what_is_still_refused_is_a_positioned_error() {
     let cases = [
         (
-            "model m { state x1, x2; output y; der x1 = x2; der x2 = -x1 - x2*x2*x2; out y = x1; \
-             state_bound Q = [1, 0; 0, 1]; }",
-            "1:63",
-            "If `x2` is measured, say so",
-        ),
-        (
             "model m { state x1, x2; output y; der x1 = x2; der x2 = -x1 - x1*x1*x2; out y = x1; \
              region box(0.5); state_bound auto; }",
             "1:63",
