@@ -15,10 +15,9 @@ use crate::settings::Settings;
 use nalgebra::DMatrix;
 use std::time::Instant;
 
-/// The noise-optimal SDP at (α, γ): minimise σ̂ = σ/s over (P̂, Γ̂_l, σ̂)
-/// subject to (S1)–(S3) (assembled by [`Problem`]) and the block LMI at
-/// every rate combination and region-vertex pair with the rate family's
-/// margin ε κ. Returns (P, Γ_l, σ from the solver) in model units.
+/// One solve of a noise objective's SDP (σ of `noise = min`, or the RMS
+/// bound of `noise = rms`): its status and, when the solver returned a
+/// point, (P, Γ_l) in model units.
 pub(crate) struct NoiseSolve {
     pub(crate) status: Status,
     pub(crate) detail: String,
@@ -28,7 +27,11 @@ pub(crate) struct NoiseSolve {
     pub(crate) point: Option<(DMatrix<f64>, Vec<DMatrix<f64>>)>,
 }
 
-/// Solves the noise-optimal SDP of `prob` at (α, γ) on `channels`.
+/// Solves the noise-optimal SDP of `prob` at (α, γ) on `channels`:
+/// minimise σ̂ = σ/s over (P̂, Γ̂_l, σ̂) subject to (S1)–(S3) (assembled by
+/// [`Problem`]) and the block LMI at every rate combination and
+/// region-vertex pair with the rate family's margin ε κ; (P, Γ_l) are
+/// returned in model units.
 pub(crate) fn solve_noise_sdp(
     prob: &Problem,
     channels: &NoiseChannels,

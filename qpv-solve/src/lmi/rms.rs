@@ -9,11 +9,10 @@
 use super::blocks::RateMargins;
 use super::Problem;
 use crate::backend::builder::SdpBuilder;
-use crate::backend::{clarabel_settings, run_sdp, Status};
+use crate::backend::{clarabel_settings, run_sdp};
 use crate::error::SolveError;
 use crate::linalg::svec::svec_index;
 use crate::settings::Settings;
-use nalgebra::DMatrix;
 use std::time::Instant;
 
 /// The noise intensities of the SDP, normalised: R (per noisy output) and
@@ -27,15 +26,8 @@ pub(crate) struct RmsWeights {
 }
 
 /// One solve of the RMS SDP: its status and, when the solver returned a
-/// point, (P, Γ_l) in model units and t̂.
-pub(crate) struct RmsSolve {
-    pub(crate) status: Status,
-    pub(crate) detail: String,
-    pub(crate) iterations: u32,
-    pub(crate) solve_seconds: f64,
-    pub(crate) assembly_seconds: f64,
-    pub(crate) point: Option<(DMatrix<f64>, Vec<DMatrix<f64>>)>,
-}
+/// point, (P, Γ_l) in model units (the noise SDP's record).
+pub(crate) use super::noise::NoiseSolve as RmsSolve;
 
 /// Solves the RMS SDP of `prob` at (α, γ) with margin m̂ = `margin` κ
 /// (κ the rate family's data scale, [`Problem::rate_scale`]).
