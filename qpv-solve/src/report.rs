@@ -523,7 +523,13 @@ impl Design {
             // a given Q or none: the model's own, nothing is computed
             (_, None) => StateBoundClaim::Compute(&defaults),
         };
-        Ok(ObserverModel::prepare(model, &options, bound)?.model)
+        let obs = ObserverModel::prepare(model, &options, bound)?.model;
+        // A Jacobian box on the set S = F ⊕ (−P/γ) grows as γ falls: the
+        // design's figures and checks use the box at its own γ.
+        if obs.jacobian_needs_set() && self.gamma.is_finite() && self.gamma > 0.0 {
+            return crate::model::jacobian::expand(obs, Some(self.gamma));
+        }
+        Ok(obs)
     }
 
     /// The independent certificate of this design's P and L_l against

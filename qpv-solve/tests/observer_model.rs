@@ -124,3 +124,29 @@ fn the_builder_verifies_claims_and_ignores_them_for_a_given_q() {
     assert_eq!(m.state_bound.source, "given");
     assert_eq!(m.plant.state_bound, given.state_bound);
 }
+
+/// A Jacobian box on the set S = F ⊕ (−P/γ) grows as γ falls: the
+/// observer model a design's figures and re-checks use carries the box at
+/// the design's own γ, not at the top of the γ range.
+#[test]
+fn a_jacobian_box_on_the_set_is_the_one_at_the_designs_gamma() {
+    let src = include_str!("../../examples/duffing_position.qpv");
+    let model = qpv_dsl::parse(src).unwrap().remove(0).polytopic();
+    assert!(model.jacobian_needs_set());
+    let box_of = |m: &qpv_dsl::PolytopicModel| {
+        let b = m
+            .jacobian
+            .as_ref()
+            .and_then(|j| j.bound.clone())
+            .expect("expanded");
+        (b.gamma, b.state_box)
+    };
+    for g in [0.2, 0.5] {
+        let req = request(AlphaSpec::Fixed(0.1), GammaSpec::Fixed(g), Mode::Sound);
+        let d = design(&model, &req, &Settings::default()).unwrap();
+        assert!(d.certifies(), "γ = {g}: {}", d.summary);
+        let obs = d.observer_model(&model).unwrap();
+        let want = model.with_jacobian(Some(g)).unwrap();
+        assert_eq!(box_of(&obs), box_of(&want), "γ = {g}");
+    }
+}

@@ -766,10 +766,11 @@ pub(super) fn describe_noise(d: &Design) -> String {
             .map(|v| format!("{v:.4e}"))
             .collect();
         s.push_str(&format!(
-            "  RMS error (certified, time-averaged, white noise std [{}] on output(s) {} every {} s{}; while x in F and e in the region/gamma):\n",
+            "  RMS error (certified, time-averaged, white noise std [{}] on output(s) {} every {} {}{}; while x in F and e in the region/gamma):\n",
             std.join(", "),
             b.noise.outputs.iter().map(|o| (o + 1).to_string()).collect::<Vec<_>>().join(", "),
             b.noise.period,
+            d.time_unit.symbol(),
             if b.noise.process_std.is_empty() { String::new() } else { ", with process noise".to_string() }
         ));
         s.push_str(&format!("    total RMS <= {:.4e}\n", b.total));

@@ -245,7 +245,8 @@ pub(crate) fn design_rms_with_progress(
         conditions: qpv_dsl::Conditions::Full,
         ..request.clone()
     };
-    let (_, setup, _) = super::setup::prepare(model, &full, settings, None)?;
+    // The resolved request: a Jacobian box on the set S fixes γ there.
+    let (resolved, setup, _) = super::setup::prepare(model, &full, settings, None)?;
     let refuse = |s: &str| Err(SolveError::Unsupported(format!("noise = rms {s}")));
     if setup.kind.is_global() {
         return refuse("needs a region (the plant is LPV: its observer is the global one, which has no RMS design yet)");
@@ -269,7 +270,7 @@ pub(crate) fn design_rms_with_progress(
         last: None,
     };
     let gamma_hi = setup.gamma_hi;
-    let grid: Vec<f64> = match request.gamma {
+    let grid: Vec<f64> = match resolved.gamma {
         GammaSpec::Fixed(g) if g > 0.0 && g < 1.0 => vec![g],
         GammaSpec::Fixed(g) => return Err(SolveError::BadGamma(g)),
         GammaSpec::Search => (1..=4).map(|k| gamma_hi * k as f64 / 4.0).collect(),
@@ -341,7 +342,12 @@ fn rms_report(search: RmsSearch<'_, '_>, request: &DesignRequest, gamma_req: f64
     let bound = bound.and_then(|b| rms_bound(obs, &b.noise, d.gamma, &pr, &lr));
     let feasible = feasible && bound.is_some();
     d.verdict = crate::vocab::Verdict::of(feasible, Mode::Sound);
-    let mut notes = vec![rms_note(request, &noise, alpha, bound.as_ref())];
+    let mut notes = vec![rms_note(
+        (request, obs.time_unit),
+        &noise,
+        alpha,
+        bound.as_ref(),
+    )];
     notes.push("conditions: the RMS SDP solves the full family of region-vertex pairs".to_string());
     if let Some(b) = &bound {
         let check = rms_check(obs, b, d.gamma, &pr, &lr);
@@ -378,7 +384,7 @@ fn rms_report(search: RmsSearch<'_, '_>, request: &DesignRequest, gamma_req: f64
 /// The note of an RMS design: what was minimised, for which noise, and the
 /// certified bound.
 fn rms_note(
-    request: &DesignRequest,
+    (request, unit): (&DesignRequest, qpv_dsl::TimeUnit),
     noise: &RmsNoise,
     alpha: f64,
     bound: Option<&RmsBound>,
@@ -406,7 +412,7 @@ fn rms_note(
         None => "; no point certified".to_string(),
     };
     format!(
-        "noise = rms: the certified bound on the time-averaged mean-square error minimised {rate}{gamma}, for white output noise of std {:?} on output(s) {:?}{process}, samples every {} s{what}",
-        noise.output_std, noise.outputs.iter().map(|o| o + 1).collect::<Vec<_>>(), noise.period
+        "noise = rms: the certified bound on the time-averaged mean-square error minimised {rate}{gamma}, for white output noise of std {:?} on output(s) {:?}{process}, samples every {} {}{what}",
+        noise.output_std, noise.outputs.iter().map(|o| o + 1).collect::<Vec<_>>(), noise.period, unit.symbol()
     )
 }
