@@ -119,3 +119,27 @@ fn a_term_undefined_on_s_has_no_bound() {
     let err = p.with_jacobian(Some(0.5)).expect_err("undefined at 0");
     assert!(err.contains("der x2"), "{err}");
 }
+
+/// A term of degree 3 or more goes to the scheduling on a measured output
+/// when what is left after its measured factors is at most quadratic, and
+/// is bounded through its Jacobian otherwise (never refused for having a
+/// measured factor).
+#[test]
+fn a_cubic_term_is_scheduled_or_bounded_by_what_its_measured_factors_leave() {
+    let src = |term: &str| {
+        format!(
+            "model m {{ state x1, x2; output y; der x1 = x2; der x2 = -x2 - x1 + {term};
+             out y = x1; region box(0.5); state_bound Q = [1, 0; 0, 1]; design {{ alpha = 1; }} }}"
+        )
+    };
+    // x1 measured: x1^2*x2 leaves x2, scheduled (no nonlinear term)
+    let m = one(&src("-x1^2*x2"));
+    assert!(m.nonlinear.is_empty(), "{:?}", m.nonlinear);
+    // x1*x2^3 leaves x2^3: bounded through its Jacobian
+    let m = one(&src("-x1*x2*x2*x2"));
+    assert_eq!(m.nonlinear.len(), 1);
+    assert_eq!(m.nonlinear[0].text, "-x1*x2*x2*x2");
+    // (x1 + x2)^3 has x2^3 in it: bounded too
+    let m = one(&src("-(x1 + x2)^3"));
+    assert_eq!(m.nonlinear.len(), 1);
+}

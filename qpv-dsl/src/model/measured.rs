@@ -405,7 +405,7 @@ impl Builder<'_> {
             return Err(Diag::new(
                 p.span,
                 format!(
-                    "the plant is LPV (every N_k and M_k is zero) and its observer global, which                      computes no state bound, but the parameter `{}` is computed from the output                      `{}`, whose range a state bound must give: write `state_bound Q = [...];`",
+                    "the plant is LPV (every N_k and M_k is zero) and its observer global, which computes no state bound, but the parameter `{}` is computed from the output `{}`, whose range a state bound must give: write `state_bound Q = [...];`",
                     p.name,
                     p.measured.as_ref().map_or("", |m| m.output_name.as_str())
                 ),

@@ -71,10 +71,11 @@ pub(super) fn split(
     let mut all = Vec::new();
     summands(rhs, false, &mut all);
     // A polynomial term of degree 3 or more with a measured factor is
-    // scheduled on the measurement (exact; crate::measured), not bounded.
+    // scheduled on the measurement (exact; crate::measured), not bounded,
+    // when what is left after its measured factors is at most quadratic.
     let nonlinear = |x: &Expr| match degree(x, scope) {
         None => true,
-        Some(d) => d > 2 && !has_measured_state(x, scope),
+        Some(d) => d > 2 && !(has_measured_state(x, scope) && unmeasured_degree(x, scope) <= 2),
     };
     if !all.iter().any(|(_, x)| nonlinear(x)) {
         return Ok((eval(rhs, scope)?, Vec::new()));
@@ -108,6 +109,24 @@ pub(super) fn split(
         )?
     };
     Ok((p, terms))
+}
+
+/// The degree of `e` in the states no output measures directly (an upper
+/// bound for a sum: its largest term's), for a polynomial `e`.
+fn unmeasured_degree(e: &Expr, scope: &Scope<'_>) -> u32 {
+    match &e.kind {
+        ExprKind::Number(_) | ExprKind::Call(..) => 0,
+        ExprKind::Name(_) if has_measured_state(e, scope) => 0,
+        ExprKind::Name(_) => degree(e, scope).unwrap_or(0),
+        ExprKind::Neg(x) => unmeasured_degree(x, scope),
+        ExprKind::Pow(x, n) => unmeasured_degree(x, scope).saturating_mul(*n),
+        ExprKind::Sum(t) => t
+            .iter()
+            .map(|(_, x)| unmeasured_degree(x, scope))
+            .max()
+            .unwrap_or(0),
+        ExprKind::Product(f) => f.iter().map(|(_, x)| unmeasured_degree(x, scope)).sum(),
+    }
 }
 
 /// Whether a state that an output measures directly appears in `e`.
