@@ -449,17 +449,7 @@ impl<const NX: usize, const NY: usize> Setup<NX, NY> {
             for ekf in &mut ekfs {
                 ekf.predict([&pm[0], &pm[1], &pm[2]], self.dt);
             }
-            // plant and qpv observer as one ODE, y(t) = h(x(t)) + v_k
-            let g = |s: usize, x: &Vector<NX>, xq: &Vector<NX>| {
-                (pm[s].f(x), om[s].observer(xq, &(pm[s].h(x) + v)))
-            };
-            let dt = self.dt;
-            let (a1, b1) = g(0, &x, &xq);
-            let (a2, b2) = g(1, &(x + a1 * (0.5 * dt)), &(xq + b1 * (0.5 * dt)));
-            let (a3, b3) = g(1, &(x + a2 * (0.5 * dt)), &(xq + b2 * (0.5 * dt)));
-            let (a4, b4) = g(2, &(x + a3 * dt), &(xq + b3 * dt));
-            x += (a1 + a2 * 2.0 + a3 * 2.0 + a4) * (dt / 6.0);
-            xq += (b1 + b2 * 2.0 + b3 * 2.0 + b4) * (dt / 6.0);
+            (x, xq) = rk4_pair((pm, om), (&x, &xq), &v, self.dt);
         }
         (stats, cert)
     }
@@ -605,6 +595,28 @@ fn measure_sized<const NX: usize, const NY: usize>(case: &Case, runs: usize) {
         s.name,
         LEVELS.len()
     );
+}
+
+/// One RK4 step of the plant and the qpv observer as one ODE, y(t) =
+/// h(x(t)) + v held over the step: `pm`, `om` are the plant and the
+/// observer frozen at the step's start, middle and end.
+fn rk4_pair<const NX: usize, const NY: usize>(
+    (pm, om): (&[Frozen<NX, NY>], &[Frozen<NX, NY>]),
+    (x, xq): (&Vector<NX>, &Vector<NX>),
+    v: &Vector<NY>,
+    dt: f64,
+) -> (Vector<NX>, Vector<NX>) {
+    let g = |s: usize, x: &Vector<NX>, xq: &Vector<NX>| {
+        (pm[s].f(x), om[s].observer(xq, &(pm[s].h(x) + v)))
+    };
+    let (a1, b1) = g(0, x, xq);
+    let (a2, b2) = g(1, &(x + a1 * (0.5 * dt)), &(xq + b1 * (0.5 * dt)));
+    let (a3, b3) = g(1, &(x + a2 * (0.5 * dt)), &(xq + b2 * (0.5 * dt)));
+    let (a4, b4) = g(2, &(x + a3 * dt), &(xq + b3 * dt));
+    (
+        x + (a1 + a2 * 2.0 + a3 * 2.0 + a4) * (dt / 6.0),
+        xq + (b1 + b2 * 2.0 + b3 * 2.0 + b4) * (dt / 6.0),
+    )
 }
 
 /// The relative error r(t) of every filter on the first run at 1 % noise

@@ -124,16 +124,7 @@ impl<const NX: usize, const NY: usize> Setup<NX, NY> {
                 break;
             }
             let (pm, om) = (&self.plant[2 * k..2 * k + 3], &obs[2 * k..2 * k + 3]);
-            let g = |s: usize, x: &Vector<NX>, xq: &Vector<NX>| {
-                (pm[s].f(x), om[s].observer(xq, &(pm[s].h(x) + v)))
-            };
-            let dt = self.dt;
-            let (a1, b1) = g(0, &x, &xq);
-            let (a2, b2) = g(1, &(x + a1 * (0.5 * dt)), &(xq + b1 * (0.5 * dt)));
-            let (a3, b3) = g(1, &(x + a2 * (0.5 * dt)), &(xq + b2 * (0.5 * dt)));
-            let (a4, b4) = g(2, &(x + a3 * dt), &(xq + b3 * dt));
-            x += (a1 + a2 * 2.0 + a3 * 2.0 + a4) * (dt / 6.0);
-            xq += (b1 + b2 * 2.0 + b3 * 2.0 + b4) * (dt / 6.0);
+            (x, xq) = super::rk4_pair((pm, om), (&x, &xq), &v, self.dt);
         }
         (sum, count)
     }
