@@ -93,7 +93,7 @@ impl<const NX: usize, const NY: usize> Frozen<NX, NY> {
         (out, jac)
     }
 
-    /// The qpv observer's right-hand side, spec eq. (9) with u = 0:
+    /// The qpv observer's right-hand side, docs/method.md §2 with u = 0:
     /// f(x̂) + L (y − h(x̂)).
     pub fn observer(&self, xhat: &Vector<NX>, y: &Vector<NY>) -> Vector<NX> {
         self.f(xhat) + self.l * (y - self.h(xhat))

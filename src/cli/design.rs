@@ -86,8 +86,9 @@ pub struct Options {
         allow_hyphen_values = true
     )]
     pub process_std: Vec<f64>,
-    /// With --noise rms: the period (seconds) at which the noise samples
-    /// are drawn and held (the white-noise intensity is std^2 x DT).
+    /// With --noise rms: the period (in the model's unit of time) at which
+    /// the noise samples are drawn and held (the white-noise intensity is
+    /// std^2 x DT).
     #[arg(long = "noise-period", value_name = "DT", allow_hyphen_values = true)]
     pub noise_period: Option<f64>,
     /// With alpha = max: return the smallest-gain design certified at

@@ -287,7 +287,7 @@ pub struct DesignRequest {
     /// noise on each state (one value for all; empty: none), for `noise = rms`.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub process_std: Vec<f64>,
-    /// `noise_period = dt`: the period (seconds) at which the noise samples
+    /// `noise_period = dt`: the period (in the model's unit of time) at which the noise samples
     /// of `output_std` and `process_std` are drawn and held; the white-noise
     /// intensity is std²·dt. Needed by `noise = rms`.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -553,8 +553,8 @@ impl std::fmt::Display for Clash {
             }
             Clash::SampleCube => {
                 "`sample` is designed with the full or the decoupled vertex family \
-                 (`conditions = full`, `decoupled` or `auto`): the matrix-cube relaxation of `conditions = cube` has no \
-                 discrete-time form in qpv yet"
+                 (`conditions = full`, `decoupled` or `auto`): the matrix-cube relaxation \
+                 of `conditions = cube` has no discrete-time form in qpv yet"
             }
             Clash::SampleSkewSlack => {
                 "`split = skew_slack` searches its slack with the continuous rate \
@@ -588,8 +588,9 @@ impl std::fmt::Display for Clash {
                  deviation per noisy output, in its units, or one value for all)"
             }
             Clash::RmsNoPeriod => {
-                "`noise = rms` needs `noise_period = dt;`: the period (seconds) at which the \
-                 noise samples are drawn and held (the white-noise intensity is std²·dt)"
+                "`noise = rms` needs `noise_period = dt;`: the period (in the model's unit \
+                 of time) at which the noise samples are drawn and held (the white-noise \
+                 intensity is std²·dt)"
             }
         })
     }

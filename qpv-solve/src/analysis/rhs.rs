@@ -149,7 +149,7 @@ impl Frozen {
         self.add_input(u, out);
     }
 
-    /// out = the observer's right-hand side, spec eq. (9), fed the
+    /// out = the observer's right-hand side, docs/method.md §2, fed the
     /// measurement `y`, which becomes the innovation y − C x̂ − M(x̂) x̂
     /// (`yhat` a buffer of ny entries).
     pub(crate) fn observer(
@@ -204,7 +204,7 @@ pub fn plant_output(
     Ok(y)
 }
 
-/// The observer's right-hand side, spec eq. (9):
+/// The observer's right-hand side, docs/method.md §2:
 /// x̂' = A(θ) x̂ + N(θ, x̂) x̂ + B(θ) u + L(θ) [y − C(θ) x̂ − M(θ, x̂) x̂],
 /// with L(θ) = Σ_l μ_l(θ) L_l and `gains[l]` = L_l (nx × ny, vertex order of
 /// the model).

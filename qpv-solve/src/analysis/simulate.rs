@@ -15,7 +15,7 @@
 //!
 //! with A(θ) = Σ_l μ_l(θ) A_l (likewise N_k, B), row k of N(θ, x) x equal to
 //! xᵀ N_k(θ) x and row k of M(x) x equal to xᵀ M_k x. The observer is
-//! spec eq. (9):
+//! docs/method.md §2:
 //!
 //! ```text
 //! x̂' = A(θ) x̂ + N(θ, x̂) x̂ + B(θ) u + L(θ) [ y − C x̂ − M(x̂) x̂ ],   L(θ) = Σ_l μ_l(θ) L_l.
@@ -204,7 +204,7 @@ impl MeasurementNoise {
     }
 }
 
-/// Simulates plant and observer (spec eq. 9) with classical fixed-step RK4;
+/// Simulates plant and observer (docs/method.md §2) with classical fixed-step RK4;
 /// θ and u are sampled at the RK4 stage times and y = C x + M(x) x is taken
 /// from the plant's stage state. Every step is recorded (at most
 /// [`crate::analysis::trajectory::MAX_RECORDED_STEPS`]; [`simulate_each`] streams longer runs).
